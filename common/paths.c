@@ -1,0 +1,83 @@
+#include "common/paths.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static int is_dir(const char *path)
+{
+    struct stat st;
+    return path && stat(path, &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+const char *gonio_shared_dir(void)
+{
+    const char *env = getenv("GONIO_SHARED");
+    const char *dir = env && *env ? env : GONIO_SHARED_DEFAULT;
+    return is_dir(dir) ? dir : NULL;
+}
+
+const char *gonio_config_dir(void)
+{
+    const char *env = getenv("GONIO_CONFIG");
+    return env && *env ? env : GONIO_CONFIG_DEFAULT;
+}
+
+int gonio_write_file_atomic(const char *path, const void *data, size_t len,
+                            struct gonio_err *err)
+{
+    char tmp[4096];
+    if (snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof tmp)
+        return gonio_err_set(err, ENAMETOOLONG, "%s: path too long", path);
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0)
+        return gonio_err_set(err, errno, "%s: cannot create: %s", tmp, strerror(errno));
+    const char *p = data;
+    size_t left = len;
+    while (left > 0) {
+        ssize_t w = write(fd, p, left);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w < 0) {
+            int e = errno;
+            close(fd);
+            unlink(tmp);
+            return gonio_err_set(err, e, "%s: write failed: %s", path, strerror(e));
+        }
+        p += w;
+        left -= (size_t)w;
+    }
+    if (fsync(fd) != 0 || close(fd) != 0) {
+        int e = errno;
+        unlink(tmp);
+        return gonio_err_set(err, e, "%s: cannot flush: %s", path, strerror(e));
+    }
+    if (rename(tmp, path) != 0) {
+        int e = errno;
+        unlink(tmp);
+        return gonio_err_set(err, e, "%s: cannot rename into place: %s", path, strerror(e));
+    }
+    return 0;
+}
+
+int gonio_mkdir_p(const char *path, struct gonio_err *err)
+{
+    char buf[4096];
+    if (snprintf(buf, sizeof buf, "%s", path) >= (int)sizeof buf)
+        return gonio_err_set(err, ENAMETOOLONG, "%s: path too long", path);
+    for (char *p = buf + 1; *p; p++) {
+        if (*p != '/')
+            continue;
+        *p = '\0';
+        if (mkdir(buf, 0755) != 0 && errno != EEXIST)
+            return gonio_err_set(err, errno, "%s: cannot create directory: %s", buf, strerror(errno));
+        *p = '/';
+    }
+    if (mkdir(buf, 0755) != 0 && errno != EEXIST)
+        return gonio_err_set(err, errno, "%s: cannot create directory: %s", buf, strerror(errno));
+    return 0;
+}

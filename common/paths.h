@@ -1,0 +1,25 @@
+/* Where gonio finds its data and configs, and how it writes result files. */
+#ifndef GONIO_COMMON_PATHS_H
+#define GONIO_COMMON_PATHS_H
+
+#include <stddef.h>
+
+#include "common/err.h"
+
+/* The shared data folder: $GONIO_SHARED, else ../shared beside the source
+ * tree. Returns NULL when the folder does not exist. */
+const char *gonio_shared_dir(void);
+
+/* The configs folder: $GONIO_CONFIG, else configs/ in the source tree. */
+const char *gonio_config_dir(void);
+
+/* Write len bytes to path atomically: a temporary file beside it, fsync,
+ * then rename, so a reader never sees half a file and a failure leaves no
+ * file behind. */
+int gonio_write_file_atomic(const char *path, const void *data, size_t len,
+                            struct gonio_err *err);
+
+/* Create a directory and its parents (mode 0755); existing ones are fine. */
+int gonio_mkdir_p(const char *path, struct gonio_err *err);
+
+#endif

@@ -1,0 +1,26 @@
+#!/bin/sh
+# Install every Debian package gonio builds, tests and benchmarks with.
+# Non-interactive and idempotent; quiet unless something fails.
+set -eu
+
+PACKAGES="build-essential cmake pkg-config git
+libgsl-dev libyaml-dev libjansson-dev libcmocka-dev libopenexr-dev
+libmodbus-dev libusb-1.0-0-dev"
+
+missing=""
+for p in $PACKAGES; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing="$missing $p"
+done
+[ -z "$missing" ] && exit 0
+
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+log=$(mktemp)
+if ! { $SUDO apt-get update -qq && \
+       DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends $missing; } >"$log" 2>&1; then
+    cat "$log" >&2
+    echo "deps.sh: installing$missing failed" >&2
+    rm -f "$log"
+    exit 1
+fi
+rm -f "$log"
