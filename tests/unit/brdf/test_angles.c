@@ -1,14 +1,6 @@
 /* Angle conventions: in-plane <-> directions <-> half/difference <-> axes. */
-#include <math.h>
-#include <setjmp.h>
-#include <stdarg.h>
-#include <stddef.h>
-#include <stdint.h>
-#include <stdlib.h>
-
-#include <cmocka.h>
-
 #include "brdf/angles.h"
+#include "tests/gonio_test.h"
 
 #define PI 3.14159265358979323846
 
@@ -17,10 +9,10 @@ static void test_normal_incidence(void **state)
     (void)state;
     struct brdf_pair p;
     brdf_pair_inplane(0, 0, &p);
-    assert_float_equal(p.wi[2], 1.0, 1e-15);
-    assert_float_equal(p.theta_h, 0.0, 1e-15);
-    assert_float_equal(p.theta_d, 0.0, 1e-15);
-    assert_float_equal(p.phi_d, 0.0, 1e-15);
+    assert_close(p.wi[2], 1.0, 1e-15);
+    assert_close(p.theta_h, 0.0, 1e-15);
+    assert_close(p.theta_d, 0.0, 1e-15);
+    assert_close(p.phi_d, 0.0, 1e-15);
 }
 
 static void test_mirror_is_exact(void **state)
@@ -32,8 +24,8 @@ static void test_mirror_is_exact(void **state)
         struct brdf_pair p;
         brdf_pair_inplane(ti, ti, &p);
         assert_true(p.theta_h < 1e-12);
-        assert_float_equal(p.theta_d, ti * BRDF_DEG, 1e-12);
-        assert_float_equal(p.phi_d, 0.0, 1e-12);
+        assert_close(p.theta_d, ti * BRDF_DEG, 1e-12);
+        assert_close(p.phi_d, 0.0, 1e-12);
     }
 }
 
@@ -43,9 +35,9 @@ static void test_retro_reflection(void **state)
     /* theta_r = -theta_i: detector on the source, wo = wi, theta_d = 0. */
     struct brdf_pair p;
     brdf_pair_inplane(40, -40, &p);
-    assert_float_equal(p.wo[0], p.wi[0], 1e-15);
-    assert_float_equal(p.theta_h, 40 * BRDF_DEG, 1e-12);
-    assert_float_equal(p.theta_d, 0.0, 1e-12);
+    assert_close(p.wo[0], p.wi[0], 1e-15);
+    assert_close(p.theta_h, 40 * BRDF_DEG, 1e-12);
+    assert_close(p.theta_d, 0.0, 1e-12);
 }
 
 static void test_grazing(void **state)
@@ -54,12 +46,12 @@ static void test_grazing(void **state)
     struct brdf_pair p;
     brdf_pair_inplane(89.9, 89.9, &p);
     assert_true(isfinite(p.theta_d) && isfinite(p.phi_d));
-    assert_float_equal(p.theta_d, 89.9 * BRDF_DEG, 1e-12);
+    assert_close(p.theta_d, 89.9 * BRDF_DEG, 1e-12);
     brdf_pair_inplane(89.9, -89.9, &p);
-    assert_float_equal(p.theta_h, 89.9 * BRDF_DEG, 1e-10);
+    assert_close(p.theta_h, 89.9 * BRDF_DEG, 1e-10);
     brdf_pair_inplane(89.9, 0, &p);
-    assert_float_equal(brdf_pair_theta_i_deg(&p), 89.9, 1e-10);
-    assert_float_equal(brdf_pair_theta_o_deg(&p), 0.0, 1e-10);
+    assert_close(brdf_pair_theta_i_deg(&p), 89.9, 1e-10);
+    assert_close(brdf_pair_theta_o_deg(&p), 0.0, 1e-10);
 }
 
 /* In-plane pairs are the phi_d in {0, pi} nodes: theta_h = |ti - tr|/2
@@ -69,12 +61,12 @@ static void test_inplane_hd(void **state)
     (void)state;
     struct brdf_pair p;
     brdf_pair_inplane(50, 20, &p);
-    assert_float_equal(p.theta_h, 15 * BRDF_DEG, 1e-12);
-    assert_float_equal(p.theta_d, 35 * BRDF_DEG, 1e-12);
-    assert_float_equal(fabs(p.phi_d), 0.0, 1e-12);
+    assert_close(p.theta_h, 15 * BRDF_DEG, 1e-12);
+    assert_close(p.theta_d, 35 * BRDF_DEG, 1e-12);
+    assert_close(fabs(p.phi_d), 0.0, 1e-12);
     brdf_pair_inplane(20, 50, &p);
-    assert_float_equal(p.theta_h, 15 * BRDF_DEG, 1e-12);
-    assert_float_equal(fabs(p.phi_d), PI, 1e-12);
+    assert_close(p.theta_h, 15 * BRDF_DEG, 1e-12);
+    assert_close(fabs(p.phi_d), PI, 1e-12);
 }
 
 /* Rows of nbrdf_reference_values.csv (shared data), which gives the
@@ -94,8 +86,8 @@ static void test_reference_geometries(void **state)
     for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
         struct brdf_pair p;
         brdf_pair_spherical(rows[i][0], rows[i][1], rows[i][2], rows[i][3], &p);
-        assert_float_equal(p.theta_h, rows[i][4], 1e-9);
-        assert_float_equal(p.theta_d, rows[i][5], 1e-9);
+        assert_close(p.theta_h, rows[i][4], 1e-9);
+        assert_close(p.theta_d, rows[i][5], 1e-9);
         /* phi_d = pi and -pi are the same direction */
         double dp = fmod(fabs(p.phi_d - rows[i][6]), 2 * PI);
         assert_true(dp < 1e-9 || fabs(dp - 2 * PI) < 1e-9);
@@ -113,15 +105,15 @@ static void test_hd_round_trip(void **state)
         struct brdf_pair a, b;
         brdf_pair_from_hd(th, td, pd, &a);
         brdf_pair_from_dirs(a.wi, a.wo, &b);
-        assert_float_equal(b.theta_h, th, 1e-9);
-        assert_float_equal(b.theta_d, td, 1e-9);
+        assert_close(b.theta_h, th, 1e-9);
+        assert_close(b.theta_d, td, 1e-9);
         if (th > 1e-6 && td > 1e-6) {
             double dp = fmod(fabs(b.phi_d - pd), 2 * PI);
             assert_true(dp < 1e-8 || fabs(dp - 2 * PI) < 1e-8);
         }
         for (int k = 0; k < 3; k++) {
-            assert_float_equal(a.wi[k], b.wi[k], 1e-12);
-            assert_float_equal(a.wo[k], b.wo[k], 1e-12);
+            assert_close(a.wi[k], b.wi[k], 1e-12);
+            assert_close(a.wo[k], b.wo[k], 1e-12);
         }
     }
 }
@@ -136,15 +128,15 @@ static void test_inplane_round_trip_and_axes(void **state)
             brdf_pair_inplane(ti, tr, &p);
             assert_int_equal(brdf_pair_to_inplane(&p, &ti2, &tr2), 0);
             if (ti > 0) {
-                assert_float_equal(ti2, ti, 1e-9);
-                assert_float_equal(tr2, tr, 1e-9);
+                assert_close(ti2, ti, 1e-9);
+                assert_close(tr2, tr, 1e-9);
             }
             brdf_inplane_to_axes(ti, tr, &s, &a);
-            assert_float_equal(s, ti, 1e-15);
-            assert_float_equal(a, ti + tr, 1e-15);
+            assert_close(s, ti, 1e-15);
+            assert_close(a, ti + tr, 1e-15);
             brdf_axes_to_inplane(s, a, &ti3, &tr3);
-            assert_float_equal(ti3, ti, 1e-12);
-            assert_float_equal(tr3, tr, 1e-12);
+            assert_close(ti3, ti, 1e-12);
+            assert_close(tr3, tr, 1e-12);
         }
     }
     struct brdf_pair q;

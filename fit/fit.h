@@ -1,0 +1,49 @@
+/* Fitting reflectance models to captured samples.
+ *
+ * GSL stays inside fit/: this header uses plain doubles and gonio structs.
+ * A fit that does not converge is a normal result reported in fit_info,
+ * never an abort. */
+#ifndef GONIO_FIT_FIT_H
+#define GONIO_FIT_FIT_H
+
+#include <stddef.h>
+
+#include "brdf/abc.h"
+#include "brdf/angles.h"
+#include "common/err.h"
+
+/* One measured sample: the geometry and the RGB BRDF (1/sr). */
+struct fit_sample {
+    struct brdf_pair g;
+    double rgb[3];
+};
+
+enum fit_loss {
+    FIT_LOSS_LOG = 0, /* log(1 + f cos theta_i) residuals: the robust default */
+};
+
+struct fit_options {
+    enum fit_loss loss;
+    int max_iter;      /* per local solve */
+    int n_starts;      /* local solves started from the best grid nodes */
+    unsigned seed;     /* for any randomised part of the start */
+    double xtol, gtol, ftol;
+    const struct brdf_abc *warm_start; /* NULL: global start; else refine from here */
+};
+
+struct fit_options fit_default_options(void);
+
+struct fit_info {
+    int starts;          /* local solves run */
+    int iterations;      /* iterations of the winning solve */
+    double cost;         /* final 0.5 * sum of squared residuals */
+    int converged;       /* 1 when the winning solve met a tolerance */
+    const char *reason;  /* why the winning solve stopped */
+};
+
+/* Fit the 9-parameter ABC model to n samples. Positivity and eta > 1 hold by
+ * construction; on success out holds finite parameters. */
+int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options *opt,
+            struct brdf_abc *out, struct fit_info *info, struct gonio_err *err);
+
+#endif
