@@ -1,0 +1,184 @@
+/* gonio plan: a dry run of a plan on a rig profile. Prints the pairs in
+ * execution order with axis positions and the rig-time estimate, or the
+ * stable JSON of DESIGN.md section 8 with --json. Nothing reaches stdout
+ * unless the whole plan loaded. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <jansson.h>
+
+#include "cli/commands.h"
+#include "common/err.h"
+#include "planner/planner.h"
+
+static void plan_usage(FILE *out)
+{
+    fprintf(out, "usage: gonio plan NAME|FILE.yaml [--rig NAME|FILE] "
+                 "[--order travel|progressive|as-written|greedy] [--json]\n"
+                 "Dry run: pairs in execution order, axis positions, time estimate.\n"
+                 "NAME resolves to <config>/plans/NAME.yaml; the rig defaults to "
+                 "<config>/rigs/default.yaml.\n");
+}
+
+static int fail(const struct gonio_err *err, int rc)
+{
+    fprintf(stderr, "gonio: %s\n", err->msg[0] ? err->msg : gonio_strerror(rc));
+    return gonio_exit_status(rc);
+}
+
+static void minsec(double s, char *buf, size_t size)
+{
+    long whole = lround(s);
+    snprintf(buf, size, "%ld min %02ld s", whole / 60, whole % 60);
+}
+
+static int print_json(const struct plan *plan, const struct plan_estimate *est)
+{
+    json_t *root = json_object(), *pairs = json_array(), *e = json_object();
+    if (!root || !pairs || !e)
+        goto nomem;
+    int oop = plan_is_out_of_plane(plan);
+    for (size_t i = 0; i < plan_count(plan); i++) {
+        const struct plan_point *pt = plan_point(plan, i);
+        json_t *o = oop ? json_pack("{s:f,s:f,s:f,s:f,s:f,s:f,s:f}", "theta_i", pt->theta_i,
+                                    "phi_i", pt->phi_i, "theta_o", pt->theta_o, "phi_o",
+                                    pt->phi_o, "s", pt->ax.s, "a", pt->ax.a, "az", pt->ax.az)
+                        : json_pack("{s:f,s:f,s:f,s:f}", "theta_i", pt->theta_i, "theta_r",
+                                    pt->theta_r, "s", pt->ax.s, "a", pt->ax.a);
+        if (!o || json_array_append_new(pairs, o) < 0)
+            goto nomem;
+    }
+    if (json_object_set_new(root, "plan", json_string(plan_name(plan))) < 0 ||
+        json_object_set_new(root, "count", json_integer((json_int_t)plan_count(plan))) < 0 ||
+        json_object_set_new(root, "order",
+                            json_string(plan_order_name(plan_current_order(plan)))) < 0 ||
+        json_object_set_new(root, "pairs", pairs) < 0)
+        goto nomem;
+    pairs = NULL;
+    if (json_object_set_new(e, "total_s", json_real(est->total_s)) < 0 ||
+        json_object_set_new(e, "move_s", json_real(est->move_s)) < 0 ||
+        json_object_set_new(e, "settle_s", json_real(est->settle_s)) < 0 ||
+        json_object_set_new(e, "integration_s", json_real(est->integration_s)) < 0 ||
+        json_object_set_new(root, "estimate", e) < 0)
+        goto nomem;
+    e = NULL;
+    char *text = json_dumps(root, JSON_REAL_PRECISION(10));
+    json_decref(root);
+    if (!text)
+        return -ENOMEM;
+    puts(text);
+    free(text);
+    return 0;
+nomem:
+    json_decref(root);
+    json_decref(pairs);
+    json_decref(e);
+    return -ENOMEM;
+}
+
+static void print_human(const struct plan *plan, const struct plan_rig *rig,
+                        const struct plan_estimate *est)
+{
+    int oop = plan_is_out_of_plane(plan);
+    printf("plan %s (%s), rig %s, order %s\n", plan_name(plan), plan_path(plan), rig->name,
+           plan_order_name(plan_current_order(plan)));
+    if (oop)
+        printf("%5s %8s %8s %8s %8s %8s %8s %8s\n", "#", "theta_i", "phi_i", "theta_o",
+               "phi_o", "s", "a", "az");
+    else
+        printf("%5s %8s %8s %8s %8s\n", "#", "theta_i", "theta_r", "s", "a");
+    for (size_t i = 0; i < plan_count(plan); i++) {
+        const struct plan_point *pt = plan_point(plan, i);
+        if (oop)
+            printf("%5zu %8g %8g %8g %8g %8g %8g %8g\n", i + 1, pt->theta_i, pt->phi_i,
+                   pt->theta_o, pt->phi_o, pt->ax.s, pt->ax.a, pt->ax.az);
+        else
+            printf("%5zu %8g %8g %8g %8g\n", i + 1, pt->theta_i, pt->theta_r, pt->ax.s,
+                   pt->ax.a);
+    }
+    char t[4][32];
+    minsec(est->total_s, t[0], sizeof t[0]);
+    minsec(est->move_s, t[1], sizeof t[1]);
+    minsec(est->settle_s, t[2], sizeof t[2]);
+    minsec(est->integration_s, t[3], sizeof t[3]);
+    printf("count: %zu pairs\n", plan_count(plan));
+    printf("estimate: total %s (%.1f s): move %s (%.1f s), settle %s (%.1f s), "
+           "integration %s (%.1f s)\n",
+           t[0], est->total_s, t[1], est->move_s, t[2], est->settle_s, t[3],
+           est->integration_s);
+    double lb = plan_move_lower_bound(plan, rig);
+    if (!isnan(lb))
+        printf("move time lower bound (spanning tree): %.1f s\n", lb);
+}
+
+int cmd_plan(int argc, char **argv)
+{
+    const char *plan_arg = NULL, *rig_arg = "default";
+    int order = -1, json = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            plan_usage(stdout);
+            return 0;
+        } else if (!strcmp(argv[i], "--json")) {
+            json = 1;
+        } else if (!strcmp(argv[i], "--rig") || !strcmp(argv[i], "--order")) {
+            if (i + 1 >= argc) {
+                fprintf(stderr, "gonio: plan: %s needs a value\n", argv[i]);
+                return 2;
+            }
+            if (!strcmp(argv[i], "--rig")) {
+                rig_arg = argv[++i];
+            } else if ((order = plan_order_parse(argv[++i])) < 0) {
+                fprintf(stderr,
+                        "gonio: plan: --order '%s': unknown (allowed travel, progressive, "
+                        "as-written, greedy)\n",
+                        argv[i]);
+                return 2;
+            }
+        } else if (argv[i][0] == '-') {
+            fprintf(stderr, "gonio: plan: unknown option '%s'\n", argv[i]);
+            plan_usage(stderr);
+            return 2;
+        } else if (plan_arg) {
+            fprintf(stderr, "gonio: plan: one plan at a time ('%s' and '%s')\n", plan_arg,
+                    argv[i]);
+            return 2;
+        } else {
+            plan_arg = argv[i];
+        }
+    }
+    if (!plan_arg) {
+        plan_usage(stderr);
+        return 2;
+    }
+    struct gonio_err err = {0};
+    struct plan_rig rig;
+    int rc = plan_rig_load(rig_arg, &rig, &err);
+    if (rc < 0)
+        return fail(&err, rc);
+    struct plan *plan;
+    rc = plan_load(plan_arg, &rig, &plan, &err);
+    if (rc < 0)
+        return fail(&err, rc);
+    if (order >= 0 && (rc = plan_order(plan, (enum plan_order_mode)order, &rig)) < 0) {
+        plan_free(plan);
+        fprintf(stderr, "gonio: plan: %s\n", gonio_strerror(rc));
+        return 1;
+    }
+    struct plan_estimate est;
+    plan_estimate(plan, &rig, &est);
+    rc = 0;
+    if (json)
+        rc = print_json(plan, &est);
+    else
+        print_human(plan, &rig, &est);
+    plan_free(plan);
+    if (rc < 0) {
+        fprintf(stderr, "gonio: plan: %s\n", gonio_strerror(rc));
+        return 1;
+    }
+    return 0;
+}

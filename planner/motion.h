@@ -1,0 +1,24 @@
+/* Move times of the rig's axes. One function for everyone: the planner's
+ * estimate, the capture engine and the simulator all use it, so a plan's
+ * estimate equals the simulated rig clock. */
+#ifndef GONIO_PLANNER_MOTION_H
+#define GONIO_PLANNER_MOTION_H
+
+#include "planner/rig.h"
+
+/* Axis positions, degrees: sample s, arm a, azimuth az (0 when in-plane). */
+struct plan_axes {
+    double s, a, az;
+};
+
+/* Time to travel dist degrees from rest to rest with a trapezoidal velocity
+ * profile (accelerate at accel, cruise at speed, decelerate at accel); a
+ * move too short to reach speed is triangular. 0 for dist 0. */
+double plan_axis_time(double dist_deg, double speed, double accel);
+
+/* Time of a move between two positions: all axes start together, so the
+ * move lasts as long as the slowest axis. */
+double plan_move_time(const struct plan_rig *rig, const struct plan_axes *from,
+                      const struct plan_axes *to);
+
+#endif

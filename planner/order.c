@@ -1,0 +1,398 @@
+/* Execution orders and the rig-time estimate.
+ *
+ * The metric is the true move time (plan_move_time), not an angular
+ * distance: with a trapezoidal profile a 1-degree move costs a third of a
+ * second while a 10-degree one costs barely twice that, so short-hop
+ * heuristics on degrees mislead. Paths are open and start at home (all axes
+ * at 0), where the rig is after homing. */
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "planner/plan_private.h"
+
+/* Beyond this many points the O(n^2) improvement passes are skipped and
+ * travel order is the serpentine sweep alone (dense domain plans). */
+#define LOCAL_SEARCH_MAX 4000
+#define IMPROVE_EPS 1e-9
+
+struct tour {
+    const struct plan_point *pts;
+    const struct plan_rig *rig;
+    struct plan_axes start;
+};
+
+static double cost(const struct tour *t, size_t i, size_t j)
+{
+    return plan_move_time(t->rig, &t->pts[i].ax, &t->pts[j].ax);
+}
+
+static double cost_from_start(const struct tour *t, size_t j)
+{
+    return plan_move_time(t->rig, &t->start, &t->pts[j].ax);
+}
+
+/* Cost of the edge between sequence positions k and k+1 of seq[0..m), where
+ * position -1 is the start; an edge past the end costs nothing (open path). */
+static double edge(const struct tour *t, const size_t *seq, long m, long k)
+{
+    if (k + 1 >= m)
+        return 0.0;
+    if (k < 0)
+        return cost_from_start(t, seq[0]);
+    return cost(t, seq[k], seq[k + 1]);
+}
+
+static double link(const struct tour *t, const size_t *seq, long m, long x, long y)
+{
+    /* cost between seq[x] (or the start for x = -1) and seq[y]; y >= m: 0 */
+    if (y >= m)
+        return 0.0;
+    if (x < 0)
+        return cost_from_start(t, seq[y]);
+    return cost(t, seq[x], seq[y]);
+}
+
+static double path_cost(const struct tour *t, const size_t *seq, size_t m)
+{
+    double c = 0;
+    for (long k = -1; k + 1 < (long)m; k++)
+        c += edge(t, seq, (long)m, k);
+    return c;
+}
+
+static void reverse(size_t *seq, long i, long j)
+{
+    while (i < j) {
+        size_t tmp = seq[i];
+        seq[i++] = seq[j];
+        seq[j--] = tmp;
+    }
+}
+
+/* 2-opt on the open path: reverse seq[i+1..j]; the metric is symmetric, so
+ * only the two boundary edges change. */
+static int two_opt(const struct tour *t, size_t *seq, long m)
+{
+    int improved = 0;
+    for (long i = -1; i < m - 1; i++) {
+        for (long j = i + 1; j < m; j++) {
+            double before = edge(t, seq, m, i) + edge(t, seq, m, j);
+            double after = link(t, seq, m, i, j) + link(t, seq, m, i + 1, j + 1);
+            if (after < before - IMPROVE_EPS) {
+                reverse(seq, i + 1, j);
+                improved = 1;
+            }
+        }
+    }
+    return improved;
+}
+
+/* Or-opt: move a run of 1..3 points elsewhere, forwards or reversed. */
+static int or_opt(const struct tour *t, size_t *seq, long m)
+{
+    int improved = 0;
+    for (long len = 1; len <= 3; len++) {
+        for (long i = 0; i + len <= m; i++) {
+            long last = i + len - 1;
+            double gain = link(t, seq, m, i - 1, i) + link(t, seq, m, last, last + 1) -
+                          link(t, seq, m, i - 1, last + 1);
+            if (gain <= IMPROVE_EPS)
+                continue;
+            long best_k = -2;
+            int best_rev = 0;
+            double best = gain - IMPROVE_EPS;
+            for (long k = -1; k < m; k++) {
+                if (k >= i - 1 && k <= last)
+                    continue;
+                for (int rev = 0; rev < 2; rev++) {
+                    long a = rev ? last : i, b = rev ? i : last;
+                    double added = link(t, seq, m, k, a) - edge(t, seq, m, k);
+                    if (k + 1 < m)
+                        added += cost(t, seq[b], seq[k + 1]);
+                    if (added < best) {
+                        best = added;
+                        best_k = k;
+                        best_rev = rev;
+                    }
+                }
+            }
+            if (best_k == -2)
+                continue;
+            size_t run[3];
+            memcpy(run, seq + i, (size_t)len * sizeof *seq);
+            if (best_rev)
+                reverse(run, 0, len - 1);
+            if (best_k > last) { /* shift the points between left */
+                memmove(seq + i, seq + last + 1, (size_t)(best_k - last) * sizeof *seq);
+                memcpy(seq + best_k - len + 1, run, (size_t)len * sizeof *seq);
+            } else { /* best_k < i - 1: shift right */
+                memmove(seq + best_k + 1 + len, seq + best_k + 1,
+                        (size_t)(i - best_k - 1) * sizeof *seq);
+                memcpy(seq + best_k + 1, run, (size_t)len * sizeof *seq);
+            }
+            improved = 1;
+        }
+    }
+    return improved;
+}
+
+static void local_search(const struct tour *t, size_t *seq, size_t m)
+{
+    if (m < 3 || m > LOCAL_SEARCH_MAX)
+        return;
+    for (int round = 0; round < 200; round++) {
+        int a = two_opt(t, seq, (long)m);
+        int b = or_opt(t, seq, (long)m);
+        if (!a && !b)
+            break;
+    }
+}
+
+/* Nearest neighbour in move time from the start; ties keep the earlier
+ * written point. */
+static void greedy(const struct tour *t, size_t *seq, size_t m)
+{
+    for (size_t k = 0; k < m; k++) {
+        size_t best = k;
+        double bc = INFINITY;
+        for (size_t j = k; j < m; j++) {
+            double c = k ? cost(t, seq[k - 1], seq[j]) : cost_from_start(t, seq[j]);
+            if (c < bc || (c == bc && seq[j] < seq[best])) {
+                bc = c;
+                best = j;
+            }
+        }
+        size_t tmp = seq[k];
+        seq[k] = seq[best];
+        seq[best] = tmp;
+    }
+}
+
+static const struct plan_point *sort_pts;
+
+/* Sweep the sample axis in rows of equal s, the arm alternating direction
+ * row by row (a boustrophedon), so consecutive points differ by one step. */
+static int cmp_rows(const void *x, const void *y)
+{
+    const struct plan_point *a = &sort_pts[*(const size_t *)x], *b = &sort_pts[*(const size_t *)y];
+    if (fabs(a->ax.s - b->ax.s) > 1e-9)
+        return a->ax.s < b->ax.s ? -1 : 1;
+    if (fabs(a->ax.az - b->ax.az) > 1e-9)
+        return a->ax.az < b->ax.az ? -1 : 1;
+    return a->ax.a < b->ax.a ? -1 : a->ax.a > b->ax.a;
+}
+
+static void serpentine(const struct plan_point *pts, size_t *seq, size_t m)
+{
+    sort_pts = pts;
+    qsort(seq, m, sizeof *seq, cmp_rows);
+    int row = 0;
+    for (size_t k = 0; k < m;) {
+        size_t e = k;
+        while (e < m && fabs(pts[seq[e]].ax.s - pts[seq[k]].ax.s) <= 1e-9)
+            e++;
+        if (row++ % 2)
+            reverse(seq, (long)k, (long)e - 1);
+        k = e;
+    }
+}
+
+/* Best of three starts (written order, serpentine, greedy), each improved
+ * by local search; since each start is only ever improved, the result is
+ * never worse than the written or the greedy order. */
+static int travel(const struct tour *t, size_t *seq, size_t m)
+{
+    if (m < 2)
+        return 0;
+    size_t *cand = malloc(m * sizeof *cand);
+    if (!cand)
+        return -ENOMEM;
+    size_t *best = seq;
+    double best_c = INFINITY;
+    size_t *work = malloc(m * sizeof *work);
+    size_t *orig = malloc(m * sizeof *orig);
+    if (!work || !orig) {
+        free(cand);
+        free(work);
+        free(orig);
+        return -ENOMEM;
+    }
+    memcpy(orig, seq, m * sizeof *seq);
+    for (int start = 0; start < 3; start++) {
+        memcpy(work, orig, m * sizeof *work);
+        if (start == 1)
+            serpentine(t->pts, work, m);
+        else if (start == 2) {
+            if (m > LOCAL_SEARCH_MAX)
+                continue;
+            greedy(t, work, m);
+        }
+        local_search(t, work, m);
+        double c = path_cost(t, work, m);
+        if (c < best_c) {
+            best_c = c;
+            memcpy(cand, work, m * sizeof *cand);
+        }
+    }
+    memcpy(best, cand, m * sizeof *cand);
+    free(cand);
+    free(work);
+    free(orig);
+    return 0;
+}
+
+/* Without a ladder in the file, progressive levels come from a
+ * farthest-point order in axis space: level 0 is the first 6 points (a
+ * six-pair plan), each further level four times larger, so every level
+ * boundary is a well-spread prefix. */
+static int farthest_levels(const struct plan_point *pts, size_t n, int *level)
+{
+    double *dist = malloc(n * sizeof *dist);
+    if (!dist)
+        return -ENOMEM;
+    for (size_t i = 0; i < n; i++) {
+        dist[i] = INFINITY;
+        level[i] = -1;
+    }
+    size_t size = 6, lev = 0, taken = 0, cur = 0;
+    while (taken < n) {
+        size_t far = 0;
+        double fd = -1;
+        for (size_t i = 0; i < n; i++) {
+            if (level[i] >= 0)
+                continue;
+            if (taken) {
+                double ds = pts[i].ax.s - pts[cur].ax.s, da = pts[i].ax.a - pts[cur].ax.a,
+                       dz = pts[i].ax.az - pts[cur].ax.az;
+                double d = sqrt(ds * ds + da * da + dz * dz);
+                if (d < dist[i])
+                    dist[i] = d;
+            }
+            if (dist[i] > fd) {
+                fd = dist[i];
+                far = i;
+            }
+        }
+        if (taken == size) {
+            lev++;
+            size *= 4;
+        }
+        level[far] = (int)lev;
+        cur = far;
+        taken++;
+    }
+    free(dist);
+    return 0;
+}
+
+static int progressive(const struct tour *t, size_t *seq, size_t n)
+{
+    int *level = malloc((n ? n : 1) * sizeof *level);
+    if (!level)
+        return -ENOMEM;
+    int max_level = 0;
+    for (size_t i = 0; i < n; i++) {
+        level[i] = t->pts[i].level;
+        if (level[i] > max_level)
+            max_level = level[i];
+    }
+    if (max_level == 0 && n > 6 && n <= LOCAL_SEARCH_MAX && farthest_levels(t->pts, n, level) < 0) {
+        free(level);
+        return -ENOMEM;
+    }
+    max_level = 0;
+    for (size_t i = 0; i < n; i++)
+        if (level[i] > max_level)
+            max_level = level[i];
+    struct tour sub = *t;
+    size_t k = 0;
+    for (int l = 0; l <= max_level; l++) {
+        size_t begin = k;
+        for (size_t i = 0; i < n; i++)
+            if (level[i] == l)
+                seq[k++] = i;
+        /* each level continues from where the previous one ended */
+        int rc = travel(&sub, seq + begin, k - begin);
+        if (rc < 0) {
+            free(level);
+            return rc;
+        }
+        if (k > begin)
+            sub.start = t->pts[seq[k - 1]].ax;
+    }
+    free(level);
+    return 0;
+}
+
+int plan_order_indices(const struct plan_point *pts, size_t n, enum plan_order_mode mode,
+                       const struct plan_rig *rig, size_t *order)
+{
+    struct tour t = {pts, rig, {0, 0, 0}};
+    for (size_t i = 0; i < n; i++)
+        order[i] = i;
+    switch (mode) {
+    case PLAN_ORDER_AS_WRITTEN: return 0;
+    case PLAN_ORDER_GREEDY: greedy(&t, order, n); return 0;
+    case PLAN_ORDER_TRAVEL: return travel(&t, order, n);
+    case PLAN_ORDER_PROGRESSIVE: return progressive(&t, order, n);
+    }
+    return -EINVAL;
+}
+
+void plan_estimate(const struct plan *plan, const struct plan_rig *rig,
+                   struct plan_estimate *est)
+{
+    struct plan_axes at = {0, 0, 0};
+    est->move_s = 0;
+    for (size_t i = 0; i < plan->n; i++) {
+        const struct plan_point *pt = plan_point(plan, i);
+        est->move_s += plan_move_time(rig, &at, &pt->ax);
+        at = pt->ax;
+    }
+    est->settle_s = (double)plan->n * rig->settle_s;
+    est->integration_s = (double)plan->n * rig->integration_s;
+    est->total_s = est->move_s + est->settle_s + est->integration_s;
+}
+
+double plan_move_lower_bound(const struct plan *plan, const struct plan_rig *rig)
+{
+    size_t n = plan->n;
+    if (n > 20000)
+        return NAN;
+    /* Prim's algorithm over home + points: any path from home through all
+     * points is a spanning tree, so it costs at least the minimum one. */
+    double *key = malloc((n ? n : 1) * sizeof *key);
+    char *in = calloc(n ? n : 1, 1);
+    if (!key || !in) {
+        free(key);
+        free(in);
+        return NAN;
+    }
+    struct plan_axes home = {0, 0, 0};
+    for (size_t i = 0; i < n; i++)
+        key[i] = plan_move_time(rig, &home, &plan->pts[i].ax);
+    double total = 0;
+    for (size_t step = 0; step < n; step++) {
+        size_t u = 0;
+        double best = INFINITY;
+        for (size_t i = 0; i < n; i++)
+            if (!in[i] && key[i] < best) {
+                best = key[i];
+                u = i;
+            }
+        in[u] = 1;
+        total += best;
+        for (size_t i = 0; i < n; i++) {
+            if (in[i])
+                continue;
+            double c = plan_move_time(rig, &plan->pts[u].ax, &plan->pts[i].ax);
+            if (c < key[i])
+                key[i] = c;
+        }
+    }
+    free(key);
+    free(in);
+    return total;
+}

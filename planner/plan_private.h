@@ -1,0 +1,23 @@
+/* The plan structure, shared by the planner's own files only. */
+#ifndef GONIO_PLANNER_PLAN_PRIVATE_H
+#define GONIO_PLANNER_PLAN_PRIVATE_H
+
+#include "planner/planner.h"
+
+struct plan {
+    char name[128];
+    char path[4096];
+    enum plan_kind kind;
+    int out_of_plane;
+    enum plan_order_mode declared, current;
+    struct plan_stop stop;
+    struct plan_point *pts; /* as written */
+    size_t n;
+    size_t *order; /* execution order: indices into pts */
+};
+
+/* planner/order.c */
+int plan_order_indices(const struct plan_point *pts, size_t n, enum plan_order_mode mode,
+                       const struct plan_rig *rig, size_t *order);
+
+#endif

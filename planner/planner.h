@@ -1,0 +1,117 @@
+/* Capture plans: which angle pairs to measure, in which order, and how long
+ * the rig will take.
+ *
+ * A plan is YAML data (configs/plans/, docs/plans.md): a grid spec, an
+ * explicit list of pairs, or a reference domain. plan_load generates the
+ * pairs, maps each to rig axes (s = theta_i, a = theta_i + theta_r) and
+ * refuses any pair the rig cannot reach, naming the file, the pair and the
+ * reason; it then orders the points as the plan says. */
+#ifndef GONIO_PLANNER_PLANNER_H
+#define GONIO_PLANNER_PLANNER_H
+
+#include <stddef.h>
+
+#include "common/err.h"
+#include "planner/motion.h"
+#include "planner/rig.h"
+
+enum plan_kind { PLAN_KIND_GRID, PLAN_KIND_PAIRS, PLAN_KIND_DOMAIN };
+
+enum plan_order_mode {
+    PLAN_ORDER_TRAVEL,      /* least move time (heuristic: 2-opt + Or-opt) */
+    PLAN_ORDER_PROGRESSIVE, /* coarse to fine, each level travel-ordered */
+    PLAN_ORDER_AS_WRITTEN,  /* file order (grids: theta_i, then theta_r) */
+    PLAN_ORDER_GREEDY,      /* nearest neighbour in move time: a baseline */
+};
+
+enum plan_stop_kind { PLAN_STOP_ALL, PLAN_STOP_CONVERGE };
+
+/* stop: {converge: {...}}: stop once the fitted model's error changes by
+ * less than tol (relative) over `rounds` consecutive fit rounds, a fit
+ * round running every `every` new samples, never before min_points. */
+struct plan_stop {
+    enum plan_stop_kind kind;
+    double tol;
+    long rounds, every, min_points;
+};
+
+/* The grid rule of DESIGN.md section 3. */
+struct plan_grid {
+    double theta_i_step, theta_i_max;
+    double diffuse_step, glossy_step, glossy_half_width;
+    double theta_r_min, theta_r_max;
+    double blind; /* pairs with |theta_i + theta_r| < blind are dropped */
+};
+
+enum plan_domain_set { PLAN_DOMAIN_FULL, PLAN_DOMAIN_INPLANE, PLAN_DOMAIN_OOP_RANDOM };
+
+/* One measurement point. In-plane points have out_of_plane = 0 and
+ * theta_o = |theta_r|, phi_i = 0, phi_o = 180 (theta_r >= 0) or 0, following
+ * wo = (-sin tr, 0, cos tr). General points carry the spherical angles and
+ * theta_r = 0. */
+struct plan_point {
+    double theta_i, theta_r;
+    double phi_i, theta_o, phi_o;
+    int out_of_plane;
+    struct plan_axes ax;
+    int level;     /* progressive level: 0 is the coarsest */
+    int line, col; /* where the pair is written in the plan file (0: generated) */
+};
+
+struct plan_estimate {
+    double total_s, move_s, settle_s, integration_s;
+};
+
+struct plan;
+
+/* Load a plan: a path, or a bare name (ds2) resolved to
+ * <gonio_config_dir()>/plans/NAME.yaml. The rig decides reachability.
+ * Returns the point count, or -GONIO_EBADCONFIG (bad file),
+ * -GONIO_EUNREACHABLE (a pair the rig cannot reach), -GONIO_ENOTFOUND;
+ * err says "path:line:col: ..." in every case. */
+int plan_load(const char *path_or_name, const struct plan_rig *rig, struct plan **out,
+              struct gonio_err *err);
+void plan_free(struct plan *plan);
+
+/* Generate a grid's pairs in written order (theta_i, then theta_r
+ * ascending), duplicates removed. *out is malloc'd. Returns the count or
+ * -ENOMEM. Axis fields are not filled. */
+int plan_grid_generate(const struct plan_grid *grid, struct plan_point **out);
+
+/* Reorder the points (always starting from the written order). Returns 0
+ * or -ENOMEM. */
+int plan_order(struct plan *plan, enum plan_order_mode mode, const struct plan_rig *rig);
+
+/* Rig time from home (all axes at 0) through every point in the current
+ * order: move + settle + fixed integration per point. */
+void plan_estimate(const struct plan *plan, const struct plan_rig *rig,
+                   struct plan_estimate *est);
+
+/* A lower bound on the move time of any order: the weight of a minimum
+ * spanning tree over home and the points in the move-time metric. NAN for
+ * plans too large for the O(n^2) computation. */
+double plan_move_lower_bound(const struct plan *plan, const struct plan_rig *rig);
+
+/* Accessors. plan_point(i) is the i-th point in execution order. */
+size_t plan_count(const struct plan *plan);
+const struct plan_point *plan_point(const struct plan *plan, size_t i);
+const char *plan_name(const struct plan *plan);
+const char *plan_path(const struct plan *plan);
+enum plan_kind plan_kind(const struct plan *plan);
+int plan_is_out_of_plane(const struct plan *plan);
+enum plan_order_mode plan_declared_order(const struct plan *plan); /* the file's order: */
+enum plan_order_mode plan_current_order(const struct plan *plan);
+const struct plan_stop *plan_stop(const struct plan *plan);
+
+/* "travel", "progressive", "as-written", "greedy"; parse returns -1 when
+ * unknown. */
+const char *plan_order_name(enum plan_order_mode mode);
+int plan_order_parse(const char *name);
+
+/* Check one point against the rig and fill its axes. Returns 0, or
+ * -GONIO_EUNREACHABLE with why (e.g. "detector arm at a = 2 deg is inside
+ * the 5 deg blind zone") written to reason. */
+int plan_point_place(struct plan_point *pt, const struct plan_rig *rig, char *reason,
+                     size_t size);
+
+#endif

@@ -1,0 +1,119 @@
+#include "planner/rig.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "common/cfg.h"
+#include "common/paths.h"
+
+void plan_rig_default(struct plan_rig *rig)
+{
+    memset(rig, 0, sizeof *rig);
+    snprintf(rig->name, sizeof rig->name, "default");
+    rig->sample = (struct plan_axis){20, 40, -90, 90};
+    rig->arm = (struct plan_axis){15, 30, -170, 170};
+    rig->azimuth = (struct plan_axis){30, 60, -180, 180};
+    rig->out_of_plane = 1;
+    rig->blind_deg = 5;
+    rig->settle_s = 0.3;
+    rig->integration_s = 0.05;
+    rig->auto_min_s = 0.001;
+    rig->auto_max_s = 2;
+}
+
+int plan_resolve_path(const char *path_or_name, const char *sub, char *out, size_t size)
+{
+    size_t len = strlen(path_or_name);
+    int is_path = strchr(path_or_name, '/') ||
+                  (len > 5 && !strcmp(path_or_name + len - 5, ".yaml")) ||
+                  (len > 4 && !strcmp(path_or_name + len - 4, ".yml"));
+    int n = is_path ? snprintf(out, size, "%s", path_or_name)
+                    : snprintf(out, size, "%s/%s/%s.yaml", gonio_config_dir(), sub,
+                               path_or_name);
+    return n < 0 || (size_t)n >= size ? -ENAMETOOLONG : 0;
+}
+
+static int load_axis(const struct cfg_doc *d, const struct cfg_node *axes, const char *key,
+                     double limit, struct plan_axis *ax, struct gonio_err *err)
+{
+    static const char *const keys[] = {"speed", "accel", "min", "max", NULL};
+    const struct cfg_node *m;
+    int rc = cfg_map(d, axes, key, CFG_OPTIONAL, &m, err);
+    if (rc <= 0)
+        return rc;
+    if ((rc = cfg_check_keys(d, m, key, keys, err)) < 0 ||
+        (rc = cfg_double(d, m, "speed", CFG_REQUIRED, 0.01, 1000, &ax->speed, err)) < 0 ||
+        (rc = cfg_double(d, m, "accel", CFG_REQUIRED, 0.01, 10000, &ax->accel, err)) < 0 ||
+        (rc = cfg_double(d, m, "min", CFG_REQUIRED, -limit, limit, &ax->min, err)) < 0 ||
+        (rc = cfg_double(d, m, "max", CFG_REQUIRED, -limit, limit, &ax->max, err)) < 0)
+        return rc;
+    if (ax->min >= ax->max)
+        return cfg_error(d, cfg_get(d, m, "max"), "max", err,
+                         "must exceed min (value '%g', allowed %g..%g)", ax->max, ax->min,
+                         limit);
+    return 1;
+}
+
+int plan_rig_load(const char *path_or_name, struct plan_rig *rig, struct gonio_err *err)
+{
+    /* driver/drivers/detector belong to the drivers and the simulator, which
+     * check them; the planner only reads motion and timing. */
+    static const char *const top_keys[] = {"name", "description", "out_of_plane", "blind_deg",
+                                           "settle_s", "integration", "axes", "driver",
+                                           "drivers", "detector", NULL};
+    static const char *const int_keys[] = {"fixed_s", "auto_min_s", "auto_max_s", NULL};
+    static const char *const axis_keys[] = {"sample", "arm", "azimuth", NULL};
+    char path[4096];
+    if (plan_resolve_path(path_or_name, "rigs", path, sizeof path) < 0)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "%s: path too long", path_or_name);
+    plan_rig_default(rig);
+    struct cfg_doc *d;
+    int rc = cfg_load(path, &d, err);
+    if (rc < 0)
+        return rc;
+    const struct cfg_node *root = cfg_root(d), *integ, *axes;
+    const char *name = NULL;
+    int has_az = 0;
+    if ((rc = cfg_check_keys(d, root, "rig profile", top_keys, err)) < 0 ||
+        (rc = cfg_string(d, root, "name", CFG_OPTIONAL, &name, err)) < 0 ||
+        (rc = cfg_bool(d, root, "out_of_plane", CFG_REQUIRED, &rig->out_of_plane, err)) < 0 ||
+        (rc = cfg_double(d, root, "blind_deg", CFG_REQUIRED, 0, 45, &rig->blind_deg, err)) < 0 ||
+        (rc = cfg_double(d, root, "settle_s", CFG_REQUIRED, 0, 60, &rig->settle_s, err)) < 0 ||
+        (rc = cfg_map(d, root, "integration", CFG_REQUIRED, &integ, err)) < 0 ||
+        (rc = cfg_check_keys(d, integ, "integration", int_keys, err)) < 0 ||
+        (rc = cfg_double(d, integ, "fixed_s", CFG_REQUIRED, 1e-6, 60, &rig->integration_s,
+                         err)) < 0 ||
+        (rc = cfg_double(d, integ, "auto_min_s", CFG_REQUIRED, 1e-6, 60, &rig->auto_min_s,
+                         err)) < 0 ||
+        (rc = cfg_double(d, integ, "auto_max_s", CFG_REQUIRED, 1e-6, 600, &rig->auto_max_s,
+                         err)) < 0 ||
+        (rc = cfg_map(d, root, "axes", CFG_REQUIRED, &axes, err)) < 0 ||
+        (rc = cfg_check_keys(d, axes, "axes", axis_keys, err)) < 0 ||
+        (rc = load_axis(d, axes, "sample", 180, &rig->sample, err)) < 0 ||
+        (rc = load_axis(d, axes, "arm", 360, &rig->arm, err)) < 0 ||
+        (rc = has_az = load_axis(d, axes, "azimuth", 360, &rig->azimuth, err)) < 0)
+        goto out;
+    if (!cfg_get(d, axes, "sample") || !cfg_get(d, axes, "arm")) {
+        rc = cfg_error(d, axes, cfg_get(d, axes, "sample") ? "arm" : "sample", err,
+                       "missing required key");
+        goto out;
+    }
+    if (rig->out_of_plane && !has_az) {
+        rc = cfg_error(d, cfg_get(d, root, "out_of_plane"), "out_of_plane", err,
+                       "true needs an axes.azimuth entry");
+        goto out;
+    }
+    if (rig->auto_min_s > rig->auto_max_s) {
+        rc = cfg_error(d, cfg_get(d, integ, "auto_max_s"), "auto_max_s", err,
+                       "below auto_min_s (value '%g', allowed %g..600)", rig->auto_max_s,
+                       rig->auto_min_s);
+        goto out;
+    }
+    if (name)
+        snprintf(rig->name, sizeof rig->name, "%s", name);
+    rc = 0;
+out:
+    cfg_free(d);
+    return rc;
+}

@@ -1,0 +1,42 @@
+/* Rig profile: what the planner needs to know about a rig's motion (axis
+ * speeds, accelerations and limits, settle and integration times, blind
+ * zone). Loaded from configs/rigs/NAME.yaml (docs/plans.md lists the keys).
+ * The capture engine and the simulator read the same profile, so the plan's
+ * time estimate and the simulated clock agree. */
+#ifndef GONIO_PLANNER_RIG_H
+#define GONIO_PLANNER_RIG_H
+
+#include "common/err.h"
+
+/* One motor axis: degrees, degrees/s, degrees/s^2. */
+struct plan_axis {
+    double speed, accel;
+    double min, max;
+};
+
+struct plan_rig {
+    char name[64];
+    struct plan_axis sample;  /* s = theta_i */
+    struct plan_axis arm;     /* a = theta_i + theta_r, from the source */
+    struct plan_axis azimuth; /* out-of-plane axis; used when out_of_plane */
+    int out_of_plane;
+    double blind_deg;        /* detector within this of the source: unreachable */
+    double settle_s;         /* wait after each move */
+    double integration_s;    /* fixed integration (no noise in the scene) */
+    double auto_min_s, auto_max_s; /* auto-exposure bounds */
+};
+
+/* The design's default profile (DESIGN.md section 9), without a file. */
+void plan_rig_default(struct plan_rig *rig);
+
+/* Load a profile: a path (contains '/' or ends in .yaml) or a bare name
+ * resolved to <gonio_config_dir()>/rigs/NAME.yaml. Every value is
+ * range-checked; unknown keys are errors. Returns 0, or -GONIO_EBADCONFIG /
+ * -GONIO_ENOTFOUND with err = "path:line:col: key 'x': problem". */
+int plan_rig_load(const char *path_or_name, struct plan_rig *rig, struct gonio_err *err);
+
+/* Resolve NAME to <config>/<sub>/NAME.yaml unless it already is a path.
+ * Returns 0, or -ENAMETOOLONG. Shared by plans and rigs. */
+int plan_resolve_path(const char *path_or_name, const char *sub, char *out, size_t size);
+
+#endif
