@@ -73,52 +73,90 @@ int brdf_nbrdf_load(const char *path, struct brdf_nbrdf *net, struct gonio_err *
     return 0;
 }
 
-/* One pair through the network. The loops run over the output index with
- * the [in][out] weight rows contiguous, so the compiler vectorises them. */
-static void eval_one(const struct brdf_nbrdf *net, const struct brdf_pair *p, double out[3])
-{
-    double st = sin(p->theta_h), ct = cos(p->theta_h);
-    double sd = sin(p->theta_d), cd = cos(p->theta_d);
-    double sp = sin(p->phi_d), cp = cos(p->phi_d);
-    const double x[NIN] = {st, 0.0, ct, sd * cp, sd * sp, cd};
+/* Pairs go through the network in blocks, stored [unit][pair] so that
+ * every inner loop runs over BLOCK pairs with a fixed trip count and
+ * vectorises; one pair at a time (21-wide rows) ran about 3x slower. */
+#define BLOCK 32
 
-    double h1[NH], h2[NH];
-    memcpy(h1, net->b1, sizeof h1);
-    for (int i = 0; i < NIN; i++) {
-        if (x[i] == 0.0)
-            continue;
-        const double *row = net->w1 + i * NH;
-        for (int j = 0; j < NH; j++)
-            h1[j] += x[i] * row[j];
+static void eval_block(const struct brdf_nbrdf *net, const struct brdf_pair *p, size_t n,
+                       double *rgb)
+{
+    double x[NIN][BLOCK], h1[NH][BLOCK], h2[NH][BLOCK], o[NOUT][BLOCK];
+    for (size_t b = 0; b < BLOCK; b++) {
+        if (b < n) {
+            double st = sin(p[b].theta_h), ct = cos(p[b].theta_h);
+            double sd = sin(p[b].theta_d), cd = cos(p[b].theta_d);
+            double sp = sin(p[b].phi_d), cp = cos(p[b].phi_d);
+            x[0][b] = st;
+            x[1][b] = 0.0; /* phi_h = 0: the y component of the half vector */
+            x[2][b] = ct;
+            x[3][b] = sd * cp;
+            x[4][b] = sd * sp;
+            x[5][b] = cd;
+        } else {
+            for (int i = 0; i < NIN; i++)
+                x[i][b] = 0.0; /* padding, discarded below */
+        }
     }
-    memcpy(h2, net->b2, sizeof h2);
-    for (int i = 0; i < NH; i++) {
-        double a = h1[i] > 0 ? h1[i] : 0.0;
-        if (a == 0.0)
-            continue; /* ReLU zeros contribute nothing */
-        const double *row = net->w2 + i * NH;
-        for (int j = 0; j < NH; j++)
-            h2[j] += a * row[j];
-    }
-    double o[NOUT] = {net->b3[0], net->b3[1], net->b3[2]};
-    for (int i = 0; i < NH; i++) {
-        double a = h2[i] > 0 ? h2[i] : 0.0;
-        const double *row = net->w3 + i * NOUT;
-        o[0] += a * row[0];
-        o[1] += a * row[1];
-        o[2] += a * row[2];
-    }
-    for (int c = 0; c < NOUT; c++) {
-        double f = expm1(o[c]);
-        out[c] = f > 0 ? f : 0.0;
-    }
+    /* Each output unit accumulates over its inputs for 4 pairs at a time
+     * in locals, so the sums stay in registers instead of memory. */
+    for (int j = 0; j < NH; j++)
+        for (size_t b = 0; b < BLOCK; b += 4) {
+            double a0 = net->b1[j], a1 = a0, a2 = a0, a3 = a0;
+            for (int i = 0; i < NIN; i++) {
+                double w = net->w1[i * NH + j];
+                a0 += x[i][b] * w;
+                a1 += x[i][b + 1] * w;
+                a2 += x[i][b + 2] * w;
+                a3 += x[i][b + 3] * w;
+            }
+            h1[j][b] = a0 > 0 ? a0 : 0.0;
+            h1[j][b + 1] = a1 > 0 ? a1 : 0.0;
+            h1[j][b + 2] = a2 > 0 ? a2 : 0.0;
+            h1[j][b + 3] = a3 > 0 ? a3 : 0.0;
+        }
+    for (int j = 0; j < NH; j++)
+        for (size_t b = 0; b < BLOCK; b += 4) {
+            double a0 = net->b2[j], a1 = a0, a2 = a0, a3 = a0;
+            for (int i = 0; i < NH; i++) {
+                double w = net->w2[i * NH + j];
+                a0 += h1[i][b] * w;
+                a1 += h1[i][b + 1] * w;
+                a2 += h1[i][b + 2] * w;
+                a3 += h1[i][b + 3] * w;
+            }
+            h2[j][b] = a0 > 0 ? a0 : 0.0;
+            h2[j][b + 1] = a1 > 0 ? a1 : 0.0;
+            h2[j][b + 2] = a2 > 0 ? a2 : 0.0;
+            h2[j][b + 3] = a3 > 0 ? a3 : 0.0;
+        }
+    for (int c = 0; c < NOUT; c++)
+        for (size_t b = 0; b < BLOCK; b += 4) {
+            double a0 = net->b3[c], a1 = a0, a2 = a0, a3 = a0;
+            for (int i = 0; i < NH; i++) {
+                double w = net->w3[i * NOUT + c];
+                a0 += h2[i][b] * w;
+                a1 += h2[i][b + 1] * w;
+                a2 += h2[i][b + 2] * w;
+                a3 += h2[i][b + 3] * w;
+            }
+            o[c][b] = a0;
+            o[c][b + 1] = a1;
+            o[c][b + 2] = a2;
+            o[c][b + 3] = a3;
+        }
+    for (size_t b = 0; b < n; b++)
+        for (int c = 0; c < NOUT; c++) {
+            double f = expm1(o[c][b]); /* exp(x) - 1 without cancellation near 0 */
+            rgb[3 * b + c] = f > 0 ? f : 0.0;
+        }
 }
 
 void brdf_nbrdf_eval(const struct brdf_nbrdf *net, const struct brdf_pair *pairs, size_t n,
                      double *rgb)
 {
-    for (size_t i = 0; i < n; i++)
-        eval_one(net, &pairs[i], rgb + 3 * i);
+    for (size_t i = 0; i < n; i += BLOCK)
+        eval_block(net, pairs + i, n - i < BLOCK ? n - i : BLOCK, rgb + 3 * i);
 }
 
 static void nbrdf_material_eval(const void *priv, const struct brdf_pair *pairs, size_t n,
