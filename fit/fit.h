@@ -38,11 +38,18 @@ struct fit_info {
     int iterations;      /* iterations of the winning solve */
     double cost;         /* final 0.5 * sum of squared residuals */
     int converged;       /* 1 when the winning solve met a tolerance */
-    const char *reason;  /* why the winning solve stopped */
+    const char *reason;  /* why the winning solve stopped (static string) */
+    size_t dropped;      /* samples left out: non-finite value or geometry, below the
+                            horizon (cos theta_i or cos theta_o <= 0), or 1 + f cos <= 0 */
 };
 
 /* Fit the 9-parameter ABC model to n samples. Positivity and eta > 1 hold by
- * construction; on success out holds finite parameters. */
+ * construction; on success out holds finite parameters. Unusable samples are
+ * dropped and counted in info->dropped; fewer than 3 usable samples (9
+ * residuals for 9 parameters) is a GONIO_EFIT error. opt may be NULL for the
+ * defaults; info may be NULL. The first call turns GSL's abort-on-error
+ * handler off (gsl_set_error_handler_off) for the whole process: a fit
+ * that fails is a normal result here, never an abort. See docs/fitting.md. */
 int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options *opt,
             struct brdf_abc *out, struct fit_info *info, struct gonio_err *err);
 

@@ -1,0 +1,210 @@
+/* abc_fit_bench: fit the ABC model to NBRDF materials sampled on DS1, DS4
+ * and 200k random nodes of the full out-of-plane domain, and report the
+ * full-domain log error and the fit time of each.
+ *
+ *   abc_fit_bench [--starts N] [MATERIAL...]   (default: the 10 study materials)
+ *
+ * The 200k subset is drawn here with a fixed seed; it stands in for the
+ * oop200k reference plan (same size and domain, not necessarily the same
+ * nodes). Needs the shared data (GONIO_SHARED or ../shared). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "brdf/abc.h"
+#include "brdf/angles.h"
+#include "brdf/material.h"
+#include "fit/fit.h"
+
+#define BENCH_PI 3.14159265358979323846
+
+static const char *default_materials[] = {
+    "nylon", "tungsten-carbide", "specular-black-phenolic", "blue-acrylic", "brass",
+    "gold-metallic-paint", "white-diffuse-bball", "red-plastic", "alum-bronze", "pearl-paint",
+};
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* DS plans as in the design brief, section 3. */
+static size_t ds_grid(double step_i, double step_d, double step_g, struct brdf_pair *out)
+{
+    size_t n = 0;
+    const double w = 15;
+    for (double ti = 0; ti <= 80 + 1e-9; ti += step_i) {
+        for (double tr = -80; tr <= 80 + 1e-9; tr += step_d) {
+            if (fabs(tr - ti) > w && fabs(ti + tr) >= 5) {
+                if (out)
+                    brdf_pair_inplane(ti, tr, &out[n]);
+                n++;
+            }
+        }
+        for (double k = -w; k <= w + 1e-9; k += step_g) {
+            double tr = ti + k;
+            if (fabs(tr) <= 80 + 1e-9 && fabs(ti + tr) >= 5) {
+                if (out)
+                    brdf_pair_inplane(ti, tr, &out[n]);
+                n++;
+            }
+        }
+    }
+    return n;
+}
+
+static size_t full_domain(struct brdf_pair *out)
+{
+    size_t n = 0;
+    const double lim = cos(80 * BRDF_DEG) - 1e-12;
+    for (int i = 0; i < 90; i++)
+        for (int j = 0; j < 90; j++)
+            for (int k = 0; k < 180; k++) {
+                double th = (i / 90.0) * (i / 90.0) * BENCH_PI / 2;
+                struct brdf_pair p;
+                brdf_pair_from_hd(th, j / 90.0 * BENCH_PI / 2, k / 180.0 * BENCH_PI, &p);
+                if (p.wi[2] >= lim && p.wo[2] >= lim) {
+                    if (out)
+                        out[n] = p;
+                    n++;
+                }
+            }
+    return n;
+}
+
+static double log_error(const struct brdf_abc *p, const struct brdf_pair *g, const double *ref,
+                        size_t n)
+{
+    double s = 0;
+    for (size_t k = 0; k < n; k++) {
+        double f[3];
+        brdf_abc_eval(p, &g[k], f);
+        double ci = g[k].wi[2];
+        for (int c = 0; c < 3; c++)
+            s += fabs(log1p(f[c] * ci) - log1p(ref[3 * k + c] * ci));
+    }
+    return s / (3.0 * (double)n);
+}
+
+static int fit_set(const struct brdf_pair *g, const double *ref, size_t n,
+                   const struct fit_options *opt, struct brdf_abc *p, double *t,
+                   struct fit_info *info)
+{
+    struct fit_sample *s = malloc(n * sizeof *s);
+    for (size_t k = 0; k < n; k++) {
+        s[k].g = g[k];
+        memcpy(s[k].rgb, ref + 3 * k, sizeof s[k].rgb);
+    }
+    struct gonio_err e = {0};
+    double t0 = now_s();
+    int rc = fit_abc(s, n, opt, p, info, &e);
+    *t = now_s() - t0;
+    free(s);
+    if (rc < 0)
+        fprintf(stderr, "fit failed: %s\n", e.msg);
+    return rc;
+}
+
+static void print_params(const char *tag, const struct brdf_abc *p)
+{
+    printf("    %-5s kd %.4g %.4g %.4g  A %.4g %.4g %.4g  B %.4g  C %.4g  eta %.4g\n", tag,
+           p->kd[0], p->kd[1], p->kd[2], p->A[0], p->A[1], p->A[2], p->B, p->C, p->eta);
+}
+
+int main(int argc, char **argv)
+{
+    struct fit_options opt = fit_default_options();
+    int first = 1;
+    if (argc > 2 && strcmp(argv[1], "--starts") == 0) {
+        opt.n_starts = atoi(argv[2]);
+        first = 3;
+    }
+    const char **mats = default_materials;
+    int nm = (int)(sizeof default_materials / sizeof *default_materials);
+    if (argc > first) {
+        mats = (const char **)argv + first;
+        nm = argc - first;
+    }
+
+    size_t n1 = ds_grid(5, 5, 1, NULL);
+    struct brdf_pair *ds1 = malloc(n1 * sizeof *ds1);
+    ds_grid(5, 5, 1, ds1);
+    struct brdf_pair ds4[6];
+    const double tr4[6] = {-60, -20, 20, 28, 36, 60};
+    for (int k = 0; k < 6; k++)
+        brdf_pair_inplane(30, tr4[k], &ds4[k]);
+    size_t nf = full_domain(NULL);
+    struct brdf_pair *full = malloc(nf * sizeof *full);
+    full_domain(full);
+    /* 200k distinct full-domain nodes by a seeded partial Fisher-Yates */
+    size_t n200 = 200000 < nf ? 200000 : nf;
+    size_t *perm = malloc(nf * sizeof *perm);
+    for (size_t k = 0; k < nf; k++)
+        perm[k] = k;
+    unsigned long long st = 0x9E3779B97F4A7C15ull;
+    for (size_t k = 0; k < n200; k++) {
+        st ^= st << 13;
+        st ^= st >> 7;
+        st ^= st << 17;
+        size_t j = k + (size_t)(st % (nf - k));
+        size_t tmp = perm[k];
+        perm[k] = perm[j];
+        perm[j] = tmp;
+    }
+    struct brdf_pair *oop = malloc(n200 * sizeof *oop);
+    for (size_t k = 0; k < n200; k++)
+        oop[k] = full[perm[k]];
+    printf("DS1 %zu pairs, full domain %zu nodes, oop subset %zu, starts %d\n", n1, nf, n200,
+           opt.n_starts);
+
+    double *rf = malloc(3 * nf * sizeof *rf), *r1 = malloc(3 * n1 * sizeof *r1);
+    double *r200 = malloc(3 * n200 * sizeof *r200), r4[18];
+    double sum1 = 0, sum200 = 0;
+    for (int m = 0; m < nm; m++) {
+        char spec[256];
+        snprintf(spec, sizeof spec, "nbrdf:%s", mats[m]);
+        struct gonio_err e = {0};
+        brdf_material *mat = brdf_material_open(spec, &e);
+        if (!mat) {
+            fprintf(stderr, "%s\n", e.msg);
+            return 1;
+        }
+        brdf_material_eval(mat, full, nf, rf);
+        brdf_material_eval(mat, ds1, n1, r1);
+        brdf_material_eval(mat, ds4, 6, r4);
+        for (size_t k = 0; k < n200; k++)
+            memcpy(r200 + 3 * k, rf + 3 * perm[k], 3 * sizeof *rf);
+        brdf_material_free(mat);
+
+        struct brdf_abc p1, p4, p200;
+        struct fit_info i1, i4, i200;
+        double t1, t4, t200;
+        fit_set(ds1, r1, n1, &opt, &p1, &t1, &i1);
+        fit_set(ds4, r4, 6, &opt, &p4, &t4, &i4);
+        fit_set(oop, r200, n200, &opt, &p200, &t200, &i200);
+        double e1 = log_error(&p1, full, rf, nf), e4 = log_error(&p4, full, rf, nf);
+        double e200 = log_error(&p200, full, rf, nf);
+        sum1 += e1;
+        sum200 += e200;
+        printf("%-24s DS1 %.4f (%.3f s, %d it)  DS4 %.4f (%.3f s)  oop200k %.4f (%.2f s)\n",
+               mats[m], e1, t1, i1.iterations, e4, t4, e200, t200);
+        print_params("DS1", &p1);
+        print_params("DS4", &p4);
+        print_params("oop", &p200);
+        fflush(stdout);
+    }
+    printf("mean full-domain log error: DS1 %.4f, oop200k %.4f, ratio %.3f\n", sum1 / nm,
+           sum200 / nm, sum1 / sum200);
+    free(ds1);
+    free(full);
+    free(perm);
+    free(oop);
+    free(rf);
+    free(r1);
+    free(r200);
+    return 0;
+}

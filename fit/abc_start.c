@@ -1,0 +1,168 @@
+/* Global start for the ABC fit: the model is linear in kd and A once B, C
+ * and eta are fixed, so a coarse grid over (B, C, eta) with kd and A solved
+ * exactly at each node covers the non-linear part without guessing. */
+#include <math.h>
+#include <stdlib.h>
+
+#include "fit/abc_problem.h"
+
+#define ABC_PI 3.14159265358979323846
+
+/* Grid: B log-spaced 1 .. 1e7 (half decades), C 0.1 .. 3, eta 1.05 .. 20.
+ * Wide enough for the published MERL fits (B 11 .. 8e6, C 0.08 .. 2). */
+static const double grid_c[] = {0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.4, 2.0, 3.0};
+static const double grid_eta[] = {1.05, 1.2, 1.5, 2.0, 3.0, 6.0, 20.0};
+#define N_B 15
+#define N_C (int)(sizeof grid_c / sizeof grid_c[0])
+#define N_ETA (int)(sizeof grid_eta / sizeof grid_eta[0])
+
+/* Floors for a start: an exact zero from the non-negative solve would sit
+ * on the log clamp, where the parameter barely moves. */
+#define START_FLOOR 1e-6
+
+struct node {
+    int ib, ic, ie;
+    double score;
+    double kd[3], A[3];
+};
+
+static int cmp_node(const void *a, const void *b)
+{
+    double sa = ((const struct node *)a)->score, sb = ((const struct node *)b)->score;
+    return (sa > sb) - (sa < sb);
+}
+
+/* Weighted non-negative least squares for f ~ a/pi + b s in one channel,
+ * from the accumulated normal equations. */
+static void nnls2(double s11, double s12, double s22, double t1, double t2, double *a,
+                  double *b)
+{
+    double det = s11 * s22 - s12 * s12;
+    if (det > 1e-14 * s11 * s22) {
+        *a = (s22 * t1 - s12 * t2) / det;
+        *b = (s11 * t2 - s12 * t1) / det;
+        if (*a >= 0 && *b >= 0)
+            return;
+    }
+    /* One of the two is at its bound 0: try both and keep the better. */
+    double a1 = s11 > 0 ? fmax(0.0, t1 / s11) : 0.0;
+    double b2 = s22 > 0 ? fmax(0.0, t2 / s22) : 0.0;
+    double e1 = -2 * a1 * t1 + a1 * a1 * s11; /* weighted SSE minus sum w f^2 */
+    double e2 = -2 * b2 * t2 + b2 * b2 * s22;
+    if (e1 <= e2) {
+        *a = a1;
+        *b = 0;
+    } else {
+        *a = 0;
+        *b = b2;
+    }
+}
+
+int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts)
+{
+    size_t n = pb->n;
+    int nnodes = N_B * N_C * N_ETA;
+    struct node *nodes = malloc((size_t)nnodes * sizeof *nodes);
+    double *fres = malloc((size_t)N_ETA * n * sizeof *fres); /* F * gterm per eta */
+    double *lg = malloc(n * sizeof *lg);                      /* log1p(B x) */
+    double *spec = malloc(n * sizeof *spec);
+    double *w = malloc(n * sizeof *w * 3);
+    if (!nodes || !fres || !lg || !spec || !w) {
+        free(nodes);
+        free(fres);
+        free(lg);
+        free(spec);
+        free(w);
+        return -1;
+    }
+    for (int ie = 0; ie < N_ETA; ie++)
+        for (size_t k = 0; k < n; k++)
+            fres[(size_t)ie * n + k] = brdf_abc_fresnel(grid_eta[ie], pb->vh[k], NULL) *
+                                       pb->gterm[k];
+    /* Weights of the linearised log loss: d log(1 + f cos) / df = cos / (1 + f cos),
+     * squared because the linear solve minimises squared differences in f. */
+    for (size_t k = 0; k < 3 * n; k++) {
+        double ci = pb->cosi[k / 3];
+        double d = ci / (1.0 + fmax(pb->f[k], 0.0) * ci);
+        w[k] = d * d;
+    }
+
+    int m = 0;
+    for (int ib = 0; ib < N_B; ib++) {
+        double B = pow(10.0, 0.5 * ib);
+        for (size_t k = 0; k < n; k++)
+            lg[k] = log1p(B * pb->x[k]);
+        for (int ic = 0; ic < N_C; ic++) {
+            for (int ie = 0; ie < N_ETA; ie++) {
+                const double *fr = fres + (size_t)ie * n;
+                double s11[3] = {0}, s12[3] = {0}, s22[3] = {0}, t1[3] = {0}, t2[3] = {0};
+                for (size_t k = 0; k < n; k++) {
+                    double s = fr[k] * exp(-grid_c[ic] * lg[k]);
+                    spec[k] = s;
+                    for (int c = 0; c < 3; c++) {
+                        double wk = w[3 * k + c], fk = pb->f[3 * k + c];
+                        s11[c] += wk / (ABC_PI * ABC_PI);
+                        s12[c] += wk * s / ABC_PI;
+                        s22[c] += wk * s * s;
+                        t1[c] += wk * fk / ABC_PI;
+                        t2[c] += wk * s * fk;
+                    }
+                }
+                struct node *nd = &nodes[m++];
+                nd->ib = ib;
+                nd->ic = ic;
+                nd->ie = ie;
+                for (int c = 0; c < 3; c++)
+                    nnls2(s11[c], s12[c], s22[c], t1[c], t2[c], &nd->kd[c], &nd->A[c]);
+                /* Score by the true log loss, not the linearised one. */
+                double score = 0;
+                for (size_t k = 0; k < n; k++) {
+                    double ci = pb->cosi[k];
+                    for (int c = 0; c < 3; c++) {
+                        double fhat = nd->kd[c] / ABC_PI + nd->A[c] * spec[k];
+                        double r = log1p(fhat * ci) - pb->y[3 * k + c];
+                        score += r * r;
+                    }
+                }
+                nd->score = isfinite(score) ? score : INFINITY;
+            }
+        }
+    }
+    qsort(nodes, (size_t)nnodes, sizeof *nodes, cmp_node);
+
+    /* Best nodes first, skipping grid neighbours of a node already taken, so
+     * the starts probe different basins rather than one basin several times. */
+    int got = 0;
+    int *taken = malloc((size_t)(max_starts > 0 ? max_starts : 1) * sizeof *taken);
+    for (int i = 0; taken && i < nnodes && got < max_starts; i++) {
+        const struct node *nd = &nodes[i];
+        if (!isfinite(nd->score))
+            break;
+        int near = 0;
+        for (int j = 0; j < got && !near; j++) {
+            const struct node *o = &nodes[taken[j]];
+            near = abs(o->ib - nd->ib) <= 1 && abs(o->ic - nd->ic) <= 1 &&
+                   abs(o->ie - nd->ie) <= 1;
+        }
+        if (near)
+            continue;
+        taken[got] = i;
+        struct brdf_abc p;
+        for (int c = 0; c < 3; c++) {
+            p.kd[c] = fmax(nd->kd[c], START_FLOOR);
+            p.A[c] = fmax(nd->A[c], START_FLOOR);
+        }
+        p.B = pow(10.0, 0.5 * nd->ib);
+        p.C = grid_c[nd->ic];
+        p.eta = grid_eta[nd->ie];
+        abc_params_to_theta(&p, starts + (size_t)got * ABC_NPAR);
+        got++;
+    }
+    free(taken);
+    free(nodes);
+    free(fres);
+    free(lg);
+    free(spec);
+    free(w);
+    return got;
+}
