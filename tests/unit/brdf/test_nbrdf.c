@@ -1,6 +1,7 @@
 /* NBRDF network: loading checks and the forward pass against the reference
  * values published with the shared data (computed independently in numpy). */
 #include <string.h>
+#include <unistd.h>
 #include <time.h>
 
 #include "brdf/material.h"
@@ -96,6 +97,7 @@ static void expect_refused(const char *path, int code)
         print_error("message does not name the file: %s\n", err.msg);
         fail();
     }
+    remove(path);
 }
 
 static void test_bad_files_refused(void **state)
@@ -136,6 +138,8 @@ static void test_bad_files_refused(void **state)
     assert_close(net.w1[1], (double)w[1], 0);
     assert_close(net.w2[300 - 147], 0.5, 0);
     assert_close(net.b3[2], (double)w[674], 0);
+    remove(path);
+    rmdir(tmpdir);
 }
 
 /* Hand-made network with one live path: the recipe's ReLU, exp(x)-1 and

@@ -48,6 +48,12 @@ static void test_terms_at_limits(void **state)
     assert_close(brdf_sgd_g1(&p, 2, 0.29), 1.0, 0);
     assert_rel_close(brdf_sgd_g1(&p, 2, 0.8), 1.0 + 2.0 * (1.0 - exp(0.125)), 1e-14);
     assert_close(brdf_sgd_g1(&p, 2, 1.5), 0.0, 0); /* clamped at 0 */
+    /* c t^k overflowing: shadowing saturates at 0, or stays 1 without lambda */
+    p.c[0] = 1e38;
+    p.k[0] = 300;
+    assert_close(brdf_sgd_g1(&p, 0, 1.5), 0.0, 0);
+    p.lambda[0] = 0.0;
+    assert_close(brdf_sgd_g1(&p, 0, 1.5), 1.0, 0);
     /* a half vector on the horizon has no facets */
     assert_close(brdf_sgd_ndf(&p, 0, 0.0), 0.0, 0);
 }
