@@ -1,0 +1,294 @@
+/* fit_abc on synthetic data: recovery of known parameters, the analytic
+ * Jacobian against finite differences, six samples, all-diffuse data and
+ * unusable samples. */
+#include <string.h>
+
+#include "brdf/abc.h"
+#include "brdf/angles.h"
+#include "fit/abc_problem.h"
+#include "fit/fit.h"
+#include "tests/gonio_test.h"
+
+static const struct brdf_abc truth = {
+    .kd = {0.20, 0.15, 0.10}, .A = {20.0, 15.0, 10.0}, .B = 3000, .C = 0.9, .eta = 1.5};
+
+/* A DS2-like in-plane grid, written out from the design brief rather than
+ * taken from the planner: theta_i 0..75 step 15, diffuse theta_r step 10
+ * outside a 15 degree window, glossy step 2 inside it, blind zone 5. */
+static size_t ds2_grid(struct brdf_pair *out)
+{
+    size_t n = 0;
+    for (double ti = 0; ti <= 80; ti += 15) {
+        for (double tr = -80; tr <= 80; tr += 10)
+            if (fabs(tr - ti) > 15 && fabs(ti + tr) >= 5)
+                brdf_pair_inplane(ti, tr, &out[n++]);
+        for (double k = -14; k <= 14; k += 2) {
+            double tr = ti + k;
+            if (fabs(tr) <= 80 && fabs(ti + tr) >= 5)
+                brdf_pair_inplane(ti, tr, &out[n++]);
+        }
+    }
+    return n;
+}
+
+static size_t synth(const struct brdf_abc *p, const struct brdf_pair *g, size_t n,
+                    struct fit_sample *s)
+{
+    for (size_t k = 0; k < n; k++) {
+        s[k].g = g[k];
+        brdf_abc_eval(p, &g[k], s[k].rgb);
+    }
+    return n;
+}
+
+/* Mean |log(1 + fhat cos) - log(1 + f cos)| over random out-of-plane pairs
+ * up to 80 degrees: what the fit must reproduce beyond its samples. */
+static double oop_log_error(const struct brdf_abc *fit, const struct brdf_abc *ref)
+{
+    srand(7);
+    double s = 0;
+    int m = 4000;
+    for (int t = 0; t < m; t++) {
+        struct brdf_pair g;
+        brdf_pair_spherical(80.0 * rand() / RAND_MAX, 360.0 * rand() / RAND_MAX,
+                            80.0 * rand() / RAND_MAX, 360.0 * rand() / RAND_MAX, &g);
+        double a[3], b[3];
+        brdf_abc_eval(fit, &g, a);
+        brdf_abc_eval(ref, &g, b);
+        for (int c = 0; c < 3; c++)
+            s += fabs(log1p(a[c] * g.wi[2]) - log1p(b[c] * g.wi[2]));
+    }
+    return s / (3.0 * m);
+}
+
+static void test_recovers_known_parameters(void **state)
+{
+    (void)state;
+    struct brdf_pair g[400];
+    size_t n = ds2_grid(g);
+    assert_true(n > 100 && n < 400);
+    struct fit_sample s[400];
+    synth(&truth, g, n, s);
+    struct brdf_abc p;
+    struct fit_info info;
+    struct gonio_err err = {0};
+    struct fit_options opt = fit_default_options();
+    assert_int_equal(fit_abc(s, n, &opt, &p, &info, &err), 0);
+    printf("fit: kd %g %g %g A %g %g %g B %g C %g eta %g cost %g it %d (%s)\n", p.kd[0],
+           p.kd[1], p.kd[2], p.A[0], p.A[1], p.A[2], p.B, p.C, p.eta, info.cost,
+           info.iterations, info.reason);
+    assert_true(info.starts >= 1);
+    assert_int_equal((int)info.dropped, 0);
+    assert_true(info.cost < 1e-12);
+    assert_true(oop_log_error(&p, &truth) < 1e-4);
+    /* noise-free data of the model itself: every parameter is identifiable */
+    for (int c = 0; c < 3; c++) {
+        assert_rel_close(p.kd[c], truth.kd[c], 1e-3);
+        assert_rel_close(p.A[c], truth.A[c], 1e-2);
+    }
+    assert_rel_close(p.B, truth.B, 2e-2);
+    assert_rel_close(p.C, truth.C, 1e-2);
+    assert_rel_close(p.eta, truth.eta, 1e-2);
+}
+
+static void test_jacobian_matches_finite_differences(void **state)
+{
+    (void)state;
+    struct brdf_pair g[400];
+    size_t n = ds2_grid(g);
+    struct fit_sample s[400];
+    synth(&truth, g, n, s);
+    struct abc_problem pb;
+    assert_int_equal(abc_problem_init(&pb, s, NULL, n), 0);
+    /* at points away from the data so residuals are not zero */
+    const struct brdf_abc at[] = {
+        {.kd = {0.1, 0.3, 0.05}, .A = {5, 30, 2}, .B = 500, .C = 1.7, .eta = 2.2},
+        {.kd = {0.01, 0.02, 0.03}, .A = {300, 200, 100}, .B = 2e5, .C = 0.3, .eta = 1.08},
+        {.kd = {0.5, 0.5, 0.5}, .A = {1, 1, 1}, .B = 20, .C = 5, .eta = 12},
+    };
+    size_t nr = 3 * n;
+    double *r0 = malloc(nr * sizeof *r0), *rp = malloc(nr * sizeof *rp);
+    double *rm = malloc(nr * sizeof *rm), *J = malloc(nr * ABC_NPAR * sizeof *J);
+    for (size_t a = 0; a < sizeof at / sizeof at[0]; a++) {
+        double th[ABC_NPAR];
+        abc_params_to_theta(&at[a], th);
+        abc_problem_eval(&pb, th, r0, J);
+        for (int j = 0; j < ABC_NPAR; j++) {
+            double h = 1e-6, t = th[j];
+            th[j] = t + h;
+            abc_problem_eval(&pb, th, rp, NULL);
+            th[j] = t - h;
+            abc_problem_eval(&pb, th, rm, NULL);
+            th[j] = t;
+            double worst = 0;
+            for (size_t i = 0; i < nr; i++) {
+                double fd = (rp[i] - rm[i]) / (2 * h);
+                double d = fabs(J[i * ABC_NPAR + (size_t)j] - fd) / (1e-6 + fabs(fd));
+                if (d > worst)
+                    worst = d;
+            }
+            if (worst > 1e-4)
+                printf("point %zu parameter %d: worst relative difference %g\n", a, j, worst);
+            assert_true(worst <= 1e-4);
+        }
+    }
+    free(r0);
+    free(rp);
+    free(rm);
+    free(J);
+    abc_problem_free(&pb);
+}
+
+static void test_parametrisation_round_trip(void **state)
+{
+    (void)state;
+    double th[ABC_NPAR];
+    struct brdf_abc back;
+    abc_params_to_theta(&truth, th);
+    abc_theta_to_params(th, &back);
+    for (int c = 0; c < 3; c++) {
+        assert_rel_close(back.kd[c], truth.kd[c], 1e-12);
+        assert_rel_close(back.A[c], truth.A[c], 1e-12);
+    }
+    assert_rel_close(back.B, truth.B, 1e-12);
+    assert_rel_close(back.C, truth.C, 1e-12);
+    assert_rel_close(back.eta, truth.eta, 1e-12);
+    /* extreme parameters land on finite values with eta > 1 */
+    const double ext[ABC_NPAR] = {-1e300, 1e300, NAN, 1e300, -1e300, 0, 1e300, 1e300, -1e300};
+    abc_theta_to_params(ext, &back);
+    for (int c = 0; c < 3; c++)
+        assert_true(isfinite(back.kd[c]) && back.kd[c] > 0 && isfinite(back.A[c]) &&
+                    back.A[c] > 0);
+    assert_true(isfinite(back.B) && isfinite(back.C) && back.eta > 1 && isfinite(back.eta));
+}
+
+static void assert_finite_params(const struct brdf_abc *p)
+{
+    for (int c = 0; c < 3; c++) {
+        assert_true(isfinite(p->kd[c]) && p->kd[c] > 0);
+        assert_true(isfinite(p->A[c]) && p->A[c] > 0);
+    }
+    assert_true(isfinite(p->B) && p->B > 0);
+    assert_true(isfinite(p->C) && p->C > 0);
+    assert_true(isfinite(p->eta) && p->eta > 1);
+}
+
+static void test_six_samples_finite(void **state)
+{
+    (void)state;
+    const double tr[6] = {-60, -20, 20, 28, 36, 60};
+    const struct brdf_abc mats[] = {
+        truth,
+        {.kd = {0.003, 0.003, 0.004}, .A = {800, 600, 600}, .B = 9e4, .C = 1.7, .eta = 30},
+        {.kd = {0.01, 0.03, 0.1}, .A = {1200, 1100, 1080}, .B = 2.5e5, .C = 1.08, .eta = 1.47},
+    };
+    for (size_t m = 0; m < 3; m++) {
+        struct fit_sample s[6];
+        for (int k = 0; k < 6; k++) {
+            brdf_pair_inplane(30, tr[k], &s[k].g);
+            brdf_abc_eval(&mats[m], &s[k].g, s[k].rgb);
+        }
+        struct brdf_abc p;
+        struct fit_info info;
+        struct gonio_err err = {0};
+        assert_int_equal(fit_abc(s, 6, NULL, &p, &info, &err), 0);
+        assert_finite_params(&p);
+        assert_true(isfinite(info.cost));
+        /* 18 residuals, 9 parameters: the six samples themselves are matched */
+        assert_true(info.cost < 1e-3);
+    }
+}
+
+static void test_all_diffuse_data(void **state)
+{
+    (void)state;
+    struct brdf_abc lamb = {.kd = {0.5, 0.4, 0.3}, .A = {0, 0, 0}, .B = 1, .C = 1, .eta = 1.5};
+    struct brdf_pair g[400];
+    size_t n = ds2_grid(g);
+    struct fit_sample s[400];
+    synth(&lamb, g, n, s);
+    struct brdf_abc p;
+    struct fit_info info;
+    struct gonio_err err = {0};
+    assert_int_equal(fit_abc(s, n, NULL, &p, &info, &err), 0);
+    assert_finite_params(&p);
+    for (int c = 0; c < 3; c++)
+        assert_rel_close(p.kd[c], lamb.kd[c], 1e-3);
+    assert_true(oop_log_error(&p, &lamb) < 1e-3);
+}
+
+static void test_unusable_samples_dropped(void **state)
+{
+    (void)state;
+    struct brdf_pair g[400];
+    size_t n = ds2_grid(g);
+    struct fit_sample s[400];
+    synth(&truth, g, n, s);
+    s[3].rgb[1] = NAN;
+    s[10].rgb[0] = INFINITY;
+    s[20].g.wi[2] = NAN;
+    brdf_pair_spherical(95, 0, 30, 0, &s[30].g); /* below the horizon */
+    s[40].rgb[2] = -1e6;                        /* 1 + f cos <= 0 */
+    struct brdf_abc p;
+    struct fit_info info;
+    struct gonio_err err = {0};
+    assert_int_equal(fit_abc(s, n, NULL, &p, &info, &err), 0);
+    assert_int_equal((int)info.dropped, 5);
+    assert_finite_params(&p);
+    assert_true(oop_log_error(&p, &truth) < 1e-4);
+
+    /* nothing usable: an error that says why */
+    for (int k = 0; k < 6; k++)
+        s[k].rgb[0] = NAN;
+    assert_int_equal(fit_abc(s, 6, NULL, &p, &info, &err), -GONIO_EFIT);
+    assert_int_equal(err.code, GONIO_EFIT);
+    assert_non_null(strstr(err.msg, "0 usable samples of 6"));
+}
+
+static void test_warm_start_refines(void **state)
+{
+    (void)state;
+    struct brdf_pair g[400];
+    size_t n = ds2_grid(g);
+    struct fit_sample s[400];
+    synth(&truth, g, n, s);
+    struct brdf_abc near = truth;
+    near.B *= 1.3;
+    near.C *= 0.9;
+    near.kd[0] *= 1.2;
+    struct fit_options opt = fit_default_options();
+    opt.warm_start = &near;
+    struct brdf_abc p;
+    struct fit_info info;
+    assert_int_equal(fit_abc(s, n, &opt, &p, &info, NULL), 0);
+    assert_int_equal(info.starts, 1);
+    assert_true(info.cost < 1e-12);
+    assert_rel_close(p.B, truth.B, 2e-2);
+}
+
+static void test_bad_options(void **state)
+{
+    (void)state;
+    struct fit_sample s[3];
+    struct brdf_abc p;
+    struct fit_options opt = fit_default_options();
+    opt.n_starts = 0;
+    struct gonio_err err = {0};
+    assert_true(fit_abc(s, 3, &opt, &p, NULL, &err) < 0);
+    assert_non_null(strstr(err.msg, "n_starts"));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_recovers_known_parameters),
+        cmocka_unit_test(test_jacobian_matches_finite_differences),
+        cmocka_unit_test(test_parametrisation_round_trip),
+        cmocka_unit_test(test_six_samples_finite),
+        cmocka_unit_test(test_all_diffuse_data),
+        cmocka_unit_test(test_unusable_samples_dropped),
+        cmocka_unit_test(test_warm_start_refines),
+        cmocka_unit_test(test_bad_options),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
