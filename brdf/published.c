@@ -80,40 +80,49 @@ static int read_row(const char *path, const char *name, const char *alt_col,
         if (strcmp(cols[c], alt_col) == 0)
             alt = c;
 
-    int lineno = 1;
-    while (fgets(line, sizeof line, f)) {
+    /* An exact name wins over another row's alternative name, wherever
+     * the two rows are; the first alternative match is kept until EOF. */
+    char hit[LINE_MAX_LEN], alt_hit[LINE_MAX_LEN];
+    int lineno = 1, found = 0, alt_lineno = 0;
+    while (!found && fgets(line, sizeof line, f)) {
         lineno++;
+        char copy[LINE_MAX_LEN];
+        memcpy(copy, line, strlen(line) + 1);
         int n = split(line, cols);
         if (n <= 0 || !*cols[0])
             continue;
-        int match = strcmp(cols[0], name) == 0 || (alt >= 0 && alt < n && *cols[alt] &&
-                                                   strcmp(cols[alt], name) == 0);
-        if (!match)
-            continue;
-        if (n != ncols) {
-            fclose(f);
-            return gonio_err_set(err, GONIO_EBADDATA, "%s: line %d (%s): %d columns, header has %d",
-                                 path, lineno, name, n, ncols);
+        if (strcmp(cols[0], name) == 0) {
+            found = lineno;
+            memcpy(hit, copy, strlen(copy) + 1);
+        } else if (!alt_lineno && alt >= 0 && alt < n && *cols[alt] &&
+                   strcmp(cols[alt], name) == 0) {
+            alt_lineno = lineno;
+            memcpy(alt_hit, copy, strlen(copy) + 1);
         }
-        for (int k = 0; k < nfields; k++) {
-            char *end;
-            errno = 0;
-            vals[k] = strtod(cols[idx[k]], &end);
-            if (end == cols[idx[k]] || *end || !isfinite(vals[k])) {
-                fclose(f);
-                return gonio_err_set(err, GONIO_EBADDATA,
-                                     "%s: line %d (%s): column %s: '%s' is not a finite number",
-                                     path, lineno, name, fields[k], cols[idx[k]]);
-            }
-        }
-        fclose(f);
-        return 0;
     }
     rc = ferror(f);
     fclose(f);
     if (rc)
         return gonio_err_set(err, GONIO_EBADDATA, "%s: read error", path);
-    return gonio_err_set(err, GONIO_ENOTFOUND, "%s: no material named '%s'", path, name);
+    if (!found && alt_lineno) {
+        found = alt_lineno;
+        memcpy(hit, alt_hit, strlen(alt_hit) + 1);
+    }
+    if (!found)
+        return gonio_err_set(err, GONIO_ENOTFOUND, "%s: no material named '%s'", path, name);
+    int n = split(hit, cols);
+    if (n != ncols)
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: line %d (%s): %d columns, header has %d",
+                             path, found, name, n, ncols);
+    for (int k = 0; k < nfields; k++) {
+        char *end;
+        vals[k] = strtod(cols[idx[k]], &end);
+        if (end == cols[idx[k]] || *end || !isfinite(vals[k]))
+            return gonio_err_set(err, GONIO_EBADDATA,
+                                 "%s: line %d (%s): column %s: '%s' is not a finite number", path,
+                                 found, name, fields[k], cols[idx[k]]);
+    }
+    return 0;
 }
 
 int brdf_published_abc_read(const char *path, const char *name, struct brdf_abc_published *out,
