@@ -5,7 +5,7 @@ set -eu
 
 PACKAGES="build-essential cmake pkg-config git
 libgsl-dev libyaml-dev libjansson-dev libcmocka-dev libopenexr-dev
-libmodbus-dev libusb-1.0-0-dev"
+libmodbus-dev libusb-1.0-0-dev zlib1g-dev"
 
 missing=""
 for p in $PACKAGES; do

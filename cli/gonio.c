@@ -1,0 +1,46 @@
+/* gonio: the operator's command. A thin shell: each subcommand parses its
+ * options and calls the libraries. */
+#include <stdio.h>
+#include <string.h>
+
+#include <gsl/gsl_errno.h>
+
+#include "cli/commands.h"
+
+static const struct {
+    const char *name;
+    int (*run)(int argc, char **argv);
+    const char *summary;
+} commands[] = {
+    {"plan", cmd_plan, "dry-run a plan: pairs, axis positions, time estimate"},
+    {"capture", cmd_capture, "run a capture (--offline: in-process simulated rig)"},
+    {"export", cmd_export, "export a material as a MERL .binary table"},
+};
+
+static void usage(FILE *out)
+{
+    fprintf(out, "usage: gonio COMMAND [OPTIONS]\n\ncommands:\n");
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        fprintf(out, "  %-8s %s\n", commands[i].name, commands[i].summary);
+    fprintf(out, "\n'gonio COMMAND --help' describes a command.\n");
+}
+
+int main(int argc, char **argv)
+{
+    /* A fit that fails is a result to report, never an abort. */
+    gsl_set_error_handler_off();
+    if (argc < 2) {
+        usage(stderr);
+        return 2;
+    }
+    if (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h") || !strcmp(argv[1], "help")) {
+        usage(stdout);
+        return 0;
+    }
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        if (!strcmp(argv[1], commands[i].name))
+            return commands[i].run(argc - 1, argv + 1);
+    fprintf(stderr, "gonio: unknown command '%s'\n", argv[1]);
+    usage(stderr);
+    return 2;
+}

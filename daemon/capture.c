@@ -1,0 +1,313 @@
+#include "daemon/capture.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "brdf/domain.h"
+#include "brdf/material.h"
+#include "daemon/capture_files.h"
+#include "daemon/journal.h"
+#include "drivers/drv_sim.h"
+#include "fit/fit.h"
+#include "planner/planner.h"
+#include "sim/scene.h"
+#include "sim/sim.h"
+
+/* What a capture reads, resolved and validated before anything is written. */
+struct capture_inputs {
+    struct sim_scene scene;
+    struct plan_rig rig;
+    struct plan *plan;
+    brdf_material *material;
+};
+
+static void inputs_free(struct capture_inputs *in)
+{
+    plan_free(in->plan);
+    brdf_material_free(in->material);
+}
+
+static int resolve_inputs(const struct capture_config *cfg, struct capture_inputs *in,
+                          struct gonio_err *err)
+{
+    memset(in, 0, sizeof *in);
+    int rc = sim_scene_load(cfg->scene, &in->scene, err);
+    if (rc < 0)
+        return rc;
+    if ((rc = plan_rig_load(cfg->rig ? cfg->rig : in->scene.rig, &in->rig, err)) < 0)
+        return rc;
+    if ((rc = plan_load(cfg->plan, &in->rig, &in->plan, err)) < 0)
+        return rc;
+    if (cfg->order) {
+        int mode = plan_order_parse(cfg->order);
+        if (mode < 0) {
+            inputs_free(in);
+            return gonio_err_set(err, GONIO_EUSAGE,
+                                 "--order '%s': use travel, progressive, as-written or greedy",
+                                 cfg->order);
+        }
+        if ((rc = plan_order(in->plan, (enum plan_order_mode)mode, &in->rig)) < 0) {
+            inputs_free(in);
+            return gonio_err_set(err, -rc, "ordering plan: %s", gonio_strerror(rc));
+        }
+    }
+    if (plan_is_out_of_plane(in->plan)) {
+        inputs_free(in);
+        return gonio_err_set(err, GONIO_EBADCONFIG,
+                             "%s: out-of-plane plans are not captured by the simulated rig yet",
+                             plan_path(in->plan));
+    }
+    if (strcmp(cfg->model, "abc") != 0) {
+        inputs_free(in);
+        return gonio_err_set(err, GONIO_EUSAGE, "--model '%s': the only model is 'abc'",
+                             cfg->model);
+    }
+    in->material = brdf_material_open(cfg->material ? cfg->material : in->scene.material, err);
+    if (!in->material) {
+        inputs_free(in);
+        return -abs(err ? err->code : GONIO_ENOTFOUND);
+    }
+    return 0;
+}
+
+static double monotonic_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* The devices of the in-process simulated rig. */
+struct rig_devices {
+    sim_rig *sim;
+    drv_axis *sample, *arm;
+    drv_detector *detector;
+    drv_clock *clock;
+};
+
+static void devices_free(struct rig_devices *d)
+{
+    drv_axis_free(d->sample);
+    drv_axis_free(d->arm);
+    drv_detector_free(d->detector);
+    drv_clock_free(d->clock);
+    sim_rig_free(d->sim);
+}
+
+static int devices_open_sim(const struct capture_inputs *in, struct rig_devices *d,
+                            struct gonio_err *err)
+{
+    memset(d, 0, sizeof *d);
+    d->sim = sim_rig_new(&in->rig, in->material, err);
+    if (!d->sim)
+        return -ENOMEM;
+    d->sample = drv_axis_new_sim(d->sim, SIM_AXIS_SAMPLE);
+    d->arm = drv_axis_new_sim(d->sim, SIM_AXIS_ARM);
+    d->detector = drv_detector_new_sim(d->sim);
+    d->clock = drv_clock_new_sim(d->sim);
+    if (!d->sample || !d->arm || !d->detector || !d->clock) {
+        devices_free(d);
+        return gonio_err_set(err, ENOMEM, "simulated rig: out of memory");
+    }
+    return 0;
+}
+
+/* Move both axes together, settle, integrate, and record where the axes
+ * actually were: the sample is what the rig measured, not what was asked. */
+static int measure_point(struct rig_devices *d, const struct plan_rig *rig,
+                         const struct plan_point *pt, int index, struct journal_sample *s,
+                         struct gonio_err *err)
+{
+    int rc;
+    if ((rc = drv_axis_start_move(d->sample, pt->ax.s, err)) < 0 ||
+        (rc = drv_axis_start_move(d->arm, pt->ax.a, err)) < 0 ||
+        (rc = drv_axis_wait(d->sample, err)) < 0 || (rc = drv_axis_wait(d->arm, err)) < 0)
+        return rc;
+    if ((rc = drv_clock_sleep(d->clock, rig->settle_s)) < 0)
+        return gonio_err_set(err, -rc, "settle: %s", gonio_strerror(rc));
+    struct drv_reading r;
+    if ((rc = drv_detector_acquire(d->detector, rig->integration_s, &r, err)) < 0)
+        return rc;
+    memset(s, 0, sizeof *s);
+    s->point = index;
+    if ((rc = drv_axis_position(d->sample, &s->s, err)) < 0 ||
+        (rc = drv_axis_position(d->arm, &s->a, err)) < 0)
+        return rc;
+    brdf_axes_to_inplane(s->s, s->a, &s->theta_i, &s->theta_r);
+    s->theta_o = fabs(s->theta_r);
+    s->phi_o = s->theta_r >= 0 ? 180.0 : 0.0;
+    memcpy(s->rgb, r.rgb, sizeof s->rgb);
+    s->integration_s = r.integration_s;
+    s->flags = (r.flags & DRV_READING_SATURATED) ? JOURNAL_FLAG_SATURATED : 0;
+    s->rig_time_s = drv_clock_now(d->clock);
+    return 0;
+}
+
+/* Measure every point the journal does not hold yet, in plan order. */
+static int acquire(const struct capture_config *cfg, const struct capture_inputs *in,
+                   journal *j, struct journal_sample **samples, size_t *n,
+                   struct gonio_err *err)
+{
+    size_t count = plan_count(in->plan);
+    unsigned char *done = calloc(count, 1);
+    struct journal_sample *all = realloc(*samples, count * sizeof *all);
+    if (!done || !all) {
+        free(done);
+        if (all)
+            *samples = all;
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    }
+    *samples = all;
+    for (size_t i = 0; i < *n; i++) {
+        int p = all[i].point;
+        if (p < 0 || (size_t)p >= count || done[p]) {
+            free(done);
+            return gonio_err_set(err, GONIO_EBADDATA,
+                                 "%s: journal record %zu names point %d, which the plan (%zu "
+                                 "points) does not have or has twice",
+                                 cfg->out_dir, i + 1, p, count);
+        }
+        done[p] = 1;
+    }
+
+    struct rig_devices dev;
+    int rc = devices_open_sim(in, &dev, err);
+    if (rc < 0) {
+        free(done);
+        return rc;
+    }
+    /* A resumed capture continues the rig clock where the journal ends. */
+    if (*n > 0)
+        sim_rig_advance(dev.sim, all[*n - 1].rig_time_s);
+
+    size_t next_report = count / 10 + 1;
+    for (size_t k = 0; k < count && rc == 0; k++) {
+        if (done[k])
+            continue;
+        struct journal_sample s;
+        rc = measure_point(&dev, &in->rig, plan_point(in->plan, k), (int)k, &s, err);
+        if (rc == 0)
+            rc = journal_append(j, &s, err);
+        if (rc == 0) {
+            all[(*n)++] = s;
+            if (!cfg->quiet && (*n % next_report == 0 || *n == count))
+                fprintf(stderr, "capture: %zu/%zu points, rig time %.1f s\n", *n, count,
+                        s.rig_time_s);
+        }
+    }
+    devices_free(&dev);
+    free(done);
+    return rc;
+}
+
+static int fit_samples(const struct journal_sample *js, size_t n, struct capture_summary *out,
+                       struct gonio_err *err)
+{
+    struct fit_sample *fs = malloc(n * sizeof *fs);
+    if (!fs)
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    for (size_t i = 0; i < n; i++) {
+        brdf_pair_inplane(js[i].theta_i, js[i].theta_r, &fs[i].g);
+        memcpy(fs[i].rgb, js[i].rgb, sizeof fs[i].rgb);
+    }
+    struct fit_options opt = fit_default_options();
+    struct fit_info info;
+    double t0 = monotonic_s();
+    int rc = fit_abc(fs, n, &opt, &out->params, &info, err);
+    out->fit_time_s = monotonic_s() - t0;
+    out->converged = rc == 0 && info.converged;
+    if (rc == 0) {
+        /* Plan-domain error: the model against what was measured. */
+        double *truth = malloc(n * 3 * sizeof *truth), *pred = malloc(n * 3 * sizeof *pred);
+        struct brdf_pair *pairs = malloc(n * sizeof *pairs);
+        if (!truth || !pred || !pairs) {
+            rc = gonio_err_set(err, ENOMEM, "out of memory");
+        } else {
+            for (size_t i = 0; i < n; i++) {
+                pairs[i] = fs[i].g;
+                memcpy(truth + 3 * i, fs[i].rgb, sizeof fs[i].rgb);
+                brdf_abc_eval(&out->params, &fs[i].g, pred + 3 * i);
+            }
+            brdf_errors_compute(pairs, truth, pred, n, &out->err_plan);
+        }
+        free(truth);
+        free(pred);
+        free(pairs);
+    }
+    free(fs);
+    return rc;
+}
+
+/* Errors against the true material over the in-plane and full domains. */
+static int assess_truth(const brdf_material *truth, struct capture_summary *out,
+                        struct gonio_err *err)
+{
+    brdf_material *model = brdf_abc_material(&out->params, "abc");
+    if (!model)
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    struct brdf_domain inplane = {0}, full = {0};
+    int rc = brdf_domain_inplane(&inplane, err);
+    if (rc >= 0)
+        rc = brdf_domain_full(&full, err);
+    if (rc >= 0)
+        rc = brdf_errors_material(truth, model, &inplane, &out->err_inplane, err);
+    if (rc >= 0)
+        rc = brdf_errors_material(truth, model, &full, &out->err_full, err);
+    if (rc >= 0) {
+        out->has_truth = 1;
+        rc = 0;
+    }
+    brdf_domain_free(&inplane);
+    brdf_domain_free(&full);
+    brdf_material_free(model);
+    return rc;
+}
+
+int capture_run_offline(const struct capture_config *cfg, struct capture_summary *out,
+                        struct gonio_err *err)
+{
+    memset(out, 0, sizeof *out);
+    struct capture_inputs in;
+    int rc = resolve_inputs(cfg, &in, err);
+    if (rc < 0)
+        return rc;
+    snprintf(out->plan, sizeof out->plan, "%s", plan_name(in.plan));
+    snprintf(out->material, sizeof out->material, "%s", brdf_material_name(in.material));
+    snprintf(out->model, sizeof out->model, "%s", cfg->model);
+
+    struct journal_sample *samples = NULL;
+    size_t n = 0;
+    journal *j = NULL;
+    rc = capture_files_prepare(cfg->out_dir, in.plan, &in.rig, &in.scene,
+                               brdf_material_name(in.material), err);
+    if (rc == 0) {
+        char path[4096];
+        snprintf(path, sizeof path, "%s/samples.csv", cfg->out_dir);
+        j = journal_open(path, &samples, &n, err);
+        rc = j ? 0 : -abs(err ? err->code : EIO);
+    }
+    if (rc == 0) {
+        rc = acquire(cfg, &in, j, &samples, &n, err);
+        journal_close(j);
+    }
+    if (rc == 0) {
+        out->samples = n;
+        out->rig_time_s = n ? samples[n - 1].rig_time_s : 0;
+        for (size_t i = 0; i < n; i++)
+            out->integration_s += samples[i].integration_s;
+        out->settle_s = (double)n * in.rig.settle_s;
+        out->move_s = out->rig_time_s - out->settle_s - out->integration_s;
+        rc = fit_samples(samples, n, out, err);
+    }
+    if (rc == 0)
+        rc = assess_truth(in.material, out, err);
+    if (rc == 0)
+        rc = capture_files_results(cfg->out_dir, out, err);
+    free(samples);
+    inputs_free(&in);
+    return rc;
+}

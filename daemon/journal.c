@@ -1,0 +1,219 @@
+#include "daemon/journal.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#define HEADER "point,theta_i,theta_r,phi_i,theta_o,phi_o,s,a,r,g,b,integration_s,rig_time_s,flags,crc32\n"
+#define LINE_MAX_LEN 1024
+
+struct journal {
+    int fd;
+    off_t end; /* length of the valid records: a failed append is cut back to it */
+    char path[4096];
+};
+
+static unsigned long line_crc(const char *text, size_t len)
+{
+    return crc32(crc32(0L, Z_NULL, 0), (const Bytef *)text, (uInt)len);
+}
+
+static int format_record(const struct journal_sample *s, char *buf, size_t size)
+{
+    /* %.17g keeps every double exactly, so a resumed fit sees the same data. */
+    int n = snprintf(buf, size,
+                     "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%u,",
+                     s->point, s->theta_i, s->theta_r, s->phi_i, s->theta_o, s->phi_o, s->s, s->a,
+                     s->rgb[0], s->rgb[1], s->rgb[2], s->integration_s, s->rig_time_s, s->flags);
+    if (n < 0 || (size_t)n + 10 >= size)
+        return -1;
+    n += snprintf(buf + n, size - (size_t)n, "%08lx\n", line_crc(buf, (size_t)n));
+    return n;
+}
+
+/* Parse one complete line (without its newline). 0 on success. */
+static int parse_record(const char *line, size_t len, struct journal_sample *s)
+{
+    const char *comma = NULL;
+    for (size_t i = len; i > 0; i--)
+        if (line[i - 1] == ',') {
+            comma = line + i - 1;
+            break;
+        }
+    if (!comma || line + len - (comma + 1) != 8)
+        return -1;
+    char crc_text[9];
+    memcpy(crc_text, comma + 1, 8);
+    crc_text[8] = '\0';
+    char *end;
+    unsigned long crc = strtoul(crc_text, &end, 16);
+    if (*end || crc != line_crc(line, (size_t)(comma + 1 - line)))
+        return -1;
+    int used = 0;
+    int got = sscanf(line, "%d,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%u,%n", &s->point,
+                     &s->theta_i, &s->theta_r, &s->phi_i, &s->theta_o, &s->phi_o, &s->s, &s->a,
+                     &s->rgb[0], &s->rgb[1], &s->rgb[2], &s->integration_s, &s->rig_time_s,
+                     &s->flags, &used);
+    return got == 14 && line + used == comma + 1 ? 0 : -1;
+}
+
+/* Reads every valid record; *valid_len is the byte length of the valid
+ * prefix (header included), so a torn tail can be cut off. */
+static int read_all(const char *path, int fd, struct journal_sample **out, size_t *n,
+                    off_t *valid_len, struct gonio_err *err)
+{
+    struct stat st;
+    if (fstat(fd, &st) != 0)
+        return gonio_err_set(err, errno, "%s: %s", path, strerror(errno));
+    size_t size = (size_t)st.st_size;
+    char *buf = malloc(size + 1);
+    if (!buf)
+        return gonio_err_set(err, ENOMEM, "%s: out of memory", path);
+    size_t got = 0;
+    while (got < size) {
+        ssize_t r = pread(fd, buf + got, size - got, (off_t)got);
+        if (r < 0 && errno == EINTR)
+            continue;
+        if (r <= 0) {
+            free(buf);
+            return gonio_err_set(err, errno ? errno : EIO, "%s: read failed", path);
+        }
+        got += (size_t)r;
+    }
+    buf[size] = '\0';
+
+    *out = NULL;
+    *n = 0;
+    *valid_len = 0;
+    size_t hlen = strlen(HEADER);
+    if (size == 0) {
+        free(buf);
+        return 0;
+    }
+    if (size < hlen || memcmp(buf, HEADER, hlen) != 0) {
+        /* A header cut short by a crash before the first sample is a torn
+         * tail too; anything else is not a gonio journal. */
+        int torn_header = size < hlen && memcmp(buf, HEADER, size) == 0;
+        free(buf);
+        if (torn_header)
+            return 0;
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: not a gonio sample journal (bad header)",
+                             path);
+    }
+    size_t cap = 0, pos = hlen;
+    *valid_len = (off_t)hlen;
+    while (pos < size) {
+        char *nl = memchr(buf + pos, '\n', size - pos);
+        struct journal_sample s;
+        size_t len = nl ? (size_t)(nl - (buf + pos)) : size - pos;
+        if (!nl || len >= LINE_MAX_LEN || parse_record(buf + pos, len, &s) != 0) {
+            if (nl && memchr(nl + 1, '\n', size - (size_t)(nl + 1 - buf))) {
+                free(buf);
+                free(*out);
+                *out = NULL;
+                return gonio_err_set(err, GONIO_EBADDATA,
+                                     "%s: corrupt record at byte %zu (CRC or format)", path, pos);
+            }
+            break; /* torn last record */
+        }
+        if (*n == cap) {
+            cap = cap ? 2 * cap : 256;
+            struct journal_sample *grown = realloc(*out, cap * sizeof **out);
+            if (!grown) {
+                free(buf);
+                free(*out);
+                *out = NULL;
+                return gonio_err_set(err, ENOMEM, "%s: out of memory", path);
+            }
+            *out = grown;
+        }
+        (*out)[(*n)++] = s;
+        pos += len + 1;
+        *valid_len = (off_t)pos;
+    }
+    free(buf);
+    return 0;
+}
+
+int journal_read(const char *path, struct journal_sample **samples, size_t *n,
+                 struct gonio_err *err)
+{
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+        return gonio_err_set(err, errno == ENOENT ? GONIO_ENOTFOUND : errno, "%s: %s", path,
+                             strerror(errno));
+    off_t valid;
+    int rc = read_all(path, fd, samples, n, &valid, err);
+    close(fd);
+    return rc;
+}
+
+journal *journal_open(const char *path, struct journal_sample **samples, size_t *n,
+                      struct gonio_err *err)
+{
+    struct journal *j = calloc(1, sizeof *j);
+    if (!j) {
+        gonio_err_set(err, ENOMEM, "out of memory");
+        return NULL;
+    }
+    snprintf(j->path, sizeof j->path, "%s", path);
+    j->fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (j->fd < 0) {
+        gonio_err_set(err, errno, "%s: cannot open journal: %s", path, strerror(errno));
+        free(j);
+        return NULL;
+    }
+    off_t valid;
+    if (read_all(path, j->fd, samples, n, &valid, err) != 0) {
+        journal_close(j);
+        return NULL;
+    }
+    int failed = ftruncate(j->fd, valid) != 0 || lseek(j->fd, 0, SEEK_END) < 0;
+    if (!failed && valid == 0)
+        failed = write(j->fd, HEADER, strlen(HEADER)) != (ssize_t)strlen(HEADER) ||
+                 fsync(j->fd) != 0;
+    j->end = valid > 0 ? valid : (off_t)strlen(HEADER);
+    if (failed) {
+        gonio_err_set(err, errno, "%s: cannot prepare journal: %s", path, strerror(errno));
+        free(*samples);
+        *samples = NULL;
+        journal_close(j);
+        return NULL;
+    }
+    return j;
+}
+
+int journal_append(journal *j, const struct journal_sample *s, struct gonio_err *err)
+{
+    char line[LINE_MAX_LEN];
+    int len = format_record(s, line, sizeof line);
+    if (len < 0)
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: sample record too long", j->path);
+    /* One write() per record: the record is torn only by a crash, and the
+     * reader cuts a torn record off. fdatasync makes it durable. */
+    errno = 0;
+    ssize_t w = write(j->fd, line, (size_t)len);
+    if (w != len || fdatasync(j->fd) != 0) {
+        int e = errno ? errno : EIO;
+        /* Leave no partial record behind for the next append to follow. */
+        if (ftruncate(j->fd, j->end) != 0 || lseek(j->fd, j->end, SEEK_SET) < 0)
+            e = errno;
+        return gonio_err_set(err, e, "%s: cannot write sample: %s", j->path, strerror(e));
+    }
+    j->end += len;
+    return 0;
+}
+
+void journal_close(journal *j)
+{
+    if (!j)
+        return;
+    if (j->fd >= 0)
+        close(j->fd);
+    free(j);
+}

@@ -1,0 +1,46 @@
+/* The capture journal: an append-only sample log, one CSV record a sample,
+ * written and fsync'd before the next point is measured, so a capture
+ * interrupted at any instant resumes without losing or repeating a sample.
+ *
+ * Each record ends with the CRC-32 of the rest of its line. The reader
+ * accepts a record only when its CRC matches and its newline is there; a
+ * torn last record (power cut mid-write) is cut off on open, a bad record
+ * anywhere else is corruption and an error. */
+#ifndef GONIO_DAEMON_JOURNAL_H
+#define GONIO_DAEMON_JOURNAL_H
+
+#include <stddef.h>
+
+#include "common/err.h"
+
+struct journal_sample {
+    int point;            /* index of the point in the resolved plan */
+    double theta_i, theta_r;            /* in-plane angles, degrees */
+    double phi_i, theta_o, phi_o;       /* the same pair in spherical angles */
+    double s, a;          /* axis positions measured at acquisition, degrees */
+    double rgb[3];        /* BRDF, 1/sr */
+    double integration_s; /* detector integration time */
+    double rig_time_s;    /* rig clock when the sample was taken */
+    unsigned flags;       /* JOURNAL_FLAG_* */
+};
+
+#define JOURNAL_FLAG_SATURATED 0x1u
+
+typedef struct journal journal;
+
+/* Open (creating if needed) the journal at path for appending. Records
+ * already there are read back into *samples (malloc'd, caller frees) and
+ * counted in *n; a torn last record is truncated away. */
+journal *journal_open(const char *path, struct journal_sample **samples, size_t *n,
+                      struct gonio_err *err);
+
+/* Append one record and make it durable before returning. */
+int journal_append(journal *j, const struct journal_sample *s, struct gonio_err *err);
+
+void journal_close(journal *j);
+
+/* Read a journal without opening it for writing (torn tail ignored). */
+int journal_read(const char *path, struct journal_sample **samples, size_t *n,
+                 struct gonio_err *err);
+
+#endif

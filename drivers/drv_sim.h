@@ -1,0 +1,14 @@
+/* Constructors of the in-process simulator backend: devices that drive a
+ * sim_rig directly, with no protocol in between. */
+#ifndef GONIO_DRIVERS_DRV_SIM_H
+#define GONIO_DRIVERS_DRV_SIM_H
+
+#include "drivers/drivers.h"
+#include "sim/sim.h"
+
+/* The rig must outlive the devices. */
+drv_axis *drv_axis_new_sim(sim_rig *rig, enum sim_axis_id axis);
+drv_detector *drv_detector_new_sim(sim_rig *rig);
+drv_clock *drv_clock_new_sim(sim_rig *rig);
+
+#endif
