@@ -114,4 +114,9 @@ int plan_order_parse(const char *name);
 int plan_point_place(struct plan_point *pt, const struct plan_rig *rig, char *reason,
                      size_t size);
 
+/* The plan in the stable JSON form of DESIGN.md section 8 (pairs in
+ * execution order, count, estimate); malloc'd text, NULL when out of
+ * memory. */
+char *plan_json_text(const struct plan *plan, const struct plan_estimate *est);
+
 #endif
