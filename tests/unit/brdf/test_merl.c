@@ -119,7 +119,9 @@ static void test_lookup_at_nodes(void **state)
             for (int j = 0; j < 90; j++)
                 for (int k = 0; k < 180; k++) {
                     /* cell (5, 7, *) is "no data" in the green plane only */
-                    double v = (i == 5 && j == 7 && c == 1) ? -1.0 : i * 1e6 + j * 1e3 + k + c * 0.25;
+                    double v = i * 1e6 + j * 1e3 + k + c * 0.25;
+                    if (i == 5 && j == 7 && c == 1)
+                        v = -1.0;
                     fwrite(&v, 8, 1, f);
                 }
     fclose(f);

@@ -30,7 +30,8 @@ static void test_reads_rows(void **state)
     snprintf(path, sizeof path, "%s/abc_low2012_merl.csv", fits);
     struct brdf_abc_published a;
     assert_int_equal(brdf_published_abc_read(path, "nylon", &a, NULL), 0);
-    /* nylon,0.232688,0.232487,0.207358,19.215639,18.194090,16.938326,3334.451904,0.886752,1.382529 */
+    /* nylon,0.232688,0.232487,0.207358,19.215639,18.194090,16.938326,
+     *       3334.451904,0.886752,1.382529 */
     assert_close(a.kd[0], 0.232688, 0);
     assert_close(a.A[2], 16.938326, 0);
     assert_close(a.B, 3334.451904, 0);
