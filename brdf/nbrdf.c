@@ -75,7 +75,7 @@ int brdf_nbrdf_load(const char *path, struct brdf_nbrdf *net, struct gonio_err *
 
 /* Pairs go through the network in blocks, stored [unit][pair] so that
  * every inner loop runs over BLOCK pairs with a fixed trip count and
- * vectorises; one pair at a time (21-wide rows) ran about 3x slower. */
+ * vectorises; one pair at a time (21-wide rows) ran about 2x slower. */
 #define BLOCK 32
 
 static void eval_block(const struct brdf_nbrdf *net, const struct brdf_pair *p, size_t n,
