@@ -127,6 +127,7 @@ static void test_random_subset(void **state)
     assert_memory_equal(a.pairs, b.pairs, a.n * sizeof *a.pairs);
     assert_true(memcmp(a.pairs, c.pairs, a.n * sizeof *a.pairs) != 0);
     check_members(&a, 0); /* distinct nodes of the full domain, in order */
+    brdf_domain_free(&c);
 
     /* Spread: the subset's mean theta_d matches the full domain's. */
     double ma = 0, mf = 0;
