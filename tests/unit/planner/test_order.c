@@ -1,0 +1,216 @@
+/* Execution orders: permutations of the written points, travel no worse
+ * than the written and greedy orders, the estimate equal to an independent
+ * sum, and progressive prefixes that are the coarse plans. */
+#include "tests/gonio_test.h"
+
+#include <string.h>
+
+#include "planner/planner.h"
+
+static struct plan_rig rig;
+
+static int setup(void **state)
+{
+    (void)state;
+    struct gonio_err err = {0};
+    return plan_rig_load("default", &rig, &err);
+}
+
+/* Trapezoidal time written out independently of the planner. */
+static double axis_time(double d, double v, double a)
+{
+    d = fabs(d);
+    double t_ramp = v / a;                 /* time to reach v */
+    double d_ramp = v * t_ramp;            /* distance up and down to v */
+    if (d >= d_ramp)
+        return 2 * t_ramp + (d - d_ramp) / v;
+    return 2 * sqrt(d / a);
+}
+
+static double move(const struct plan_axes *p, const struct plan_axes *q)
+{
+    double t = fmax(axis_time(q->s - p->s, 20, 40), axis_time(q->a - p->a, 15, 30));
+    return fmax(t, axis_time(q->az - p->az, 30, 60));
+}
+
+static double path_move(const struct plan *p)
+{
+    struct plan_axes at = {0, 0, 0};
+    double sum = 0;
+    for (size_t i = 0; i < plan_count(p); i++) {
+        sum += move(&at, &plan_point(p, i)->ax);
+        at = plan_point(p, i)->ax;
+    }
+    return sum;
+}
+
+static int cmp_ptr(const void *a, const void *b)
+{
+    const void *x = *(const void *const *)a, *y = *(const void *const *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Same set of point records as the written order, each once. */
+static void assert_permutation(const struct plan *p, const void **written)
+{
+    size_t n = plan_count(p);
+    const void **now = malloc(n * sizeof *now);
+    for (size_t i = 0; i < n; i++)
+        now[i] = plan_point(p, i);
+    qsort(now, n, sizeof *now, cmp_ptr);
+    for (size_t i = 0; i < n; i++)
+        assert_ptr_equal(now[i], written[i]);
+    free(now);
+}
+
+static void check_orders(const char *name)
+{
+    struct plan *p;
+    struct gonio_err err = {0};
+    assert_true(plan_load(name, &rig, &p, &err) > 0);
+    size_t n = plan_count(p);
+    assert_int_equal(plan_order(p, PLAN_ORDER_AS_WRITTEN, &rig), 0);
+    const void **written = malloc(n * sizeof *written);
+    for (size_t i = 0; i < n; i++)
+        written[i] = plan_point(p, i);
+    qsort(written, n, sizeof *written, cmp_ptr);
+
+    double cost[4];
+    for (int mode = 0; mode < 4; mode++) {
+        assert_int_equal(plan_order(p, (enum plan_order_mode)mode, &rig), 0);
+        assert_int_equal(plan_current_order(p), mode);
+        assert_permutation(p, written);
+        struct plan_estimate est;
+        plan_estimate(p, &rig, &est);
+        cost[mode] = path_move(p);
+        assert_rel_close(est.move_s, cost[mode], 1e-12);
+        assert_rel_close(est.settle_s, 0.3 * (double)n, 1e-12);
+        assert_rel_close(est.integration_s, 0.05 * (double)n, 1e-12);
+        assert_rel_close(est.total_s, est.move_s + est.settle_s + est.integration_s, 1e-12);
+        if (mode == PLAN_ORDER_GREEDY) {
+            /* each step goes to a nearest remaining point */
+            struct plan_axes at = {0, 0, 0};
+            for (size_t i = 0; i < n; i++) {
+                double here = move(&at, &plan_point(p, i)->ax);
+                for (size_t j = i + 1; j < n; j++)
+                    assert_true(here <= move(&at, &plan_point(p, j)->ax) + 1e-12);
+                at = plan_point(p, i)->ax;
+            }
+        }
+    }
+    double lb = plan_move_lower_bound(p, &rig);
+    print_message("%s: as-written %.1f s, greedy %.1f s, travel %.1f s, progressive %.1f s, "
+                  "lower bound %.1f s\n",
+                  name, cost[PLAN_ORDER_AS_WRITTEN], cost[PLAN_ORDER_GREEDY],
+                  cost[PLAN_ORDER_TRAVEL], cost[PLAN_ORDER_PROGRESSIVE], lb);
+    assert_true(cost[PLAN_ORDER_TRAVEL] <= cost[PLAN_ORDER_AS_WRITTEN] + 1e-9);
+    assert_true(cost[PLAN_ORDER_TRAVEL] <= cost[PLAN_ORDER_GREEDY] + 1e-9);
+    for (int mode = 0; mode < 4; mode++)
+        assert_true(lb <= cost[mode] + 1e-9);
+    assert_true(lb > 0);
+    free(written);
+    plan_free(p);
+}
+
+static void test_orders_ds1(void **state)
+{
+    (void)state;
+    check_orders("ds1");
+}
+
+static void test_orders_ds2_ds3_ds4(void **state)
+{
+    (void)state;
+    check_orders("ds2");
+    check_orders("ds3");
+    check_orders("ds4");
+}
+
+/* The design's grid rule in integer degrees, for DS2 (15/10/2) and DS3
+ * (30/20/3); w = 15, range +-80, blind 5. */
+static int in_ds(int ti, int tr, int si, int sd, int sg)
+{
+    if (ti % si || ti > 80 || abs(tr) > 80 || abs(ti + tr) < 5)
+        return 0;
+    int d = tr - ti;
+    return ((tr + 80) % sd == 0 && abs(d) > 15) || (d % sg == 0 && abs(d) <= 15);
+}
+
+/* ds1.yaml asks for [ds3, ds2] levels: the first points are exactly DS3,
+ * then exactly DS2's other pairs, then the rest of DS1. */
+static void test_progressive_levels(void **state)
+{
+    (void)state;
+    struct plan *p;
+    struct gonio_err err = {0};
+    assert_int_equal(plan_load("ds1", &rig, &p, &err), 912);
+    assert_int_equal(plan_order(p, PLAN_ORDER_PROGRESSIVE, &rig), 0);
+    int n3 = 0, n2only = 0;
+    for (int ti = 0; ti <= 80; ti++)
+        for (int tr = -80; tr <= 80; tr++) {
+            n3 += in_ds(ti, tr, 30, 20, 3);
+            n2only += in_ds(ti, tr, 15, 10, 2) && !in_ds(ti, tr, 30, 20, 3);
+        }
+    assert_int_equal(n3, 52);
+    for (int i = 0; i < 912; i++) {
+        const struct plan_point *pt = plan_point(p, (size_t)i);
+        int ti = (int)lround(pt->theta_i), tr = (int)lround(pt->theta_r);
+        int level = in_ds(ti, tr, 30, 20, 3) ? 0 : in_ds(ti, tr, 15, 10, 2) ? 1 : 2;
+        int want = i < n3 ? 0 : i < n3 + n2only ? 1 : 2;
+        if (level != want) {
+            print_error("progressive position %d: pair (%d, %d) is level %d, expected %d\n", i,
+                        ti, tr, level, want);
+            fail();
+        }
+    }
+    plan_free(p);
+}
+
+static double dist(const struct plan_point *x, const struct plan_point *y)
+{
+    double ds = x->ax.s - y->ax.s, da = x->ax.a - y->ax.a, dz = x->ax.az - y->ax.az;
+    return sqrt(ds * ds + da * da + dz * dz);
+}
+
+/* Without a ladder (ds3.yaml has none) levels come from a farthest-point
+ * order, whose prefixes are spread: no two chosen points are closer to each
+ * other than the farthest plan point is from the chosen ones. */
+static void test_progressive_spread(void **state)
+{
+    (void)state;
+    struct plan *p;
+    struct gonio_err err = {0};
+    assert_int_equal(plan_load("ds3", &rig, &p, &err), 52);
+    assert_int_equal(plan_order(p, PLAN_ORDER_PROGRESSIVE, &rig), 0);
+    static const size_t prefixes[] = {6, 24};
+    for (size_t k = 0; k < 2; k++) {
+        size_t m = prefixes[k];
+        double min_pair = INFINITY, cover = 0;
+        for (size_t i = 0; i < m; i++)
+            for (size_t j = i + 1; j < m; j++)
+                min_pair = fmin(min_pair, dist(plan_point(p, i), plan_point(p, j)));
+        for (size_t i = m; i < 52; i++) {
+            double near = INFINITY;
+            for (size_t j = 0; j < m; j++)
+                near = fmin(near, dist(plan_point(p, i), plan_point(p, j)));
+            cover = fmax(cover, near);
+        }
+        if (!(min_pair >= cover - 1e-9)) {
+            print_error("prefix %zu: closest chosen pair %g, farthest remaining point %g\n", m,
+                        min_pair, cover);
+            fail();
+        }
+    }
+    plan_free(p);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_orders_ds1),
+        cmocka_unit_test(test_orders_ds2_ds3_ds4),
+        cmocka_unit_test(test_progressive_levels),
+        cmocka_unit_test(test_progressive_spread),
+    };
+    return cmocka_run_group_tests(tests, setup, NULL);
+}
