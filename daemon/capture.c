@@ -55,12 +55,6 @@ static int resolve_inputs(const struct capture_config *cfg, struct capture_input
             return gonio_err_set(err, -rc, "ordering plan: %s", gonio_strerror(rc));
         }
     }
-    if (plan_is_out_of_plane(in->plan)) {
-        inputs_free(in);
-        return gonio_err_set(err, GONIO_EBADCONFIG,
-                             "%s: out-of-plane plans are not captured by the simulated rig yet",
-                             plan_path(in->plan));
-    }
     if (strcmp(cfg->model, "abc") != 0) {
         inputs_free(in);
         return gonio_err_set(err, GONIO_EUSAGE, "--model '%s': the only model is 'abc'",
@@ -84,7 +78,7 @@ static double monotonic_s(void)
 /* The devices of the in-process simulated rig. */
 struct rig_devices {
     sim_rig *sim;
-    drv_axis *sample, *arm;
+    drv_axis *sample, *arm, *azimuth;
     drv_detector *detector;
     drv_clock *clock;
 };
@@ -93,6 +87,7 @@ static void devices_free(struct rig_devices *d)
 {
     drv_axis_free(d->sample);
     drv_axis_free(d->arm);
+    drv_axis_free(d->azimuth);
     drv_detector_free(d->detector);
     drv_clock_free(d->clock);
     sim_rig_free(d->sim);
@@ -107,9 +102,10 @@ static int devices_open_sim(const struct capture_inputs *in, struct rig_devices 
         return -ENOMEM;
     d->sample = drv_axis_new_sim(d->sim, SIM_AXIS_SAMPLE);
     d->arm = drv_axis_new_sim(d->sim, SIM_AXIS_ARM);
+    d->azimuth = drv_axis_new_sim(d->sim, SIM_AXIS_AZIMUTH);
     d->detector = drv_detector_new_sim(d->sim);
     d->clock = drv_clock_new_sim(d->sim);
-    if (!d->sample || !d->arm || !d->detector || !d->clock) {
+    if (!d->sample || !d->arm || !d->azimuth || !d->detector || !d->clock) {
         devices_free(d);
         return gonio_err_set(err, ENOMEM, "simulated rig: out of memory");
     }
@@ -125,7 +121,9 @@ static int measure_point(struct rig_devices *d, const struct plan_rig *rig,
     int rc;
     if ((rc = drv_axis_start_move(d->sample, pt->ax.s, err)) < 0 ||
         (rc = drv_axis_start_move(d->arm, pt->ax.a, err)) < 0 ||
-        (rc = drv_axis_wait(d->sample, err)) < 0 || (rc = drv_axis_wait(d->arm, err)) < 0)
+        (rc = drv_axis_start_move(d->azimuth, pt->ax.az, err)) < 0 ||
+        (rc = drv_axis_wait(d->sample, err)) < 0 || (rc = drv_axis_wait(d->arm, err)) < 0 ||
+        (rc = drv_axis_wait(d->azimuth, err)) < 0)
         return rc;
     if ((rc = drv_clock_sleep(d->clock, rig->settle_s)) < 0)
         return gonio_err_set(err, -rc, "settle: %s", gonio_strerror(rc));
@@ -134,12 +132,16 @@ static int measure_point(struct rig_devices *d, const struct plan_rig *rig,
         return rc;
     memset(s, 0, sizeof *s);
     s->point = index;
+    double az;
     if ((rc = drv_axis_position(d->sample, &s->s, err)) < 0 ||
-        (rc = drv_axis_position(d->arm, &s->a, err)) < 0)
+        (rc = drv_axis_position(d->arm, &s->a, err)) < 0 ||
+        (rc = drv_axis_position(d->azimuth, &az, err)) < 0)
         return rc;
+    /* Angles from the axes, with the planner's mapping (sim.c explains). */
     brdf_axes_to_inplane(s->s, s->a, &s->theta_i, &s->theta_r);
     s->theta_o = fabs(s->theta_r);
-    s->phi_o = s->theta_r >= 0 ? 180.0 : 0.0;
+    s->phi_i = 0.0;
+    s->phi_o = fmod(az + (s->theta_r >= 0 ? 180.0 : 0.0) + 360.0, 360.0);
     memcpy(s->rgb, r.rgb, sizeof s->rgb);
     s->integration_s = r.integration_s;
     s->flags = (r.flags & DRV_READING_SATURATED) ? JOURNAL_FLAG_SATURATED : 0;
@@ -211,7 +213,7 @@ static int fit_samples(const struct journal_sample *js, size_t n, struct capture
     if (!fs)
         return gonio_err_set(err, ENOMEM, "out of memory");
     for (size_t i = 0; i < n; i++) {
-        brdf_pair_inplane(js[i].theta_i, js[i].theta_r, &fs[i].g);
+        journal_sample_pair(&js[i], &fs[i].g);
         memcpy(fs[i].rgb, js[i].rgb, sizeof fs[i].rgb);
     }
     struct fit_options opt = fit_default_options();

@@ -217,3 +217,11 @@ void journal_close(journal *j)
         close(j->fd);
     free(j);
 }
+
+void journal_sample_pair(const struct journal_sample *s, struct brdf_pair *p)
+{
+    if (s->phi_i == 0.0 && (s->phi_o == 0.0 || s->phi_o == 180.0))
+        brdf_pair_inplane(s->theta_i, s->theta_r, p);
+    else
+        brdf_pair_spherical(s->theta_i, s->phi_i, s->theta_o, s->phi_o, p);
+}

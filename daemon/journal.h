@@ -11,12 +11,13 @@
 
 #include <stddef.h>
 
+#include "brdf/angles.h"
 #include "common/err.h"
 
 struct journal_sample {
     int point;            /* index of the point in the resolved plan */
-    double theta_i, theta_r;            /* in-plane angles, degrees */
-    double phi_i, theta_o, phi_o;       /* the same pair in spherical angles */
+    double theta_i, theta_r;            /* in-plane angles (theta_r = a - s), degrees */
+    double phi_i, theta_o, phi_o;       /* the pair in spherical angles */
     double s, a;          /* axis positions measured at acquisition, degrees */
     double rgb[3];        /* BRDF, 1/sr */
     double integration_s; /* detector integration time */
@@ -25,6 +26,11 @@ struct journal_sample {
 };
 
 #define JOURNAL_FLAG_SATURATED 0x1u
+
+/* The direction pair a sample was measured at: in-plane samples (phi_i = 0,
+ * phi_o = 0 or 180) from theta_i, theta_r exactly, others from the
+ * spherical angles. */
+void journal_sample_pair(const struct journal_sample *s, struct brdf_pair *p);
 
 typedef struct journal journal;
 

@@ -123,12 +123,18 @@ int sim_rig_measure(sim_rig *rig, double integration_s, double rgb[3], struct go
     if (!(integration_s > 0))
         return gonio_err_set(err, EINVAL, "simulated detector: integration time %g s",
                              integration_s);
+    /* The planner's three-axis mapping inverted: theta_i = s, theta_o =
+     * a - s, and the azimuth axis turns the detector's plane, az = 0 being
+     * the plane of incidence (phi_o - phi_i = 180). In-plane this is the
+     * design's wo = (-sin theta_r, 0, cos theta_r) with theta_r = a - s. */
     double s = sim_rig_position(rig, SIM_AXIS_SAMPLE);
     double a = sim_rig_position(rig, SIM_AXIS_ARM);
-    double theta_i, theta_r;
-    brdf_axes_to_inplane(s, a, &theta_i, &theta_r);
+    double az = sim_rig_position(rig, SIM_AXIS_AZIMUTH);
     struct brdf_pair p;
-    brdf_pair_inplane(theta_i, theta_r, &p);
+    if (az == 0.0) /* exactly in plane: no sin(180 deg) rounding in wo.y */
+        brdf_pair_inplane(s, a - s, &p);
+    else
+        brdf_pair_spherical(s, 0.0, a - s, az + 180.0, &p);
     brdf_material_eval(rig->material, &p, 1, rgb);
     sim_rig_advance(rig, integration_s);
     return 0;
