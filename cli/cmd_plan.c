@@ -23,7 +23,7 @@ static void plan_usage(FILE *out)
                  "<config>/rigs/default.yaml.\n");
 }
 
-static int fail(const struct gonio_err *err, int rc)
+static int report_failure(const struct gonio_err *err, int rc)
 {
     fprintf(stderr, "gonio: %s\n", err->msg[0] ? err->msg : gonio_strerror(rc));
     return gonio_exit_status(rc);
@@ -158,11 +158,11 @@ int cmd_plan(int argc, char **argv)
     struct plan_rig rig;
     int rc = plan_rig_load(rig_arg, &rig, &err);
     if (rc < 0)
-        return fail(&err, rc);
+        return report_failure(&err, rc);
     struct plan *plan;
     rc = plan_load(plan_arg, &rig, &plan, &err);
     if (rc < 0)
-        return fail(&err, rc);
+        return report_failure(&err, rc);
     if (order >= 0 && (rc = plan_order(plan, (enum plan_order_mode)order, &rig)) < 0) {
         plan_free(plan);
         fprintf(stderr, "gonio: plan: %s\n", gonio_strerror(rc));
