@@ -178,11 +178,12 @@ int brdf_colour_weights(const double *lambda_nm, size_t n, double *w, struct gon
         return gonio_err_set(err, GONIO_EBADDATA, "spectrum: no bands");
     for (size_t k = 0; k < n; k++) {
         if (!isfinite(lambda_nm[k]))
-            return gonio_err_set(err, GONIO_EBADDATA, "spectrum: band %zu: wavelength %g is not finite",
-                                 k, lambda_nm[k]);
+            return gonio_err_set(err, GONIO_EBADDATA,
+                                 "spectrum: band %zu: wavelength %g is not finite", k,
+                                 lambda_nm[k]);
         if (k > 0 && !(lambda_nm[k] > lambda_nm[k - 1]))
             return gonio_err_set(err, GONIO_EBADDATA,
-                                 "spectrum: band %zu: wavelength %g nm not above the previous %g nm",
+                                 "spectrum: band %zu: wavelength %g nm not above %g nm",
                                  k, lambda_nm[k], lambda_nm[k - 1]);
     }
     for (size_t i = 0; i < 3 * n; i++)

@@ -124,7 +124,7 @@ int brdf_domain_oop_random(struct brdf_domain *d, size_t n, uint64_t seed,
         size_t have = full.n;
         brdf_domain_free(&full);
         return gonio_err_set(err, GONIO_EBADCONFIG,
-                             "oop random domain: n = %zu: more than the %zu nodes of the full domain",
+                             "oop random domain: n = %zu: more than the %zu full-domain nodes",
                              n, have);
     }
     size_t *idx = malloc((full.n ? full.n : 1) * sizeof *idx);

@@ -99,8 +99,9 @@ int brdf_exr_write_rgb(const char *path, int width, int height, const float *rgb
     if (!path || !*path)
         return gonio_err_set(err, EINVAL, "exr: empty output path");
     if (width < 1 || height < 1 || width > INT_MAX / 3 / 4 / height)
-        return gonio_err_set(err, EINVAL, "%s: image size %dx%d: must be at least 1x1 (and fit in memory)",
-                             path, width, height);
+        return gonio_err_set(err, EINVAL,
+                             "%s: image size %dx%d: must be at least 1x1 (and fit in memory)", path,
+                             width, height);
     if (!rgb)
         return gonio_err_set(err, EINVAL, "%s: no pixel data", path);
 
@@ -233,8 +234,9 @@ int brdf_exr_read_rgb(const char *path, int *width, int *height, float **rgb,
         if (off < 0)
             continue;
         if (chl->entries[c].x_sampling != 1 || chl->entries[c].y_sampling != 1) {
-            ret = gonio_err_set(err, GONIO_EBADDATA, "%s: channel %s: subsampled channels are not supported",
-                                path, chl->entries[c].name.str);
+            ret = gonio_err_set(err, GONIO_EBADDATA,
+                                "%s: channel %s: subsampled channels are not supported", path,
+                                chl->entries[c].name.str);
             goto done;
         }
         found |= 1 << off;
