@@ -6,5 +6,6 @@
 int cmd_plan(int argc, char **argv);
 int cmd_capture(int argc, char **argv);
 int cmd_export(int argc, char **argv);
+int cmd_results(int argc, char **argv);
 
 #endif

@@ -15,6 +15,7 @@ static const struct {
     {"plan", cmd_plan, "dry-run a plan: pairs, axis positions, time estimate"},
     {"capture", cmd_capture, "run a capture (--offline: in-process simulated rig)"},
     {"export", cmd_export, "export a material as a MERL .binary table"},
+    {"results", cmd_results, "tabulate the results of capture directories"},
 };
 
 static void usage(FILE *out)

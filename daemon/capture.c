@@ -60,7 +60,10 @@ static int resolve_inputs(const struct capture_config *cfg, struct capture_input
         return gonio_err_set(err, GONIO_EUSAGE, "--model '%s': the only model is 'abc'",
                              cfg->model);
     }
-    in->material = brdf_material_open(cfg->material ? cfg->material : in->scene.material, err);
+    const char *spec = cfg->material ? cfg->material : in->scene.material;
+    if (!strcmp(spec, "default")) /* name the material actually used */
+        spec = brdf_material_default_spec();
+    in->material = brdf_material_open(spec, err);
     if (!in->material) {
         inputs_free(in);
         return -abs(err ? err->code : GONIO_ENOTFOUND);

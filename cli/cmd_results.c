@@ -1,0 +1,73 @@
+/* gonio results DIR...: one table row per capture directory, read from its
+ * results.json (plan, samples, rig and fit time, errors by domain). */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <jansson.h>
+
+#include "cli/commands.h"
+
+static double number(json_t *root, const char *domain, const char *key)
+{
+    json_t *v = json_object_get(json_object_get(json_object_get(root, "errors"), domain), key);
+    return json_is_number(v) ? json_number_value(v) : NAN;
+}
+
+static void header(void)
+{
+    printf("%-28s %-6s %7s %10s %8s  %-17s %-17s\n", "material", "plan", "samples", "rig time",
+           "fit", "in-plane log/rRMSE", "full log/rRMSE");
+}
+
+static int row(const char *dir)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/results.json", dir);
+    json_error_t jerr;
+    json_t *root = json_load_file(path, 0, &jerr);
+    if (!root) {
+        fprintf(stderr, "gonio results: %s:%d:%d: %s\n", path, jerr.line, jerr.column,
+                jerr.text);
+        return 2;
+    }
+    const char *material = json_string_value(json_object_get(root, "material"));
+    const char *plan = json_string_value(json_object_get(root, "plan"));
+    json_t *samples = json_object_get(root, "samples");
+    json_t *rig = json_object_get(root, "rig_time_s"), *fit = json_object_get(root, "fit_time_s");
+    if (!material || !plan || !json_is_integer(samples) || !json_is_number(rig) ||
+        !json_is_number(fit)) {
+        fprintf(stderr, "gonio results: %s: missing plan, material, samples, rig_time_s or "
+                        "fit_time_s\n",
+                path);
+        json_decref(root);
+        return 2;
+    }
+    double rig_s = json_number_value(rig);
+    printf("%-28s %-6s %7lld %4.0f:%02.0f min %7.3fs  %.4f / %-8.4f %.4f / %-8.4f\n", material,
+           plan, (long long)json_integer_value(samples), (double)(long)(rig_s / 60),
+           rig_s - 60 * (double)(long)(rig_s / 60), json_number_value(fit),
+           number(root, "inplane", "log"), number(root, "inplane", "rel_rmse"),
+           number(root, "full", "log"), number(root, "full", "rel_rmse"));
+    json_decref(root);
+    return 0;
+}
+
+int cmd_results(int argc, char **argv)
+{
+    if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
+        fprintf(argc < 2 ? stderr : stdout,
+                "usage: gonio results CAPTURE_DIR...\n"
+                "One row per capture: samples, rig time, fit time, and the log error and\n"
+                "relative RMSE on the in-plane and full out-of-plane domains.\n");
+        return argc < 2 ? 2 : 0;
+    }
+    header();
+    int status = 0;
+    for (int i = 1; i < argc; i++) {
+        int rc = row(argv[i]);
+        if (rc > status)
+            status = rc;
+    }
+    return status;
+}
