@@ -360,7 +360,7 @@ int cfg_string(const struct cfg_doc *doc, const struct cfg_node *map, const char
 int cfg_enum(const struct cfg_doc *doc, const struct cfg_node *map, const char *key,
              enum cfg_need need, const char *const *names, int *out, struct gonio_err *err)
 {
-    const char *s;
+    const char *s = NULL;
     int rc = cfg_string(doc, map, key, need, &s, err);
     if (rc <= 0)
         return rc;
