@@ -17,14 +17,21 @@
 #define LOCAL_SEARCH_MAX 4000
 #define IMPROVE_EPS 1e-9
 
+/* Up to this many points the move times are tabulated once (8 n^2 bytes). */
+#define MATRIX_MAX 2000
+
 struct tour {
     const struct plan_point *pts;
     const struct plan_rig *rig;
     struct plan_axes start;
+    const double *matrix; /* n x n move times, or NULL */
+    size_t n;
 };
 
 static double cost(const struct tour *t, size_t i, size_t j)
 {
+    if (t->matrix)
+        return t->matrix[i * t->n + j];
     return plan_move_time(t->rig, &t->pts[i].ax, &t->pts[j].ax);
 }
 
@@ -329,16 +336,27 @@ static int progressive(const struct tour *t, size_t *seq, size_t n)
 int plan_order_indices(const struct plan_point *pts, size_t n, enum plan_order_mode mode,
                        const struct plan_rig *rig, size_t *order)
 {
-    struct tour t = {pts, rig, {0, 0, 0}};
+    struct tour t = {pts, rig, {0, 0, 0}, NULL, n};
     for (size_t i = 0; i < n; i++)
         order[i] = i;
-    switch (mode) {
-    case PLAN_ORDER_AS_WRITTEN: return 0;
-    case PLAN_ORDER_GREEDY: greedy(&t, order, n); return 0;
-    case PLAN_ORDER_TRAVEL: return travel(&t, order, n);
-    case PLAN_ORDER_PROGRESSIVE: return progressive(&t, order, n);
+    if (mode == PLAN_ORDER_AS_WRITTEN)
+        return 0;
+    double *matrix = NULL;
+    if (n <= MATRIX_MAX && (matrix = malloc((n ? n * n : 1) * sizeof *matrix))) {
+        for (size_t i = 0; i < n; i++)
+            for (size_t j = 0; j < n; j++)
+                matrix[i * n + j] = plan_move_time(rig, &pts[i].ax, &pts[j].ax);
+        t.matrix = matrix;
     }
-    return -EINVAL;
+    int rc = -EINVAL;
+    switch (mode) {
+    case PLAN_ORDER_AS_WRITTEN: rc = 0; break;
+    case PLAN_ORDER_GREEDY: greedy(&t, order, n); rc = 0; break;
+    case PLAN_ORDER_TRAVEL: rc = travel(&t, order, n); break;
+    case PLAN_ORDER_PROGRESSIVE: rc = progressive(&t, order, n); break;
+    }
+    free(matrix);
+    return rc;
 }
 
 void plan_estimate(const struct plan *plan, const struct plan_rig *rig,

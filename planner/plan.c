@@ -167,9 +167,13 @@ int plan_point_place(struct plan_point *pt, const struct plan_rig *rig, char *re
     }
     if (pt->out_of_plane ? sep < rig->blind_deg - 1e-9
                          : brdf_axes_in_blind_zone(pt->ax.a, rig->blind_deg - 1e-9)) {
-        snprintf(reason, size,
-                 "detector at %g deg from the source is inside the %g deg blind zone", sep,
-                 rig->blind_deg);
+        if (pt->out_of_plane)
+            snprintf(reason, size,
+                     "detector at %g deg from the source is inside the %g deg blind zone", sep,
+                     rig->blind_deg);
+        else
+            snprintf(reason, size, "detector arm at a = %g deg is inside the %g deg blind zone",
+                     pt->ax.a, rig->blind_deg);
         return -GONIO_EUNREACHABLE;
     }
     return 0;

@@ -99,7 +99,7 @@ const char *plan_name(const struct plan *plan);
 const char *plan_path(const struct plan *plan);
 enum plan_kind plan_kind(const struct plan *plan);
 int plan_is_out_of_plane(const struct plan *plan);
-enum plan_order_mode plan_declared_order(const struct plan *plan); /* the file's order: */
+enum plan_order_mode plan_declared_order(const struct plan *plan); /* the file's order */
 enum plan_order_mode plan_current_order(const struct plan *plan);
 const struct plan_stop *plan_stop(const struct plan *plan);
 
