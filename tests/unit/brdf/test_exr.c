@@ -3,6 +3,7 @@
 #include "brdf/exr.h"
 #include "tests/gonio_test.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -88,6 +89,35 @@ static void test_roundtrip(void **state)
     roundtrip(64, 48);
 }
 
+/* Writing over an existing image replaces it, and the temporary file the
+ * writer goes through is gone afterwards. */
+static void test_overwrite_leaves_one_file(void **state)
+{
+    (void)state;
+    char dir[600], path[700];
+    snprintf(dir, sizeof dir, "%s/over", tmpdir);
+    assert_int_equal(mkdir(dir, 0755), 0);
+    snprintf(path, sizeof path, "%s/img.exr", dir);
+    float a[6] = {1, 2, 3, 4, 5, 6}, b[6] = {-1, -2, -3, -4, -5, -6};
+    assert_int_equal(brdf_exr_write_rgb(path, 2, 1, a, NULL), 0);
+    assert_int_equal(brdf_exr_write_rgb(path, 1, 2, b, NULL), 0);
+    int w, h;
+    float *back = NULL;
+    assert_int_equal(brdf_exr_read_rgb(path, &w, &h, &back, NULL), 0);
+    assert_int_equal(w, 1);
+    assert_int_equal(h, 2);
+    assert_memory_equal(back, b, sizeof b);
+    free(back);
+    DIR *dp = opendir(dir);
+    assert_non_null(dp);
+    int entries = 0;
+    struct dirent *e;
+    while ((e = readdir(dp)) != NULL)
+        entries += strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0;
+    closedir(dp);
+    assert_int_equal(entries, 1);
+}
+
 static void test_bad_arguments(void **state)
 {
     (void)state;
@@ -168,6 +198,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_roundtrip),
+        cmocka_unit_test(test_overwrite_leaves_one_file),
         cmocka_unit_test(test_bad_arguments),
         cmocka_unit_test(test_missing_directory),
         cmocka_unit_test(test_read_errors),
