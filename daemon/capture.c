@@ -78,55 +78,45 @@ static double monotonic_s(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-/* The devices of the in-process simulated rig. */
-struct rig_devices {
-    sim_rig *sim;
-    drv_axis *sample, *arm, *azimuth;
-    drv_detector *detector;
-    drv_clock *clock;
-};
-
-static void devices_free(struct rig_devices *d)
+static void devices_close(struct capture_devices *d)
 {
     drv_axis_free(d->sample);
     drv_axis_free(d->arm);
     drv_axis_free(d->azimuth);
     drv_detector_free(d->detector);
     drv_clock_free(d->clock);
-    sim_rig_free(d->sim);
+    memset(d, 0, sizeof *d);
 }
 
-static int devices_open_sim(const struct capture_inputs *in, struct rig_devices *d,
-                            struct gonio_err *err)
+/* The in-process simulated rig: devices over a sim_rig reading the
+ * capture's own material. */
+static int devices_open_sim(sim_rig *sim, struct capture_devices *d, struct gonio_err *err)
 {
     memset(d, 0, sizeof *d);
-    d->sim = sim_rig_new(&in->rig, in->material, err);
-    if (!d->sim)
-        return -ENOMEM;
-    d->sample = drv_axis_new_sim(d->sim, SIM_AXIS_SAMPLE);
-    d->arm = drv_axis_new_sim(d->sim, SIM_AXIS_ARM);
-    d->azimuth = drv_axis_new_sim(d->sim, SIM_AXIS_AZIMUTH);
-    d->detector = drv_detector_new_sim(d->sim);
-    d->clock = drv_clock_new_sim(d->sim);
+    d->sample = drv_axis_new_sim(sim, SIM_AXIS_SAMPLE);
+    d->arm = drv_axis_new_sim(sim, SIM_AXIS_ARM);
+    d->azimuth = drv_axis_new_sim(sim, SIM_AXIS_AZIMUTH);
+    d->detector = drv_detector_new_sim(sim);
+    d->clock = drv_clock_new_sim(sim);
     if (!d->sample || !d->arm || !d->azimuth || !d->detector || !d->clock) {
-        devices_free(d);
+        devices_close(d);
         return gonio_err_set(err, ENOMEM, "simulated rig: out of memory");
     }
     return 0;
 }
 
-/* Move both axes together, settle, integrate, and record where the axes
+/* Move the axes together, settle, integrate, and record where the axes
  * actually were: the sample is what the rig measured, not what was asked. */
-static int measure_point(struct rig_devices *d, const struct plan_rig *rig,
+static int measure_point(struct capture_devices *d, const struct plan_rig *rig,
                          const struct plan_point *pt, int index, struct journal_sample *s,
                          struct gonio_err *err)
 {
     int rc;
     if ((rc = drv_axis_start_move(d->sample, pt->ax.s, err)) < 0 ||
         (rc = drv_axis_start_move(d->arm, pt->ax.a, err)) < 0 ||
-        (rc = drv_axis_start_move(d->azimuth, pt->ax.az, err)) < 0 ||
+        (d->azimuth && (rc = drv_axis_start_move(d->azimuth, pt->ax.az, err)) < 0) ||
         (rc = drv_axis_wait(d->sample, err)) < 0 || (rc = drv_axis_wait(d->arm, err)) < 0 ||
-        (rc = drv_axis_wait(d->azimuth, err)) < 0)
+        (d->azimuth && (rc = drv_axis_wait(d->azimuth, err)) < 0))
         return rc;
     if ((rc = drv_clock_sleep(d->clock, rig->settle_s)) < 0)
         return gonio_err_set(err, -rc, "settle: %s", gonio_strerror(rc));
@@ -135,10 +125,10 @@ static int measure_point(struct rig_devices *d, const struct plan_rig *rig,
         return rc;
     memset(s, 0, sizeof *s);
     s->point = index;
-    double az;
+    double az = 0;
     if ((rc = drv_axis_position(d->sample, &s->s, err)) < 0 ||
         (rc = drv_axis_position(d->arm, &s->a, err)) < 0 ||
-        (rc = drv_axis_position(d->azimuth, &az, err)) < 0)
+        (d->azimuth && (rc = drv_axis_position(d->azimuth, &az, err)) < 0))
         return rc;
     /* Angles from the axes, with the planner's mapping (sim.c explains). */
     brdf_axes_to_inplane(s->s, s->a, &s->theta_i, &s->theta_r);
@@ -152,9 +142,19 @@ static int measure_point(struct rig_devices *d, const struct plan_rig *rig,
     return 0;
 }
 
-/* Measure every point the journal does not hold yet, in plan order. */
+static void stop_axes(struct capture_devices *d)
+{
+    drv_axis_stop(d->sample, NULL);
+    drv_axis_stop(d->arm, NULL);
+    if (d->azimuth)
+        drv_axis_stop(d->azimuth, NULL);
+}
+
+/* Measure every point the journal does not hold yet, in plan order. Sets
+ * *aborted when the host asked to stop. */
 static int acquire(const struct capture_config *cfg, const struct capture_inputs *in,
-                   journal *j, struct journal_sample **samples, size_t *n,
+                   const struct capture_hooks *hooks, journal *j,
+                   struct journal_sample **samples, size_t *n, int *aborted,
                    struct gonio_err *err)
 {
     size_t count = plan_count(in->plan);
@@ -178,33 +178,52 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
         }
         done[p] = 1;
     }
+    if (hooks->on_start)
+        hooks->on_start(hooks->user, plan_name(in->plan), count, *n);
 
-    struct rig_devices dev;
-    int rc = devices_open_sim(in, &dev, err);
+    struct capture_devices dev;
+    sim_rig *sim = NULL;
+    int rc;
+    if (hooks->open_devices) {
+        rc = hooks->open_devices(hooks->user, &in->rig, &dev, err);
+    } else {
+        sim = sim_rig_new(&in->rig, in->material, err);
+        rc = sim ? devices_open_sim(sim, &dev, err) : -ENOMEM;
+        /* A resumed capture continues the rig clock where the journal ends. */
+        if (rc == 0 && *n > 0)
+            sim_rig_advance(sim, all[*n - 1].rig_time_s);
+    }
     if (rc < 0) {
+        sim_rig_free(sim);
         free(done);
         return rc;
     }
-    /* A resumed capture continues the rig clock where the journal ends. */
-    if (*n > 0)
-        sim_rig_advance(dev.sim, all[*n - 1].rig_time_s);
 
-    size_t next_report = count / 10 + 1;
     for (size_t k = 0; k < count && rc == 0; k++) {
         if (done[k])
             continue;
+        if (hooks->control && hooks->control(hooks->user) == CAPTURE_ABORT) {
+            stop_axes(&dev);
+            *aborted = 1;
+            break;
+        }
         struct journal_sample s;
         rc = measure_point(&dev, &in->rig, plan_point(in->plan, k), (int)k, &s, err);
+        if (rc < 0)
+            stop_axes(&dev); /* a failed point leaves no axis moving */
         if (rc == 0)
             rc = journal_append(j, &s, err);
         if (rc == 0) {
             all[(*n)++] = s;
-            if (!cfg->quiet && (*n % next_report == 0 || *n == count))
-                fprintf(stderr, "capture: %zu/%zu points, rig time %.1f s\n", *n, count,
-                        s.rig_time_s);
+            if (hooks->on_sample)
+                hooks->on_sample(hooks->user, &s, *n, count);
         }
     }
-    devices_free(&dev);
+    if (hooks->close_devices)
+        hooks->close_devices(hooks->user, &dev);
+    else
+        devices_close(&dev);
+    sim_rig_free(sim);
     free(done);
     return rc;
 }
@@ -272,9 +291,12 @@ static int assess_truth(const brdf_material *truth, struct capture_summary *out,
     return rc;
 }
 
-int capture_run_offline(const struct capture_config *cfg, struct capture_summary *out,
-                        struct gonio_err *err)
+int capture_run(const struct capture_config *cfg, const struct capture_hooks *hooks,
+                struct capture_summary *out, struct gonio_err *err)
 {
+    static const struct capture_hooks no_hooks;
+    if (!hooks)
+        hooks = &no_hooks;
     memset(out, 0, sizeof *out);
     struct capture_inputs in;
     int rc = resolve_inputs(cfg, &in, err);
@@ -286,6 +308,7 @@ int capture_run_offline(const struct capture_config *cfg, struct capture_summary
 
     struct journal_sample *samples = NULL;
     size_t n = 0;
+    int aborted = 0;
     journal *j = NULL;
     rc = capture_files_prepare(cfg->out_dir, in.plan, &in.rig, &in.scene,
                                brdf_material_name(in.material), err);
@@ -296,7 +319,7 @@ int capture_run_offline(const struct capture_config *cfg, struct capture_summary
         rc = j ? 0 : -abs(err ? err->code : EIO);
     }
     if (rc == 0) {
-        rc = acquire(cfg, &in, j, &samples, &n, err);
+        rc = acquire(cfg, &in, hooks, j, &samples, &n, &aborted, err);
         journal_close(j);
     }
     if (rc == 0) {
@@ -306,13 +329,31 @@ int capture_run_offline(const struct capture_config *cfg, struct capture_summary
             out->integration_s += samples[i].integration_s;
         out->settle_s = (double)n * in.rig.settle_s;
         out->move_s = out->rig_time_s - out->settle_s - out->integration_s;
-        rc = fit_samples(samples, n, out, err);
+        snprintf(out->stop_reason, sizeof out->stop_reason, "%s",
+                 aborted ? "aborted" : "complete");
     }
-    if (rc == 0)
+    if (rc == 0 && !aborted)
+        rc = fit_samples(samples, n, out, err);
+    if (rc == 0 && !aborted)
         rc = assess_truth(in.material, out, err);
-    if (rc == 0)
+    if (rc == 0 && !aborted)
         rc = capture_files_results(cfg->out_dir, out, err);
     free(samples);
     inputs_free(&in);
     return rc;
+}
+
+static void progress_line(void *user, const struct journal_sample *s, size_t done, size_t total)
+{
+    (void)user;
+    if (done % (total / 10 + 1) == 0 || done == total)
+        fprintf(stderr, "capture: %zu/%zu points, rig time %.1f s\n", done, total,
+                s->rig_time_s);
+}
+
+int capture_run_offline(const struct capture_config *cfg, struct capture_summary *out,
+                        struct gonio_err *err)
+{
+    struct capture_hooks hooks = {.on_sample = cfg->quiet ? NULL : progress_line};
+    return capture_run(cfg, &hooks, out, err);
 }

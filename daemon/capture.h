@@ -13,6 +13,12 @@
 #include "brdf/abc.h"
 #include "brdf/metrics.h"
 #include "common/err.h"
+#include "daemon/journal.h"
+#include "planner/rig.h"
+
+struct drv_axis;
+struct drv_detector;
+struct drv_clock;
 
 struct capture_config {
     const char *plan;     /* name (ds2) or path */
@@ -34,10 +40,46 @@ struct capture_summary {
     struct brdf_abc params;
     struct brdf_errors err_plan, err_inplane, err_full;
     int has_truth; /* inplane/full errors computed against the known material */
+    char stop_reason[32]; /* "complete", "aborted" */
 };
 
-/* Run an offline capture against the in-process simulated rig. Returns 0,
- * or a negative code with err filled (see gonio_exit_status). */
+/* The devices a capture runs on. */
+struct capture_devices {
+    struct drv_axis *sample, *arm, *azimuth; /* azimuth may be NULL for in-plane rigs */
+    struct drv_detector *detector;
+    struct drv_clock *clock;
+};
+
+enum capture_control { CAPTURE_GO = 0, CAPTURE_ABORT = 1 };
+
+/* How a host (gonio, goniod) takes part in a capture. Every member may be
+ * NULL. */
+struct capture_hooks {
+    /* Open the rig's devices; NULL: the in-process simulated rig reading the
+     * capture's material. */
+    int (*open_devices)(void *user, const struct plan_rig *rig, struct capture_devices *dev,
+                        struct gonio_err *err);
+    void (*close_devices)(void *user, struct capture_devices *dev);
+    /* Called once the inputs are resolved and the directory is ready. */
+    void (*on_start)(void *user, const char *plan, size_t total, size_t already_done);
+    /* Called after each sample is journalled. */
+    void (*on_sample)(void *user, const struct journal_sample *s, size_t done, size_t total);
+    /* Asked at every point boundary; a host pauses a capture by blocking
+     * here, and aborts it by returning CAPTURE_ABORT. */
+    enum capture_control (*control)(void *user);
+    void *user;
+};
+
+/* Run a capture: resolve and validate the inputs, prepare the directory
+ * (or resume it), measure the points the journal lacks, fit and write
+ * results.json. An aborted capture keeps its samples, stops the axes and
+ * returns 0 with stop_reason "aborted" (no fit, no results.json). Returns
+ * a negative code with err filled on failure (see gonio_exit_status). */
+int capture_run(const struct capture_config *cfg, const struct capture_hooks *hooks,
+                struct capture_summary *out, struct gonio_err *err);
+
+/* capture_run on the in-process simulated rig, with progress lines on
+ * stderr unless cfg->quiet. */
 int capture_run_offline(const struct capture_config *cfg, struct capture_summary *out,
                         struct gonio_err *err);
 

@@ -197,6 +197,35 @@ static void test_other_capture_in_directory_is_refused(void **state)
     check_samples(out, 52); /* the DS3 capture is untouched */
 }
 
+static enum capture_control abort_after_ten(void *user)
+{
+    size_t *calls = user;
+    return ++*calls > 10 ? CAPTURE_ABORT : CAPTURE_GO;
+}
+
+static void test_abort_keeps_data_and_resumes(void **state)
+{
+    (void)state;
+    char out[300], path[512];
+    snprintf(out, sizeof out, "%s/abort", dir);
+    struct capture_config cfg = config(out);
+    size_t calls = 0;
+    struct capture_hooks hooks = {.control = abort_after_ten, .user = &calls};
+    struct capture_summary s;
+    struct gonio_err err = {0};
+    assert_int_equal(capture_run(&cfg, &hooks, &s, &err), 0);
+    assert_string_equal(s.stop_reason, "aborted");
+    assert_int_equal(s.samples, 10);
+    check_samples(out, 10);
+    snprintf(path, sizeof path, "%s/results.json", out);
+    assert_false(exists(path));
+
+    assert_int_equal(capture_run_offline(&cfg, &s, &err), 0);
+    assert_string_equal(s.stop_reason, "complete");
+    check_samples(out, 52);
+    assert_true(exists(path));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -205,6 +234,7 @@ int main(void)
         cmocka_unit_test(test_bad_scene_writes_nothing),
         cmocka_unit_test(test_unknown_material_and_plan_write_nothing),
         cmocka_unit_test(test_other_capture_in_directory_is_refused),
+        cmocka_unit_test(test_abort_keeps_data_and_resumes),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
