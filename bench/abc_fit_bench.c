@@ -190,8 +190,9 @@ int main(int argc, char **argv)
         double e200 = log_error(&p200, full, rf, nf);
         sum1 += e1;
         sum200 += e200;
-        printf("%-24s DS1 %.4f (%.3f s, %d it)  DS4 %.4f (%.3f s)  oop200k %.4f (%.2f s)\n",
-               mats[m], e1, t1, i1.iterations, e4, t4, e200, t200);
+        printf("%-24s DS1 %.4f (%.3f s, %d it)  DS4 %.4f (%.3f s)  oop200k %.4f (%.2f s, %d it)\n",
+               mats[m], e1, t1, i1.iterations, e4, t4, e200, t200, i200.iterations);
+        printf("    reasons: DS1 %s; DS4 %s; oop %s\n", i1.reason, i4.reason, i200.reason);
         print_params("DS1", &p1);
         print_params("DS4", &p4);
         print_params("oop", &p200);

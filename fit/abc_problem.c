@@ -89,7 +89,7 @@ void abc_theta_to_params(const double th[ABC_NPAR], struct brdf_abc *p)
         p->kd[c] = clamped_exp(th[c], ABC_LOGKD_MIN, ABC_LOGKD_MAX, NULL);
         p->A[c] = clamped_exp(th[3 + c], ABC_LOGA_MIN, ABC_LOGA_MAX, NULL);
     }
-    p->B = clamped_exp(th[6], ABC_LOGB_MIN, ABC_LOGB_MAX, NULL);
+    p->B = clamped_exp(th[6] - th[7], ABC_LOGB_MIN, ABC_LOGB_MAX, NULL);
     p->C = clamped_exp(th[7], ABC_LOGC_MIN, ABC_LOGC_MAX, NULL);
     p->eta = eta_of(th[8], NULL);
 }
@@ -110,8 +110,8 @@ void abc_params_to_theta(const struct brdf_abc *p, double th[ABC_NPAR])
         th[c] = safe_log(p->kd[c], ABC_LOGKD_MIN, ABC_LOGKD_MAX);
         th[3 + c] = safe_log(p->A[c], ABC_LOGA_MIN, ABC_LOGA_MAX);
     }
-    th[6] = safe_log(p->B, ABC_LOGB_MIN, ABC_LOGB_MAX);
     th[7] = safe_log(p->C, ABC_LOGC_MIN, ABC_LOGC_MAX);
+    th[6] = safe_log(p->B, ABC_LOGB_MIN, ABC_LOGB_MAX) + th[7];
     /* invert the sigmoid; an eta outside (1, ETA_MAX) lands on the clamp */
     double s = (p->eta - 1.0) / (ABC_ETA_MAX - 1.0);
     if (!(s > 1e-13))
@@ -129,7 +129,8 @@ void abc_problem_eval(const struct abc_problem *pb, const double th[ABC_NPAR], d
         kd[c] = clamped_exp(th[c], ABC_LOGKD_MIN, ABC_LOGKD_MAX, &dkd[c]);
         A[c] = clamped_exp(th[3 + c], ABC_LOGA_MIN, ABC_LOGA_MAX, &dA[c]);
     }
-    double B = clamped_exp(th[6], ABC_LOGB_MIN, ABC_LOGB_MAX, &dBt);
+    /* theta[6] = log(B C), theta[7] = log C: see abc_problem.h */
+    double B = clamped_exp(th[6] - th[7], ABC_LOGB_MIN, ABC_LOGB_MAX, &dBt);
     double C = clamped_exp(th[7], ABC_LOGC_MIN, ABC_LOGC_MAX, &dCt);
     double eta = eta_of(th[8], &detat);
 
@@ -142,7 +143,8 @@ void abc_problem_eval(const struct abc_problem *pb, const double th[ABC_NPAR], d
         for (int c = 0; c < 3; c++) {
             double fhat = kd[c] / ABC_PI + A[c] * S;
             size_t row = 3 * k + (size_t)c;
-            r[row] = log1p(fhat * ci) - pb->y[row];
+            if (r)
+                r[row] = log1p(fhat * ci) - pb->y[row];
             if (!J)
                 continue;
             /* d log(1 + fhat cos) = cos / (1 + fhat cos) d fhat */
@@ -153,7 +155,7 @@ void abc_problem_eval(const struct abc_problem *pb, const double th[ABC_NPAR], d
             jr[3 + c] = w * dA[c] * S;
             double ag = w * A[c] * gt;
             jr[6] = ag * F * dDB * dBt;
-            jr[7] = ag * F * dDC * dCt;
+            jr[7] = ag * F * (dDC * dCt - dDB * dBt);
             jr[8] = ag * D * dF * detat;
         }
     }

@@ -4,11 +4,18 @@
  *
  * Parameters theta[9]:
  *   theta[0..2] = log kd      theta[3..5] = log A
- *   theta[6]    = log B       theta[7]    = log C
+ *   theta[6]    = log (B C)   theta[7]    = log C
  *   theta[8]    = e, eta = 1 + (ABC_ETA_MAX - 1) * sigmoid(e)
- * so kd, A, B, C > 0 and 1 < eta < ABC_ETA_MAX by construction. Each log is
- * clamped to a range where exp() is finite and the model is well scaled;
- * beyond a clamp the parameter stops moving (zero derivative). */
+ * so kd, A, B, C > 0 and 1 < eta < ABC_ETA_MAX by construction. Each log
+ * (log B = theta[6] - theta[7]) is clamped to a range where exp() is finite
+ * and the model is well scaled; beyond a clamp the parameter stops moving
+ * (zero derivative).
+ *
+ * Why log(B C) and not log B: for B x << 1 the lobe is exp(-B C x), so broad
+ * lobes lie in a long curved valley B -> 0, C -> infinity at fixed B C. In
+ * (log B, log C) that valley is diagonal and LM crawls along it for hundreds
+ * of iterations (gold-metallic-paint); with B C as a coordinate the valley
+ * is one axis where the function flattens, and the solve stops. */
 #ifndef GONIO_FIT_ABC_PROBLEM_H
 #define GONIO_FIT_ABC_PROBLEM_H
 
@@ -55,7 +62,8 @@ void abc_theta_to_params(const double theta[ABC_NPAR], struct brdf_abc *p);
 void abc_params_to_theta(const struct brdf_abc *p, double theta[ABC_NPAR]);
 
 /* Residuals r[3n] = log(1 + fhat cos) - log(1 + f cos) and, when J is not
- * NULL, the Jacobian dr/dtheta, row-major 3n x 9. */
+ * NULL, the Jacobian dr/dtheta, row-major 3n x 9. r may be NULL when only
+ * the Jacobian is wanted. */
 void abc_problem_eval(const struct abc_problem *pb, const double theta[ABC_NPAR], double *r,
                       double *J);
 
