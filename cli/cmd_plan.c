@@ -105,6 +105,9 @@ static void print_human(const struct plan *plan, const struct plan_rig *rig,
     minsec(est->settle_s, t[2], sizeof t[2]);
     minsec(est->integration_s, t[3], sizeof t[3]);
     printf("count: %zu pairs\n", plan_count(plan));
+    if (plan_dropped(plan))
+        printf("(%zu reference nodes left out: in the rig's %g deg blind zone)\n",
+               plan_dropped(plan), rig->blind_deg);
     printf("estimate: total %s (%.1f s): move %s (%.1f s), settle %s (%.1f s), "
            "integration %s (%.1f s)\n",
            t[0], est->total_s, t[1], est->move_s, t[2], est->settle_s, t[3],

@@ -16,6 +16,7 @@
  * travel order is the serpentine sweep alone (dense domain plans). */
 #define LOCAL_SEARCH_MAX 4000
 #define IMPROVE_EPS 1e-9
+#define GREEDY_MAX 20000
 
 /* Up to this many points the move times are tabulated once (8 n^2 bytes). */
 #define MATRIX_MAX 2000
@@ -178,75 +179,93 @@ static void greedy(const struct tour *t, size_t *seq, size_t m)
 }
 
 static const struct plan_point *sort_pts;
+static double sort_band;
 
-/* Sweep the sample axis in rows of equal s, the arm alternating direction
- * row by row (a boustrophedon), so consecutive points differ by one step. */
-static int cmp_rows(const void *x, const void *y)
+static long band_of(double v)
 {
-    const struct plan_point *a = &sort_pts[*(const size_t *)x], *b = &sort_pts[*(const size_t *)y];
-    if (fabs(a->ax.s - b->ax.s) > 1e-9)
-        return a->ax.s < b->ax.s ? -1 : 1;
-    if (fabs(a->ax.az - b->ax.az) > 1e-9)
-        return a->ax.az < b->ax.az ? -1 : 1;
-    return a->ax.a < b->ax.a ? -1 : a->ax.a > b->ax.a;
+    return (long)floor(v / sort_band + 1e-9);
 }
 
-static void serpentine(const struct plan_point *pts, size_t *seq, size_t m)
+/* Boustrophedon: rows are bands of the sample axis; within a row the
+ * azimuth bands alternate direction row by row, and within an azimuth band
+ * the arm alternates, so consecutive points are neighbours. */
+static int cmp_rows(const void *x, const void *y)
+{
+    const struct plan_point *a = &sort_pts[*(const size_t *)x];
+    const struct plan_point *b = &sort_pts[*(const size_t *)y];
+    long ra = band_of(a->ax.s), rb = band_of(b->ax.s);
+    if (ra != rb)
+        return ra < rb ? -1 : 1;
+    long qa = band_of(a->ax.az), qb = band_of(b->ax.az);
+    int flip = (int)(ra & 1);
+    if (qa != qb)
+        return (qa < qb) != flip ? -1 : 1;
+    if (a->ax.a == b->ax.a)
+        return 0;
+    flip = (int)((ra + qa) & 1);
+    return (a->ax.a < b->ax.a) != flip ? -1 : 1;
+}
+
+static void serpentine_band(const struct plan_point *pts, size_t *seq, size_t m, double band)
 {
     sort_pts = pts;
+    sort_band = band;
     qsort(seq, m, sizeof *seq, cmp_rows);
-    int row = 0;
-    for (size_t k = 0; k < m;) {
-        size_t e = k;
-        while (e < m && fabs(pts[seq[e]].ax.s - pts[seq[k]].ax.s) <= 1e-9)
-            e++;
-        if (row++ % 2)
-            reverse(seq, (long)k, (long)e - 1);
-        k = e;
+}
+
+static double path_cost(const struct tour *t, const size_t *seq, size_t m);
+
+/* Grids have rows of exactly equal s; domain plans have scattered values,
+ * where wider bands pay off. Try a few widths and keep the cheapest sweep. */
+static void serpentine_best(const struct tour *t, size_t *out, size_t m, const size_t *in)
+{
+    static const double bands[] = {1e-6, 0.5, 1, 2, 5, 10};
+    double best = INFINITY;
+    size_t *try = out + m; /* out has room for 2m */
+    for (size_t b = 0; b < sizeof bands / sizeof bands[0]; b++) {
+        memcpy(try, in, m * sizeof *try);
+        serpentine_band(t->pts, try, m, bands[b]);
+        double c = path_cost(t, try, m);
+        if (c < best) {
+            best = c;
+            memcpy(out, try, m * sizeof *out);
+        }
     }
 }
 
-/* Best of three starts (written order, serpentine, greedy), each improved
- * by local search; since each start is only ever improved, the result is
- * never worse than the written or the greedy order. */
+/* Best of three starts (written order, serpentine sweep, greedy), each
+ * improved by local search; since each start is only ever improved, the
+ * result is never worse than the written or the greedy order. */
 static int travel(const struct tour *t, size_t *seq, size_t m)
 {
     if (m < 2)
         return 0;
-    size_t *cand = malloc(m * sizeof *cand);
-    if (!cand)
+    /* best | work | orig | scratch (2m for the sweep search) */
+    size_t *buf = malloc(5 * m * sizeof *buf);
+    if (!buf)
         return -ENOMEM;
-    size_t *best = seq;
+    size_t *best = buf, *work = buf + m, *orig = buf + 2 * m, *scratch = buf + 3 * m;
     double best_c = INFINITY;
-    size_t *work = malloc(m * sizeof *work);
-    size_t *orig = malloc(m * sizeof *orig);
-    if (!work || !orig) {
-        free(cand);
-        free(work);
-        free(orig);
-        return -ENOMEM;
-    }
     memcpy(orig, seq, m * sizeof *seq);
     for (int start = 0; start < 3; start++) {
+        if (start == 2 && m > LOCAL_SEARCH_MAX)
+            continue;
         memcpy(work, orig, m * sizeof *work);
-        if (start == 1)
-            serpentine(t->pts, work, m);
-        else if (start == 2) {
-            if (m > LOCAL_SEARCH_MAX)
-                continue;
+        if (start == 1) {
+            serpentine_best(t, scratch, m, work);
+            memcpy(work, scratch, m * sizeof *work);
+        } else if (start == 2) {
             greedy(t, work, m);
         }
         local_search(t, work, m);
         double c = path_cost(t, work, m);
         if (c < best_c) {
             best_c = c;
-            memcpy(cand, work, m * sizeof *cand);
+            memcpy(best, work, m * sizeof *best);
         }
     }
-    memcpy(best, cand, m * sizeof *cand);
-    free(cand);
-    free(work);
-    free(orig);
+    memcpy(seq, best, m * sizeof *seq);
+    free(buf);
     return 0;
 }
 
@@ -351,7 +370,14 @@ int plan_order_indices(const struct plan_point *pts, size_t n, enum plan_order_m
     int rc = -EINVAL;
     switch (mode) {
     case PLAN_ORDER_AS_WRITTEN: rc = 0; break;
-    case PLAN_ORDER_GREEDY: greedy(&t, order, n); rc = 0; break;
+    case PLAN_ORDER_GREEDY:
+        /* O(n^2): for dense domain plans the sweep stands in */
+        if (n > GREEDY_MAX)
+            serpentine_band(pts, order, n, 1e-6);
+        else
+            greedy(&t, order, n);
+        rc = 0;
+        break;
     case PLAN_ORDER_TRAVEL: rc = travel(&t, order, n); break;
     case PLAN_ORDER_PROGRESSIVE: rc = progressive(&t, order, n); break;
     }

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "brdf/angles.h"
+#include "brdf/domain.h"
 #include "common/cfg.h"
 #include "planner/plan_private.h"
 
@@ -321,26 +322,78 @@ static int load_stop(const struct cfg_doc *d, const struct cfg_node *root, struc
     return 0;
 }
 
-static int load_domain(const struct cfg_doc *d, const struct cfg_node *dn, struct plan *p,
-                       struct gonio_err *err)
+/* Spherical angles (degrees) of a unit direction. */
+static void to_spherical(const double w[3], double *theta, double *phi)
+{
+    *theta = acos(fmax(-1.0, fmin(1.0, w[2]))) / BRDF_DEG;
+    *phi = (fabs(w[0]) < 1e-15 && fabs(w[1]) < 1e-15) ? 0.0 : atan2(w[1], w[0]) / BRDF_DEG;
+}
+
+/* Reference-domain plans (brdf/domain.h). The domains are the error
+ * domains of DESIGN.md section 3 and include retro-reflection nodes (light
+ * and detector together) that no rig can measure: like the grid rule's
+ * blind zone, the generator drops nodes inside the rig's blind zone and
+ * counts them; every other unreachable node is refused as usual. */
+static int load_domain(const struct cfg_doc *d, const struct cfg_node *dn,
+                       const struct plan_rig *rig, struct plan *p, struct gonio_err *err)
 {
     static const char *const keys[] = {"set", "n", "seed", NULL};
     static const char *const sets[] = {"full", "inplane", "oop-random", NULL};
     int set;
-    long n = 0, seed = 1;
+    long n = BRDF_DOMAIN_OOP200K_N, seed = (long)BRDF_DOMAIN_OOP200K_SEED;
     int rc;
     if ((rc = cfg_check_keys(d, dn, "domain", keys, err)) < 0 ||
         (rc = cfg_enum(d, dn, "set", CFG_REQUIRED, sets, &set, err)) < 0 ||
-        (rc = cfg_int(d, dn, "n", set == PLAN_DOMAIN_OOP_RANDOM ? CFG_REQUIRED : CFG_OPTIONAL,
-                      1, 100000000, &n, err)) < 0 ||
+        (rc = cfg_int(d, dn, "n", CFG_OPTIONAL, 1, 100000000, &n, err)) < 0 ||
         (rc = cfg_int(d, dn, "seed", CFG_OPTIONAL, 0, 0x7fffffffL, &seed, err)) < 0)
         return rc;
-    (void)p;
-    /* Hook: domain plans are generated from the reference domains of
-     * brdf/domain.h (DESIGN.md section 3) once that module lands. */
-    return cfg_error(d, dn, "domain", err,
-                     "reference-domain plans (set '%s') are not available in this build",
-                     sets[set]);
+    if (set != PLAN_DOMAIN_OOP_RANDOM && cfg_get(d, dn, "n"))
+        return cfg_error(d, cfg_get(d, dn, "n"), "n", err,
+                         "only for set oop-random (set '%s' takes every node)", sets[set]);
+    struct brdf_domain dom = {0};
+    struct gonio_err derr = {0};
+    if (set == PLAN_DOMAIN_FULL)
+        rc = brdf_domain_full(&dom, &derr);
+    else if (set == PLAN_DOMAIN_INPLANE)
+        rc = brdf_domain_inplane(&dom, &derr);
+    else
+        rc = brdf_domain_oop_random(&dom, (size_t)n, (uint64_t)seed, &derr);
+    if (rc < 0)
+        return cfg_error(d, dn, "domain", err, "%s", derr.msg);
+    p->pts = calloc(dom.n ? dom.n : 1, sizeof *p->pts);
+    if (!p->pts) {
+        brdf_domain_free(&dom);
+        return gonio_err_set(err, ENOMEM, "%s: out of memory", cfg_path(d));
+    }
+    int line, col;
+    cfg_mark(dn, &line, &col);
+    p->out_of_plane = set != PLAN_DOMAIN_INPLANE;
+    p->n = 0;
+    for (size_t i = 0; i < dom.n; i++) {
+        struct plan_point *pt = &p->pts[p->n];
+        const struct brdf_pair *bp = &dom.pairs[i];
+        if (!p->out_of_plane) {
+            if (brdf_pair_to_inplane(bp, &pt->theta_i, &pt->theta_r) < 0) {
+                brdf_domain_free(&dom);
+                return cfg_error(d, dn, "domain", err, "in-plane node %zu is out of plane", i);
+            }
+            inplane_fill(pt);
+        } else {
+            pt->out_of_plane = 1;
+            to_spherical(bp->wi, &pt->theta_i, &pt->phi_i);
+            to_spherical(bp->wo, &pt->theta_o, &pt->phi_o);
+        }
+        pt->line = line;
+        pt->col = col;
+        char reason[256];
+        if (plan_point_place(pt, rig, reason, sizeof reason) < 0 && strstr(reason, "blind zone")) {
+            p->dropped++;
+            continue;
+        }
+        p->n++;
+    }
+    brdf_domain_free(&dom);
+    return 0;
 }
 
 /* Mark each point with the first ladder plan (coarse to fine) holding the
@@ -400,7 +453,7 @@ static int load_file(const char *path_or_name, const struct plan_rig *rig, int d
     } else {
         p->kind = PLAN_KIND_DOMAIN;
         if ((rc = cfg_map(d, root, "domain", CFG_REQUIRED, &node, err)) < 0 ||
-            (rc = load_domain(d, node, p, err)) < 0)
+            (rc = load_domain(d, node, rig, p, err)) < 0)
             goto fail;
     }
     /* Refuse, never drop: a pair the rig cannot reach is the plan's error. */
@@ -545,6 +598,11 @@ enum plan_order_mode plan_declared_order(const struct plan *plan)
 enum plan_order_mode plan_current_order(const struct plan *plan)
 {
     return plan->current;
+}
+
+size_t plan_dropped(const struct plan *plan)
+{
+    return plan->dropped;
 }
 
 const struct plan_stop *plan_stop(const struct plan *plan)

@@ -160,8 +160,10 @@ static void test_bad_yaml(void **state)
                       4, 19, "key 'tol'", "out of range");
     expect_plan_error("pairs:\n  - [30, 20]\nstop: never\n", GONIO_EBADCONFIG, 3, 7,
                       "key 'stop'", "allowed all");
-    expect_plan_error("domain: {set: oop-random, seed: 3}\n", GONIO_EBADCONFIG, 1, 9,
-                      "key 'n'", "missing required key");
+    expect_plan_error("domain: {set: full, n: 10}\n", GONIO_EBADCONFIG, 1, 24, "key 'n'",
+                      "only for set oop-random");
+    expect_plan_error("domain: {set: random}\n", GONIO_EBADCONFIG, 1, 15, "key 'set'",
+                      "allowed full, inplane, oop-random");
 }
 
 static void test_bad_rig(void **state)
