@@ -100,11 +100,12 @@ static int local_solve(const struct abc_problem *pb, const double theta0[ABC_NPA
     for (int i = 0; i < ABC_STALL_WINDOW; i++)
         hist[i] = INFINITY;
     res->converged = 0;
-    /* GSL's driver has no test on the cost itself (ftol is unused in 2.7),
-     * and along the flat valleys of this model (eta -> large, B C fixed with
-     * C -> large) xtol and gtol are met only after hundreds of crawling
-     * steps that change nothing. So iterate here and also stop when the
-     * cost fell by less than ftol (relative) over ABC_STALL_WINDOW steps. */
+    /* Along the flat valleys of this model (eta large, or C large at fixed
+     * B C) GSL's step (xtol) and gradient (gtol) tests are met only after
+     * hundreds of crawling steps that change nothing (gold-metallic-paint
+     * ran into the 200-iteration limit on every start). So iterate here and
+     * also stop when the cost fell by less than ftol (relative) over the
+     * last ABC_STALL_WINDOW steps. */
     while (status == GSL_SUCCESS) {
         if (iter >= opt->max_iter) {
             reason = "iteration limit reached";
