@@ -8,8 +8,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include <jansson.h>
-
 #include "cli/commands.h"
 #include "common/err.h"
 #include "planner/planner.h"
@@ -37,46 +35,12 @@ static void minsec(double s, char *buf, size_t size)
 
 static int print_json(const struct plan *plan, const struct plan_estimate *est)
 {
-    json_t *root = json_object(), *pairs = json_array(), *e = json_object();
-    if (!root || !pairs || !e)
-        goto nomem;
-    int oop = plan_is_out_of_plane(plan);
-    for (size_t i = 0; i < plan_count(plan); i++) {
-        const struct plan_point *pt = plan_point(plan, i);
-        json_t *o = oop ? json_pack("{s:f,s:f,s:f,s:f,s:f,s:f,s:f}", "theta_i", pt->theta_i,
-                                    "phi_i", pt->phi_i, "theta_o", pt->theta_o, "phi_o",
-                                    pt->phi_o, "s", pt->ax.s, "a", pt->ax.a, "az", pt->ax.az)
-                        : json_pack("{s:f,s:f,s:f,s:f}", "theta_i", pt->theta_i, "theta_r",
-                                    pt->theta_r, "s", pt->ax.s, "a", pt->ax.a);
-        if (!o || json_array_append_new(pairs, o) < 0)
-            goto nomem;
-    }
-    if (json_object_set_new(root, "plan", json_string(plan_name(plan))) < 0 ||
-        json_object_set_new(root, "count", json_integer((json_int_t)plan_count(plan))) < 0 ||
-        json_object_set_new(root, "order",
-                            json_string(plan_order_name(plan_current_order(plan)))) < 0 ||
-        json_object_set_new(root, "pairs", pairs) < 0)
-        goto nomem;
-    pairs = NULL;
-    if (json_object_set_new(e, "total_s", json_real(est->total_s)) < 0 ||
-        json_object_set_new(e, "move_s", json_real(est->move_s)) < 0 ||
-        json_object_set_new(e, "settle_s", json_real(est->settle_s)) < 0 ||
-        json_object_set_new(e, "integration_s", json_real(est->integration_s)) < 0 ||
-        json_object_set_new(root, "estimate", e) < 0)
-        goto nomem;
-    e = NULL;
-    char *text = json_dumps(root, JSON_REAL_PRECISION(10));
-    json_decref(root);
+    char *text = plan_json_text(plan, est);
     if (!text)
         return -ENOMEM;
     puts(text);
     free(text);
     return 0;
-nomem:
-    json_decref(root);
-    json_decref(pairs);
-    json_decref(e);
-    return -ENOMEM;
 }
 
 static void print_human(const struct plan *plan, const struct plan_rig *rig,
