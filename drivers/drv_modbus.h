@@ -1,0 +1,84 @@
+/* Constructors of the Modbus backend: the rig's drives and detector on one
+ * Modbus RTU bus or one Modbus TCP endpoint, with the register map of
+ * docs/protocol-modbus.md (gonio-sim serves the same map).
+ *
+ * A bus is opened once and shared by the devices on it; the devices keep a
+ * pointer to it, so free the devices first, then the bus. Nothing here is
+ * thread-safe: one thread drives one bus.
+ *
+ * Errors: a request that gets no answer within the response timeout is
+ * retried (after flushing the line, so a late answer is never taken for the
+ * next one) up to `retries` times, then fails with -ETIMEDOUT; an exception
+ * answer, a drive alarm or a stalled move fails with -GONIO_EDEVICE; the
+ * message names the device, the register and the problem, e.g.
+ * "axis arm (slave 2): drive alarm 0x30 (overload)". */
+#ifndef GONIO_DRIVERS_DRV_MODBUS_H
+#define GONIO_DRIVERS_DRV_MODBUS_H
+
+#include "common/err.h"
+#include "drivers/drivers.h"
+#include "planner/rig.h"
+
+typedef struct drv_modbus_bus drv_modbus_bus;
+
+struct drv_modbus_bus_cfg {
+    /* RTU: serial device (e.g. /dev/ttyUSB0 or gonio-sim's pty); line settings. */
+    const char *device;
+    int baud;      /* 0: 115200 */
+    char parity;   /* 'N', 'E', 'O'; 0: 'N' */
+    int data_bits; /* 0: 8 */
+    int stop_bits; /* 0: 1 */
+    /* TCP: host (numeric IPv4) and port; used by drv_modbus_bus_new_tcp. */
+    const char *host;
+    int port;
+    double timeout_s; /* response timeout per request; 0: 0.5 s */
+    int retries;      /* extra attempts after a timeout (default 2) */
+    /* Simulated time runs time_scale times faster than wall time (gonio-sim
+     * --time-scale); the devices pace their polling and the clock its
+     * sleeps by it. 0: 1 (hardware). */
+    double time_scale;
+    int trace; /* log every register transaction on stderr */
+};
+
+/* Fill cfg with the defaults above (all pointers NULL, retries 2). */
+void drv_modbus_bus_cfg_default(struct drv_modbus_bus_cfg *cfg);
+
+/* Open an RTU bus on cfg->device, or a TCP connection to cfg->host:port.
+ * NULL with err filled on failure. */
+drv_modbus_bus *drv_modbus_bus_new_rtu(const struct drv_modbus_bus_cfg *cfg,
+                                       struct gonio_err *err);
+drv_modbus_bus *drv_modbus_bus_new_tcp(const struct drv_modbus_bus_cfg *cfg,
+                                       struct gonio_err *err);
+void drv_modbus_bus_free(drv_modbus_bus *bus);
+/* Switch the per-transaction trace (stderr) on or off. */
+void drv_modbus_bus_set_trace(drv_modbus_bus *bus, int on);
+
+/* Axis options beyond the rig profile. */
+struct drv_modbus_axis_opts {
+    double steps_per_deg; /* drive steps per degree; 0: 100 */
+    /* Backlash: every target is approached from below, by moving to
+     * target - backlash_deg first when the axis would arrive from above.
+     * 0: direct moves. */
+    double backlash_deg;
+};
+
+/* An axis drive at slave id `slave`. Moves use the profile's speed and
+ * acceleration (converted to steps) and are refused before sending beyond
+ * its min/max. opts may be NULL (defaults). name ("sample", "arm",
+ * "azimuth") appears in messages. The profile is copied. */
+drv_axis *drv_axis_new_modbus(drv_modbus_bus *bus, int slave, const struct plan_axis *profile,
+                              const struct drv_modbus_axis_opts *opts, const char *name,
+                              struct gonio_err *err);
+
+/* Reset a drive alarm (ALM-RST edge); 0 when the alarm cleared. */
+int drv_axis_modbus_alarm_reset(drv_axis *ax, struct gonio_err *err);
+
+/* The detector at slave id `slave`. */
+drv_detector *drv_detector_new_modbus(drv_modbus_bus *bus, int slave, struct gonio_err *err);
+
+/* The rig clock: seconds since the clock was created, read from the
+ * detector's rig-clock register when it is non-zero (a simulator), else
+ * wall time. Sleeping waits seconds / time_scale of wall time (bus cfg). */
+drv_clock *drv_clock_new_modbus(drv_modbus_bus *bus, int detector_slave, struct gonio_err *err);
+
+#endif
