@@ -1,0 +1,79 @@
+/* The registry of fittable models: one row per model name, saying how to fit
+ * it from samples and how to open its model file as a material.
+ *
+ * `gonio fit --model NAME` looks the name up with fit_model_find; a model
+ * file (fit/model_file.h) names its kind in its header, and
+ * fit_material_open looks that kind up with fit_model_for_kind. A model
+ * whose fit writes another model's file (abc-pseudo writes an abc file)
+ * names that kind in file_kind and leaves open NULL.
+ *
+ * To add a model: write its fit and open functions in its own file, declare
+ * them in its own header, and add one row to the table in fit/models.c. */
+#ifndef GONIO_FIT_MODELS_H
+#define GONIO_FIT_MODELS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "brdf/material.h"
+#include "common/err.h"
+#include "fit/fit.h"
+
+struct fit_model_file;
+
+/* One spectral sample: in-plane geometry (degrees, theta_r signed as in
+ * brdf/angles.h), wavelength and the BRDF value (1/sr) at that wavelength. */
+struct fit_spectral_sample {
+    double theta_i, theta_r, wavelength_nm, value;
+};
+
+/* What a fit sees. A model uses the part it needs (rgb or spectral) and
+ * refuses the call (GONIO_EFIT, or GONIO_EUSAGE for the wrong kind of data)
+ * when that part is empty. */
+struct fit_data {
+    const struct fit_sample *rgb;
+    size_t n_rgb;
+    const struct fit_spectral_sample *spectral;
+    size_t n_spectral;
+};
+
+struct fit_model_options {
+    uint64_t seed;   /* every randomised step of a fit derives from it */
+    int max_epochs;  /* iterative trainers: 0 for the model's default */
+    int quiet;       /* no progress lines on stderr */
+};
+
+struct fit_model_options fit_model_default_options(void);
+
+/* What a fit reports besides its model file. */
+struct fit_model_report {
+    int converged;    /* 1 when the fit met its stopping rule normally */
+    char note[256];   /* one line for people: iterations/epochs, stop reason */
+};
+
+struct fit_model_kind {
+    const char *name;      /* `gonio fit --model NAME` */
+    const char *file_kind; /* the kind written in the model file header */
+    const char *summary;   /* one line for --help */
+    int spectral;          /* 1: fits spectral samples, 0: RGB samples */
+    /* Fit the data; on success *out is a new model file (caller frees with
+     * fit_model_file_free). Returns 0 or a negative code with err filled. */
+    int (*fit)(const struct fit_data *data, const struct fit_model_options *opt,
+               struct fit_model_file **out, struct fit_model_report *rep,
+               struct gonio_err *err);
+    /* Build a material from a model file of kind file_kind (NULL for rows
+     * that write another row's kind). name is the material's name. */
+    brdf_material *(*open)(const struct fit_model_file *f, const char *name,
+                           struct gonio_err *err);
+};
+
+/* The row for a model name, or NULL. */
+const struct fit_model_kind *fit_model_find(const char *name);
+
+/* The row that opens model files of this kind, or NULL. */
+const struct fit_model_kind *fit_model_for_kind(const char *file_kind);
+
+/* Rows in registry order, for listings: i = 0.. until NULL. */
+const struct fit_model_kind *fit_model_at(size_t i);
+
+#endif
