@@ -2,7 +2,11 @@
  * and 200k random nodes of the full out-of-plane domain, and report the
  * full-domain log error and the fit time of each.
  *
- *   abc_fit_bench [--starts N] [MATERIAL...]   (default: the 10 study materials)
+ *   abc_fit_bench [--starts N | --naive] [MATERIAL...]
+ *
+ * (default: the 10 study materials). --naive skips the start search and
+ * refines from one generic start (kd 0.1, A 1, B 100, C 1, eta 1.5), to show
+ * what the grid and the multi-start buy.
  *
  * The 200k subset is drawn here with a fixed seed; it stands in for the
  * oop200k reference plan (same size and domain, not necessarily the same
@@ -45,7 +49,9 @@ static size_t ds_grid(double step_i, double step_d, double step_g, struct brdf_p
                 n++;
             }
         }
-        for (double k = -w; k <= w + 1e-9; k += step_g) {
+        /* multiples of the glossy step, so the mirror direction is included */
+        double kmax = floor(w / step_g + 1e-9) * step_g;
+        for (double k = -kmax; k <= kmax + 1e-9; k += step_g) {
             double tr = ti + k;
             if (fabs(tr) <= 80 + 1e-9 && fabs(ti + tr) >= 5) {
                 if (out)
@@ -119,9 +125,14 @@ int main(int argc, char **argv)
 {
     struct fit_options opt = fit_default_options();
     int first = 1;
+    static const struct brdf_abc generic = {
+        .kd = {0.1, 0.1, 0.1}, .A = {1, 1, 1}, .B = 100, .C = 1, .eta = 1.5};
     if (argc > 2 && strcmp(argv[1], "--starts") == 0) {
         opt.n_starts = atoi(argv[2]);
         first = 3;
+    } else if (argc > 1 && strcmp(argv[1], "--naive") == 0) {
+        opt.warm_start = &generic;
+        first = 2;
     }
     const char **mats = default_materials;
     int nm = (int)(sizeof default_materials / sizeof *default_materials);
@@ -133,6 +144,10 @@ int main(int argc, char **argv)
     size_t n1 = ds_grid(5, 5, 1, NULL);
     struct brdf_pair *ds1 = malloc(n1 * sizeof *ds1);
     ds_grid(5, 5, 1, ds1);
+    size_t n2 = ds_grid(15, 10, 2, NULL), n3 = ds_grid(30, 20, 3, NULL);
+    struct brdf_pair *ds2 = malloc(n2 * sizeof *ds2), *ds3 = malloc(n3 * sizeof *ds3);
+    ds_grid(15, 10, 2, ds2);
+    ds_grid(30, 20, 3, ds3);
     struct brdf_pair ds4[6];
     const double tr4[6] = {-60, -20, 20, 28, 36, 60};
     for (int k = 0; k < 6; k++)
@@ -158,11 +173,12 @@ int main(int argc, char **argv)
     struct brdf_pair *oop = malloc(n200 * sizeof *oop);
     for (size_t k = 0; k < n200; k++)
         oop[k] = full[perm[k]];
-    printf("DS1 %zu pairs, full domain %zu nodes, oop subset %zu, starts %d\n", n1, nf, n200,
+    printf("DS1 %zu, DS2 %zu, DS3 %zu pairs; full domain %zu nodes, oop subset %zu, starts %d\n", n1, n2, n3, nf, n200,
            opt.n_starts);
 
     double *rf = malloc(3 * nf * sizeof *rf), *r1 = malloc(3 * n1 * sizeof *r1);
     double *r200 = malloc(3 * n200 * sizeof *r200), r4[18];
+    double *r2 = malloc(3 * n2 * sizeof *r2), *r3 = malloc(3 * n3 * sizeof *r3);
     double sum1 = 0, sum200 = 0;
     for (int m = 0; m < nm; m++) {
         char spec[256];
@@ -176,6 +192,8 @@ int main(int argc, char **argv)
         brdf_material_eval(mat, full, nf, rf);
         brdf_material_eval(mat, ds1, n1, r1);
         brdf_material_eval(mat, ds4, 6, r4);
+        brdf_material_eval(mat, ds2, n2, r2);
+        brdf_material_eval(mat, ds3, n3, r3);
         for (size_t k = 0; k < n200; k++)
             memcpy(r200 + 3 * k, rf + 3 * perm[k], 3 * sizeof *rf);
         brdf_material_free(mat);
@@ -185,6 +203,11 @@ int main(int argc, char **argv)
         double t1, t4, t200;
         fit_set(ds1, r1, n1, &opt, &p1, &t1, &i1);
         fit_set(ds4, r4, 6, &opt, &p4, &t4, &i4);
+        struct brdf_abc p2, p3;
+        struct fit_info i2, i3;
+        double t2, t3;
+        fit_set(ds2, r2, n2, &opt, &p2, &t2, &i2);
+        fit_set(ds3, r3, n3, &opt, &p3, &t3, &i3);
         fit_set(oop, r200, n200, &opt, &p200, &t200, &i200);
         double e1 = log_error(&p1, full, rf, nf), e4 = log_error(&p4, full, rf, nf);
         double e200 = log_error(&p200, full, rf, nf);
@@ -192,6 +215,8 @@ int main(int argc, char **argv)
         sum200 += e200;
         printf("%-24s DS1 %.4f (%.3f s, %d it)  DS4 %.4f (%.3f s)  oop200k %.4f (%.2f s, %d it)\n",
                mats[m], e1, t1, i1.iterations, e4, t4, e200, t200, i200.iterations);
+        printf("    DS2 %.4f (%.3f s)  DS3 %.4f (%.3f s)\n", log_error(&p2, full, rf, nf), t2,
+               log_error(&p3, full, rf, nf), t3);
         printf("    reasons: DS1 %s; DS4 %s; oop %s\n", i1.reason, i4.reason, i200.reason);
         print_params("DS1", &p1);
         print_params("DS4", &p4);
@@ -201,6 +226,10 @@ int main(int argc, char **argv)
     printf("mean full-domain log error: DS1 %.4f, oop200k %.4f, ratio %.3f\n", sum1 / nm,
            sum200 / nm, sum1 / sum200);
     free(ds1);
+    free(ds2);
+    free(ds3);
+    free(r2);
+    free(r3);
     free(full);
     free(perm);
     free(oop);
