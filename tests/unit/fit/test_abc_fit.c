@@ -266,6 +266,34 @@ static void test_warm_start_refines(void **state)
     assert_rel_close(p.B, truth.B, 2e-2);
 }
 
+/* Above 8000 samples the starts are searched on a seeded subset and the
+ * winner refined on everything: that path must recover the truth too. */
+static void test_large_input_subset_path(void **state)
+{
+    (void)state;
+    size_t n = 30000;
+    struct fit_sample *s = malloc(n * sizeof *s);
+    unsigned seed = 99;
+    printf("seed %u\n", seed);
+    srand(seed);
+    for (size_t k = 0; k < n; k++) {
+        brdf_pair_spherical(80.0 * rand() / RAND_MAX, 360.0 * rand() / RAND_MAX,
+                            80.0 * rand() / RAND_MAX, 360.0 * rand() / RAND_MAX, &s[k].g);
+        brdf_abc_eval(&truth, &s[k].g, s[k].rgb);
+    }
+    s[5].rgb[0] = NAN;
+    struct brdf_abc p;
+    struct fit_info info;
+    struct gonio_err err = {0};
+    assert_int_equal(fit_abc(s, n, NULL, &p, &info, &err), 0);
+    assert_int_equal((int)info.dropped, 1);
+    assert_true(info.cost < 1e-10);
+    assert_rel_close(p.B, truth.B, 2e-2);
+    assert_rel_close(p.eta, truth.eta, 1e-2);
+    assert_true(oop_log_error(&p, &truth) < 1e-4);
+    free(s);
+}
+
 static void test_bad_options(void **state)
 {
     (void)state;
@@ -288,6 +316,7 @@ int main(void)
         cmocka_unit_test(test_all_diffuse_data),
         cmocka_unit_test(test_unusable_samples_dropped),
         cmocka_unit_test(test_warm_start_refines),
+        cmocka_unit_test(test_large_input_subset_path),
         cmocka_unit_test(test_bad_options),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
