@@ -4,7 +4,8 @@
  *
  * with the Cook-Torrance V-groove G and the unpolarised dielectric Fresnel
  * F. Convention: A here is without the extra 1/pi of the published MERL fits
- * (A_here = A_published / pi); brdf_abc_from_published() converts. */
+ * (A_here = A_published / pi); brdf_published_abc_convert() in brdf/published.h
+ * converts. */
 #ifndef GONIO_BRDF_ABC_H
 #define GONIO_BRDF_ABC_H
 
