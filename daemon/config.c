@@ -1,0 +1,247 @@
+#include "daemon/config.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/cfg.h"
+#include "planner/rig.h"
+#include "sim/scene.h"
+
+static const char *const driver_names[] = {"sim", "modbus-rtu", "modbus-tcp", NULL};
+
+const char *goniod_driver_name(enum goniod_driver d)
+{
+    return driver_names[d];
+}
+
+/* Copy a string value, failing on one that does not fit. */
+static int copy_string(const struct cfg_doc *d, const struct cfg_node *map, const char *key,
+                       enum cfg_need need, char *out, size_t size, struct gonio_err *err)
+{
+    const char *s;
+    int rc = cfg_string(d, map, key, need, &s, err);
+    if (rc <= 0)
+        return rc;
+    if (!s[0] || strlen(s) >= size)
+        return cfg_error(d, cfg_get(d, map, key), key, err,
+                         "must be 1..%zu characters (value '%.40s')", size - 1, s);
+    snprintf(out, size, "%s", s);
+    return 1;
+}
+
+/* A path value: relative paths are taken from the config file's folder, so
+ * a config works whatever the daemon's working directory. */
+static int copy_path(const struct cfg_doc *d, const struct cfg_node *map, const char *key,
+                     enum cfg_need need, char *out, size_t size, struct gonio_err *err)
+{
+    char raw[1024];
+    int rc = copy_string(d, map, key, need, raw, sizeof raw, err);
+    if (rc <= 0)
+        return rc;
+    const char *cfgpath = cfg_path(d), *slash = strrchr(cfgpath, '/');
+    int n;
+    if (raw[0] == '/' || !slash)
+        n = snprintf(out, size, "%s", raw);
+    else
+        n = snprintf(out, size, "%.*s/%s", (int)(slash - cfgpath), cfgpath, raw);
+    if (n < 0 || (size_t)n >= size)
+        return cfg_error(d, cfg_get(d, map, key), key, err,
+                         "path too long once resolved (at most %zu characters)", size - 1);
+    return 1;
+}
+
+static int load_sim(const struct cfg_doc *d, const struct cfg_node *drv,
+                    struct goniod_config *cfg, struct gonio_err *err)
+{
+    static const char *const keys[] = {"kind", "scene", "pace_s", NULL};
+    int rc;
+    if ((rc = cfg_check_keys(d, drv, "driver", keys, err)) < 0 ||
+        (rc = copy_string(d, drv, "scene", CFG_OPTIONAL, cfg->scene, sizeof cfg->scene,
+                          err)) < 0 ||
+        (rc = cfg_double(d, drv, "pace_s", CFG_OPTIONAL, 0, 60, &cfg->pace_s, err)) < 0)
+        return rc;
+    /* The scene must load now, not at the first capture. */
+    struct sim_scene scene;
+    struct gonio_err e2 = {0};
+    if (sim_scene_load(cfg->scene, &scene, &e2) < 0)
+        return cfg_error(d, cfg_get(d, drv, "scene") ? cfg_get(d, drv, "scene") : drv,
+                         "scene", err, "%s", e2.msg);
+    return 0;
+}
+
+static int load_slaves(const struct cfg_doc *d, const struct cfg_node *drv,
+                       struct goniod_config *cfg, struct gonio_err *err)
+{
+    static const char *const keys[] = {"sample", "arm", "azimuth", "detector", NULL};
+    const struct cfg_node *m;
+    /* Defaults: docs/protocol-modbus.md's map. */
+    long s = 1, a = 2, det = 3, az = 0;
+    int rc = cfg_map(d, drv, "slaves", CFG_OPTIONAL, &m, err);
+    if (rc < 0)
+        return rc;
+    if (m && ((rc = cfg_check_keys(d, m, "slaves", keys, err)) < 0 ||
+              (rc = cfg_int(d, m, "sample", CFG_OPTIONAL, 1, 247, &s, err)) < 0 ||
+              (rc = cfg_int(d, m, "arm", CFG_OPTIONAL, 1, 247, &a, err)) < 0 ||
+              (rc = cfg_int(d, m, "azimuth", CFG_OPTIONAL, 0, 247, &az, err)) < 0 ||
+              (rc = cfg_int(d, m, "detector", CFG_OPTIONAL, 1, 247, &det, err)) < 0))
+        return rc;
+    if (s == a || s == det || a == det || (az && (az == s || az == a || az == det)))
+        return cfg_error(d, m ? m : drv, "slaves", err,
+                         "every device needs its own slave id (sample %ld, arm %ld, "
+                         "azimuth %ld, detector %ld)",
+                         s, a, az, det);
+    cfg->slaves = (struct goniod_slaves){(int)s, (int)a, (int)az, (int)det};
+    return 0;
+}
+
+static int load_modbus(const struct cfg_doc *d, const struct cfg_node *drv,
+                       struct goniod_config *cfg, struct gonio_err *err)
+{
+    static const char *const rtu_keys[] = {"kind",     "device",        "baud",
+                                           "parity",   "data_bits",     "stop_bits",
+                                           "slaves",   "steps_per_deg", "time_scale",
+                                           "timeout_s", NULL};
+    static const char *const tcp_keys[] = {"kind",          "host",       "port",
+                                           "slaves",        "steps_per_deg",
+                                           "time_scale",    "timeout_s",  NULL};
+    static const char *const parities[] = {"none", "even", "odd", NULL};
+    int rtu = cfg->driver == GONIOD_DRIVER_MODBUS_RTU, rc;
+    long v;
+    if ((rc = cfg_check_keys(d, drv, "driver", rtu ? rtu_keys : tcp_keys, err)) < 0 ||
+        (rc = load_slaves(d, drv, cfg, err)) < 0 ||
+        (rc = cfg_double(d, drv, "steps_per_deg", CFG_OPTIONAL, 1e-3, 1e7, &cfg->steps_per_deg,
+                         err)) < 0 ||
+        (rc = cfg_double(d, drv, "time_scale", CFG_OPTIONAL, 1e-3, 1e4, &cfg->time_scale,
+                         err)) < 0 ||
+        (rc = cfg_double(d, drv, "timeout_s", CFG_OPTIONAL, 0.01, 60, &cfg->timeout_s, err)) <
+            0)
+        return rc;
+    if (!rtu) {
+        v = cfg->port;
+        if ((rc = copy_string(d, drv, "host", CFG_REQUIRED, cfg->host, sizeof cfg->host,
+                              err)) < 0 ||
+            (rc = cfg_int(d, drv, "port", CFG_OPTIONAL, 1, 65535, &v, err)) < 0)
+            return rc;
+        cfg->port = (int)v;
+        return 0;
+    }
+    int parity = 0;
+    long data = cfg->data_bits, stop = cfg->stop_bits;
+    if ((rc = copy_string(d, drv, "device", CFG_REQUIRED, cfg->device, sizeof cfg->device,
+                          err)) < 0 ||
+        (rc = cfg_int(d, drv, "baud", CFG_OPTIONAL, 300, 4000000, &cfg->baud, err)) < 0 ||
+        (rc = cfg_enum(d, drv, "parity", CFG_OPTIONAL, parities, &parity, err)) < 0 ||
+        (rc = cfg_int(d, drv, "data_bits", CFG_OPTIONAL, 5, 8, &data, err)) < 0 ||
+        (rc = cfg_int(d, drv, "stop_bits", CFG_OPTIONAL, 1, 2, &stop, err)) < 0)
+        return rc;
+    if (cfg->device[0] != '/')
+        return cfg_error(d, cfg_get(d, drv, "device"), "device", err,
+                         "must be an absolute device path (value '%.40s')", cfg->device);
+    cfg->parity = "NEO"[parity];
+    cfg->data_bits = (int)data;
+    cfg->stop_bits = (int)stop;
+    return 0;
+}
+
+static int load_socket(const struct cfg_doc *d, const struct cfg_node *root,
+                       struct goniod_config *cfg, struct gonio_err *err)
+{
+    static const char *const keys[] = {"path", "group", "max_clients", "idle_timeout_s", NULL};
+    const struct cfg_node *m;
+    int rc = cfg_map(d, root, "socket", CFG_REQUIRED, &m, err);
+    long maxc = cfg->max_clients;
+    if (rc < 0 || (rc = cfg_check_keys(d, m, "socket", keys, err)) < 0 ||
+        (rc = copy_path(d, m, "path", CFG_REQUIRED, cfg->socket_path, sizeof cfg->socket_path,
+                        err)) < 0 ||
+        (rc = copy_string(d, m, "group", CFG_OPTIONAL, cfg->socket_group,
+                          sizeof cfg->socket_group, err)) < 0 ||
+        (rc = cfg_int(d, m, "max_clients", CFG_OPTIONAL, 1, 1000, &maxc, err)) < 0 ||
+        (rc = cfg_double(d, m, "idle_timeout_s", CFG_OPTIONAL, 0.1, 86400, &cfg->idle_timeout_s,
+                         err)) < 0)
+        return rc;
+    cfg->max_clients = (int)maxc;
+    return 0;
+}
+
+int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio_err *err)
+{
+    static const char *const keys[] = {"rig", "driver", "capture_root", "socket", NULL};
+    memset(cfg, 0, sizeof *cfg);
+    snprintf(cfg->path, sizeof cfg->path, "%s", path);
+    snprintf(cfg->rig, sizeof cfg->rig, "default");
+    snprintf(cfg->scene, sizeof cfg->scene, "ideal");
+    cfg->baud = 115200;
+    cfg->parity = 'N';
+    cfg->data_bits = 8;
+    cfg->stop_bits = 1;
+    cfg->port = 502;
+    cfg->steps_per_deg = 100;
+    cfg->time_scale = 1;
+    cfg->timeout_s = 0.5;
+    cfg->max_clients = 16;
+    cfg->idle_timeout_s = 600;
+
+    struct cfg_doc *d;
+    int rc = cfg_load(path, &d, err);
+    if (rc < 0)
+        return rc;
+    const struct cfg_node *root = cfg_root(d), *drv = NULL;
+    int kind = 0;
+    if ((rc = cfg_check_keys(d, root, "goniod config", keys, err)) < 0 ||
+        (rc = copy_string(d, root, "rig", CFG_OPTIONAL, cfg->rig, sizeof cfg->rig, err)) < 0 ||
+        (rc = copy_path(d, root, "capture_root", CFG_REQUIRED, cfg->capture_root,
+                        sizeof cfg->capture_root, err)) < 0 ||
+        (rc = load_socket(d, root, cfg, err)) < 0 ||
+        (rc = cfg_map(d, root, "driver", CFG_REQUIRED, &drv, err)) < 0 ||
+        (rc = cfg_enum(d, drv, "kind", CFG_REQUIRED, driver_names, &kind, err)) < 0)
+        goto out;
+    cfg->driver = (enum goniod_driver)kind;
+    rc = cfg->driver == GONIOD_DRIVER_SIM ? load_sim(d, drv, cfg, err)
+                                          : load_modbus(d, drv, cfg, err);
+    if (rc < 0)
+        goto out;
+    struct plan_rig rig;
+    struct gonio_err e2 = {0};
+    if (plan_rig_load(cfg->rig, &rig, &e2) < 0) {
+        const struct cfg_node *at = cfg_get(d, root, "rig");
+        rc = cfg_error(d, at ? at : root, "rig", err, "%s", e2.msg);
+        goto out;
+    }
+    rc = 0;
+out:
+    cfg_free(d);
+    return rc < 0 ? rc : 0;
+}
+
+void goniod_config_print(FILE *out, const struct goniod_config *c)
+{
+    fprintf(out, "# goniod configuration, resolved from %s\n", c->path);
+    fprintf(out, "rig: %s\n", c->rig);
+    fprintf(out, "driver:\n  kind: %s\n", goniod_driver_name(c->driver));
+    if (c->driver == GONIOD_DRIVER_SIM) {
+        fprintf(out, "  scene: %s\n  pace_s: %g\n", c->scene, c->pace_s);
+    } else {
+        if (c->driver == GONIOD_DRIVER_MODBUS_RTU)
+            fprintf(out, "  device: %s\n  baud: %ld\n  parity: %s\n  data_bits: %d\n"
+                         "  stop_bits: %d\n",
+                    c->device, c->baud,
+                    c->parity == 'E' ? "even" : c->parity == 'O' ? "odd" : "none",
+                    c->data_bits, c->stop_bits);
+        else
+            fprintf(out, "  host: %s\n  port: %d\n", c->host, c->port);
+        fprintf(out, "  slaves:\n    sample: %d\n    arm: %d\n    azimuth: %d\n"
+                     "    detector: %d\n",
+                c->slaves.sample, c->slaves.arm, c->slaves.azimuth, c->slaves.detector);
+        fprintf(out, "  steps_per_deg: %g\n  time_scale: %g\n  timeout_s: %g\n",
+                c->steps_per_deg, c->time_scale, c->timeout_s);
+    }
+    fprintf(out, "capture_root: %s\n", c->capture_root);
+    fprintf(out, "socket:\n  path: %s\n", c->socket_path);
+    if (c->socket_group[0])
+        fprintf(out, "  group: %s\n", c->socket_group);
+    fprintf(out, "  max_clients: %d\n  idle_timeout_s: %g\n", c->max_clients,
+            c->idle_timeout_s);
+}

@@ -1,0 +1,85 @@
+#include "daemon/devices.h"
+
+#include <string.h>
+
+#include "drivers/drivers.h"
+
+#ifdef GONIOD_HAVE_MODBUS
+#include "drivers/drv_modbus.h"
+
+int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *rig,
+                        struct capture_devices *dev, void **bus_out, struct gonio_err *err)
+{
+    memset(dev, 0, sizeof *dev);
+    *bus_out = NULL;
+    struct drv_modbus_bus_cfg bc;
+    drv_modbus_bus_cfg_default(&bc);
+    bc.timeout_s = cfg->timeout_s;
+    bc.time_scale = cfg->time_scale;
+    drv_modbus_bus *bus;
+    if (cfg->driver == GONIOD_DRIVER_MODBUS_RTU) {
+        bc.device = cfg->device;
+        bc.baud = (int)cfg->baud;
+        bc.parity = cfg->parity;
+        bc.data_bits = cfg->data_bits;
+        bc.stop_bits = cfg->stop_bits;
+        bus = drv_modbus_bus_new_rtu(&bc, err);
+    } else {
+        bc.host = cfg->host;
+        bc.port = cfg->port;
+        bus = drv_modbus_bus_new_tcp(&bc, err);
+    }
+    if (!bus)
+        return -(err && err->code ? err->code : GONIO_EDEVICE);
+    struct drv_modbus_axis_opts opts = {.steps_per_deg = cfg->steps_per_deg};
+    dev->sample = drv_axis_new_modbus(bus, cfg->slaves.sample, &rig->sample, &opts, "sample",
+                                      err);
+    if (dev->sample)
+        dev->arm = drv_axis_new_modbus(bus, cfg->slaves.arm, &rig->arm, &opts, "arm", err);
+    if (dev->arm && cfg->slaves.azimuth && rig->out_of_plane)
+        dev->azimuth = drv_axis_new_modbus(bus, cfg->slaves.azimuth, &rig->azimuth, &opts,
+                                           "azimuth", err);
+    if (dev->arm && (dev->azimuth || !cfg->slaves.azimuth || !rig->out_of_plane))
+        dev->detector = drv_detector_new_modbus(bus, cfg->slaves.detector, err);
+    if (dev->detector)
+        dev->clock = drv_clock_new_modbus(bus, cfg->slaves.detector, err);
+    if (!dev->clock) {
+        goniod_devices_close(dev, bus);
+        return -(err && err->code ? err->code : GONIO_EDEVICE);
+    }
+    *bus_out = bus;
+    return 0;
+}
+
+void goniod_devices_close(struct capture_devices *dev, void *bus)
+{
+    drv_axis_free(dev->sample);
+    drv_axis_free(dev->arm);
+    drv_axis_free(dev->azimuth);
+    drv_detector_free(dev->detector);
+    drv_clock_free(dev->clock);
+    memset(dev, 0, sizeof *dev);
+    drv_modbus_bus_free(bus);
+}
+
+#else /* the Modbus backend is not in this build */
+
+int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *rig,
+                        struct capture_devices *dev, void **bus_out, struct gonio_err *err)
+{
+    (void)rig;
+    memset(dev, 0, sizeof *dev);
+    *bus_out = NULL;
+    return gonio_err_set(err, GONIO_EDEVICE,
+                         "%s: driver '%s': this goniod was built without the Modbus backend "
+                         "(drivers/drv_modbus.c); use driver kind 'sim'",
+                         cfg->path, goniod_driver_name(cfg->driver));
+}
+
+void goniod_devices_close(struct capture_devices *dev, void *bus)
+{
+    (void)bus;
+    memset(dev, 0, sizeof *dev);
+}
+
+#endif

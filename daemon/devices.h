@@ -1,0 +1,21 @@
+/* goniod's devices for the Modbus drivers: the rig's axes, detector and
+ * clock on the bus the configuration names (docs/protocol-modbus.md). The
+ * simulator needs none of this: the capture engine runs it in-process. */
+#ifndef GONIO_DAEMON_DEVICES_H
+#define GONIO_DAEMON_DEVICES_H
+
+#include "common/err.h"
+#include "daemon/capture.h"
+#include "daemon/config.h"
+#include "planner/rig.h"
+
+/* Open the bus and the devices on it; *bus receives the bus handle for
+ * goniod_devices_close. The azimuth axis is opened when the configuration
+ * names its slave and the rig profile is out-of-plane. */
+int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *rig,
+                        struct capture_devices *dev, void **bus, struct gonio_err *err);
+
+/* Free the devices, then the bus. */
+void goniod_devices_close(struct capture_devices *dev, void *bus);
+
+#endif

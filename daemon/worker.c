@@ -1,0 +1,345 @@
+#include "daemon/worker.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "daemon/devices.h"
+
+struct worker {
+    const struct goniod_config *cfg;
+    pthread_mutex_t mu;
+    pthread_cond_t cv;       /* pause/abort/resume changes */
+    int pipe_rd, pipe_wr;
+    pthread_t thread;
+    int thread_live;         /* started and not joined yet */
+    int running;             /* a capture is in capture_run */
+    int paused, abort;
+    char abort_reason[32];
+    struct worker_request req;
+    size_t done, total;
+    double rig_time_s;
+    struct worker_msg *head, *tail;
+    void *bus; /* the Modbus bus while a capture holds it */
+    int has_fit;
+    char fit_id[128];
+    double fit_log, fit_rmse;
+};
+
+static void push(worker *w, struct worker_msg *m)
+{
+    m->next = NULL;
+    pthread_mutex_lock(&w->mu);
+    if (w->tail)
+        w->tail->next = m;
+    else
+        w->head = m;
+    w->tail = m;
+    pthread_mutex_unlock(&w->mu);
+    /* One byte is enough: the loop drains the whole queue. A full pipe
+     * already means "wake up". */
+    ssize_t n = write(w->pipe_wr, "x", 1);
+    (void)n;
+}
+
+static void hook_on_start(void *user, const char *plan, size_t total, size_t already)
+{
+    worker *w = user;
+    struct worker_msg *m = calloc(1, sizeof *m);
+    pthread_mutex_lock(&w->mu);
+    w->total = total;
+    w->done = already;
+    pthread_mutex_unlock(&w->mu);
+    if (!m)
+        return;
+    m->kind = WORKER_MSG_START;
+    m->req = w->req;
+    snprintf(m->plan_name, sizeof m->plan_name, "%s", plan);
+    m->total = total;
+    m->already_done = already;
+    push(w, m);
+}
+
+static void hook_on_sample(void *user, const struct journal_sample *s, size_t done,
+                           size_t total)
+{
+    worker *w = user;
+    pthread_mutex_lock(&w->mu);
+    w->done = done;
+    w->total = total;
+    w->rig_time_s = s->rig_time_s;
+    pthread_mutex_unlock(&w->mu);
+    struct worker_msg *m = malloc(sizeof *m);
+    if (!m)
+        return; /* a lost progress event; the journal has the sample */
+    memset(m, 0, offsetof(struct worker_msg, req));
+    m->kind = WORKER_MSG_SAMPLE;
+    m->sample = *s;
+    m->done = done;
+    m->total = total;
+    push(w, m);
+}
+
+/* At every point boundary: pace the simulator in wall time if asked (so a
+ * simulated capture lasts long enough to be watched, paused or killed), and
+ * block while paused. An abort ends both waits at once. */
+static enum capture_control hook_control(void *user)
+{
+    worker *w = user;
+    pthread_mutex_lock(&w->mu);
+    if (w->cfg->driver == GONIOD_DRIVER_SIM && w->cfg->pace_s > 0 && !w->abort) {
+        struct timespec until;
+        clock_gettime(CLOCK_MONOTONIC, &until);
+        double t = (double)until.tv_nsec * 1e-9 + w->cfg->pace_s;
+        until.tv_sec += (time_t)t;
+        until.tv_nsec = (long)((t - (double)(time_t)t) * 1e9);
+        while (!w->abort && pthread_cond_timedwait(&w->cv, &w->mu, &until) != ETIMEDOUT) {
+        }
+    }
+    while (w->paused && !w->abort)
+        pthread_cond_wait(&w->cv, &w->mu);
+    enum capture_control c = w->abort ? CAPTURE_ABORT : CAPTURE_GO;
+    pthread_mutex_unlock(&w->mu);
+    return c;
+}
+
+static int hook_open(void *user, const struct plan_rig *rig, struct capture_devices *dev,
+                     struct gonio_err *err)
+{
+    worker *w = user;
+    return goniod_devices_open(w->cfg, rig, dev, &w->bus, err);
+}
+
+static void hook_close(void *user, struct capture_devices *dev)
+{
+    worker *w = user;
+    goniod_devices_close(dev, w->bus);
+    w->bus = NULL;
+}
+
+static void *run(void *arg)
+{
+    worker *w = arg;
+    struct worker_msg *m = calloc(1, sizeof *m);
+    struct capture_summary sum;
+    struct gonio_err err = {0};
+    struct capture_config cc = {
+        .plan = w->req.plan,
+        .scene = w->req.scene,
+        .material = w->req.material[0] ? w->req.material : NULL,
+        .rig = w->req.rig[0] ? w->req.rig : NULL,
+        .model = w->req.model,
+        .out_dir = w->req.dir,
+        .order = w->req.order[0] ? w->req.order : NULL,
+        .quiet = 1,
+    };
+    struct capture_hooks hooks = {
+        .on_start = hook_on_start,
+        .on_sample = hook_on_sample,
+        .control = hook_control,
+        .user = w,
+    };
+    /* The simulator runs inside the engine (it reads the capture's own
+     * material and continues the rig clock on a resume); hardware goes
+     * through the configured drivers. */
+    if (w->cfg->driver != GONIOD_DRIVER_SIM) {
+        hooks.open_devices = hook_open;
+        hooks.close_devices = hook_close;
+    }
+    int rc = capture_run(&cc, &hooks, &sum, &err);
+    if (rc < 0 && !err.msg[0])
+        snprintf(err.msg, sizeof err.msg, "%s", gonio_strerror(rc));
+
+    pthread_mutex_lock(&w->mu);
+    const char *reason = rc < 0 ? "error" : strcmp(sum.stop_reason, "aborted") ? "complete"
+                                          : w->abort_reason[0] ? w->abort_reason : "aborted";
+    if (rc == 0 && !strcmp(reason, "complete")) {
+        w->has_fit = 1;
+        snprintf(w->fit_id, sizeof w->fit_id, "%s", w->req.id);
+        w->fit_log = sum.err_plan.log;
+        w->fit_rmse = sum.err_plan.rel_rmse;
+    }
+    w->running = 0;
+    w->paused = 0;
+    pthread_mutex_unlock(&w->mu);
+    if (m) {
+        m->kind = WORKER_MSG_STOP;
+        m->req = w->req;
+        m->rc = rc;
+        snprintf(m->reason, sizeof m->reason, "%s", reason);
+        m->err = err;
+        m->summary = sum;
+        push(w, m);
+    }
+    return NULL;
+}
+
+worker *worker_new(const struct goniod_config *cfg, struct gonio_err *err)
+{
+    worker *w = calloc(1, sizeof *w);
+    int fds[2];
+    if (!w)
+        goto oom;
+    if (pipe(fds) < 0) {
+        free(w);
+        return gonio_err_set(err, errno, "wake-up pipe: %s", strerror(errno)), NULL;
+    }
+    for (int i = 0; i < 2; i++) {
+        fcntl(fds[i], F_SETFL, O_NONBLOCK);
+        fcntl(fds[i], F_SETFD, FD_CLOEXEC);
+    }
+    w->pipe_rd = fds[0];
+    w->pipe_wr = fds[1];
+    w->cfg = cfg;
+    pthread_condattr_t ca;
+    pthread_condattr_init(&ca);
+    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
+    pthread_cond_init(&w->cv, &ca);
+    pthread_condattr_destroy(&ca);
+    pthread_mutex_init(&w->mu, NULL);
+    return w;
+oom:
+    gonio_err_set(err, ENOMEM, "out of memory");
+    return NULL;
+}
+
+static void join_if_finished(worker *w)
+{
+    pthread_mutex_lock(&w->mu);
+    int join = w->thread_live && !w->running;
+    pthread_mutex_unlock(&w->mu);
+    if (join) {
+        pthread_join(w->thread, NULL);
+        w->thread_live = 0;
+    }
+}
+
+void worker_free(worker *w)
+{
+    if (!w)
+        return;
+    if (w->thread_live) {
+        worker_abort(w, "shutdown", NULL);
+        pthread_join(w->thread, NULL);
+    }
+    for (struct worker_msg *m = w->head, *next; m; m = next) {
+        next = m->next;
+        free(m);
+    }
+    close(w->pipe_rd);
+    close(w->pipe_wr);
+    pthread_cond_destroy(&w->cv);
+    pthread_mutex_destroy(&w->mu);
+    free(w);
+}
+
+int worker_wake_fd(const worker *w)
+{
+    return w->pipe_rd;
+}
+
+int worker_start(worker *w, const struct worker_request *req, struct gonio_err *err)
+{
+    join_if_finished(w);
+    pthread_mutex_lock(&w->mu);
+    if (w->running || w->thread_live) {
+        int rc = gonio_err_set(err, GONIO_EUSAGE,
+                               "capture '%s' is running; abort it or wait for it to finish "
+                               "before starting another",
+                               w->req.id);
+        pthread_mutex_unlock(&w->mu);
+        return rc;
+    }
+    w->req = *req;
+    w->running = 1;
+    w->paused = w->abort = 0;
+    w->abort_reason[0] = '\0';
+    w->done = w->total = 0;
+    w->rig_time_s = 0;
+    pthread_mutex_unlock(&w->mu);
+    int rc = pthread_create(&w->thread, NULL, run, w);
+    if (rc != 0) {
+        pthread_mutex_lock(&w->mu);
+        w->running = 0;
+        pthread_mutex_unlock(&w->mu);
+        return gonio_err_set(err, rc, "capture thread: %s", strerror(rc));
+    }
+    w->thread_live = 1;
+    return 0;
+}
+
+static int steer(worker *w, int what, const char *reason, struct gonio_err *err)
+{
+    pthread_mutex_lock(&w->mu);
+    int rc = 0;
+    if (!w->running)
+        rc = gonio_err_set(err, GONIO_EUSAGE, "no capture is running");
+    else if (what == 0 && w->paused)
+        rc = gonio_err_set(err, GONIO_EUSAGE, "capture '%s' is already paused", w->req.id);
+    else if (what == 1 && !w->paused)
+        rc = gonio_err_set(err, GONIO_EUSAGE, "capture '%s' is not paused", w->req.id);
+    else if (what == 0)
+        w->paused = 1;
+    else if (what == 1)
+        w->paused = 0;
+    else if (!w->abort) {
+        w->abort = 1;
+        snprintf(w->abort_reason, sizeof w->abort_reason, "%s", reason);
+    }
+    pthread_cond_broadcast(&w->cv);
+    pthread_mutex_unlock(&w->mu);
+    return rc;
+}
+
+int worker_pause(worker *w, struct gonio_err *err)
+{
+    return steer(w, 0, NULL, err);
+}
+
+int worker_continue(worker *w, struct gonio_err *err)
+{
+    return steer(w, 1, NULL, err);
+}
+
+int worker_abort(worker *w, const char *reason, struct gonio_err *err)
+{
+    return steer(w, 2, reason, err);
+}
+
+void worker_get_status(worker *w, struct worker_status *st)
+{
+    memset(st, 0, sizeof *st);
+    pthread_mutex_lock(&w->mu);
+    st->state = !w->running ? WORKER_IDLE : w->paused ? WORKER_PAUSED : WORKER_RUNNING;
+    if (w->running) {
+        snprintf(st->id, sizeof st->id, "%s", w->req.id);
+        st->done = w->done;
+        st->total = w->total;
+        st->rig_time_s = w->rig_time_s;
+    }
+    st->has_fit = w->has_fit;
+    snprintf(st->fit_id, sizeof st->fit_id, "%s", w->fit_id);
+    st->fit_log_error = w->fit_log;
+    st->fit_rel_rmse = w->fit_rmse;
+    pthread_mutex_unlock(&w->mu);
+}
+
+struct worker_msg *worker_take(worker *w)
+{
+    char buf[256];
+    while (read(w->pipe_rd, buf, sizeof buf) > 0) {
+    }
+    pthread_mutex_lock(&w->mu);
+    struct worker_msg *m = w->head;
+    w->head = w->tail = NULL;
+    pthread_mutex_unlock(&w->mu);
+    for (struct worker_msg *p = m; p; p = p->next)
+        if (p->kind == WORKER_MSG_STOP)
+            join_if_finished(w);
+    return m;
+}

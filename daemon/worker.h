@@ -1,0 +1,87 @@
+/* The capture worker: one thread that runs capture_run (daemon/capture.h)
+ * for goniod, so the poll loop never waits on a device.
+ *
+ * The worker reports to the loop through a queue of messages and a wake-up
+ * pipe the loop polls; the loop steers the worker (pause, resume, abort)
+ * through a mutex and a condition variable that the engine's control hook
+ * waits on at every point boundary. One capture runs at a time. */
+#ifndef GONIO_DAEMON_WORKER_H
+#define GONIO_DAEMON_WORKER_H
+
+#include <stddef.h>
+
+#include "common/err.h"
+#include "daemon/capture.h"
+#include "daemon/config.h"
+#include "daemon/journal.h"
+
+/* What to capture. Names and paths are already checked and resolved. */
+struct worker_request {
+    char id[128];
+    char dir[2048];
+    char plan[1024], scene[1024], rig[1024], material[1024], model[32], order[32];
+    int resume; /* the directory exists: continue from its journal */
+};
+
+enum worker_state { WORKER_IDLE, WORKER_RUNNING, WORKER_PAUSED };
+
+struct worker_status {
+    enum worker_state state;
+    char id[128];
+    size_t done, total;
+    double rig_time_s;
+    /* The last finished capture's fit, when there was one. */
+    int has_fit;
+    char fit_id[128];
+    double fit_log_error, fit_rel_rmse;
+};
+
+enum worker_msg_kind { WORKER_MSG_START, WORKER_MSG_SAMPLE, WORKER_MSG_STOP };
+
+struct worker_msg {
+    enum worker_msg_kind kind;
+    struct worker_msg *next;
+    struct worker_request req;   /* START and STOP */
+    /* START */
+    char plan_name[128];
+    size_t total, already_done;
+    /* SAMPLE */
+    struct journal_sample sample;
+    size_t done;
+    /* STOP */
+    int rc;                      /* capture_run's result */
+    char reason[32];             /* complete, aborted, shutdown, error */
+    struct gonio_err err;
+    struct capture_summary summary;
+};
+
+typedef struct worker worker;
+
+/* The worker for a daemon configured by cfg (which must outlive it).
+ * Returns NULL on failure with err filled. */
+worker *worker_new(const struct goniod_config *cfg, struct gonio_err *err);
+/* Stops a running capture (reason "shutdown") and waits for it. */
+void worker_free(worker *w);
+
+/* The read end of the wake-up pipe: readable when messages are queued. */
+int worker_wake_fd(const worker *w);
+
+/* Start a capture; refused (GONIO_EUSAGE, err naming the capture that runs)
+ * while one runs. */
+int worker_start(worker *w, const struct worker_request *req, struct gonio_err *err);
+
+/* Pause/resume take effect at the next point boundary. They return
+ * -GONIO_EUSAGE with err filled when there is nothing to pause/resume. */
+int worker_pause(worker *w, struct gonio_err *err);
+int worker_continue(worker *w, struct gonio_err *err);
+/* Abort the running capture at the next point boundary; reason goes into
+ * the stop document ("aborted", "shutdown"). */
+int worker_abort(worker *w, const char *reason, struct gonio_err *err);
+
+void worker_get_status(worker *w, struct worker_status *st);
+
+/* Take every queued message (oldest first); free each with free(). Joins
+ * the capture thread once its STOP message has been taken. */
+struct worker_msg *worker_take(worker *w);
+
+#endif
