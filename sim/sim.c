@@ -12,6 +12,7 @@ struct sim_axis {
     const char *name;
     double from, to;  /* current move: positions */
     double t0, t1;    /* and its start and end on the simulated clock */
+    double speed, accel; /* of the current move: the profile's unless overridden */
 };
 
 struct sim_rig {
@@ -82,26 +83,38 @@ double sim_rig_position(const sim_rig *rig, enum sim_axis_id id)
     if (rig->now >= ax->t1)
         return ax->to;
     double dist = fabs(ax->to - ax->from);
-    double done = trapezoid_distance(dist, ax->prof->speed, ax->prof->accel, rig->now - ax->t0);
+    double done = trapezoid_distance(dist, ax->speed, ax->accel, rig->now - ax->t0);
     return ax->from + (ax->to >= ax->from ? done : -done);
 }
 
 int sim_rig_start_move(sim_rig *rig, enum sim_axis_id id, double target_deg,
                        struct gonio_err *err)
 {
+    const struct plan_axis *prof = rig->axis[id].prof;
+    return sim_rig_start_move_at(rig, id, target_deg, prof->speed, prof->accel, err);
+}
+
+int sim_rig_start_move_at(sim_rig *rig, enum sim_axis_id id, double target_deg, double speed,
+                          double accel, struct gonio_err *err)
+{
     struct sim_axis *ax = &rig->axis[id];
     if (!isfinite(target_deg) || target_deg < ax->prof->min || target_deg > ax->prof->max)
         return gonio_err_set(err, GONIO_EUNREACHABLE,
                              "simulated %s axis: target %g deg outside its limits [%g, %g]",
                              ax->name, target_deg, ax->prof->min, ax->prof->max);
+    if (!(speed > 0) || !(accel > 0) || !isfinite(speed) || !isfinite(accel))
+        return gonio_err_set(err, EINVAL, "simulated %s axis: speed %g, acceleration %g",
+                             ax->name, speed, accel);
     /* A new move replaces the current one from where the axis is now; the
      * simplification (restarting from rest) only matters for moves
      * retargeted mid-flight, which the capture engine never does. */
     double here = sim_rig_position(rig, id);
     ax->from = here;
     ax->to = target_deg;
+    ax->speed = speed;
+    ax->accel = accel;
     ax->t0 = rig->now;
-    ax->t1 = rig->now + plan_axis_time(fabs(target_deg - here), ax->prof->speed, ax->prof->accel);
+    ax->t1 = rig->now + plan_axis_time(fabs(target_deg - here), speed, accel);
     return 0;
 }
 
@@ -118,11 +131,8 @@ void sim_rig_stop(sim_rig *rig, enum sim_axis_id id)
     ax->t0 = ax->t1 = rig->now;
 }
 
-int sim_rig_measure(sim_rig *rig, double integration_s, double rgb[3], struct gonio_err *err)
+int sim_rig_sample(const sim_rig *rig, double rgb[3])
 {
-    if (!(integration_s > 0))
-        return gonio_err_set(err, EINVAL, "simulated detector: integration time %g s",
-                             integration_s);
     /* The planner's three-axis mapping inverted: theta_i = s, theta_o =
      * a - s, and the azimuth axis turns the detector's plane, az = 0 being
      * the plane of incidence (phi_o - phi_i = 180). In-plane this is the
@@ -136,6 +146,15 @@ int sim_rig_measure(sim_rig *rig, double integration_s, double rgb[3], struct go
     else
         brdf_pair_spherical(s, 0.0, a - s, az + 180.0, &p);
     brdf_material_eval(rig->material, &p, 1, rgb);
+    return 0;
+}
+
+int sim_rig_measure(sim_rig *rig, double integration_s, double rgb[3], struct gonio_err *err)
+{
+    if (!(integration_s > 0))
+        return gonio_err_set(err, EINVAL, "simulated detector: integration time %g s",
+                             integration_s);
+    sim_rig_sample(rig, rgb);
     sim_rig_advance(rig, integration_s);
     return 0;
 }

@@ -30,6 +30,12 @@ void sim_rig_advance(sim_rig *rig, double seconds);
 int sim_rig_start_move(sim_rig *rig, enum sim_axis_id axis, double target_deg,
                        struct gonio_err *err);
 
+/* sim_rig_start_move at a given speed (deg/s) and acceleration (deg/s^2)
+ * instead of the profile's: a drive runs at what it was told. The limits
+ * are still the profile's. */
+int sim_rig_start_move_at(sim_rig *rig, enum sim_axis_id axis, double target_deg, double speed,
+                          double accel, struct gonio_err *err);
+
 /* Time at which the axis will be in position (now when it is at rest). */
 double sim_rig_move_end(const sim_rig *rig, enum sim_axis_id axis);
 
@@ -42,5 +48,10 @@ void sim_rig_stop(sim_rig *rig, enum sim_axis_id axis);
 /* Integrate for integration_s at the axes' current positions: the material
  * seen by the detector, in 1/sr. The clock advances by integration_s. */
 int sim_rig_measure(sim_rig *rig, double integration_s, double rgb[3], struct gonio_err *err);
+
+/* The material seen by the detector at the axes' positions now, in 1/sr,
+ * without advancing the clock: an integration that runs on a clock kept by
+ * someone else (gonio-sim's detector is BUSY meanwhile). Returns 0. */
+int sim_rig_sample(const sim_rig *rig, double rgb[3]);
 
 #endif

@@ -1,0 +1,148 @@
+/* gonio-sim: the simulated gonioreflectometer as its own process, serving
+ * the rig's Modbus bus (docs/gonio-sim.md). A thin shell: options, scene,
+ * signals; sim/modbus_server.c does the rest. */
+#include <getopt.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "brdf/material.h"
+#include "common/err.h"
+#include "planner/rig.h"
+#include "sim/modbus_server.h"
+#include "sim/scene.h"
+
+static volatile sig_atomic_t stop_flag;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    stop_flag = 1;
+}
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: gonio-sim [--scene NAME|FILE] [--material SPEC] [--rig NAME|FILE]\n"
+            "                 [--time-scale K] [--steps-per-deg N] [--link PATH]\n"
+            "                 [--tcp 127.0.0.1:PORT] [--trace] [--check]\n"
+            "  Serves the rig's Modbus bus (docs/protocol-modbus.md) as RTU on a new\n"
+            "  pseudo-terminal, whose path is the first line on stdout, and with --tcp\n"
+            "  also as Modbus TCP (second line: 'tcp HOST:PORT'; PORT 0 picks one).\n"
+            "  Simulated time runs K times faster than wall time (default 1).\n"
+            "  --check prints the resolved setup and exits.\n");
+}
+
+static int parse_positive(const char *opt, const char *s, double *out)
+{
+    char *end;
+    double v = strtod(s, &end);
+    if (*end || !(v > 0) || v > 1e9) {
+        fprintf(stderr, "gonio-sim: %s '%s': expected a positive number\n", opt, s);
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    static const struct option opts[] = {
+        {"scene", required_argument, NULL, 's'},      {"material", required_argument, NULL, 'm'},
+        {"rig", required_argument, NULL, 'r'},        {"time-scale", required_argument, NULL, 'k'},
+        {"steps-per-deg", required_argument, NULL, 'n'}, {"link", required_argument, NULL, 'l'},
+        {"tcp", required_argument, NULL, 't'},        {"trace", no_argument, NULL, 'T'},
+        {"check", no_argument, NULL, 'c'},            {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0},
+    };
+    const char *scene_name = "ideal", *material_spec = NULL, *rig_name = NULL, *link = NULL,
+               *tcp = NULL;
+    struct msim_cfg cfg = {.time_scale = 1.0, .steps_per_deg = 100.0};
+    int check = 0, c;
+    while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+        switch (c) {
+        case 's': scene_name = optarg; break;
+        case 'm': material_spec = optarg; break;
+        case 'r': rig_name = optarg; break;
+        case 'k':
+            if (parse_positive("--time-scale", optarg, &cfg.time_scale) < 0)
+                return 2;
+            break;
+        case 'n':
+            if (parse_positive("--steps-per-deg", optarg, &cfg.steps_per_deg) < 0)
+                return 2;
+            break;
+        case 'l': link = optarg; break;
+        case 't': tcp = optarg; break;
+        case 'T': cfg.trace = 1; break;
+        case 'c': check = 1; break;
+        case 'h': usage(stdout); return 0;
+        default: usage(stderr); return 2;
+        }
+    }
+    if (optind < argc) {
+        fprintf(stderr, "gonio-sim: unexpected argument '%s'\n", argv[optind]);
+        return 2;
+    }
+
+    struct gonio_err err = {0};
+    struct sim_scene scene;
+    struct plan_rig rig;
+    int rc = sim_scene_load(scene_name, &scene, &err);
+    if (rc == 0)
+        rc = plan_rig_load(rig_name ? rig_name : scene.rig, &rig, &err);
+    if (rc < 0) {
+        fprintf(stderr, "gonio-sim: %s\n", err.msg);
+        return gonio_exit_status(rc);
+    }
+    const char *spec = material_spec ? material_spec : scene.material;
+    if (!strcmp(spec, "default"))
+        spec = brdf_material_default_spec();
+    brdf_material *material = brdf_material_open(spec, &err);
+    if (!material) {
+        fprintf(stderr, "gonio-sim: %s\n", err.msg);
+        return 2;
+    }
+    if (check) {
+        printf("scene %s (%s)\nmaterial %s\nrig %s%s\ntime scale %g\nsteps per degree %g\n",
+               scene.name, scene.path, brdf_material_name(material), rig.name,
+               rig.out_of_plane ? " (out of plane: azimuth slave 4)" : "", cfg.time_scale,
+               cfg.steps_per_deg);
+        const struct plan_axis *ax[3] = {&rig.sample, &rig.arm, &rig.azimuth};
+        static const char *names[3] = {"sample (slave 1)", "arm (slave 2)", "azimuth (slave 4)"};
+        for (int i = 0; i < (rig.out_of_plane ? 3 : 2); i++)
+            printf("axis %s: limits [%g, %g] deg, profile %g deg/s, %g deg/s^2\n", names[i],
+                   ax[i]->min, ax[i]->max, ax[i]->speed, ax[i]->accel);
+        printf("detector (slave 3): rgb\n");
+        brdf_material_free(material);
+        return 0;
+    }
+
+    struct sigaction sa = {.sa_handler = on_signal}; /* no SA_RESTART: poll returns */
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    signal(SIGPIPE, SIG_IGN);
+
+    msim *m = msim_new(&rig, material, &cfg, &err);
+    char path[256];
+    int port = 0;
+    rc = m ? msim_open_pty(m, link, path, sizeof path, &err) : -1;
+    if (rc == 0 && tcp)
+        rc = msim_open_tcp(m, tcp, &port, &err);
+    if (rc == 0) {
+        printf("%s\n", path);
+        if (tcp)
+            printf("tcp %.*s:%d\n", (int)(strrchr(tcp, ':') - tcp), tcp, port);
+        fflush(stdout);
+        rc = msim_serve(m, &stop_flag, &err);
+    }
+    if (rc < 0 || !m)
+        fprintf(stderr, "gonio-sim: %s\n", err.msg);
+    if (link)
+        remove(link);
+    msim_free(m);
+    brdf_material_free(material);
+    return rc < 0 || !m ? 1 : 0;
+}

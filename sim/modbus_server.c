@@ -1,0 +1,631 @@
+#define _DEFAULT_SOURCE /* cfmakeraw */
+#define _XOPEN_SOURCE 700 /* posix_openpt, grantpt, ptsname */
+#include "sim/modbus_server.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <modbus.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <termios.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "sim/sim.h"
+
+/* Register addresses (docs/protocol-modbus.md). */
+enum {
+    AX_DATA_NO = 0x58, AX_OP_TYPE = 0x5A, AX_POSITION = 0x5C, AX_SPEED = 0x5E, AX_ACCEL = 0x60,
+    AX_DECEL = 0x62, AX_CURRENT = 0x64, AX_TRIGGER = 0x66, AX_INPUT = 0x7C, AX_STATUS = 0x7E,
+    AX_ALARM = 0x80, AX_FEEDBACK = 0xCC, AX_NREGS = 0xCE,
+    DET_INTEGRATION = 0x00, DET_TRIGGER = 0x02, DET_STATUS = 0x04, DET_COUNT = 0x06,
+    DET_SEQUENCE = 0x08, DET_CLOCK = 0x0A, DET_CHANNELS = 0x10, DET_NCHANNELS = 3,
+    DET_NREGS = DET_CHANNELS + 2 * DET_NCHANNELS,
+};
+enum { IN_ZHOME = 1u << 4, IN_STOP = 1u << 5, IN_ALM_RST = 1u << 7 };
+enum { ST_HOME_END = 1u << 4, ST_READY = 1u << 5, ST_ALM_A = 1u << 7, ST_MOVE = 1u << 13,
+       ST_IN_POS = 1u << 14 };
+enum { DST_BUSY = 1u << 0, DST_READY = 1u << 1 };
+
+#define MAX_CLIENTS 8
+#define RTU_GAP_MS 10 /* silence that ends a frame of unknown length */
+
+struct msim_axis {
+    modbus_mapping_t *map;
+    enum sim_axis_id id;
+    const struct plan_axis *prof;
+    uint32_t input_prev; /* input command as last written: commands act on edges */
+    double target_deg;
+    int alarm, homing, home_end;
+};
+
+struct msim_detector {
+    modbus_mapping_t *map;
+    double busy_until; /* simulated time the running integration ends */
+    int busy, ready;
+    uint32_t sequence;
+    double pending[DET_NCHANNELS];
+};
+
+struct msim {
+    struct msim_cfg cfg;
+    const struct plan_rig *profile;
+    sim_rig *rig;
+    double wall0;
+    struct msim_axis axis[SIM_N_AXES];
+    int n_axes;
+    struct msim_detector det;
+    /* RTU: the pty master, a held-open slave (so the master never sees a
+     * hang-up between clients) and a libmodbus context that writes replies. */
+    int pty_master, pty_slave;
+    modbus_t *rtu;
+    uint8_t rtu_buf[MODBUS_RTU_MAX_ADU_LENGTH];
+    int rtu_len;
+    /* TCP: listening socket and clients. */
+    modbus_t *tcp;
+    int listen_fd;
+    int clients[MAX_CLIENTS];
+};
+
+static double wall_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static uint32_t get32(const uint16_t *r, int addr)
+{
+    return ((uint32_t)r[addr] << 16) | r[addr + 1];
+}
+
+static void put32(uint16_t *r, int addr, uint32_t v)
+{
+    r[addr] = (uint16_t)(v >> 16);
+    r[addr + 1] = (uint16_t)(v & 0xFFFF);
+}
+
+static void put_float(uint16_t *r, int addr, double v)
+{
+    float f = (float)v;
+    uint32_t bits;
+    memcpy(&bits, &f, sizeof bits);
+    put32(r, addr, bits);
+}
+
+msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
+               const struct msim_cfg *cfg, struct gonio_err *err)
+{
+    if (!(cfg->time_scale > 0) || !(cfg->steps_per_deg > 0)) {
+        gonio_err_set(err, GONIO_EUSAGE, "gonio-sim: time scale %g and steps per degree %g must "
+                      "be positive", cfg->time_scale, cfg->steps_per_deg);
+        return NULL;
+    }
+    msim *m = calloc(1, sizeof *m);
+    if (!m) {
+        gonio_err_set(err, ENOMEM, "gonio-sim: out of memory");
+        return NULL;
+    }
+    m->cfg = *cfg;
+    m->profile = profile;
+    m->pty_master = m->pty_slave = m->listen_fd = -1;
+    for (int i = 0; i < MAX_CLIENTS; i++)
+        m->clients[i] = -1;
+    m->rig = sim_rig_new(profile, material, err);
+    if (!m->rig) {
+        free(m);
+        return NULL;
+    }
+    const struct plan_axis *profs[SIM_N_AXES] = {&profile->sample, &profile->arm,
+                                                 &profile->azimuth};
+    m->n_axes = profile->out_of_plane ? 3 : 2;
+    for (int i = 0; i < SIM_N_AXES; i++) {
+        m->axis[i].id = (enum sim_axis_id)i;
+        m->axis[i].prof = profs[i];
+        m->axis[i].map = modbus_mapping_new_start_address(0, 0, 0, 0, 0, AX_NREGS, 0, 0);
+        if (!m->axis[i].map)
+            break;
+    }
+    m->det.map = modbus_mapping_new_start_address(0, 0, 0, 0, 0, DET_NREGS, 0, 0);
+    if (!m->det.map || !m->axis[SIM_N_AXES - 1].map) {
+        msim_free(m);
+        gonio_err_set(err, ENOMEM, "gonio-sim: out of memory");
+        return NULL;
+    }
+    put32(m->det.map->tab_registers, DET_COUNT, DET_NCHANNELS);
+    m->wall0 = wall_now();
+    return m;
+}
+
+void msim_free(msim *m)
+{
+    if (!m)
+        return;
+    for (int i = 0; i < SIM_N_AXES; i++)
+        modbus_mapping_free(m->axis[i].map);
+    modbus_mapping_free(m->det.map);
+    if (m->rtu)
+        modbus_free(m->rtu);
+    if (m->tcp)
+        modbus_free(m->tcp);
+    for (int i = 0; i < MAX_CLIENTS; i++)
+        if (m->clients[i] >= 0)
+            close(m->clients[i]);
+    if (m->listen_fd >= 0)
+        close(m->listen_fd);
+    if (m->pty_slave >= 0)
+        close(m->pty_slave);
+    if (m->pty_master >= 0)
+        close(m->pty_master);
+    sim_rig_free(m->rig);
+    free(m);
+}
+
+/* ---- The devices' state machines ---------------------------------------- */
+
+/* Bring the simulated clock to the wall clock's scaled time. */
+static void sync_clock(msim *m)
+{
+    double target = (wall_now() - m->wall0) * m->cfg.time_scale;
+    sim_rig_advance(m->rig, target - sim_rig_now(m->rig));
+}
+
+static int axis_moving(const msim *m, const struct msim_axis *ax)
+{
+    return sim_rig_move_end(m->rig, ax->id) > sim_rig_now(m->rig);
+}
+
+/* Refresh the read-only registers from the simulation. */
+static void axis_refresh(msim *m, struct msim_axis *ax)
+{
+    uint16_t *r = ax->map->tab_registers;
+    double pos = sim_rig_position(m->rig, ax->id);
+    int moving = axis_moving(m, ax);
+    if (ax->homing && !moving) {
+        ax->homing = 0;
+        ax->home_end = pos == 0.0;
+    }
+    uint32_t st = 0;
+    if (ax->home_end)
+        st |= ST_HOME_END;
+    if (!moving && !ax->alarm)
+        st |= ST_READY;
+    if (ax->alarm)
+        st |= ST_ALM_A;
+    if (moving)
+        st |= ST_MOVE;
+    if (!moving && fabs(pos - ax->target_deg) < 0.5 / m->cfg.steps_per_deg)
+        st |= ST_IN_POS;
+    put32(r, AX_STATUS, st);
+    put32(r, AX_ALARM, (uint32_t)ax->alarm);
+    put32(r, AX_FEEDBACK, (uint32_t)(int32_t)lround(pos * m->cfg.steps_per_deg));
+}
+
+static void axis_start(msim *m, struct msim_axis *ax, double target_deg, double speed_deg,
+                       double accel_deg)
+{
+    if (sim_rig_start_move_at(m->rig, ax->id, target_deg, speed_deg, accel_deg, NULL) < 0) {
+        /* Beyond the soft limits: alarm, and the axis does not move. */
+        ax->alarm = target_deg < ax->prof->min || target_deg > ax->prof->max || !isfinite(target_deg)
+                        ? MSIM_ALARM_OVERTRAVEL
+                        : MSIM_ALARM_DATA;
+        return;
+    }
+    ax->target_deg = target_deg;
+    ax->home_end = 0;
+}
+
+static void axis_trigger(msim *m, struct msim_axis *ax)
+{
+    const uint16_t *r = ax->map->tab_registers;
+    if (ax->alarm)
+        return; /* ignored until ALM-RST */
+    uint32_t type = get32(r, AX_OP_TYPE);
+    int32_t pos = (int32_t)get32(r, AX_POSITION);
+    double spd = m->cfg.steps_per_deg;
+    double speed = (double)(int32_t)get32(r, AX_SPEED) / spd;
+    double accel = (double)(int32_t)get32(r, AX_ACCEL) / spd;
+    double target;
+    if (type == 1)
+        target = pos / spd;
+    else if (type == 2)
+        target = sim_rig_position(m->rig, ax->id) + pos / spd;
+    else
+        target = NAN;
+    if (!isfinite(target) || !(speed > 0) || !(accel > 0)) {
+        ax->alarm = MSIM_ALARM_DATA;
+        return;
+    }
+    ax->homing = 0;
+    axis_start(m, ax, target, speed, accel);
+}
+
+static void axis_input(msim *m, struct msim_axis *ax)
+{
+    uint32_t now = get32(ax->map->tab_registers, AX_INPUT);
+    uint32_t rise = now & ~ax->input_prev;
+    ax->input_prev = now;
+    if (rise & IN_ALM_RST)
+        ax->alarm = 0;
+    if (rise & IN_STOP) {
+        sim_rig_stop(m->rig, ax->id);
+        ax->homing = 0;
+    }
+    if ((rise & IN_ZHOME) && !ax->alarm && !(rise & IN_STOP)) {
+        axis_start(m, ax, 0.0, ax->prof->speed, ax->prof->accel);
+        ax->homing = !ax->alarm;
+    }
+}
+
+/* Completing an integration publishes its data and bumps the sequence. */
+static void det_refresh(msim *m)
+{
+    struct msim_detector *d = &m->det;
+    uint16_t *r = d->map->tab_registers;
+    if (d->busy && sim_rig_now(m->rig) >= d->busy_until) {
+        d->busy = 0;
+        d->ready = 1;
+        d->sequence++;
+        for (int k = 0; k < DET_NCHANNELS; k++)
+            put_float(r, DET_CHANNELS + 2 * k, d->pending[k]);
+    }
+    put32(r, DET_STATUS, (d->busy ? DST_BUSY : 0u) | (d->ready ? DST_READY : 0u));
+    put32(r, DET_SEQUENCE, d->sequence);
+    put32(r, DET_CLOCK, (uint32_t)llround(sim_rig_now(m->rig) * 1000.0));
+}
+
+static void det_trigger(msim *m)
+{
+    struct msim_detector *d = &m->det;
+    uint32_t us = get32(d->map->tab_registers, DET_INTEGRATION);
+    /* The detector sees the material where the axes are as it starts. */
+    sim_rig_sample(m->rig, d->pending);
+    d->busy = 1;
+    d->ready = 0;
+    d->busy_until = sim_rig_now(m->rig) + us * 1e-6;
+    det_refresh(m);
+}
+
+/* ---- Requests ------------------------------------------------------------ */
+
+/* The register ranges of each device: what may be read, what written. */
+struct reg_range {
+    int lo, hi; /* inclusive */
+    int writable;
+};
+static const struct reg_range axis_ranges[] = {
+    {AX_DATA_NO, AX_TRIGGER + 1, 1}, {AX_INPUT, AX_INPUT + 1, 1},
+    {AX_STATUS, AX_ALARM + 1, 0},     {AX_FEEDBACK, AX_FEEDBACK + 1, 0}, {-1, -1, 0}};
+static const struct reg_range det_ranges[] = {
+    {DET_INTEGRATION, DET_TRIGGER + 1, 1}, {DET_STATUS, DET_CLOCK + 1, 0},
+    {DET_CHANNELS, DET_NREGS - 1, 0},      {-1, -1, 0}};
+
+/* 0 when every register of [addr, addr + n) is mapped (and writable when
+ * asked), else the Modbus exception code. */
+static int check_range(const struct reg_range *ranges, int addr, int n, int write)
+{
+    for (int a = addr; a < addr + n; a++) {
+        const struct reg_range *r = ranges;
+        while (r->lo >= 0 && !(a >= r->lo && a <= r->hi))
+            r++;
+        if (r->lo < 0 || (write && !r->writable))
+            return MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS;
+    }
+    return 0;
+}
+
+static int overlaps(int addr, int n, int reg)
+{
+    return addr <= reg + 1 && reg < addr + n;
+}
+
+static struct msim_axis *axis_of(msim *m, int slave)
+{
+    switch (slave) {
+    case MSIM_SLAVE_SAMPLE: return &m->axis[SIM_AXIS_SAMPLE];
+    case MSIM_SLAVE_ARM: return &m->axis[SIM_AXIS_ARM];
+    case MSIM_SLAVE_AZIMUTH: return m->n_axes > 2 ? &m->axis[SIM_AXIS_AZIMUTH] : NULL;
+    default: return NULL;
+    }
+}
+
+/* Answer one request: req is the whole ADU as libmodbus frames it (hdr
+ * bytes of header ending with the unit id, then the PDU); len counts the
+ * bytes the PDU may use. Requests to absent slaves get no answer. */
+static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int hdr, int len)
+{
+    int slave = req[hdr - 1];
+    struct msim_axis *ax = axis_of(m, slave);
+    int is_det = slave == MSIM_SLAVE_DETECTOR;
+    if (!ax && !is_det)
+        return;
+    const uint8_t *pdu = req + hdr;
+    int fn = pdu[0];
+    int addr = len >= 3 ? (pdu[1] << 8) | pdu[2] : -1;
+    int n = 0, write = 0, exc = 0;
+    switch (fn) {
+    case MODBUS_FC_READ_HOLDING_REGISTERS:
+        n = len >= 5 ? (pdu[3] << 8) | pdu[4] : 0;
+        if (n < 1 || n > MODBUS_MAX_READ_REGISTERS)
+            exc = MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
+        break;
+    case MODBUS_FC_WRITE_SINGLE_REGISTER:
+        n = 1;
+        write = 1;
+        if (len < 5)
+            exc = MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
+        break;
+    case MODBUS_FC_WRITE_MULTIPLE_REGISTERS:
+        n = len >= 5 ? (pdu[3] << 8) | pdu[4] : 0;
+        write = 1;
+        if (n < 1 || n > MODBUS_MAX_WRITE_REGISTERS || len < 6 || pdu[5] != 2 * n ||
+            len < 6 + 2 * n)
+            exc = MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
+        break;
+    default:
+        exc = MODBUS_EXCEPTION_ILLEGAL_FUNCTION;
+    }
+    if (!exc)
+        exc = check_range(ax ? axis_ranges : det_ranges, addr, n, write);
+    if (m->cfg.trace)
+        fprintf(stderr, "gonio-sim: slave %d fn 0x%02x addr 0x%04x n %d%s%s\n", slave, fn,
+                addr < 0 ? 0 : addr, n, exc ? " -> exception " : "",
+                exc == 1 ? "01" : exc == 2 ? "02" : exc == 3 ? "03" : "");
+    if (exc) {
+        modbus_reply_exception(ctx, req, (unsigned)exc);
+        return;
+    }
+    sync_clock(m);
+    if (ax)
+        axis_refresh(m, ax);
+    else
+        det_refresh(m);
+    modbus_reply(ctx, req, req_len, ax ? ax->map : m->det.map);
+    if (!write)
+        return;
+    /* Act on what was written: a trigger register holding 1 starts the
+     * operation and reads back 0; input commands act on rising edges. */
+    if (ax) {
+        uint16_t *r = ax->map->tab_registers;
+        if (overlaps(addr, n, AX_INPUT))
+            axis_input(m, ax);
+        if (overlaps(addr, n, AX_TRIGGER) && get32(r, AX_TRIGGER) == 1) {
+            put32(r, AX_TRIGGER, 0);
+            axis_trigger(m, ax);
+        }
+        axis_refresh(m, ax);
+    } else {
+        uint16_t *r = m->det.map->tab_registers;
+        if (overlaps(addr, n, DET_TRIGGER) && get32(r, DET_TRIGGER) == 1) {
+            put32(r, DET_TRIGGER, 0);
+            det_trigger(m);
+        }
+    }
+}
+
+/* ---- RTU on a pseudo-terminal --------------------------------------------- */
+
+int msim_open_pty(msim *m, const char *link, char *path, size_t size, struct gonio_err *err)
+{
+    int fd = posix_openpt(O_RDWR | O_NOCTTY);
+    if (fd < 0 || grantpt(fd) < 0 || unlockpt(fd) < 0) {
+        int e = errno;
+        if (fd >= 0)
+            close(fd);
+        return gonio_err_set(err, e, "gonio-sim: pseudo-terminal: %s", strerror(e));
+    }
+    m->pty_master = fd;
+    const char *name = ptsname(fd);
+    if (!name || strlen(name) >= size)
+        return gonio_err_set(err, EIO, "gonio-sim: no name for the pseudo-terminal");
+    snprintf(path, size, "%s", name);
+    m->pty_slave = open(path, O_RDWR | O_NOCTTY);
+    if (m->pty_slave < 0)
+        return gonio_err_set(err, errno, "gonio-sim: %s: %s", path, strerror(errno));
+    /* Raw bytes both ways, as on a serial line; clients set their own mode
+     * too, but a client that does not must not get echoes. */
+    struct termios t;
+    if (tcgetattr(m->pty_slave, &t) == 0) {
+        cfmakeraw(&t);
+        tcsetattr(m->pty_slave, TCSANOW, &t);
+    }
+    fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) | O_NONBLOCK);
+    m->rtu = modbus_new_rtu("/dev/null", 115200, 'N', 8, 1);
+    if (!m->rtu || modbus_set_socket(m->rtu, fd) < 0)
+        return gonio_err_set(err, ENOMEM, "gonio-sim: RTU context: %s", modbus_strerror(errno));
+    if (link) {
+        unlink(link);
+        if (symlink(path, link) < 0)
+            return gonio_err_set(err, errno, "gonio-sim: --link %s: %s", link, strerror(errno));
+    }
+    return 0;
+}
+
+static uint16_t crc16(const uint8_t *p, int n)
+{
+    uint16_t crc = 0xFFFF;
+    for (int i = 0; i < n; i++) {
+        crc ^= p[i];
+        for (int b = 0; b < 8; b++)
+            crc = (crc & 1) ? (uint16_t)((crc >> 1) ^ 0xA001) : (uint16_t)(crc >> 1);
+    }
+    return crc;
+}
+
+/* Length of the RTU frame starting the buffer from its function code; 0:
+ * not known yet, -1: a function whose length we cannot tell (the frame ends
+ * at a silence). */
+static int rtu_frame_len(const uint8_t *b, int n)
+{
+    if (n < 2)
+        return 0;
+    switch (b[1]) {
+    case 0x01: case 0x02: case 0x03: case 0x04: case 0x05: case 0x06:
+        return 8;
+    case 0x0F: case 0x10:
+        return n < 7 ? 0 : 9 + b[6];
+    default:
+        return -1;
+    }
+}
+
+static void rtu_frame(msim *m, int len)
+{
+    const uint8_t *b = m->rtu_buf;
+    /* A frame with a bad CRC is noise: a real slave says nothing. */
+    if (len < 4 || crc16(b, len - 2) != (uint16_t)(b[len - 2] | (b[len - 1] << 8))) {
+        if (m->cfg.trace)
+            fprintf(stderr, "gonio-sim: RTU frame of %d bytes with a bad CRC ignored\n", len);
+        return;
+    }
+    handle(m, m->rtu, b, len, 1, len - 3);
+}
+
+/* Read what the pty holds; answer complete frames. */
+static void rtu_read(msim *m)
+{
+    for (;;) {
+        if (m->rtu_len == (int)sizeof m->rtu_buf)
+            m->rtu_len = 0; /* nothing valid is that long: drop it */
+        ssize_t got = read(m->pty_master, m->rtu_buf + m->rtu_len,
+                           sizeof m->rtu_buf - (size_t)m->rtu_len);
+        if (got <= 0)
+            break;
+        m->rtu_len += (int)got;
+    }
+    for (;;) {
+        int fl = rtu_frame_len(m->rtu_buf, m->rtu_len);
+        if (fl <= 0 || fl > m->rtu_len)
+            return;
+        if (fl > (int)sizeof m->rtu_buf) {
+            m->rtu_len = 0;
+            return;
+        }
+        int bad = crc16(m->rtu_buf, fl - 2) !=
+                  (uint16_t)(m->rtu_buf[fl - 2] | (m->rtu_buf[fl - 1] << 8));
+        rtu_frame(m, fl);
+        if (bad) { /* the rest of a noisy burst is noise too */
+            m->rtu_len = 0;
+            return;
+        }
+        memmove(m->rtu_buf, m->rtu_buf + fl, (size_t)(m->rtu_len - fl));
+        m->rtu_len -= fl;
+    }
+}
+
+/* A silence ended whatever is buffered. */
+static void rtu_silence(msim *m)
+{
+    if (m->rtu_len > 0)
+        rtu_frame(m, m->rtu_len);
+    m->rtu_len = 0;
+}
+
+/* ---- TCP on loopback --------------------------------------------------------- */
+
+int msim_open_tcp(msim *m, const char *addr, int *port, struct gonio_err *err)
+{
+    char host[64];
+    const char *colon = strrchr(addr, ':');
+    char *end;
+    long p = colon ? strtol(colon + 1, &end, 10) : -1;
+    if (!colon || (size_t)(colon - addr) >= sizeof host || *end || p < 0 || p > 65535 ||
+        colon == addr)
+        return gonio_err_set(err, GONIO_EUSAGE, "--tcp '%s': use HOST:PORT (PORT 0 picks one)",
+                             addr);
+    memcpy(host, addr, (size_t)(colon - addr));
+    host[colon - addr] = '\0';
+    struct in_addr ia;
+    if (inet_pton(AF_INET, host, &ia) != 1)
+        return gonio_err_set(err, GONIO_EUSAGE, "--tcp '%s': '%s' is not an IPv4 address", addr,
+                             host);
+    m->tcp = modbus_new_tcp(host, (int)p);
+    if (!m->tcp)
+        return gonio_err_set(err, ENOMEM, "--tcp %s: %s", addr, modbus_strerror(errno));
+    m->listen_fd = modbus_tcp_listen(m->tcp, MAX_CLIENTS);
+    if (m->listen_fd < 0)
+        return gonio_err_set(err, errno, "--tcp %s: %s", addr, modbus_strerror(errno));
+    struct sockaddr_in sa;
+    socklen_t sl = sizeof sa;
+    if (getsockname(m->listen_fd, (struct sockaddr *)&sa, &sl) < 0)
+        return gonio_err_set(err, errno, "--tcp %s: %s", addr, strerror(errno));
+    *port = ntohs(sa.sin_port);
+    return 0;
+}
+
+static void tcp_accept(msim *m)
+{
+    int fd = accept(m->listen_fd, NULL, NULL);
+    if (fd < 0)
+        return;
+    for (int i = 0; i < MAX_CLIENTS; i++)
+        if (m->clients[i] < 0) {
+            m->clients[i] = fd;
+            return;
+        }
+    close(fd); /* full: refuse */
+}
+
+static void tcp_read(msim *m, int slot)
+{
+    uint8_t req[MODBUS_TCP_MAX_ADU_LENGTH];
+    modbus_set_socket(m->tcp, m->clients[slot]);
+    int rc = modbus_receive(m->tcp, req);
+    if (rc < 0) {
+        if (errno == EMBBADDATA || errno == EMBMDATA || errno == EMBBADCRC) {
+            modbus_flush(m->tcp);
+            return;
+        }
+        close(m->clients[slot]); /* the client went away, or sent garbage */
+        m->clients[slot] = -1;
+        return;
+    }
+    if (rc >= 8)
+        handle(m, m->tcp, req, rc, 7, rc - 7);
+}
+
+/* ---- The loop -------------------------------------------------------------- */
+
+int msim_serve(msim *m, volatile sig_atomic_t *stop, struct gonio_err *err)
+{
+    while (!*stop) {
+        struct pollfd pf[2 + MAX_CLIENTS];
+        int slot[2 + MAX_CLIENTS];
+        int n = 0;
+        if (m->pty_master >= 0)
+            pf[n] = (struct pollfd){.fd = m->pty_master, .events = POLLIN}, slot[n++] = -1;
+        if (m->listen_fd >= 0)
+            pf[n] = (struct pollfd){.fd = m->listen_fd, .events = POLLIN}, slot[n++] = -2;
+        for (int i = 0; i < MAX_CLIENTS; i++)
+            if (m->clients[i] >= 0)
+                pf[n] = (struct pollfd){.fd = m->clients[i], .events = POLLIN}, slot[n++] = i;
+        int rc = poll(pf, (nfds_t)n, m->rtu_len > 0 ? RTU_GAP_MS : 200);
+        if (rc < 0) {
+            if (errno == EINTR)
+                continue;
+            return gonio_err_set(err, errno, "gonio-sim: poll: %s", strerror(errno));
+        }
+        if (rc == 0) {
+            rtu_silence(m);
+            continue;
+        }
+        for (int i = 0; i < n; i++) {
+            if (!(pf[i].revents & (POLLIN | POLLHUP | POLLERR)))
+                continue;
+            if (slot[i] == -1)
+                rtu_read(m);
+            else if (slot[i] == -2)
+                tcp_accept(m);
+            else
+                tcp_read(m, slot[i]);
+        }
+    }
+    return 0;
+}

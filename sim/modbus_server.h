@@ -1,0 +1,53 @@
+/* gonio-sim's Modbus side: a simulated rig (sim/sim.h) behind the register
+ * map of docs/protocol-modbus.md, served as one bus with several slave ids
+ * over Modbus RTU on a pseudo-terminal and/or Modbus TCP on loopback.
+ *
+ * The simulated clock follows wall time scaled by time_scale: every request
+ * first brings the rig to now, so motion, homing and integration advance
+ * between requests exactly as they would on a real rig, only faster. */
+#ifndef GONIO_SIM_MODBUS_SERVER_H
+#define GONIO_SIM_MODBUS_SERVER_H
+
+#include <signal.h>
+#include <stddef.h>
+
+#include "brdf/material.h"
+#include "common/err.h"
+#include "planner/rig.h"
+
+/* Slave ids of the rig's devices on its bus. */
+enum msim_slave { MSIM_SLAVE_SAMPLE = 1, MSIM_SLAVE_ARM = 2, MSIM_SLAVE_DETECTOR = 3,
+                  MSIM_SLAVE_AZIMUTH = 4 };
+
+/* Drive alarm codes (present-alarm register). */
+enum msim_alarm { MSIM_ALARM_OVERLOAD = 0x30, MSIM_ALARM_DEVIATION = 0x28,
+                  MSIM_ALARM_OVERTRAVEL = 0x66, MSIM_ALARM_DATA = 0x70 };
+
+struct msim_cfg {
+    double time_scale;    /* simulated seconds per wall second, > 0 */
+    double steps_per_deg; /* drive steps per degree, > 0 */
+    int trace;            /* one stderr line per request */
+};
+
+typedef struct msim msim;
+
+/* Profile and material must outlive the server. The azimuth slave exists
+ * only when the profile is out_of_plane. */
+msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
+               const struct msim_cfg *cfg, struct gonio_err *err);
+void msim_free(msim *m);
+
+/* Create the RTU pseudo-terminal (raw mode); its slave path goes to path.
+ * link, when not NULL, is (re)made a symlink to it. */
+int msim_open_pty(msim *m, const char *link, char *path, size_t size, struct gonio_err *err);
+
+/* Listen for Modbus TCP on addr ("127.0.0.1:PORT", IPv4; PORT 0 picks a
+ * free one); the port actually bound goes to *port. */
+int msim_open_tcp(msim *m, const char *addr, int *port, struct gonio_err *err);
+
+/* Answer requests until *stop becomes non-zero (a signal handler sets it).
+ * Malformed input is answered or ignored as a real slave would; only a
+ * failure of the server's own descriptors ends it early. */
+int msim_serve(msim *m, volatile sig_atomic_t *stop, struct gonio_err *err);
+
+#endif
