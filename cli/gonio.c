@@ -13,9 +13,16 @@ static const struct {
     const char *summary;
 } commands[] = {
     {"plan", cmd_plan, "dry-run a plan: pairs, axis positions, time estimate"},
-    {"capture", cmd_capture, "run a capture (--offline: in-process simulated rig)"},
+    {"capture", cmd_capture_any, "run a capture on goniod (--offline: in-process simulated rig)"},
+    {"status", cmd_status, "goniod's state and the running capture's progress"},
+    {"watch", cmd_watch, "follow the running capture: progress, ETA, results"},
+    {"pause", cmd_pause, "pause the running capture at the next point"},
+    {"resume", cmd_resume, "continue a paused capture, or resume an interrupted one by id"},
+    {"abort", cmd_abort, "stop the running capture, keeping its samples"},
+    {"shutdown", cmd_shutdown, "stop goniod"},
     {"export", cmd_export, "export a material as a MERL .binary table"},
     {"results", cmd_results, "tabulate the results of capture directories"},
+    {"train-decoder", cmd_train_decoder, "train the latent model's decoder (docs/latent.md)"},
 };
 
 static void usage(FILE *out)

@@ -971,10 +971,9 @@ static json_t *stop_doc(const struct worker_msg *m)
     json_object_set_new(d, "class", json_string("stop"));
     json_object_set_new(d, "capture_id", json_string(m->req.id));
     json_object_set_new(d, "dir", json_string(m->req.dir));
-    json_object_set_new(d, "exit_status", json_string(m->rc < 0 ? "fail"
-                                                      : !strcmp(m->reason, "complete")
-                                                          ? "success"
-                                                          : "abort"));
+    int aborted = !strcmp(m->reason, "aborted") || !strcmp(m->reason, "shutdown");
+    json_object_set_new(d, "exit_status",
+                        json_string(m->rc < 0 ? "fail" : aborted ? "abort" : "success"));
     json_object_set_new(d, "reason", json_string(m->reason));
     if (m->rc < 0) {
         json_t *msg = json_string(m->err.msg);
@@ -983,7 +982,7 @@ static json_t *stop_doc(const struct worker_msg *m)
     }
     json_object_set_new(d, "samples", json_integer((json_int_t)s->samples));
     json_object_set_new(d, "rig_time_s", jnum(s->rig_time_s));
-    if (!strcmp(m->reason, "complete")) {
+    if (!aborted) {
         const struct brdf_abc *p = &s->params;
         json_t *r = json_object();
         json_object_set_new(r, "plan", json_string(s->plan));

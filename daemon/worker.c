@@ -156,9 +156,13 @@ static void *run(void *arg)
         snprintf(err.msg, sizeof err.msg, "%s", gonio_strerror(rc));
 
     pthread_mutex_lock(&w->mu);
-    const char *reason = rc < 0 ? "error" : strcmp(sum.stop_reason, "aborted") ? "complete"
-                                          : w->abort_reason[0] ? w->abort_reason : "aborted";
-    if (rc == 0 && !strcmp(reason, "complete")) {
+    /* The engine says complete, converged or aborted; an abort names who
+     * asked for it (a client, or the daemon shutting down). */
+    int aborted = rc == 0 && !strcmp(sum.stop_reason, "aborted");
+    const char *reason = rc < 0    ? "error"
+                         : aborted ? (w->abort_reason[0] ? w->abort_reason : "aborted")
+                                   : sum.stop_reason;
+    if (rc == 0 && !aborted) {
         w->has_fit = 1;
         snprintf(w->fit_id, sizeof w->fit_id, "%s", w->req.id);
         w->fit_log = sum.err_plan.log;

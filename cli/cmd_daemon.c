@@ -1,0 +1,501 @@
+/* The gonio commands that talk to goniod over its control socket
+ * (docs/protocol.md): capture (without --offline), status, watch, pause,
+ * resume, abort, shutdown. Errors from the daemon are printed as it gives
+ * them; exit status 1 for a daemon error, 2 for bad usage. */
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <jansson.h>
+
+#include "cli/commands.h"
+
+#define GONIO_SOCKET_DEFAULT "/run/goniod/goniod.sock"
+
+struct conn {
+    int fd;
+    FILE *in;
+    long next_id;
+    const char *path;
+};
+
+static const char *socket_path(const char *opt)
+{
+    const char *env = getenv("GONIO_SOCKET");
+    return opt ? opt : env && env[0] ? env : GONIO_SOCKET_DEFAULT;
+}
+
+/* The next document from the daemon, or NULL when the connection ends. */
+static json_t *conn_read(struct conn *c)
+{
+    char *line = NULL;
+    size_t cap = 0;
+    ssize_t n = getline(&line, &cap, c->in);
+    if (n <= 0) {
+        free(line);
+        return NULL;
+    }
+    json_error_t je;
+    json_t *d = json_loadb(line, (size_t)n, 0, &je);
+    free(line);
+    if (!json_is_object(d)) {
+        json_decref(d);
+        fprintf(stderr, "gonio: goniod sent something that is not a JSON object\n");
+        return NULL;
+    }
+    return d;
+}
+
+static int conn_open(struct conn *c, const char *path)
+{
+    memset(c, 0, sizeof *c);
+    c->path = path;
+    c->next_id = 1;
+    struct sockaddr_un sa = {.sun_family = AF_UNIX};
+    if (strlen(path) >= sizeof sa.sun_path) {
+        fprintf(stderr, "gonio: %s: socket path too long\n", path);
+        return -1;
+    }
+    memcpy(sa.sun_path, path, strlen(path) + 1);
+    c->fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (c->fd < 0 || connect(c->fd, (struct sockaddr *)&sa, sizeof sa) < 0) {
+        fprintf(stderr, "gonio: cannot reach goniod at %s: %s (is goniod running? --socket "
+                        "or GONIO_SOCKET name another socket)\n",
+                path, strerror(errno));
+        if (c->fd >= 0)
+            close(c->fd);
+        return -1;
+    }
+    c->in = fdopen(dup(c->fd), "r");
+    json_t *v = c->in ? conn_read(c) : NULL;
+    const char *cls = json_string_value(json_object_get(v, "class"));
+    json_int_t major = json_integer_value(json_object_get(v, "proto_major"));
+    int ok = cls && !strcmp(cls, "VERSION") && major == 1;
+    if (!ok) {
+        if (cls && !strcmp(cls, "ERROR"))
+            fprintf(stderr, "gonio: goniod: %s\n",
+                    json_string_value(json_object_get(v, "message")));
+        else
+            fprintf(stderr, "gonio: %s: not a goniod speaking protocol 1\n", path);
+    }
+    json_decref(v);
+    if (!ok) {
+        if (c->in)
+            fclose(c->in);
+        close(c->fd);
+        return -1;
+    }
+    return 0;
+}
+
+static void conn_close(struct conn *c)
+{
+    fclose(c->in);
+    close(c->fd);
+}
+
+/* Send a request (stolen) and return its reply: OK, STATUS or ERROR. */
+static json_t *conn_request(struct conn *c, json_t *req)
+{
+    long id = c->next_id++;
+    json_object_set_new(req, "id", json_integer(id));
+    char *text = json_dumps(req, JSON_COMPACT);
+    json_decref(req);
+    if (!text)
+        return NULL;
+    size_t len = strlen(text);
+    text[len] = '\0';
+    int ok = send(c->fd, text, len, MSG_NOSIGNAL) == (ssize_t)len &&
+             send(c->fd, "\n", 1, MSG_NOSIGNAL) == 1;
+    free(text);
+    if (!ok) {
+        fprintf(stderr, "gonio: lost goniod at %s\n", c->path);
+        return NULL;
+    }
+    for (;;) {
+        json_t *d = conn_read(c);
+        if (!d) {
+            fprintf(stderr, "gonio: goniod closed the connection\n");
+            return NULL;
+        }
+        json_t *rid = json_object_get(d, "id");
+        const char *cls = json_string_value(json_object_get(d, "class"));
+        /* Unsolicited errors (no id) end the exchange too. */
+        if ((json_is_integer(rid) && json_integer_value(rid) == id) ||
+            (!rid && cls && !strcmp(cls, "ERROR")))
+            return d;
+        json_decref(d); /* a watch document before the reply */
+    }
+}
+
+/* Print a daemon error as given; 1 if d is an error (or missing). */
+static int reply_failed(json_t *d)
+{
+    if (!d)
+        return 1;
+    const char *cls = json_string_value(json_object_get(d, "class"));
+    if (cls && !strcmp(cls, "ERROR")) {
+        fprintf(stderr, "gonio: goniod: %s\n", json_string_value(json_object_get(d, "message")));
+        return 1;
+    }
+    return 0;
+}
+
+/* ---- watching -------------------------------------------------------- */
+
+struct progress {
+    int tty;
+    char id[128];
+    double t0;        /* rig time at the first event seen */
+    size_t d0;        /* points done at the first event seen */
+    int have_first;
+    size_t last_len;  /* length of the bar line drawn */
+};
+
+static double jreal(json_t *d, const char *key)
+{
+    json_t *v = json_object_get(d, key);
+    return json_is_number(v) ? json_number_value(v) : NAN;
+}
+
+static void show_event(struct progress *p, json_t *d)
+{
+    size_t done = (size_t)json_integer_value(json_object_get(d, "done"));
+    size_t total = (size_t)json_integer_value(json_object_get(d, "total"));
+    double t = jreal(d, "rig_time_s");
+    if (!p->have_first) {
+        p->have_first = 1;
+        p->t0 = t;
+        p->d0 = done;
+    }
+    /* ETA in rig time: the rig time per point so far, times the points left. */
+    double eta = NAN;
+    if (done > p->d0 && total >= done)
+        eta = (t - p->t0) / (double)(done - p->d0) * (double)(total - done);
+    char eta_s[32] = "--";
+    if (isfinite(eta))
+        snprintf(eta_s, sizeof eta_s, "%.0f s", eta);
+    double fe = jreal(d, "fit_log_error"); /* present once the daemon has fitted */
+    char fit[48] = "";
+    if (isfinite(fe))
+        snprintf(fit, sizeof fit, ", fit error %.4f", fe);
+    if (!p->tty) {
+        printf("%s: %zu/%zu points, rig time %.1f s, ETA %s (rig time)%s\n", p->id, done,
+               total, t, eta_s, fit);
+        fflush(stdout);
+        return;
+    }
+    int width = 30, fill = total ? (int)((double)width * (double)done / (double)total) : 0;
+    char bar[64];
+    for (int i = 0; i < width; i++)
+        bar[i] = i < fill ? '#' : '.';
+    bar[width] = '\0';
+    char line[256];
+    int n = snprintf(line, sizeof line, "[%s] %zu/%zu  rig %.0f s  ETA %s%s", bar, done, total, t,
+                     eta_s, fit);
+    printf("\r%s%*s", line, p->last_len > (size_t)n ? (int)(p->last_len - (size_t)n) : 0, "");
+    p->last_len = (size_t)n;
+    fflush(stdout);
+}
+
+static void show_stop(struct progress *p, json_t *d)
+{
+    if (p->tty && p->last_len)
+        printf("\n");
+    const char *reason = json_string_value(json_object_get(d, "reason"));
+    const char *msg = json_string_value(json_object_get(d, "message"));
+    json_t *res = json_object_get(d, "results");
+    printf("capture %s stopped: %s", json_string_value(json_object_get(d, "capture_id")),
+           reason ? reason : "?");
+    if (msg)
+        printf(" (%s)", msg);
+    if (json_object_get(d, "samples"))
+        printf(", %lld samples, rig time %.1f s",
+               (long long)json_integer_value(json_object_get(d, "samples")),
+               jreal(d, "rig_time_s"));
+    printf("\n");
+    if (res) {
+        json_t *ep = json_object_get(res, "err_plan");
+        printf("  fit %s%s: plan log error %.4f, relative RMSE %.4f\n",
+               json_string_value(json_object_get(res, "model")),
+               json_is_true(json_object_get(res, "converged")) ? "" : " (did not converge)",
+               jreal(ep, "log_error"), jreal(ep, "rel_rmse"));
+        json_t *ef = json_object_get(res, "err_full");
+        if (ef)
+            printf("  against the material: full-domain log error %.4f\n",
+                   jreal(ef, "log_error"));
+    }
+    fflush(stdout);
+}
+
+/* Follow the stream until the stop document of capture `id` (any capture
+ * when id is NULL). Returns 0 for a complete capture, 1 otherwise. */
+static int follow(struct conn *c, const char *id)
+{
+    struct progress p = {.tty = isatty(STDOUT_FILENO)};
+    if (id)
+        snprintf(p.id, sizeof p.id, "%s", id);
+    for (;;) {
+        json_t *d = conn_read(c);
+        if (!d) {
+            if (p.tty && p.last_len)
+                printf("\n");
+            fprintf(stderr, "gonio: goniod closed the connection\n");
+            return 1;
+        }
+        const char *cls = json_string_value(json_object_get(d, "class"));
+        const char *cid = json_string_value(json_object_get(d, "capture_id"));
+        int mine = !id || (cid && !strcmp(cid, id));
+        if (!cls) {
+        } else if (!strcmp(cls, "start") && mine) {
+            snprintf(p.id, sizeof p.id, "%s", cid ? cid : "?");
+            p.have_first = 0;
+            printf("capture %s: plan %s, %lld points (%lld already done)\n", p.id,
+                   json_string_value(json_object_get(d, "plan")),
+                   (long long)json_integer_value(json_object_get(d, "total")),
+                   (long long)json_integer_value(json_object_get(d, "already_done")));
+            fflush(stdout);
+        } else if (!strcmp(cls, "event") && p.id[0]) {
+            show_event(&p, d);
+        } else if (!strcmp(cls, "stop") && mine) {
+            show_stop(&p, d);
+            const char *status = json_string_value(json_object_get(d, "exit_status"));
+            int rc = !status || strcmp(status, "success") != 0;
+            json_decref(d);
+            return rc;
+        } else if (!strcmp(cls, "ERROR")) {
+            reply_failed(d);
+            json_decref(d);
+            return 1;
+        }
+        json_decref(d);
+    }
+}
+
+/* ---- commands -------------------------------------------------------- */
+
+/* Options every daemon command takes. */
+#define SOCKET_OPTS {"socket", required_argument, NULL, 'S'}, {"help", no_argument, NULL, 'h'}
+
+static int simple(int argc, char **argv, const char *cmd, const char *usage_args,
+                  const char *help)
+{
+    static const struct option opts[] = {SOCKET_OPTS, {"json", no_argument, NULL, 'j'},
+                                         {NULL, 0, NULL, 0}};
+    const char *sock = NULL;
+    int json_out = 0, ch;
+    optind = 1;
+    while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+        switch (ch) {
+        case 'S': sock = optarg; break;
+        case 'j': json_out = 1; break;
+        case 'h': printf("usage: gonio %s %s[--socket PATH]\n  %s\n", cmd, usage_args, help);
+                  return 0;
+        default: fprintf(stderr, "usage: gonio %s %s[--socket PATH]\n", cmd, usage_args);
+                 return 2;
+        }
+    }
+    const char *arg = NULL;
+    int takes_arg = usage_args[0] != '\0' && strcmp(usage_args, "[--json] ");
+    if (takes_arg && optind < argc)
+        arg = argv[optind++];
+    if (optind != argc) {
+        fprintf(stderr, "gonio %s: unexpected argument '%s'\n", cmd, argv[optind]);
+        return 2;
+    }
+    struct conn c;
+    if (conn_open(&c, socket_path(sock)) < 0)
+        return 1;
+    json_t *req = json_pack("{s:s}", "cmd", cmd);
+    if (arg)
+        json_object_set_new(req, "capture_id", json_string(arg));
+    json_t *rep = conn_request(&c, req);
+    int rc = reply_failed(rep);
+    if (!rc && !strcmp(cmd, "status")) {
+        if (json_out) {
+            json_object_del(rep, "id");
+            char *s = json_dumps(rep, JSON_COMPACT);
+            printf("%s\n", s);
+            free(s);
+        } else {
+            const char *state = json_string_value(json_object_get(rep, "state"));
+            printf("goniod %s", state);
+            if (strcmp(state, "idle"))
+                printf(": capture %s, %lld/%lld points, rig time %.1f s",
+                       json_string_value(json_object_get(rep, "capture_id")),
+                       (long long)json_integer_value(json_object_get(rep, "points_done")),
+                       (long long)json_integer_value(json_object_get(rep, "points_total")),
+                       jreal(rep, "rig_time_s"));
+            printf("\n");
+            json_t *fe = json_object_get(rep, "fit_error");
+            if (json_is_object(fe))
+                printf("last fit (%s): log error %.4f, relative RMSE %.4f\n",
+                       json_string_value(json_object_get(fe, "capture_id")),
+                       jreal(fe, "log_error"), jreal(fe, "rel_rmse"));
+        }
+    } else if (!rc) {
+        const char *id = json_string_value(json_object_get(rep, "capture_id"));
+        printf("goniod: %s%s%s\n", cmd, id ? " " : "", id ? id : "");
+    }
+    json_decref(rep);
+    conn_close(&c);
+    return rc;
+}
+
+int cmd_status(int argc, char **argv)
+{
+    return simple(argc, argv, "status", "[--json] ",
+                  "state (idle, running, paused), capture id, points done, rig time, last "
+                  "fit error");
+}
+
+int cmd_pause(int argc, char **argv)
+{
+    return simple(argc, argv, "pause", "", "pause the capture at the next point boundary");
+}
+
+int cmd_resume(int argc, char **argv)
+{
+    return simple(argc, argv, "resume", "[CAPTURE-ID] ",
+                  "continue the paused capture, or (idle daemon) resume an interrupted "
+                  "capture from its journal");
+}
+
+int cmd_abort(int argc, char **argv)
+{
+    return simple(argc, argv, "abort", "",
+                  "stop the capture at the next point boundary; its samples are kept");
+}
+
+int cmd_shutdown(int argc, char **argv)
+{
+    return simple(argc, argv, "shutdown", "",
+                  "stop goniod (a running capture is aborted, its samples kept)");
+}
+
+int cmd_watch(int argc, char **argv)
+{
+    static const struct option opts[] = {SOCKET_OPTS, {NULL, 0, NULL, 0}};
+    const char *sock = NULL;
+    int ch;
+    optind = 1;
+    while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+        switch (ch) {
+        case 'S': sock = optarg; break;
+        case 'h': printf("usage: gonio watch [--socket PATH]\n  follow the running (or next) "
+                         "capture until it stops\n");
+                  return 0;
+        default: fprintf(stderr, "usage: gonio watch [--socket PATH]\n"); return 2;
+        }
+    }
+    if (optind != argc) {
+        fprintf(stderr, "gonio watch: unexpected argument '%s'\n", argv[optind]);
+        return 2;
+    }
+    struct conn c;
+    if (conn_open(&c, socket_path(sock)) < 0)
+        return 1;
+    json_t *rep = conn_request(&c, json_pack("{s:s}", "cmd", "watch"));
+    int rc = reply_failed(rep);
+    json_decref(rep);
+    if (!rc)
+        rc = follow(&c, NULL);
+    conn_close(&c);
+    return rc;
+}
+
+static void capture_usage(FILE *out)
+{
+    fprintf(out,
+            "usage: gonio capture --plan NAME|FILE [--scene NAME|FILE] [--material SPEC]\n"
+            "                     [--rig NAME|FILE] [--model abc] [--order ORDER]\n"
+            "                     [--stop all] [--name ID] [--wait] [--socket PATH]\n"
+            "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
+            "  'gonio capture --offline --help'). Files are relative to goniod's capture\n"
+            "  root. --wait follows the capture to its end: exit 0 when it completes.\n"
+            "  The socket is --socket, else $GONIO_SOCKET, else " GONIO_SOCKET_DEFAULT ".\n");
+}
+
+int cmd_capture_daemon(int argc, char **argv)
+{
+    static const struct option opts[] = {
+        SOCKET_OPTS,
+        {"plan", required_argument, NULL, 'p'},  {"scene", required_argument, NULL, 's'},
+        {"material", required_argument, NULL, 'm'}, {"rig", required_argument, NULL, 'r'},
+        {"model", required_argument, NULL, 'M'}, {"order", required_argument, NULL, 'o'},
+        {"stop", required_argument, NULL, 'x'},  {"name", required_argument, NULL, 'n'},
+        {"wait", no_argument, NULL, 'w'},        {NULL, 0, NULL, 0},
+    };
+    static const char *const keys[] = {"plan", "scene", "material", "rig",
+                                       "model", "order", "stop", "name"};
+    static const char letters[] = "psmrMoxn";
+    const char *vals[8] = {0}, *sock = NULL;
+    int wait = 0, ch;
+    optind = 1;
+    while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+        const char *at = ch ? strchr(letters, ch) : NULL;
+        if (at) {
+            vals[at - letters] = optarg;
+            continue;
+        }
+        switch (ch) {
+        case 'S': sock = optarg; break;
+        case 'w': wait = 1; break;
+        case 'h': capture_usage(stdout); return 0;
+        default: capture_usage(stderr); return 2;
+        }
+    }
+    if (optind != argc || !vals[0]) {
+        fprintf(stderr, optind != argc ? "gonio capture: unexpected argument\n"
+                                       : "gonio capture: --plan is required\n");
+        capture_usage(stderr);
+        return 2;
+    }
+    if (vals[6] && strcmp(vals[6], "all") && strcmp(vals[6], "converge")) {
+        fprintf(stderr, "gonio capture: --stop '%s': use all or converge\n", vals[6]);
+        return 2;
+    }
+    struct conn c;
+    if (conn_open(&c, socket_path(sock)) < 0)
+        return 1;
+    int rc = 0;
+    if (wait) { /* subscribe first, so not even a quick capture's start is missed */
+        json_t *rep = conn_request(&c, json_pack("{s:s}", "cmd", "watch"));
+        rc = reply_failed(rep);
+        json_decref(rep);
+    }
+    json_t *rep = NULL;
+    if (!rc) {
+        json_t *req = json_pack("{s:s}", "cmd", "capture");
+        for (int i = 0; i < 8; i++)
+            if (vals[i])
+                json_object_set_new(req, keys[i], json_string(vals[i]));
+        rep = conn_request(&c, req);
+        rc = reply_failed(rep);
+    }
+    if (!rc) {
+        char id[128];
+        snprintf(id, sizeof id, "%s", json_string_value(json_object_get(rep, "capture_id")));
+        printf("capture %s started in %s\n", id, json_string_value(json_object_get(rep, "dir")));
+        fflush(stdout);
+        if (wait)
+            rc = follow(&c, id);
+    }
+    json_decref(rep);
+    conn_close(&c);
+    return rc;
+}
+
+int cmd_capture_any(int argc, char **argv)
+{
+    for (int i = 1; i < argc && strcmp(argv[i], "--"); i++)
+        if (!strcmp(argv[i], "--offline"))
+            return cmd_capture(argc, argv);
+    return cmd_capture_daemon(argc, argv);
+}
