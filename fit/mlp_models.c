@@ -1,0 +1,334 @@
+/* The RGB and spectral MLPs as registry models (fit/models.h): gathering
+ * training rows from samples, writing model files, and materials. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "brdf/colour.h"
+#include "brdf/material_private.h"
+#include "fit/mlp.h"
+#include "fit/model_file.h"
+
+#define RGB_VERSION 1
+#define SPECTRAL_VERSION 1
+
+static const int rgb_widths[] = {2, 20, 20, 20, 20, 20, 3};
+static const int spectral_widths[] = {3, 10, 10, 10, 1};
+
+/* In-plane angles of a pair whose directions and the normal are coplanar:
+ * an isotropic material's value there is its value in the incidence plane,
+ * so the pair is first turned about the normal into the x-z plane. Returns
+ * -1 for a pair out of its incidence plane. */
+int fit_mlp_inplane_angles(const struct brdf_pair *p, double *ti, double *tr)
+{
+    const double *a = p->wi, *b = p->wo;
+    double ra = hypot(a[0], a[1]), rb = hypot(b[0], b[1]);
+    /* Coplanar with the normal: the horizontal parts are parallel. */
+    if (fabs(a[0] * b[1] - a[1] * b[0]) > 1e-9 * (1.0 + ra * rb))
+        return -1;
+    if (fabs(a[1]) <= 1e-9 && fabs(b[1]) <= 1e-9)
+        return brdf_pair_to_inplane(p, ti, tr);
+    const double *ref = ra > 1e-12 ? a : b;
+    double r = ra > 1e-12 ? ra : rb;
+    double cs = ref[0] / r, sn = ref[1] / r;
+    double ai[3] = {cs * a[0] + sn * a[1], -sn * a[0] + cs * a[1], a[2]};
+    double bo[3] = {cs * b[0] + sn * b[1], -sn * b[0] + cs * b[1], b[2]};
+    ai[1] = bo[1] = 0; /* rounding only: the pair is coplanar */
+    struct brdf_pair q;
+    brdf_pair_from_dirs(ai, bo, &q);
+    return brdf_pair_to_inplane(&q, ti, tr);
+}
+
+static void set_train_keys(struct fit_model_file *f, const struct fit_model_options *opt,
+                           const struct fit_mlp_train_report *r)
+{
+    fit_model_file_set(f, "seed", "%llu", (unsigned long long)opt->seed);
+    fit_model_file_set(f, "epochs", "%d", r->epochs);
+    fit_model_file_set(f, "best_epoch", "%d", r->best_epoch);
+    fit_model_file_set(f, "rows_train", "%zu", r->n_train);
+    fit_model_file_set(f, "rows_heldout", "%zu", r->n_val);
+    fit_model_file_set(f, "loss_train", "%.6g", r->train_loss);
+    fit_model_file_set(f, "loss_heldout", "%.6g", r->val_loss);
+}
+
+static void fill_report(struct fit_model_report *rep, const struct fit_mlp_train_report *r,
+                        size_t left_out)
+{
+    if (!rep)
+        return;
+    rep->converged = 1;
+    snprintf(rep->note, sizeof rep->note,
+             "%d epochs (%s), weights of epoch %d; loss %.3g -> %.3g train, %.3g held-out "
+             "(%zu/%zu rows)%s",
+             r->epochs, r->early_stopped ? "early stop" : "epoch limit", r->best_epoch,
+             r->train_loss0, r->train_loss, r->val_loss, r->n_train, r->n_val,
+             left_out ? "; out-of-plane or unusable samples left out" : "");
+}
+
+/* Train the RGB network on the usable in-plane samples. */
+int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t seed,
+                              int max_epochs, int quiet, struct fit_mlp *net,
+                              struct fit_mlp_train_report *rep, size_t *left_out,
+                              struct gonio_err *err)
+{
+    double *u = malloc((n ? n : 1) * 2 * sizeof *u), *f = malloc((n ? n : 1) * 3 * sizeof *f),
+           *c = malloc((n ? n : 1) * sizeof *c);
+    if (!u || !f || !c) {
+        free(u);
+        free(f);
+        free(c);
+        return gonio_err_set(err, ENOMEM, "mlp: out of memory");
+    }
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++) {
+        double ti, tr;
+        if (fit_mlp_inplane_angles(&s[i].g, &ti, &tr) || !(s[i].g.wi[2] > 0) || !(s[i].g.wo[2] > 0))
+            continue;
+        if (!isfinite(s[i].rgb[0]) || !isfinite(s[i].rgb[1]) || !isfinite(s[i].rgb[2]))
+            continue;
+        u[2 * m] = ti;
+        u[2 * m + 1] = tr;
+        memcpy(f + 3 * m, s[i].rgb, sizeof s[i].rgb);
+        c[m] = s[i].g.wi[2];
+        m++;
+    }
+    if (left_out)
+        *left_out = n - m;
+    int rc;
+    if (m < 4) {
+        rc = gonio_err_set(err, GONIO_EFIT, "mlp: %zu usable in-plane samples (need 4)", m);
+    } else {
+        rc = fit_mlp_init(net, 6, rgb_widths, err);
+        if (!rc) {
+            struct fit_mlp_train_options o = fit_mlp_default_train_options();
+            o.seed = seed;
+            o.max_epochs = max_epochs;
+            o.quiet = quiet;
+            rc = fit_mlp_train(net, u, f, c, m, &o, rep, err);
+            if (rc)
+                fit_mlp_free(net);
+        }
+    }
+    free(u);
+    free(f);
+    free(c);
+    return rc;
+}
+
+int fit_mlp_rgb_fit(const struct fit_data *data, const struct fit_model_options *opt,
+                    struct fit_model_file **out, struct fit_model_report *rep,
+                    struct gonio_err *err)
+{
+    struct fit_model_options o = opt ? *opt : fit_model_default_options();
+    if (!data->n_rgb)
+        return gonio_err_set(err, GONIO_EUSAGE, "mlp: needs RGB samples");
+    struct fit_mlp net;
+    struct fit_mlp_train_report r;
+    size_t left_out;
+    int rc = fit_mlp_rgb_train_samples(data->rgb, data->n_rgb, o.seed, o.max_epochs, o.quiet,
+                                       &net, &r, &left_out, err);
+    if (rc)
+        return rc;
+    struct fit_model_file *f = fit_model_file_new("mlp", RGB_VERSION);
+    rc = f ? fit_model_file_set(f, "inputs", "theta_i_deg,theta_r_deg") : -ENOMEM;
+    rc = rc ? rc : fit_model_file_set(f, "outputs", "r,g,b");
+    rc = rc ? rc : fit_mlp_to_file(&net, f);
+    fit_mlp_free(&net);
+    if (rc) {
+        fit_model_file_free(f);
+        return gonio_err_set(err, ENOMEM, "mlp: out of memory");
+    }
+    set_train_keys(f, &o, &r);
+    fill_report(rep, &r, left_out);
+    *out = f;
+    return 0;
+}
+
+int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_options *opt,
+                         struct fit_model_file **out, struct fit_model_report *rep,
+                         struct gonio_err *err)
+{
+    struct fit_model_options o = opt ? *opt : fit_model_default_options();
+    size_t n = data->n_spectral;
+    if (!n)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "mlp-spectral: needs spectral samples (theta_i,theta_r,"
+                             "wavelength_nm,value)");
+    double *u = malloc(n * 3 * sizeof *u), *f = malloc(n * sizeof *f),
+           *c = malloc(n * sizeof *c);
+    if (!u || !f || !c) {
+        free(u);
+        free(f);
+        free(c);
+        return gonio_err_set(err, ENOMEM, "mlp-spectral: out of memory");
+    }
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++) {
+        const struct fit_spectral_sample *s = &data->spectral[i];
+        double ci = cos(s->theta_i * BRDF_DEG);
+        if (!isfinite(s->theta_i) || !isfinite(s->theta_r) || !isfinite(s->wavelength_nm) ||
+            !isfinite(s->value) || !(ci > 0) || fabs(s->theta_r) >= 90)
+            continue;
+        u[3 * m] = s->theta_i;
+        u[3 * m + 1] = s->theta_r;
+        u[3 * m + 2] = s->wavelength_nm;
+        f[m] = s->value;
+        c[m] = ci;
+        m++;
+    }
+    int rc = 0;
+    struct fit_mlp net = {0};
+    struct fit_mlp_train_report r;
+    if (m < 4)
+        rc = gonio_err_set(err, GONIO_EFIT, "mlp-spectral: %zu usable samples (need 4)", m);
+    if (!rc)
+        rc = fit_mlp_init(&net, 4, spectral_widths, err);
+    if (!rc) {
+        struct fit_mlp_train_options to = fit_mlp_default_train_options();
+        to.seed = o.seed;
+        to.max_epochs = o.max_epochs;
+        to.quiet = o.quiet;
+        rc = fit_mlp_train(&net, u, f, c, m, &to, &r, err);
+    }
+    free(u);
+    free(f);
+    free(c);
+    struct fit_model_file *mf = NULL;
+    if (!rc) {
+        mf = fit_model_file_new("mlp-spectral", SPECTRAL_VERSION);
+        rc = mf ? fit_model_file_set(mf, "inputs", "theta_i_deg,theta_r_deg,wavelength_nm")
+                : -ENOMEM;
+        rc = rc ? rc : fit_model_file_set(mf, "outputs", "value");
+        rc = rc ? rc : fit_mlp_to_file(&net, mf);
+        if (rc)
+            rc = gonio_err_set(err, ENOMEM, "mlp-spectral: out of memory");
+    }
+    fit_mlp_free(&net);
+    if (rc) {
+        fit_model_file_free(mf);
+        return rc;
+    }
+    set_train_keys(mf, &o, &r);
+    fill_report(rep, &r, n - m);
+    *out = mf;
+    return 0;
+}
+
+void fit_mlp_spectral_eval(const struct fit_mlp *net, const double *u, size_t n,
+                           double *value)
+{
+    for (size_t i = 0; i < n; i++) {
+        double z;
+        fit_mlp_forward(net, u + 3 * i, 1, &z);
+        value[i] = fit_mlp_value(z);
+    }
+}
+
+/* ---- materials ---- */
+
+#define SPEC_N 31 /* 400..700 nm in 10 nm steps */
+
+struct mlp_priv {
+    struct fit_mlp net;
+    int spectral;
+    double lambda[SPEC_N], w[3 * SPEC_N]; /* colour weights (spectral only) */
+};
+
+static void mlp_eval(const void *pv, const struct brdf_pair *pairs, size_t n, double *rgb)
+{
+    const struct mlp_priv *p = pv;
+    for (size_t i = 0; i < n; i++) {
+        double ti, tr, *out = rgb + 3 * i;
+        if (fit_mlp_inplane_angles(&pairs[i], &ti, &tr) || !(pairs[i].wi[2] > 0) ||
+            !(pairs[i].wo[2] > 0)) {
+            /* Out of plane: the network has no meaning there. Below the
+             * horizon: the BRDF is 0 as for every other material. */
+            double v = fit_mlp_inplane_angles(&pairs[i], &ti, &tr) ? NAN : 0.0;
+            out[0] = out[1] = out[2] = v;
+            continue;
+        }
+        if (!p->spectral) {
+            double u[2] = {ti, tr}, z[3];
+            fit_mlp_forward(&p->net, u, 1, z);
+            for (int k = 0; k < 3; k++)
+                out[k] = fit_mlp_value(z[k]);
+            continue;
+        }
+        double xyz[3] = {0, 0, 0};
+        for (int k = 0; k < SPEC_N; k++) {
+            double u[3] = {ti, tr, p->lambda[k]}, z;
+            fit_mlp_forward(&p->net, u, 1, &z);
+            double v = fit_mlp_value(z);
+            for (int c = 0; c < 3; c++)
+                xyz[c] += p->w[3 * k + c] * v;
+        }
+        brdf_colour_xyz_to_srgb_linear(xyz, out);
+        for (int c = 0; c < 3; c++)
+            out[c] = out[c] > 0 ? out[c] : 0.0;
+    }
+}
+
+static void mlp_free_priv(void *pv)
+{
+    struct mlp_priv *p = pv;
+    if (p)
+        fit_mlp_free(&p->net);
+    free(p);
+}
+
+static const struct brdf_material_ops mlp_ops = {"mlp", mlp_eval, mlp_free_priv};
+
+static brdf_material *open_common(const struct fit_model_file *f, const char *name,
+                                  int spectral, struct gonio_err *err)
+{
+    const char *path = name && !strncmp(name, "model:", 6) ? name + 6 : name ? name : "(model)";
+    int want_version = spectral ? SPECTRAL_VERSION : RGB_VERSION;
+    if (f->version != want_version) {
+        gonio_err_set(err, GONIO_EBADDATA, "%s: %s model version %d (this gonio reads %d)",
+                      path, f->kind, f->version, want_version);
+        return NULL;
+    }
+    struct mlp_priv *p = calloc(1, sizeof *p);
+    if (!p) {
+        gonio_err_set(err, ENOMEM, "%s: out of memory", path);
+        return NULL;
+    }
+    p->spectral = spectral;
+    if (fit_mlp_from_file(f, path, &p->net, err)) {
+        free(p);
+        return NULL;
+    }
+    int nin = spectral ? 3 : 2, nout = spectral ? 1 : 3;
+    if (p->net.width[0] != nin || p->net.width[p->net.n_layers] != nout) {
+        gonio_err_set(err, GONIO_EBADDATA, "%s: %s model must have %d inputs and %d outputs",
+                      path, f->kind, nin, nout);
+        mlp_free_priv(p);
+        return NULL;
+    }
+    if (spectral) {
+        for (int k = 0; k < SPEC_N; k++)
+            p->lambda[k] = 400.0 + 10.0 * k;
+        if (brdf_colour_weights(p->lambda, SPEC_N, p->w, err)) {
+            mlp_free_priv(p);
+            return NULL;
+        }
+    }
+    brdf_material *m = brdf_material_new(&mlp_ops, p, name ? name : f->kind);
+    if (!m)
+        gonio_err_set(err, ENOMEM, "%s: out of memory", path);
+    return m;
+}
+
+brdf_material *fit_mlp_rgb_open(const struct fit_model_file *f, const char *name,
+                                struct gonio_err *err)
+{
+    return open_common(f, name, 0, err);
+}
+
+brdf_material *fit_mlp_spectral_open(const struct fit_model_file *f, const char *name,
+                                     struct gonio_err *err)
+{
+    return open_common(f, name, 1, err);
+}

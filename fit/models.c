@@ -1,0 +1,47 @@
+/* The model registry (fit/models.h). Add a row per model. */
+#include "fit/models.h"
+
+#include <string.h>
+
+#include "fit/abc_model.h"
+#include "fit/mlp.h"
+#include "fit/pseudo.h"
+
+static const struct fit_model_kind models[] = {
+    {"abc", "abc", "ABC microfacet model, Levenberg-Marquardt (fit/fit.h)", 0,
+     fit_abc_model_fit, fit_abc_model_open},
+    {"abc-pseudo", "abc", "ABC fitted to the capture densified by the RGB MLP on DS1", 0,
+     fit_abc_pseudo_fit, NULL},
+    {"mlp", "mlp", "RGB MLP on (theta_i, theta_r), in-plane only", 0, fit_mlp_rgb_fit,
+     fit_mlp_rgb_open},
+    {"mlp-spectral", "mlp-spectral", "spectral MLP on (theta_i, theta_r, wavelength)", 1,
+     fit_mlp_spectral_fit, fit_mlp_spectral_open},
+};
+
+#define N_MODELS (sizeof models / sizeof models[0])
+
+struct fit_model_options fit_model_default_options(void)
+{
+    return (struct fit_model_options){.seed = 1, .max_epochs = 0, .quiet = 1};
+}
+
+const struct fit_model_kind *fit_model_find(const char *name)
+{
+    for (size_t i = 0; i < N_MODELS; i++)
+        if (!strcmp(models[i].name, name))
+            return &models[i];
+    return NULL;
+}
+
+const struct fit_model_kind *fit_model_for_kind(const char *file_kind)
+{
+    for (size_t i = 0; i < N_MODELS; i++)
+        if (models[i].open && !strcmp(models[i].file_kind, file_kind))
+            return &models[i];
+    return NULL;
+}
+
+const struct fit_model_kind *fit_model_at(size_t i)
+{
+    return i < N_MODELS ? &models[i] : NULL;
+}
