@@ -8,9 +8,8 @@
  * refines from one generic start (kd 0.1, A 1, B 100, C 1, eta 1.5), to show
  * what the grid and the multi-start buy.
  *
- * The 200k subset is drawn here with a fixed seed; it stands in for the
- * oop200k reference plan (same size and domain, not necessarily the same
- * nodes). Needs the shared data (GONIO_SHARED or ../shared). */
+ * The 200k set is the oop200k reference plan's (brdf_domain_oop_random with
+ * the plan's seed). Needs the shared data (GONIO_SHARED or ../shared). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -19,6 +18,7 @@
 
 #include "brdf/abc.h"
 #include "brdf/angles.h"
+#include "brdf/domain.h"
 #include "brdf/material.h"
 #include "fit/fit.h"
 
@@ -155,25 +155,17 @@ int main(int argc, char **argv)
     size_t nf = full_domain(NULL);
     struct brdf_pair *full = malloc(nf * sizeof *full);
     full_domain(full);
-    /* 200k distinct full-domain nodes by a seeded partial Fisher-Yates */
-    size_t n200 = 200000 < nf ? 200000 : nf;
-    size_t *perm = malloc(nf * sizeof *perm);
-    for (size_t k = 0; k < nf; k++)
-        perm[k] = k;
-    unsigned long long st = 0x9E3779B97F4A7C15ull;
-    for (size_t k = 0; k < n200; k++) {
-        st ^= st << 13;
-        st ^= st >> 7;
-        st ^= st << 17;
-        size_t j = k + (size_t)(st % (nf - k));
-        size_t tmp = perm[k];
-        perm[k] = perm[j];
-        perm[j] = tmp;
+    /* the oop200k reference plan's nodes (brdf/domain.h) */
+    struct brdf_domain od;
+    struct gonio_err derr = {0};
+    if (brdf_domain_oop_random(&od, BRDF_DOMAIN_OOP200K_N, BRDF_DOMAIN_OOP200K_SEED, &derr) < 0) {
+        fprintf(stderr, "%s\n", derr.msg);
+        return 1;
     }
-    struct brdf_pair *oop = malloc(n200 * sizeof *oop);
-    for (size_t k = 0; k < n200; k++)
-        oop[k] = full[perm[k]];
-    printf("DS1 %zu, DS2 %zu, DS3 %zu pairs; full domain %zu nodes, oop subset %zu, starts %d\n", n1, n2, n3, nf, n200,
+    size_t n200 = od.n;
+    const struct brdf_pair *oop = od.pairs;
+    printf("DS1 %zu, DS2 %zu, DS3 %zu pairs; full domain %zu nodes, oop200k %zu, starts %d\n",
+           n1, n2, n3, nf, n200,
            opt.n_starts);
 
     double *rf = malloc(3 * nf * sizeof *rf), *r1 = malloc(3 * n1 * sizeof *r1);
@@ -194,8 +186,7 @@ int main(int argc, char **argv)
         brdf_material_eval(mat, ds4, 6, r4);
         brdf_material_eval(mat, ds2, n2, r2);
         brdf_material_eval(mat, ds3, n3, r3);
-        for (size_t k = 0; k < n200; k++)
-            memcpy(r200 + 3 * k, rf + 3 * perm[k], 3 * sizeof *rf);
+        brdf_material_eval(mat, oop, n200, r200);
         brdf_material_free(mat);
 
         struct brdf_abc p1, p4, p200;
@@ -231,8 +222,7 @@ int main(int argc, char **argv)
     free(r2);
     free(r3);
     free(full);
-    free(perm);
-    free(oop);
+    brdf_domain_free(&od);
     free(rf);
     free(r1);
     free(r200);

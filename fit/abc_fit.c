@@ -35,7 +35,7 @@ struct fit_options fit_default_options(void)
         .seed = 1,
         .xtol = 1e-8,
         .gtol = 1e-8,
-        .ftol = 1e-7,
+        .ftol = 1e-5,
         .warm_start = NULL,
     };
     return o;
@@ -180,13 +180,14 @@ int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options
 {
     struct fit_options opt = opt_in ? *opt_in : fit_default_options();
     if (opt.max_iter <= 0 || opt.n_starts <= 0)
-        return gonio_err_set(err, GONIO_EUSAGE, "fit_abc: max_iter %d, n_starts %d: both must be >= 1",
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "fit_abc: max_iter %d, n_starts %d: both must be >= 1",
                              opt.max_iter, opt.n_starts);
     if (opt.n_starts > ABC_MAX_STARTS)
         opt.n_starts = ABC_MAX_STARTS;
     if (opt.loss != FIT_LOSS_LOG)
-        return gonio_err_set(err, GONIO_EUSAGE, "fit_abc: loss %d: only FIT_LOSS_LOG is implemented",
-                             (int)opt.loss);
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "fit_abc: loss %d: only FIT_LOSS_LOG is implemented", (int)opt.loss);
     /* Once per process, not per call: the handler is global state. */
     if (!gsl_handler_off_done) {
         gsl_set_error_handler_off();
