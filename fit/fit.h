@@ -25,9 +25,10 @@ enum fit_loss {
 struct fit_options {
     enum fit_loss loss;
     int max_iter;      /* per local solve */
-    int n_starts;      /* local solves started from the best grid nodes */
-    unsigned seed;     /* for any randomised part of the start */
-    double xtol, gtol, ftol;
+    int n_starts;      /* local solves started from the best grid nodes (<= 32) */
+    unsigned seed;     /* for the subset the starts use above 8000 samples */
+    double xtol, gtol; /* GSL's step and gradient tests */
+    double ftol;       /* stop when the cost fell less than this, relative, in 8 steps */
     const struct brdf_abc *warm_start; /* NULL: global start; else refine from here */
 };
 
