@@ -313,6 +313,81 @@ static int farthest_levels(const struct plan_point *pts, size_t n, int *level)
     return 0;
 }
 
+static const struct plan_point *row_pts;
+
+static int cmp_s(const void *x, const void *y)
+{
+    double a = row_pts[*(const size_t *)x].ax.s, b = row_pts[*(const size_t *)y].ax.s;
+    return (a > b) - (a < b);
+}
+
+/* The finest level of a ladder holds most of the points (DS1's is 752 of
+ * 912); travel order would sweep it row by row from one end, so a capture
+ * stopped inside it would have the full density at some theta_i and none
+ * at others. Split it into sub-levels of whole sample-axis rows taken
+ * coarse to fine: the two extreme rows, the middle one, then the quarter
+ * rows and so on (a van der Corput sequence over the row ranks), each
+ * sub-level doubling the rows so far. Every sub-level prefix then has the
+ * plan's own density along theta_r at evenly spread theta_i, which is what
+ * the fit of the whole plan sees. Writes sub-level numbers from `base` on
+ * into level[]. */
+static int split_rows(const struct plan_point *pts, const size_t *idx, size_t m, int base,
+                      int *level)
+{
+    size_t *sorted = malloc((m ? m : 1) * sizeof *sorted);
+    size_t *row_of = malloc((m ? m : 1) * sizeof *row_of);
+    if (!sorted || !row_of) {
+        free(sorted);
+        free(row_of);
+        return -ENOMEM;
+    }
+    memcpy(sorted, idx, m * sizeof *sorted);
+    row_pts = pts;
+    qsort(sorted, m, sizeof *sorted, cmp_s);
+    size_t rows = 0;
+    for (size_t k = 0; k < m; k++) {
+        if (k && pts[sorted[k]].ax.s - pts[sorted[k - 1]].ax.s > 1e-6)
+            rows++;
+        row_of[k] = rows;
+    }
+    rows++;
+    /* rank -> sub-level: extremes 0 and rows-1 first, then dyadic midpoints */
+    int *sub = malloc(rows * sizeof *sub);
+    if (!sub) {
+        free(sorted);
+        free(row_of);
+        return -ENOMEM;
+    }
+    for (size_t r = 0; r < rows; r++)
+        sub[r] = -1;
+    size_t placed = 0, group_end = 1;
+    int group = 0;
+    for (unsigned den = 2; placed < rows && den < (1u << 30); den *= 2) {
+        for (unsigned num = 1; num < den && placed < rows; num += 2) {
+            size_t r = (size_t)floor((double)num / den * (double)(rows - 1) + 0.5);
+            if (sub[r] >= 0 || r == 0 || r == rows - 1)
+                continue;
+            sub[r] = group;
+            if (++placed == group_end) {
+                group++;
+                group_end = 2 * group_end + 1; /* 1, 3, 7, 15 rows: halved steps */
+            }
+        }
+        if ((size_t)den > 2 * rows) /* every interior rank offered */
+            break;
+    }
+    group++; /* the extreme rows last: the most atypical (grazing, normal) */
+    for (size_t r = 0; r < rows; r++)
+        if (sub[r] < 0)
+            sub[r] = group;
+    for (size_t k = 0; k < m; k++)
+        level[sorted[k]] = base + sub[row_of[k]];
+    free(sub);
+    free(sorted);
+    free(row_of);
+    return 0;
+}
+
 static int progressive(const struct tour *t, size_t *seq, size_t n)
 {
     int *level = malloc((n ? n : 1) * sizeof *level);
@@ -327,6 +402,15 @@ static int progressive(const struct tour *t, size_t *seq, size_t n)
     if (max_level == 0 && n > 6 && n <= LOCAL_SEARCH_MAX && farthest_levels(t->pts, n, level) < 0) {
         free(level);
         return -ENOMEM;
+    } else if (max_level > 0 && n <= LOCAL_SEARCH_MAX) {
+        size_t m = 0;
+        for (size_t i = 0; i < n; i++)
+            if (level[i] == max_level)
+                seq[m++] = i;
+        if (split_rows(t->pts, seq, m, max_level, level) < 0) {
+            free(level);
+            return -ENOMEM;
+        }
     }
     max_level = 0;
     for (size_t i = 0; i < n; i++)
