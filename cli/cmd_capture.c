@@ -12,10 +12,14 @@ static void usage(FILE *out)
     fprintf(out,
             "usage: gonio capture --offline --scene NAME|FILE --plan NAME|FILE --out DIR\n"
             "                     [--material SPEC] [--model abc] [--rig NAME|FILE]\n"
-            "                     [--order travel|progressive|as-written|greedy] [--quiet]\n"
+            "                     [--order travel|progressive|as-written|greedy]\n"
+            "                     [--stop all|converge] [--quiet]\n"
             "  --material overrides the scene's material: nbrdf:NAME, merl:FILE, abc:NAME,\n"
             "  sgd:NAME or default. DIR receives plan.json, setup.json, samples.csv and\n"
-            "  results.json; running again on the same DIR resumes the capture.\n");
+            "  results.json; running again on the same DIR resumes the capture.\n"
+            "  --stop converge ends the capture once the streaming fit has converged\n"
+            "  (the plan's stop tolerances, or the defaults of docs/fitting.md); --stop all\n"
+            "  measures every point whatever the plan says.\n");
 }
 
 static void print_errors(const char *domain, const struct brdf_errors *e)
@@ -32,6 +36,7 @@ int cmd_capture(int argc, char **argv)
         {"model", required_argument, NULL, 'M'}, {"rig", required_argument, NULL, 'r'},
         {"order", required_argument, NULL, 'o'}, {"out", required_argument, NULL, 'd'},
         {"quiet", no_argument, NULL, 'q'},     {"help", no_argument, NULL, 'h'},
+        {"stop", required_argument, NULL, 'S'},
         {NULL, 0, NULL, 0},
     };
     struct capture_config cfg = {.model = "abc"};
@@ -47,6 +52,7 @@ int cmd_capture(int argc, char **argv)
         case 'r': cfg.rig = optarg; break;
         case 'o': cfg.order = optarg; break;
         case 'd': cfg.out_dir = optarg; break;
+        case 'S': cfg.stop = optarg; break;
         case 'q': cfg.quiet = 1; break;
         case 'h': usage(stdout); return 0;
         default: usage(stderr); return 2;
@@ -75,6 +81,8 @@ int cmd_capture(int argc, char **argv)
            "%.3f s%s\n",
            s.samples, s.rig_time_s, s.move_s, s.settle_s, s.integration_s, s.fit_time_s,
            s.converged ? "" : " (fit did not converge)");
+    if (!strcmp(s.stop_reason, "converged"))
+        printf("  stopped on convergence after %zu samples\n", s.samples);
     print_errors("plan", &s.err_plan);
     if (s.has_truth) {
         print_errors("in-plane", &s.err_inplane);

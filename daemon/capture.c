@@ -13,6 +13,7 @@
 #include "daemon/journal.h"
 #include "drivers/drv_sim.h"
 #include "fit/fit.h"
+#include "fit/stream.h"
 #include "planner/planner.h"
 #include "sim/scene.h"
 #include "sim/sim.h"
@@ -150,12 +151,31 @@ static void stop_axes(struct capture_devices *d)
         drv_axis_stop(d->azimuth, NULL);
 }
 
+/* Feed one journalled sample to the streaming fit (NULL: stop: all). A
+ * sample ends a level when the next point in progressive order belongs to
+ * another one. Returns 1 once the stop rule has decided. */
+static int stream_feed(fit_stream *fs, const struct plan *plan, const struct journal_sample *js,
+                       struct gonio_err *err)
+{
+    if (!fs)
+        return 0;
+    struct fit_sample s;
+    journal_sample_pair(js, &s.g);
+    memcpy(s.rgb, js->rgb, sizeof s.rgb);
+    const struct plan_point *pt = plan_point(plan, (size_t)js->point),
+                            *next = plan_point(plan, (size_t)js->point + 1);
+    int level_end = plan_current_order(plan) == PLAN_ORDER_PROGRESSIVE &&
+                    (!next || next->level != pt->level);
+    return fit_stream_add(fs, &s, level_end, err);
+}
+
 /* Measure every point the journal does not hold yet, in plan order. Sets
- * *aborted when the host asked to stop. */
+ * *aborted when the host asked to stop, *converged when the streaming fit
+ * decided that further points would not change the model. */
 static int acquire(const struct capture_config *cfg, const struct capture_inputs *in,
                    const struct capture_hooks *hooks, journal *j,
                    struct journal_sample **samples, size_t *n, int *aborted,
-                   struct gonio_err *err)
+                   fit_stream *fs, int *converged, struct gonio_err *err)
 {
     size_t count = plan_count(in->plan);
     unsigned char *done = calloc(count, 1);
@@ -177,6 +197,20 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
                                  cfg->out_dir, i + 1, p, count);
         }
         done[p] = 1;
+    }
+    /* A resumed capture replays its journal: the same samples give the
+     * same rounds, so a capture that had converged stays converged. */
+    for (size_t i = 0; i < *n && !*converged; i++) {
+        int rc = stream_feed(fs, in->plan, &all[i], err);
+        if (rc < 0) {
+            free(done);
+            return rc;
+        }
+        *converged = rc;
+    }
+    if (*converged) {
+        free(done);
+        return 0;
     }
     if (hooks->on_start)
         hooks->on_start(hooks->user, plan_name(in->plan), count, *n);
@@ -217,6 +251,12 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
             all[(*n)++] = s;
             if (hooks->on_sample)
                 hooks->on_sample(hooks->user, &s, *n, count);
+            rc = stream_feed(fs, in->plan, &s, err);
+            if (rc > 0) {
+                *converged = 1;
+                rc = 0;
+                break;
+            }
         }
     }
     if (hooks->close_devices)
@@ -228,8 +268,8 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
     return rc;
 }
 
-static int fit_samples(const struct journal_sample *js, size_t n, struct capture_summary *out,
-                       struct gonio_err *err)
+static int fit_samples(const struct journal_sample *js, size_t n, const struct brdf_abc *warm,
+                       struct capture_summary *out, struct gonio_err *err)
 {
     struct fit_sample *fs = malloc(n * sizeof *fs);
     if (!fs)
@@ -239,6 +279,7 @@ static int fit_samples(const struct journal_sample *js, size_t n, struct capture
         memcpy(fs[i].rgb, js[i].rgb, sizeof fs[i].rgb);
     }
     struct fit_options opt = fit_default_options();
+    opt.warm_start = warm; /* the streaming fit's last parameters, when there is one */
     struct fit_info info;
     double t0 = monotonic_s();
     int rc = fit_abc(fs, n, &opt, &out->params, &info, err);
@@ -308,8 +349,27 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
 
     struct journal_sample *samples = NULL;
     size_t n = 0;
-    int aborted = 0;
+    int aborted = 0, converged = 0;
     journal *j = NULL;
+    fit_stream *fs = NULL;
+    struct plan_stop stop = *plan_stop(in.plan);
+    if (cfg->stop && strcmp(cfg->stop, "all") && strcmp(cfg->stop, "converge")) {
+        inputs_free(&in);
+        return gonio_err_set(err, GONIO_EUSAGE, "--stop '%s': use all or converge", cfg->stop);
+    }
+    if (cfg->stop)
+        stop.kind = strcmp(cfg->stop, "all") ? PLAN_STOP_CONVERGE : PLAN_STOP_ALL;
+    if (stop.kind == PLAN_STOP_CONVERGE) {
+        struct fit_stream_options so = fit_stream_default_options();
+        so.tol = stop.tol;
+        so.rounds = stop.rounds;
+        so.every = stop.every;
+        so.min_points = stop.min_points;
+        if ((rc = fit_stream_new(&so, &fs, err)) < 0) {
+            inputs_free(&in);
+            return rc;
+        }
+    }
     rc = capture_files_prepare(cfg->out_dir, in.plan, &in.rig, &in.scene,
                                brdf_material_name(in.material), err);
     if (rc == 0) {
@@ -319,7 +379,7 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
         rc = j ? 0 : -abs(err ? err->code : EIO);
     }
     if (rc == 0) {
-        rc = acquire(cfg, &in, hooks, j, &samples, &n, &aborted, err);
+        rc = acquire(cfg, &in, hooks, j, &samples, &n, &aborted, fs, &converged, err);
         journal_close(j);
     }
     if (rc == 0) {
@@ -330,15 +390,18 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
         out->settle_s = (double)n * in.rig.settle_s;
         out->move_s = out->rig_time_s - out->settle_s - out->integration_s;
         snprintf(out->stop_reason, sizeof out->stop_reason, "%s",
-                 aborted ? "aborted" : "complete");
+                 aborted ? "aborted" : converged ? "converged" : "complete");
     }
     if (rc == 0 && !aborted)
-        rc = fit_samples(samples, n, out, err);
+        rc = fit_samples(samples, n, fs ? fit_stream_params(fs) : NULL, out, err);
+    if (rc == 0 && converged)
+        out->converged = 1; /* the stop rule decided: the capture converged */
     if (rc == 0 && !aborted)
         rc = assess_truth(in.material, out, err);
     if (rc == 0 && !aborted)
         rc = capture_files_results(cfg->out_dir, out, err);
     free(samples);
+    fit_stream_free(fs);
     inputs_free(&in);
     return rc;
 }

@@ -28,6 +28,7 @@ struct capture_config {
     const char *model;    /* "abc" */
     const char *out_dir;  /* the capture directory */
     const char *order;    /* overrides the plan's ordering, or NULL */
+    const char *stop;     /* "all" or "converge": overrides the plan's stop rule, or NULL */
     int quiet;            /* no progress lines on stderr */
 };
 
@@ -40,7 +41,7 @@ struct capture_summary {
     struct brdf_abc params;
     struct brdf_errors err_plan, err_inplane, err_full;
     int has_truth; /* inplane/full errors computed against the known material */
-    char stop_reason[32]; /* "complete", "aborted" */
+    char stop_reason[32]; /* "complete", "converged" (stop rule), "aborted" */
 };
 
 /* The devices a capture runs on. */
