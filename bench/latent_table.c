@@ -1,0 +1,205 @@
+/* latent_table: the latent model's acceptance table (docs/results-latent.md).
+ *
+ *   latent_table [--decoder FILE] [--markdown] [MATERIAL...]
+ *
+ * For each material (default: the 10 held-out study materials) the NBRDF
+ * network nbrdf:NAME is sampled at the points of the DS1..DS4 plans (built
+ * by the planner against the default rig) and at the oop200k domain subset;
+ * z is fitted to each sample set with the frozen decoder, and the fitted
+ * material is scored against the network on the full domain and on the
+ * in-plane domain (log error and relative RMSE, brdf/metrics.h). The
+ * acceptance ratio is full-domain log error (DS1 fit) / (oop200k fit).
+ * Needs the shared data (GONIO_SHARED or ../shared). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "brdf/domain.h"
+#include "brdf/material.h"
+#include "brdf/metrics.h"
+#include "fit/latent.h"
+#include "planner/planner.h"
+#include "planner/rig.h"
+
+enum { NSET = 5 };
+static const char *set_names[NSET] = {"ds1", "ds2", "ds3", "ds4", "oop200k"};
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Pairs of a plan's points, as the capture would measure them. */
+static int plan_pairs(const char *name, const struct plan_rig *rig, struct brdf_pair **out,
+                      size_t *n)
+{
+    struct gonio_err err = {0};
+    struct plan *p = NULL;
+    if (plan_load(name, rig, &p, &err) < 0) {
+        fprintf(stderr, "latent_table: %s\n", err.msg);
+        return -1;
+    }
+    *n = plan_count(p);
+    *out = malloc(*n * sizeof **out);
+    for (size_t i = 0; i < *n; i++) {
+        const struct plan_point *pt = plan_point(p, i);
+        if (pt->out_of_plane)
+            brdf_pair_spherical(pt->theta_i, pt->phi_i, pt->theta_o, pt->phi_o, &(*out)[i]);
+        else
+            brdf_pair_inplane(pt->theta_i, pt->theta_r, &(*out)[i]);
+    }
+    plan_free(p);
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    char dpath[4096];
+    latent_decoder_default_path(dpath, sizeof dpath);
+    int first = 1, markdown = 0;
+    while (first < argc && argv[first][0] == '-') {
+        if (!strcmp(argv[first], "--decoder") && first + 1 < argc) {
+            snprintf(dpath, sizeof dpath, "%s", argv[first + 1]);
+            first += 2;
+        } else if (!strcmp(argv[first], "--markdown")) {
+            markdown = 1;
+            first++;
+        } else {
+            fprintf(stderr, "usage: latent_table [--decoder FILE] [--markdown] [MATERIAL...]\n");
+            return 2;
+        }
+    }
+    const char *const *mats = latent_heldout_materials;
+    int nm = 10;
+    if (argc > first) {
+        mats = (const char *const *)argv + first;
+        nm = argc - first;
+    }
+    struct gonio_err err = {0};
+    latent_decoder *dec = latent_decoder_load(dpath, &err);
+    if (!dec) {
+        fprintf(stderr, "latent_table: %s\n", err.msg);
+        return 1;
+    }
+    struct plan_rig rig;
+    if (plan_rig_load("default", &rig, &err) < 0) {
+        fprintf(stderr, "latent_table: %s\n", err.msg);
+        return 1;
+    }
+    struct brdf_pair *sets[NSET];
+    size_t nset[NSET];
+    for (int s = 0; s < 4; s++)
+        if (plan_pairs(set_names[s], &rig, &sets[s], &nset[s]) < 0)
+            return 1;
+    struct brdf_domain oop, full, inpl;
+    if (brdf_domain_oop_random(&oop, BRDF_DOMAIN_OOP200K_N, BRDF_DOMAIN_OOP200K_SEED, &err) < 0 ||
+        brdf_domain_full(&full, &err) < 0 || brdf_domain_inplane(&inpl, &err) < 0) {
+        fprintf(stderr, "latent_table: %s\n", err.msg);
+        return 1;
+    }
+    sets[4] = oop.pairs;
+    nset[4] = oop.n;
+
+    printf("decoder %s (crc %08x, %zu training materials, nz %d)\n", dpath,
+           (unsigned)latent_decoder_crc(dec), latent_decoder_n_materials(dec),
+           latent_decoder_nz(dec));
+    printf("samples: ds1 %zu, ds2 %zu, ds3 %zu, ds4 %zu, oop200k %zu; full domain %zu, "
+           "in-plane domain %zu pairs\n\n",
+           nset[0], nset[1], nset[2], nset[3], nset[4], full.n, inpl.n);
+    if (markdown)
+        printf("| material | set | n | fit s | full log | full rRMSE | in-plane log | "
+               "in-plane rRMSE |\n|---|---|---:|---:|---:|---:|---:|---:|\n");
+    double sum_ratio = 0, sum_ds1 = 0, sum_oop = 0, sum_mean = 0;
+    double sum_t[NSET] = {0};
+    int pass = 0;
+    double ratio[64];
+    for (int mi = 0; mi < nm; mi++) {
+        char spec[128];
+        snprintf(spec, sizeof spec, "nbrdf:%s", mats[mi]);
+        brdf_material *truth = brdf_material_open(spec, &err);
+        if (!truth) {
+            fprintf(stderr, "latent_table: %s\n", err.msg);
+            return 1;
+        }
+        double full_log[NSET];
+        for (int s = 0; s < NSET; s++) {
+            size_t n = nset[s];
+            struct fit_sample *smp = malloc(n * sizeof *smp);
+            double *rgb = malloc(3 * n * sizeof *rgb);
+            brdf_material_eval(truth, sets[s], n, rgb);
+            for (size_t k = 0; k < n; k++) {
+                smp[k].g = sets[s][k];
+                memcpy(smp[k].rgb, rgb + 3 * k, sizeof smp[k].rgb);
+            }
+            double z[LATENT_MAX_NZ];
+            struct latent_fit_info info;
+            double t0 = now_s();
+            int rc = fit_latent(dec, smp, n, NULL, z, &info, &err);
+            double t = now_s() - t0;
+            free(smp);
+            free(rgb);
+            if (rc < 0) {
+                fprintf(stderr, "latent_table: %s %s: %s\n", mats[mi], set_names[s], err.msg);
+                return 1;
+            }
+            brdf_material *model = latent_material(dec, z, "latent");
+            struct brdf_errors ef, ei;
+            brdf_errors_material(truth, model, &full, &ef, NULL);
+            brdf_errors_material(truth, model, &inpl, &ei, NULL);
+            brdf_material_free(model);
+            full_log[s] = ef.log;
+            sum_t[s] += t;
+            if (markdown)
+                printf("| %s | %s | %zu | %.2f | %.4f | %.4f | %.4f | %.4f |\n", mats[mi],
+                       set_names[s], n, t, ef.log, ef.rel_rmse, ei.log, ei.rel_rmse);
+            else
+                printf("%-24s %-8s n %6zu  fit %6.2f s  full log %.4f rRMSE %.4f  in-plane "
+                       "log %.4f rRMSE %.4f  (fit loss %.4f)\n",
+                       mats[mi], set_names[s], n, t, ef.log, ef.rel_rmse, ei.log, ei.rel_rmse,
+                       info.loss);
+            fflush(stdout);
+        }
+        /* the mean latent, for scale */
+        brdf_material *mean = latent_material(dec, latent_decoder_mean_latent(dec), "mean");
+        struct brdf_errors em;
+        brdf_errors_material(truth, mean, &full, &em, NULL);
+        brdf_material_free(mean);
+        brdf_material_free(truth);
+        ratio[mi < 64 ? mi : 63] = full_log[0] / full_log[4];
+        sum_ratio += full_log[0] / full_log[4];
+        sum_ds1 += full_log[0];
+        sum_oop += full_log[4];
+        sum_mean += em.log;
+        pass += full_log[0] <= 1.25 * full_log[4];
+        if (!markdown)
+            printf("%-24s acceptance: full log DS1 %.4f / oop200k %.4f = %.3f (%s); mean latent "
+                   "%.4f\n\n",
+                   mats[mi], full_log[0], full_log[4], full_log[0] / full_log[4],
+                   full_log[0] <= 1.25 * full_log[4] ? "ok" : "FAIL", em.log);
+    }
+    printf("\n%s acceptance (full-domain log error, DS1 fit / oop200k fit, limit 1.25):\n",
+           markdown ? "\n" : "");
+    if (markdown)
+        printf("| material | ratio |\n|---|---:|\n");
+    for (int mi = 0; mi < nm && mi < 64; mi++)
+        printf(markdown ? "| %s | %.3f |\n" : "  %-24s %.3f\n", mats[mi], ratio[mi]);
+    printf("\nmean full log error: DS1 fit %.4f, oop200k fit %.4f, mean latent %.4f; "
+           "mean ratio %.3f; ratio of means %.3f; %d/%d within 1.25\n",
+           sum_ds1 / nm, sum_oop / nm, sum_mean / nm, sum_ratio / nm, sum_ds1 / sum_oop, pass,
+           nm);
+    printf("mean fit time per plan (s):");
+    for (int s = 0; s < NSET; s++)
+        printf(" %s %.2f", set_names[s], sum_t[s] / nm);
+    printf("\n");
+    for (int s = 0; s < 4; s++)
+        free(sets[s]);
+    brdf_domain_free(&oop);
+    brdf_domain_free(&full);
+    brdf_domain_free(&inpl);
+    latent_decoder_free(dec);
+    return 0;
+}

@@ -1,0 +1,129 @@
+/* The latent-code BRDF model, in the spirit of neural layered BRDFs and of
+ * auto-decoders (DeepSDF): one MLP decoder, trained once across a library
+ * of materials, maps (direction encoding, latent vector z) to RGB; a new
+ * material is described by its z alone. The decoder knows the whole
+ * hemisphere, so z fitted to in-plane samples gives an out-of-plane BRDF.
+ *
+ * Decoder (docs/latent.md):
+ *   x  = (sin th, 0, cos th, sin td cos pd, sin td sin pd, cos td)   (NBRDF encoding)
+ *   a1 = relu([x, z] W1 + b1), ak = relu(a(k-1) Wk + bk), o = aL Wo + bo
+ *   f  = max(0, exp(o) - 1)                                            (1/sr, RGB)
+ *
+ * Training (latent_train) fits the decoder weights and one z per training
+ * material jointly, with Adam, on the loss |log(1 + f cos ti) - log(1 +
+ * fhat cos ti)| at random direction pairs of each material's NBRDF network.
+ * Fitting (fit_latent) freezes the decoder and fits z only. */
+#ifndef GONIO_FIT_LATENT_H
+#define GONIO_FIT_LATENT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "brdf/material.h"
+#include "common/err.h"
+#include "fit/fit.h"
+
+#define LATENT_FILE_VERSION 1
+#define LATENT_NIN 6          /* direction encoding */
+#define LATENT_NOUT 3         /* RGB */
+#define LATENT_MAX_LAYERS 4   /* hidden layers */
+#define LATENT_MAX_WIDTH 256  /* hidden units per layer */
+#define LATENT_MAX_NZ 64
+#define LATENT_NAME_MAX 64
+
+/* The 10 study materials: never trained on, used for acceptance. */
+extern const char *const latent_heldout_materials[10];
+
+typedef struct latent_decoder latent_decoder;
+
+/* Shape and training settings. */
+struct latent_train_options {
+    int nz;               /* latent dimension */
+    int layers;           /* hidden layers */
+    int width;            /* units per hidden layer */
+    long steps;           /* Adam steps; each sees every material */
+    int samples_per_step; /* random pairs per material per step */
+    double lr, lr_z;      /* Adam step sizes of weights and latents (cosine decay) */
+    double lambda_z;      /* weight of the mean of z^2 in the loss (latent prior) */
+    uint64_t seed;        /* initial weights, latents and every sample */
+    int threads;          /* worker threads (results do not depend on it) */
+    int quiet;            /* no progress on stderr */
+};
+
+struct latent_train_options latent_train_default_options(void);
+
+/* Train a decoder on the named materials (brdf_material_open("nbrdf:NAME")
+ * each). Names of the held-out list are refused. Deterministic: the same
+ * options and materials give bit-identical weights whatever the thread
+ * count. Returns 0 or a negative code with err set. */
+int latent_train(const char *const *materials, size_t n, const struct latent_train_options *opt,
+                 latent_decoder **out, struct gonio_err *err);
+
+/* The NBRDF materials of the shared folder minus the held-out ones, sorted
+ * by name: the default training set. *names (free with latent_names_free)
+ * and the count. */
+int latent_default_training_set(char ***names, size_t *n, struct gonio_err *err);
+void latent_names_free(char **names, size_t n);
+
+/* Save / load the versioned weight file (docs/latent.md). Load refuses a
+ * damaged file (bad magic/version/sizes, short or long data, CRC mismatch,
+ * non-finite weight) with err naming the file. */
+int latent_decoder_save(const latent_decoder *d, const char *path, struct gonio_err *err);
+latent_decoder *latent_decoder_load(const char *path, struct gonio_err *err);
+
+/* <gonio_config_dir()>/models/latent-decoder.gld: the committed decoder. */
+int latent_decoder_default_path(char *buf, size_t size);
+
+void latent_decoder_free(latent_decoder *d);
+
+/* Accessors. */
+int latent_decoder_nz(const latent_decoder *d);
+size_t latent_decoder_n_materials(const latent_decoder *d);
+const char *latent_decoder_material(const latent_decoder *d, size_t i);
+/* Training material i's latent (nz values), or NULL. */
+const double *latent_decoder_latent(const latent_decoder *d, size_t i);
+/* Index of a training material by name, or -1. */
+long latent_decoder_find(const latent_decoder *d, const char *name);
+/* The mean of the training latents (nz values). */
+const double *latent_decoder_mean_latent(const latent_decoder *d);
+/* CRC-32 of the weight file's data block: identifies the decoder in model
+ * files. */
+uint32_t latent_decoder_crc(const latent_decoder *d);
+uint64_t latent_decoder_seed(const latent_decoder *d);
+
+/* Evaluate the decoder for latent z at n pairs into rgb[3n] (1/sr). */
+void latent_decoder_eval(const latent_decoder *d, const double *z, const struct brdf_pair *pairs,
+                         size_t n, double *rgb);
+
+/* A material: the decoder (copied) with latent z. name may be NULL
+ * ("latent"). NULL on out of memory. */
+brdf_material *latent_material(const latent_decoder *d, const double *z, const char *name);
+
+struct latent_fit_options {
+    int max_iter;         /* Adam iterations per start */
+    int n_starts;         /* starts: best training latents by initial loss, plus the mean */
+    size_t max_samples;   /* larger inputs use a seeded random subset of this size */
+    double lr;            /* Adam step size (cosine decay to lr / 20) */
+    double lambda_z;      /* prior weight; < 0: the decoder's training value */
+    uint64_t seed;
+};
+
+struct latent_fit_options latent_fit_default_options(void);
+
+struct latent_fit_info {
+    double loss;          /* final mean |log residual| over used samples and channels */
+    double start_loss;    /* the same at the winning start */
+    int iterations;
+    int starts;
+    size_t used;          /* samples in the fit (after dropping and subsetting) */
+    size_t dropped;       /* non-finite, below the horizon, or 1 + f cos <= 0 */
+};
+
+/* Fit z (nz values, written to z) to n samples with the decoder frozen.
+ * Fewer than 3 usable samples is a GONIO_EFIT error. opt and info may be
+ * NULL. Deterministic for opt->seed. */
+int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t n,
+               const struct latent_fit_options *opt, double *z, struct latent_fit_info *info,
+               struct gonio_err *err);
+
+#endif

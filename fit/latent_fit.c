@@ -1,0 +1,210 @@
+/* Fitting a material's latent with the decoder frozen.
+ *
+ * The objective is the training objective of one material: mean |log(1 +
+ * fhat cos ti) - log(1 + f cos ti)| + lambda_z mean(z^2), so a fitted z is
+ * what training would have given the material (MAP under the latent prior
+ * the decoder was trained with). It is minimised by Adam on z, full batch,
+ * from the training latents that fit the samples best at the start: the
+ * L1 objective is not smooth (ReLU kinks, |r|) and Gauss-Newton on it would
+ * have to fall back to least squares, which lets a few bad specular samples
+ * pull z; with dim(z) ~ 12 an Adam iteration costs one backward pass. */
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "brdf/domain.h"
+#include "fit/latent_private.h"
+
+#define LF_PI 3.14159265358979323846
+
+struct latent_fit_options latent_fit_default_options(void)
+{
+    return (struct latent_fit_options){
+        .max_iter = 300,
+        .n_starts = 2,
+        .max_samples = 4096,
+        .lr = 0.05,
+        .lambda_z = -1,
+        .seed = 1,
+    };
+}
+
+static double objective(const latent_decoder *d, const double *z, size_t n, const double *x,
+                        const double *c, const double *t, double lambda, double *gz)
+{
+    double scale = 1.0 / (3.0 * (double)n);
+    if (gz)
+        memset(gz, 0, (size_t)d->nz * sizeof *gz);
+    double l = latent_net_backprop(d, z, n, x, c, t, scale, NULL, gz) * scale;
+    double r = 0;
+    for (int k = 0; k < d->nz; k++) {
+        r += z[k] * z[k];
+        if (gz)
+            gz[k] += 2.0 * lambda / d->nz * z[k];
+    }
+    return l + lambda * r / d->nz;
+}
+
+/* The mean |r| part only, for reporting. */
+static double data_loss(const latent_decoder *d, const double *z, size_t n, const double *x,
+                        const double *c, const double *t)
+{
+    return latent_net_backprop(d, z, n, x, c, t, 0.0, NULL, NULL) / (3.0 * (double)n);
+}
+
+static double adam_z(const latent_decoder *d, double *z, size_t n, const double *x,
+                     const double *c, const double *t, double lambda,
+                     const struct latent_fit_options *o)
+{
+    const int nz = d->nz;
+    double m1[LATENT_MAX_NZ] = {0}, m2[LATENT_MAX_NZ] = {0}, g[LATENT_MAX_NZ];
+    double best[LATENT_MAX_NZ], best_f = INFINITY;
+    for (int it = 0; it < o->max_iter; it++) {
+        double f = objective(d, z, n, x, c, t, lambda, g);
+        if (f < best_f) {
+            best_f = f;
+            memcpy(best, z, (size_t)nz * sizeof *z);
+        }
+        double q = o->max_iter > 1 ? (double)it / (o->max_iter - 1) : 1.0;
+        double lr = o->lr * (0.05 + 0.95 * 0.5 * (1 + cos(LF_PI * q)));
+        double c1 = 1 - pow(0.9, it + 1), c2 = 1 - pow(0.999, it + 1);
+        for (int k = 0; k < nz; k++) {
+            m1[k] = 0.9 * m1[k] + 0.1 * g[k];
+            m2[k] = 0.999 * m2[k] + 0.001 * g[k] * g[k];
+            z[k] -= lr * (m1[k] / c1) / (sqrt(m2[k] / c2) + 1e-12);
+        }
+    }
+    double f = objective(d, z, n, x, c, t, lambda, NULL);
+    if (f < best_f) {
+        best_f = f;
+        memcpy(best, z, (size_t)nz * sizeof *z);
+    }
+    memcpy(z, best, (size_t)nz * sizeof *z);
+    return best_f;
+}
+
+int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t n,
+               const struct latent_fit_options *opt, double *z, struct latent_fit_info *info,
+               struct gonio_err *err)
+{
+    struct latent_fit_options o = opt ? *opt : latent_fit_default_options();
+    double lambda = o.lambda_z >= 0 ? o.lambda_z : d->train.lambda_z;
+    if (o.max_iter < 1)
+        o.max_iter = 1;
+    if (o.max_samples < 3)
+        o.max_samples = 3;
+    size_t *idx = malloc((n + 1) * sizeof *idx);
+    if (!idx)
+        return gonio_err_set(err, ENOMEM, "fit_latent: out of memory");
+    size_t used = 0;
+    for (size_t i = 0; i < n; i++) {
+        const struct fit_sample *s = &samples[i];
+        double ci = s->g.wi[2], co = s->g.wo[2];
+        int ok = isfinite(ci) && isfinite(co) && ci > 0 && co > 0 && isfinite(s->g.theta_h) &&
+                 isfinite(s->g.theta_d) && isfinite(s->g.phi_d);
+        for (int ch = 0; ch < 3 && ok; ch++)
+            ok = isfinite(s->rgb[ch]) && 1 + s->rgb[ch] * ci > 0;
+        if (ok)
+            idx[used++] = i;
+    }
+    size_t dropped = n - used;
+    if (used < 3) {
+        free(idx);
+        return gonio_err_set(err, GONIO_EFIT,
+                             "fit_latent: %zu usable samples of %zu (need at least 3)", used, n);
+    }
+    /* A seeded subset for large inputs: partial Fisher-Yates, kept in input order. */
+    if (used > o.max_samples) {
+        uint64_t s = o.seed ^ 0x243f6a8885a308d3ULL;
+        for (size_t k = 0; k < o.max_samples; k++) {
+            size_t j = k + (size_t)(brdf_splitmix64(&s) % (uint64_t)(used - k));
+            size_t tmp = idx[k];
+            idx[k] = idx[j];
+            idx[j] = tmp;
+        }
+        used = o.max_samples;
+        for (size_t a = 1; a < used; a++) /* insertion sort: order-independent result */
+            for (size_t b = a; b > 0 && idx[b - 1] > idx[b]; b--) {
+                size_t tmp = idx[b];
+                idx[b] = idx[b - 1];
+                idx[b - 1] = tmp;
+            }
+    }
+    double *x = malloc(used * LATENT_NIN * sizeof *x), *c = malloc(used * sizeof *c),
+           *t = malloc(used * 3 * sizeof *t);
+    if (!x || !c || !t) {
+        free(idx);
+        free(x);
+        free(c);
+        free(t);
+        return gonio_err_set(err, ENOMEM, "fit_latent: out of memory");
+    }
+    for (size_t k = 0; k < used; k++) {
+        const struct fit_sample *s = &samples[idx[k]];
+        latent_encode(&s->g, x + LATENT_NIN * k);
+        c[k] = s->g.wi[2];
+        for (int ch = 0; ch < 3; ch++)
+            t[3 * k + ch] = log1p(s->rgb[ch] * c[k]);
+    }
+    /* Starts: score every training latent and the mean on (a subset of) the
+     * samples, keep the n_starts best. */
+    const int nz = d->nz;
+    size_t ncand = d->n_materials + 1;
+    size_t nscore = used < 1024 ? used : 1024;
+    int ns = o.n_starts < 1 ? 1 : o.n_starts;
+    if ((size_t)ns > ncand)
+        ns = (int)ncand;
+    size_t best_i[16];
+    double best_s[16];
+    if (ns > 16)
+        ns = 16;
+    for (int k = 0; k < ns; k++) {
+        best_i[k] = 0;
+        best_s[k] = INFINITY;
+    }
+    for (size_t m = 0; m < ncand; m++) {
+        const double *zc = m < d->n_materials ? d->latents + m * (size_t)nz : d->mean;
+        double sc = objective(d, zc, nscore, x, c, t, lambda, NULL);
+        for (int k = 0; k < ns; k++)
+            if (sc < best_s[k]) {
+                for (int q = ns - 1; q > k; q--) {
+                    best_s[q] = best_s[q - 1];
+                    best_i[q] = best_i[q - 1];
+                }
+                best_s[k] = sc;
+                best_i[k] = m;
+                break;
+            }
+    }
+    double zbest[LATENT_MAX_NZ], fbest = INFINITY, start_loss = NAN;
+    for (int k = 0; k < ns; k++) {
+        double zk[LATENT_MAX_NZ];
+        size_t m = best_i[k];
+        memcpy(zk, m < d->n_materials ? d->latents + m * (size_t)nz : d->mean,
+               (size_t)nz * sizeof *zk);
+        double s0 = data_loss(d, zk, used, x, c, t);
+        double f = adam_z(d, zk, used, x, c, t, lambda, &o);
+        if (f < fbest) {
+            fbest = f;
+            start_loss = s0;
+            memcpy(zbest, zk, (size_t)nz * sizeof *zk);
+        }
+    }
+    memcpy(z, zbest, (size_t)nz * sizeof *z);
+    if (info) {
+        info->loss = data_loss(d, zbest, used, x, c, t);
+        info->start_loss = start_loss;
+        info->iterations = o.max_iter;
+        info->starts = ns;
+        info->used = used;
+        info->dropped = dropped;
+    }
+    free(idx);
+    free(x);
+    free(c);
+    free(t);
+    if (!isfinite(fbest))
+        return gonio_err_set(err, GONIO_EFIT, "fit_latent: objective not finite");
+    return 0;
+}
