@@ -22,6 +22,7 @@ static const struct {
     {"shutdown", cmd_shutdown, "stop goniod"},
     {"export", cmd_export, "export a material as a MERL .binary table"},
     {"results", cmd_results, "tabulate the results of capture directories"},
+    {"train-decoder", cmd_train_decoder, "train the latent model's decoder (docs/latent.md)"},
 };
 
 static void usage(FILE *out)
