@@ -1,0 +1,240 @@
+/* A Modbus bus: one libmodbus context shared by the devices on it, with
+ * bounded retries and a flush after every failed exchange, so that a reply
+ * arriving late is never taken for the answer to the next request. */
+#include <errno.h>
+#include <math.h>
+#include <modbus.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "drivers/drv_modbus_private.h"
+
+struct drv_modbus_bus {
+    modbus_t *ctx;
+    char where[300]; /* "/dev/pts/3" or "127.0.0.1:1502", for messages */
+    double timeout_s, time_scale;
+    int retries, trace;
+};
+
+void drv_modbus_bus_cfg_default(struct drv_modbus_bus_cfg *cfg)
+{
+    memset(cfg, 0, sizeof *cfg);
+    cfg->baud = 115200;
+    cfg->parity = 'N';
+    cfg->data_bits = 8;
+    cfg->stop_bits = 1;
+    cfg->timeout_s = 0.5;
+    cfg->retries = 2;
+    cfg->time_scale = 1.0;
+}
+
+static drv_modbus_bus *bus_finish(modbus_t *ctx, const struct drv_modbus_bus_cfg *cfg,
+                                  const char *where, struct gonio_err *err)
+{
+    if (!ctx) {
+        gonio_err_set(err, EINVAL, "modbus %s: %s", where, modbus_strerror(errno));
+        return NULL;
+    }
+    double timeout = cfg->timeout_s > 0 ? cfg->timeout_s : 0.5;
+    double scale = cfg->time_scale > 0 ? cfg->time_scale : 1.0;
+    if (!isfinite(timeout) || timeout > 3600 || !isfinite(scale)) {
+        modbus_free(ctx);
+        gonio_err_set(err, EINVAL, "modbus %s: timeout %g s, time scale %g", where, timeout,
+                      scale);
+        return NULL;
+    }
+    uint32_t sec = (uint32_t)timeout;
+    modbus_set_response_timeout(ctx, sec, (uint32_t)((timeout - sec) * 1e6));
+    if (modbus_connect(ctx) < 0) {
+        int e = errno;
+        modbus_free(ctx);
+        gonio_err_set(err, GONIO_EDEVICE, "modbus %s: cannot connect: %s", where,
+                      modbus_strerror(e));
+        return NULL;
+    }
+    drv_modbus_bus *bus = calloc(1, sizeof *bus);
+    if (!bus) {
+        modbus_close(ctx);
+        modbus_free(ctx);
+        gonio_err_set(err, ENOMEM, "modbus %s: out of memory", where);
+        return NULL;
+    }
+    bus->ctx = ctx;
+    snprintf(bus->where, sizeof bus->where, "%s", where);
+    bus->timeout_s = timeout;
+    bus->time_scale = scale;
+    bus->retries = cfg->retries > 0 ? cfg->retries : 0;
+    bus->trace = cfg->trace;
+    return bus;
+}
+
+drv_modbus_bus *drv_modbus_bus_new_rtu(const struct drv_modbus_bus_cfg *cfg,
+                                       struct gonio_err *err)
+{
+    if (!cfg->device || !cfg->device[0]) {
+        gonio_err_set(err, EINVAL, "modbus RTU: no serial device given");
+        return NULL;
+    }
+    char parity = cfg->parity ? cfg->parity : 'N';
+    if (parity != 'N' && parity != 'E' && parity != 'O') {
+        gonio_err_set(err, EINVAL, "modbus %s: parity '%c': use N, E or O", cfg->device, parity);
+        return NULL;
+    }
+    modbus_t *ctx = modbus_new_rtu(cfg->device, cfg->baud > 0 ? cfg->baud : 115200, parity,
+                                   cfg->data_bits > 0 ? cfg->data_bits : 8,
+                                   cfg->stop_bits > 0 ? cfg->stop_bits : 1);
+    return bus_finish(ctx, cfg, cfg->device, err);
+}
+
+drv_modbus_bus *drv_modbus_bus_new_tcp(const struct drv_modbus_bus_cfg *cfg,
+                                       struct gonio_err *err)
+{
+    if (!cfg->host || !cfg->host[0] || cfg->port <= 0 || cfg->port > 65535) {
+        gonio_err_set(err, EINVAL, "modbus TCP: host '%s' port %d", cfg->host ? cfg->host : "",
+                      cfg->port);
+        return NULL;
+    }
+    char where[300];
+    snprintf(where, sizeof where, "%s:%d", cfg->host, cfg->port);
+    return bus_finish(modbus_new_tcp(cfg->host, cfg->port), cfg, where, err);
+}
+
+void drv_modbus_bus_free(drv_modbus_bus *bus)
+{
+    if (!bus)
+        return;
+    modbus_close(bus->ctx);
+    modbus_free(bus->ctx);
+    free(bus);
+}
+
+void drv_modbus_bus_set_trace(drv_modbus_bus *bus, int on)
+{
+    bus->trace = on;
+}
+
+double drv_modbus_time_scale(const drv_modbus_bus *bus)
+{
+    return bus->time_scale;
+}
+
+double drv_modbus_timeout(const drv_modbus_bus *bus)
+{
+    return bus->timeout_s;
+}
+
+double drv_modbus_wall(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void drv_modbus_sleep(double seconds)
+{
+    if (!(seconds > 0))
+        return;
+    struct timespec ts = {.tv_sec = (time_t)seconds};
+    ts.tv_nsec = (long)((seconds - (double)ts.tv_sec) * 1e9);
+    while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
+        ;
+}
+
+float drv_modbus_get_float(const uint16_t *r)
+{
+    uint32_t bits = drv_modbus_get32(r);
+    float f;
+    memcpy(&f, &bits, sizeof f);
+    return f;
+}
+
+void drv_modbus_put_float(uint16_t *r, float f)
+{
+    uint32_t bits;
+    memcpy(&bits, &f, sizeof bits);
+    drv_modbus_put32(r, bits);
+}
+
+static const char *exception_name(int code)
+{
+    switch (code) {
+    case MODBUS_EXCEPTION_ILLEGAL_FUNCTION: return "illegal function";
+    case MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS: return "illegal data address";
+    case MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE: return "illegal data value";
+    case MODBUS_EXCEPTION_SLAVE_OR_SERVER_FAILURE: return "slave device failure";
+    case MODBUS_EXCEPTION_SLAVE_OR_SERVER_BUSY: return "slave device busy";
+    default: return "exception";
+    }
+}
+
+static void trace(const drv_modbus_bus *bus, int slave, int write, int addr, int n,
+                  const uint16_t *regs, int rc, int e, double ms)
+{
+    fprintf(stderr, "modbus %s: slave %d %s 0x%04x+%d", bus->where, slave,
+            write ? "write" : "read", (unsigned)addr, n);
+    if (rc >= 0) {
+        fputs(write ? " [" : " -> [", stderr);
+        for (int i = 0; i < n && i < 16; i++)
+            fprintf(stderr, "%s%04x", i ? " " : "", regs[i]);
+        fprintf(stderr, "%s] %.2f ms\n", n > 16 ? " ..." : "", ms);
+    } else {
+        fprintf(stderr, " failed: %s (%.2f ms)\n", modbus_strerror(e), ms);
+    }
+}
+
+static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, uint16_t *regs,
+                    const char *who, struct gonio_err *err)
+{
+    int e = 0;
+    for (int attempt = 0; attempt <= bus->retries; attempt++) {
+        double t0 = bus->trace ? drv_modbus_wall() : 0;
+        int rc = modbus_set_slave(bus->ctx, slave);
+        if (rc == 0) {
+            if (write && n == 1)
+                rc = modbus_write_register(bus->ctx, addr, regs[0]) == 1 ? 1 : -1;
+            else if (write)
+                rc = modbus_write_registers(bus->ctx, addr, n, regs);
+            else
+                rc = modbus_read_registers(bus->ctx, addr, n, regs);
+        }
+        e = errno;
+        if (bus->trace)
+            trace(bus, slave, write, addr, n, regs, rc == n ? 0 : -1, e,
+                  1e3 * (drv_modbus_wall() - t0));
+        if (rc == n)
+            return 0;
+        /* An exception is the device's considered answer: no retry. */
+        if (e > MODBUS_ENOBASE && e < EMBBADCRC)
+            return gonio_err_set(err, GONIO_EDEVICE,
+                                 "%s (slave %d): %s register 0x%04x (%d): exception %d (%s)",
+                                 who, slave, write ? "writing" : "reading", (unsigned)addr, n,
+                                 e - MODBUS_ENOBASE, exception_name(e - MODBUS_ENOBASE));
+        /* Whatever else went wrong (no answer, a garbled or foreign one),
+         * drop what the line holds before trying again. */
+        modbus_flush(bus->ctx);
+    }
+    if (e == ETIMEDOUT)
+        return gonio_err_set(err, ETIMEDOUT,
+                             "%s (slave %d) on %s: no answer within %g s (%d attempts)", who,
+                             slave, bus->where, bus->timeout_s, bus->retries + 1);
+    return gonio_err_set(err, GONIO_EDEVICE, "%s (slave %d) on %s: %s (%d attempts)", who, slave,
+                         bus->where, modbus_strerror(e), bus->retries + 1);
+}
+
+int drv_modbus_read(drv_modbus_bus *bus, int slave, int addr, int n, uint16_t *out,
+                    const char *who, struct gonio_err *err)
+{
+    return transact(bus, slave, 0, addr, n, out, who, err);
+}
+
+int drv_modbus_write(drv_modbus_bus *bus, int slave, int addr, int n, const uint16_t *regs,
+                     const char *who, struct gonio_err *err)
+{
+    uint16_t copy[MODBUS_MAX_WRITE_REGISTERS];
+    if (n < 1 || n > MODBUS_MAX_WRITE_REGISTERS)
+        return gonio_err_set(err, EINVAL, "%s: %d registers in one write", who, n);
+    memcpy(copy, regs, (size_t)n * sizeof *copy);
+    return transact(bus, slave, 1, addr, n, copy, who, err);
+}

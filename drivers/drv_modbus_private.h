@@ -1,0 +1,42 @@
+/* Inside the Modbus backend: register transactions on a bus, shared by the
+ * axis, detector and clock files. Only drv_modbus_bus.c sees libmodbus. */
+#ifndef GONIO_DRIVERS_DRV_MODBUS_PRIVATE_H
+#define GONIO_DRIVERS_DRV_MODBUS_PRIVATE_H
+
+#include <stdint.h>
+
+#include "drivers/drv_modbus.h"
+
+/* Read or write n holding registers at addr of slave, with the bus's
+ * timeout and retries. who names the device in messages ("axis arm"). */
+int drv_modbus_read(drv_modbus_bus *bus, int slave, int addr, int n, uint16_t *out,
+                    const char *who, struct gonio_err *err);
+int drv_modbus_write(drv_modbus_bus *bus, int slave, int addr, int n, const uint16_t *regs,
+                     const char *who, struct gonio_err *err);
+
+/* Simulated seconds per wall second on this bus (1 on hardware). */
+double drv_modbus_time_scale(const drv_modbus_bus *bus);
+/* The response timeout, wall seconds. */
+double drv_modbus_timeout(const drv_modbus_bus *bus);
+
+/* Wall clock (monotonic) and wall sleep, seconds. */
+double drv_modbus_wall(void);
+void drv_modbus_sleep(double seconds);
+
+/* 32-bit values as two registers, upper word first (the AZ convention);
+ * floats are binary32 bit patterns packed the same way. */
+static inline uint32_t drv_modbus_get32(const uint16_t *r)
+{
+    return ((uint32_t)r[0] << 16) | r[1];
+}
+
+static inline void drv_modbus_put32(uint16_t *r, uint32_t v)
+{
+    r[0] = (uint16_t)(v >> 16);
+    r[1] = (uint16_t)(v & 0xFFFFu);
+}
+
+float drv_modbus_get_float(const uint16_t *r);
+void drv_modbus_put_float(uint16_t *r, float f);
+
+#endif
