@@ -6,6 +6,7 @@
 int cmd_plan(int argc, char **argv);
 int cmd_capture(int argc, char **argv);
 int cmd_export(int argc, char **argv);
+int cmd_fit(int argc, char **argv);
 int cmd_results(int argc, char **argv);
 int cmd_train_decoder(int argc, char **argv);
 /* cmd_daemon.c: the commands that talk to goniod. cmd_capture_any runs

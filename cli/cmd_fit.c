@@ -1,0 +1,264 @@
+/* gonio fit SAMPLES --model NAME [-o MODEL_FILE] [--seed N]: fit a
+ * registered model (fit/models.h) to a capture's samples and write its
+ * model file (docs/models.md). */
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+
+#include "brdf/domain.h"
+#include "brdf/metrics.h"
+#include "cli/commands.h"
+#include "daemon/journal.h"
+#include "fit/mlp.h"
+#include "fit/model_file.h"
+#include "fit/models.h"
+
+static void usage(FILE *out)
+{
+    fprintf(out, "usage: gonio fit SAMPLES --model NAME [-o MODEL_FILE] [--seed N] [--epochs N]\n"
+                 "                 [--truth SPEC] [--quiet]\n"
+                 "  SAMPLES: a capture directory or its samples.csv; for mlp-spectral a\n"
+                 "           spectral CSV (theta_i,theta_r,wavelength_nm,value)\n"
+                 "  -o: default SAMPLES_DIR/NAME.model\n"
+                 "  --truth: also report errors against SPEC on the in-plane and full domains\n"
+                 "models:\n");
+    for (size_t i = 0; fit_model_at(i); i++)
+        fprintf(out, "  %-13s %s\n", fit_model_at(i)->name, fit_model_at(i)->summary);
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int read_rgb(const char *path, struct fit_sample **out, size_t *n, struct gonio_err *err)
+{
+    struct journal_sample *js = NULL;
+    size_t m = 0;
+    int rc = journal_read(path, &js, &m, err);
+    if (rc < 0)
+        return rc;
+    struct fit_sample *s = malloc((m ? m : 1) * sizeof *s);
+    if (!s) {
+        free(js);
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: out of memory", path);
+    }
+    for (size_t i = 0; i < m; i++) {
+        journal_sample_pair(&js[i], &s[i].g);
+        memcpy(s[i].rgb, js[i].rgb, sizeof s[i].rgb);
+    }
+    free(js);
+    *out = s;
+    *n = m;
+    return 0;
+}
+
+static void print_errors(const char *label, const struct brdf_errors *e)
+{
+    printf("%-10s log %.4f, rel_rmse %.4f (%zu pairs", label, e->log, e->rel_rmse, e->n_used);
+    if (e->n_skipped)
+        printf(", %zu without data", e->n_skipped);
+    printf(")\n");
+}
+
+/* Errors of the model against the truth material on a reference domain. */
+static int truth_errors(const char *label, const brdf_material *truth, const brdf_material *m,
+                        int full, struct gonio_err *err)
+{
+    struct brdf_domain d;
+    int rc = full ? brdf_domain_full(&d, err) : brdf_domain_inplane(&d, err);
+    if (rc < 0)
+        return rc;
+    struct brdf_errors e;
+    rc = brdf_errors_material(truth, m, &d, &e, err);
+    brdf_domain_free(&d);
+    if (rc < 0)
+        return rc;
+    print_errors(label, &e);
+    return 0;
+}
+
+/* Mean log error of the spectral model on its own samples. */
+static int spectral_errors(const char *model_path, const struct fit_spectral_sample *s,
+                           size_t n, struct gonio_err *err)
+{
+    struct fit_model_file *f = fit_model_file_read(model_path, err);
+    if (!f)
+        return -1;
+    struct fit_mlp net;
+    int rc = fit_mlp_from_file(f, model_path, &net, err);
+    fit_model_file_free(f);
+    if (rc)
+        return rc;
+    double sum = 0, swd = 0, swf = 0;
+    size_t used = 0;
+    for (size_t i = 0; i < n; i++) {
+        double u[3] = {s[i].theta_i, s[i].theta_r, s[i].wavelength_nm}, v;
+        double c = cos(s[i].theta_i * BRDF_DEG);
+        if (!(c > 0) || !isfinite(s[i].value))
+            continue;
+        fit_mlp_spectral_eval(&net, u, 1, &v);
+        sum += fabs(log1p(v * c) - log1p(s[i].value * c));
+        swd += c * (v - s[i].value) * (v - s[i].value);
+        swf += c * s[i].value * s[i].value;
+        used++;
+    }
+    fit_mlp_free(&net);
+    printf("%-10s log %.4f, rel_rmse %.4f (%zu samples)\n", "samples", used ? sum / used : NAN,
+           swf > 0 ? sqrt(swd / swf) : NAN, used);
+    return 0;
+}
+
+int cmd_fit(int argc, char **argv)
+{
+    static const struct option opts[] = {
+        {"model", required_argument, NULL, 'm'}, {"output", required_argument, NULL, 'o'},
+        {"seed", required_argument, NULL, 's'},  {"epochs", required_argument, NULL, 'e'},
+        {"truth", required_argument, NULL, 't'}, {"quiet", no_argument, NULL, 'q'},
+        {"help", no_argument, NULL, 'h'},        {NULL, 0, NULL, 0},
+    };
+    const char *model = NULL, *out = NULL, *truth_spec = NULL;
+    struct fit_model_options mo = fit_model_default_options();
+    optind = 1;
+    int c;
+    while ((c = getopt_long(argc, argv, "m:o:s:e:t:qh", opts, NULL)) != -1) {
+        char *end;
+        switch (c) {
+        case 'm': model = optarg; break;
+        case 'o': out = optarg; break;
+        case 't': truth_spec = optarg; break;
+        case 'q': mo.quiet = 1; break;
+        case 's':
+            mo.seed = strtoull(optarg, &end, 10);
+            if (end == optarg || *end || optarg[0] == '-') {
+                fprintf(stderr, "gonio fit: --seed '%s' is not a non-negative integer\n", optarg);
+                return 2;
+            }
+            break;
+        case 'e':
+            mo.max_epochs = (int)strtol(optarg, &end, 10);
+            if (end == optarg || *end || mo.max_epochs < 1) {
+                fprintf(stderr, "gonio fit: --epochs '%s' is not a positive integer\n", optarg);
+                return 2;
+            }
+            break;
+        case 'h': usage(stdout); return 0;
+        default: usage(stderr); return 2;
+        }
+    }
+    if (optind != argc - 1 || !model) {
+        fprintf(stderr, "gonio fit: one SAMPLES argument and --model are required\n");
+        usage(stderr);
+        return 2;
+    }
+    const struct fit_model_kind *kind = fit_model_find(model);
+    if (!kind) {
+        fprintf(stderr, "gonio fit: unknown model '%s' (see gonio fit --help)\n", model);
+        return 2;
+    }
+    /* SAMPLES: a directory means its samples.csv. */
+    const char *arg = argv[optind];
+    char samples_path[4096], dir[4096], out_buf[4200];
+    struct stat st;
+    int is_dir = stat(arg, &st) == 0 && S_ISDIR(st.st_mode);
+    if (is_dir) {
+        snprintf(samples_path, sizeof samples_path, "%s/samples.csv", arg);
+        snprintf(dir, sizeof dir, "%s", arg);
+    } else {
+        snprintf(samples_path, sizeof samples_path, "%s", arg);
+        const char *slash = strrchr(arg, '/');
+        snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - arg) : 1, slash ? arg : ".");
+    }
+    if (!out) {
+        snprintf(out_buf, sizeof out_buf, "%.4000s/%.64s.model", dir, model);
+        out = out_buf;
+    }
+    struct gonio_err err = {0};
+    struct fit_data data = {0};
+    struct fit_sample *rgb = NULL;
+    struct fit_spectral_sample *spec = NULL;
+    int rc = kind->spectral ? fit_spectral_samples_read(samples_path, &spec, &data.n_spectral, &err)
+                            : read_rgb(samples_path, &rgb, &data.n_rgb, &err);
+    if (rc < 0) {
+        fprintf(stderr, "gonio fit: %s\n", err.msg);
+        return gonio_exit_status(err.code);
+    }
+    data.rgb = rgb;
+    data.spectral = spec;
+    size_t n = kind->spectral ? data.n_spectral : data.n_rgb;
+    if (!n) {
+        fprintf(stderr, "gonio fit: %s: no samples\n", samples_path);
+        free(rgb);
+        free(spec);
+        return 2;
+    }
+    brdf_material *truth = NULL, *m = NULL;
+    if (truth_spec && !(truth = fit_material_open(truth_spec, &err))) {
+        fprintf(stderr, "gonio fit: %s\n", err.msg);
+        free(rgb);
+        free(spec);
+        return gonio_exit_status(err.code);
+    }
+    struct fit_model_file *mf = NULL;
+    struct fit_model_report rep = {0};
+    double t0 = now_s();
+    rc = kind->fit(&data, &mo, &mf, &rep, &err);
+    double fit_s = now_s() - t0;
+    if (!rc)
+        rc = fit_model_file_write(mf, out, &err);
+    fit_model_file_free(mf);
+    char spec_buf[4300];
+    snprintf(spec_buf, sizeof spec_buf, "model:%s", out);
+    if (!rc) {
+        printf("%-10s %s\n", "model", model);
+        printf("%-10s %zu (%s)\n", "samples", n, samples_path);
+        printf("%-10s %.3f s, %s\n", "fit", fit_s, rep.converged ? "converged" : "not converged");
+        printf("%-10s %s\n", "details", rep.note);
+        if (kind->spectral) {
+            rc = spectral_errors(out, spec, n, &err);
+        } else if ((m = fit_material_open(spec_buf, &err))) {
+            /* Errors on the samples: the model read back from its file. */
+            struct brdf_pair *pairs = malloc(n * sizeof *pairs);
+            double *tr = malloc(3 * n * sizeof *tr), *pr = malloc(3 * n * sizeof *pr);
+            if (pairs && tr && pr) {
+                for (size_t i = 0; i < n; i++) {
+                    pairs[i] = rgb[i].g;
+                    memcpy(tr + 3 * i, rgb[i].rgb, sizeof rgb[i].rgb);
+                }
+                brdf_material_eval(m, pairs, n, pr);
+                struct brdf_errors e;
+                brdf_errors_compute(pairs, tr, pr, n, &e);
+                print_errors("samples", &e);
+            } else {
+                rc = gonio_err_set(&err, GONIO_EFIT, "out of memory");
+            }
+            free(pairs);
+            free(tr);
+            free(pr);
+        } else {
+            rc = -1;
+        }
+    }
+    if (!rc && truth && m) {
+        rc = truth_errors("inplane", truth, m, 0, &err);
+        if (!rc)
+            rc = truth_errors("full", truth, m, 1, &err);
+    }
+    if (!rc)
+        printf("%-10s %s\n", "wrote", out);
+    brdf_material_free(m);
+    brdf_material_free(truth);
+    free(rgb);
+    free(spec);
+    if (rc < 0) {
+        fprintf(stderr, "gonio fit: %s\n", err.msg);
+        return gonio_exit_status(err.code);
+    }
+    return 0;
+}
