@@ -14,13 +14,53 @@ static double number(json_t *root, const char *domain, const char *key)
     return json_is_number(v) ? json_number_value(v) : NAN;
 }
 
+/* --format: %plan %material %samples %rig %fit and %<domain>_log,
+ * %<domain>_rel for domain plan, inplane, full; one line per directory. */
+static void print_format(const char *fmt, json_t *root)
+{
+    static const struct {
+        const char *name, *domain, *key;
+    } errs[] = {
+        {"plan_log", "plan", "log"},       {"plan_rel", "plan", "rel_rmse"},
+        {"inplane_log", "inplane", "log"}, {"inplane_rel", "inplane", "rel_rmse"},
+        {"full_log", "full", "log"},       {"full_rel", "full", "rel_rmse"},
+    };
+    for (const char *p = fmt; *p; p++) {
+        if (*p != '%') {
+            putchar(*p);
+            continue;
+        }
+        size_t len = strspn(p + 1, "abcdefghijklmnopqrstuvwxyz_");
+        char name[32];
+        snprintf(name, sizeof name, "%.*s", (int)len, p + 1);
+        p += len;
+        if (!strcmp(name, "plan") || !strcmp(name, "material")) {
+            fputs(json_string_value(json_object_get(root, name)), stdout);
+        } else if (!strcmp(name, "samples")) {
+            printf("%lld", (long long)json_integer_value(json_object_get(root, "samples")));
+        } else if (!strcmp(name, "rig") || !strcmp(name, "fit")) {
+            json_t *v = json_object_get(root, name[0] == 'r' ? "rig_time_s" : "fit_time_s");
+            printf("%.6g", json_number_value(v));
+        } else {
+            size_t i = 0;
+            while (i < sizeof errs / sizeof errs[0] && strcmp(errs[i].name, name) != 0)
+                i++;
+            if (i < sizeof errs / sizeof errs[0])
+                printf("%.6g", number(root, errs[i].domain, errs[i].key));
+            else
+                printf("%%%s", name);
+        }
+    }
+    putchar('\n');
+}
+
 static void header(void)
 {
     printf("%-28s %-6s %7s %10s %8s  %-17s %-17s\n", "material", "plan", "samples", "rig time",
            "fit", "in-plane log/rRMSE", "full log/rRMSE");
 }
 
-static int row(const char *dir)
+static int row(const char *dir, const char *fmt)
 {
     char path[4096];
     snprintf(path, sizeof path, "%s/results.json", dir);
@@ -43,6 +83,11 @@ static int row(const char *dir)
         json_decref(root);
         return 2;
     }
+    if (fmt) {
+        print_format(fmt, root);
+        json_decref(root);
+        return 0;
+    }
     double rig_s = json_number_value(rig);
     printf("%-28s %-6s %7lld %4.0f:%02.0f min %7.3fs  %.4f / %-8.4f %.4f / %-8.4f\n", material,
            plan, (long long)json_integer_value(samples), (double)(long)(rig_s / 60),
@@ -55,17 +100,26 @@ static int row(const char *dir)
 
 int cmd_results(int argc, char **argv)
 {
-    if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
-        fprintf(argc < 2 ? stderr : stdout,
-                "usage: gonio results CAPTURE_DIR...\n"
-                "One row per capture: samples, rig time, fit time, and the log error and\n"
-                "relative RMSE on the in-plane and full out-of-plane domains.\n");
-        return argc < 2 ? 2 : 0;
+    const char *fmt = NULL;
+    int first = 1;
+    if (argc >= 3 && !strcmp(argv[1], "--format")) {
+        fmt = argv[2];
+        first = 3;
     }
-    header();
+    if (argc <= first || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
+        fprintf(argc <= first ? stderr : stdout,
+                "usage: gonio results [--format FMT] CAPTURE_DIR...\n"
+                "One row per capture: samples, rig time, fit time, and the log error and\n"
+                "relative RMSE on the in-plane and full out-of-plane domains. FMT prints one\n"
+                "line per capture instead, with %%plan %%material %%samples %%rig %%fit and\n"
+                "%%<domain>_log, %%<domain>_rel for the domains plan, inplane and full.\n");
+        return argc <= first ? 2 : 0;
+    }
+    if (!fmt)
+        header();
     int status = 0;
-    for (int i = 1; i < argc; i++) {
-        int rc = row(argv[i]);
+    for (int i = first; i < argc; i++) {
+        int rc = row(argv[i], fmt);
         if (rc > status)
             status = rc;
     }
