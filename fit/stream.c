@@ -28,7 +28,7 @@ struct fit_stream_options fit_stream_default_options(void)
         .converge = 1,
         .tol = 0.004,
         .holdout_tol = 0.25,
-        .rounds = 3,
+        .rounds = 2,
         .every = 24,
         .min_points = 60,
         .fit = fit_default_options(),
@@ -132,7 +132,8 @@ static void round_run(fit_stream *s)
         brdf_errors_compute(s->dom.pairs, s->prev_pred, s->pred, s->dom.n, &e);
         s->st.change = e.log;
         calm = s->st.change < s->opt.tol &&
-               s->st.holdout <= (1 + s->opt.holdout_tol) * s->st.fit_error;
+               /* + tol: exact data fits to ~0 both ways */
+               s->st.holdout <= (1 + s->opt.holdout_tol) * s->st.fit_error + s->opt.tol;
     }
     s->st.fit_error = sample_error(&next, s->samples, 0, s->n);
     s->st.fitted = s->n;

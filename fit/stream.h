@@ -11,7 +11,8 @@
  *     is below tol (the design's log metric between successive models), and
  *   - the previous model predicted the samples that arrived since it was
  *     fitted (held out from it) about as well as it fits its own samples:
- *     held-out log error <= (1 + holdout_tol) x its in-sample log error.
+ *     held-out log error <= (1 + holdout_tol) x its in-sample log error
+ *     + tol (the absolute term keeps exact data, fitted to ~0, decidable).
  * The stream converges after `rounds` consecutive calm rounds, never with
  * fewer than min_points samples. Neither test looks at the true material:
  * on a real rig there is none (docs/fitting.md, "Stopping on convergence").
@@ -37,8 +38,9 @@ struct fit_stream_options {
     struct fit_options fit; /* passed to fit_abc (warm_start is managed here) */
 };
 
-/* The documented defaults (docs/fitting.md): tol 0.004, holdout_tol 0.25,
- * rounds 3, every 24, min_points 60, fit_default_options(). */
+/* Defaults (docs/fitting.md): tol 0.004, holdout_tol 0.25, rounds 2,
+ * every 24, min_points 60, fit_default_options(). Captures take tol,
+ * rounds, every and min_points from the plan's stop rule instead. */
 struct fit_stream_options fit_stream_default_options(void);
 
 /* Where a stream stands; all errors are log errors (NAN before they
