@@ -149,7 +149,8 @@ static int load_modbus(const struct cfg_doc *d, const struct cfg_node *drv,
 static int load_socket(const struct cfg_doc *d, const struct cfg_node *root,
                        struct goniod_config *cfg, struct gonio_err *err)
 {
-    static const char *const keys[] = {"path", "group", "max_clients", "idle_timeout_s", NULL};
+    static const char *const keys[] = {"path", "group", "max_clients", "idle_timeout_s",
+                                       "max_queue_kib", NULL};
     const struct cfg_node *m;
     int rc = cfg_map(d, root, "socket", CFG_REQUIRED, &m, err);
     long maxc = cfg->max_clients;
@@ -160,7 +161,9 @@ static int load_socket(const struct cfg_doc *d, const struct cfg_node *root,
                           sizeof cfg->socket_group, err)) < 0 ||
         (rc = cfg_int(d, m, "max_clients", CFG_OPTIONAL, 1, 1000, &maxc, err)) < 0 ||
         (rc = cfg_double(d, m, "idle_timeout_s", CFG_OPTIONAL, 0.1, 86400, &cfg->idle_timeout_s,
-                         err)) < 0)
+                         err)) < 0 ||
+        (rc = cfg_int(d, m, "max_queue_kib", CFG_OPTIONAL, 16, 1048576, &cfg->max_queue_kib,
+                      err)) < 0)
         return rc;
     cfg->max_clients = (int)maxc;
     return 0;
@@ -183,6 +186,7 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
     cfg->timeout_s = 0.5;
     cfg->max_clients = 16;
     cfg->idle_timeout_s = 600;
+    cfg->max_queue_kib = 4096;
 
     struct cfg_doc *d;
     int rc = cfg_load(path, &d, err);
@@ -242,6 +246,6 @@ void goniod_config_print(FILE *out, const struct goniod_config *c)
     fprintf(out, "socket:\n  path: %s\n", c->socket_path);
     if (c->socket_group[0])
         fprintf(out, "  group: %s\n", c->socket_group);
-    fprintf(out, "  max_clients: %d\n  idle_timeout_s: %g\n", c->max_clients,
-            c->idle_timeout_s);
+    fprintf(out, "  max_clients: %d\n  idle_timeout_s: %g\n  max_queue_kib: %ld\n",
+            c->max_clients, c->idle_timeout_s, c->max_queue_kib);
 }

@@ -39,6 +39,7 @@ struct goniod_config {
     char socket_group[64];   /* "" keeps the daemon's group */
     int max_clients;
     double idle_timeout_s;   /* idle clients that do not watch are closed */
+    long max_queue_kib;      /* a client with more output queued is dropped */
 };
 
 /* Load and check path. Relative paths inside the file are taken relative

@@ -25,6 +25,7 @@
 
 struct client {
     int fd;
+    size_t max_out;    /* queued output beyond this drops the client */
     char *in;          /* CONTROL_MAX_LINE + 1 bytes */
     size_t in_len;
     char *out;
@@ -88,7 +89,7 @@ static void client_send_text(struct client *cl, const char *text)
     if (cl->dead)
         return;
     size_t len = strlen(text);
-    if (cl->out_len + len + 1 > CONTROL_MAX_OUTPUT) {
+    if (cl->out_len + len + 1 > cl->max_out) {
         client_drop(cl, "too slow to read its output");
         return;
     }
@@ -733,6 +734,7 @@ static void accept_clients(control *c)
             continue;
         }
         cl->fd = fd;
+        cl->max_out = (size_t)c->cfg->max_queue_kib * 1024;
         cl->last_active = now_s();
         c->clients[c->n_clients++] = cl;
         if (c->n_clients > (size_t)c->cfg->max_clients) {

@@ -18,7 +18,6 @@
 #define CONTROL_PROTO_MAJOR 1
 #define CONTROL_PROTO_MINOR 0
 #define CONTROL_MAX_LINE 65536          /* bytes of one request, newline excluded */
-#define CONTROL_MAX_OUTPUT (4u << 20)   /* queued bytes before a client is dropped */
 
 typedef struct control control;
 

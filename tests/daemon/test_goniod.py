@@ -1,0 +1,835 @@
+#!/usr/bin/python3
+"""goniod end to end: config checking, the socket protocol, captures on the
+simulated rig, crash safety (kill -9 + resume), the gonio client and the
+systemd notifications. Each test starts its own daemon in a fresh folder.
+
+Run from ctest (the environment names the binaries), or by hand:
+  GONIO_BIN=build/bin GONIO_TESTS_BIN=build/tests GONIO_CONFIG=configs \
+      python3 tests/daemon/test_goniod.py -v
+"""
+import json
+import os
+import random
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+BIN = os.environ.get("GONIO_BIN", "build/bin")
+TESTS_BIN = os.environ.get("GONIO_TESTS_BIN", "build/tests")
+SOURCE = os.environ.get("GONIO_SOURCE", os.path.join(os.path.dirname(__file__), "..", ".."))
+GONIOD = os.path.join(BIN, "goniod")
+GONIO = os.path.join(BIN, "gonio")
+JOURNAL_POINTS = os.path.join(TESTS_BIN, "journal_points")
+MAX_LINE = 65536  # docs/protocol.md
+
+
+def tmpdir():
+    base = os.environ.get("GONIO_TMP")
+    if base:
+        os.makedirs(base, exist_ok=True)
+    # Unix socket paths are short (108 bytes): keep the folder name short.
+    return tempfile.mkdtemp(prefix="gd", dir=base if base and len(base) < 60 else None)
+
+
+def journal_points(path):
+    """Point indices of a journal, read by daemon/journal.h."""
+    out = subprocess.run([JOURNAL_POINTS, path], capture_output=True, text=True, check=True)
+    return [int(x) for x in out.stdout.split()]
+
+
+def plan_total(capdir):
+    with open(os.path.join(capdir, "plan.json")) as f:
+        doc = json.load(f)
+    return len(doc["pairs"])
+
+
+class Conn:
+    """One client connection: JSON lines both ways."""
+
+    def __init__(self, path, timeout=20):
+        self.s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        self.s.settimeout(timeout)
+        try:
+            self.s.connect(path)
+        except OSError:
+            self.s.close()
+            raise
+        self.buf = b""
+        self.next_id = 1
+        self.version = self.read()
+
+    def close(self):
+        self.s.close()
+
+    def send_raw(self, data):
+        self.s.sendall(data)
+
+    def send(self, doc):
+        self.send_raw(json.dumps(doc).encode() + b"\n")
+
+    def read(self):
+        """The next document, or None at end of stream."""
+        while b"\n" not in self.buf:
+            chunk = self.s.recv(65536)
+            if not chunk:
+                return None
+            self.buf += chunk
+        line, self.buf = self.buf.split(b"\n", 1)
+        return json.loads(line)
+
+    def request(self, cmd, **args):
+        rid = self.next_id
+        self.next_id += 1
+        self.send(dict(cmd=cmd, id=rid, **args))
+        while True:
+            d = self.read()
+            if d is None:
+                raise AssertionError("connection closed awaiting reply to %s" % cmd)
+            if d.get("id") == rid:
+                return d
+
+    def until_stop(self, capture_id=None):
+        """Every document up to and including the stop document."""
+        docs = []
+        while True:
+            d = self.read()
+            if d is None:
+                raise AssertionError("stream ended before stop: %r" % docs[-3:])
+            docs.append(d)
+            if d.get("class") == "stop" and capture_id in (None, d.get("capture_id")):
+                return docs
+
+
+class Daemon:
+    def __init__(self, folder, pace_s=0.0, extra_socket="", env=None, scene="ideal"):
+        self.folder = folder
+        self.sock = os.path.join(folder, "s.sock")
+        self.root = os.path.join(folder, "cap")
+        self.config = os.path.join(folder, "goniod.yaml")
+        self.log = os.path.join(folder, "goniod.log")
+        with open(self.config, "w") as f:
+            f.write(
+                "rig: default\n"
+                "driver:\n  kind: sim\n  scene: %s\n  pace_s: %g\n"
+                "capture_root: cap\n"
+                "socket:\n  path: s.sock\n%s" % (scene, pace_s, extra_socket))
+        self.env = dict(os.environ)
+        self.env.pop("NOTIFY_SOCKET", None)
+        self.env.pop("WATCHDOG_USEC", None)
+        self.env.update(env or {})
+        self.proc = None
+        self.conns = []
+
+    def start(self):
+        logf = open(self.log, "a")
+        self.proc = subprocess.Popen([GONIOD, "--config", self.config], stdout=logf,
+                                     stderr=logf, env=self.env)
+        logf.close()
+        deadline = time.time() + 10
+        while time.time() < deadline:
+            try:
+                Conn(self.sock).close()
+                return self
+            except OSError:
+                if self.proc.poll() is not None:
+                    raise AssertionError("goniod exited: " + open(self.log).read())
+                time.sleep(0.02)
+        raise AssertionError("goniod did not listen")
+
+    def connect(self):
+        c = Conn(self.sock)
+        self.conns.append(c)
+        return c
+
+    def kill9(self):
+        self.proc.send_signal(signal.SIGKILL)
+        self.proc.wait()
+
+    def stop(self):
+        for c in self.conns:
+            c.close()
+        self.conns = []
+        if self.proc and self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                return self.proc.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+                raise AssertionError("goniod ignored SIGTERM")
+        return self.proc.returncode if self.proc else None
+
+    def alive(self):
+        return self.proc.poll() is None
+
+    def gonio(self, *args):
+        env = dict(self.env, GONIO_SOCKET=self.sock)
+        return subprocess.run([GONIO] + list(args), capture_output=True, text=True, env=env,
+                              timeout=30)
+
+
+class DaemonTest(unittest.TestCase):
+    pace_s = 0.0
+
+    def setUp(self):
+        self.folder = tmpdir()
+        self.d = Daemon(self.folder, pace_s=self.pace_s)
+        self.d.start()
+
+    def tearDown(self):
+        self.d.stop()
+        if os.environ.get("GONIO_KEEP"):
+            sys.stderr.write("kept %s\n" % self.folder)
+        else:
+            shutil.rmtree(self.folder, ignore_errors=True)
+
+    def check_complete(self, capture_id):
+        """Every planned point exactly once, and results.json written."""
+        capdir = os.path.join(self.d.root, capture_id)
+        pts = journal_points(os.path.join(capdir, "samples.csv"))
+        self.assertEqual(sorted(pts), list(range(plan_total(capdir))))
+        self.assertTrue(os.path.exists(os.path.join(capdir, "results.json")))
+        return pts
+
+
+# ---------------------------------------------------------------------------
+
+def position(text, key):
+    """1-based line and column of `key:` in a YAML text (independent of the
+    daemon's parser)."""
+    for i, line in enumerate(text.splitlines(), 1):
+        m = re.match(r"(\s*)" + re.escape(key) + r"\s*:", line)
+        if m:
+            return i, len(m.group(1)) + 1
+    raise KeyError(key)
+
+
+class CheckTests(unittest.TestCase):
+    GOOD = ("rig: default\n"
+            "driver:\n  kind: sim\n  scene: ideal\n  pace_s: 0.5\n"
+            "capture_root: caps\n"
+            "socket:\n  path: run/g.sock\n  max_clients: 4\n")
+
+    def setUp(self):
+        self.folder = tmpdir()
+
+    def tearDown(self):
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def check(self, text):
+        path = os.path.join(self.folder, "c.yaml")
+        with open(path, "w") as f:
+            f.write(text)
+        r = subprocess.run([GONIOD, "--config", path, "--check"], capture_output=True, text=True,
+                           timeout=20)
+        return path, r
+
+    def test_good_config_resolved(self):
+        path, r = self.check(self.GOOD)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        out = r.stdout
+        # Relative paths come back taken from the config file's folder.
+        self.assertIn("capture_root: %s/caps\n" % self.folder, out)
+        self.assertIn("path: %s/run/g.sock\n" % self.folder, out)
+        self.assertIn("pace_s: 0.5\n", out)
+        self.assertIn("max_clients: 4\n", out)
+        # The resolved form is itself a valid config that resolves to itself.
+        path2, r2 = self.check(out)
+        self.assertEqual(r2.returncode, 0, r2.stderr)
+        strip = lambda s: "\n".join(l for l in s.splitlines() if not l.startswith("#"))
+        self.assertEqual(strip(r2.stdout), strip(out))
+        self.assertFalse(os.path.exists(os.path.join(self.folder, "caps")),
+                         "--check must not create anything")
+
+    def test_shipped_configs(self):
+        for name in ("sim.yaml", "modbus-rtu.yaml", "modbus-tcp.yaml"):
+            path = os.path.join(SOURCE, "configs", "goniod", name)
+            r = subprocess.run([GONIOD, "--config", path, "--check"], capture_output=True,
+                               text=True, timeout=20)
+            self.assertEqual(r.returncode, 0, name + ": " + r.stderr)
+        r = subprocess.run([GONIOD, "--config",
+                            os.path.join(SOURCE, "configs", "goniod", "modbus-rtu.yaml"),
+                            "--check"], capture_output=True, text=True, timeout=20)
+        for line in ("kind: modbus-rtu", "device: /dev/ttyUSB0", "baud: 115200",
+                     "parity: none", "data_bits: 8", "stop_bits: 1", "arm: 2",
+                     "detector: 3", "steps_per_deg: 100"):
+            self.assertIn(line, r.stdout)
+
+    def bad(self, text, key, needle):
+        """text must be refused at key's line:col with needle in the message."""
+        path, r = self.check(text)
+        self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+        self.assertEqual(r.stdout, "")
+        line, col = position(text, key)
+        self.assertIn("%s:%d:" % (path, line), r.stderr)
+        m = re.search(re.escape(path) + r":(\d+):(\d+): ", r.stderr)
+        self.assertIsNotNone(m, r.stderr)
+        self.assertEqual(int(m.group(1)), line, r.stderr)
+        self.assertIn(needle, r.stderr)
+        self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+
+    def test_unknown_key(self):
+        self.bad(self.GOOD + "colour: blue\n", "colour", "colour")
+
+    def test_unknown_driver_key(self):
+        self.bad(self.GOOD.replace("  pace_s: 0.5\n", "  pace_s: 0.5\n  baud: 9600\n"), "baud",
+                 "baud")
+
+    def test_wrong_type(self):
+        self.bad(self.GOOD.replace("max_clients: 4", "max_clients: many"), "max_clients",
+                 "max_clients")
+
+    def test_out_of_range(self):
+        self.bad(self.GOOD.replace("pace_s: 0.5", "pace_s: -1"), "pace_s", "pace_s")
+
+    def test_bad_driver_kind(self):
+        self.bad(self.GOOD.replace("kind: sim", "kind: canbus"), "kind", "canbus")
+
+    def test_bad_parity(self):
+        text = ("driver:\n  kind: modbus-rtu\n  device: /dev/ttyS0\n  parity: mark\n"
+                "capture_root: /tmp/x\nsocket:\n  path: /tmp/x.sock\n")
+        self.bad(text, "parity", "parity")
+
+    def test_tcp_needs_host(self):
+        text = ("capture_root: /tmp/x\nsocket:\n  path: /tmp/x.sock\n"
+                "driver:\n  kind: modbus-tcp\n  port: 1502\n")
+        self.bad(text, "kind", "host")
+
+    def test_shared_slave_ids(self):
+        text = ("capture_root: /tmp/x\nsocket:\n  path: /tmp/x.sock\n"
+                "driver:\n  kind: modbus-tcp\n  host: 127.0.0.1\n"
+                "  slaves:\n    sample: 1\n    arm: 1\n")
+        self.bad(text, "sample", "slave")
+
+    def test_unknown_scene(self):
+        self.bad(self.GOOD.replace("scene: ideal", "scene: no-such-scene"), "scene",
+                 "no-such-scene")
+
+    def test_missing_socket(self):
+        text = "driver:\n  kind: sim\ncapture_root: /tmp/x\n"
+        path, r = self.check(text)
+        self.assertEqual(r.returncode, 2)
+        self.assertRegex(r.stderr, re.escape(path) + r":\d+:\d+: .*socket")
+
+    def test_yaml_syntax_error(self):
+        path, r = self.check("driver: [kind: sim\n")
+        self.assertEqual(r.returncode, 2)
+        self.assertRegex(r.stderr, re.escape(path) + r":\d+:\d+: ")
+
+    def test_usage(self):
+        r = subprocess.run([GONIOD], capture_output=True, text=True, timeout=20)
+        self.assertEqual(r.returncode, 2)
+        r = subprocess.run([GONIOD, "--config", os.path.join(self.folder, "none.yaml"),
+                            "--check"], capture_output=True, text=True, timeout=20)
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("none.yaml", r.stderr)
+
+
+# ---------------------------------------------------------------------------
+
+class ProtocolTests(DaemonTest):
+    pace_s = 0.01
+
+    def test_version_on_connect(self):
+        c = self.d.connect()
+        self.assertEqual(c.version["class"], "VERSION")
+        self.assertEqual(c.version["proto_major"], 1)
+        self.assertEqual(c.version["proto_minor"], 0)
+        self.assertIsInstance(c.version["release"], str)
+
+    def expect_error(self, c, raw, code):
+        c.send_raw(raw)
+        d = c.read()
+        self.assertEqual(d["class"], "ERROR", d)
+        self.assertEqual(d["code"], code, d)
+        self.assertTrue(d["message"])
+        return d
+
+    def test_bad_requests_leave_the_daemon_running(self):
+        c = self.d.connect()
+        r = c.request("capture", plan="ds3", name="p1")
+        self.assertEqual(r["class"], "OK", r)
+        self.expect_error(c, b"{not json\n", "bad-json")
+        self.expect_error(c, b"[1, 2]\n", "bad-request")
+        self.expect_error(c, b'{"id": 5}\n', "bad-request")
+        d = self.expect_error(c, b'{"cmd": "explode", "id": "x1"}\n', "unknown-command")
+        self.assertEqual(d["id"], "x1")
+        d = self.expect_error(c, b'{"cmd": "status", "id": 7, "verbose": true}\n',
+                              "unknown-field")
+        self.assertEqual(d["id"], 7)
+        self.assertIn("verbose", d["message"])
+        self.expect_error(c, b'{"cmd": "resume", "capture_id": 12}\n', "bad-type")
+        self.expect_error(c, b'{"cmd": 3}\n', "bad-request")
+        self.expect_error(c, b'{"cmd": "status", "id": [1]}\n', "bad-type")
+        self.expect_error(c, b'{"cmd": "status", "cmd": "status"}\n', "bad-json")
+        # Still serving, and the capture went on to completion.
+        st = c.request("status")
+        self.assertEqual(st["class"], "STATUS")
+        self.assertEqual(st["capture_id"], "p1")
+        w = self.d.connect()
+        self.assertEqual(w.request("watch")["class"], "OK")
+        stop = w.until_stop("p1")[-1]
+        self.assertEqual(stop["reason"], "complete")
+        self.check_complete("p1")
+
+    def test_oversized_line_closes_only_that_client(self):
+        c = self.d.connect()
+        other = self.d.connect()
+        try:
+            c.send_raw(b'{"cmd": "status", "pad": "' + b"x" * (MAX_LINE + 100))
+        except OSError:
+            pass
+        d = c.read()
+        self.assertEqual(d["class"], "ERROR")
+        self.assertEqual(d["code"], "line-too-long")
+        # Then the daemon closes the connection.
+        try:
+            self.assertIsNone(c.read())
+        except ConnectionResetError:
+            pass
+        self.assertEqual(other.request("status")["class"], "STATUS")
+        # A line just under the limit is read whole (and refused for its field).
+        pad = MAX_LINE - len(b'{"cmd":"status","pad":""}')
+        d = self.expect_error(other, b'{"cmd":"status","pad":"' + b"y" * pad + b'"}\n',
+                              "unknown-field")
+
+    def test_watcher_disconnect_mid_stream(self):
+        c = self.d.connect()
+        self.assertEqual(c.request("capture", plan="ds3", name="dis")["class"], "OK")
+        for _ in range(3):
+            w = self.d.connect()
+            w.request("watch")
+            while w.read()["class"] != "event":
+                pass
+            w.s.shutdown(socket.SHUT_RDWR)
+            w.close()
+        # A watcher that never reads and one that leaves half a request.
+        lazy = self.d.connect()
+        lazy.send({"cmd": "watch"})
+        half = self.d.connect()
+        half.send_raw(b'{"cmd": "sta')
+        half.close()
+        w = self.d.connect()
+        w.request("watch")
+        stop = w.until_stop("dis")[-1]
+        self.assertEqual(stop["exit_status"], "success")
+        self.assertTrue(self.d.alive())
+        self.check_complete("dis")
+
+    def test_paths_stay_inside_the_capture_root(self):
+        c = self.d.connect()
+        for args in ({"plan": "ds3", "name": "../escape"}, {"plan": "ds3", "name": "a/b"},
+                     {"plan": "ds3", "name": ".hidden"}, {"plan": "/etc/passwd"},
+                     {"plan": "../../configs/plans/ds3.yaml"}, {"plan": "ds3", "scene": "/x.yaml"},
+                     {"plan": "ds3", "rig": "../rig.yaml"},
+                     {"plan": "ds3", "material": "merl:/etc/passwd"},
+                     {"plan": "ds3", "material": "merl:../x.binary"},
+                     {"plan": "ds3", "material": "nbrdf:../../x"}):
+            r = c.request("capture", **args)
+            self.assertEqual(r["class"], "ERROR", args)
+            self.assertEqual(r["code"], "bad-value", (args, r))
+        for cid in ("../cap", "/tmp", "..", "a/../b"):
+            r = c.request("resume", capture_id=cid)
+            self.assertEqual(r["class"], "ERROR", cid)
+        self.assertEqual(os.listdir(self.d.root) if os.path.isdir(self.d.root) else [], [])
+        # A plan file inside the capture root is fine.
+        os.makedirs(os.path.join(self.d.root, "plans"), exist_ok=True)
+        shutil.copy(os.path.join(SOURCE, "configs", "plans", "ds3.yaml"),
+                    os.path.join(self.d.root, "plans", "mine.yaml"))
+        c.request("watch")
+        r = c.request("capture", plan="plans/mine.yaml", name="inside")
+        self.assertEqual(r["class"], "OK", r)
+        self.assertEqual(c.until_stop("inside")[-1]["reason"], "complete")
+
+    def test_too_many_clients(self):
+        self.d.stop()
+        self.d = Daemon(self.folder, extra_socket="  max_clients: 2\n")
+        self.d.start()
+        a, b = self.d.connect(), self.d.connect()
+        s = socket.socket(socket.AF_UNIX)
+        s.connect(self.d.sock)
+        f = s.makefile("r")
+        d = json.loads(f.readline())
+        self.assertEqual(d["class"], "ERROR")
+        self.assertEqual(d["code"], "too-many-clients")
+        self.assertEqual(f.readline(), "")
+        s.close()
+        self.assertEqual(a.request("status")["class"], "STATUS")
+        b.close()
+        time.sleep(0.1)
+        self.assertEqual(self.d.connect().request("status")["class"], "STATUS")
+
+    def test_idle_client_times_out_watcher_does_not(self):
+        self.d.stop()
+        self.d = Daemon(self.folder, extra_socket="  idle_timeout_s: 0.3\n")
+        self.d.start()
+        idle, watcher = self.d.connect(), self.d.connect()
+        watcher.request("watch")
+        d = idle.read()
+        self.assertEqual(d["code"], "idle-timeout")
+        self.assertIsNone(idle.read())
+        time.sleep(0.5)
+        r = self.d.connect().request("capture", plan="ds3", name="late")
+        self.assertEqual(r["class"], "OK")
+        self.assertEqual(watcher.until_stop("late")[-1]["reason"], "complete")
+
+    def test_slow_watcher_is_dropped_not_waited_for(self):
+        self.d.stop()
+        self.d = Daemon(self.folder, pace_s=0, extra_socket="  max_queue_kib: 16\n")
+        self.d.start()
+        slow = socket.socket(socket.AF_UNIX)
+        slow.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        slow.connect(self.d.sock)
+        slow.sendall(b'{"cmd": "watch"}\n')
+        time.sleep(0.1)
+        # ds1 streams some 900 events (~400 kB, more than the kernel's
+        # socket buffers hold) to a reader that reads nothing: the queue
+        # limit must drop it while a reading watcher gets everything.
+        c = self.d.connect()
+        c.request("watch")
+        self.assertEqual(c.request("capture", plan="ds1", name="big")["class"], "OK")
+        docs = c.until_stop("big")
+        self.assertEqual(docs[-1]["reason"], "complete")
+        self.assertEqual(sum(d["class"] == "event" for d in docs), docs[-1]["samples"])
+        self.assertIn("dropped", open(self.d.log).read())
+        slow.close()
+
+
+# ---------------------------------------------------------------------------
+
+class CaptureTests(DaemonTest):
+    pace_s = 0.02
+
+    def test_ds3_to_completion(self):
+        c = self.d.connect()
+        self.assertEqual(c.request("watch")["class"], "OK")
+        r = c.request("capture", plan="ds3", name="full", material="builtin:nylon")
+        self.assertEqual(r["class"], "OK")
+        self.assertEqual(r["capture_id"], "full")
+        docs = c.until_stop("full")
+        classes = [d["class"] for d in docs]
+        self.assertEqual(classes[0], "start")
+        self.assertEqual(classes[1], "descriptor")
+        self.assertEqual(classes[-1], "stop")
+        events = [d for d in docs if d["class"] == "event"]
+        capdir = os.path.join(self.d.root, "full")
+        total = plan_total(capdir)
+        self.assertEqual(docs[0]["total"], total)
+        self.assertEqual(docs[0]["plan"], "ds3")
+        self.assertEqual(docs[1]["driver"]["kind"], "sim")
+        self.assertEqual(docs[1]["rig"]["name"], "default")
+        # One event per sample, in journal order, with the journal's values.
+        pts = self.check_complete("full")
+        self.assertEqual([e["point"] for e in events], pts)
+        self.assertEqual([e["done"] for e in events], list(range(1, total + 1)))
+        self.assertEqual([e["seq"] for e in events], list(range(1, total + 1)))
+        times = [e["rig_time_s"] for e in events]
+        self.assertEqual(times, sorted(times))
+        with open(os.path.join(capdir, "samples.csv")) as f:
+            rows = [l.split(",") for l in f.read().splitlines()[1:]]
+        for e, row in zip(events, rows):
+            self.assertEqual(e["rgb"], [float(row[8]), float(row[9]), float(row[10])])
+        stop = docs[-1]
+        self.assertEqual(stop["exit_status"], "success")
+        self.assertEqual(stop["samples"], total)
+        with open(os.path.join(capdir, "results.json")) as f:
+            results = json.load(f)
+        flat = json.dumps(results)
+        # The stop document's results are the results.json figures.
+        self.assertIn(repr(stop["results"]["params"]["B"])[:10], flat)
+        self.assertEqual(stop["results"]["material"], "builtin:nylon")
+        self.assertLess(stop["results"]["err_plan"]["log_error"], 0.1)
+        st = c.request("status")
+        self.assertEqual(st["state"], "idle")
+        self.assertEqual(st["fit_error"]["capture_id"], "full")
+        self.assertEqual(st["fit_error"]["log_error"],
+                         stop["results"]["err_plan"]["log_error"])
+
+    def test_pause_and_resume(self):
+        c = self.d.connect()
+        c.request("capture", plan="ds3", name="pz")
+        time.sleep(0.2)
+        self.assertEqual(c.request("pause")["class"], "OK")
+        time.sleep(0.15)  # the point in progress finishes
+        st1 = c.request("status")
+        self.assertEqual(st1["state"], "paused")
+        time.sleep(0.5)
+        st2 = c.request("status")
+        self.assertEqual(st2["points_done"], st1["points_done"], "a paused capture moved on")
+        self.assertLess(st2["points_done"], st2["points_total"])
+        self.assertEqual(c.request("pause")["class"], "ERROR")
+        c.request("watch")
+        self.assertEqual(c.request("resume")["class"], "OK")
+        self.assertEqual(c.until_stop("pz")[-1]["reason"], "complete")
+        self.check_complete("pz")
+        self.assertEqual(c.request("resume")["code"], "not-paused")
+
+    def test_abort_keeps_data_then_resume(self):
+        c = self.d.connect()
+        c.request("watch")
+        c.request("capture", plan="ds3", name="ab")
+        while c.read()["class"] != "event":
+            pass
+        time.sleep(0.2)
+        self.assertEqual(c.request("abort")["class"], "OK")
+        stop = c.until_stop("ab")[-1]
+        self.assertEqual(stop["exit_status"], "abort")
+        self.assertEqual(stop["reason"], "aborted")
+        capdir = os.path.join(self.d.root, "ab")
+        pts = journal_points(os.path.join(capdir, "samples.csv"))
+        self.assertEqual(len(pts), stop["samples"])
+        self.assertGreater(len(pts), 0)
+        self.assertLess(len(pts), plan_total(capdir))
+        self.assertFalse(os.path.exists(os.path.join(capdir, "results.json")))
+        self.assertEqual(c.request("abort")["code"], "not-running")
+        # The aborted capture resumes from its journal.
+        r = c.request("resume", capture_id="ab")
+        self.assertEqual(r["class"], "OK", r)
+        docs = c.until_stop("ab")
+        self.assertEqual(docs[0]["already_done"], len(pts))
+        self.assertTrue(docs[0]["resume"])
+        self.assertEqual(docs[-1]["reason"], "complete")
+        self.check_complete("ab")
+
+    def test_second_capture_refused(self):
+        c = self.d.connect()
+        c.request("watch")
+        c.request("capture", plan="ds3", name="first")
+        r = c.request("capture", plan="ds2", name="second")
+        self.assertEqual(r["class"], "ERROR")
+        self.assertEqual(r["code"], "busy")
+        self.assertIn("first", r["message"])
+        r = c.request("resume", capture_id="first")
+        self.assertEqual(r["class"], "ERROR")  # running, not paused
+        self.assertEqual(c.until_stop("first")[-1]["reason"], "complete")
+        self.assertFalse(os.path.exists(os.path.join(self.d.root, "second")))
+        r = c.request("capture", plan="ds3", name="first")
+        self.assertEqual(r["code"], "exists")
+
+    def test_bad_capture_inputs(self):
+        c = self.d.connect()
+        c.request("watch")
+        r = c.request("capture", plan="ds3", order="sideways")
+        self.assertEqual(r["code"], "bad-value")
+        r = c.request("capture", plan="ds3", model="phong")
+        self.assertEqual(r["code"], "bad-value")
+        r = c.request("capture")
+        self.assertEqual(r["code"], "bad-value")
+        # An unknown plan is found by the engine: the stop document says so.
+        r = c.request("capture", plan="no-such-plan", name="np")
+        self.assertEqual(r["class"], "OK")
+        stop = c.until_stop("np")[-1]
+        self.assertEqual(stop["exit_status"], "fail")
+        self.assertIn("no-such-plan", stop["message"])
+        self.assertEqual(c.request("status")["state"], "idle")
+
+    def test_sigterm_aborts_and_keeps_data(self):
+        c = self.d.connect()
+        c.request("watch")
+        c.request("capture", plan="ds3", name="term")
+        while c.read()["class"] != "event":
+            pass
+        self.d.proc.send_signal(signal.SIGTERM)
+        stop = c.until_stop("term")[-1]
+        self.assertEqual(stop["reason"], "shutdown")
+        self.assertEqual(self.d.proc.wait(timeout=20), 0)
+        self.assertFalse(os.path.exists(self.d.sock))
+        pts = journal_points(os.path.join(self.d.root, "term", "samples.csv"))
+        self.assertEqual(len(pts), stop["samples"])
+        self.d.start()
+        r = self.d.connect().request("resume", capture_id="term")
+        self.assertEqual(r["class"], "OK")
+
+    def test_shutdown_command(self):
+        c = self.d.connect()
+        self.assertEqual(c.request("shutdown")["class"], "OK")
+        self.assertEqual(self.d.proc.wait(timeout=20), 0)
+
+
+# ---------------------------------------------------------------------------
+
+class CrashTests(DaemonTest):
+    pace_s = 0.02
+
+    def test_kill9_at_random_moments_then_resume(self):
+        rng = random.Random(20261122)
+        c = self.d.connect()
+        self.assertEqual(c.request("capture", plan="ds3", name="crash")["class"], "OK")
+        capdir = os.path.join(self.d.root, "crash")
+        journal = os.path.join(capdir, "samples.csv")
+        counts = []
+        for _ in range(4):
+            time.sleep(rng.uniform(0.05, 0.2))
+            self.d.kill9()
+            self.assertTrue(os.path.exists(self.d.sock), "kill -9 leaves the socket file")
+            pts = journal_points(journal) if os.path.exists(journal) else []
+            # Whatever the moment, the journal never holds a point twice.
+            self.assertEqual(len(pts), len(set(pts)))
+            counts.append(len(pts))
+            self.d.start()  # replaces the stale socket
+            c = self.d.connect()
+            self.assertEqual(c.request("status")["state"], "idle")
+            c.request("watch")
+            r = c.request("resume", capture_id="crash")
+            self.assertEqual(r["class"], "OK", r)
+            start = c.read()
+            self.assertEqual(start["class"], "start")
+            self.assertEqual(start["already_done"], len(pts))
+        total = plan_total(capdir)
+        self.assertEqual(counts, sorted(counts))
+        self.assertTrue(any(0 < n < total for n in counts), counts)
+        stop = c.until_stop("crash")[-1]
+        self.assertEqual(stop["exit_status"], "success", stop)
+        self.assertEqual(stop["samples"], total)
+        self.check_complete("crash")
+
+    def test_kill9_through_gonio(self):
+        r = self.d.gonio("capture", "--plan", "ds3", "--name", "gk")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        time.sleep(0.15)
+        self.d.kill9()
+        self.d.start()
+        r = self.d.gonio("resume", "gk")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        r = self.d.gonio("watch")
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        self.assertIn("stopped: complete", r.stdout)
+        self.check_complete("gk")
+
+
+# ---------------------------------------------------------------------------
+
+class ClientTests(DaemonTest):
+    pace_s = 0.01
+
+    def test_capture_wait_and_status(self):
+        r = self.d.gonio("status")
+        self.assertEqual(r.returncode, 0)
+        self.assertEqual(r.stdout, "goniod idle\n")
+        r = self.d.gonio("capture", "--plan", "ds3", "--name", "cw", "--wait")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        lines = r.stdout.splitlines()
+        total = plan_total(os.path.join(self.d.root, "cw"))
+        # Not a terminal: one plain progress line per sample.
+        progress = [l for l in lines if re.match(r"cw: \d+/%d points, rig time" % total, l)]
+        self.assertEqual(len(progress), total)
+        self.assertIn("%d/%d points" % (total, total), progress[-1])
+        self.assertIn("ETA 0 s", progress[-1])
+        self.assertTrue(any("stopped: complete" in l for l in lines))
+        r = self.d.gonio("status", "--json")
+        st = json.loads(r.stdout)
+        self.assertEqual(st["fit_error"]["capture_id"], "cw")
+        r = self.d.gonio("status")
+        self.assertIn("last fit (cw)", r.stdout)
+
+    def test_exit_statuses(self):
+        r = self.d.gonio("pause")
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("no capture is running", r.stderr)
+        r = self.d.gonio("resume", "nothing-here")
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("nothing-here", r.stderr)
+        r = self.d.gonio("capture", "--plan", "/etc/passwd")
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("capture root", r.stderr)
+        self.assertEqual(self.d.gonio("capture").returncode, 2)
+        self.assertEqual(self.d.gonio("capture", "--plan", "ds3", "--stop", "x").returncode, 2)
+        self.assertEqual(self.d.gonio("status", "extra").returncode, 2)
+        self.assertEqual(self.d.gonio("watch", "--bogus").returncode, 2)
+        r = self.d.gonio("status", "--socket", os.path.join(self.folder, "nope.sock"))
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("nope.sock", r.stderr)
+
+    def test_pause_resume_abort(self):
+        self.assertEqual(self.d.gonio("capture", "--plan", "ds3", "--name", "cl").returncode, 0)
+        time.sleep(0.1)
+        self.assertEqual(self.d.gonio("pause").returncode, 0)
+        time.sleep(0.1)
+        self.assertIn("goniod paused: capture cl", self.d.gonio("status").stdout)
+        self.assertEqual(self.d.gonio("resume").returncode, 0)
+        self.assertEqual(self.d.gonio("abort").returncode, 0)
+        time.sleep(0.2)
+        self.assertEqual(self.d.gonio("status").stdout, "goniod idle\n")
+        r = self.d.gonio("capture", "--plan", "ds3", "--name", "cl")
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("exists", r.stderr)
+        self.assertEqual(self.d.gonio("shutdown").returncode, 0)
+        self.assertEqual(self.d.proc.wait(timeout=20), 0)
+
+    def test_offline_still_offline(self):
+        out = os.path.join(self.folder, "off")
+        r = self.d.gonio("capture", "--offline", "--scene", "ideal", "--plan", "ds3", "--out",
+                         out, "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertTrue(os.path.exists(os.path.join(out, "results.json")))
+
+
+# ---------------------------------------------------------------------------
+
+class NotifyTests(unittest.TestCase):
+    def run_with(self, name, bind_addr):
+        folder = tmpdir()
+        try:
+            rx = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+            rx.bind(bind_addr)
+            rx.settimeout(10)
+            d = Daemon(folder, env={"NOTIFY_SOCKET": name, "WATCHDOG_USEC": "100000"})
+            d.start()
+            got = []
+            deadline = time.time() + 10
+            while time.time() < deadline and sum("WATCHDOG=1" in g for g in got) < 3:
+                got.append(rx.recv(4096).decode())
+            d.proc.send_signal(signal.SIGTERM)
+            while not any("STOPPING=1" in g for g in got):
+                got.append(rx.recv(4096).decode())
+            self.assertEqual(d.proc.wait(timeout=20), 0)
+            rx.close()
+            self.assertIn("READY=1", got[0])
+            self.assertIn("MAINPID=%d" % d.proc.pid, got[0])
+            self.assertGreaterEqual(sum("WATCHDOG=1" in g for g in got), 3)
+            self.assertTrue(any(g.startswith("STATUS=") for g in got))
+        finally:
+            shutil.rmtree(folder, ignore_errors=True)
+
+    def test_path_socket(self):
+        folder = tmpdir()
+        path = os.path.join(folder, "notify")
+        self.run_with(path, path)
+        shutil.rmtree(folder, ignore_errors=True)
+
+    def test_abstract_socket(self):
+        name = "gonio-test-%d" % os.getpid()
+        self.run_with("@" + name, "\0" + name)
+
+    def test_watchdog_for_another_pid_is_ignored(self):
+        folder = tmpdir()
+        try:
+            path = os.path.join(folder, "notify")
+            rx = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+            rx.bind(path)
+            rx.settimeout(0.5)
+            d = Daemon(folder, env={"NOTIFY_SOCKET": path, "WATCHDOG_USEC": "50000",
+                                    "WATCHDOG_PID": "1"})
+            d.start()
+            got = [rx.recv(4096).decode()]
+            time.sleep(0.4)
+            try:
+                while True:
+                    got.append(rx.recv(4096).decode())
+            except socket.timeout:
+                pass
+            d.stop()
+            self.assertIn("READY=1", got[0])
+            self.assertFalse(any("WATCHDOG=1" in g for g in got), got)
+        finally:
+            shutil.rmtree(folder, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    unittest.main()
