@@ -415,7 +415,7 @@ static void capture_usage(FILE *out)
     fprintf(out,
             "usage: gonio capture --plan NAME|FILE [--scene NAME|FILE] [--material SPEC]\n"
             "                     [--rig NAME|FILE] [--model abc] [--order ORDER]\n"
-            "                     [--stop all] [--name ID] [--wait] [--socket PATH]\n"
+            "                     [--stop all|converge] [--name ID] [--wait] [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). Files are relative to goniod's capture\n"
             "  root. --wait follows the capture to its end: exit 0 when it completes.\n"

@@ -262,9 +262,9 @@ static const char request_file[] = "request.json";
 
 static int save_request(const struct worker_request *r, struct gonio_err *err)
 {
-    json_t *d = json_pack("{s:s, s:s, s:s, s:s, s:s, s:s, s:s}", "id", r->id, "plan", r->plan,
-                          "scene", r->scene, "rig", r->rig, "material", r->material, "model",
-                          r->model, "order", r->order);
+    json_t *d = json_pack("{s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s}", "id", r->id, "plan",
+                          r->plan, "scene", r->scene, "rig", r->rig, "material", r->material,
+                          "model", r->model, "order", r->order, "stop", r->stop);
     char *text = d ? dump(d) : NULL;
     if (!text)
         return gonio_err_set(err, ENOMEM, "out of memory");
@@ -285,9 +285,10 @@ static int load_request(struct worker_request *r, struct gonio_err *err)
         return gonio_err_set(err, GONIO_ENOTFOUND,
                              "capture '%s' has no readable %s (%s): not a goniod capture",
                              r->id, request_file, je.text);
-    const char *plan, *scene, *rig, *material, *model, *order;
-    if (json_unpack(d, "{s:s, s:s, s:s, s:s, s:s, s:s}", "plan", &plan, "scene", &scene, "rig",
-                    &rig, "material", &material, "model", &model, "order", &order) < 0) {
+    const char *plan, *scene, *rig, *material, *model, *order, *stop;
+    if (json_unpack(d, "{s:s, s:s, s:s, s:s, s:s, s:s, s:s}", "plan", &plan, "scene", &scene,
+                    "rig", &rig, "material", &material, "model", &model, "order", &order,
+                    "stop", &stop) < 0) {
         json_decref(d);
         return gonio_err_set(err, GONIO_EBADDATA, "%s: lacks a field goniod writes", path);
     }
@@ -297,6 +298,7 @@ static int load_request(struct worker_request *r, struct gonio_err *err)
     snprintf(r->material, sizeof r->material, "%s", material);
     snprintf(r->model, sizeof r->model, "%s", model);
     snprintf(r->order, sizeof r->order, "%s", order);
+    snprintf(r->stop, sizeof r->stop, "%s", stop);
     json_decref(d);
     return 0;
 }
@@ -340,11 +342,8 @@ static int cmd_capture(control *c, struct client *cl, json_t *req, json_t *reply
     *code = "bad-value";
     if (!plan)
         return gonio_err_set(err, GONIO_EUSAGE, "capture: 'plan' is required");
-    if (stop && strcmp(stop, "all") != 0)
-        return gonio_err_set(err, GONIO_EUSAGE,
-                             "stop '%s': this goniod measures every planned point ('all'); "
-                             "the capture engine has no convergence stop yet",
-                             stop);
+    if (stop && strcmp(stop, "all") && strcmp(stop, "converge"))
+        return gonio_err_set(err, GONIO_EUSAGE, "stop '%s': use all or converge", stop);
     if (order && strcmp(order, "travel") && strcmp(order, "progressive") &&
         strcmp(order, "as-written") && strcmp(order, "greedy"))
         return gonio_err_set(err, GONIO_EUSAGE,
@@ -370,6 +369,7 @@ static int cmd_capture(control *c, struct client *cl, json_t *req, json_t *reply
         return rc;
     snprintf(r.model, sizeof r.model, "%s", model ? model : "abc");
     snprintf(r.order, sizeof r.order, "%s", order ? order : "");
+    snprintf(r.stop, sizeof r.stop, "%s", stop ? stop : "");
 
     if (name) {
         if (!valid_id(name))
@@ -1030,6 +1030,8 @@ void control_dispatch(control *c, struct worker_msg *msgs)
             json_object_set_new(s, "model", json_string(m->req.model));
             json_object_set_new(s, "order", m->req.order[0] ? json_string(m->req.order)
                                                             : json_null());
+            json_object_set_new(s, "stop", m->req.stop[0] ? json_string(m->req.stop)
+                                                          : json_null());
             json_object_set_new(s, "resume", json_boolean(m->req.resume));
             json_object_set_new(s, "total", json_integer((json_int_t)m->total));
             json_object_set_new(s, "already_done", json_integer((json_int_t)m->already_done));

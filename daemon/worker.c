@@ -136,6 +136,7 @@ static void *run(void *arg)
         .model = w->req.model,
         .out_dir = w->req.dir,
         .order = w->req.order[0] ? w->req.order : NULL,
+        .stop = w->req.stop[0] ? w->req.stop : NULL,
         .quiet = 1,
     };
     struct capture_hooks hooks = {

@@ -20,6 +20,7 @@ struct worker_request {
     char id[128];
     char dir[2048];
     char plan[1024], scene[1024], rig[1024], material[1024], model[32], order[32];
+    char stop[16]; /* "all", "converge" or "" (the plan's rule) */
     int resume; /* the directory exists: continue from its journal */
 };
 

@@ -646,6 +646,28 @@ class CaptureTests(DaemonTest):
         r = self.d.connect().request("resume", capture_id="term")
         self.assertEqual(r["class"], "OK")
 
+    def test_stop_converge(self):
+        self.d.stop()
+        self.d = Daemon(self.folder, pace_s=0)
+        self.d.start()
+        c = self.d.connect()
+        c.request("watch")
+        r = c.request("capture", plan="ds1", order="progressive", stop="converge", name="cv")
+        self.assertEqual(r["class"], "OK", r)
+        docs = c.until_stop("cv")
+        self.assertEqual(docs[0]["stop"], "converge")
+        stop = docs[-1]
+        total = plan_total(os.path.join(self.d.root, "cv"))
+        self.assertEqual(stop["reason"], "converged", stop)
+        self.assertEqual(stop["exit_status"], "success")
+        self.assertLess(stop["samples"], total)
+        pts = journal_points(os.path.join(self.d.root, "cv", "samples.csv"))
+        self.assertEqual(len(pts), stop["samples"])
+        self.assertEqual(len(set(pts)), len(pts))
+        self.assertTrue(os.path.exists(os.path.join(self.d.root, "cv", "results.json")))
+        self.assertEqual(c.request("capture", plan="ds3", stop="sometimes")["code"],
+                         "bad-value")
+
     def test_shutdown_command(self):
         c = self.d.connect()
         self.assertEqual(c.request("shutdown")["class"], "OK")
