@@ -7,11 +7,12 @@
 #include "brdf/material.h"
 #include "brdf/merl.h"
 #include "cli/commands.h"
+#include "fit/model_file.h"
 
 static void usage(FILE *out)
 {
     fprintf(out, "usage: gonio export merl --material SPEC -o FILE.binary\n"
-                 "  SPEC: nbrdf:NAME, merl:FILE, abc:NAME, sgd:NAME or default\n");
+                 "  SPEC: nbrdf:NAME, merl:FILE, abc:NAME, sgd:NAME, default or model:FILE\n");
 }
 
 int cmd_export(int argc, char **argv)
@@ -48,7 +49,7 @@ int cmd_export(int argc, char **argv)
         return 2;
     }
     struct gonio_err err = {0};
-    brdf_material *m = brdf_material_open(spec, &err);
+    brdf_material *m = fit_material_open(spec, &err); /* model:FILE too */
     if (!m) {
         fprintf(stderr, "gonio export: %s\n", err.msg);
         return gonio_exit_status(err.code);
