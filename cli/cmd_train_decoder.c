@@ -16,12 +16,16 @@ static void usage(FILE *out)
     struct latent_train_options d = latent_train_default_options();
     fprintf(out,
             "usage: gonio train-decoder [-o FILE] [--seed N] [--epochs N] [--threads N] "
-            "[--quiet]\n"
+            "[--quiet] [shape options]\n"
             "  -o FILE      output (default: configs/models/latent-decoder.gld)\n"
             "  --seed N     initial weights and training pairs (default %llu)\n"
             "  --epochs N   Adam steps, each over every training material (default %ld)\n"
-            "  --threads N  worker threads; the result does not depend on it (default %d)\n",
-            (unsigned long long)d.seed, d.steps, d.threads);
+            "  --threads N  worker threads; the result does not depend on it (default %d)\n"
+            "  --nz N --layers N --width N --samples N\n"
+            "               latent size, hidden layers and units, pairs per material and\n"
+            "               step (defaults %d, %d, %d, %d)\n",
+            (unsigned long long)d.seed, d.steps, d.threads, d.nz, d.layers, d.width,
+            d.samples_per_step);
 }
 
 static int parse_num(const char *opt, const char *s, unsigned long long max,
@@ -45,6 +49,8 @@ int cmd_train_decoder(int argc, char **argv)
         {"output", required_argument, NULL, 'o'}, {"seed", required_argument, NULL, 's'},
         {"epochs", required_argument, NULL, 'e'}, {"threads", required_argument, NULL, 't'},
         {"quiet", no_argument, NULL, 'q'},        {"help", no_argument, NULL, 'h'},
+        {"nz", required_argument, NULL, 'z'},     {"width", required_argument, NULL, 'w'},
+        {"layers", required_argument, NULL, 'l'}, {"samples", required_argument, NULL, 'n'},
         {NULL, 0, NULL, 0},
     };
     struct latent_train_options o = latent_train_default_options();
@@ -56,7 +62,7 @@ int cmd_train_decoder(int argc, char **argv)
     optind = 1;
     int c;
     unsigned long long v;
-    while ((c = getopt_long(argc, argv, "o:s:e:t:qh", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, "o:s:e:t:qhz:w:l:n:", opts, NULL)) != -1) {
         switch (c) {
         case 'o': snprintf(out, sizeof out, "%s", optarg); break;
         case 's':
@@ -79,6 +85,16 @@ int cmd_train_decoder(int argc, char **argv)
                 return 2;
             }
             o.threads = (int)v;
+            break;
+        case 'z':
+        case 'w':
+        case 'l':
+        case 'n':
+            /* shape and batch: latent_train range-checks them */
+            if (parse_num("shape option", optarg, 100000, &v) < 0)
+                return 2;
+            *(c == 'z' ? &o.nz : c == 'w' ? &o.width : c == 'l' ? &o.layers
+                                                     : &o.samples_per_step) = (int)v;
             break;
         case 'q': o.quiet = 1; break;
         case 'h': usage(stdout); return 0;
