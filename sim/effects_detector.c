@@ -1,0 +1,144 @@
+#include "sim/effects_detector.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "brdf/spectral.h"
+#include "sim/exposure.h"
+
+struct sim_detector {
+    const brdf_material *material;
+    sim_effects *fx;
+    struct sim_exposure exposure;
+    /* spectral detectors only */
+    brdf_spectral *spectral;
+    int n_bands;
+    double bands[SIM_SCENE_MAX_BANDS];
+    double w[3 * SIM_SCENE_MAX_BANDS]; /* spectrum -> linear sRGB */
+    double values[SIM_SCENE_MAX_BANDS];
+    FILE *csv;
+    long acquisitions;
+};
+
+static int open_spectral(sim_detector *d, const struct sim_scene *scene,
+                         struct gonio_err *err)
+{
+    const char *name = brdf_material_name(d->material);
+    if (strncmp(name, "spectral:", 9) == 0)
+        d->spectral = brdf_spectral_open(name, err);
+    else
+        d->spectral = brdf_spectral_lift(d->material, err);
+    if (!d->spectral)
+        return -abs(err ? err->code : ENOMEM);
+    d->n_bands = scene->n_bands;
+    memcpy(d->bands, scene->bands_nm, (size_t)d->n_bands * sizeof *d->bands);
+    double lo, hi;
+    brdf_spectral_range(d->spectral, &lo, &hi);
+    if (d->bands[0] < lo || d->bands[d->n_bands - 1] > hi)
+        return gonio_err_set(err, GONIO_EBADCONFIG,
+                             "%s: detector bands %g-%g nm: material %s is defined on %g-%g nm",
+                             scene->path, d->bands[0], d->bands[d->n_bands - 1], name, lo, hi);
+    return brdf_spectral_rgb_weights(d->bands, (size_t)d->n_bands, d->w, err);
+}
+
+/* spectra.csv: header once, then one row per band and acquisition. */
+static int open_csv(sim_detector *d, const char *path, struct gonio_err *err)
+{
+    struct stat st;
+    int fresh = stat(path, &st) != 0 || st.st_size == 0;
+    d->csv = fopen(path, "a");
+    if (!d->csv)
+        return gonio_err_set(err, errno, "%s: cannot open for appending (%s)", path,
+                             strerror(errno));
+    if (fresh)
+        fprintf(d->csv, "theta_i,theta_r,wavelength_nm,value,acquisition,integration_s,"
+                        "saturated\n");
+    return fflush(d->csv) == 0 ? 0 : gonio_err_set(err, EIO, "%s: write failed", path);
+}
+
+sim_detector *sim_detector_new(const struct plan_rig *rig, const brdf_material *material,
+                               const struct sim_scene *scene, sim_effects *fx,
+                               const char *spectra_csv, struct gonio_err *err)
+{
+    sim_detector *d = calloc(1, sizeof *d);
+    if (!d) {
+        gonio_err_set(err, ENOMEM, "simulated detector: out of memory");
+        return NULL;
+    }
+    d->material = material;
+    d->fx = fx;
+    sim_exposure_init(&d->exposure, rig, scene, fx ? sim_effects_noisy(fx) : 0);
+    int rc = 0;
+    if (scene->detector == SIM_DETECTOR_SPECTRAL) {
+        rc = open_spectral(d, scene, err);
+        if (rc == 0 && spectra_csv)
+            rc = open_csv(d, spectra_csv, err);
+    }
+    if (rc < 0) {
+        sim_detector_free(d);
+        return NULL;
+    }
+    return d;
+}
+
+void sim_detector_free(sim_detector *d)
+{
+    if (!d)
+        return;
+    if (d->csv)
+        fclose(d->csv);
+    brdf_spectral_free(d->spectral);
+    free(d);
+}
+
+int sim_detector_read(sim_detector *d, const struct brdf_pair *p, double cos_i, double now_s,
+                      double requested_s, double theta_i, double theta_r,
+                      struct sim_reading *out, struct gonio_err *err)
+{
+    memset(out, 0, sizeof *out);
+    double *v = d->n_bands ? d->values : out->rgb;
+    int n = d->n_bands ? d->n_bands : 3;
+    if (d->n_bands)
+        brdf_spectral_eval(d->spectral, p, d->bands, (size_t)n, v);
+    else
+        brdf_material_eval(d->material, p, 1, v);
+    struct sim_signal s = {.v = v,
+                           .n = n,
+                           .cos_i = cos_i,
+                           .integration_s = requested_s,
+                           .now_s = now_s,
+                           .responsivity = d->exposure.responsivity};
+    if (d->fx) {
+        sim_effects_light(d->fx, &s);
+        if (d->exposure.automatic)
+            s.integration_s = sim_exposure_choose(&d->exposure, v, n, cos_i);
+        sim_effects_sensor(d->fx, &s);
+    }
+    out->integration_s = s.integration_s;
+    out->flags = s.flags;
+    if (!d->n_bands)
+        return 0;
+    for (int c = 0; c < 3; c++) {
+        double sum = 0;
+        for (int k = 0; k < n; k++)
+            sum += d->w[3 * k + c] * v[k];
+        out->rgb[c] = sum;
+    }
+    out->n_bands = n;
+    out->bands_nm = d->bands;
+    out->spectrum = v;
+    d->acquisitions++;
+    if (d->csv) {
+        for (int k = 0; k < n; k++)
+            fprintf(d->csv, "%.17g,%.17g,%g,%.17g,%ld,%.17g,%d\n", theta_i, theta_r, d->bands[k],
+                    v[k], d->acquisitions, s.integration_s,
+                    (s.flags & SIM_SIGNAL_SATURATED) ? 1 : 0);
+        if (fflush(d->csv) != 0)
+            return gonio_err_set(err, EIO, "spectra.csv: write failed");
+    }
+    return 0;
+}

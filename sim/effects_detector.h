@@ -1,0 +1,45 @@
+/* The simulated detector: the material at the pair the optics actually see,
+ * through the scene's light effects, the exposure, the sensor effects, and
+ * (spectral detectors) the radiometry -> photometry conversion to RGB.
+ *
+ * A spectral detector evaluates a spectral material at its bands: the
+ * material itself when it is "spectral:NAME", otherwise the RGB material
+ * lifted to spectra (brdf/spectral.h). Its reading carries the spectrum and
+ * the linear sRGB of that spectrum under D65; every spectrum can also be
+ * appended to spectra.csv (docs/formats.md, docs/scenes.md). */
+#ifndef GONIO_SIM_EFFECTS_DETECTOR_H
+#define GONIO_SIM_EFFECTS_DETECTOR_H
+
+#include "brdf/material.h"
+#include "common/err.h"
+#include "planner/rig.h"
+#include "sim/effects.h"
+#include "sim/scene.h"
+
+struct sim_reading {
+    double rgb[3];          /* BRDF, 1/sr (linear sRGB of the spectrum when spectral) */
+    double integration_s;   /* the integration actually used */
+    unsigned flags;         /* SIM_SIGNAL_SATURATED */
+    int n_bands;            /* 0 for an RGB detector */
+    const double *bands_nm; /* valid until the next reading */
+    const double *spectrum;
+};
+
+typedef struct sim_detector sim_detector;
+
+/* fx is borrowed (may be NULL: no effects); material too. spectra_csv:
+ * where to append the spectra of a spectral detector, or NULL. */
+sim_detector *sim_detector_new(const struct plan_rig *rig, const brdf_material *material,
+                               const struct sim_scene *scene, sim_effects *fx,
+                               const char *spectra_csv, struct gonio_err *err);
+void sim_detector_free(sim_detector *d);
+
+/* Read at pair p (what the optics see) lit at cos_i; now_s is the rig clock
+ * at the start of the integration; theta_i, theta_r the angles the axes'
+ * encoders report (written to spectra.csv). requested_s is the caller's
+ * integration, used when the detector does not auto-expose. */
+int sim_detector_read(sim_detector *d, const struct brdf_pair *p, double cos_i, double now_s,
+                      double requested_s, double theta_i, double theta_r,
+                      struct sim_reading *out, struct gonio_err *err);
+
+#endif
