@@ -11,15 +11,28 @@
 #include "brdf/material.h"
 #include "common/err.h"
 #include "planner/rig.h"
+#include "sim/effects_detector.h"
+#include "sim/effects_faults.h"
+#include "sim/scene.h"
 
 enum sim_axis_id { SIM_AXIS_SAMPLE, SIM_AXIS_ARM, SIM_AXIS_AZIMUTH, SIM_N_AXES };
 
 typedef struct sim_rig sim_rig;
 
-/* The rig keeps pointers to profile and material: both must outlive it. */
+/* The rig keeps pointers to profile and material: both must outlive it.
+ * A rig of no scene: the material's exact values, fixed integration. */
 sim_rig *sim_rig_new(const struct plan_rig *profile, const brdf_material *material,
                      struct gonio_err *err);
 void sim_rig_free(sim_rig *rig);
+
+/* A rig simulating a scene (scene NULL: no effects): the scene's effects
+ * built once into a pipeline (sim/effects.h), a detector of the scene's
+ * kind, and with out_dir (may be NULL) a spectral detector's spectra
+ * appended to out_dir/spectra.csv. Profile and material must outlive the
+ * rig; the scene is copied. */
+sim_rig *sim_rig_new_scene(const struct plan_rig *profile, const brdf_material *material,
+                           const struct sim_scene *scene, const char *out_dir,
+                           struct gonio_err *err);
 
 /* Simulated time, seconds since the rig was created. */
 double sim_rig_now(const sim_rig *rig);
@@ -39,19 +52,44 @@ int sim_rig_start_move_at(sim_rig *rig, enum sim_axis_id axis, double target_deg
 /* Time at which the axis will be in position (now when it is at rest). */
 double sim_rig_move_end(const sim_rig *rig, enum sim_axis_id axis);
 
-/* Axis position at the current simulated time. */
+/* Advance the clock to the end of the axis's move. Fails with GONIO_EDEVICE
+ * naming the alarm code when the move raised an alarm (stall, alarm
+ * effects); the axis then stays in alarm, refusing moves, until reset. */
+int sim_rig_wait(sim_rig *rig, enum sim_axis_id axis, struct gonio_err *err);
+
+/* The axis's present alarm code (0 none), and the alarm reset (ALM-RST). */
+int sim_rig_alarm(const sim_rig *rig, enum sim_axis_id axis);
+void sim_rig_reset_alarm(sim_rig *rig, enum sim_axis_id axis);
+
+/* The scene's communication-fault decisions for transports (NULL when the
+ * scene has none): see sim/effects_faults.h. */
+sim_faults *sim_rig_faults(sim_rig *rig);
+
+/* Axis position at the current simulated time, as the motor's encoder
+ * reports it (backlash slack is not seen; jitter is). */
 double sim_rig_position(const sim_rig *rig, enum sim_axis_id axis);
 
 /* Stop an axis where it is now (an emergency stop: no deceleration ramp). */
 void sim_rig_stop(sim_rig *rig, enum sim_axis_id axis);
 
-/* Integrate for integration_s at the axes' current positions: the material
- * seen by the detector, in 1/sr. The clock advances by integration_s. */
+/* sim_rig_acquire's RGB only: with no effects, the material seen by the
+ * detector at the axes' positions, in 1/sr, after integration_s. */
 int sim_rig_measure(sim_rig *rig, double integration_s, double rgb[3], struct gonio_err *err);
 
 /* The material seen by the detector at the axes' positions now, in 1/sr,
  * without advancing the clock: an integration that runs on a clock kept by
  * someone else (gonio-sim's detector is BUSY meanwhile). Returns 0. */
 int sim_rig_sample(const sim_rig *rig, double rgb[3]);
+
+/* The scene's detector at the axes' load positions now: the reading with
+ * the scene's effects, the integration it chose (auto-exposure when the
+ * scene has noise, integration_s otherwise) and its flags, without
+ * advancing the clock (gonio-sim keeps its own). Needs sim_rig_new_scene. */
+int sim_rig_read(sim_rig *rig, double integration_s, struct sim_reading *out,
+                 struct gonio_err *err);
+
+/* sim_rig_read, then the clock advances by the integration used. */
+int sim_rig_acquire(sim_rig *rig, double integration_s, struct sim_reading *out,
+                    struct gonio_err *err);
 
 #endif
