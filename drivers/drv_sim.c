@@ -1,6 +1,7 @@
 #include "drivers/drv_sim.h"
 
 #include <stdlib.h>
+#include <string.h>
 
 #include "drivers/drivers_private.h"
 
@@ -17,10 +18,8 @@ static int sim_start_move(void *priv, double target_deg, struct gonio_err *err)
 
 static int sim_wait(void *priv, struct gonio_err *err)
 {
-    (void)err;
     struct sim_axis_priv *p = priv;
-    sim_rig_advance(p->rig, sim_rig_move_end(p->rig, p->id) - sim_rig_now(p->rig));
-    return 0;
+    return sim_rig_wait(p->rig, p->id, err); /* fails naming the alarm of a stall */
 }
 
 static int sim_position(void *priv, double *deg, struct gonio_err *err)
@@ -56,6 +55,78 @@ static const struct drv_axis_ops sim_axis_ops = {
     .free_priv = free,
 };
 
+/* A scene with communication faults: every call is one exchange over a
+ * link that may drop, corrupt or delay the reply (sim/effects_faults.h). A
+ * dropped or late reply costs the timeout on the rig clock, a corrupted one
+ * is caught by its checksum; both are retried, and the request is carried
+ * out once it gets through (absolute moves and reads are idempotent). */
+static int exchange(sim_rig *rig, const char *device, const char *what, struct gonio_err *err)
+{
+    sim_faults *f = sim_rig_faults(rig);
+    int attempts = 1 + sim_faults_retries(f);
+    enum sim_fault kind = SIM_FAULT_NONE;
+    for (int i = 0; i < attempts; i++) {
+        if (sim_faults_next(f, &kind) == SIM_FAULT_NONE)
+            return 0;
+        if (kind != SIM_FAULT_CORRUPT)
+            sim_rig_advance(rig, sim_faults_timeout(f));
+    }
+    return gonio_err_set(err, GONIO_EDEVICE, "simulated %s: %s: no valid reply in %d attempts "
+                         "(last reply %s%s)", device, what, attempts, sim_fault_name(kind),
+                         kind == SIM_FAULT_CORRUPT ? ": bad checksum" : ": timed out");
+}
+
+static const char *axis_device(const struct sim_axis_priv *p)
+{
+    static const char *names[SIM_N_AXES] = {"sample axis", "arm axis", "azimuth axis"};
+    return names[p->id];
+}
+
+static int faulty_start_move(void *priv, double target_deg, struct gonio_err *err)
+{
+    struct sim_axis_priv *p = priv;
+    int rc = exchange(p->rig, axis_device(p), "start move", err);
+    return rc < 0 ? rc : sim_start_move(priv, target_deg, err);
+}
+
+static int faulty_wait(void *priv, struct gonio_err *err)
+{
+    struct sim_axis_priv *p = priv;
+    int rc = exchange(p->rig, axis_device(p), "status", err);
+    return rc < 0 ? rc : sim_wait(priv, err);
+}
+
+static int faulty_position(void *priv, double *deg, struct gonio_err *err)
+{
+    struct sim_axis_priv *p = priv;
+    int rc = exchange(p->rig, axis_device(p), "position", err);
+    return rc < 0 ? rc : sim_position(priv, deg, err);
+}
+
+static int faulty_home(void *priv, struct gonio_err *err)
+{
+    struct sim_axis_priv *p = priv;
+    int rc = exchange(p->rig, axis_device(p), "home", err);
+    return rc < 0 ? rc : sim_home(priv, err);
+}
+
+static int faulty_stop(void *priv, struct gonio_err *err)
+{
+    struct sim_axis_priv *p = priv;
+    int rc = exchange(p->rig, axis_device(p), "stop", err);
+    return rc < 0 ? rc : sim_stop(priv, err);
+}
+
+static const struct drv_axis_ops sim_axis_faulty_ops = {
+    .name = "sim",
+    .start_move = faulty_start_move,
+    .wait = faulty_wait,
+    .position = faulty_position,
+    .home = faulty_home,
+    .stop = faulty_stop,
+    .free_priv = free,
+};
+
 drv_axis *drv_axis_new_sim(sim_rig *rig, enum sim_axis_id axis)
 {
     static const char *names[SIM_N_AXES] = {"sample", "arm", "azimuth"};
@@ -64,15 +135,29 @@ drv_axis *drv_axis_new_sim(sim_rig *rig, enum sim_axis_id axis)
         return NULL;
     p->rig = rig;
     p->id = axis;
-    return drv_axis_alloc(&sim_axis_ops, p, names[axis]);
+    /* the fault layer only where the scene has faults: no cost otherwise */
+    return drv_axis_alloc(sim_rig_faults(rig) ? &sim_axis_faulty_ops : &sim_axis_ops, p,
+                          names[axis]);
 }
 
 static int sim_acquire(void *priv, double integration_s, struct drv_reading *out,
                        struct gonio_err *err)
 {
-    out->integration_s = integration_s;
-    out->flags = 0;
-    return sim_rig_measure(priv, integration_s, out->rgb, err);
+    struct sim_reading r;
+    int rc = sim_rig_acquire(priv, integration_s, &r, err);
+    if (rc < 0)
+        return rc;
+    memcpy(out->rgb, r.rgb, sizeof out->rgb);
+    out->integration_s = r.integration_s;
+    out->flags = (r.flags & SIM_SIGNAL_SATURATED) ? DRV_READING_SATURATED : 0;
+    return 0;
+}
+
+static int faulty_acquire(void *priv, double integration_s, struct drv_reading *out,
+                          struct gonio_err *err)
+{
+    int rc = exchange(priv, "detector", "acquire", err);
+    return rc < 0 ? rc : sim_acquire(priv, integration_s, out, err);
 }
 
 static const struct drv_detector_ops sim_detector_ops = {
@@ -80,9 +165,15 @@ static const struct drv_detector_ops sim_detector_ops = {
     .acquire = sim_acquire,
 };
 
+static const struct drv_detector_ops sim_detector_faulty_ops = {
+    .name = "sim",
+    .acquire = faulty_acquire,
+};
+
 drv_detector *drv_detector_new_sim(sim_rig *rig)
 {
-    return drv_detector_alloc(&sim_detector_ops, rig);
+    return drv_detector_alloc(sim_rig_faults(rig) ? &sim_detector_faulty_ops : &sim_detector_ops,
+                              rig);
 }
 
 static double sim_now(void *priv)
