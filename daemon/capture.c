@@ -221,8 +221,8 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
     if (hooks->open_devices) {
         rc = hooks->open_devices(hooks->user, &in->rig, &dev, err);
     } else {
-        sim = sim_rig_new(&in->rig, in->material, err);
-        rc = sim ? devices_open_sim(sim, &dev, err) : -ENOMEM;
+        sim = sim_rig_new_scene(&in->rig, in->material, &in->scene, cfg->out_dir, err);
+        rc = sim ? devices_open_sim(sim, &dev, err) : -abs(err ? err->code : ENOMEM);
         /* A resumed capture continues the rig clock where the journal ends. */
         if (rc == 0 && *n > 0)
             sim_rig_advance(sim, all[*n - 1].rig_time_s);
