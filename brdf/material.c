@@ -14,6 +14,7 @@
 #include "brdf/nbrdf.h"
 #include "brdf/published.h"
 #include "brdf/sgd.h"
+#include "brdf/spectral.h"
 #include "common/paths.h"
 
 struct brdf_material {
@@ -158,6 +159,12 @@ static brdf_material *open_builtin(const char *spec, const char *arg, struct gon
     return m;
 }
 
+static brdf_material *open_spectral(const char *spec, const char *arg, struct gonio_err *err)
+{
+    (void)arg;
+    return brdf_spectral_material_open(spec, err); /* brdf/spectral.h */
+}
+
 brdf_material *brdf_material_open(const char *spec, struct gonio_err *err)
 {
     static const struct {
@@ -165,7 +172,7 @@ brdf_material *brdf_material_open(const char *spec, struct gonio_err *err)
         brdf_material *(*open)(const char *spec, const char *arg, struct gonio_err *err);
     } kinds[] = {
         {"nbrdf", open_nbrdf}, {"merl", open_merl},       {"abc", open_abc},
-        {"sgd", open_sgd},     {"builtin", open_builtin},
+        {"sgd", open_sgd},     {"builtin", open_builtin}, {"spectral", open_spectral},
     };
     if (!spec || !*spec) {
         gonio_err_set(err, GONIO_EBADCONFIG, "material: empty specification");
@@ -192,7 +199,7 @@ brdf_material *brdf_material_open(const char *spec, struct gonio_err *err)
     }
     gonio_err_set(err, GONIO_EBADCONFIG,
                   "%s: unknown material kind (use nbrdf:NAME, merl:PATH, abc:NAME, sgd:NAME, "
-                  "builtin:NAME or default)",
+                  "builtin:NAME, spectral:NAME or default)",
                   spec);
     return NULL;
 }
