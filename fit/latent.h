@@ -126,4 +126,20 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
                const struct latent_fit_options *opt, double *z, struct latent_fit_info *info,
                struct gonio_err *err);
 
+/* The registry row (fit/models.h): `gonio fit --model latent` fits z with
+ * the committed decoder and writes a model file of kind "latent" (version
+ * LATENT_MODEL_VERSION): keys decoder (path, or "default" for
+ * latent_decoder_default_path), decoder_crc (hex), nz, loss; data = z. Open
+ * refuses a model whose decoder file is missing or has another CRC. */
+#define LATENT_MODEL_VERSION 1
+struct fit_data;
+struct fit_model_options;
+struct fit_model_file;
+struct fit_model_report;
+int fit_latent_model_fit(const struct fit_data *data, const struct fit_model_options *opt,
+                         struct fit_model_file **out, struct fit_model_report *rep,
+                         struct gonio_err *err);
+brdf_material *fit_latent_model_open(const struct fit_model_file *f, const char *name,
+                                     struct gonio_err *err);
+
 #endif
