@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "fit/abc_model.h"
+#include "fit/latent.h"
 #include "fit/mlp.h"
 #include "fit/pseudo.h"
 
@@ -16,6 +17,8 @@ static const struct fit_model_kind models[] = {
      fit_mlp_rgb_open},
     {"mlp-spectral", "mlp-spectral", "spectral MLP on (theta_i, theta_r, wavelength)", 1,
      fit_mlp_spectral_fit, fit_mlp_spectral_open},
+    {"latent", "latent", "latent-code neural BRDF: frozen decoder, z fitted (docs/latent.md)", 0,
+     fit_latent_model_fit, fit_latent_model_open},
 };
 
 #define N_MODELS (sizeof models / sizeof models[0])
