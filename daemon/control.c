@@ -440,9 +440,10 @@ static json_t *status_doc(control *c)
     json_object_set_new(d, "rig_time_s", jnum(st.rig_time_s));
     if (st.has_fit)
         json_object_set_new(d, "fit_error",
-                            json_pack("{s:s, s:o, s:o}", "capture_id", st.fit_id, "log_error",
-                                      jnum(st.fit_log_error), "rel_rmse",
-                                      jnum(st.fit_rel_rmse)));
+                            json_pack("{s:s, s:o, s:o, s:I}", "capture_id", st.fit_id,
+                                      "log_error", jnum(st.fit_log_error), "rel_rmse",
+                                      jnum(st.fit_rel_rmse), "samples",
+                                      (json_int_t)st.fit_samples));
     else
         json_object_set_new(d, "fit_error", json_null());
     return d;
@@ -902,6 +903,8 @@ static json_t *sample_doc(const control *c, const struct worker_msg *m)
     json_object_set_new(d, "integration_s", jnum(s->integration_s));
     json_object_set_new(d, "rig_time_s", jnum(s->rig_time_s));
     json_object_set_new(d, "saturated", json_boolean(s->flags & JOURNAL_FLAG_SATURATED));
+    if (isfinite(m->fit_log_error))
+        json_object_set_new(d, "fit_log_error", json_real(m->fit_log_error));
     return d;
 }
 

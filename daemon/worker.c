@@ -2,6 +2,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <math.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -9,7 +10,11 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "brdf/metrics.h"
 #include "daemon/devices.h"
+#include "fit/fit.h"
+
+#define FIRST_FIT 16 /* samples before the first progressive fit */
 
 struct worker {
     const struct goniod_config *cfg;
@@ -29,7 +34,71 @@ struct worker {
     int has_fit;
     char fit_id[128];
     double fit_log, fit_rmse;
+    size_t fit_n;
+    /* The progressive fit (capture thread only, but for the results above). */
+    struct fit_sample *fs;
+    size_t fs_n, fs_cap, next_fit;
+    struct brdf_abc params;
+    int have_params;
 };
+
+/* Fit the samples so far (warm-started from the previous fit) and publish
+ * the in-sample errors. A failed fit just leaves the last figures. */
+static void progressive_fit(worker *w)
+{
+    size_t n = w->fs_n;
+    struct fit_options opt = fit_default_options();
+    if (w->have_params)
+        opt.warm_start = &w->params;
+    struct brdf_abc p;
+    struct fit_info info;
+    if (fit_abc(w->fs, n, &opt, &p, &info, NULL) < 0)
+        return;
+    w->params = p;
+    w->have_params = 1;
+    struct brdf_pair *pairs = malloc(n * sizeof *pairs);
+    double *truth = malloc(n * 3 * sizeof *truth), *pred = malloc(n * 3 * sizeof *pred);
+    if (pairs && truth && pred) {
+        for (size_t i = 0; i < n; i++) {
+            pairs[i] = w->fs[i].g;
+            memcpy(truth + 3 * i, w->fs[i].rgb, sizeof w->fs[i].rgb);
+            brdf_abc_eval(&p, &pairs[i], pred + 3 * i);
+        }
+        struct brdf_errors e;
+        brdf_errors_compute(pairs, truth, pred, n, &e);
+        pthread_mutex_lock(&w->mu);
+        w->has_fit = 1;
+        snprintf(w->fit_id, sizeof w->fit_id, "%s", w->req.id);
+        w->fit_log = e.log;
+        w->fit_rmse = e.rel_rmse;
+        w->fit_n = n;
+        pthread_mutex_unlock(&w->mu);
+    }
+    free(pairs);
+    free(truth);
+    free(pred);
+}
+
+/* Add a sample to the progressive fit; refit when the count doubles. */
+static void progressive_add(worker *w, const struct journal_sample *s, int may_fit)
+{
+    if (w->fs_n == w->fs_cap) {
+        size_t cap = w->fs_cap ? 2 * w->fs_cap : 256;
+        struct fit_sample *p = realloc(w->fs, cap * sizeof *p);
+        if (!p)
+            return; /* progress display only: the journal has the sample */
+        w->fs = p;
+        w->fs_cap = cap;
+    }
+    journal_sample_pair(s, &w->fs[w->fs_n].g);
+    memcpy(w->fs[w->fs_n].rgb, s->rgb, sizeof s->rgb);
+    w->fs_n++;
+    if (may_fit && w->fs_n >= w->next_fit) {
+        progressive_fit(w);
+        while (w->next_fit <= w->fs_n)
+            w->next_fit *= 2;
+    }
+}
 
 static void push(worker *w, struct worker_msg *m)
 {
@@ -55,6 +124,21 @@ static void hook_on_start(void *user, const char *plan, size_t total, size_t alr
     w->total = total;
     w->done = already;
     pthread_mutex_unlock(&w->mu);
+    /* A resumed capture's fit starts from the samples already journalled. */
+    w->fs_n = 0;
+    w->next_fit = FIRST_FIT;
+    w->have_params = 0;
+    if (already > 0) {
+        char path[2304];
+        snprintf(path, sizeof path, "%s/samples.csv", w->req.dir);
+        struct journal_sample *js = NULL;
+        size_t n = 0;
+        if (journal_read(path, &js, &n, NULL) == 0) {
+            for (size_t i = 0; i < n; i++)
+                progressive_add(w, &js[i], i + 1 == n);
+        }
+        free(js);
+    }
     if (!m)
         return;
     m->kind = WORKER_MSG_START;
@@ -69,10 +153,12 @@ static void hook_on_sample(void *user, const struct journal_sample *s, size_t do
                            size_t total)
 {
     worker *w = user;
+    progressive_add(w, s, 1);
     pthread_mutex_lock(&w->mu);
     w->done = done;
     w->total = total;
     w->rig_time_s = s->rig_time_s;
+    double fit_log = w->has_fit && !strcmp(w->fit_id, w->req.id) ? w->fit_log : NAN;
     pthread_mutex_unlock(&w->mu);
     struct worker_msg *m = malloc(sizeof *m);
     if (!m)
@@ -82,6 +168,7 @@ static void hook_on_sample(void *user, const struct journal_sample *s, size_t do
     m->sample = *s;
     m->done = done;
     m->total = total;
+    m->fit_log_error = fit_log;
     push(w, m);
 }
 
@@ -168,6 +255,7 @@ static void *run(void *arg)
         snprintf(w->fit_id, sizeof w->fit_id, "%s", w->req.id);
         w->fit_log = sum.err_plan.log;
         w->fit_rmse = sum.err_plan.rel_rmse;
+        w->fit_n = sum.samples;
     }
     w->running = 0;
     w->paused = 0;
@@ -236,6 +324,7 @@ void worker_free(worker *w)
         next = m->next;
         free(m);
     }
+    free(w->fs);
     close(w->pipe_rd);
     close(w->pipe_wr);
     pthread_cond_destroy(&w->cv);
@@ -331,6 +420,7 @@ void worker_get_status(worker *w, struct worker_status *st)
     snprintf(st->fit_id, sizeof st->fit_id, "%s", w->fit_id);
     st->fit_log_error = w->fit_log;
     st->fit_rel_rmse = w->fit_rmse;
+    st->fit_samples = w->fit_n;
     pthread_mutex_unlock(&w->mu);
 }
 

@@ -1,6 +1,10 @@
 /* The capture worker: one thread that runs capture_run (daemon/capture.h)
  * for goniod, so the poll loop never waits on a device.
  *
+ * It also refits the model whenever the sample count doubles (16, 32, ...),
+ * so a watcher sees the current fit error; the doubling keeps the cost of
+ * all these fits below twice that of the final one.
+ *
  * The worker reports to the loop through a queue of messages and a wake-up
  * pipe the loop polls; the loop steers the worker (pause, resume, abort)
  * through a mutex and a condition variable that the engine's control hook
@@ -31,10 +35,12 @@ struct worker_status {
     char id[128];
     size_t done, total;
     double rig_time_s;
-    /* The last finished capture's fit, when there was one. */
+    /* The latest fit error known: the running capture's progressive fit
+     * once it has one, else the last finished capture's fit. */
     int has_fit;
     char fit_id[128];
     double fit_log_error, fit_rel_rmse;
+    size_t fit_samples;
 };
 
 enum worker_msg_kind { WORKER_MSG_START, WORKER_MSG_SAMPLE, WORKER_MSG_STOP };
@@ -49,6 +55,7 @@ struct worker_msg {
     /* SAMPLE */
     struct journal_sample sample;
     size_t done;
+    double fit_log_error; /* the progressive fit's in-sample error, NAN before one */
     /* STOP */
     int rc;                      /* capture_run's result */
     char reason[32];             /* complete, aborted, shutdown, error */

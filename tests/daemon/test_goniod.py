@@ -529,6 +529,12 @@ class CaptureTests(DaemonTest):
         self.assertEqual([e["point"] for e in events], pts)
         self.assertEqual([e["done"] for e in events], list(range(1, total + 1)))
         self.assertEqual([e["seq"] for e in events], list(range(1, total + 1)))
+        # The progressive fit: first at 16 samples, refitted at 32.
+        self.assertTrue(all("fit_log_error" not in e for e in events[:15]))
+        fits = [e["fit_log_error"] for e in events[15:]]
+        self.assertTrue(all(0 <= f < 1 for f in fits), fits)
+        self.assertEqual(len(set(fits[:16])), 1)
+        self.assertEqual(len(set(fits[16:])), 1)
         times = [e["rig_time_s"] for e in events]
         self.assertEqual(times, sorted(times))
         with open(os.path.join(capdir, "samples.csv")) as f:
