@@ -6,9 +6,10 @@
  *
  *   stream_replay DIR MATERIAL [tol holdout_tol rounds every min_points]
  *
- * DIR is a capture directory (samples.csv, plan.json); the capture's plan
- * order is the journal order, and level ends are read from plan.json's
- * "level" field when present, else not marked. */
+ * DIR is a capture directory (its samples.csv, in journal order). Level
+ * ends are not marked, so rounds fall every `every` samples only; with
+ * REPLAY_ROWS=N in the environment, every theta_i row that ends after
+ * sample N also ends a level (to try rounds on whole rows). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -57,7 +58,10 @@ int main(int argc, char **argv)
         struct fit_sample s;
         journal_sample_pair(&js[i], &s.g);
         memcpy(s.rgb, js[i].rgb, sizeof s.rgb);
-        if (fit_stream_add(fs, &s, 0, &err) < 0)
+        /* ends: theta_i rows (whole-row sub-levels of progressive order) */
+        int end = getenv("REPLAY_ROWS") && i >= (size_t)atol(getenv("REPLAY_ROWS")) &&
+                  (i + 1 == n || js[i + 1].theta_i != js[i].theta_i);
+        if (fit_stream_add(fs, &s, end, &err) < 0)
             return 1;
         struct fit_stream_status st;
         fit_stream_status(fs, &st);
