@@ -166,7 +166,9 @@ int sim_rig_start_move_at(sim_rig *rig, enum sim_axis_id id, double target_deg, 
     double to = target_deg;
     {
         struct sim_move m = {.axis = id, .number = ++ax->moves, .commanded_prev = ax->commanded,
-                             .target = target_deg, .motor_target = target_deg,
+                             .target = target_deg,
+                             /* the same command again leaves the motor where it went */
+                             .motor_target = target_deg == ax->commanded ? ax->to : target_deg,
                              .hidden_deg = ax->hidden, .last_dir = ax->last_dir};
         sim_effects_move(rig->fx, &m);
         ax->commanded = target_deg;
