@@ -9,10 +9,11 @@
 #include "common/cfg.h"
 #include "planner/rig.h"
 
-/* Default detector: a responsivity that puts a white diffuser (1/pi per sr)
- * at about 32000 e-/s at normal incidence, and an auto-exposure target of
- * 30000 e- in the brightest channel (a 100k e- well kept below a third). */
-#define DEFAULT_RESPONSIVITY 1e5
+/* Default detector: a white diffuser (1/pi per sr) gives about 3.2e5 e-/s
+ * at normal incidence, so with a 30000 e- auto-exposure target (a 100k e-
+ * well kept below a third) it integrates about 0.1 s, and a dark sample
+ * (0.01/sr) reaches the 2 s cap of the default rig. */
+#define DEFAULT_RESPONSIVITY 1e6
 #define DEFAULT_TARGET_E 3e4
 
 static const char *const effect_names[SIM_FX_KINDS] = {
