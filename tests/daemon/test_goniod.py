@@ -155,15 +155,21 @@ class Daemon:
         for c in self.conns:
             c.close()
         self.conns = []
+        rc = self.proc.returncode if self.proc else None
         if self.proc and self.proc.poll() is None:
             self.proc.send_signal(signal.SIGTERM)
             try:
-                return self.proc.wait(timeout=20)
+                rc = self.proc.wait(timeout=20)
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
                 raise AssertionError("goniod ignored SIGTERM")
-        return self.proc.returncode if self.proc else None
+        # Sanitizer builds: a report in the daemon's log fails the test.
+        if os.path.exists(self.log):
+            log = open(self.log, errors="replace").read()
+            if "Sanitizer" in log or "runtime error" in log:
+                raise AssertionError("goniod sanitizer report:\n" + log[-4000:])
+        return rc
 
     def alive(self):
         return self.proc.poll() is None
