@@ -128,7 +128,8 @@ struct fit_mlp_train_options fit_mlp_default_train_options(void)
 {
     return (struct fit_mlp_train_options){
         .seed = 1, .batch = 32, .lr = 2e-3, .beta1 = 0.9, .beta2 = 0.999, .eps = 1e-8,
-        .max_epochs = 0, .max_steps = 60000, .patience = 400, .holdout = 0.15, .quiet = 1,
+        .max_epochs = 0, .max_steps = 60000, .patience = 400, .min_patience_steps = 10000,
+        .holdout = 0.15, .quiet = 1,
     };
 }
 
@@ -298,8 +299,9 @@ static double batch_loss(const struct fit_mlp *net, struct work *w, const size_t
     return sum;
 }
 
-/* One Adam step on the mini-batch idx[0..nb); t is the 1-based step. */
-static void train_step(struct fit_mlp *net, struct work *w, const size_t *idx, size_t nb,
+/* One Adam step on the mini-batch idx[0..nb); t is the 1-based step.
+ * Returns the batch's summed loss before the step. */
+static double train_step(struct fit_mlp *net, struct work *w, const size_t *idx, size_t nb,
                        const struct fit_mlp_train_options *o, double lr, long t)
 {
     int L = net->n_layers, nout = net->width[L];
@@ -309,13 +311,13 @@ static void train_step(struct fit_mlp *net, struct work *w, const size_t *idx, s
      * in PyTorch's MSELoss. */
     double inv = 1.0 / ((double)nb * nout);
     const double *z = w->act[L];
-    double *d = w->d0, *dn = w->d1;
+    double *d = w->d0, *dn = w->d1, loss = 0;
     for (size_t b = 0; b < nb; b++)
         for (int k = 0; k < nout; k++) {
             double dz;
             size_t r = idx[b];
-            value_loss(z[b * (size_t)nout + (size_t)k], w->C[r], w->T[r * (size_t)nout + (size_t)k],
-                       &dz);
+            loss += value_loss(z[b * (size_t)nout + (size_t)k], w->C[r],
+                               w->T[r * (size_t)nout + (size_t)k], &dz);
             d[b * (size_t)nout + (size_t)k] = dz * inv;
         }
     /* Back through the layers; parameter offsets from the end. */
@@ -359,6 +361,49 @@ static void train_step(struct fit_mlp *net, struct work *w, const size_t *idx, s
         v[k] = b2 * v[k] + (1.0 - b2) * g[k] * g[k];
         p[k] -= step * m[k] / (sqrt(v[k]) * rs2 + eps);
     }
+    return loss;
+}
+
+struct keyed {
+    double key;
+    size_t row;
+};
+
+static int cmp_keyed(const void *a, const void *b)
+{
+    const struct keyed *x = a, *y = b;
+    if (x->key != y->key)
+        return x->key < y->key ? -1 : 1;
+    return (x->row > y->row) - (x->row < y->row); /* a total order: qsort is not stable */
+}
+
+/* Put the held-out rows first in w->idx (see fit_mlp_train). */
+static int stratify(struct work *w, size_t n, int nout, size_t n_val, uint64_t *rng)
+{
+    struct keyed *k = malloc(n * sizeof *k);
+    unsigned char *held = calloc(n, 1);
+    if (!k || !held) {
+        free(k);
+        free(held);
+        return -1;
+    }
+    for (size_t i = 0; i < n; i++) {
+        k[i].row = i;
+        k[i].key = 0;
+        for (int j = 0; j < nout; j++)
+            k[i].key += w->T[i * (size_t)nout + (size_t)j];
+    }
+    qsort(k, n, sizeof *k, cmp_keyed);
+    for (size_t s = 0; s < n_val; s++) {
+        size_t lo = s * n / n_val, hi = (s + 1) * n / n_val;
+        held[k[lo + below(rng, hi - lo)].row] = 1;
+    }
+    size_t a = 0, b = n_val;
+    for (size_t i = 0; i < n; i++)
+        w->idx[held[i] ? a++ : b++] = i;
+    free(k);
+    free(held);
+    return 0;
 }
 
 int fit_mlp_train(struct fit_mlp *net, const double *u, const double *f, const double *c,
@@ -441,11 +486,17 @@ int fit_mlp_train(struct fit_mlp *net, const double *u, const double *f, const d
         w.C[i] = c[i];
         w.idx[i] = i;
     }
-    /* Held-out rows: the first n_val of a seeded shuffle. */
+    /* Held-out rows, stratified by value: rows sorted by their summed log
+     * target, cut into n_val strata, one seeded pick from each. A plain
+     * random split of a sparse capture can miss every specular row, and a
+     * held-out set without peaks rewards a network that ignores them. */
     size_t n_val = n >= 8 ? (size_t)floor(o.holdout * (double)n + 0.5) : 0;
     if (n_val >= n)
         n_val = n - 1;
-    shuffle(w.idx, n, &rng);
+    if (n_val && stratify(&w, n, nout, n_val, &rng)) {
+        work_free(&w);
+        return gonio_err_set(err, ENOMEM, "mlp: out of memory for %zu rows", n);
+    }
     size_t *val = w.idx, *tr = w.idx + n_val;
     size_t n_tr = n - n_val;
     r.n_train = n_tr;
@@ -457,37 +508,49 @@ int fit_mlp_train(struct fit_mlp *net, const double *u, const double *f, const d
                                                 (long)per_epoch);
     if (max_epochs < 1)
         max_epochs = 1;
-    double best = INFINITY, lr = o.lr;
-    int since_best = 0, since_cut = 0;
+    /* Patience in epochs, but never fewer than min_patience_steps steps:
+     * with a few hundred samples an epoch is a handful of steps, and a
+     * small held-out set that misses the specular peak looks flat long
+     * before the network has learnt the peak. */
+    long patience = o.patience;
+    long min_pat = (long)((o.min_patience_steps + (long)per_epoch - 1) / (long)per_epoch);
+    patience = patience > min_pat ? patience : min_pat;
+    long cut_after = (patience + 2) / 3;
+    double best = INFINITY, best_train = INFINITY, lr = o.lr;
+    long since_best = 0, since_cut = 0;
     long t = 0;
     memcpy(w.best, net->params, net->n_params * sizeof(double));
     double t0 = now_s();
     for (long ep = 1; ep <= max_epochs; ep++) {
         shuffle(tr, n_tr, &rng);
+        double epoch_loss = 0;
         for (size_t s = 0; s < n_tr; s += w.B) {
             size_t nb = n_tr - s < w.B ? n_tr - s : w.B;
-            train_step(net, &w, tr + s, nb, &o, lr, ++t);
+            epoch_loss += train_step(net, &w, tr + s, nb, &o, lr, ++t);
         }
         r.epochs = (int)ep;
         /* Without a held-out split, the training loss decides. */
         double score = n_val ? batch_loss(net, &w, val, n_val) : batch_loss(net, &w, tr, n_tr);
-        if (!isfinite(score))
+        if (!isfinite(score) || !isfinite(epoch_loss))
             break;
         if (score < best) {
             best = score;
             r.best_epoch = (int)ep;
             memcpy(w.best, net->params, net->n_params * sizeof(double));
-            since_best = since_cut = 0;
+            since_best = 0;
         } else {
             since_best++;
-            since_cut++;
         }
-        if (n_val && since_best >= o.patience) {
+        if (n_val && since_best >= patience) {
             r.early_stopped = ep < max_epochs;
             break;
         }
-        /* A plateau of a third of the patience halves the step. */
-        if (since_cut >= (o.patience + 2) / 3) {
+        /* The step is halved when the training loss (mean over the epoch's
+         * batches) has not improved for a third of the patience. */
+        if (epoch_loss < best_train) {
+            best_train = epoch_loss;
+            since_cut = 0;
+        } else if (++since_cut >= cut_after) {
             lr *= 0.5;
             since_cut = 0;
         }

@@ -45,11 +45,13 @@ void fit_mlp_forward(const struct fit_mlp *net, const double *u, size_t n, doubl
 struct fit_mlp_train_options {
     uint64_t seed;
     int batch;          /* mini-batch size (default 32) */
-    double lr;          /* Adam step (default 2e-3), halved on every plateau */
+    double lr;          /* Adam step (default 2e-3), halved whenever the training loss
+                           has not improved for a third of the patience */
     double beta1, beta2, eps; /* Adam (0.9, 0.999, 1e-8) */
     int max_epochs;     /* default 0: from max_steps */
     long max_steps;     /* with max_epochs 0: epochs = max_steps / batches per epoch */
     int patience;       /* epochs without a held-out improvement before stopping */
+    long min_patience_steps; /* ...but at least this many steps (default 10000) */
     double holdout;     /* fraction of rows held out for early stopping (0.15);
                            no hold-out (and no early stop) below 8 rows */
     int quiet;

@@ -135,6 +135,7 @@ static void test_early_stopping(void **state)
     struct fit_mlp_train_options o = fit_mlp_default_train_options();
     o.max_epochs = 5000;
     o.patience = 15;
+    o.min_patience_steps = 0;
     struct fit_mlp_train_report r;
     assert_int_equal(fit_mlp_train(&net, u, f, c, N, &o, &r, NULL), 0);
     assert_int_equal(r.early_stopped, 1);
