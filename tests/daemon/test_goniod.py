@@ -107,7 +107,8 @@ class Conn:
 
 
 class Daemon:
-    def __init__(self, folder, pace_s=0.0, extra_socket="", env=None, scene="ideal"):
+    def __init__(self, folder, pace_s=0.0, extra_socket="", env=None, scene="ideal",
+                 driver=None):
         self.folder = folder
         self.sock = os.path.join(folder, "s.sock")
         self.root = os.path.join(folder, "cap")
@@ -116,9 +117,11 @@ class Daemon:
         with open(self.config, "w") as f:
             f.write(
                 "rig: default\n"
-                "driver:\n  kind: sim\n  scene: %s\n  pace_s: %g\n"
+                "driver:\n%s"
                 "capture_root: cap\n"
-                "socket:\n  path: s.sock\n%s" % (scene, pace_s, extra_socket))
+                "socket:\n  path: s.sock\n%s" % (
+                    driver or "  kind: sim\n  scene: %s\n  pace_s: %g\n" % (scene, pace_s),
+                    extra_socket))
         self.env = dict(os.environ)
         self.env.pop("NOTIFY_SOCKET", None)
         self.env.pop("WATCHDOG_USEC", None)
@@ -805,6 +808,106 @@ class ClientTests(DaemonTest):
 
 
 # ---------------------------------------------------------------------------
+
+def read_samples(path):
+    """samples.csv rows by point: the rgb triple."""
+    with open(path) as f:
+        rows = [l.split(",") for l in f.read().splitlines()[1:]]
+    return {int(r[0]): [float(r[8]), float(r[9]), float(r[10])] for r in rows}
+
+
+class ModbusTests(unittest.TestCase):
+    """goniod on the Modbus drivers against gonio-sim (RTU on its pty, and
+    TCP), compared with the in-process simulator."""
+    SIM = os.path.join(BIN, "gonio-sim")
+
+    def setUp(self):
+        if not os.path.exists(self.SIM):
+            self.skipTest("gonio-sim not built")
+        self.folder = tmpdir()
+        out = open(os.path.join(self.folder, "sim.out"), "w")
+        self.sim = subprocess.Popen([self.SIM, "--scene", "ideal", "--time-scale", "1000",
+                                     "--link", os.path.join(self.folder, "tty"), "--tcp",
+                                     "127.0.0.1:0"], stdout=out,
+                                    stderr=open(os.path.join(self.folder, "sim.err"), "w"))
+        deadline = time.time() + 10
+        text = ""
+        while time.time() < deadline and "tcp" not in text:
+            time.sleep(0.05)
+            text = open(os.path.join(self.folder, "sim.out")).read()
+        lines = text.splitlines()
+        self.assertEqual(len(lines), 2, text)
+        self.pty = lines[0]
+        self.port = int(lines[1].rsplit(":", 1)[1])
+        self.d = None
+
+    def tearDown(self):
+        if self.d:
+            self.d.stop()
+        self.sim.terminate()
+        self.sim.wait(timeout=20)
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def offline(self):
+        out = os.path.join(self.folder, "offline")
+        r = subprocess.run([GONIO, "capture", "--offline", "--scene", "ideal", "--plan", "ds3",
+                            "--out", out, "--quiet"], capture_output=True, text=True,
+                           timeout=30)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        return read_samples(os.path.join(out, "samples.csv"))
+
+    def capture(self, driver, name):
+        self.d = Daemon(self.folder, driver=driver).start()
+        c = self.d.connect()
+        c.request("watch")
+        self.assertEqual(c.request("capture", plan="ds3", name=name)["class"], "OK")
+        return c
+
+    def same_as_offline(self, name):
+        got = read_samples(os.path.join(self.d.root, name, "samples.csv"))
+        want = self.offline()
+        self.assertEqual(sorted(got), sorted(want))
+        for p in want:
+            for g, w in zip(got[p], want[p]):
+                # The bus carries binary32 floats.
+                self.assertLess(abs(g - w), 1e-6 * abs(w) + 1e-12, (p, got[p], want[p]))
+
+    def test_rtu_capture(self):
+        c = self.capture("  kind: modbus-rtu\n  device: %s\n  baud: 115200\n"
+                         "  time_scale: 1000\n  slaves: {sample: 1, arm: 2, detector: 3, "
+                         "azimuth: 4}\n" % self.pty, "rtu")
+        docs = c.until_stop("rtu")
+        self.assertEqual(docs[1]["driver"]["kind"], "modbus-rtu")
+        self.assertEqual(docs[1]["driver"]["device"], self.pty)
+        self.assertEqual(docs[-1]["reason"], "complete", docs[-1])
+        self.same_as_offline("rtu")
+
+    def test_tcp_abort_and_resume(self):
+        c = self.capture("  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n"
+                         "  time_scale: 1000\n  slaves: {sample: 1, arm: 2, detector: 3, "
+                         "azimuth: 4}\n" % self.port, "tcp")
+        while c.read()["class"] != "event":
+            pass
+        c.request("abort")
+        stop = c.until_stop("tcp")[-1]
+        self.assertEqual(stop["reason"], "aborted")
+        self.assertLess(stop["samples"], 52)
+        c.request("resume", capture_id="tcp")
+        self.assertEqual(c.until_stop("tcp")[-1]["reason"], "complete")
+        pts = journal_points(os.path.join(self.d.root, "tcp", "samples.csv"))
+        self.assertEqual(sorted(pts), list(range(plan_total(os.path.join(self.d.root, "tcp")))))
+        self.same_as_offline("tcp")
+
+    def test_no_rig_answering(self):
+        self.sim.terminate()
+        self.sim.wait(timeout=20)
+        c = self.capture("  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n"
+                         "  timeout_s: 0.05\n" % self.port, "gone")
+        stop = c.until_stop("gone")[-1]
+        self.assertEqual(stop["exit_status"], "fail")
+        self.assertTrue(stop["message"])
+        self.assertEqual(c.request("status")["state"], "idle")
+
 
 class NotifyTests(unittest.TestCase):
     def run_with(self, name, bind_addr):
