@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "brdf/spectral.h"
 #include "common/cfg.h"
 #include "planner/rig.h"
 
@@ -338,6 +339,22 @@ static int parse_detector(const struct cfg_doc *doc, const struct cfg_node *root
         scene->n_bands = 31; /* the design's default: 400-700 nm at 10 nm */
         for (int i = 0; i < 31; i++)
             scene->bands_nm[i] = 400 + 10 * i;
+    }
+    /* Bands beyond a spectral material's data are refused here, before a
+     * capture writes anything (a material that does not open is left for
+     * the capture to report: it names the data file). */
+    if (kind == SIM_DETECTOR_SPECTRAL && !strncmp(scene->material, "spectral:", 9)) {
+        brdf_spectral *m = brdf_spectral_open(scene->material, NULL);
+        double lo = 0, hi = 0;
+        if (m)
+            brdf_spectral_range(m, &lo, &hi);
+        brdf_spectral_free(m);
+        if (m && (scene->bands_nm[0] < lo || scene->bands_nm[scene->n_bands - 1] > hi)) {
+            const struct cfg_node *at = cfg_get(doc, det, "bands");
+            return cfg_error(doc, at ? at : det, at ? "bands" : "detector", err,
+                             "%g-%g nm: %s is defined on %g-%g nm", scene->bands_nm[0],
+                             scene->bands_nm[scene->n_bands - 1], scene->material, lo, hi);
+        }
     }
     return 0;
 }

@@ -145,12 +145,25 @@ static void test_bad_effects_refused_at_their_position(void **state)
                  "bands", "kind: spectral");
 }
 
+/* gold's n, k table covers 390-730 nm: wider bands are refused at load */
+static void test_bands_beyond_the_material_refused(void **state)
+{
+    (void)state;
+    gonio_test_shared_or_skip();
+    expect_error("material: spectral:gold\n"
+                 "detector:\n"
+                 "  kind: spectral\n"
+                 "  bands: {first_nm: 380, last_nm: 700, step_nm: 10}\n",
+                 4, 10, "bands", "spectral:gold is defined on 390-730 nm");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_shipped_scenes_load),
         cmocka_unit_test(test_parameters_parsed),
         cmocka_unit_test(test_bad_effects_refused_at_their_position),
+        cmocka_unit_test(test_bands_beyond_the_material_refused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
