@@ -3,6 +3,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -46,14 +47,13 @@ void brdf_spectral_basis(double lambda_nm, double b[3])
 }
 
 /* M^-1, with M[c][j] the linear sRGB channel c of basis j on the 5 nm CIE
- * grid; computed once (the tables are constant). */
+ * grid; computed once (the tables are constant), thread-safely since
+ * goniod captures on a worker thread. */
 static double lift_inverse[3][3];
-static int lift_ready;
+static pthread_once_t lift_once = PTHREAD_ONCE_INIT;
 
-static void lift_init(void)
+static void lift_compute(void)
 {
-    if (lift_ready)
-        return;
     double lambda[BRDF_CIE_COUNT], w[3 * BRDF_CIE_COUNT];
     for (int k = 0; k < BRDF_CIE_COUNT; k++)
         lambda[k] = BRDF_CIE_FIRST_NM + BRDF_CIE_STEP_NM * k;
@@ -75,7 +75,11 @@ static void lift_init(void)
     gsl_permutation_free(perm);
     for (int i = 0; i < 9; i++)
         lift_inverse[i / 3][i % 3] = inv[i];
-    lift_ready = 1;
+}
+
+static void lift_init(void)
+{
+    pthread_once(&lift_once, lift_compute);
 }
 
 void brdf_spectral_from_rgb(const double rgb[3], const double *lambda_nm, size_t n, double *out)
