@@ -43,7 +43,9 @@ static void test_shipped_scenes_load(void **state)
     static const char *names[] = {"ideal", "ideal-nylon", "ideal-brass", "ideal-blue-acrylic",
                                   "ideal-tungsten-carbide", "lab", "bad-day", "spectral-gold",
                                   "spectral-cyan", "spectral-magenta", "spectral-gonio",
-                                  "spectral-lab"};
+                                  "spectral-lab", "ideal-specular-black-phenolic",
+                                  "ideal-gold-metallic-paint", "ideal-white-diffuse-bball",
+                                  "ideal-red-plastic", "ideal-alum-bronze", "ideal-pearl-paint"};
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
         struct sim_scene sc;
         struct gonio_err err = {0};
