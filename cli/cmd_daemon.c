@@ -335,8 +335,9 @@ static int simple(int argc, char **argv, const char *cmd, const char *usage_args
             printf("\n");
             json_t *fe = json_object_get(rep, "fit_error");
             if (json_is_object(fe))
-                printf("last fit (%s): log error %.4f, relative RMSE %.4f\n",
+                printf("fit (%s, %lld samples): log error %.4f, relative RMSE %.4f\n",
                        json_string_value(json_object_get(fe, "capture_id")),
+                       (long long)json_integer_value(json_object_get(fe, "samples")),
                        jreal(fe, "log_error"), jreal(fe, "rel_rmse"));
         }
     } else if (!rc) {

@@ -763,7 +763,7 @@ class ClientTests(DaemonTest):
         st = json.loads(r.stdout)
         self.assertEqual(st["fit_error"]["capture_id"], "cw")
         r = self.d.gonio("status")
-        self.assertIn("last fit (cw)", r.stdout)
+        self.assertIn("fit (cw, %d samples): log error" % total, r.stdout)
 
     def test_exit_statuses(self):
         r = self.d.gonio("pause")
