@@ -129,6 +129,7 @@ struct fit_mlp_train_options fit_mlp_default_train_options(void)
     return (struct fit_mlp_train_options){
         .seed = 1, .batch = 32, .lr = 2e-3, .beta1 = 0.9, .beta2 = 0.999, .eps = 1e-8,
         .max_epochs = 0, .max_steps = 60000, .patience = 400, .min_patience_steps = 10000,
+        .twin = NULL,
         .holdout = 0.15, .quiet = 1,
     };
 }
@@ -378,8 +379,10 @@ static int cmp_keyed(const void *a, const void *b)
 }
 
 /* Put the held-out rows first in w->idx (see fit_mlp_train). */
-static int stratify(struct work *w, size_t n, int nout, size_t n_val, uint64_t *rng)
+static int stratify(struct work *w, size_t n, int nout, size_t *n_val_io, const size_t *twin,
+                    uint64_t *rng)
 {
+    size_t n_val = *n_val_io;
     struct keyed *k = malloc(n * sizeof *k);
     unsigned char *held = calloc(n, 1);
     if (!k || !held) {
@@ -394,10 +397,29 @@ static int stratify(struct work *w, size_t n, int nout, size_t n_val, uint64_t *
             k[i].key += w->T[i * (size_t)nout + (size_t)j];
     }
     qsort(k, n, sizeof *k, cmp_keyed);
-    for (size_t s = 0; s < n_val; s++) {
-        size_t lo = s * n / n_val, hi = (s + 1) * n / n_val;
+    /* With twins, half as many strata: each pick brings its twin. */
+    size_t strata = twin ? (n_val + 1) / 2 : n_val;
+    for (size_t s = 0; s < strata; s++) {
+        size_t lo = s * n / strata, hi = (s + 1) * n / strata;
         held[k[lo + below(rng, hi - lo)].row] = 1;
     }
+    /* A held-out row's twin (the same measurement seen another way) is
+     * held out with it, or the held-out loss would be a training loss. */
+    if (twin)
+        for (size_t i = 0; i < n; i++)
+            if (held[i] == 1 && twin[i] < n && !held[twin[i]])
+                held[twin[i]] = 2;
+    n_val = 0;
+    for (size_t i = 0; i < n; i++)
+        n_val += held[i] != 0;
+    if (n_val >= n) { /* only twins: keep the strata picks alone */
+        for (size_t i = 0; i < n; i++)
+            held[i] = held[i] == 1;
+        n_val = 0;
+        for (size_t i = 0; i < n; i++)
+            n_val += held[i] != 0;
+    }
+    *n_val_io = n_val;
     size_t a = 0, b = n_val;
     for (size_t i = 0; i < n; i++)
         w->idx[held[i] ? a++ : b++] = i;
@@ -493,7 +515,7 @@ int fit_mlp_train(struct fit_mlp *net, const double *u, const double *f, const d
     size_t n_val = n >= 8 ? (size_t)floor(o.holdout * (double)n + 0.5) : 0;
     if (n_val >= n)
         n_val = n - 1;
-    if (n_val && stratify(&w, n, nout, n_val, &rng)) {
+    if (n_val && stratify(&w, n, nout, &n_val, o.twin, &rng)) {
         work_free(&w);
         return gonio_err_set(err, ENOMEM, "mlp: out of memory for %zu rows", n);
     }

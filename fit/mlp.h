@@ -55,6 +55,9 @@ struct fit_mlp_train_options {
     double holdout;     /* fraction of rows held out for early stopping (0.15);
                            no hold-out (and no early stop) below 8 rows */
     int quiet;
+    /* NULL, or twin[i] = the row that is the same measurement as row i seen
+     * another way (SIZE_MAX: none); twins are held out together. */
+    const size_t *twin;
 };
 
 struct fit_mlp_train_options fit_mlp_default_train_options(void);

@@ -2,6 +2,7 @@
  * training rows from samples, writing model files, and materials. */
 #include <errno.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -73,32 +74,53 @@ int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t see
                               struct fit_mlp_train_report *rep, size_t *left_out,
                               struct gonio_err *err)
 {
-    double *u = malloc((n ? n : 1) * 2 * sizeof *u), *f = malloc((n ? n : 1) * 3 * sizeof *f),
-           *c = malloc((n ? n : 1) * sizeof *c);
-    if (!u || !f || !c) {
+    /* Two rows a sample: itself and its reciprocal. */
+    size_t cap = 2 * (n ? n : 1);
+    double *u = malloc(cap * 2 * sizeof *u), *f = malloc(cap * 3 * sizeof *f),
+           *c = malloc(cap * sizeof *c);
+    size_t *twin = malloc(cap * sizeof *twin);
+    if (!u || !f || !c || !twin) {
         free(u);
         free(f);
         free(c);
+        free(twin);
         return gonio_err_set(err, ENOMEM, "mlp: out of memory");
     }
-    size_t m = 0;
+    size_t m = 0, used = 0;
     for (size_t i = 0; i < n; i++) {
         double ti, tr;
         if (fit_mlp_inplane_angles(&s[i].g, &ti, &tr) || !(s[i].g.wi[2] > 0) || !(s[i].g.wo[2] > 0))
             continue;
         if (!isfinite(s[i].rgb[0]) || !isfinite(s[i].rgb[1]) || !isfinite(s[i].rgb[2]))
             continue;
+        used++;
         u[2 * m] = ti;
         u[2 * m + 1] = tr;
         memcpy(f + 3 * m, s[i].rgb, sizeof s[i].rgb);
         c[m] = s[i].g.wi[2];
+        twin[m] = SIZE_MAX;
+        m++;
+        /* Helmholtz reciprocity: light and detector swapped is the same
+         * value. In-plane, (ti, tr) swaps to (tr, ti) for tr >= 0 and to
+         * (-tr, -ti) for tr < 0 (brdf_pair_to_inplane's theta_i >= 0). A
+         * sparse grid's samples then also cover its theta_r values as
+         * incidence angles, which is where a DS2 grid is thinnest. */
+        double ti2 = tr >= 0 ? tr : -tr, tr2 = tr >= 0 ? ti : -ti;
+        if (fabs(ti2 - ti) < 1e-9 && fabs(tr2 - tr) < 1e-9)
+            continue;
+        u[2 * m] = ti2;
+        u[2 * m + 1] = tr2;
+        memcpy(f + 3 * m, s[i].rgb, sizeof s[i].rgb);
+        c[m] = cos(ti2 * BRDF_DEG);
+        twin[m] = m - 1;
+        twin[m - 1] = m;
         m++;
     }
     if (left_out)
-        *left_out = n - m;
+        *left_out = n - used;
     int rc;
-    if (m < 4) {
-        rc = gonio_err_set(err, GONIO_EFIT, "mlp: %zu usable in-plane samples (need 4)", m);
+    if (used < 4) {
+        rc = gonio_err_set(err, GONIO_EFIT, "mlp: %zu usable in-plane samples (need 4)", used);
     } else {
         rc = fit_mlp_init(net, 6, rgb_widths, err);
         if (!rc) {
@@ -106,6 +128,7 @@ int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t see
             o.seed = seed;
             o.max_epochs = max_epochs;
             o.quiet = quiet;
+            o.twin = twin;
             rc = fit_mlp_train(net, u, f, c, m, &o, rep, err);
             if (rc)
                 fit_mlp_free(net);
@@ -114,6 +137,7 @@ int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t see
     free(u);
     free(f);
     free(c);
+    free(twin);
     return rc;
 }
 

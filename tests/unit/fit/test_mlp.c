@@ -12,6 +12,7 @@
 #include "fit/models.h"
 
 #define PI 3.14159265358979323846
+#define LIMIT_RECIPROCAL 0.01 /* without the reciprocal rows: 0.045 */
 
 /* A smooth in-plane RGB function: a diffuse part and a lobe around the
  * mirror direction (the reference the network must reproduce). */
@@ -224,6 +225,61 @@ static void test_material_hard_inputs(void **state)
     free(s);
 }
 
+/* A reciprocal in-plane function whose lobe width changes with both
+ * angles: f(ti, tr) = f(tr, ti) for tr >= 0 and f(-tr, -ti) for tr < 0. */
+static void reciprocal_rgb(double ti, double tr, double f[3])
+{
+    double w = 8.0 + 20.0 * cosd(ti) * cosd(tr), d = (tr - ti) / w;
+    for (int k = 0; k < 3; k++)
+        f[k] = (0.1 + 0.1 * k) / PI + (0.5 + 0.3 * k) * exp(-d * d);
+}
+
+/* Samples at theta_i 0, 40 and 80 only: the RGB model also learns from the
+ * reciprocal of each sample, which puts the theta_r values of the capture
+ * on the incidence axis, so incidence angles never sampled (20, 60) come
+ * out close to the function. */
+static void test_reciprocity_fills_incidence(void **state)
+{
+    (void)state;
+    struct fit_sample *s = malloc(3 * 81 * sizeof *s);
+    size_t n = 0;
+    for (int ti = 0; ti <= 80; ti += 40)
+        for (int tr = -80; tr <= 80; tr += 2) {
+            brdf_pair_inplane(ti, tr, &s[n].g);
+            reciprocal_rgb(ti, tr, s[n].rgb);
+            n++;
+        }
+    struct fit_data data = {.rgb = s, .n_rgb = n};
+    struct fit_model_options mo = fit_model_default_options();
+    mo.max_epochs = 400;
+    struct fit_model_file *mf = NULL;
+    struct fit_model_report rep;
+    struct gonio_err err = {0};
+    assert_int_equal(fit_model_find("mlp")->fit(&data, &mo, &mf, &rep, &err), 0);
+    struct fit_mlp net;
+    assert_int_equal(fit_mlp_from_file(mf, "(test)", &net, &err), 0);
+    /* The reciprocals of the samples at theta_r = +-20, +-60: incidence
+     * 20 and 60, never measured as such. */
+    double sum = 0;
+    size_t m = 0;
+    for (int a = 0; a <= 80; a += 40)
+        for (int b = -60; b <= 60; b += 40) {
+            double ti = b >= 0 ? b : -b, tr = b >= 0 ? a : -a;
+            double u[2] = {ti, tr}, z[3], t[3];
+            fit_mlp_forward(&net, u, 1, z);
+            reciprocal_rgb(ti, tr, t);
+            for (int k = 0; k < 3; k++) {
+                sum += fabs(log1p(fit_mlp_value(z[k]) * cosd(ti)) - log1p(t[k] * cosd(ti)));
+                m++;
+            }
+        }
+    print_message("log error at unsampled incidence 20, 60: %.5f\n", sum / (double)m);
+    assert_true(sum / (double)m < LIMIT_RECIPROCAL);
+    fit_mlp_free(&net);
+    fit_model_file_free(mf);
+    free(s);
+}
+
 /* A smooth spectrum: a sloped diffuse part and a lobe whose height depends
  * on the wavelength. */
 static double smooth_spectral(double ti, double tr, double nm)
@@ -296,6 +352,7 @@ int main(void)
         cmocka_unit_test(test_determinism),
         cmocka_unit_test(test_early_stopping),
         cmocka_unit_test(test_material_hard_inputs),
+        cmocka_unit_test(test_reciprocity_fills_incidence),
         cmocka_unit_test(test_spectral_trainer),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
