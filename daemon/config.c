@@ -53,14 +53,29 @@ static int copy_path(const struct cfg_doc *d, const struct cfg_node *map, const 
     return 1;
 }
 
+/* A rig profile or scene: a bare name (from the configs folder) stays as
+ * it is; a file is resolved like every other path in the config. */
+static int copy_ref(const struct cfg_doc *d, const struct cfg_node *map, const char *key,
+                    char *out, size_t size, struct gonio_err *err)
+{
+    const char *s;
+    int rc = cfg_string(d, map, key, CFG_OPTIONAL, &s, err);
+    if (rc <= 0)
+        return rc;
+    size_t n = strlen(s);
+    int is_path = strchr(s, '/') || (n > 5 && !strcmp(s + n - 5, ".yaml")) ||
+                  (n > 4 && !strcmp(s + n - 4, ".yml"));
+    return is_path ? copy_path(d, map, key, CFG_OPTIONAL, out, size, err)
+                   : copy_string(d, map, key, CFG_OPTIONAL, out, size, err);
+}
+
 static int load_sim(const struct cfg_doc *d, const struct cfg_node *drv,
                     struct goniod_config *cfg, struct gonio_err *err)
 {
     static const char *const keys[] = {"kind", "scene", "pace_s", NULL};
     int rc;
     if ((rc = cfg_check_keys(d, drv, "driver", keys, err)) < 0 ||
-        (rc = copy_string(d, drv, "scene", CFG_OPTIONAL, cfg->scene, sizeof cfg->scene,
-                          err)) < 0 ||
+        (rc = copy_ref(d, drv, "scene", cfg->scene, sizeof cfg->scene, err)) < 0 ||
         (rc = cfg_double(d, drv, "pace_s", CFG_OPTIONAL, 0, 60, &cfg->pace_s, err)) < 0)
         return rc;
     /* The scene must load now, not at the first capture. */
@@ -195,7 +210,7 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
     const struct cfg_node *root = cfg_root(d), *drv = NULL;
     int kind = 0;
     if ((rc = cfg_check_keys(d, root, "goniod config", keys, err)) < 0 ||
-        (rc = copy_string(d, root, "rig", CFG_OPTIONAL, cfg->rig, sizeof cfg->rig, err)) < 0 ||
+        (rc = copy_ref(d, root, "rig", cfg->rig, sizeof cfg->rig, err)) < 0 ||
         (rc = copy_path(d, root, "capture_root", CFG_REQUIRED, cfg->capture_root,
                         sizeof cfg->capture_root, err)) < 0 ||
         (rc = load_socket(d, root, cfg, err)) < 0 ||

@@ -256,6 +256,19 @@ class CheckTests(unittest.TestCase):
         self.assertFalse(os.path.exists(os.path.join(self.folder, "caps")),
                          "--check must not create anything")
 
+    def test_rig_and_scene_files_beside_the_config(self):
+        for sub, name in (("rigs", "default.yaml"), ("scenes", "ideal.yaml")):
+            shutil.copy(os.path.join(SOURCE, "configs", sub, name),
+                        os.path.join(self.folder, "my-" + name))
+        path, r = self.check(self.GOOD.replace("rig: default", "rig: my-default.yaml")
+                             .replace("scene: ideal", "scene: ./my-ideal.yaml"))
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("rig: %s/my-default.yaml\n" % self.folder, r.stdout)
+        self.assertIn("scene: %s/./my-ideal.yaml\n" % self.folder, r.stdout)
+        path, r = self.check(self.GOOD.replace("rig: default", "rig: none.yaml"))
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("%s:1:" % path, r.stderr)
+
     def test_shipped_configs(self):
         for name in ("sim.yaml", "modbus-rtu.yaml", "modbus-tcp.yaml"):
             path = os.path.join(SOURCE, "configs", "goniod", name)
