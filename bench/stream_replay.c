@@ -61,6 +61,10 @@ int main(int argc, char **argv)
         /* ends: theta_i rows (whole-row sub-levels of progressive order) */
         int end = getenv("REPLAY_ROWS") && i >= (size_t)atol(getenv("REPLAY_ROWS")) &&
                   (i + 1 == n || js[i + 1].theta_i != js[i].theta_i);
+        /* REPLAY_LEVELS=52,176: samples that end a level (counts) */
+        for (const char *l = getenv("REPLAY_LEVELS"); l && *l; l = strchr(l, ',') ? strchr(l, ',') + 1 : "")
+            if ((size_t)atol(l) == i + 1)
+                end = 1;
         if (fit_stream_add(fs, &s, end, &err) < 0)
             return 1;
         struct fit_stream_status st;

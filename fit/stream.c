@@ -26,8 +26,8 @@ struct fit_stream_options fit_stream_default_options(void)
 {
     return (struct fit_stream_options){
         .converge = 1,
-        .tol = 0.004,
-        .holdout_tol = 0.25,
+        .tol = 0.008,
+        .holdout_tol = 1.0,
         .rounds = 2,
         .every = 24,
         .min_points = 60,
@@ -142,7 +142,14 @@ static void round_run(fit_stream *s)
     double *t = s->prev_pred;
     s->prev_pred = s->pred;
     s->pred = t;
-    s->st.calm = calm ? s->st.calm + 1 : 0;
+    /* A round forced by a level end just after a periodic one sees a
+     * handful of new samples and so a tiny change: it may reset the count
+     * but not add to it. */
+    size_t fresh = s->n - fitted_before;
+    if (!calm)
+        s->st.calm = 0;
+    else if (s->opt.every <= 0 || 2 * fresh >= (size_t)s->opt.every)
+        s->st.calm++;
     if (s->opt.converge && s->st.calm >= s->opt.rounds && (long)s->n >= s->opt.min_points) {
         s->st.converged = 1;
         s->st.converged_at = s->n;

@@ -13,6 +13,8 @@
  *     fitted (held out from it) about as well as it fits its own samples:
  *     held-out log error <= (1 + holdout_tol) x its in-sample log error
  *     + tol (the absolute term keeps exact data, fitted to ~0, decidable).
+ * A round with fewer than every/2 new samples (a level end just after a
+ * periodic round) can reset the count of calm rounds but not add to it.
  * The stream converges after `rounds` consecutive calm rounds, never with
  * fewer than min_points samples. Neither test looks at the true material:
  * on a real rig there is none (docs/fitting.md, "Stopping on convergence").
@@ -38,7 +40,7 @@ struct fit_stream_options {
     struct fit_options fit; /* passed to fit_abc (warm_start is managed here) */
 };
 
-/* Defaults (docs/fitting.md): tol 0.004, holdout_tol 0.25, rounds 2,
+/* Defaults (docs/fitting.md): tol 0.008, holdout_tol 1.0, rounds 2,
  * every 24, min_points 60, fit_default_options(). Captures take tol,
  * rounds, every and min_points from the plan's stop rule instead. */
 struct fit_stream_options fit_stream_default_options(void);

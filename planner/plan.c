@@ -298,10 +298,10 @@ static int load_stop(const struct cfg_doc *d, const struct cfg_node *root, struc
     static const char *const top[] = {"converge", NULL};
     static const char *const keys[] = {"tol", "rounds", "every", "min_points", NULL};
     /* Defaults chosen with bench/stream_replay on DS1 (docs/fitting.md);
-     * min_points 0 stands for "a quarter of the plan", set once the points
+     * min_points 0 stands for "11/40 of the plan", set once the points
      * are known. They hold for `stop: all` too, for `gonio capture --stop
      * converge`. */
-    p->stop = (struct plan_stop){PLAN_STOP_ALL, 0.004, 2, 24, 0};
+    p->stop = (struct plan_stop){PLAN_STOP_ALL, 0.008, 2, 24, 0};
     const struct cfg_node *s = cfg_get(d, root, "stop"), *c;
     if (!s)
         return 0;
@@ -489,9 +489,12 @@ static int load_file(const char *path_or_name, const struct plan_rig *rig, int d
     }
     p->declared = (enum plan_order_mode)order;
     /* A fit to the coarse levels alone can be calm and still off (DS1 on
-     * blue-acrylic after its DS2 level): no decision before a quarter. */
-    if (p->stop.min_points == 0)
-        p->stop.min_points = (long)p->n / 4 > p->stop.every ? (long)p->n / 4 : p->stop.every;
+     * specular-black-phenolic after its DS2 level: 1.6 times the full
+     * capture's error): no decision before 11/40 of the plan (DS1: 250). */
+    if (p->stop.min_points == 0) {
+        long share = (long)(p->n * 11 / 40);
+        p->stop.min_points = share > p->stop.every ? share : p->stop.every;
+    }
     p->order = malloc((p->n ? p->n : 1) * sizeof *p->order);
     if (!p->order) {
         rc = gonio_err_set(err, ENOMEM, "%s: out of memory", p->path);
