@@ -242,9 +242,17 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
             break;
         }
         struct journal_sample s;
-        rc = measure_point(&dev, &in->rig, plan_point(in->plan, k), (int)k, &s, err);
-        if (rc < 0)
+        const struct plan_point *pt = plan_point(in->plan, k);
+        rc = measure_point(&dev, &in->rig, pt, (int)k, &s, err);
+        if (rc < 0) {
             stop_axes(&dev); /* a failed point leaves no axis moving */
+            if (err) { /* name the point the operator will find in plan.json */
+                char msg[GONIO_ERR_MSG_MAX];
+                snprintf(msg, sizeof msg, "%s", err->msg);
+                gonio_err_set(err, err->code, "point %zu (theta_i %g, theta_r %g): %s", k,
+                              pt->theta_i, pt->theta_r, msg);
+            }
+        }
         if (rc == 0)
             rc = journal_append(j, &s, err);
         if (rc == 0) {
