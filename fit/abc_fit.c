@@ -37,6 +37,7 @@ struct fit_options fit_default_options(void)
         .gtol = 1e-8,
         .ftol = 1e-5,
         .warm_start = NULL,
+        .global = FIT_GLOBAL_GRID,
     };
     return o;
 }
@@ -83,11 +84,11 @@ static int local_solve(const struct abc_problem *pb, const double theta0[ABC_NPA
     if (pb->n > ABC_QR_MAX)
         fp.solver = gsl_multifit_nlinear_solver_mcholesky;
     gsl_multifit_nlinear_workspace *w =
-        gsl_multifit_nlinear_alloc(gsl_multifit_nlinear_trust, &fp, 3 * pb->n, ABC_NPAR);
+        gsl_multifit_nlinear_alloc(gsl_multifit_nlinear_trust, &fp, abc_problem_nres(pb), ABC_NPAR);
     if (!w)
         return -1;
     gsl_multifit_nlinear_fdf fdf = {
-        .f = gsl_f, .df = gsl_df, .fvv = NULL, .n = 3 * pb->n, .p = ABC_NPAR,
+        .f = gsl_f, .df = gsl_df, .fvv = NULL, .n = abc_problem_nres(pb), .p = ABC_NPAR,
         .params = (void *)pb,
     };
     double x0[ABC_NPAR];
@@ -173,10 +174,112 @@ static int sample_usable(const struct fit_sample *s)
     return 1;
 }
 
+/* Parameter standard deviations at theta: covariance s2 (J^T J)^-1 from
+ * GSL, mapped to natural units. A parameter whose column of J is zero
+ * (clamped, or without influence) is undetermined: INFINITY. */
+static void uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR], double s2,
+                        struct fit_uncertainty *u)
+{
+    double *sd = (double *)u; /* 9 doubles in the order of the struct */
+    for (int i = 0; i < 9; i++)
+        sd[i] = NAN;
+    if (!isfinite(s2))
+        return;
+    size_t m = abc_problem_nres(pb);
+    gsl_matrix *J = gsl_matrix_alloc(m, ABC_NPAR);
+    gsl_matrix *cov = gsl_matrix_alloc(ABC_NPAR, ABC_NPAR);
+    if (!J || !cov)
+        goto done;
+    abc_problem_eval(pb, th, NULL, J->data);
+    double cn[ABC_NPAR];
+    for (size_t j = 0; j < ABC_NPAR; j++) {
+        gsl_vector_view col = gsl_matrix_column(J, j);
+        cn[j] = gsl_blas_dnrm2(&col.vector);
+    }
+    if (gsl_multifit_nlinear_covar(J, 1e-12, cov) != GSL_SUCCESS)
+        goto done;
+    /* GSL zeroes the rows and columns of the parameters it found dependent */
+    double c[ABC_NPAR][ABC_NPAR];
+    int undet[ABC_NPAR];
+    for (int i = 0; i < ABC_NPAR; i++) {
+        undet[i] = !(cn[i] > 0) || !(gsl_matrix_get(cov, (size_t)i, (size_t)i) > 0);
+        for (int j = 0; j < ABC_NPAR; j++)
+            c[i][j] = s2 * gsl_matrix_get(cov, (size_t)i, (size_t)j);
+    }
+    for (int k = 0; k < 3; k++) {
+        u->log_kd[k] = undet[k] ? INFINITY : sqrt(c[k][k]);
+        u->log_A[k] = undet[3 + k] ? INFINITY : sqrt(c[3 + k][3 + k]);
+    }
+    /* log B = theta6 - theta7 */
+    u->log_B = undet[6] || undet[7] ? INFINITY : sqrt(fmax(0.0, c[6][6] + c[7][7] - 2 * c[6][7]));
+    u->log_C = undet[7] ? INFINITY : sqrt(c[7][7]);
+    double sg = 1.0 / (1.0 + exp(-th[8]));
+    double deta = (ABC_ETA_MAX - 1.0) * sg * (1.0 - sg); /* d eta / d theta8 */
+    u->eta = undet[8] ? INFINITY : deta * sqrt(c[8][8]);
+done:
+    gsl_matrix_free(J);
+    gsl_matrix_free(cov);
+}
+
+/* The population's lobe shapes as starts: real materials cluster in (B, C,
+ * eta), and a few samples that cannot locate the lobe alone can still
+ * tell which known shape fits them best. Writes up to
+ * ABC_PRIOR_SHAPE_STARTS starts, best MAP cost first; returns the count. */
+static int shape_starts(const struct abc_problem *pb, const struct abc_prior_term *pt,
+                        double *starts)
+{
+    if (!pt->n_shapes)
+        return 0;
+    double *spec = malloc((pb->n ? pb->n : 1) * sizeof *spec);
+    if (!spec)
+        return 0;
+    double best_cost[ABC_PRIOR_SHAPE_STARTS];
+    int got = 0;
+    for (size_t i = 0; i < pt->n_shapes; i++) {
+        struct brdf_abc p;
+        p.B = pt->shapes[i][0];
+        p.C = pt->shapes[i][1];
+        p.eta = pt->shapes[i][2];
+        abc_linear_score(pb, p.B, p.C, p.eta, p.kd, p.A, spec);
+        for (int c = 0; c < 3; c++) {
+            p.kd[c] = fmax(p.kd[c], 1e-6);
+            p.A[c] = fmax(p.A[c], 1e-6);
+        }
+        double th[ABC_NPAR];
+        abc_params_to_theta(&p, th);
+        double cost = abc_problem_cost(pb, th);
+        if (!isfinite(cost))
+            continue;
+        /* insertion into the short sorted list */
+        int at = got < ABC_PRIOR_SHAPE_STARTS ? got : ABC_PRIOR_SHAPE_STARTS - 1;
+        if (got == ABC_PRIOR_SHAPE_STARTS && cost >= best_cost[at])
+            continue;
+        while (at > 0 && best_cost[at - 1] > cost) {
+            best_cost[at] = best_cost[at - 1];
+            memcpy(starts + (size_t)at * ABC_NPAR, starts + (size_t)(at - 1) * ABC_NPAR,
+                   sizeof th);
+            at--;
+        }
+        best_cost[at] = cost;
+        memcpy(starts + (size_t)at * ABC_NPAR, th, sizeof th);
+        if (got < ABC_PRIOR_SHAPE_STARTS)
+            got++;
+    }
+    free(spec);
+    return got;
+}
+
 static int gsl_handler_off_done;
 
-int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options *opt_in,
+int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options *opt,
             struct brdf_abc *out, struct fit_info *info, struct gonio_err *err)
+{
+    return abc_fit_run(samples, n, opt, NULL, 0.0, out, info, err);
+}
+
+int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_options *opt_in,
+                const struct abc_prior_term *prior, double prior_sigma, struct brdf_abc *out,
+                struct fit_info *info, struct gonio_err *err)
 {
     struct fit_options opt = opt_in ? *opt_in : fit_default_options();
     if (opt.max_iter <= 0 || opt.n_starts <= 0)
@@ -185,9 +288,14 @@ int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options
                              opt.max_iter, opt.n_starts);
     if (opt.n_starts > ABC_MAX_STARTS)
         opt.n_starts = ABC_MAX_STARTS;
-    if (opt.loss != FIT_LOSS_LOG)
+    if (opt.loss != FIT_LOSS_LOG && opt.loss != FIT_LOSS_RELATIVE && opt.loss != FIT_LOSS_COS_L2)
         return gonio_err_set(err, GONIO_EUSAGE,
-                             "fit_abc: loss %d: only FIT_LOSS_LOG is implemented", (int)opt.loss);
+                             "fit_abc: loss %d: use FIT_LOSS_LOG, _RELATIVE or _COS_L2",
+                             (int)opt.loss);
+    if (opt.global != FIT_GLOBAL_GRID && opt.global != FIT_GLOBAL_DE)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "fit_abc: global %d: use FIT_GLOBAL_GRID or FIT_GLOBAL_DE",
+                             (int)opt.global);
     /* Once per process, not per call: the handler is global state. */
     if (!gsl_handler_off_done) {
         gsl_set_error_handler_off();
@@ -201,7 +309,7 @@ int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options
     for (size_t i = 0; i < n; i++)
         if (sample_usable(&samples[i]))
             idx[nv++] = i;
-    if (nv < 3) {
+    if (nv < (prior ? 1u : 3u)) {
         free(idx);
         return gonio_err_set(err, GONIO_EFIT,
                              "fit_abc: %zu usable samples of %zu (the rest have a NaN/inf value or "
@@ -226,15 +334,17 @@ int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options
 
     struct abc_problem full = {0}, local = {0}, grid = {0};
     int rc = 0;
-    double starts[ABC_MAX_STARTS * ABC_NPAR];
+    double starts[(ABC_MAX_STARTS + 1 + ABC_PRIOR_SHAPE_STARTS) * ABC_NPAR];
     int nstarts = 0;
     struct solve_result best = {.cost = INFINITY, .reason = "no start"};
     int ran = 0;
 
-    if (abc_problem_init(&local, samples, idx, n_local) < 0) {
+    if (abc_problem_init(&local, samples, idx, n_local) < 0 ||
+        abc_problem_set_loss(&local, opt.loss) < 0) {
         rc = gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", n_local);
         goto done;
     }
+    local.prior = prior;
     if (opt.warm_start) {
         abc_params_to_theta(opt.warm_start, starts);
         nstarts = 1;
@@ -247,7 +357,15 @@ int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options
             }
             gp = &grid;
         }
-        nstarts = abc_grid_starts(gp, opt.n_starts, starts);
+        nstarts = opt.global == FIT_GLOBAL_DE ? abc_de_starts(gp, opt.seed, opt.n_starts, starts)
+                                              : abc_grid_starts(gp, opt.n_starts, starts);
+        /* With a prior its mean is one more start: the population's typical
+         * material, a basin the few samples alone may not point to. */
+        if (prior && nstarts >= 0) {
+            memcpy(starts + (size_t)nstarts * ABC_NPAR, prior->mean, sizeof prior->mean);
+            nstarts++;
+            nstarts += shape_starts(gp, prior, starts + (size_t)nstarts * ABC_NPAR);
+        }
         if (nstarts <= 0) {
             rc = gonio_err_set(err, GONIO_EFIT, "fit_abc: start search found no finite start "
                                                 "among %zu samples", n_grid);
@@ -264,10 +382,12 @@ int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options
             best = r;
     }
     if (n_local < nv && isfinite(best.cost)) {
-        if (abc_problem_init(&full, samples, idx, nv) < 0) {
+        if (abc_problem_init(&full, samples, idx, nv) < 0 ||
+            abc_problem_set_loss(&full, opt.loss) < 0) {
             rc = gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", nv);
             goto done;
         }
+        full.prior = prior;
         struct solve_result r;
         if (local_solve(&full, best.theta, &opt, &r) == 0) {
             r.iterations += best.iterations;
@@ -290,6 +410,13 @@ int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options
         info->converged = best.converged;
         info->reason = best.reason;
         info->dropped = n - nv;
+        const struct abc_problem *fp = full.n ? &full : &local;
+        size_t m = 3 * fp->n;
+        /* Residual variance: from the fit's own residuals, or the prior's
+         * noise level (the posterior covariance of the MAP problem). */
+        double s2 = prior ? prior_sigma * prior_sigma
+                          : m > ABC_NPAR ? 2.0 * best.cost / (double)(m - ABC_NPAR) : NAN;
+        uncertainty(fp, best.theta, s2, &info->sd);
     }
 
 done:

@@ -47,7 +47,28 @@ void abc_problem_free(struct abc_problem *pb)
     free(pb->cosi);
     free(pb->f);
     free(pb->y);
+    free(pb->s);
     memset(pb, 0, sizeof *pb);
+}
+
+int abc_problem_set_loss(struct abc_problem *pb, enum fit_loss loss)
+{
+    if (loss != FIT_LOSS_LOG && loss != FIT_LOSS_RELATIVE && loss != FIT_LOSS_COS_L2)
+        return -1;
+    pb->loss = loss;
+    if (loss == FIT_LOSS_LOG)
+        return 0;
+    if (!pb->s && !(pb->s = malloc((pb->n ? 3 * pb->n : 1) * sizeof *pb->s)))
+        return -1;
+    for (size_t row = 0; row < 3 * pb->n; row++)
+        pb->s[row] = loss == FIT_LOSS_RELATIVE ? 1.0 / (fabs(pb->f[row]) + FIT_REL_FLOOR)
+                                               : pb->cosi[row / 3];
+    return 0;
+}
+
+size_t abc_problem_nres(const struct abc_problem *pb)
+{
+    return 3 * pb->n + (pb->prior ? ABC_NPAR : 0);
 }
 
 /* exp of a clamped log; *d receives d value / d t (0 beyond the clamp). */
@@ -143,12 +164,13 @@ void abc_problem_eval(const struct abc_problem *pb, const double th[ABC_NPAR], d
         for (int c = 0; c < 3; c++) {
             double fhat = kd[c] / ABC_PI + A[c] * S;
             size_t row = 3 * k + (size_t)c;
+            int lin = pb->loss != FIT_LOSS_LOG;
             if (r)
-                r[row] = log1p(fhat * ci) - pb->y[row];
+                r[row] = lin ? (fhat - pb->f[row]) * pb->s[row] : log1p(fhat * ci) - pb->y[row];
             if (!J)
                 continue;
-            /* d log(1 + fhat cos) = cos / (1 + fhat cos) d fhat */
-            double w = ci / (1.0 + fhat * ci);
+            /* w = dr/dfhat: d log(1 + fhat cos) = cos / (1 + fhat cos) d fhat */
+            double w = lin ? pb->s[row] : ci / (1.0 + fhat * ci);
             double *jr = J + row * ABC_NPAR;
             memset(jr, 0, ABC_NPAR * sizeof *jr);
             jr[c] = w * dkd[c] / ABC_PI;
@@ -159,16 +181,33 @@ void abc_problem_eval(const struct abc_problem *pb, const double th[ABC_NPAR], d
             jr[8] = ag * D * dF * detat;
         }
     }
+    if (pb->prior) {
+        /* Linear in theta (unclamped): the prior keeps pulling a parameter
+         * that sits beyond a clamp, where the data no longer move it. */
+        const struct abc_prior_term *pt = pb->prior;
+        for (int i = 0; i < ABC_NPAR; i++) {
+            size_t row = 3 * pb->n + (size_t)i;
+            if (r) {
+                double v = 0;
+                for (int j = 0; j < ABC_NPAR; j++)
+                    v += pt->W[i * ABC_NPAR + j] * (th[j] - pt->mean[j]);
+                r[row] = v;
+            }
+            if (J)
+                memcpy(J + row * ABC_NPAR, pt->W + i * ABC_NPAR, ABC_NPAR * sizeof *J);
+        }
+    }
 }
 
 double abc_problem_cost(const struct abc_problem *pb, const double th[ABC_NPAR])
 {
-    double *r = malloc(3 * pb->n * sizeof *r);
+    size_t m = abc_problem_nres(pb);
+    double *r = malloc(m * sizeof *r);
     if (!r)
         return INFINITY;
     abc_problem_eval(pb, th, r, NULL);
     double s = 0;
-    for (size_t i = 0; i < 3 * pb->n; i++)
+    for (size_t i = 0; i < m; i++)
         s += r[i] * r[i];
     free(r);
     return 0.5 * s;

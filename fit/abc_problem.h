@@ -41,16 +41,39 @@
 #define ABC_E_MIN (-30.0)
 #define ABC_E_MAX 30.0
 
+/* A Gaussian prior on theta as extra residual rows (MAP): the rows are
+ * W (theta - mean), so their cost is 0.5 |W (theta - mean)|^2. With W =
+ * sigma L^-1 (Sigma = L L^T) that is sigma^2 times the negative log prior
+ * for data residuals of noise sigma (fit/abc_prior.h). */
+struct abc_prior_term {
+    double mean[ABC_NPAR];
+    double W[ABC_NPAR * ABC_NPAR]; /* row-major */
+    /* Lobe shapes (B, C, eta) of the population's members: each, with kd
+     * and A solved linearly, is scored by the MAP cost and the best
+     * ABC_PRIOR_SHAPE_STARTS become extra starts. n_shapes may be 0. */
+    const double (*shapes)[3];
+    size_t n_shapes;
+};
+
+#define ABC_PRIOR_SHAPE_STARTS 3
+
 /* Samples reduced to what the residuals need (structure of arrays). */
 struct abc_problem {
-    size_t n;       /* samples; residuals are 3n, ordered sample-major */
+    size_t n;       /* samples; data residuals are 3n, ordered sample-major */
     double *x;      /* 1 - n.h */
     double *vh;     /* v.h */
     double *gterm;  /* G / ((n.l)(n.v)) */
     double *cosi;   /* n.l: the log loss weight */
     double *f;      /* measured RGB, 3n */
-    double *y;      /* log(1 + f cos theta_i), 3n */
+    double *y;      /* log(1 + f cos theta_i), 3n (the grid scores with it whatever the loss) */
+    enum fit_loss loss; /* FIT_LOSS_LOG after init; abc_problem_set_loss changes it */
+    double *s;      /* linear losses: r = (fhat - f) s, 3n (NULL for the log loss) */
+    const struct abc_prior_term *prior; /* NULL: no prior rows */
 };
+
+/* Relative loss: r = (fhat - f) / (|f| + FIT_REL_FLOOR); the floor (1/sr)
+ * keeps black samples from dominating (a tenth of a dark diffuse level). */
+#define FIT_REL_FLOOR 1e-3
 
 /* Build from validated samples (finite, above the horizon, 1 + f cos > 0).
  * idx (may be NULL) selects which samples, in order. */
@@ -58,21 +81,46 @@ int abc_problem_init(struct abc_problem *pb, const struct fit_sample *s, const s
                      size_t n);
 void abc_problem_free(struct abc_problem *pb);
 
+/* Switch the data residuals to another loss (fit/fit.h enum fit_loss).
+ * Returns 0, or -1 for an unknown loss or no memory. */
+int abc_problem_set_loss(struct abc_problem *pb, enum fit_loss loss);
+
+/* Residual rows: 3n data rows, then ABC_NPAR prior rows when pb->prior. */
+size_t abc_problem_nres(const struct abc_problem *pb);
+
 void abc_theta_to_params(const double theta[ABC_NPAR], struct brdf_abc *p);
 void abc_params_to_theta(const struct brdf_abc *p, double theta[ABC_NPAR]);
 
-/* Residuals r[3n] = log(1 + fhat cos) - log(1 + f cos) and, when J is not
- * NULL, the Jacobian dr/dtheta, row-major 3n x 9. r may be NULL when only
- * the Jacobian is wanted. */
+/* Residuals r[nres] (log loss: log(1 + fhat cos) - log(1 + f cos); the
+ * linear losses (fhat - f) s) and, when J is not NULL, the Jacobian
+ * dr/dtheta, row-major nres x 9. r may be NULL when only the Jacobian is
+ * wanted. nres = abc_problem_nres(pb). */
 void abc_problem_eval(const struct abc_problem *pb, const double theta[ABC_NPAR], double *r,
                       double *J);
 
-/* 0.5 * sum of squared residuals. */
+/* 0.5 * sum of squared residuals (prior rows included). */
 double abc_problem_cost(const struct abc_problem *pb, const double theta[ABC_NPAR]);
 
 /* Start search (abc_start.c): score a (B, C, eta) grid with kd and A per
  * channel solved by weighted non-negative least squares, and write up to
  * max_starts distinct starting points, best first. Returns the count. */
 int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts);
+
+/* Score of one (B, C, eta): kd and A per channel by the weighted
+ * non-negative linear solve of abc_grid_starts, then the true log loss
+ * (sum of squares). spec[n] is scratch. Returns INFINITY if not finite. */
+double abc_linear_score(const struct abc_problem *pb, double B, double C, double eta,
+                        double kd[3], double A[3], double *spec);
+
+/* Differential-evolution start search (abc_global.c): the same linear
+ * solve for kd and A inside, a seeded search over (log B, log C, eta)
+ * instead of the grid. Same contract as abc_grid_starts. */
+int abc_de_starts(const struct abc_problem *pb, unsigned seed, int max_starts, double *starts);
+
+/* fit_abc with an optional prior (NULL: fit_abc itself). prior_sigma is the
+ * noise level the prior rows assume, used for the posterior covariance. */
+int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_options *opt,
+                const struct abc_prior_term *prior, double prior_sigma, struct brdf_abc *out,
+                struct fit_info *info, struct gonio_err *err);
 
 #endif

@@ -58,6 +58,39 @@ static void nnls2(double s11, double s12, double s22, double t1, double t2, doub
     }
 }
 
+double abc_linear_score(const struct abc_problem *pb, double B, double C, double eta,
+                        double kd[3], double A[3], double *spec)
+{
+    size_t n = pb->n;
+    double s11[3] = {0}, s12[3] = {0}, s22[3] = {0}, t1[3] = {0}, t2[3] = {0};
+    for (size_t k = 0; k < n; k++) {
+        double s = brdf_abc_fresnel(eta, pb->vh[k], NULL) * pb->gterm[k] *
+                   exp(-C * log1p(B * pb->x[k]));
+        spec[k] = s;
+        double ci = pb->cosi[k];
+        for (int c = 0; c < 3; c++) {
+            double d = ci / (1.0 + fmax(pb->f[3 * k + c], 0.0) * ci);
+            double wk = d * d, fk = pb->f[3 * k + c];
+            s11[c] += wk / (ABC_PI * ABC_PI);
+            s12[c] += wk * s / ABC_PI;
+            s22[c] += wk * s * s;
+            t1[c] += wk * fk / ABC_PI;
+            t2[c] += wk * s * fk;
+        }
+    }
+    for (int c = 0; c < 3; c++)
+        nnls2(s11[c], s12[c], s22[c], t1[c], t2[c], &kd[c], &A[c]);
+    double score = 0;
+    for (size_t k = 0; k < n; k++) {
+        double ci = pb->cosi[k];
+        for (int c = 0; c < 3; c++) {
+            double r = log1p((kd[c] / ABC_PI + A[c] * spec[k]) * ci) - pb->y[3 * k + c];
+            score += r * r;
+        }
+    }
+    return isfinite(score) ? score : INFINITY;
+}
+
 int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts)
 {
     size_t n = pb->n;

@@ -19,7 +19,15 @@ struct fit_sample {
 };
 
 enum fit_loss {
-    FIT_LOSS_LOG = 0, /* log(1 + f cos theta_i) residuals: the robust default */
+    FIT_LOSS_LOG = 0,      /* log(1 + f cos theta_i) residuals: the robust default */
+    FIT_LOSS_RELATIVE = 1, /* (fhat - f) / (|f| + 1e-3): relative error per sample */
+    FIT_LOSS_COS_L2 = 2,   /* (fhat - f) cos theta_i: plain L2 on the reflected radiance */
+};
+
+/* How the starting points of the local solves are found (docs/fitting.md). */
+enum fit_global {
+    FIT_GLOBAL_GRID = 0, /* 945-node (B, C, eta) grid, best distinct nodes: the default */
+    FIT_GLOBAL_DE = 1,   /* seeded differential evolution over (log B, log C, eta) */
 };
 
 struct fit_options {
@@ -30,9 +38,21 @@ struct fit_options {
     double xtol, gtol; /* GSL's step and gradient tests */
     double ftol;       /* stop when the cost fell less than this, relative, in 8 steps */
     const struct brdf_abc *warm_start; /* NULL: global start; else refine from here */
+    enum fit_global global; /* start search when warm_start is NULL */
 };
 
 struct fit_options fit_default_options(void);
+
+/* Standard deviations of the fitted parameters in natural units, from the
+ * Jacobian at the optimum (covariance s^2 (J^T J)^-1, s^2 the residual
+ * variance 2 cost / (residuals - 9); for a prior fit the prior's noise
+ * level, fit/abc_prior.h). INFINITY: the data do not determine the
+ * parameter (no influence, or clamped at a bound); all NaN: not computed
+ * (fewer residuals than parameters without a prior). */
+struct fit_uncertainty {
+    double log_kd[3], log_A[3];
+    double log_B, log_C, eta;
+};
 
 struct fit_info {
     int starts;          /* local solves run */
@@ -42,6 +62,7 @@ struct fit_info {
     const char *reason;  /* why the winning solve stopped (static string) */
     size_t dropped;      /* samples left out: non-finite value or geometry, below the
                             horizon (cos theta_i or cos theta_o <= 0), or 1 + f cos <= 0 */
+    struct fit_uncertainty sd; /* parameter standard deviations (see above) */
 };
 
 /* Fit the 9-parameter ABC model to n samples. Positivity and eta > 1 hold by
