@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "fit/abc_model.h"
+#include "fit/abc_prior.h"
 #include "fit/latent.h"
 #include "fit/mlp.h"
 #include "fit/pseudo.h"
@@ -11,6 +12,8 @@
 static const struct fit_model_kind models[] = {
     {"abc", "abc", "ABC microfacet model, Levenberg-Marquardt (fit/fit.h)", 0,
      fit_abc_model_fit, fit_abc_model_open},
+    {"abc-prior", "abc", "ABC with a population prior (MAP), for few samples (fit/abc_prior.h)", 0,
+     fit_abc_prior_model_fit, NULL},
     {"abc-pseudo", "abc", "ABC fitted to the capture densified by the RGB MLP on DS1", 0,
      fit_abc_pseudo_fit, NULL},
     {"mlp", "mlp", "RGB MLP on (theta_i, theta_r), in-plane only", 0, fit_mlp_rgb_fit,

@@ -35,6 +35,7 @@ struct fit_data {
     size_t n_rgb;
     const struct fit_spectral_sample *spectral;
     size_t n_spectral;
+    const char *material; /* the captured material (nbrdf:NAME) when known, else NULL */
 };
 
 struct fit_model_options {
