@@ -9,6 +9,8 @@
 #include <sys/stat.h>
 #include <time.h>
 
+#include <jansson.h>
+
 #include "brdf/domain.h"
 #include "brdf/metrics.h"
 #include "cli/commands.h"
@@ -191,6 +193,16 @@ int cmd_fit(int argc, char **argv)
     }
     data.rgb = rgb;
     data.spectral = spec;
+    /* The captured material, so that abc-prior leaves it out of its prior:
+     * --truth, else the capture's setup.json (simulated captures name it). */
+    char setup_path[4200], material_buf[512] = "";
+    snprintf(setup_path, sizeof setup_path, "%.4000s/setup.json", dir);
+    json_t *setup = truth_spec ? NULL : json_load_file(setup_path, 0, NULL);
+    if (setup && json_is_string(json_object_get(setup, "material")))
+        snprintf(material_buf, sizeof material_buf, "%s",
+                 json_string_value(json_object_get(setup, "material")));
+    json_decref(setup);
+    data.material = truth_spec ? truth_spec : material_buf[0] ? material_buf : NULL;
     size_t n = kind->spectral ? data.n_spectral : data.n_rgb;
     if (!n) {
         fprintf(stderr, "gonio fit: %s: no samples\n", samples_path);
