@@ -791,6 +791,12 @@ control *control_new(const struct goniod_config *cfg, worker *w, struct gonio_er
         if (gonio_mkdir_p(dir, err) < 0)
             return NULL;
     }
+    struct stat st;
+    if (lstat(cfg->socket_path, &st) == 0 && !S_ISSOCK(st.st_mode)) {
+        gonio_err_set(err, EEXIST, "%s: exists and is not a socket; not replacing it",
+                      cfg->socket_path);
+        return NULL;
+    }
     int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
     if (fd < 0) {
         gonio_err_set(err, errno, "socket: %s", strerror(errno));
@@ -807,8 +813,12 @@ control *control_new(const struct goniod_config *cfg, worker *w, struct gonio_er
     close(fd);
     unlink(cfg->socket_path);
     fd = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-    if (fd < 0 || bind(fd, (struct sockaddr *)&sa, sizeof sa) < 0 ||
-        chmod(cfg->socket_path, 0660) < 0 ||
+    /* Created 0660 from the start (umask), so there is no moment in which
+     * others could connect; chmod then makes the mode exact. */
+    mode_t old_mask = umask(0117);
+    int bound = fd >= 0 ? bind(fd, (struct sockaddr *)&sa, sizeof sa) : -1;
+    umask(old_mask);
+    if (fd < 0 || bound < 0 || chmod(cfg->socket_path, 0660) < 0 ||
         (gid != (gid_t)-1 && chown(cfg->socket_path, (uid_t)-1, gid) < 0) ||
         listen(fd, 16) < 0) {
         gonio_err_set(err, errno, "%s: %s", cfg->socket_path, strerror(errno));

@@ -469,6 +469,28 @@ class ProtocolTests(DaemonTest):
         self.assertEqual(r["class"], "OK", r)
         self.assertEqual(c.until_stop("inside")[-1]["reason"], "complete")
 
+    def test_socket_file(self):
+        self.assertEqual(os.stat(self.d.sock).st_mode & 0o777, 0o660)
+        # A second daemon on the same socket refuses to start; so does one
+        # whose socket path is an ordinary file.
+        r = subprocess.run([GONIOD, "--config", self.d.config], capture_output=True, text=True,
+                           timeout=20)
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("another goniod", r.stderr)
+        self.assertEqual(self.d.connect().request("status")["class"], "STATUS")
+        other = tmpdir()
+        try:
+            with open(os.path.join(other, "s.sock"), "w") as f:
+                f.write("precious")
+            d2 = Daemon(other)
+            r = subprocess.run([GONIOD, "--config", d2.config], capture_output=True, text=True,
+                               timeout=20)
+            self.assertEqual(r.returncode, 1)
+            self.assertIn("not a socket", r.stderr)
+            self.assertEqual(open(os.path.join(other, "s.sock")).read(), "precious")
+        finally:
+            shutil.rmtree(other, ignore_errors=True)
+
     def test_too_many_clients(self):
         self.d.stop()
         self.d = Daemon(self.folder, extra_socket="  max_clients: 2\n")
