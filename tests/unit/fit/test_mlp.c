@@ -54,7 +54,7 @@ static void test_learns_smooth_function(void **state)
     struct fit_mlp net;
     assert_int_equal(fit_mlp_init(&net, 6, rgb_w, NULL), 0);
     struct fit_mlp_train_options o = fit_mlp_default_train_options();
-    o.max_epochs = 250;
+    o.max_epochs = 150;
     struct fit_mlp_train_report r;
     struct gonio_err err = {0};
     assert_int_equal(fit_mlp_train(&net, u, f, c, n, &o, &r, &err), 0);
@@ -251,7 +251,7 @@ static void test_reciprocity_fills_incidence(void **state)
         }
     struct fit_data data = {.rgb = s, .n_rgb = n};
     struct fit_model_options mo = fit_model_default_options();
-    mo.max_epochs = 400;
+    mo.max_epochs = 200;
     struct fit_model_file *mf = NULL;
     struct fit_model_report rep;
     struct gonio_err err = {0};
