@@ -127,6 +127,7 @@ int cmd_fit(int argc, char **argv)
     };
     const char *model = NULL, *out = NULL, *truth_spec = NULL;
     struct fit_model_options mo = fit_model_default_options();
+    mo.quiet = 0; /* progress lines on stderr unless --quiet */
     optind = 1;
     int c;
     while ((c = getopt_long(argc, argv, "m:o:s:e:t:qh", opts, NULL)) != -1) {
