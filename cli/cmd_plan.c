@@ -8,6 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <jansson.h>
+
 #include "cli/commands.h"
 #include "common/err.h"
 #include "planner/planner.h"
@@ -33,11 +35,24 @@ static void minsec(double s, char *buf, size_t size)
     snprintf(buf, size, "%ld min %02ld s", whole / 60, whole % 60);
 }
 
-static int print_json(const struct plan *plan, const struct plan_estimate *est)
+/* The design's document plus one key of gonio plan's own: the lower bound
+ * on the move time of any order, inside "estimate" (null when the plan is
+ * too large to bound). Capture directories keep plan_json_text as is. */
+static int print_json(const struct plan *plan, const struct plan_rig *rig,
+                      const struct plan_estimate *est)
 {
     char *text = plan_json_text(plan, est);
-    if (!text)
+    json_t *root = text ? json_loads(text, 0, NULL) : NULL;
+    free(text);
+    json_t *estimate = root ? json_object_get(root, "estimate") : NULL;
+    double lb = plan_move_lower_bound(plan, rig);
+    if (!estimate || json_object_set_new(estimate, "move_lower_bound_s",
+                                         isnan(lb) ? json_null() : json_real(lb)) < 0 ||
+        !(text = json_dumps(root, JSON_REAL_PRECISION(10)))) {
+        json_decref(root);
         return -ENOMEM;
+    }
+    json_decref(root);
     puts(text);
     free(text);
     return 0;
@@ -78,7 +93,7 @@ static void print_human(const struct plan *plan, const struct plan_rig *rig,
            est->integration_s);
     double lb = plan_move_lower_bound(plan, rig);
     if (!isnan(lb))
-        printf("move time lower bound (spanning tree): %.1f s\n", lb);
+        printf("move time lower bound (any order): %.1f s\n", lb);
 }
 
 int cmd_plan(int argc, char **argv)
@@ -139,7 +154,7 @@ int cmd_plan(int argc, char **argv)
     plan_estimate(plan, &rig, &est);
     rc = 0;
     if (json)
-        rc = print_json(plan, &est);
+        rc = print_json(plan, &rig, &est);
     else
         print_human(plan, &rig, &est);
     plan_free(plan);
