@@ -180,33 +180,52 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
         return gonio_err_set(err, GONIO_EUSAGE,
                              "mlp-spectral: needs spectral samples (theta_i,theta_r,"
                              "wavelength_nm,value)");
-    double *u = malloc(n * 3 * sizeof *u), *f = malloc(n * sizeof *f),
-           *c = malloc(n * sizeof *c);
-    if (!u || !f || !c) {
+    /* Each sample and its reciprocal, as for the RGB network. */
+    double *u = malloc(2 * n * 3 * sizeof *u), *f = malloc(2 * n * sizeof *f),
+           *c = malloc(2 * n * sizeof *c);
+    size_t *twin = malloc(2 * n * sizeof *twin);
+    if (!u || !f || !c || !twin) {
         free(u);
         free(f);
         free(c);
+        free(twin);
         return gonio_err_set(err, ENOMEM, "mlp-spectral: out of memory");
     }
-    size_t m = 0;
+    size_t m = 0, used = 0;
     for (size_t i = 0; i < n; i++) {
         const struct fit_spectral_sample *s = &data->spectral[i];
-        double ci = cos(s->theta_i * BRDF_DEG);
-        if (!isfinite(s->theta_i) || !isfinite(s->theta_r) || !isfinite(s->wavelength_nm) ||
-            !isfinite(s->value) || !(ci > 0) || fabs(s->theta_r) >= 90)
+        /* theta_i >= 0 by convention: a negative one is the mirrored plane. */
+        double ti = s->theta_i < 0 ? -s->theta_i : s->theta_i;
+        double tr = s->theta_i < 0 ? -s->theta_r : s->theta_r;
+        double ci = cos(ti * BRDF_DEG);
+        if (!isfinite(ti) || !isfinite(tr) || !isfinite(s->wavelength_nm) ||
+            !isfinite(s->value) || !(ci > 0) || fabs(tr) >= 90)
             continue;
-        u[3 * m] = s->theta_i;
-        u[3 * m + 1] = s->theta_r;
+        used++;
+        u[3 * m] = ti;
+        u[3 * m + 1] = tr;
         u[3 * m + 2] = s->wavelength_nm;
         f[m] = s->value;
         c[m] = ci;
+        twin[m] = SIZE_MAX;
+        m++;
+        double ti2 = tr >= 0 ? tr : -tr, tr2 = tr >= 0 ? ti : -ti;
+        if (fabs(ti2 - ti) < 1e-9 && fabs(tr2 - tr) < 1e-9)
+            continue;
+        u[3 * m] = ti2;
+        u[3 * m + 1] = tr2;
+        u[3 * m + 2] = s->wavelength_nm;
+        f[m] = s->value;
+        c[m] = cos(ti2 * BRDF_DEG);
+        twin[m] = m - 1;
+        twin[m - 1] = m;
         m++;
     }
     int rc = 0;
     struct fit_mlp net = {0};
     struct fit_mlp_train_report r;
-    if (m < 4)
-        rc = gonio_err_set(err, GONIO_EFIT, "mlp-spectral: %zu usable samples (need 4)", m);
+    if (used < 4)
+        rc = gonio_err_set(err, GONIO_EFIT, "mlp-spectral: %zu usable samples (need 4)", used);
     if (!rc)
         rc = fit_mlp_init(&net, 4, spectral_widths, err);
     if (!rc) {
@@ -214,11 +233,13 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
         to.seed = o.seed;
         to.max_epochs = o.max_epochs;
         to.quiet = o.quiet;
+        to.twin = twin;
         rc = fit_mlp_train(&net, u, f, c, m, &to, &r, err);
     }
     free(u);
     free(f);
     free(c);
+    free(twin);
     struct fit_model_file *mf = NULL;
     if (!rc) {
         mf = fit_model_file_new("mlp-spectral", SPECTRAL_VERSION);
@@ -235,7 +256,7 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
         return rc;
     }
     set_train_keys(mf, &o, &r);
-    fill_report(rep, &r, n - m);
+    fill_report(rep, &r, n - used);
     *out = mf;
     return 0;
 }
