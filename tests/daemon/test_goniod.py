@@ -709,6 +709,15 @@ class CaptureTests(DaemonTest):
         r = self.d.connect().request("resume", capture_id="term")
         self.assertEqual(r["class"], "OK")
 
+    def test_sighup_is_ignored(self):
+        c = self.d.connect()
+        c.request("watch")
+        c.request("capture", plan="ds3", name="hup")
+        self.d.proc.send_signal(signal.SIGHUP)
+        self.assertEqual(c.until_stop("hup")[-1]["reason"], "complete")
+        self.assertTrue(self.d.alive())
+        self.assertIn("SIGHUP", open(self.d.log).read())
+
     def test_shutdown_command(self):
         c = self.d.connect()
         self.assertEqual(c.request("shutdown")["class"], "OK")
