@@ -12,6 +12,7 @@
 #include "daemon/capture_files.h"
 #include "daemon/journal.h"
 #include "drivers/drv_sim.h"
+#include "fit/abc_prior.h"
 #include "fit/fit.h"
 #include "fit/stream.h"
 #include "planner/planner.h"
@@ -56,9 +57,9 @@ static int resolve_inputs(const struct capture_config *cfg, struct capture_input
             return gonio_err_set(err, -rc, "ordering plan: %s", gonio_strerror(rc));
         }
     }
-    if (strcmp(cfg->model, "abc") != 0) {
+    if (strcmp(cfg->model, "abc") != 0 && strcmp(cfg->model, "abc-prior") != 0) {
         inputs_free(in);
-        return gonio_err_set(err, GONIO_EUSAGE, "--model '%s': the only model is 'abc'",
+        return gonio_err_set(err, GONIO_EUSAGE, "--model '%s': use abc or abc-prior",
                              cfg->model);
     }
     const char *spec = cfg->material ? cfg->material : in->scene.material;
@@ -198,6 +199,8 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
         }
         done[p] = 1;
     }
+    if (hooks->on_start)
+        hooks->on_start(hooks->user, plan_name(in->plan), count, *n);
     /* A resumed capture replays its journal: the same samples give the
      * same rounds, so a capture that had converged stays converged. */
     for (size_t i = 0; i < *n && !*converged; i++) {
@@ -212,8 +215,6 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
         free(done);
         return 0;
     }
-    if (hooks->on_start)
-        hooks->on_start(hooks->user, plan_name(in->plan), count, *n);
 
     struct capture_devices dev;
     sim_rig *sim = NULL;
@@ -277,7 +278,8 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
 }
 
 static int fit_samples(const struct journal_sample *js, size_t n, const struct brdf_abc *warm,
-                       struct capture_summary *out, struct gonio_err *err)
+                       const char *model, const char *material, struct capture_summary *out,
+                       struct gonio_err *err)
 {
     struct fit_sample *fs = malloc(n * sizeof *fs);
     if (!fs)
@@ -290,8 +292,19 @@ static int fit_samples(const struct journal_sample *js, size_t n, const struct b
     opt.warm_start = warm; /* the streaming fit's last parameters, when there is one */
     struct fit_info info;
     double t0 = monotonic_s();
-    int rc = fit_abc(fs, n, &opt, &out->params, &info, err);
+    /* abc-prior: MAP with the population prior, the material left out of it */
+    struct fit_abc_prior prior;
+    int use_prior = !strcmp(model, "abc-prior");
+    int rc = use_prior ? fit_abc_prior_build(material, &prior, err) : 0;
+    if (rc == 0)
+        rc = use_prior ? fit_abc_map(fs, n, &opt, &prior, &out->params, &info, err)
+                       : fit_abc(fs, n, &opt, &out->params, &info, err);
     out->fit_time_s = monotonic_s() - t0;
+    if (rc == 0) {
+        out->sd = info.sd;
+        if (use_prior)
+            fit_abc_prior_warning(&info, n - info.dropped, out->warning, sizeof out->warning);
+    }
     out->converged = rc == 0 && info.converged;
     if (rc == 0) {
         /* Plan-domain error: the model against what was measured. */
@@ -401,7 +414,8 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
                  aborted ? "aborted" : converged ? "converged" : "complete");
     }
     if (rc == 0 && !aborted)
-        rc = fit_samples(samples, n, fs ? fit_stream_params(fs) : NULL, out, err);
+        rc = fit_samples(samples, n, fs ? fit_stream_params(fs) : NULL, cfg->model,
+                         brdf_material_name(in.material), out, err);
     if (rc == 0 && converged)
         out->converged = 1; /* the stop rule decided: the capture converged */
     if (rc == 0 && !aborted)

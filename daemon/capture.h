@@ -11,6 +11,7 @@
 #include <stddef.h>
 
 #include "brdf/abc.h"
+#include "fit/fit.h"
 #include "brdf/metrics.h"
 #include "common/err.h"
 #include "daemon/journal.h"
@@ -25,7 +26,7 @@ struct capture_config {
     const char *scene;    /* name or path */
     const char *material; /* overrides the scene's material, or NULL */
     const char *rig;      /* overrides the scene's rig profile, or NULL */
-    const char *model;    /* "abc" */
+    const char *model;    /* "abc" or "abc-prior" (fit/abc_prior.h) */
     const char *out_dir;  /* the capture directory */
     const char *order;    /* overrides the plan's ordering, or NULL */
     const char *stop;     /* "all" or "converge": overrides the plan's stop rule, or NULL */
@@ -42,6 +43,8 @@ struct capture_summary {
     struct brdf_errors err_plan, err_inplane, err_full;
     int has_truth; /* inplane/full errors computed against the known material */
     char stop_reason[32]; /* "complete", "converged" (stop rule), "aborted" */
+    struct fit_uncertainty sd; /* parameter sds of the final fit (fit/fit.h) */
+    char warning[256];         /* abc-prior: "too few samples" warning, or "" */
 };
 
 /* The devices a capture runs on. */
