@@ -137,6 +137,29 @@ static json_t *rgb_json(const double v[3])
     return json_pack("[f,f,f]", v[0], v[1], v[2]);
 }
 
+static json_t *num_or_null(double v)
+{
+    return isfinite(v) ? json_real(v) : json_null();
+}
+
+static json_t *uncertainty_json(const struct fit_uncertainty *u, const char *warning)
+{
+    json_t *o = json_object();
+    json_t *kd = json_array(), *a = json_array();
+    for (int c = 0; c < 3; c++) {
+        json_array_append_new(kd, num_or_null(u->log_kd[c]));
+        json_array_append_new(a, num_or_null(u->log_A[c]));
+    }
+    json_object_set_new(o, "sd_log_kd", kd);
+    json_object_set_new(o, "sd_log_A", a);
+    json_object_set_new(o, "sd_log_B", num_or_null(u->log_B));
+    json_object_set_new(o, "sd_log_C", num_or_null(u->log_C));
+    json_object_set_new(o, "sd_eta", num_or_null(u->eta));
+    if (warning && warning[0])
+        json_object_set_new(o, "warning", json_string(warning));
+    return o;
+}
+
 int capture_files_results(const char *dir, const struct capture_summary *s,
                           struct gonio_err *err)
 {
@@ -153,5 +176,7 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
         s->converged, "params", "kd", rgb_json(s->params.kd), "A", rgb_json(s->params.A), "B",
         s->params.B, "C", s->params.C, "eta", s->params.eta, "convention",
         "A without the 1/pi of the published MERL fits (docs/fitting.md)", "errors", errors);
+    if (root) /* parameter sds from the fit's Jacobian, natural units (fit/fit.h) */
+        json_object_set_new(root, "uncertainty", uncertainty_json(&s->sd, s->warning));
     return write_json(dir, "results.json", root, err);
 }
