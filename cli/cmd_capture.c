@@ -11,7 +11,7 @@ static void usage(FILE *out)
 {
     fprintf(out,
             "usage: gonio capture --offline --scene NAME|FILE --plan NAME|FILE --out DIR\n"
-            "                     [--material SPEC] [--model abc] [--rig NAME|FILE]\n"
+            "                     [--material SPEC] [--model abc|abc-prior] [--rig NAME|FILE]\n"
             "                     [--order travel|progressive|as-written|greedy]\n"
             "                     [--stop all|converge] [--quiet]\n"
             "  --material overrides the scene's material: nbrdf:NAME, merl:FILE, abc:NAME,\n"
@@ -83,6 +83,8 @@ int cmd_capture(int argc, char **argv)
            s.converged ? "" : " (fit did not converge)");
     if (!strcmp(s.stop_reason, "converged"))
         printf("  stopped on convergence after %zu samples\n", s.samples);
+    if (s.warning[0]) /* abc-prior: too few samples to pin the lobe */
+        printf("  %s\n", s.warning);
     print_errors("plan", &s.err_plan);
     if (s.has_truth) {
         print_errors("in-plane", &s.err_inplane);
