@@ -16,6 +16,8 @@ struct mb_detector {
     drv_modbus_bus *bus;
     int slave;
     char who[32];
+    int seq_known; /* the sequence after our last reading: no read before the next */
+    uint32_t seq;
 };
 
 /* Status, channel count and sequence: registers 0x04-0x09. */
@@ -37,10 +39,11 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
     double us = nearbyint(integration_s * 1e6);
     if (!(us >= 0) || us > 4294967295.0)
         return gonio_err_set(err, EINVAL, "%s: integration time %g s", d->who, integration_s);
-    uint32_t st, count, seq0, seq;
-    int rc = read_state(d, &st, &count, &seq0, err);
+    uint32_t st = 0, count = 3, seq0 = d->seq, seq;
+    int rc = d->seq_known ? 0 : read_state(d, &st, &count, &seq0, err);
     if (rc < 0)
         return rc;
+    d->seq_known = 0;
     if (count < 3 || count > 64)
         return gonio_err_set(err, GONIO_EDEVICE, "%s (slave %d): %u channels, expected RGB (3)",
                              d->who, d->slave, count);
@@ -71,6 +74,8 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
         return rc;
     for (int k = 0; k < 3; k++)
         out->rgb[k] = drv_modbus_get_float(r + 2 * k);
+    d->seq_known = 1;
+    d->seq = seq;
     out->integration_s = us * 1e-6;
     out->flags = (st & ST_SATURATED) ? DRV_READING_SATURATED : 0;
     return 0;

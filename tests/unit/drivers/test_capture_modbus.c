@@ -1,0 +1,182 @@
+/* The capture engine on the Modbus drivers, outside goniod: capture_run
+ * with an open_devices hook that builds the rig from drv_modbus.h against
+ * a gonio-sim process (ideal scene) on its pty. Every sample must be the
+ * material at the axis positions the journal records, and the rig clock
+ * must agree with the planner's estimate.
+ *
+ * The simulated clock runs on wall time, so whatever the host spends per
+ * point (some 13 bus round trips of about 0.25 ms on a pty, the journal's
+ * fdatasync) is rig time too, multiplied by the time scale: about 6 ms of
+ * wall time a point, which at scale 10 is under 3 % of DS4's long points
+ * and at scale 100 about 20 % of DS3's. The 5 % comparison runs DS4 at
+ * scale 10; DS3 at scale 100 checks that the rig is never faster than the
+ * estimate (0.1 %: targets rounded to whole steps may shorten a move). */
+#include <math.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "brdf/angles.h"
+#include "brdf/material.h"
+#include "daemon/capture.h"
+#include "drivers/drv_modbus.h"
+#include "planner/planner.h"
+#include "tests/gonio_test.h"
+#include "tests/unit/drivers/sim_proc.h"
+
+static struct sim_proc sim;
+
+static double drv_test_wall(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+struct rig_host {
+    const char *pty;
+    double time_scale;
+    drv_modbus_bus *bus;
+    const brdf_material *truth;
+    size_t n, bad;
+    double worst_rel;
+    double last_rig_time;
+};
+
+static int open_devices(void *user, const struct plan_rig *rig, struct capture_devices *dev,
+                        struct gonio_err *err)
+{
+    struct rig_host *h = user;
+    struct drv_modbus_bus_cfg cfg;
+    drv_modbus_bus_cfg_default(&cfg);
+    cfg.device = h->pty;
+    cfg.time_scale = h->time_scale;
+    h->bus = drv_modbus_bus_new_rtu(&cfg, err);
+    if (!h->bus)
+        return -GONIO_EDEVICE;
+    memset(dev, 0, sizeof *dev);
+    dev->sample = drv_axis_new_modbus(h->bus, 1, &rig->sample, NULL, "sample", err);
+    dev->arm = drv_axis_new_modbus(h->bus, 2, &rig->arm, NULL, "arm", err);
+    if (rig->out_of_plane)
+        dev->azimuth = drv_axis_new_modbus(h->bus, 4, &rig->azimuth, NULL, "azimuth", err);
+    dev->detector = drv_detector_new_modbus(h->bus, 3, err);
+    dev->clock = drv_clock_new_modbus(h->bus, 3, err);
+    if (!dev->sample || !dev->arm || (rig->out_of_plane && !dev->azimuth) || !dev->detector ||
+        !dev->clock)
+        return -GONIO_EDEVICE;
+    return 0;
+}
+
+static void close_devices(void *user, struct capture_devices *dev)
+{
+    struct rig_host *h = user;
+    drv_axis_free(dev->sample);
+    drv_axis_free(dev->arm);
+    drv_axis_free(dev->azimuth);
+    drv_detector_free(dev->detector);
+    drv_clock_free(dev->clock);
+    drv_modbus_bus_free(h->bus);
+    h->bus = NULL;
+}
+
+/* Each journalled sample against an independent evaluation of the
+ * material at its recorded axes (theta_i = s, theta_r = a - s). */
+static void on_sample(void *user, const struct journal_sample *s, size_t done, size_t total)
+{
+    (void)done;
+    (void)total;
+    struct rig_host *h = user;
+    struct brdf_pair p;
+    brdf_pair_inplane(s->s, s->a - s->s, &p);
+    double want[3];
+    brdf_material_eval(h->truth, &p, 1, want);
+    for (int k = 0; k < 3; k++) {
+        double rel = fabs(s->rgb[k] - want[k]) / fabs(want[k]);
+        if (!(rel <= 1e-6))
+            h->bad++;
+        if (rel > h->worst_rel)
+            h->worst_rel = rel;
+    }
+    h->n++;
+    h->last_rig_time = s->rig_time_s;
+}
+
+static void capture_on_modbus(const char *plan_name, const char *scale, double tolerance)
+{
+    const char *const args[] = {"--time-scale", scale, "--scene", "ideal", NULL};
+    assert_int_equal(sim_proc_start(&sim, args), 0);
+    struct gonio_err err = {0};
+    brdf_material *truth = brdf_material_open(brdf_material_default_spec(), &err);
+    assert_non_null(truth);
+
+    char dir[64];
+    snprintf(dir, sizeof dir, "/tmp/gonio-capmb-XXXXXX");
+    assert_non_null(mkdtemp(dir));
+    char out[128];
+    snprintf(out, sizeof out, "%s/cap", dir);
+    struct capture_config cfg = {
+        .plan = plan_name, .scene = "ideal", .model = "abc", .out_dir = out, .quiet = 1};
+    struct rig_host host = {.pty = sim.pty, .truth = truth, .time_scale = atof(scale)};
+    double wall0 = drv_test_wall();
+    struct capture_hooks hooks = {.open_devices = open_devices,
+                                  .close_devices = close_devices,
+                                  .on_sample = on_sample,
+                                  .user = &host};
+    struct capture_summary sum;
+    int rc = capture_run(&cfg, &hooks, &sum, &err);
+    if (rc < 0)
+        fail_msg("capture_run: %s", err.msg);
+    double wall = drv_test_wall() - wall0;
+
+    /* The planner's estimate for the same plan on the same rig profile. */
+    struct plan_rig rig;
+    struct plan *plan;
+    assert_int_equal(plan_rig_load("default", &rig, &err), 0);
+    assert_true(plan_load(plan_name, &rig, &plan, &err) > 0);
+    struct plan_estimate est;
+    plan_estimate(plan, &rig, &est);
+
+    assert_int_equal(host.n, plan_count(plan));
+    assert_int_equal(sum.samples, plan_count(plan));
+    assert_int_equal(host.bad, 0);
+    fprintf(stderr, "# %s on Modbus RTU at time scale %s: %zu samples, worst relative "
+            "difference %.2e, rig time %.2f s, estimate %.2f s, wall time %.2f s (with fit)\n",
+            plan_name, scale, host.n, host.worst_rel, sum.rig_time_s, est.total_s, wall);
+    assert_true(sum.rig_time_s >= est.total_s * 0.999);
+    if (tolerance > 0)
+        assert_rel_close(sum.rig_time_s, est.total_s, tolerance);
+    assert_close(sum.rig_time_s, host.last_rig_time, 0);
+
+    plan_free(plan);
+    brdf_material_free(truth);
+    char cmd[160];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    assert_int_equal(system(cmd), 0);
+}
+
+/* A failed assertion leaves the test early: the simulator must still go. */
+static int stop_sim(void **state)
+{
+    (void)state;
+    return sim.pid > 0 && sim_proc_stop(&sim) != 0 ? -1 : 0;
+}
+
+static void test_capture_ds4(void **state)
+{
+    (void)state;
+    capture_on_modbus("ds4", "10", 0.05);
+}
+
+static void test_capture_ds3(void **state)
+{
+    (void)state;
+    capture_on_modbus("ds3", "100", 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_teardown(test_capture_ds4, stop_sim),
+        cmocka_unit_test_teardown(test_capture_ds3, stop_sim),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
