@@ -1,0 +1,216 @@
+"""gonio-sim as a Modbus RTU slave, driven by the hand-built master of
+conftest.py over its pseudo-terminal: framing and CRC, exceptions, silence
+on bad frames and absent slaves, motion on the trapezoid at the simulated
+clock, homing, soft-limit alarm and reset (docs/protocol-modbus.md)."""
+import math
+import time
+
+from conftest import TIME_SCALE, crc16, frame
+
+SAMPLE, ARM, DETECTOR, AZIMUTH = 1, 2, 3, 4
+DIRECT, INPUT, STATUS, ALARM, FEEDBACK = 0x58, 0x7C, 0x7E, 0x80, 0xCC
+ZHOME, STOP, ALM_RST = 1 << 4, 1 << 5, 1 << 7
+HOME_END, READY, ALM_A, MOVE, IN_POS = 1 << 4, 1 << 5, 1 << 7, 1 << 13, 1 << 14
+CLOCK = 0x0A
+STEPS = 100  # steps per degree (gonio-sim's default)
+
+
+def clock(m):
+    return m.read32(DETECTOR, CLOCK) / 1000.0
+
+
+def start(m, slave, deg, speed_deg, accel_deg):
+    m.write32(slave, DIRECT, [0, 1, round(deg * STEPS), round(speed_deg * STEPS),
+                              round(accel_deg * STEPS), round(accel_deg * STEPS), 1000, 1])
+
+
+def wait_status(m, slave, bits, wall_timeout=3.0):
+    deadline = time.monotonic() + wall_timeout
+    while time.monotonic() < deadline:
+        st = m.read32(slave, STATUS)
+        if st & bits == bits and not st & MOVE:
+            return st
+        time.sleep(0.001)
+    raise AssertionError("slave %d: status bits 0x%x not reached" % (slave, bits))
+
+
+def move(m, slave, deg):
+    start(m, slave, deg, 20, 40)
+    wait_status(m, slave, IN_POS)
+    assert m.read32(slave, FEEDBACK, signed=True) == round(deg * STEPS)
+
+
+def trapezoid(dist, v, a, t):
+    """Distance covered t seconds into a rest-to-rest move: accelerate at a,
+    cruise at v, decelerate at a (triangular when too short for v)."""
+    if dist <= 0 or t <= 0:
+        return 0.0
+    if dist < v * v / a:
+        v = math.sqrt(dist * a)
+    t_acc = v / a
+    total = dist / v + t_acc
+    if t >= total:
+        return dist
+    if t < t_acc:
+        return 0.5 * a * t * t
+    if t < total - t_acc:
+        return 0.5 * a * t_acc * t_acc + v * (t - t_acc)
+    r = total - t
+    return dist - 0.5 * a * r * r
+
+
+def test_crc_of_the_specification_example():
+    # The Modbus over serial line guide's example: 01 03 00 00 00 0A -> C5 CD.
+    assert frame(bytes.fromhex("01030000000A")).hex() == "01030000000ac5cd"
+    assert crc16(bytes.fromhex("01030000000A")) == 0xCDC5
+
+
+def test_reply_is_well_formed(rtu):
+    reply = rtu.raw(frame(bytes([SAMPLE, 0x03, 0, STATUS, 0, 2])))
+    assert reply is not None and len(reply) == 9
+    assert reply[:3] == bytes([SAMPLE, 0x03, 4])
+    assert crc16(reply[:-2]) == reply[-2] | (reply[-1] << 8)
+    # Channel count 3 on the detector, as the map says.
+    assert rtu.read32(DETECTOR, 0x06) == 3
+
+
+def exception(rtu, slave, pdu):
+    reply = rtu.request(slave, pdu)
+    assert reply is not None and len(reply) == 2, reply
+    assert reply[0] == pdu[0] | 0x80
+    return reply[1]
+
+
+def test_exceptions(rtu):
+    # Unmapped register, on an axis and past the detector's three channels.
+    assert exception(rtu, SAMPLE, bytes([0x03, 0, 0, 0, 1])) == 0x02
+    assert exception(rtu, SAMPLE, bytes([0x03, 0, 0x7E, 0, 5])) == 0x02  # runs into a hole
+    assert exception(rtu, DETECTOR, bytes([0x03, 0, 0x10, 0, 8])) == 0x02
+    # Read-only registers refuse writes.
+    assert exception(rtu, SAMPLE, bytes([0x06, 0, STATUS, 0, 1])) == 0x02
+    assert exception(rtu, DETECTOR, bytes([0x10, 0, 0x04, 0, 1, 2, 0, 1])) == 0x02
+    # Functions outside 0x03, 0x06, 0x10.
+    assert exception(rtu, SAMPLE, bytes([0x01, 0, 0, 0, 1])) == 0x01
+    assert exception(rtu, SAMPLE, bytes([0x04, 0, STATUS, 0, 2])) == 0x01
+    # Bad quantities and byte counts.
+    assert exception(rtu, SAMPLE, bytes([0x03, 0, STATUS, 0, 0])) == 0x03
+    assert exception(rtu, SAMPLE, bytes([0x03, 0, STATUS, 0, 126])) == 0x03
+    assert exception(rtu, SAMPLE, bytes([0x10, 0, DIRECT, 0, 2, 3, 0, 0, 0])) == 0x03
+    # The slave still answers normally afterwards.
+    assert rtu.read32(SAMPLE, ALARM) == 0
+
+
+def test_no_answer_to_bad_crc_or_absent_slave(rtu):
+    good = frame(bytes([SAMPLE, 0x03, 0, STATUS, 0, 2]))
+    bad = good[:-1] + bytes([good[-1] ^ 0x01])
+    assert rtu.raw(bad, timeout=0.2) is None
+    assert rtu.raw(frame(bytes([9, 0x03, 0, STATUS, 0, 2])), timeout=0.2) is None
+    # Line noise, then silence: ignored too.
+    assert rtu.raw(bytes([0x55, 0xAA, 0x00, 0x13]), timeout=0.2) is None
+    reply = rtu.raw(good)
+    assert reply is not None and reply[:3] == bytes([SAMPLE, 0x03, 4])
+
+
+def test_move_follows_the_trapezoid(rtu):
+    """40 deg at 10 deg/s and 20 deg/s^2 (not the profile's 15 and 30): the
+    drive runs at what it is told. Each (clock, position, status, clock)
+    read brackets the instant the position was taken, so the position must
+    lie between the trapezoid at the bracket's ends; IN-POS appears within
+    the bracket of the move's end at T = 40/10 + 10/20 = 4.5 s."""
+    move(rtu, ARM, 0)
+    dist, v, a = 40.0, 10.0, 20.0
+    total = dist / v + v / a
+    tr1 = clock(rtu)
+    start(rtu, ARM, dist, v, a)
+    tr2 = clock(rtu)
+    mid, tol = 0, 0.01 + 0.002 * v  # one step, and the clock's 1 ms on each side
+    deadline = time.monotonic() + 5.0 * total / TIME_SCALE + 2.0
+    while time.monotonic() < deadline:
+        c1 = clock(rtu)
+        pos = rtu.read32(ARM, FEEDBACK, signed=True) / STEPS
+        st = rtu.read32(ARM, STATUS)
+        c2 = clock(rtu)
+        lo, hi = trapezoid(dist, v, a, c1 - tr2), trapezoid(dist, v, a, c2 - tr1)
+        assert lo - tol <= pos <= hi + tol, (c1 - tr2, c2 - tr1, pos, lo, hi)
+        if st & IN_POS:
+            assert c2 - tr1 >= total - 0.002
+            assert not st & MOVE and st & READY
+            break
+        assert st & MOVE and not st & READY
+        assert c1 - tr2 <= total + 0.002
+        mid += 0 < pos < dist
+    else:
+        raise AssertionError("the move never ended")
+    assert mid >= 5  # the move was watched, not only its ends
+    assert rtu.read32(ARM, FEEDBACK, signed=True) == 4000
+    move(rtu, ARM, 0)
+
+
+def test_homing(rtu):
+    move(rtu, SAMPLE, 5.0)
+    assert not rtu.read32(SAMPLE, STATUS) & HOME_END
+    rtu.write32(SAMPLE, INPUT, [ZHOME])
+    rtu.write32(SAMPLE, INPUT, [0])
+    st = wait_status(rtu, SAMPLE, HOME_END)
+    assert st & IN_POS and st & READY
+    assert rtu.read32(SAMPLE, FEEDBACK, signed=True) == 0
+    move(rtu, SAMPLE, 1.0)  # a new move ends the home state
+    assert not rtu.read32(SAMPLE, STATUS) & HOME_END
+    move(rtu, SAMPLE, 0)
+
+
+def test_stop_holds_position(rtu):
+    start(rtu, AZIMUTH, 170, 30, 60)  # about 6 s of rig time
+    time.sleep(1.0 / TIME_SCALE)
+    rtu.write32(AZIMUTH, INPUT, [STOP])
+    rtu.write32(AZIMUTH, INPUT, [0])
+    here = rtu.read32(AZIMUTH, FEEDBACK, signed=True)
+    assert 0 < here < 17000
+    time.sleep(2.0 / TIME_SCALE)
+    st = rtu.read32(AZIMUTH, STATUS)
+    assert not st & MOVE and not st & IN_POS and st & READY
+    assert rtu.read32(AZIMUTH, FEEDBACK, signed=True) == here
+    move(rtu, AZIMUTH, 0)
+
+
+def test_soft_limit_alarm_and_reset(rtu):
+    move(rtu, SAMPLE, 0)
+    start(rtu, SAMPLE, 100.0, 20, 40)  # beyond the rig's +90
+    st = rtu.read32(SAMPLE, STATUS)
+    assert st & ALM_A and not st & READY
+    assert rtu.read32(SAMPLE, ALARM) == 0x66
+    # In alarm a valid move is ignored, and homing too.
+    start(rtu, SAMPLE, 5.0, 20, 40)
+    rtu.write32(SAMPLE, INPUT, [ZHOME])
+    rtu.write32(SAMPLE, INPUT, [0])
+    time.sleep(2.0 / TIME_SCALE)
+    assert rtu.read32(SAMPLE, FEEDBACK, signed=True) == 0
+    assert rtu.read32(SAMPLE, ALARM) == 0x66
+    rtu.write32(SAMPLE, INPUT, [ALM_RST])
+    rtu.write32(SAMPLE, INPUT, [0])
+    st = rtu.read32(SAMPLE, STATUS)
+    assert not st & ALM_A and st & READY
+    assert rtu.read32(SAMPLE, ALARM) == 0
+    move(rtu, SAMPLE, 5.0)
+    move(rtu, SAMPLE, 0)
+
+
+def test_detector_cycle(rtu):
+    """BUSY for the integration time on the rig clock, then READY with the
+    sequence one higher."""
+    seq0 = rtu.read32(DETECTOR, 0x08)
+    t1 = clock(rtu)
+    rtu.write32(DETECTOR, 0x00, [500000, 1])  # 0.5 s
+    t2 = clock(rtu)
+    while True:
+        c1 = clock(rtu)
+        st = rtu.read32(DETECTOR, 0x04)
+        c2 = clock(rtu)
+        if st & 0x2:
+            assert not st & 0x1
+            assert c2 - t1 >= 0.5 - 0.002
+            break
+        assert st & 0x1
+        assert c1 - t2 <= 0.5 + 0.002
+        assert c1 - t1 < 5, "integration never ended"
+    assert rtu.read32(DETECTOR, 0x08) == seq0 + 1
