@@ -1,6 +1,7 @@
 /* latent_table: the latent model's acceptance table (docs/results-latent.md).
  *
- *   latent_table [--decoder FILE] [--markdown] [MATERIAL...]
+ *   latent_table [--decoder FILE] [--markdown] [--starts N] [--iter N] [--lambda X]
+ *                [--lr X] [--max-samples N] [MATERIAL...]
  *
  * For each material (default: the 10 held-out study materials) the NBRDF
  * network nbrdf:NAME is sampled at the points of the DS1..DS4 plans (built
@@ -61,15 +62,32 @@ int main(int argc, char **argv)
     char dpath[4096];
     latent_decoder_default_path(dpath, sizeof dpath);
     int first = 1, markdown = 0;
+    struct latent_fit_options fo = latent_fit_default_options();
     while (first < argc && argv[first][0] == '-') {
-        if (!strcmp(argv[first], "--decoder") && first + 1 < argc) {
+        if (!strcmp(argv[first], "--starts") && first + 1 < argc) {
+            fo.n_starts = atoi(argv[first + 1]);
+            first += 2;
+        } else if (!strcmp(argv[first], "--iter") && first + 1 < argc) {
+            fo.max_iter = atoi(argv[first + 1]);
+            first += 2;
+        } else if (!strcmp(argv[first], "--lambda") && first + 1 < argc) {
+            fo.lambda_z = atof(argv[first + 1]);
+            first += 2;
+        } else if (!strcmp(argv[first], "--max-samples") && first + 1 < argc) {
+            fo.max_samples = (size_t)atol(argv[first + 1]);
+            first += 2;
+        } else if (!strcmp(argv[first], "--lr") && first + 1 < argc) {
+            fo.lr = atof(argv[first + 1]);
+            first += 2;
+        } else if (!strcmp(argv[first], "--decoder") && first + 1 < argc) {
             snprintf(dpath, sizeof dpath, "%s", argv[first + 1]);
             first += 2;
         } else if (!strcmp(argv[first], "--markdown")) {
             markdown = 1;
             first++;
         } else {
-            fprintf(stderr, "usage: latent_table [--decoder FILE] [--markdown] [MATERIAL...]\n");
+            fprintf(stderr, "usage: latent_table [--decoder FILE] [--markdown] [--starts N] [--iter N] "
+                            "[--lambda X] [--lr X] [--max-samples N] [MATERIAL...]\n");
             return 2;
         }
     }
@@ -138,7 +156,7 @@ int main(int argc, char **argv)
             double z[LATENT_MAX_NZ];
             struct latent_fit_info info;
             double t0 = now_s();
-            int rc = fit_latent(dec, smp, n, NULL, z, &info, &err);
+            int rc = fit_latent(dec, smp, n, &fo, z, &info, &err);
             double t = now_s() - t0;
             free(smp);
             free(rgb);

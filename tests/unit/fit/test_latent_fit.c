@@ -82,7 +82,7 @@ static struct brdf_domain eval_domain(void)
 {
     struct brdf_domain d;
     struct gonio_err err = {0};
-    if (brdf_domain_oop_random(&d, 20000, 99, &err) < 0)
+    if (brdf_domain_oop_random(&d, 8000, 99, &err) < 0)
         fail_msg("%s", err.msg);
     return d;
 }
@@ -154,7 +154,7 @@ static void fit_nbrdf_ds1(const char *name, double *z, struct latent_fit_info *i
     brdf_material_free(m);
 }
 
-/* Full-domain (20k-node subset) log error of latent z against nbrdf:name. */
+/* Full-domain (8k-node subset) log error of latent z against nbrdf:name. */
 static double full_err(const char *name, const double *z, const struct brdf_domain *d)
 {
     char spec[96];
