@@ -549,6 +549,8 @@ int msim_open_tcp(msim *m, const char *addr, int *port, struct gonio_err *err)
     m->tcp = modbus_new_tcp(host, (int)p);
     if (!m->tcp)
         return gonio_err_set(err, ENOMEM, "--tcp %s: %s", addr, modbus_strerror(errno));
+    /* A client that sends half a frame must not hold up the bus for long. */
+    modbus_set_byte_timeout(m->tcp, 0, 20000);
     m->listen_fd = modbus_tcp_listen(m->tcp, MAX_CLIENTS);
     if (m->listen_fd < 0)
         return gonio_err_set(err, errno, "--tcp %s: %s", addr, modbus_strerror(errno));

@@ -76,3 +76,29 @@ def test_exceptions_over_tcp(tcp):
     assert rr.isError() and rr.exception_code == 2
     rr = tcp.read_input_registers(0x7E, 2, slave=SAMPLE)
     assert rr.isError() and rr.exception_code == 1
+
+
+def test_survives_random_tcp_input(sim):
+    """Random MBAP frames and garbage on raw sockets: the server drops the
+    bad connections and keeps serving the others."""
+    import random
+    import socket
+    rnd = random.Random(7)
+    for i in range(100):
+        s = socket.create_connection(("127.0.0.1", sim["port"]), timeout=1)
+        n = rnd.randint(1, 30)
+        payload = bytes(rnd.getrandbits(8) for _ in range(n))
+        if i % 2:  # a plausible header around a random PDU
+            payload = struct.pack(">HHHB", i, 0, n + 1, rnd.choice([1, 2, 3, 4, 9])) + payload
+        s.sendall(payload)
+        s.settimeout(0.01)
+        try:
+            s.recv(300)
+        except (socket.timeout, ConnectionError):
+            pass
+        s.close()
+    assert sim["proc"].poll() is None
+    client = pymodbus_client.ModbusTcpClient("127.0.0.1", port=sim["port"], timeout=1)
+    assert client.connect()
+    assert regs(client, DETECTOR, 0x06, 2) == [0, 3]
+    client.close()
