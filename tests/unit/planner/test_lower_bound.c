@@ -11,6 +11,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "common/paths.h"
 #include "planner/planner.h"
 
 static struct plan_rig rig;
@@ -106,8 +107,11 @@ static void test_small_plans(void **state)
 {
     (void)state;
     const char *tmp = getenv("GONIO_TMP");
+    if (!tmp)
+        tmp = "/tmp";
+    assert_int_equal(gonio_mkdir_p(tmp, NULL), 0);
     char file[512];
-    snprintf(file, sizeof file, "%s/lower-bound-%d.yaml", tmp ? tmp : "/tmp", (int)getpid());
+    snprintf(file, sizeof file, "%s/lower-bound-%d.yaml", tmp, (int)getpid());
     unsigned long long x = 99;
     int checked = 0;
     for (int trial = 0; trial < 8; trial++) {
