@@ -158,9 +158,9 @@ static int wait_for(struct mb_axis *a, uint32_t want, struct gonio_err *err)
             if (pos != last_pos) {
                 last_pos = pos;
                 last_change = now;
-            } else if ((now - last_change) * scale > 1.0) {
+            } else if ((now - last_change) * scale > 0.5) {
                 return gonio_err_set(err, GONIO_EDEVICE,
-                                     "%s (slave %d): no progress at %g deg for 1 s (stall), "
+                                     "%s (slave %d): no progress at %g deg for 0.5 s (stall), "
                                      "target %g deg", a->who, a->slave, pos, a->leg_target);
             }
         }

@@ -2,6 +2,7 @@
  * the rig's Modbus bus (docs/gonio-sim.md). A thin shell: options, scene,
  * signals; sim/modbus_server.c does the rest. */
 #include <getopt.h>
+#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -27,11 +28,14 @@ static void usage(FILE *out)
             "usage: gonio-sim [--scene NAME|FILE] [--material SPEC] [--rig NAME|FILE]\n"
             "                 [--time-scale K] [--steps-per-deg N] [--link PATH]\n"
             "                 [--tcp 127.0.0.1:PORT] [--trace] [--check]\n"
+            "                 [--stall SLAVE:DEG] [--overload SLAVE:DEG]\n"
             "  Serves the rig's Modbus bus (docs/protocol-modbus.md) as RTU on a new\n"
             "  pseudo-terminal, whose path is the first line on stdout, and with --tcp\n"
             "  also as Modbus TCP (second line: 'tcp HOST:PORT'; PORT 0 picks one).\n"
             "  Simulated time runs K times faster than wall time (default 1).\n"
-            "  --check prints the resolved setup and exits.\n");
+            "  --check prints the resolved setup and exits. --stall and --overload put an\n"
+            "  obstacle on an axis: moves across it halt there, still moving (stall) or\n"
+            "  with alarm 0x30 (overload).\n");
 }
 
 static int parse_positive(const char *opt, const char *s, double *out)
@@ -54,12 +58,18 @@ int main(int argc, char **argv)
         {"steps-per-deg", required_argument, NULL, 'n'}, {"link", required_argument, NULL, 'l'},
         {"tcp", required_argument, NULL, 't'},        {"trace", no_argument, NULL, 'T'},
         {"check", no_argument, NULL, 'c'},            {"help", no_argument, NULL, 'h'},
+        {"stall", required_argument, NULL, 'S'},      {"overload", required_argument, NULL, 'O'},
         {NULL, 0, NULL, 0},
     };
     const char *scene_name = "ideal", *material_spec = NULL, *rig_name = NULL, *link = NULL,
                *tcp = NULL;
     struct msim_cfg cfg = {.time_scale = 1.0, .steps_per_deg = 100.0};
-    int check = 0, c;
+    int check = 0, c, n_jams = 0;
+    struct {
+        enum msim_jam_kind kind;
+        int slave;
+        double deg;
+    } jams[4];
     while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (c) {
         case 's': scene_name = optarg; break;
@@ -77,6 +87,21 @@ int main(int argc, char **argv)
         case 't': tcp = optarg; break;
         case 'T': cfg.trace = 1; break;
         case 'c': check = 1; break;
+        case 'S':
+        case 'O': {
+            char *end;
+            long slave = strtol(optarg, &end, 10);
+            double deg = *end == ':' ? strtod(end + 1, &end) : NAN;
+            if (*end || !isfinite(deg) || n_jams == 4) {
+                fprintf(stderr, "gonio-sim: --%s '%s': expected SLAVE:DEG\n",
+                        c == 'S' ? "stall" : "overload", optarg);
+                return 2;
+            }
+            jams[n_jams].kind = c == 'S' ? MSIM_JAM_STALL : MSIM_JAM_OVERLOAD;
+            jams[n_jams].slave = (int)slave;
+            jams[n_jams++].deg = deg;
+            break;
+        }
         case 'h': usage(stdout); return 0;
         default: usage(stderr); return 2;
         }
@@ -128,6 +153,15 @@ int main(int argc, char **argv)
     msim *m = msim_new(&rig, material, &cfg, &err);
     char path[256];
     int port = 0;
+    rc = m ? 0 : -1;
+    for (int i = 0; i < n_jams && rc == 0; i++)
+        rc = msim_jam(m, jams[i].slave, jams[i].kind, jams[i].deg, &err);
+    if (rc < 0 && m) {
+        fprintf(stderr, "gonio-sim: %s\n", err.msg);
+        msim_free(m);
+        brdf_material_free(material);
+        return 2;
+    }
     rc = m ? msim_open_pty(m, link, path, sizeof path, &err) : -1;
     if (rc == 0 && tcp)
         rc = msim_open_tcp(m, tcp, &port, &err);

@@ -44,6 +44,11 @@ struct msim_axis {
     uint32_t input_prev; /* input command as last written: commands act on edges */
     double target_deg;
     int alarm, homing, home_end;
+    /* An injected jam (msim_jam): moves across jam_deg halt there; jammed
+     * while the axis sits at the jam pretending to move. */
+    enum msim_jam_kind jam;
+    double jam_deg;
+    int jammed;
 };
 
 struct msim_detector {
@@ -188,6 +193,15 @@ static void axis_refresh(msim *m, struct msim_axis *ax)
     uint16_t *r = ax->map->tab_registers;
     double pos = sim_rig_position(m->rig, ax->id);
     int moving = axis_moving(m, ax);
+    if (ax->jammed && !moving) {
+        if (ax->jam == MSIM_JAM_OVERLOAD) { /* the drive gives up at once */
+            ax->jammed = 0;
+            ax->homing = 0;
+            ax->alarm = MSIM_ALARM_OVERLOAD;
+        } else { /* stuck, still commanded to move, no alarm */
+            moving = 1;
+        }
+    }
     if (ax->homing && !moving) {
         ax->homing = 0;
         ax->home_end = pos == 0.0;
@@ -211,7 +225,13 @@ static void axis_refresh(msim *m, struct msim_axis *ax)
 static void axis_start(msim *m, struct msim_axis *ax, double target_deg, double speed_deg,
                        double accel_deg)
 {
-    if (sim_rig_start_move_at(m->rig, ax->id, target_deg, speed_deg, accel_deg, NULL) < 0) {
+    double here = sim_rig_position(m->rig, ax->id), goal = target_deg;
+    int jams = ax->jam != MSIM_JAM_NONE && target_deg >= ax->prof->min &&
+               target_deg <= ax->prof->max && ax->jam_deg != here &&
+               (ax->jam_deg - here) * (target_deg - ax->jam_deg) >= 0;
+    if (jams) /* the move ends at the obstacle (decelerating into it) */
+        goal = ax->jam_deg;
+    if (sim_rig_start_move_at(m->rig, ax->id, goal, speed_deg, accel_deg, NULL) < 0) {
         /* Beyond the soft limits: alarm, and the axis does not move. */
         ax->alarm = target_deg < ax->prof->min || target_deg > ax->prof->max || !isfinite(target_deg)
                         ? MSIM_ALARM_OVERTRAVEL
@@ -220,6 +240,7 @@ static void axis_start(msim *m, struct msim_axis *ax, double target_deg, double 
     }
     ax->target_deg = target_deg;
     ax->home_end = 0;
+    ax->jammed = jams;
 }
 
 static void axis_trigger(msim *m, struct msim_axis *ax)
@@ -257,6 +278,7 @@ static void axis_input(msim *m, struct msim_axis *ax)
     if (rise & IN_STOP) {
         sim_rig_stop(m->rig, ax->id);
         ax->homing = 0;
+        ax->jammed = 0;
     }
     if ((rise & IN_ZHOME) && !ax->alarm && !(rise & IN_STOP)) {
         axis_start(m, ax, 0.0, ax->prof->speed, ax->prof->accel);
@@ -291,6 +313,22 @@ static void det_trigger(msim *m)
     d->ready = 0;
     d->busy_until = sim_rig_now(m->rig) + us * 1e-6;
     det_refresh(m);
+}
+
+int msim_jam(msim *m, int slave, enum msim_jam_kind kind, double deg, struct gonio_err *err)
+{
+    struct msim_axis *ax = NULL;
+    if (slave == MSIM_SLAVE_SAMPLE || slave == MSIM_SLAVE_ARM ||
+        (slave == MSIM_SLAVE_AZIMUTH && m->n_axes > 2))
+        ax = &m->axis[slave == MSIM_SLAVE_SAMPLE ? SIM_AXIS_SAMPLE
+                      : slave == MSIM_SLAVE_ARM  ? SIM_AXIS_ARM
+                                                 : SIM_AXIS_AZIMUTH];
+    if (!ax || !isfinite(deg) || deg < ax->prof->min || deg > ax->prof->max)
+        return gonio_err_set(err, GONIO_EUSAGE, "jam: no axis at slave %d, or %g deg outside "
+                             "its limits", slave, deg);
+    ax->jam = kind;
+    ax->jam_deg = deg;
+    return 0;
 }
 
 /* ---- Requests ------------------------------------------------------------ */

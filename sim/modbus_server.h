@@ -37,6 +37,13 @@ msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
                const struct msim_cfg *cfg, struct gonio_err *err);
 void msim_free(msim *m);
 
+/* Fault injection: an obstacle at deg on the axis at slave. A move across
+ * it halts there; MSIM_JAM_STALL keeps the drive reporting MOVE with no
+ * alarm (the master must notice the lack of progress), MSIM_JAM_OVERLOAD
+ * raises alarm 0x30 as the axis halts. STOP ends a stalled move. */
+enum msim_jam_kind { MSIM_JAM_NONE, MSIM_JAM_STALL, MSIM_JAM_OVERLOAD };
+int msim_jam(msim *m, int slave, enum msim_jam_kind kind, double deg, struct gonio_err *err);
+
 /* Create the RTU pseudo-terminal (raw mode); its slave path goes to path.
  * link, when not NULL, is (re)made a symlink to it. */
 int msim_open_pty(msim *m, const char *link, char *path, size_t size, struct gonio_err *err);
