@@ -21,6 +21,7 @@ static void usage(FILE *out)
             "  --seed N     initial weights and training pairs (default %llu)\n"
             "  --epochs N   Adam steps, each over every training material (default %ld)\n"
             "  --threads N  worker threads; the result does not depend on it (default %d)\n"
+            "  --z-noise SD latent noise during training (default 0)\n"
             "  --nz N --layers N --width N --samples N\n"
             "               latent size, hidden layers and units, pairs per material and\n"
             "               step (defaults %d, %d, %d, %d)\n",
@@ -51,6 +52,7 @@ int cmd_train_decoder(int argc, char **argv)
         {"quiet", no_argument, NULL, 'q'},        {"help", no_argument, NULL, 'h'},
         {"nz", required_argument, NULL, 'z'},     {"width", required_argument, NULL, 'w'},
         {"layers", required_argument, NULL, 'l'}, {"samples", required_argument, NULL, 'n'},
+        {"z-noise", required_argument, NULL, 'Z'},
         {NULL, 0, NULL, 0},
     };
     struct latent_train_options o = latent_train_default_options();
@@ -62,7 +64,7 @@ int cmd_train_decoder(int argc, char **argv)
     optind = 1;
     int c;
     unsigned long long v;
-    while ((c = getopt_long(argc, argv, "o:s:e:t:qhz:w:l:n:", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, "o:s:e:t:qhz:w:l:n:Z:", opts, NULL)) != -1) {
         switch (c) {
         case 'o': snprintf(out, sizeof out, "%s", optarg); break;
         case 's':
@@ -96,6 +98,16 @@ int cmd_train_decoder(int argc, char **argv)
             *(c == 'z' ? &o.nz : c == 'w' ? &o.width : c == 'l' ? &o.layers
                                                      : &o.samples_per_step) = (int)v;
             break;
+        case 'Z': {
+            char *end;
+            o.z_noise = strtod(optarg, &end);
+            if (end == optarg || *end || !(o.z_noise >= 0 && o.z_noise < 10)) {
+                fprintf(stderr, "gonio train-decoder: --z-noise '%s' must be in [0, 10)\n",
+                        optarg);
+                return 2;
+            }
+            break;
+        }
         case 'q': o.quiet = 1; break;
         case 'h': usage(stdout); return 0;
         default: usage(stderr); return 2;

@@ -45,6 +45,7 @@ struct latent_train_options {
     int samples_per_step; /* random pairs per material per step */
     double lr, lr_z;      /* Adam step sizes of weights and latents (cosine decay) */
     double lambda_z;      /* weight of the mean of z^2 in the loss (latent prior) */
+    double z_noise;       /* sd of Gaussian noise added to z at each use (0: none) */
     uint64_t seed;        /* initial weights, latents and every sample */
     int threads;          /* worker threads (results do not depend on it) */
     int quiet;            /* no progress on stderr */

@@ -150,6 +150,8 @@ int latent_decoder_save(const latent_decoder *d, const char *path, struct gonio_
     fprintf(mf, "seed %llu\nsteps %ld\nsamples_per_step %d\n", (unsigned long long)t->seed,
             t->steps, t->samples_per_step);
     fprintf(mf, "lr %.17g\nlr_z %.17g\nlambda_z %.17g\n", t->lr, t->lr_z, t->lambda_z);
+    if (t->z_noise > 0) /* written only when used: older files stay valid and identical */
+        fprintf(mf, "z_noise %.17g\n", t->z_noise);
     fprintf(mf, "heldout");
     for (size_t i = 0; i < 10; i++)
         fprintf(mf, " %s", latent_heldout_materials[i]);
@@ -269,7 +271,7 @@ latent_decoder *latent_decoder_load(const char *path, struct gonio_err *err)
     long nin = -1, nz = -1, layers = -1, width = -1, nout = -1, nmat = -1;
     unsigned long long seed = 0;
     long steps = 0, sps = 0;
-    double lr = 0, lr_z = 0, lambda_z = 0;
+    double lr = 0, lr_z = 0, lambda_z = 0, z_noise = 0;
     size_t m = 0;
 #define BAD(...)                                                                            \
     do {                                                                                    \
@@ -301,11 +303,13 @@ latent_decoder *latent_decoder_load(const char *path, struct gonio_err *err)
             if (errno || end == val || *end)
                 BAD("%s: seed '%s' is not an integer", path, val);
             seed = s;
-        } else if (!strcmp(key, "lr") || !strcmp(key, "lr_z") || !strcmp(key, "lambda_z")) {
+        } else if (!strcmp(key, "lr") || !strcmp(key, "lr_z") || !strcmp(key, "lambda_z") ||
+                   !strcmp(key, "z_noise")) {
             double v;
             if (parse_double(val, &v) < 0)
                 BAD("%s: %s '%s' is not a finite number", path, key, val);
-            *(!strcmp(key, "lr") ? &lr : !strcmp(key, "lr_z") ? &lr_z : &lambda_z) = v;
+            *(!strcmp(key, "lr") ? &lr : !strcmp(key, "lr_z") ? &lr_z
+              : !strcmp(key, "lambda_z") ? &lambda_z : &z_noise) = v;
         } else if (!strcmp(key, "heldout")) {
             /* informational: the held-out list of the build that trained it */
         } else if (!strcmp(key, "materials")) {
@@ -370,6 +374,7 @@ latent_decoder *latent_decoder_load(const char *path, struct gonio_err *err)
     d->train.lr = lr;
     d->train.lr_z = lr_z;
     d->train.lambda_z = lambda_z;
+    d->train.z_noise = z_noise;
     latent_decoder_refresh(d);
     free(buf);
     return d;

@@ -35,6 +35,7 @@ struct latent_train_options latent_train_default_options(void)
         .lr = 2e-3,
         .lr_z = 1e-2,
         .lambda_z = 1e-3,
+        .z_noise = 0,
         .seed = 1,
         .threads = 2,
         .quiet = 0,
@@ -193,8 +194,18 @@ static void *work(void *arg)
         double *gw = c->gw + m * d->n_params, *gz = c->gz + m * (size_t)d->nz;
         memset(gw, 0, d->n_params * sizeof *gw);
         memset(gz, 0, (size_t)d->nz * sizeof *gz);
-        c->loss[m] = latent_net_backprop(d, d->latents + m * (size_t)d->nz, (size_t)c->S,
-                                         w->b.x, w->b.c, w->b.t, c->scale, gw, gz);
+        /* Latent noise: the decoder must answer well in a neighbourhood of
+         * each training latent, which smooths it in z (the gradient with
+         * respect to the noisy z is the gradient with respect to z). */
+        double z[LATENT_MAX_NZ];
+        memcpy(z, d->latents + m * (size_t)d->nz, (size_t)d->nz * sizeof *z);
+        if (d->train.z_noise > 0) {
+            uint64_t ns = stream ^ 0x94d049bb133111ebULL;
+            for (int k = 0; k < d->nz; k++)
+                z[k] += d->train.z_noise * gauss(&ns);
+        }
+        c->loss[m] = latent_net_backprop(d, z, (size_t)c->S, w->b.x, w->b.c, w->b.t, c->scale,
+                                         gw, gz);
     }
     return NULL;
 }
