@@ -12,8 +12,14 @@
 #include "daemon/capture.h"
 #include "daemon/journal.h"
 #include "fit/fit.h"
+#include "fit/abc_model.h"
 #include "fit/model_file.h"
 
+#include "brdf/domain.h"
+/* Both commands have a static usage(): rename the export one. */
+#define usage export_usage
+#include "cli/cmd_export.c"
+#undef usage
 #include "cli/cmd_fit.c"
 
 static char dir[] = "/tmp/gonio-fitcliXXXXXX";
@@ -229,6 +235,52 @@ static void test_spectral_csv(void **state)
     free(errtext);
 }
 
+/* gonio export merl --material model:FILE: the table read back as merl:
+ * holds the ABC model's values at the in-plane MERL nodes, to float32
+ * storage and the table lookup's rounding of a node's angles (1e-4
+ * relative; a wrong model or scale is off by far more). */
+static void test_export_model(void **state)
+{
+    (void)state;
+    struct brdf_abc p = {{0.12, 0.08, 0.05}, {1.5, 1.2, 1.0}, 80.0, 0.9, 1.5};
+    struct fit_model_file *f = fit_abc_model_file(&p);
+    char model[400], table[400], spec[420];
+    snprintf(model, sizeof model, "%s/export.model", dir);
+    snprintf(table, sizeof table, "%s/export.binary", dir);
+    assert_int_equal(fit_model_file_write(f, model, NULL), 0);
+    fit_model_file_free(f);
+    snprintf(spec, sizeof spec, "model:%s", model);
+    char *argv[] = {"export", "merl", "--material", spec, "-o", table, NULL};
+    int rc;
+    fflush(stdout);
+    int save = dup(1);
+    int null = open("/dev/null", O_WRONLY);
+    dup2(null, 1);
+    rc = cmd_export(6, argv);
+    fflush(stdout);
+    dup2(save, 1);
+    close(save);
+    close(null);
+    assert_int_equal(rc, 0);
+    snprintf(spec, sizeof spec, "merl:%s", table);
+    struct gonio_err err = {0};
+    brdf_material *m = brdf_material_open(spec, &err);
+    if (!m)
+        print_error("%s\n", err.msg);
+    assert_non_null(m);
+    struct brdf_domain d;
+    assert_int_equal(brdf_domain_inplane(&d, NULL), 0);
+    for (size_t i = 0; i < d.n; i += 97) {
+        double a[3], e[3];
+        brdf_material_eval(m, &d.pairs[i], 1, a);
+        brdf_abc_eval(&p, &d.pairs[i], e);
+        for (int k = 0; k < 3; k++)
+            assert_rel_close(a[k], e[k], 1e-4);
+    }
+    brdf_domain_free(&d);
+    brdf_material_free(m);
+}
+
 static void test_bad_input(void **state)
 {
     (void)state;
@@ -261,6 +313,7 @@ int main(void)
         cmocka_unit_test(test_abc_default_output),
         cmocka_unit_test(test_abc_pseudo),
         cmocka_unit_test(test_spectral_csv),
+        cmocka_unit_test(test_export_model),
         cmocka_unit_test(test_bad_input),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
