@@ -2,7 +2,8 @@
  * capture_run_offline (ideal scene, plan ds2): the model files it writes
  * open as materials that match the samples, abc equals fit_abc called
  * directly, abc-pseudo writes an abc file, the spectral CSV route, and bad
- * input gives exit status 2 with one message. */
+ * input gives exit status 2 with one message; gonio export merl of a
+ * model file. */
 #include "tests/gonio_test.h"
 
 #include <fcntl.h>
