@@ -4,7 +4,9 @@
  *
  * A bus is opened once and shared by the devices on it; the devices keep a
  * pointer to it, so free the devices first, then the bus. Nothing here is
- * thread-safe: one thread drives one bus.
+ * thread-safe: one thread drives one bus. The drivers assume they are the
+ * bus's only master: an axis remembers where a completed move left it and
+ * the detector its last sequence number, to save round trips.
  *
  * Errors: a request that gets no answer within the response timeout is
  * retried (after flushing the line, so a late answer is never taken for the
@@ -64,8 +66,12 @@ struct drv_modbus_axis_opts {
 
 /* An axis drive at slave id `slave`. Moves use the profile's speed and
  * acceleration (converted to steps) and are refused before sending beyond
- * its min/max. opts may be NULL (defaults). name ("sample", "arm",
- * "azimuth") appears in messages. The profile is copied. */
+ * its min/max (-GONIO_EUNREACHABLE). opts may be NULL (defaults). name
+ * ("sample", "arm", "azimuth") appears in messages. The profile is copied.
+ * drv_axis_wait polls the drive with a deadline from the move's expected
+ * time; a drive alarm, a stall (no progress for 0.5 s of rig time) or a
+ * stop short of the target fails with -GONIO_EDEVICE. drv_axis_home
+ * raises ZHOME and waits for HOME-END. */
 drv_axis *drv_axis_new_modbus(drv_modbus_bus *bus, int slave, const struct plan_axis *profile,
                               const struct drv_modbus_axis_opts *opts, const char *name,
                               struct gonio_err *err);
