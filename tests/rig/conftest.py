@@ -50,7 +50,7 @@ class RtuMaster:
     def close(self):
         self.port.close()
 
-    def raw(self, data: bytes, timeout=0.3):
+    def raw(self, data: bytes, timeout=2.0):
         self.port.reset_input_buffer()
         self.port.write(data)
         self.port.flush()
@@ -67,7 +67,7 @@ class RtuMaster:
                 time.sleep(0.0002)
         return buf or None
 
-    def request(self, slave, pdu: bytes, timeout=0.3):
+    def request(self, slave, pdu: bytes, timeout=2.0):
         """Send slave+pdu; return the reply PDU (CRC checked) or None."""
         reply = self.raw(frame(bytes([slave]) + pdu), timeout)
         if reply is None:
