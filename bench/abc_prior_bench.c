@@ -16,6 +16,7 @@
 #include "brdf/metrics.h"
 #include "brdf/published.h"
 #include "fit/abc_prior.h"
+#include "fit/abc_prior_private.h"
 #include "fit/fit.h"
 
 static const char *default_materials[] = {
@@ -55,6 +56,43 @@ static size_t ds_grid(double step_i, double step_d, double step_g, struct brdf_p
     return n;
 }
 
+/* --table: the population table of fit/abc_prior_table.c, one C row per
+ * MERL material: ABC fitted (fit_abc, defaults) to the DS1 samples of its
+ * NBRDF network. */
+static int print_table(const struct brdf_pair *g, size_t n)
+{
+    struct fit_sample *s = malloc(n * sizeof *s);
+    double *rgb = malloc(3 * n * sizeof *rgb);
+    for (size_t i = 0; i < abc_prior_n_rows; i++) {
+        char spec[256];
+        snprintf(spec, sizeof spec, "nbrdf:%s", abc_prior_rows[i].name);
+        struct gonio_err e = {0};
+        brdf_material *mat = brdf_material_open(spec, &e);
+        if (!mat) {
+            fprintf(stderr, "%s\n", e.msg);
+            return 1;
+        }
+        brdf_material_eval(mat, g, n, rgb);
+        brdf_material_free(mat);
+        for (size_t k = 0; k < n; k++) {
+            s[k].g = g[k];
+            memcpy(s[k].rgb, rgb + 3 * k, sizeof s[k].rgb);
+        }
+        struct brdf_abc p;
+        if (fit_abc(s, n, NULL, &p, NULL, &e) < 0) {
+            fprintf(stderr, "%s: %s\n", spec, e.msg);
+            return 1;
+        }
+        printf("    {\"%s\", {%.6g, %.6g, %.6g, %.6g, %.6g, %.6g, %.6g, %.6g, %.6g}},\n",
+               abc_prior_rows[i].name, p.kd[0], p.kd[1], p.kd[2], p.A[0], p.A[1], p.A[2], p.B,
+               p.C, p.eta);
+        fflush(stdout);
+    }
+    free(s);
+    free(rgb);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     struct fit_options opt = fit_default_options();
@@ -82,6 +120,8 @@ int main(int argc, char **argv)
     ds[3] = malloc(6 * sizeof *ds[3]);
     for (int k = 0; k < 6; k++)
         brdf_pair_inplane(30, tr4[k], &ds[3][k]);
+    if (argc > 1 && !strcmp(argv[1], "--table"))
+        return print_table(ds[0], nds[0]);
     struct gonio_err e = {0};
     struct brdf_domain full;
     if (brdf_domain_full(&full, &e) < 0) {

@@ -269,6 +269,73 @@ static int shape_starts(const struct abc_problem *pb, const struct abc_prior_ter
     return got;
 }
 
+/* Order of samples for finding exact duplicates: geometry, then value. */
+static const struct fit_sample *dup_base;
+
+static int cmp_sample(const void *a, const void *b)
+{
+    const struct fit_sample *x = &dup_base[*(const size_t *)a], *y = &dup_base[*(const size_t *)b];
+    double kx[9] = {x->g.wi[0], x->g.wi[1], x->g.wi[2], x->g.wo[0], x->g.wo[1], x->g.wo[2],
+                    x->rgb[0], x->rgb[1], x->rgb[2]};
+    double ky[9] = {y->g.wi[0], y->g.wi[1], y->g.wi[2], y->g.wo[0], y->g.wo[1], y->g.wo[2],
+                    y->rgb[0], y->rgb[1], y->rgb[2]};
+    for (int i = 0; i < 9; i++)
+        if (kx[i] != ky[i])
+            return kx[i] < ky[i] ? -1 : 1;
+    /* keep the first occurrence: order equal samples by index */
+    size_t ia = *(const size_t *)a, ib = *(const size_t *)b;
+    return (ia > ib) - (ia < ib);
+}
+
+static int same_sample(const struct fit_sample *x, const struct fit_sample *y)
+{
+    for (int i = 0; i < 3; i++)
+        if (x->g.wi[i] != y->g.wi[i] || x->g.wo[i] != y->g.wo[i] || x->rgb[i] != y->rgb[i])
+            return 0;
+    return 1;
+}
+
+/* Drop exact duplicates (same directions and value: a journal replayed
+ * twice, a sample pasted twice) from idx[0..nv), keeping the first and
+ * the original order; returns the new count. A repeated measurement with
+ * another value is data and stays. Not thread-safe (qsort's comparator
+ * reads a static), like the first fit_abc call (see fit.h). */
+static size_t drop_duplicates(const struct fit_sample *s, size_t *idx, size_t nv)
+{
+    if (nv < 2)
+        return nv;
+    size_t *ord = malloc(nv * sizeof *ord);
+    unsigned char *dup = calloc(nv, 1);
+    if (!ord || !dup) { /* keep everything rather than fail */
+        free(ord);
+        free(dup);
+        return nv;
+    }
+    memcpy(ord, idx, nv * sizeof *ord);
+    dup_base = s;
+    qsort(ord, nv, sizeof *ord, cmp_sample);
+    /* mark by position in idx: idx is increasing, so bsearch the index */
+    for (size_t i = 1; i < nv; i++)
+        if (same_sample(&s[ord[i]], &s[ord[i - 1]])) {
+            size_t lo = 0, hi = nv;
+            while (lo < hi) {
+                size_t mid = (lo + hi) / 2;
+                if (idx[mid] < ord[i])
+                    lo = mid + 1;
+                else
+                    hi = mid;
+            }
+            dup[lo] = 1;
+        }
+    size_t m = 0;
+    for (size_t i = 0; i < nv; i++)
+        if (!dup[i])
+            idx[m++] = idx[i];
+    free(ord);
+    free(dup);
+    return m;
+}
+
 static int gsl_handler_off_done;
 
 int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options *opt,
@@ -309,11 +376,12 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
     for (size_t i = 0; i < n; i++)
         if (sample_usable(&samples[i]))
             idx[nv++] = i;
+    nv = drop_duplicates(samples, idx, nv);
     if (nv < (prior ? 1u : 3u)) {
         free(idx);
         return gonio_err_set(err, GONIO_EFIT,
                              "fit_abc: %zu usable samples of %zu (the rest have a NaN/inf value or "
-                             "geometry, lie below the horizon or have 1 + f cos <= 0); need at "
+                             "geometry, lie below the horizon, have 1 + f cos <= 0 or repeat one); need at "
                              "least 3 for 9 parameters",
                              nv, n);
     }

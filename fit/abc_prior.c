@@ -9,7 +9,6 @@
 #include <gsl/gsl_linalg.h>
 #include <gsl/gsl_matrix.h>
 
-#include "brdf/published.h"
 #include "fit/abc_model.h"
 #include "fit/abc_prior_private.h"
 #include "fit/model_file.h"
@@ -38,11 +37,8 @@ int fit_abc_prior_build(const char *exclude, struct fit_abc_prior *out, struct g
             snprintf(out->excluded, sizeof out->excluded, "%s", row->name);
             continue;
         }
-        struct brdf_abc_published pub = {
-            {row->v[0], row->v[1], row->v[2]}, {row->v[3], row->v[4], row->v[5]},
-            row->v[6], row->v[7], row->v[8]};
-        struct brdf_abc p;
-        brdf_published_abc_convert(&pub, &p);
+        struct brdf_abc p = {{row->v[0], row->v[1], row->v[2]},
+                             {row->v[3], row->v[4], row->v[5]}, row->v[6], row->v[7], row->v[8]};
         for (int c = 0; c < 3; c++) {
             p.kd[c] = fmax(p.kd[c], FIT_PRIOR_FLOOR);
             p.A[c] = fmax(p.A[c], FIT_PRIOR_FLOOR);

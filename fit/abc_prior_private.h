@@ -6,7 +6,7 @@
 
 struct abc_prior_row {
     const char *name; /* MERL material name */
-    double v[9];      /* kd[3], A[3] (published, with pi), B, C, ior */
+    double v[9];      /* kd[3], A[3], B, C, eta (brdf/abc.h convention) */
 };
 
 extern const struct abc_prior_row abc_prior_rows[];

@@ -61,7 +61,8 @@ struct fit_info {
     int converged;       /* 1 when the winning solve met a tolerance */
     const char *reason;  /* why the winning solve stopped (static string) */
     size_t dropped;      /* samples left out: non-finite value or geometry, below the
-                            horizon (cos theta_i or cos theta_o <= 0), or 1 + f cos <= 0 */
+                            horizon (cos theta_i or cos theta_o <= 0), 1 + f cos <= 0, or an
+                            exact duplicate (same directions and value) of an earlier one */
     struct fit_uncertainty sd; /* parameter standard deviations (see above) */
 };
 

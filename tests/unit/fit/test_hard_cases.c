@@ -1,0 +1,355 @@
+/* Hard cases for the ABC fits (fit_abc and the abc-prior MAP fit): grazing
+ * geometry, v.h -> 0, eta at both ends, very sharp and very bright lobes,
+ * all-diffuse data, six samples, NaN and duplicated samples, and real
+ * materials at the edges of the model (chrome, a fabric, white diffuse).
+ *
+ * Every case asks for finite parameters, a fit that returns, and an error
+ * no worse than the bound stated next to it. Synthetic truths are ABC
+ * parameter sets evaluated with brdf_abc_eval (independent of the fitter's
+ * residual code); errors are mean |log(1 + fhat cos) - log(1 + f cos)|
+ * over the channels of pairs the fit did not see unless said otherwise. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "brdf/abc.h"
+#include "brdf/angles.h"
+#include "brdf/material.h"
+#include "fit/abc_prior.h"
+#include "fit/fit.h"
+#include "tests/gonio_test.h"
+
+#define MAXS 2000
+#define PI 3.14159265358979323846
+
+/* In-plane grid in the style of the design's DS3 (theta_i step 30, diffuse
+ * step 20, glossy step 3 within 15 degrees of the mirror), extended to the
+ * given largest angle; written out here, not taken from the planner. */
+static size_t grid(double tmax, struct brdf_pair *out)
+{
+    size_t n = 0;
+    for (double ti = 0; ti <= tmax + 1e-9; ti += tmax / 3) {
+        for (double tr = -tmax; tr <= tmax + 1e-9; tr += tmax / 4)
+            if (fabs(tr - ti) > 15)
+                brdf_pair_inplane(ti, tr, &out[n++]);
+        for (double k = -15; k <= 15; k += 3)
+            if (fabs(ti + k) <= tmax)
+                brdf_pair_inplane(ti, ti + k, &out[n++]);
+    }
+    return n;
+}
+
+static size_t synth(const struct brdf_abc *p, const struct brdf_pair *g, size_t n,
+                    struct fit_sample *s)
+{
+    for (size_t k = 0; k < n; k++) {
+        s[k].g = g[k];
+        brdf_abc_eval(p, &g[k], s[k].rgb);
+    }
+    return n;
+}
+
+static void assert_finite_params(const struct brdf_abc *p)
+{
+    for (int c = 0; c < 3; c++) {
+        assert_true(isfinite(p->kd[c]) && p->kd[c] >= 0);
+        assert_true(isfinite(p->A[c]) && p->A[c] >= 0);
+    }
+    assert_true(isfinite(p->B) && p->B > 0);
+    assert_true(isfinite(p->C) && p->C > 0);
+    assert_true(isfinite(p->eta) && p->eta > 1 && p->eta <= 40);
+}
+
+/* Error of the model p against rgb values ref at pairs g (3n values). */
+static double log_err(const struct brdf_abc *p, const struct brdf_pair *g, const double *ref,
+                      size_t n)
+{
+    double s = 0;
+    for (size_t k = 0; k < n; k++) {
+        double f[3];
+        brdf_abc_eval(p, &g[k], f);
+        for (int c = 0; c < 3; c++) {
+            assert_true(isfinite(f[c]));
+            s += fabs(log1p(f[c] * g[k].wi[2]) - log1p(ref[3 * k + c] * g[k].wi[2]));
+        }
+    }
+    return s / (3.0 * (double)n);
+}
+
+/* Random pairs over the hemisphere up to tmax degrees (seeded). */
+static size_t random_pairs(double tmax, unsigned seed, size_t n, struct brdf_pair *g)
+{
+    srand(seed);
+    for (size_t k = 0; k < n; k++)
+        brdf_pair_spherical(tmax * rand() / RAND_MAX, 360.0 * rand() / RAND_MAX,
+                            tmax * rand() / RAND_MAX, 360.0 * rand() / RAND_MAX, &g[k]);
+    return n;
+}
+
+/* Fit synthetic data of truth at the pairs g, then the error against the
+ * truth at random pairs up to tmax. */
+static double fit_synth(const struct brdf_abc *truth, const struct brdf_pair *g, size_t n,
+                        double tmax, struct brdf_abc *p, struct fit_info *info)
+{
+    static struct fit_sample s[MAXS];
+    static struct brdf_pair r[MAXS];
+    static double ref[3 * MAXS];
+    synth(truth, g, n, s);
+    struct gonio_err err = {0};
+    int rc = fit_abc(s, n, NULL, p, info, &err);
+    if (rc)
+        printf("fit_abc: %s\n", err.msg);
+    assert_int_equal(rc, 0);
+    assert_finite_params(p);
+    assert_true(isfinite(info->cost));
+    size_t m = random_pairs(tmax, 11, 1500, r);
+    for (size_t k = 0; k < m; k++)
+        brdf_abc_eval(truth, &r[k], ref + 3 * k);
+    return log_err(p, r, ref, m);
+}
+
+/* Grazing: samples up to 89.9 degrees (n.l, n.v -> 0) and pairs with
+ * l ~ -v at grazing (v.h -> 0). Bound: exact model data, so the fit must
+ * reproduce it to 1e-3 out of plane up to 89 degrees. */
+static void test_grazing_and_vh_to_zero(void **state)
+{
+    (void)state;
+    static struct brdf_pair g[MAXS];
+    size_t n = grid(89.9, g);
+    const double az[] = {170, 175, 179.9, 180};
+    for (int i = 0; i < 4; i++) {
+        brdf_pair_spherical(89.9, 0, 89.9, az[i], &g[n++]);
+        brdf_pair_spherical(89.0, 0, 89.5, az[i], &g[n++]);
+    }
+    const struct brdf_abc truth = {{0.2, 0.15, 0.1}, {5, 4, 3}, 800, 0.9, 1.6};
+    struct brdf_abc p;
+    struct fit_info info;
+    double e = fit_synth(&truth, g, n, 89.0, &p, &info);
+    printf("grazing: %zu samples, oop log error %.2e\n", n, e);
+    assert_true(e <= 1e-3);
+}
+
+/* eta -> 1 (Fresnel -> 0: the lobe vanishes) and eta at the upper bound
+ * (F flat, metal-like). Bound: 0.01 out of plane (eta -> 1 leaves A and
+ * eta trading off, so the parameters are not asked for, only the BRDF). */
+static void test_eta_extremes(void **state)
+{
+    (void)state;
+    static struct brdf_pair g[MAXS];
+    size_t n = grid(80, g);
+    const struct brdf_abc t1 = {{0.3, 0.2, 0.1}, {50, 40, 30}, 2000, 1.0, 1.001};
+    const struct brdf_abc t2 = {{0.001, 0.001, 0.001}, {30, 25, 20}, 5e4, 1.1, 39.0};
+    struct brdf_abc p;
+    struct fit_info info;
+    double e1 = fit_synth(&t1, g, n, 80, &p, &info);
+    printf("eta 1.001: oop log error %.2e, fitted eta %g\n", e1, p.eta);
+    assert_true(e1 <= 0.01);
+    double e2 = fit_synth(&t2, g, n, 80, &p, &info);
+    printf("eta 39: oop log error %.2e, fitted eta %g\n", e2, p.eta);
+    assert_true(e2 <= 0.01);
+    /* beyond the bound (the published tungsten-carbide fit has ior 100):
+     * the fit keeps eta inside (1, 40] and still fits; F is so flat there
+     * that eta itself is not determined (a fit lands near 5 with A lower) */
+    const struct brdf_abc t3 = {{0.003, 0.003, 0.004}, {60, 50, 45}, 9e4, 1.7, 100.0};
+    double e3 = fit_synth(&t3, g, n, 80, &p, &info);
+    printf("eta 100: oop log error %.2e, fitted eta %g\n", e3, p.eta);
+    assert_true(e3 <= 0.01);
+}
+
+/* B = 1e7 with a peak 1e4 times the diffuse level: the lobe is 0.03 degrees
+ * wide, so only the mirror samples see it. Bound: the fit matches its own
+ * samples to 0.02 (out of plane the lobe is not determined by any sample),
+ * and the peak value at the mirror to 20% in log(1 + f cos). */
+static void test_very_sharp_bright_lobe(void **state)
+{
+    (void)state;
+    static struct brdf_pair g[MAXS];
+    static struct fit_sample s[MAXS];
+    static double ref[3 * MAXS];
+    size_t n = grid(80, g);
+    struct brdf_abc truth = {{0.1, 0.1, 0.1}, {1, 1, 1}, 1e7, 1.0, 1.5};
+    /* scale A so that the mirror value at theta_i 30 is 1e4 x kd/pi */
+    struct brdf_pair m;
+    brdf_pair_inplane(30, 30, &m);
+    double f0[3];
+    brdf_abc_eval(&truth, &m, f0);
+    double spec = f0[0] - truth.kd[0] / PI;
+    for (int c = 0; c < 3; c++)
+        truth.A[c] = 1e4 * truth.kd[c] / PI / spec;
+    synth(&truth, g, n, s);
+    for (size_t k = 0; k < n; k++)
+        memcpy(ref + 3 * k, s[k].rgb, sizeof s[k].rgb);
+    struct brdf_abc p;
+    struct fit_info info;
+    assert_int_equal(fit_abc(s, n, NULL, &p, &info, NULL), 0);
+    assert_finite_params(&p);
+    double e = log_err(&p, g, ref, n);
+    double fm[3], ft[3];
+    brdf_abc_eval(&p, &m, fm);
+    brdf_abc_eval(&truth, &m, ft);
+    double peak = fabs(log1p(fm[0] * m.wi[2]) / log1p(ft[0] * m.wi[2]) - 1);
+    printf("B 1e7: sample log error %.2e, mirror value %g vs %g, fitted B %g\n", e, fm[0],
+           ft[0], p.B);
+    assert_true(e <= 0.02);
+    assert_true(peak <= 0.2);
+}
+
+/* All diffuse (A = 0): the lobe parameters have no influence. Bound: 1e-3
+ * out of plane, the lobe's share at the mirror below 1% of the diffuse
+ * level, and the uncertainty of log B reported as undetermined or large. */
+static void test_all_diffuse(void **state)
+{
+    (void)state;
+    static struct brdf_pair g[MAXS];
+    size_t n = grid(80, g);
+    const struct brdf_abc truth = {{0.5, 0.4, 0.3}, {0, 0, 0}, 100, 1, 1.5};
+    struct brdf_abc p;
+    struct fit_info info;
+    double e = fit_synth(&truth, g, n, 80, &p, &info);
+    struct brdf_pair m;
+    brdf_pair_inplane(30, 30, &m);
+    double f[3];
+    brdf_abc_eval(&p, &m, f);
+    printf("all diffuse: oop log error %.2e, mirror %g vs kd/pi %g, sd log B %g\n", e, f[0],
+           p.kd[0] / PI, info.sd.log_B);
+    assert_true(e <= 1e-3);
+    assert_true(f[0] - p.kd[0] / PI <= 0.01 * p.kd[0] / PI);
+    assert_true(!(info.sd.log_B < 1.0)); /* INFINITY, NaN or large: not determined */
+}
+
+/* Six samples (DS4's pairs): both fits return finite parameters. Bound:
+ * fit_abc matches its six samples to 0.01 (18 residuals, 9 parameters);
+ * the prior fit stays within 0.05 of them. */
+static void test_six_samples(void **state)
+{
+    (void)state;
+    struct brdf_pair g[6];
+    const double tr[6] = {-60, -20, 20, 28, 36, 60};
+    for (int k = 0; k < 6; k++)
+        brdf_pair_inplane(30, tr[k], &g[k]);
+    const struct brdf_abc truth = {{0.2, 0.15, 0.1}, {20, 15, 10}, 3000, 0.9, 1.5};
+    struct fit_sample s[6];
+    double ref[18];
+    synth(&truth, g, 6, s);
+    for (int k = 0; k < 6; k++)
+        memcpy(ref + 3 * k, s[k].rgb, sizeof s[k].rgb);
+    struct brdf_abc p, q;
+    struct fit_info i1, i2;
+    struct gonio_err err = {0};
+    assert_int_equal(fit_abc(s, 6, NULL, &p, &i1, &err), 0);
+    assert_finite_params(&p);
+    struct fit_abc_prior prior;
+    assert_int_equal(fit_abc_prior_build(NULL, &prior, &err), 0);
+    assert_int_equal(fit_abc_map(s, 6, NULL, &prior, &q, &i2, &err), 0);
+    assert_finite_params(&q);
+    double e1 = log_err(&p, g, ref, 6), e2 = log_err(&q, g, ref, 6);
+    printf("six samples: sample log error %.2e (abc), %.2e (abc-prior), sd log B %g\n", e1, e2,
+           i2.sd.log_B);
+    assert_true(e1 <= 0.01);
+    assert_true(e2 <= 0.05);
+    assert_true(isfinite(i2.sd.log_B));
+}
+
+/* NaN samples (MERL's no-data cells), below-horizon and exact duplicates
+ * are dropped and counted; the fit equals the fit of the clean samples. */
+static void test_nan_and_duplicates_dropped(void **state)
+{
+    (void)state;
+    static struct brdf_pair g[MAXS];
+    static struct fit_sample s[MAXS], clean[MAXS];
+    size_t n = grid(80, g);
+    const struct brdf_abc truth = {{0.2, 0.15, 0.1}, {20, 15, 10}, 3000, 0.9, 1.5};
+    synth(&truth, g, n, clean);
+    size_t m = 0, bad = 0;
+    for (size_t k = 0; k < n; k++) {
+        s[m++] = clean[k];
+        if (k % 7 == 0) { /* a no-data cell: NaN value */
+            s[m] = clean[k];
+            s[m].rgb[1] = NAN;
+            m++;
+            bad++;
+        }
+        if (k % 5 == 0) { /* an exact duplicate */
+            s[m++] = clean[k];
+            bad++;
+        }
+    }
+    s[m] = clean[0]; /* NaN geometry */
+    s[m].g.wi[0] = NAN;
+    m++;
+    bad++;
+    struct brdf_abc p, q;
+    struct fit_info ip, iq;
+    assert_int_equal(fit_abc(s, m, NULL, &p, &ip, NULL), 0);
+    assert_int_equal(fit_abc(clean, n, NULL, &q, &iq, NULL), 0);
+    printf("dropped %zu of %zu (expected %zu)\n", ip.dropped, m, bad);
+    assert_int_equal((int)ip.dropped, (int)bad);
+    assert_int_equal((int)iq.dropped, 0);
+    assert_finite_params(&p);
+    for (int c = 0; c < 3; c++)
+        assert_rel_close(p.kd[c], q.kd[c], 1e-9);
+    assert_rel_close(p.B, q.B, 1e-9);
+    /* a distinct second measurement at the same geometry is data: kept */
+    clean[n] = clean[0];
+    clean[n].rgb[0] *= 1.01;
+    assert_int_equal(fit_abc(clean, n + 1, NULL, &q, &iq, NULL), 0);
+    assert_int_equal((int)iq.dropped, 0);
+}
+
+/* Real materials at the model's edges, DS3-sized grids of their NBRDF
+ * networks: a metal whose fit runs eta to its bound (chrome), a fabric with
+ * back-scatter (beige-fabric) and white diffuse. Bounds (full-hemisphere
+ * random pairs up to 80 degrees, mostly away from the mirror): 0.03 for
+ * chrome and the fabric, 0.02 for white (the DS3 full-domain errors of
+ * docs/fitting.md are 0.01-0.1; random pairs weigh the lobe less). */
+static void test_real_edge_materials(void **state)
+{
+    (void)state;
+    gonio_test_shared_or_skip();
+    static struct brdf_pair g[MAXS], r[MAXS];
+    static struct fit_sample s[MAXS];
+    static double ref[3 * MAXS], rs[3 * MAXS];
+    size_t n = grid(80, g);
+    size_t m = random_pairs(80, 5, 1500, r);
+    const struct {
+        const char *spec;
+        double bound;
+    } mats[] = {{"nbrdf:chrome", 0.03}, {"nbrdf:beige-fabric", 0.03},
+                {"nbrdf:white-diffuse-bball", 0.02}};
+    for (size_t i = 0; i < sizeof mats / sizeof mats[0]; i++) {
+        struct gonio_err err = {0};
+        brdf_material *mat = brdf_material_open(mats[i].spec, &err);
+        if (!mat)
+            printf("%s\n", err.msg);
+        assert_non_null(mat);
+        brdf_material_eval(mat, g, n, rs);
+        brdf_material_eval(mat, r, m, ref);
+        brdf_material_free(mat);
+        for (size_t k = 0; k < n; k++) {
+            s[k].g = g[k];
+            memcpy(s[k].rgb, rs + 3 * k, sizeof s[k].rgb);
+        }
+        struct brdf_abc p;
+        struct fit_info info;
+        assert_int_equal(fit_abc(s, n, NULL, &p, &info, &err), 0);
+        assert_finite_params(&p);
+        double e = log_err(&p, r, ref, m);
+        printf("%s: %zu samples, oop log error %.4f (bound %.2f), eta %g, B %g, %d iterations\n",
+               mats[i].spec, n, e, mats[i].bound, p.eta, p.B, info.iterations);
+        assert_true(e <= mats[i].bound);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_grazing_and_vh_to_zero),
+        cmocka_unit_test(test_eta_extremes),
+        cmocka_unit_test(test_very_sharp_bright_lobe),
+        cmocka_unit_test(test_all_diffuse),
+        cmocka_unit_test(test_six_samples),
+        cmocka_unit_test(test_nan_and_duplicates_dropped),
+        cmocka_unit_test(test_real_edge_materials),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
