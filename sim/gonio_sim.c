@@ -178,5 +178,5 @@ int main(int argc, char **argv)
         remove(link);
     msim_free(m);
     brdf_material_free(material);
-    return rc < 0 || !m ? 1 : 0;
+    return !m ? 1 : rc < 0 ? gonio_exit_status(rc) : 0;
 }
