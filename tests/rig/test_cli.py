@@ -1,0 +1,32 @@
+"""gonio-sim's command line: --check resolves the scene without serving,
+bad input exits 2 with a message on stderr and nothing on stdout."""
+import os
+import subprocess
+
+from conftest import gonio_bin
+
+
+def run(*args):
+    return subprocess.run([os.path.join(gonio_bin(), "gonio-sim"), *args],
+                          capture_output=True, text=True, timeout=20)
+
+
+def test_check_prints_the_resolved_setup():
+    r = run("--check", "--time-scale", "25", "--steps-per-deg", "200")
+    assert r.returncode == 0, r.stderr
+    out = r.stdout
+    assert "scene ideal" in out and "time scale 25" in out and "steps per degree 200" in out
+    # configs/rigs/default.yaml: sample [-90, 90], arm [-170, 170], azimuth present.
+    assert "axis sample (slave 1): limits [-90, 90] deg" in out
+    assert "axis arm (slave 2): limits [-170, 170] deg" in out
+    assert "azimuth (slave 4)" in out
+
+
+def test_bad_input_exits_2():
+    for args in (["--time-scale", "0"], ["--steps-per-deg", "x"], ["--tcp", "localhost"],
+                 ["--scene", "no-such-scene"], ["--stall", "9:10"], ["--overload", "1:500"],
+                 ["--bogus"], ["extra"]):
+        r = run(*args)
+        assert r.returncode == 2, (args, r.returncode, r.stderr)
+        assert r.stdout == "", args
+        assert r.stderr.strip() and "gonio-sim" in r.stderr, args
