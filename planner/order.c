@@ -15,6 +15,11 @@
 /* Beyond this many points the O(n^2) improvement passes are skipped and
  * travel order is the serpentine sweep alone (dense domain plans). */
 #define LOCAL_SEARCH_MAX 4000
+/* Up to this many points, larger plans get a windowed local search: moves
+ * only between sequence positions at most WINDOW apart, a few rounds. */
+#define WINDOWED_MAX 20000
+#define WINDOW 60
+#define WINDOWED_ROUNDS 8
 #define IMPROVE_EPS 1e-9
 #define GREEDY_MAX 20000
 
@@ -81,11 +86,12 @@ static void reverse(size_t *seq, long i, long j)
 
 /* 2-opt on the open path: reverse seq[i+1..j]; the metric is symmetric, so
  * only the two boundary edges change. */
-static int two_opt(const struct tour *t, size_t *seq, long m)
+static int two_opt(const struct tour *t, size_t *seq, long m, long window)
 {
     int improved = 0;
     for (long i = -1; i < m - 1; i++) {
-        for (long j = i + 1; j < m; j++) {
+        long jend = window && i + 1 + window < m ? i + 1 + window : m;
+        for (long j = i + 1; j < jend; j++) {
             double before = edge(t, seq, m, i) + edge(t, seq, m, j);
             double after = link(t, seq, m, i, j) + link(t, seq, m, i + 1, j + 1);
             if (after < before - IMPROVE_EPS) {
@@ -98,7 +104,7 @@ static int two_opt(const struct tour *t, size_t *seq, long m)
 }
 
 /* Or-opt: move a run of 1..3 points elsewhere, forwards or reversed. */
-static int or_opt(const struct tour *t, size_t *seq, long m)
+static int or_opt(const struct tour *t, size_t *seq, long m, long window)
 {
     int improved = 0;
     for (long len = 1; len <= 3; len++) {
@@ -111,7 +117,9 @@ static int or_opt(const struct tour *t, size_t *seq, long m)
             long best_k = -2;
             int best_rev = 0;
             double best = gain - IMPROVE_EPS;
-            for (long k = -1; k < m; k++) {
+            long kbeg = window && i - 1 - window > -1 ? i - 1 - window : -1;
+            long kend = window && last + 1 + window < m ? last + 1 + window : m;
+            for (long k = kbeg; k < kend; k++) {
                 if (k >= i - 1 && k <= last)
                     continue;
                 for (int rev = 0; rev < 2; rev++) {
@@ -146,13 +154,19 @@ static int or_opt(const struct tour *t, size_t *seq, long m)
     return improved;
 }
 
+/* Full 2-opt and Or-opt to a local optimum; beyond LOCAL_SEARCH_MAX
+ * points, where that is O(n^2) per pass, the same moves within a window
+ * of sequence positions: the start is a sweep, so spatial neighbours are
+ * mostly near in sequence. */
 static void local_search(const struct tour *t, size_t *seq, size_t m)
 {
-    if (m < 3 || m > LOCAL_SEARCH_MAX)
+    if (m < 3 || m > WINDOWED_MAX)
         return;
-    for (int round = 0; round < 200; round++) {
-        int a = two_opt(t, seq, (long)m);
-        int b = or_opt(t, seq, (long)m);
+    long window = m > LOCAL_SEARCH_MAX ? WINDOW : 0;
+    int rounds = window ? WINDOWED_ROUNDS : 200;
+    for (int round = 0; round < rounds; round++) {
+        int a = two_opt(t, seq, (long)m, window);
+        int b = or_opt(t, seq, (long)m, window);
         if (!a && !b)
             break;
     }
@@ -248,6 +262,8 @@ static int travel(const struct tour *t, size_t *seq, size_t m)
     double best_c = INFINITY;
     memcpy(orig, seq, m * sizeof *seq);
     for (int start = 0; start < 3; start++) {
+        /* large plans: greedy is O(n^2), and the written order of a domain
+         * is kept as it is (still a candidate, so travel is never worse) */
         if (start == 2 && m > LOCAL_SEARCH_MAX)
             continue;
         memcpy(work, orig, m * sizeof *work);
@@ -257,7 +273,8 @@ static int travel(const struct tour *t, size_t *seq, size_t m)
         } else if (start == 2) {
             greedy(t, work, m);
         }
-        local_search(t, work, m);
+        if (start != 0 || m <= LOCAL_SEARCH_MAX)
+            local_search(t, work, m);
         double c = path_cost(t, work, m);
         if (c < best_c) {
             best_c = c;
