@@ -105,12 +105,10 @@ struct latent_fit_options {
     int n_starts;         /* starts: best training latents by initial loss, plus the mean */
     size_t max_samples;   /* larger inputs use a seeded random subset of this size */
     double lr;            /* Adam step size (cosine decay to lr / 20) */
-    double lambda_z;      /* weight of the prior mean(((z - mean) / sd)^2) over the
-                             training latents; < 0: LATENT_FIT_PRIOR */
+    double lambda_z;      /* weight of the prior mean(z^2); < 0: the decoder's
+                             training value (the training objective) */
     uint64_t seed;
 };
-
-#define LATENT_FIT_PRIOR 0.002
 
 struct latent_fit_options latent_fit_default_options(void);
 

@@ -44,8 +44,7 @@ latent_decoder *latent_decoder_alloc(int nz, int layers, int width, size_t n_mat
     d->latents = calloc(n_materials * (size_t)nz + 1, sizeof *d->latents);
     d->names = calloc(n_materials + 1, sizeof *d->names);
     d->mean = calloc((size_t)nz, sizeof *d->mean);
-    d->sd = calloc((size_t)nz, sizeof *d->sd);
-    if (!d->params || !d->latents || !d->names || !d->mean || !d->sd) {
+    if (!d->params || !d->latents || !d->names || !d->mean) {
         latent_decoder_free(d);
         return NULL;
     }
@@ -60,7 +59,6 @@ void latent_decoder_free(latent_decoder *d)
     free(d->latents);
     free(d->names);
     free(d->mean);
-    free(d->sd);
     free(d);
 }
 
@@ -116,15 +114,6 @@ void latent_decoder_refresh(latent_decoder *d)
         for (size_t m = 0; m < d->n_materials; m++)
             s += d->latents[m * (size_t)d->nz + (size_t)k];
         d->mean[k] = d->n_materials ? s / (double)d->n_materials : 0.0;
-        double v = 0;
-        for (size_t m = 0; m < d->n_materials; m++) {
-            double e = d->latents[m * (size_t)d->nz + (size_t)k] - d->mean[k];
-            v += e * e;
-        }
-        /* floor: a dimension the training did not use must not get an infinite pull */
-        d->sd[k] = d->n_materials > 1 ? sqrt(v / (double)(d->n_materials - 1)) : 1.0;
-        if (!(d->sd[k] > 1e-3))
-            d->sd[k] = 1e-3;
     }
     size_t n;
     unsigned char *b = data_block(d, &n);
@@ -470,7 +459,6 @@ brdf_material *latent_material(const latent_decoder *d, const double *z, const c
     }
     memcpy(lm->d->params, d->params, d->n_params * sizeof *d->params);
     memcpy(lm->d->mean, d->mean, (size_t)d->nz * sizeof *d->mean);
-    memcpy(lm->d->sd, d->sd, (size_t)d->nz * sizeof *d->sd);
     lm->d->train = d->train;
     lm->d->crc = d->crc;
     memcpy(lm->z, z, (size_t)d->nz * sizeof *z);

@@ -1,10 +1,9 @@
 /* Fitting a material's latent with the decoder frozen.
  *
- * The objective is the data term of training, mean |log(1 + fhat cos ti) -
- * log(1 + f cos ti)|, plus a weak Gaussian prior fitted to the training
- * latents, lambda mean(((z - mean) / sd)^2), which keeps z among the
- * materials the decoder knows when the samples say little (DS3, DS4). It
- * is minimised by Adam on z, full batch,
+ * The objective is the training objective of one material: mean |log(1 +
+ * fhat cos ti) - log(1 + f cos ti)| + lambda_z mean(z^2), so a fitted z is
+ * what training would have given the material (MAP under the latent prior
+ * the decoder was trained with). It is minimised by Adam on z, full batch,
  * from the training latents that fit the samples best at the start: the
  * L1 objective is not smooth (ReLU kinks, |r|) and Gauss-Newton on it would
  * have to fall back to least squares, which lets a few bad specular samples
@@ -40,10 +39,9 @@ static double objective(const latent_decoder *d, const double *z, size_t n, cons
     double l = latent_net_backprop(d, z, n, x, c, t, scale, NULL, gz) * scale;
     double r = 0;
     for (int k = 0; k < d->nz; k++) {
-        double u = (z[k] - d->mean[k]) / d->sd[k];
-        r += u * u;
+        r += z[k] * z[k];
         if (gz)
-            gz[k] += 2.0 * lambda / d->nz * u / d->sd[k];
+            gz[k] += 2.0 * lambda / d->nz * z[k];
     }
     return l + lambda * r / d->nz;
 }
@@ -91,7 +89,7 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
                struct gonio_err *err)
 {
     struct latent_fit_options o = opt ? *opt : latent_fit_default_options();
-    double lambda = o.lambda_z >= 0 ? o.lambda_z : LATENT_FIT_PRIOR;
+    double lambda = o.lambda_z >= 0 ? o.lambda_z : d->train.lambda_z;
     if (o.max_iter < 1)
         o.max_iter = 1;
     if (o.max_samples < 3)

@@ -25,7 +25,6 @@ struct latent_decoder {
     char (*names)[LATENT_NAME_MAX];
     double *latents; /* [n_materials][nz] */
     double *mean;    /* [nz] */
-    double *sd;      /* [nz]: spread of the training latents per dimension */
     struct latent_train_options train; /* as trained (from the file header) */
     uint32_t crc;
 };
