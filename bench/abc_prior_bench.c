@@ -131,7 +131,7 @@ int main(int argc, char **argv)
     printf("start search: %s; prior sigma %.3f, leave-one-out\n",
            opt.global == FIT_GLOBAL_DE ? "differential evolution" : "grid", FIT_PRIOR_SIGMA);
     printf("%-24s %-4s %8s %8s %9s %9s %8s %8s\n", "material", "plan", "abc", "prior",
-           "abc_sdlB", "pri_sdlB", "abc_ms", "pri_ms");
+           "abc_pred", "pri_pred", "abc_ms", "pri_ms");
     double worst[4] = {0};
     for (int m = 0; m < nm; m++) {
         char spec[256];
@@ -185,7 +185,7 @@ int main(int argc, char **argv)
             if (err1 > worst[d] || !isfinite(err1))
                 worst[d] = err1;
             printf("%-24s ds%d  %8.4f %8.4f %9.3f %9.3f %8.1f %8.1f\n", mats[m], d + 1, err0,
-                   err1, i0.sd.log_B, i1.sd.log_B, 1e3 * (t1 - t0), 1e3 * (t2 - t1));
+                   err1, i0.sd.pred_log, i1.sd.pred_log, 1e3 * (t1 - t0), 1e3 * (t2 - t1));
             if (d == 3)
                 printf("    prior fit: kd %.3g %.3g %.3g A %.3g %.3g %.3g B %.4g C %.3g eta %.3g\n",
                        p1.kd[0], p1.kd[1], p1.kd[2], p1.A[0], p1.A[1], p1.A[2], p1.B, p1.C,

@@ -19,7 +19,6 @@
 #define ABC_LOCAL_MAX 8000
 #define ABC_GRID_MAX 4000
 #define ABC_MAX_STARTS 32
-#define ABC_QR_MAX 5000
 
 /* Cost-stall test: iterations over which the relative decrease is taken. */
 #define ABC_STALL_WINDOW 8
@@ -75,14 +74,13 @@ static int local_solve(const struct abc_problem *pb, const double theta0[ABC_NPA
     gsl_multifit_nlinear_parameters fp = gsl_multifit_nlinear_default_parameters();
     fp.trs = gsl_multifit_nlinear_trs_lm;
     fp.scale = gsl_multifit_nlinear_scale_more;
-    /* QR copes with the rank-deficient Jacobian of a degenerate fit (A -> 0
-     * leaves B, C and eta without influence) where Cholesky would fail. */
-    fp.solver = gsl_multifit_nlinear_solver_qr;
-    /* On large problems a QR of the 3n x 9 Jacobian per iteration dominates
-     * (about 0.3 s at 200k samples); the normal equations cost a fraction.
-     * The modified Cholesky still factors a singular J^T J. */
-    if (pb->n > ABC_QR_MAX)
-        fp.solver = gsl_multifit_nlinear_solver_mcholesky;
+    /* The normal equations with GSL's modified Cholesky, which still factors
+     * the singular J^T J of a degenerate fit (A -> 0 leaves B, C and eta
+     * without influence; tests/unit/fit/test_hard_cases.c). A QR of the
+     * 3n x 9 Jacobian per iteration was the more careful choice but cost
+     * about half of a DS1 fit (73 -> 130 ms measured on the 10 materials'
+     * DS1 fits, same final costs), and about 0.3 s per iteration at 200k. */
+    fp.solver = gsl_multifit_nlinear_solver_mcholesky;
     gsl_multifit_nlinear_workspace *w =
         gsl_multifit_nlinear_alloc(gsl_multifit_nlinear_trust, &fp, abc_problem_nres(pb), ABC_NPAR);
     if (!w)
@@ -174,14 +172,53 @@ static int sample_usable(const struct fit_sample *s)
     return 1;
 }
 
+/* Mean over an in-plane grid (theta_i 0..80 step 10, theta_r -80..80 step
+ * 4, blind zone 5 degrees) and the channels of the standard deviation of
+ * the predicted log(1 + f cos theta_i): g^T cov g with g its gradient in
+ * theta. Parameters GSL found undetermined have zero covariance and add
+ * nothing: they do not move the prediction. */
+static double predictive_sd(const double th[ABC_NPAR], double c[ABC_NPAR][ABC_NPAR])
+{
+    struct fit_sample s[17 * 9];
+    size_t n = 0;
+    for (int i = 0; i <= 8; i++)
+        for (int r = -20; r <= 20; r++) {
+            double ti = 10.0 * i, tr = 4.0 * r;
+            if (fabs(ti + tr) < 5 || n >= sizeof s / sizeof s[0])
+                continue;
+            brdf_pair_inplane(ti, tr, &s[n].g);
+            s[n].rgb[0] = s[n].rgb[1] = s[n].rgb[2] = 0;
+            n++;
+        }
+    struct abc_problem pb;
+    double *J = malloc(3 * n * ABC_NPAR * sizeof *J);
+    if (!J || abc_problem_init(&pb, s, NULL, n) < 0) {
+        free(J);
+        return NAN;
+    }
+    abc_problem_eval(&pb, th, NULL, J);
+    double sum = 0;
+    for (size_t row = 0; row < 3 * n; row++) {
+        const double *g = J + row * ABC_NPAR;
+        double v = 0;
+        for (int a = 0; a < ABC_NPAR; a++)
+            for (int b = 0; b < ABC_NPAR; b++)
+                v += g[a] * c[a][b] * g[b];
+        sum += sqrt(fmax(v, 0.0));
+    }
+    abc_problem_free(&pb);
+    free(J);
+    return sum / (double)(3 * n);
+}
+
 /* Parameter standard deviations at theta: covariance s2 (J^T J)^-1 from
  * GSL, mapped to natural units. A parameter whose column of J is zero
  * (clamped, or without influence) is undetermined: INFINITY. */
 static void uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR], double s2,
                         struct fit_uncertainty *u)
 {
-    double *sd = (double *)u; /* 9 doubles in the order of the struct */
-    for (int i = 0; i < 9; i++)
+    double *sd = (double *)u; /* 10 doubles in the order of the struct */
+    for (int i = 0; i < 10; i++)
         sd[i] = NAN;
     if (!isfinite(s2))
         return;
@@ -216,6 +253,7 @@ static void uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR],
     double sg = 1.0 / (1.0 + exp(-th[8]));
     double deta = (ABC_ETA_MAX - 1.0) * sg * (1.0 - sg); /* d eta / d theta8 */
     u->eta = undet[8] ? INFINITY : deta * sqrt(c[8][8]);
+    u->pred_log = predictive_sd(th, c);
 done:
     gsl_matrix_free(J);
     gsl_matrix_free(cov);
@@ -480,10 +518,11 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
         info->dropped = n - nv;
         const struct abc_problem *fp = full.n ? &full : &local;
         size_t m = 3 * fp->n;
-        /* Residual variance: from the fit's own residuals, or the prior's
-         * noise level (the posterior covariance of the MAP problem). */
-        double s2 = prior ? prior_sigma * prior_sigma
-                          : m > ABC_NPAR ? 2.0 * best.cost / (double)(m - ABC_NPAR) : NAN;
+        /* Residual variance from the fit's own residuals; for a prior fit at
+         * least the prior's noise level (the MAP problem's posterior). */
+        double s2 = m > ABC_NPAR ? 2.0 * best.cost / (double)(m - ABC_NPAR) : NAN;
+        if (prior) /* the prior's noise level, or the misfit when it is larger */
+            s2 = isfinite(s2) && s2 > prior_sigma * prior_sigma ? s2 : prior_sigma * prior_sigma;
         uncertainty(fp, best.theta, s2, &info->sd);
     }
 

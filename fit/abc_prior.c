@@ -107,14 +107,13 @@ int fit_abc_prior_warning(const struct fit_info *info, size_t n_samples, char *b
 {
     if (len)
         buf[0] = 0;
-    double sd = info->sd.log_B;
-    if (isfinite(sd) && sd <= FIT_PRIOR_WARN_SD_LOGB)
+    double sd = info->sd.pred_log;
+    if (isfinite(sd) && sd <= FIT_PRIOR_WARN_PRED_SD)
         return 0;
     snprintf(buf, len,
-             "warning: %zu samples do not pin the specular lobe: posterior sd of log B is %.2f "
-             "(> %.1f); the fit leans on the population prior, measure more pairs near the "
-             "mirror direction",
-             n_samples, sd, FIT_PRIOR_WARN_SD_LOGB);
+             "warning: %zu samples are not enough here: the fitted BRDF is uncertain by %.3f "
+             "in log(1 + f cos) in plane (> %.2f); measure more pairs, near the mirror first",
+             n_samples, sd, FIT_PRIOR_WARN_PRED_SD);
     return 1;
 }
 
@@ -146,14 +145,17 @@ int fit_abc_prior_model_fit(const struct fit_data *data, const struct fit_model_
     fit_model_file_set(f, "sd_log_B", "%.4g", info.sd.log_B);
     fit_model_file_set(f, "sd_log_C", "%.4g", info.sd.log_C);
     fit_model_file_set(f, "sd_eta", "%.4g", info.sd.eta);
+    fit_model_file_set(f, "sd_pred_log", "%.4g", info.sd.pred_log);
     if (rep) {
         char warn[200];
         int w = fit_abc_prior_warning(&info, data->n_rgb - info.dropped, warn, sizeof warn);
         rep->converged = info.converged;
         snprintf(rep->note, sizeof rep->note,
-                 "%d starts, %d iterations; prior of %zu materials%s%s; sd log B %.2f%s%s",
+                 "%d starts, %d iterations; prior of %zu materials%s%s; sd log B %.2f, "
+                 "predicted in-plane sd %.3f%s%s",
                  info.starts, info.iterations, prior.n_materials,
                  prior.excluded[0] ? " without " : "", prior.excluded, info.sd.log_B,
+                 info.sd.pred_log,
                  w ? "; " : "", w ? warn : "");
     }
     *out = f;

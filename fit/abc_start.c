@@ -22,15 +22,22 @@ static const double grid_eta[] = {1.05, 1.2, 1.5, 2.0, 3.0, 6.0, 20.0};
 
 struct node {
     int ib, ic, ie;
+    int scored; /* 1: score is the true log loss; 0: the linearised one */
     double score;
     double kd[3], A[3];
 };
 
+/* Nodes scored by the true loss first, each group by score. */
 static int cmp_node(const void *a, const void *b)
 {
-    double sa = ((const struct node *)a)->score, sb = ((const struct node *)b)->score;
-    return (sa > sb) - (sa < sb);
+    const struct node *x = a, *y = b;
+    if (x->scored != y->scored)
+        return y->scored - x->scored;
+    return (x->score > y->score) - (x->score < y->score);
 }
+
+/* Nodes whose true log loss is computed (at least 8 per start). */
+#define GRID_TRUE_SCORED 48
 
 /* Weighted non-negative least squares for f ~ a/pi + b s in one channel,
  * from the accumulated normal equations. */
@@ -120,46 +127,82 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
         w[k] = d * d;
     }
 
+    /* Node-independent sums of the normal equations, and sum w f^2 for the
+     * linearised score. */
+    double s11[3] = {0}, t1[3] = {0}, wff[3] = {0};
+    for (size_t k = 0; k < n; k++)
+        for (int c = 0; c < 3; c++) {
+            double wk = w[3 * k + c], fk = pb->f[3 * k + c];
+            s11[c] += wk / (ABC_PI * ABC_PI);
+            t1[c] += wk * fk / ABC_PI;
+            wff[c] += wk * fk * fk;
+        }
     int m = 0;
     for (int ib = 0; ib < N_B; ib++) {
         double B = pow(10.0, 0.5 * ib);
         for (size_t k = 0; k < n; k++)
             lg[k] = log1p(B * pb->x[k]);
         for (int ic = 0; ic < N_C; ic++) {
+            /* the lobe D(x) once per (B, C), shared by the eta nodes */
+            for (size_t k = 0; k < n; k++)
+                spec[k] = exp(-grid_c[ic] * lg[k]);
             for (int ie = 0; ie < N_ETA; ie++) {
                 const double *fr = fres + (size_t)ie * n;
-                double s11[3] = {0}, s12[3] = {0}, s22[3] = {0}, t1[3] = {0}, t2[3] = {0};
+                double s12[3] = {0}, s22[3] = {0}, t2[3] = {0};
                 for (size_t k = 0; k < n; k++) {
-                    double s = fr[k] * exp(-grid_c[ic] * lg[k]);
-                    spec[k] = s;
+                    double sk = fr[k] * spec[k];
+                    const double *wk = w + 3 * k, *fk = pb->f + 3 * k;
                     for (int c = 0; c < 3; c++) {
-                        double wk = w[3 * k + c], fk = pb->f[3 * k + c];
-                        s11[c] += wk / (ABC_PI * ABC_PI);
-                        s12[c] += wk * s / ABC_PI;
-                        s22[c] += wk * s * s;
-                        t1[c] += wk * fk / ABC_PI;
-                        t2[c] += wk * s * fk;
+                        double ws = wk[c] * sk;
+                        s12[c] += ws / ABC_PI;
+                        s22[c] += ws * sk;
+                        t2[c] += ws * fk[c];
                     }
                 }
                 struct node *nd = &nodes[m++];
                 nd->ib = ib;
                 nd->ic = ic;
                 nd->ie = ie;
-                for (int c = 0; c < 3; c++)
-                    nnls2(s11[c], s12[c], s22[c], t1[c], t2[c], &nd->kd[c], &nd->A[c]);
-                /* Score by the true log loss, not the linearised one. */
-                double score = 0;
-                for (size_t k = 0; k < n; k++) {
-                    double ci = pb->cosi[k];
-                    for (int c = 0; c < 3; c++) {
-                        double fhat = nd->kd[c] / ABC_PI + nd->A[c] * spec[k];
-                        double r = log1p(fhat * ci) - pb->y[3 * k + c];
-                        score += r * r;
-                    }
+                /* linearised weighted SSE of the node's linear solve, in closed form */
+                double lin = 0;
+                for (int c = 0; c < 3; c++) {
+                    double a, bb;
+                    nnls2(s11[c], s12[c], s22[c], t1[c], t2[c], &a, &bb);
+                    nd->kd[c] = a;
+                    nd->A[c] = bb;
+                    lin += wff[c] - 2 * (a * t1[c] + bb * t2[c]) + a * a * s11[c] +
+                           2 * a * bb * s12[c] + bb * bb * s22[c];
                 }
-                nd->score = isfinite(score) ? score : INFINITY;
+                nd->score = isfinite(lin) ? lin : INFINITY;
+                nd->scored = 0;
             }
         }
+    }
+    /* The true log loss costs a log1p per residual: score only the nodes the
+     * linearised loss ranks best (it ranks them alike; the true loss decides
+     * among them). Nodes not scored keep their linearised rank after these. */
+    qsort(nodes, (size_t)nnodes, sizeof *nodes, cmp_node);
+    int ntrue = GRID_TRUE_SCORED > 8 * max_starts ? GRID_TRUE_SCORED : 8 * max_starts;
+    if (ntrue > nnodes)
+        ntrue = nnodes;
+    for (int i = 0; i < ntrue; i++) {
+        struct node *nd = &nodes[i];
+        if (!isfinite(nd->score))
+            break;
+        double B = pow(10.0, 0.5 * nd->ib), C = grid_c[nd->ic];
+        const double *fr = fres + (size_t)nd->ie * n;
+        double score = 0;
+        for (size_t k = 0; k < n; k++) {
+            double sk = fr[k] * exp(-C * log1p(B * pb->x[k]));
+            double ci = pb->cosi[k];
+            for (int c = 0; c < 3; c++) {
+                double fhat = nd->kd[c] / ABC_PI + nd->A[c] * sk;
+                double r = log1p(fhat * ci) - pb->y[3 * k + c];
+                score += r * r;
+            }
+        }
+        nd->score = isfinite(score) ? score : INFINITY;
+        nd->scored = 1;
     }
     qsort(nodes, (size_t)nnodes, sizeof *nodes, cmp_node);
 
@@ -170,7 +213,7 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
     for (int i = 0; taken && i < nnodes && got < max_starts; i++) {
         const struct node *nd = &nodes[i];
         if (!isfinite(nd->score))
-            break;
+            continue;
         int near = 0;
         for (int j = 0; j < got && !near; j++) {
             const struct node *o = &nodes[taken[j]];

@@ -52,6 +52,9 @@ struct fit_options fit_default_options(void);
 struct fit_uncertainty {
     double log_kd[3], log_A[3];
     double log_B, log_C, eta;
+    double pred_log; /* mean sd of the predicted log(1 + f cos theta_i) over an in-plane
+                        grid (theta_i 0..80, theta_r -80..80): what the uncertainty
+                        means for the BRDF, in the design's log-error units */
 };
 
 struct fit_info {

@@ -1,0 +1,166 @@
+/* ABC fit in C against the same fit in SciPy (bench/abc_scipy.py).
+ *
+ * For each material: the DS1 samples of its NBRDF network, reduced to what
+ * the residuals need (1 - n.h, v.h, G/(n.l n.v), n.l, RGB), and the start
+ * points of the grid search, written to DIR/NAME.txt with the C fit's time
+ * and final cost. The C time is the whole fit_abc call (grid search, five
+ * local solves); SciPy gets the grid's starts for free and runs its
+ * least_squares from each, so that ratio is, if anything, generous to
+ * SciPy. The time of C's solves from the same starts (each a warm-started
+ * fit_abc) is written too: the like-for-like ratio. Usage: abc_scipy DIR [MATERIAL...] (needs the shared data), then
+ * python3 bench/abc_scipy.py DIR. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "brdf/abc.h"
+#include "brdf/angles.h"
+#include "brdf/material.h"
+#include "fit/abc_problem.h"
+#include "fit/fit.h"
+
+#define REPEATS 5
+
+static const char *default_materials[] = {
+    "nylon", "tungsten-carbide", "specular-black-phenolic", "blue-acrylic", "brass",
+    "gold-metallic-paint", "white-diffuse-bball", "red-plastic", "alum-bronze", "pearl-paint",
+};
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* DS1 as in the design brief (the grid of bench/abc_fit_bench.c). */
+static size_t ds1(struct brdf_pair *out)
+{
+    size_t n = 0;
+    for (double ti = 0; ti <= 80 + 1e-9; ti += 5) {
+        for (double tr = -80; tr <= 80 + 1e-9; tr += 5)
+            if (fabs(tr - ti) > 15 && fabs(ti + tr) >= 5) {
+                if (out)
+                    brdf_pair_inplane(ti, tr, &out[n]);
+                n++;
+            }
+        for (double k = -15; k <= 15 + 1e-9; k += 1) {
+            double tr = ti + k;
+            if (fabs(tr) <= 80 + 1e-9 && fabs(ti + tr) >= 5) {
+                if (out)
+                    brdf_pair_inplane(ti, tr, &out[n]);
+                n++;
+            }
+        }
+    }
+    return n;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        fprintf(stderr, "usage: abc_scipy DIR [MATERIAL...]\n");
+        return 2;
+    }
+    const char *dir = argv[1];
+    const char **mats = default_materials;
+    int nm = (int)(sizeof default_materials / sizeof *default_materials);
+    if (argc > 2) {
+        mats = (const char **)argv + 2;
+        nm = argc - 2;
+    }
+    size_t n = ds1(NULL);
+    struct brdf_pair *g = malloc(n * sizeof *g);
+    struct fit_sample *s = malloc(n * sizeof *s);
+    double *rgb = malloc(3 * n * sizeof *rgb);
+    ds1(g);
+    struct fit_options opt = fit_default_options();
+    for (int m = 0; m < nm; m++) {
+        char spec[256], path[4096];
+        snprintf(spec, sizeof spec, "nbrdf:%s", mats[m]);
+        struct gonio_err e = {0};
+        brdf_material *mat = brdf_material_open(spec, &e);
+        if (!mat) {
+            fprintf(stderr, "%s\n", e.msg);
+            return 1;
+        }
+        brdf_material_eval(mat, g, n, rgb);
+        brdf_material_free(mat);
+        for (size_t k = 0; k < n; k++) {
+            s[k].g = g[k];
+            memcpy(s[k].rgb, rgb + 3 * k, sizeof s[k].rgb);
+        }
+        /* C: the best of REPEATS whole fits (the machine is shared) */
+        double best_t = INFINITY;
+        struct brdf_abc p;
+        struct fit_info info;
+        for (int r = 0; r < REPEATS; r++) {
+            double t0 = now_s();
+            if (fit_abc(s, n, &opt, &p, &info, &e) < 0) {
+                fprintf(stderr, "%s: %s\n", spec, e.msg);
+                return 1;
+            }
+            double t = now_s() - t0;
+            if (t < best_t)
+                best_t = t;
+        }
+        /* the starts fit_abc solved from: the grid's, on all samples (DS1
+         * is below the subset threshold) */
+        struct abc_problem pb;
+        if (abc_problem_init(&pb, s, NULL, n) < 0)
+            return 1;
+        double starts[32 * ABC_NPAR];
+        int ns = abc_grid_starts(&pb, opt.n_starts, starts);
+        snprintf(path, sizeof path, "%s/%s.txt", dir, mats[m]);
+        FILE *f = fopen(path, "w");
+        if (!f) {
+            perror(path);
+            return 1;
+        }
+        /* C from the same starts only (one warm-started solve each, the
+         * lowest cost wins): the part SciPy does */
+        double solve_t = INFINITY, solve_cost = INFINITY;
+        for (int r = 0; r < REPEATS; r++) {
+            double t0 = now_s(), c = INFINITY;
+            for (int k = 0; k < ns; k++) {
+                struct brdf_abc q, out;
+                struct fit_info qi;
+                abc_theta_to_params(starts + k * ABC_NPAR, &q);
+                struct fit_options wo = opt;
+                wo.warm_start = &q;
+                if (fit_abc(s, n, &wo, &out, &qi, NULL) == 0 && qi.cost < c)
+                    c = qi.cost;
+            }
+            double t = now_s() - t0;
+            if (t < solve_t)
+                solve_t = t;
+            solve_cost = c;
+        }
+        fprintf(f, "# material %s: n %zu starts %d c_time_s %.6f c_cost %.17g c_starts %d "
+                   "c_solve_time_s %.6f c_solve_cost %.17g\n",
+                mats[m], n, ns, best_t, info.cost, info.starts, solve_t, solve_cost);
+        fprintf(f, "# limits logkd %g %g logA %g %g logB %g %g logC %g %g e %g %g eta_max %g\n",
+                ABC_LOGKD_MIN, ABC_LOGKD_MAX, ABC_LOGA_MIN, ABC_LOGA_MAX, ABC_LOGB_MIN,
+                ABC_LOGB_MAX, ABC_LOGC_MIN, ABC_LOGC_MAX, ABC_E_MIN, ABC_E_MAX, ABC_ETA_MAX);
+        for (int k = 0; k < ns; k++) {
+            fprintf(f, "start");
+            for (int j = 0; j < ABC_NPAR; j++)
+                fprintf(f, " %.17g", starts[k * ABC_NPAR + j]);
+            fprintf(f, "\n");
+        }
+        for (size_t k = 0; k < n; k++)
+            fprintf(f, "%.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", pb.x[k], pb.vh[k],
+                    pb.gterm[k], pb.cosi[k], pb.f[3 * k], pb.f[3 * k + 1], pb.f[3 * k + 2]);
+        fclose(f);
+        abc_problem_free(&pb);
+        printf("%-24s C: %.1f ms whole fit, cost %.6g (%d solves); %.1f ms from the starts\n",
+               mats[m], 1e3 * best_t, info.cost, info.starts, 1e3 * solve_t);
+        fflush(stdout);
+    }
+    free(g);
+    free(s);
+    free(rgb);
+    return 0;
+}
