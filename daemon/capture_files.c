@@ -155,6 +155,7 @@ static json_t *uncertainty_json(const struct fit_uncertainty *u, const char *war
     json_object_set_new(o, "sd_log_B", num_or_null(u->log_B));
     json_object_set_new(o, "sd_log_C", num_or_null(u->log_C));
     json_object_set_new(o, "sd_eta", num_or_null(u->eta));
+    json_object_set_new(o, "sd_pred_log", num_or_null(u->pred_log));
     if (warning && warning[0])
         json_object_set_new(o, "warning", json_string(warning));
     return o;
