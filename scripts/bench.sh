@@ -79,3 +79,13 @@ for p in ds1 ds2 ds3 ds4; do
     [ -n "$ref" ] || ref=$f
     printf '%-6s %7s %10.4f %7.3f\n' "$p" "$(num samples "$r")" "$f" "$(echo "$f / $ref" | bc -l)"
 done
+
+echo
+echo "== 4. ABC fit: C (fit_abc) vs SciPy least_squares on the same DS1 samples and starts"
+if [ -d "${GONIO_SHARED:-../shared}/data/merl" ] && /usr/bin/python3 -c "import scipy" 2>/dev/null; then
+    mkdir -p "$out/abc_scipy"
+    "$bin/abc_scipy" "$out/abc_scipy" >/dev/null
+    /usr/bin/python3 "$(dirname "$0")/../bench/abc_scipy.py" "$out/abc_scipy"
+else
+    echo "(needs ../shared and python3-scipy: skipped)"
+fi
