@@ -9,8 +9,9 @@
  * the detector its last sequence number, to save round trips.
  *
  * Errors: a request that gets no answer within the response timeout is
- * retried (after flushing the line, so a late answer is never taken for the
- * next one) up to `retries` times, then fails with -ETIMEDOUT; an exception
+ * retried up to `retries` times, then fails with -ETIMEDOUT; after each
+ * timeout the bus waits up to 0.1 s more for a late answer and flushes the
+ * line, so a late answer is never taken for the next one. An exception
  * answer, a drive alarm or a stalled move fails with -GONIO_EDEVICE; the
  * message names the device, the register and the problem, e.g.
  * "axis arm (slave 2): drive alarm 0x30 (overload)". */

@@ -212,7 +212,12 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
                                  who, slave, write ? "writing" : "reading", (unsigned)addr, n,
                                  e - MODBUS_ENOBASE, exception_name(e - MODBUS_ENOBASE));
         /* Whatever else went wrong (no answer, a garbled or foreign one),
-         * drop what the line holds before trying again. */
+         * drop what the line holds before trying again. A device that is
+         * merely slow answers after the timeout: wait for that answer to
+         * land first (up to 0.1 s), so that it is flushed rather than read
+         * as the answer to the next request. */
+        if (e == ETIMEDOUT)
+            drv_modbus_sleep(fmin(bus->timeout_s, 0.1));
         modbus_flush(bus->ctx);
     }
     if (e == ETIMEDOUT)

@@ -28,14 +28,14 @@ static void usage(FILE *out)
             "usage: gonio-sim [--scene NAME|FILE] [--material SPEC] [--rig NAME|FILE]\n"
             "                 [--time-scale K] [--steps-per-deg N] [--link PATH]\n"
             "                 [--tcp 127.0.0.1:PORT] [--trace] [--check]\n"
-            "                 [--stall SLAVE:DEG] [--overload SLAVE:DEG]\n"
+            "                 [--stall SLAVE:DEG] [--overload SLAVE:DEG] [--delay SLAVE:MS]\n"
             "  Serves the rig's Modbus bus (docs/protocol-modbus.md) as RTU on a new\n"
             "  pseudo-terminal, whose path is the first line on stdout, and with --tcp\n"
             "  also as Modbus TCP (second line: 'tcp HOST:PORT'; PORT 0 picks one).\n"
             "  Simulated time runs K times faster than wall time (default 1).\n"
             "  --check prints the resolved setup and exits. --stall and --overload put an\n"
             "  obstacle on an axis: moves across it halt there, still moving (stall) or\n"
-            "  with alarm 0x30 (overload).\n");
+            "  with alarm 0x30 (overload). --delay makes a slave answer MS ms late.\n");
 }
 
 static int parse_positive(const char *opt, const char *s, double *out)
@@ -59,6 +59,7 @@ int main(int argc, char **argv)
         {"tcp", required_argument, NULL, 't'},        {"trace", no_argument, NULL, 'T'},
         {"check", no_argument, NULL, 'c'},            {"help", no_argument, NULL, 'h'},
         {"stall", required_argument, NULL, 'S'},      {"overload", required_argument, NULL, 'O'},
+        {"delay", required_argument, NULL, 'D'},
         {NULL, 0, NULL, 0},
     };
     const char *scene_name = "ideal", *material_spec = NULL, *rig_name = NULL, *link = NULL,
@@ -69,7 +70,7 @@ int main(int argc, char **argv)
         enum msim_jam_kind kind;
         int slave;
         double deg;
-    } jams[4];
+    } jams[4]; /* faults: --stall, --overload, --delay (kind NONE) */
     while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (c) {
         case 's': scene_name = optarg; break;
@@ -88,16 +89,20 @@ int main(int argc, char **argv)
         case 'T': cfg.trace = 1; break;
         case 'c': check = 1; break;
         case 'S':
+        case 'D':
         case 'O': {
             char *end;
             long slave = strtol(optarg, &end, 10);
             double deg = *end == ':' ? strtod(end + 1, &end) : NAN;
             if (*end || !isfinite(deg) || n_jams == 4) {
-                fprintf(stderr, "gonio-sim: --%s '%s': expected SLAVE:DEG\n",
-                        c == 'S' ? "stall" : "overload", optarg);
+                fprintf(stderr, "gonio-sim: --%s '%s': expected SLAVE:%s\n",
+                        c == 'S' ? "stall" : c == 'O' ? "overload" : "delay", optarg,
+                        c == 'D' ? "MS" : "DEG");
                 return 2;
             }
-            jams[n_jams].kind = c == 'S' ? MSIM_JAM_STALL : MSIM_JAM_OVERLOAD;
+            jams[n_jams].kind = c == 'S' ? MSIM_JAM_STALL
+                                : c == 'O' ? MSIM_JAM_OVERLOAD
+                                           : MSIM_JAM_NONE; /* NONE: a delay */
             jams[n_jams].slave = (int)slave;
             jams[n_jams++].deg = deg;
             break;
@@ -155,7 +160,9 @@ int main(int argc, char **argv)
     int port = 0;
     rc = m ? 0 : -1;
     for (int i = 0; i < n_jams && rc == 0; i++)
-        rc = msim_jam(m, jams[i].slave, jams[i].kind, jams[i].deg, &err);
+        rc = jams[i].kind == MSIM_JAM_NONE
+                 ? msim_delay(m, jams[i].slave, jams[i].deg, &err)
+                 : msim_jam(m, jams[i].slave, jams[i].kind, jams[i].deg, &err);
     if (rc < 0 && m) {
         fprintf(stderr, "gonio-sim: %s\n", err.msg);
         msim_free(m);

@@ -67,6 +67,7 @@ struct msim {
     struct msim_axis axis[SIM_N_AXES];
     int n_axes;
     struct msim_detector det;
+    double delay_ms[256]; /* per slave id: answers this late (msim_delay) */
     /* RTU: the pty master, a held-open slave (so the master never sees a
      * hang-up between clients) and a libmodbus context that writes replies. */
     int pty_master, pty_slave;
@@ -331,6 +332,14 @@ int msim_jam(msim *m, int slave, enum msim_jam_kind kind, double deg, struct gon
     return 0;
 }
 
+int msim_delay(msim *m, int slave, double ms, struct gonio_err *err)
+{
+    if (slave < 1 || slave > 247 || !(ms >= 0) || ms > 10000)
+        return gonio_err_set(err, GONIO_EUSAGE, "delay: slave %d, %g ms (0 to 10000)", slave, ms);
+    m->delay_ms[slave] = ms;
+    return 0;
+}
+
 /* ---- Requests ------------------------------------------------------------ */
 
 /* The register ranges of each device: what may be read, what written. */
@@ -416,6 +425,12 @@ static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int 
         fprintf(stderr, "gonio-sim: slave %d fn 0x%02x addr 0x%04x n %d%s%s\n", slave, fn,
                 addr < 0 ? 0 : addr, n, exc ? " -> exception " : "",
                 exc == 1 ? "01" : exc == 2 ? "02" : exc == 3 ? "03" : "");
+    if (m->delay_ms[slave] > 0) {
+        double d = m->delay_ms[slave] * 1e-3;
+        struct timespec ts = {.tv_sec = (time_t)d, .tv_nsec = (long)((d - (time_t)d) * 1e9)};
+        while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
+            ;
+    }
     if (exc) {
         modbus_reply_exception(ctx, req, (unsigned)exc);
         return;

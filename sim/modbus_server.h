@@ -44,6 +44,10 @@ void msim_free(msim *m);
 enum msim_jam_kind { MSIM_JAM_NONE, MSIM_JAM_STALL, MSIM_JAM_OVERLOAD };
 int msim_jam(msim *m, int slave, enum msim_jam_kind kind, double deg, struct gonio_err *err);
 
+/* Fault injection: the slave answers ms milliseconds late, holding up the
+ * whole server meanwhile, as a slow device holds a bus. */
+int msim_delay(msim *m, int slave, double ms, struct gonio_err *err);
+
 /* Create the RTU pseudo-terminal (raw mode); its slave path goes to path.
  * link, when not NULL, is (re)made a symlink to it. */
 int msim_open_pty(msim *m, const char *link, char *path, size_t size, struct gonio_err *err);

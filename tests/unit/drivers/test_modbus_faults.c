@@ -1,8 +1,10 @@
 /* Faults injected into gonio-sim reach the drivers and the capture engine
  * as named errors: an axis that stops moving without an alarm (stall,
  * noticed by the driver), a drive that halts with alarm 0x30 (overload),
- * and a capture that meets the overload fails on its first point with
- * the alarm in its message and the axes stopped. */
+ * a capture that meets the overload fails on its first point with the
+ * alarm in its message and the axes stopped, and a slave that answers
+ * after the timeout does not have its late answer taken for the next. */
+#include <errno.h>
 #include <string.h>
 #include <sys/stat.h>
 
@@ -143,12 +145,57 @@ static void test_capture_stops_on_alarm(void **state)
     assert_int_equal(system(cmd), 0);
 }
 
+/* Slave 1 answers 80 ms late, after the bus's 50 ms timeout, and holds up
+ * the server meanwhile, as a slow device holds an RTU bus. Its late answer
+ * must be flushed, not read as the arm's: with no retries a foreign
+ * answer would fail the arm's request (or, from the same slave, be taken
+ * for it). */
+static struct sim_proc slow;
+
+static int stop_slow(void **state)
+{
+    (void)state;
+    return slow.pid > 0 && sim_proc_stop(&slow) != 0 ? -1 : 0;
+}
+
+static void test_late_reply_is_not_taken(void **state)
+{
+    (void)state;
+    static const char *const args[] = {"--time-scale", "50", "--delay", "1:80", NULL};
+    assert_int_equal(sim_proc_start(&slow, args), 0);
+    struct gonio_err err = {0};
+    struct drv_modbus_bus_cfg cfg;
+    drv_modbus_bus_cfg_default(&cfg);
+    cfg.device = slow.pty;
+    cfg.time_scale = 50;
+    cfg.timeout_s = 0.05;
+    cfg.retries = 0;
+    drv_modbus_bus *b = drv_modbus_bus_new_rtu(&cfg, &err);
+    assert_non_null(b);
+    drv_axis *arm = drv_axis_new_modbus(b, 2, &rig.arm, NULL, "arm", &err);
+    drv_axis *s = drv_axis_new_modbus(b, 1, &rig.sample, NULL, "sample", &err);
+    assert_int_equal(drv_axis_start_move(arm, 7.77, &err), 0);
+    assert_int_equal(drv_axis_wait(arm, &err), 0);
+    for (int i = 0; i < 3; i++) {
+        double deg = 0;
+        assert_int_equal(drv_axis_position(s, &deg, &err), -ETIMEDOUT);
+        int rc = drv_axis_position(arm, &deg, &err);
+        if (rc < 0)
+            fail_msg("arm after a late answer: %s", err.msg);
+        assert_close(deg, 7.77, 1e-12);
+    }
+    drv_axis_free(s);
+    drv_axis_free(arm);
+    drv_modbus_bus_free(b);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_stall),
         cmocka_unit_test(test_overload),
         cmocka_unit_test(test_capture_stops_on_alarm),
+        cmocka_unit_test_teardown(test_late_reply_is_not_taken, stop_slow),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }
