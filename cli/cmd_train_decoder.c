@@ -73,17 +73,19 @@ int cmd_train_decoder(int argc, char **argv)
             o.seed = v;
             break;
         case 'e':
-            if (parse_num("--epochs", optarg, 100000000, &v) < 0 || v == 0) {
-                if (v == 0)
-                    fprintf(stderr, "gonio train-decoder: --epochs must be at least 1\n");
+            if (parse_num("--epochs", optarg, 100000000, &v) < 0)
+                return 2;
+            if (v == 0) {
+                fprintf(stderr, "gonio train-decoder: --epochs must be at least 1\n");
                 return 2;
             }
             o.steps = (long)v;
             break;
         case 't':
-            if (parse_num("--threads", optarg, 64, &v) < 0 || v == 0) {
-                if (v == 0)
-                    fprintf(stderr, "gonio train-decoder: --threads must be 1..64\n");
+            if (parse_num("--threads", optarg, 64, &v) < 0)
+                return 2;
+            if (v == 0) {
+                fprintf(stderr, "gonio train-decoder: --threads must be 1..64\n");
                 return 2;
             }
             o.threads = (int)v;
