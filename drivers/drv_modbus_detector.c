@@ -9,7 +9,7 @@
 #include "drivers/drivers_private.h"
 #include "drivers/drv_modbus_private.h"
 
-enum { R_INTEGRATION = 0x00, R_STATUS = 0x04, R_CHANNELS = 0x10 };
+enum { R_INTEGRATION = 0x00, R_CHANNELS = 0x10 };
 enum { ST_BUSY = 1u << 0, ST_READY = 1u << 1, ST_SATURATED = 1u << 2 };
 
 struct mb_detector {
@@ -20,15 +20,18 @@ struct mb_detector {
     uint32_t seq;
 };
 
-/* Status, channel count and sequence: registers 0x04-0x09. */
+/* Integration, trigger, status, channel count and sequence: registers
+ * 0x00-0x09 in one read. The integration reads back what the detector
+ * used (an auto-exposing detector may choose its own). */
 static int read_state(struct mb_detector *d, uint32_t *st, uint32_t *count, uint32_t *seq,
-                      struct gonio_err *err)
+                      uint32_t *used_us, struct gonio_err *err)
 {
-    uint16_t r[6];
-    int rc = drv_modbus_read(d->bus, d->slave, R_STATUS, 6, r, d->who, err);
-    *st = drv_modbus_get32(r);
-    *count = drv_modbus_get32(r + 2);
-    *seq = drv_modbus_get32(r + 4);
+    uint16_t r[10];
+    int rc = drv_modbus_read(d->bus, d->slave, R_INTEGRATION, 10, r, d->who, err);
+    *used_us = drv_modbus_get32(r);
+    *st = drv_modbus_get32(r + 4);
+    *count = drv_modbus_get32(r + 6);
+    *seq = drv_modbus_get32(r + 8);
     return rc;
 }
 
@@ -39,8 +42,8 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
     double us = nearbyint(integration_s * 1e6);
     if (!(us >= 0) || us > 4294967295.0)
         return gonio_err_set(err, EINVAL, "%s: integration time %g s", d->who, integration_s);
-    uint32_t st = 0, count = 3, seq0 = d->seq, seq;
-    int rc = d->seq_known ? 0 : read_state(d, &st, &count, &seq0, err);
+    uint32_t st = 0, count = 3, seq0 = d->seq, seq, used_us = 0;
+    int rc = d->seq_known ? 0 : read_state(d, &st, &count, &seq0, &used_us, err);
     if (rc < 0)
         return rc;
     d->seq_known = 0;
@@ -58,7 +61,7 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
     double poll = fmin(fmax(0.01 / scale, 0.0002), 0.01);
     drv_modbus_sleep(t0 + integration_s / scale - drv_modbus_wall());
     for (;;) {
-        if ((rc = read_state(d, &st, &count, &seq, err)) < 0)
+        if ((rc = read_state(d, &st, &count, &seq, &used_us, err)) < 0)
             return rc;
         if ((st & ST_READY) && !(st & ST_BUSY) && seq != seq0)
             break;
@@ -76,7 +79,7 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
         out->rgb[k] = drv_modbus_get_float(r + 2 * k);
     d->seq_known = 1;
     d->seq = seq;
-    out->integration_s = us * 1e-6;
+    out->integration_s = used_us * 1e-6;
     out->flags = (st & ST_SATURATED) ? DRV_READING_SATURATED : 0;
     return 0;
 }

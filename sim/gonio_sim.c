@@ -155,7 +155,7 @@ int main(int argc, char **argv)
     sigaction(SIGTERM, &sa, NULL);
     signal(SIGPIPE, SIG_IGN);
 
-    msim *m = msim_new(&rig, material, &cfg, &err);
+    msim *m = msim_new(&rig, material, &scene, &cfg, &err);
     char path[256];
     int port = 0;
     rc = m ? 0 : -1;

@@ -18,6 +18,9 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "sim/effects_detector.h"
+#include "sim/effects_faults.h"
+#include "sim/scene.h"
 #include "sim/sim.h"
 
 /* Register addresses (docs/protocol-modbus.md). */
@@ -32,7 +35,7 @@ enum {
 enum { IN_ZHOME = 1u << 4, IN_STOP = 1u << 5, IN_ALM_RST = 1u << 7 };
 enum { ST_HOME_END = 1u << 4, ST_READY = 1u << 5, ST_ALM_A = 1u << 7, ST_MOVE = 1u << 13,
        ST_IN_POS = 1u << 14 };
-enum { DST_BUSY = 1u << 0, DST_READY = 1u << 1 };
+enum { DST_BUSY = 1u << 0, DST_READY = 1u << 1, DST_SATURATED = 1u << 2 };
 
 #define MAX_CLIENTS 8
 #define RTU_GAP_MS 10 /* silence that ends a frame of unknown length */
@@ -57,6 +60,8 @@ struct msim_detector {
     int busy, ready;
     uint32_t sequence;
     double pending[DET_NCHANNELS];
+    uint32_t pending_us; /* the integration the detector chose */
+    unsigned pending_flags, flags;
 };
 
 struct msim {
@@ -107,7 +112,8 @@ static void put_float(uint16_t *r, int addr, double v)
 }
 
 msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
-               const struct msim_cfg *cfg, struct gonio_err *err)
+               const struct sim_scene *scene, const struct msim_cfg *cfg,
+               struct gonio_err *err)
 {
     if (!(cfg->time_scale > 0) || !(cfg->steps_per_deg > 0)) {
         gonio_err_set(err, GONIO_EUSAGE, "gonio-sim: time scale %g and steps per degree %g must "
@@ -124,7 +130,7 @@ msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
     m->pty_master = m->pty_slave = m->listen_fd = -1;
     for (int i = 0; i < MAX_CLIENTS; i++)
         m->clients[i] = -1;
-    m->rig = sim_rig_new(profile, material, err);
+    m->rig = sim_rig_new_scene(profile, material, scene, NULL, err);
     if (!m->rig) {
         free(m);
         return NULL;
@@ -194,6 +200,10 @@ static void axis_refresh(msim *m, struct msim_axis *ax)
     uint16_t *r = ax->map->tab_registers;
     double pos = sim_rig_position(m->rig, ax->id);
     int moving = axis_moving(m, ax);
+    /* A scene's move effects (stall) raise the core's alarm; the drive
+     * shows it once the move has come to its end. */
+    if (!moving && !ax->alarm && sim_rig_alarm(m->rig, ax->id))
+        ax->alarm = sim_rig_alarm(m->rig, ax->id);
     if (ax->jammed && !moving) {
         if (ax->jam == MSIM_JAM_OVERLOAD) { /* the drive gives up at once */
             ax->jammed = 0;
@@ -274,8 +284,10 @@ static void axis_input(msim *m, struct msim_axis *ax)
     uint32_t now = get32(ax->map->tab_registers, AX_INPUT);
     uint32_t rise = now & ~ax->input_prev;
     ax->input_prev = now;
-    if (rise & IN_ALM_RST)
+    if (rise & IN_ALM_RST) {
         ax->alarm = 0;
+        sim_rig_reset_alarm(m->rig, ax->id);
+    }
     if (rise & IN_STOP) {
         sim_rig_stop(m->rig, ax->id);
         ax->homing = 0;
@@ -298,8 +310,13 @@ static void det_refresh(msim *m)
         d->sequence++;
         for (int k = 0; k < DET_NCHANNELS; k++)
             put_float(r, DET_CHANNELS + 2 * k, d->pending[k]);
+        /* The integration register reads back what was actually used
+         * (auto-exposure may have chosen another). */
+        put32(r, DET_INTEGRATION, d->pending_us);
+        d->flags = d->pending_flags;
     }
-    put32(r, DET_STATUS, (d->busy ? DST_BUSY : 0u) | (d->ready ? DST_READY : 0u));
+    put32(r, DET_STATUS, (d->busy ? DST_BUSY : 0u) | (d->ready ? DST_READY : 0u) |
+                             (d->ready && (d->flags & SIM_SIGNAL_SATURATED) ? DST_SATURATED : 0u));
     put32(r, DET_SEQUENCE, d->sequence);
     put32(r, DET_CLOCK, (uint32_t)llround(sim_rig_now(m->rig) * 1000.0));
 }
@@ -308,11 +325,22 @@ static void det_trigger(msim *m)
 {
     struct msim_detector *d = &m->det;
     uint32_t us = get32(d->map->tab_registers, DET_INTEGRATION);
-    /* The detector sees the material where the axes are as it starts. */
-    sim_rig_sample(m->rig, d->pending);
+    /* The detector sees the material where the axes are as it starts,
+     * through the scene's effects. */
+    struct sim_reading rd;
+    double used = us * 1e-6;
+    d->pending_flags = 0;
+    if (us > 0 && sim_rig_read(m->rig, used, &rd, NULL) == 0) {
+        memcpy(d->pending, rd.rgb, sizeof d->pending);
+        used = rd.integration_s;
+        d->pending_flags = rd.flags;
+    } else {
+        sim_rig_sample(m->rig, d->pending);
+    }
+    d->pending_us = (uint32_t)fmin(nearbyint(used * 1e6), 4294967295.0);
     d->busy = 1;
     d->ready = 0;
-    d->busy_until = sim_rig_now(m->rig) + us * 1e-6;
+    d->busy_until = sim_rig_now(m->rig) + used;
     det_refresh(m);
 }
 
@@ -338,6 +366,17 @@ int msim_delay(msim *m, int slave, double ms, struct gonio_err *err)
         return gonio_err_set(err, GONIO_EUSAGE, "delay: slave %d, %g ms (0 to 10000)", slave, ms);
     m->delay_ms[slave] = ms;
     return 0;
+}
+
+static uint16_t crc16(const uint8_t *p, int n)
+{
+    uint16_t crc = 0xFFFF;
+    for (int i = 0; i < n; i++) {
+        crc ^= p[i];
+        for (int b = 0; b < 8; b++)
+            crc = (crc & 1) ? (uint16_t)((crc >> 1) ^ 0xA001) : (uint16_t)(crc >> 1);
+    }
+    return crc;
 }
 
 /* ---- Requests ------------------------------------------------------------ */
@@ -383,6 +422,38 @@ static struct msim_axis *axis_of(msim *m, int slave)
     }
 }
 
+/* A reply damaged on the line: an exception frame with a bad CRC (RTU), or
+ * a header naming another transaction and protocol (TCP); either way the
+ * master detects a bad answer. */
+static void send_garbled(msim *m, modbus_t *ctx, const uint8_t *req, int hdr)
+{
+    uint8_t out[9];
+    int n;
+    if (hdr == 1) {
+        out[0] = req[0];
+        out[1] = (uint8_t)(req[1] | 0x80);
+        out[2] = 0x04;
+        uint16_t crc = (uint16_t)~crc16(out, 3);
+        out[3] = (uint8_t)(crc & 0xFF);
+        out[4] = (uint8_t)(crc >> 8);
+        n = 5;
+    } else {
+        out[0] = (uint8_t)~req[0];
+        out[1] = (uint8_t)~req[1];
+        out[2] = 0xFF; /* protocol id must be 0 */
+        out[3] = 0xFF;
+        out[4] = 0;
+        out[5] = 3;
+        out[6] = req[6];
+        out[7] = (uint8_t)(req[7] | 0x80);
+        out[8] = 0x04;
+        n = 9;
+    }
+    (void)m;
+    if (write(modbus_get_socket(ctx), out, (size_t)n) < 0)
+        return; /* the client went away: nothing to garble */
+}
+
 /* Answer one request: req is the whole ADU as libmodbus frames it (hdr
  * bytes of header ending with the unit id, then the PDU); len counts the
  * bytes the PDU may use. Requests to absent slaves get no answer. */
@@ -425,9 +496,22 @@ static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int 
         fprintf(stderr, "gonio-sim: slave %d fn 0x%02x addr 0x%04x n %d%s%s\n", slave, fn,
                 addr < 0 ? 0 : addr, n, exc ? " -> exception " : "",
                 exc == 1 ? "01" : exc == 2 ? "02" : exc == 3 ? "03" : "");
-    if (m->delay_ms[slave] > 0) {
-        double d = m->delay_ms[slave] * 1e-3;
-        struct timespec ts = {.tv_sec = (time_t)d, .tv_nsec = (long)((d - (time_t)d) * 1e9)};
+    double late_s = m->delay_ms[slave] * 1e-3;
+    sim_faults *faults = sim_rig_faults(m->rig);
+    enum sim_fault fault = SIM_FAULT_NONE;
+    if (faults)
+        sim_faults_next(faults, &fault);
+    if (fault == SIM_FAULT_DROP) /* lost on the line: not executed, no answer */
+        return;
+    if (fault == SIM_FAULT_CORRUPT) { /* garbled on the line: not executed */
+        send_garbled(m, ctx, req, hdr);
+        return;
+    }
+    if (fault == SIM_FAULT_LATE)
+        late_s += sim_faults_timeout(faults);
+    if (late_s > 0) {
+        struct timespec ts = {.tv_sec = (time_t)late_s,
+                              .tv_nsec = (long)((late_s - (double)(time_t)late_s) * 1e9)};
         while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
             ;
     }
@@ -499,17 +583,6 @@ int msim_open_pty(msim *m, const char *link, char *path, size_t size, struct gon
             return gonio_err_set(err, errno, "gonio-sim: --link %s: %s", link, strerror(errno));
     }
     return 0;
-}
-
-static uint16_t crc16(const uint8_t *p, int n)
-{
-    uint16_t crc = 0xFFFF;
-    for (int i = 0; i < n; i++) {
-        crc ^= p[i];
-        for (int b = 0; b < 8; b++)
-            crc = (crc & 1) ? (uint16_t)((crc >> 1) ^ 0xA001) : (uint16_t)(crc >> 1);
-    }
-    return crc;
 }
 
 /* Length of the RTU frame starting the buffer from its function code; 0:

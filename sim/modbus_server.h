@@ -31,10 +31,17 @@ struct msim_cfg {
 
 typedef struct msim msim;
 
-/* Profile and material must outlive the server. The azimuth slave exists
- * only when the profile is out_of_plane. */
+struct sim_scene;
+
+/* Profile and material must outlive the server; the scene (NULL: no
+ * effects) is copied. The scene's effects apply as in the offline capture:
+ * the detector reads through them (noise, auto-exposure, saturation), move
+ * effects (jitter, backlash, stall) act on the axes, and comm_faults drops,
+ * corrupts or delays exchanges. The azimuth slave exists only when the
+ * profile is out_of_plane. */
 msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
-               const struct msim_cfg *cfg, struct gonio_err *err);
+               const struct sim_scene *scene, const struct msim_cfg *cfg,
+               struct gonio_err *err);
 void msim_free(msim *m);
 
 /* Fault injection: an obstacle at deg on the axis at slave. A move across
