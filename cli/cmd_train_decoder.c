@@ -22,6 +22,7 @@ static void usage(FILE *out)
             "  --epochs N   Adam steps, each over every training material (default %ld)\n"
             "  --threads N  worker threads; the result does not depend on it (default %d)\n"
             "  --z-noise SD latent noise during training (default 0)\n"
+            "  --inplane F  fraction of training pairs in the incidence plane (default 0)\n"
             "  --nz N --layers N --width N --samples N\n"
             "               latent size, hidden layers and units, pairs per material and\n"
             "               step (defaults %d, %d, %d, %d)\n",
@@ -52,7 +53,7 @@ int cmd_train_decoder(int argc, char **argv)
         {"quiet", no_argument, NULL, 'q'},        {"help", no_argument, NULL, 'h'},
         {"nz", required_argument, NULL, 'z'},     {"width", required_argument, NULL, 'w'},
         {"layers", required_argument, NULL, 'l'}, {"samples", required_argument, NULL, 'n'},
-        {"z-noise", required_argument, NULL, 'Z'},
+        {"z-noise", required_argument, NULL, 'Z'}, {"inplane", required_argument, NULL, 'P'},
         {NULL, 0, NULL, 0},
     };
     struct latent_train_options o = latent_train_default_options();
@@ -64,7 +65,7 @@ int cmd_train_decoder(int argc, char **argv)
     optind = 1;
     int c;
     unsigned long long v;
-    while ((c = getopt_long(argc, argv, "o:s:e:t:qhz:w:l:n:Z:", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, "o:s:e:t:qhz:w:l:n:Z:P:", opts, NULL)) != -1) {
         switch (c) {
         case 'o': snprintf(out, sizeof out, "%s", optarg); break;
         case 's':
@@ -105,6 +106,16 @@ int cmd_train_decoder(int argc, char **argv)
             o.z_noise = strtod(optarg, &end);
             if (end == optarg || *end || !(o.z_noise >= 0 && o.z_noise < 10)) {
                 fprintf(stderr, "gonio train-decoder: --z-noise '%s' must be in [0, 10)\n",
+                        optarg);
+                return 2;
+            }
+            break;
+        }
+        case 'P': {
+            char *end;
+            o.inplane = strtod(optarg, &end);
+            if (end == optarg || *end || !(o.inplane >= 0 && o.inplane <= 1)) {
+                fprintf(stderr, "gonio train-decoder: --inplane '%s' must be in [0, 1]\n",
                         optarg);
                 return 2;
             }

@@ -46,6 +46,7 @@ struct latent_train_options {
     double lr, lr_z;      /* Adam step sizes of weights and latents (cosine decay) */
     double lambda_z;      /* weight of the mean of z^2 in the loss (latent prior) */
     double z_noise;       /* sd of Gaussian noise added to z at each use (0: none) */
+    double inplane;       /* fraction of training pairs drawn in the incidence plane */
     uint64_t seed;        /* initial weights, latents and every sample */
     int threads;          /* worker threads (results do not depend on it) */
     int quiet;            /* no progress on stderr */

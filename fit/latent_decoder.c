@@ -141,6 +141,8 @@ int latent_decoder_save(const latent_decoder *d, const char *path, struct gonio_
     fprintf(mf, "lr %.17g\nlr_z %.17g\nlambda_z %.17g\n", t->lr, t->lr_z, t->lambda_z);
     if (t->z_noise > 0) /* written only when used: older files stay valid and identical */
         fprintf(mf, "z_noise %.17g\n", t->z_noise);
+    if (t->inplane > 0)
+        fprintf(mf, "inplane %.17g\n", t->inplane);
     fprintf(mf, "heldout");
     for (size_t i = 0; i < 10; i++)
         fprintf(mf, " %s", latent_heldout_materials[i]);
@@ -260,7 +262,7 @@ latent_decoder *latent_decoder_load(const char *path, struct gonio_err *err)
     long nin = -1, nz = -1, layers = -1, width = -1, nout = -1, nmat = -1;
     unsigned long long seed = 0;
     long steps = 0, sps = 0;
-    double lr = 0, lr_z = 0, lambda_z = 0, z_noise = 0;
+    double lr = 0, lr_z = 0, lambda_z = 0, z_noise = 0, inplane = 0;
     size_t m = 0;
 #define BAD(...)                                                                            \
     do {                                                                                    \
@@ -293,12 +295,13 @@ latent_decoder *latent_decoder_load(const char *path, struct gonio_err *err)
                 BAD("%s: seed '%s' is not an integer", path, val);
             seed = s;
         } else if (!strcmp(key, "lr") || !strcmp(key, "lr_z") || !strcmp(key, "lambda_z") ||
-                   !strcmp(key, "z_noise")) {
+                   !strcmp(key, "z_noise") || !strcmp(key, "inplane")) {
             double v;
             if (parse_double(val, &v) < 0)
                 BAD("%s: %s '%s' is not a finite number", path, key, val);
             *(!strcmp(key, "lr") ? &lr : !strcmp(key, "lr_z") ? &lr_z
-              : !strcmp(key, "lambda_z") ? &lambda_z : &z_noise) = v;
+              : !strcmp(key, "lambda_z") ? &lambda_z : !strcmp(key, "z_noise") ? &z_noise
+                                                    : &inplane) = v;
         } else if (!strcmp(key, "heldout")) {
             /* informational: the held-out list of the build that trained it */
         } else if (!strcmp(key, "materials")) {
@@ -364,6 +367,7 @@ latent_decoder *latent_decoder_load(const char *path, struct gonio_err *err)
     d->train.lr_z = lr_z;
     d->train.lambda_z = lambda_z;
     d->train.z_noise = z_noise;
+    d->train.inplane = inplane;
     latent_decoder_refresh(d);
     free(buf);
     return d;

@@ -36,6 +36,7 @@ struct latent_train_options latent_train_default_options(void)
         .lr_z = 1e-2,
         .lambda_z = 1e-3,
         .z_noise = 0,
+        .inplane = 0,
         .seed = 1,
         .threads = 2,
         .quiet = 0,
@@ -139,7 +140,8 @@ struct batch {
  * as the MERL grid the errors are measured on), theta_d uniform, phi_d
  * uniform over the full circle; pairs with a polar angle past
  * LT_MAX_THETA_DEG are redrawn. */
-static void draw_batch(const struct brdf_nbrdf *net, uint64_t stream, int S, struct batch *b)
+static void draw_batch(const struct brdf_nbrdf *net, uint64_t stream, int S, double inplane,
+                       struct batch *b)
 {
     const double lim = cos(LT_MAX_THETA_DEG * BRDF_DEG);
     uint64_t s = stream;
@@ -147,7 +149,10 @@ static void draw_batch(const struct brdf_nbrdf *net, uint64_t stream, int S, str
         struct brdf_pair *p = &b->pairs[k];
         do {
             double u = unif(&s), v = unif(&s), w = unif(&s);
-            brdf_pair_from_hd(u * u * LT_PI / 2, v * LT_PI / 2, (2 * w - 1) * LT_PI, p);
+            double pd = (2 * w - 1) * LT_PI;
+            if (inplane > 0 && unif(&s) < inplane)
+                pd = w < 0.5 ? 0.0 : LT_PI; /* where the rig measures */
+            brdf_pair_from_hd(u * u * LT_PI / 2, v * LT_PI / 2, pd, p);
         } while (p->wi[2] < lim || p->wo[2] < lim);
     }
     brdf_nbrdf_eval(net, b->pairs, (size_t)S, b->f);
@@ -190,7 +195,7 @@ static void *work(void *arg)
     for (size_t m = (size_t)w->id; m < c->M; m += (size_t)c->threads) {
         uint64_t stream = c->seed ^ (0x9e3779b97f4a7c15ULL * (uint64_t)(c->step + 1)) ^
                           (0xbf58476d1ce4e5b9ULL * (uint64_t)(m + 1));
-        draw_batch(&c->nets[m], stream, c->S, &w->b);
+        draw_batch(&c->nets[m], stream, c->S, d->train.inplane, &w->b);
         double *gw = c->gw + m * d->n_params, *gz = c->gz + m * (size_t)d->nz;
         memset(gw, 0, d->n_params * sizeof *gw);
         memset(gz, 0, (size_t)d->nz * sizeof *gz);
