@@ -38,6 +38,7 @@ struct mb_axis {
 static const char *alarm_name(unsigned code)
 {
     switch (code) {
+    case 0x10: return "excessive position deviation";
     case 0x30: return "overload";
     case 0x28: return "position deviation";
     case 0x66: return "software overtravel";

@@ -501,6 +501,9 @@ static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int 
     enum sim_fault fault = SIM_FAULT_NONE;
     if (faults)
         sim_faults_next(faults, &fault);
+    if (fault != SIM_FAULT_NONE && m->cfg.trace)
+        fprintf(stderr, "gonio-sim: slave %d: exchange %s (scene comm_faults)\n", slave,
+                sim_fault_name(fault));
     if (fault == SIM_FAULT_DROP) /* lost on the line: not executed, no answer */
         return;
     if (fault == SIM_FAULT_CORRUPT) { /* garbled on the line: not executed */

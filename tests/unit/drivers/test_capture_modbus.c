@@ -16,6 +16,7 @@
 #include <math.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "brdf/angles.h"
 #include "brdf/material.h"
@@ -36,7 +37,8 @@ static double drv_test_wall(void)
 
 struct rig_host {
     const char *pty;
-    double time_scale;
+    double time_scale, timeout_s;
+    int retries;
     drv_modbus_bus *bus;
     const brdf_material *truth;
     size_t n, bad;
@@ -52,6 +54,10 @@ static int open_devices(void *user, const struct plan_rig *rig, struct capture_d
     drv_modbus_bus_cfg_default(&cfg);
     cfg.device = h->pty;
     cfg.time_scale = h->time_scale;
+    if (h->timeout_s > 0) {
+        cfg.timeout_s = h->timeout_s;
+        cfg.retries = h->retries;
+    }
     h->bus = drv_modbus_bus_new_rtu(&cfg, err);
     if (!h->bus)
         return -GONIO_EDEVICE;
@@ -102,9 +108,10 @@ static void on_sample(void *user, const struct journal_sample *s, size_t done, s
     h->last_rig_time = s->rig_time_s;
 }
 
-static void capture_on_modbus(const char *plan_name, const char *scale, double tolerance)
+static void capture_on_modbus(const char *plan_name, const char *scene, const char *scale,
+                              double tolerance, struct rig_host *host_in)
 {
-    const char *const args[] = {"--time-scale", scale, "--scene", "ideal", NULL};
+    const char *const args[] = {"--time-scale", scale, "--scene", scene, NULL};
     assert_int_equal(sim_proc_start(&sim, args), 0);
     struct gonio_err err = {0};
     brdf_material *truth = brdf_material_open(brdf_material_default_spec(), &err);
@@ -116,8 +123,12 @@ static void capture_on_modbus(const char *plan_name, const char *scale, double t
     char out[128];
     snprintf(out, sizeof out, "%s/cap", dir);
     struct capture_config cfg = {
-        .plan = plan_name, .scene = "ideal", .model = "abc", .out_dir = out, .quiet = 1};
+        .plan = plan_name, .scene = scene, .model = "abc", .out_dir = out, .quiet = 1};
     struct rig_host host = {.pty = sim.pty, .truth = truth, .time_scale = atof(scale)};
+    if (host_in) {
+        host.timeout_s = host_in->timeout_s;
+        host.retries = host_in->retries;
+    }
     double wall0 = drv_test_wall();
     struct capture_hooks hooks = {.open_devices = open_devices,
                                   .close_devices = close_devices,
@@ -165,13 +176,36 @@ static int stop_sim(void **state)
 static void test_capture_ds4(void **state)
 {
     (void)state;
-    capture_on_modbus("ds4", "2", 0.05);
+    capture_on_modbus("ds4", "ideal", "2", 0.05, NULL);
 }
 
 static void test_capture_ds3(void **state)
 {
     (void)state;
-    capture_on_modbus("ds3", "100", 0);
+    capture_on_modbus("ds3", "ideal", "100", 0, NULL);
+}
+
+/* A line that drops, garbles and delays 5 % of the exchanges each (the
+ * scene's comm_faults, decided by gonio-sim per exchange): the bus's
+ * retries and flushes must still deliver every sample exactly. */
+static void test_capture_faulty_line(void **state)
+{
+    (void)state;
+    static const char yaml[] =
+        "name: faulty-line\nmaterial: default\nrig: default\nseed: 3\neffects:\n"
+        "  - {name: comm_faults, drop: 0.05, corrupt: 0.05, late: 0.05, timeout_s: 0.05}\n";
+    char dir[64], path[96];
+    snprintf(dir, sizeof dir, "/tmp/gonio-faulty-XXXXXX");
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/faulty-line.yaml", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    assert_int_equal(fputs(yaml, f) >= 0, 1);
+    assert_int_equal(fclose(f), 0);
+    struct rig_host opts = {.timeout_s = 0.1, .retries = 5};
+    capture_on_modbus("ds4", path, "20", 0, &opts);
+    unlink(path);
+    rmdir(dir);
 }
 
 int main(void)
@@ -179,6 +213,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_capture_ds4, stop_sim),
         cmocka_unit_test_teardown(test_capture_ds3, stop_sim),
+        cmocka_unit_test_teardown(test_capture_faulty_line, stop_sim),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
