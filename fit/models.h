@@ -49,7 +49,7 @@ struct fit_model_options fit_model_default_options(void);
 /* What a fit reports besides its model file. */
 struct fit_model_report {
     int converged;    /* 1 when the fit met its stopping rule normally */
-    char note[256];   /* one line for people: iterations/epochs, stop reason */
+    char note[512];   /* one line for people: iterations/epochs, stop reason */
 };
 
 struct fit_model_kind {
