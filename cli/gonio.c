@@ -30,7 +30,7 @@ static void usage(FILE *out)
 {
     fprintf(out, "usage: gonio COMMAND [OPTIONS]\n\ncommands:\n");
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
-        fprintf(out, "  %-8s %s\n", commands[i].name, commands[i].summary);
+        fprintf(out, "  %-14s %s\n", commands[i].name, commands[i].summary);
     fprintf(out, "\n'gonio COMMAND --help' describes a command.\n");
 }
 
