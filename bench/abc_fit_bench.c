@@ -20,67 +20,8 @@
 #include "brdf/angles.h"
 #include "brdf/domain.h"
 #include "brdf/material.h"
+#include "bench/bench_util.h"
 #include "fit/fit.h"
-
-#define BENCH_PI 3.14159265358979323846
-
-static const char *default_materials[] = {
-    "nylon", "tungsten-carbide", "specular-black-phenolic", "blue-acrylic", "brass",
-    "gold-metallic-paint", "white-diffuse-bball", "red-plastic", "alum-bronze", "pearl-paint",
-};
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-/* DS plans as in the design brief, section 3. */
-static size_t ds_grid(double step_i, double step_d, double step_g, struct brdf_pair *out)
-{
-    size_t n = 0;
-    const double w = 15;
-    for (double ti = 0; ti <= 80 + 1e-9; ti += step_i) {
-        for (double tr = -80; tr <= 80 + 1e-9; tr += step_d) {
-            if (fabs(tr - ti) > w && fabs(ti + tr) >= 5) {
-                if (out)
-                    brdf_pair_inplane(ti, tr, &out[n]);
-                n++;
-            }
-        }
-        /* multiples of the glossy step, so the mirror direction is included */
-        double kmax = floor(w / step_g + 1e-9) * step_g;
-        for (double k = -kmax; k <= kmax + 1e-9; k += step_g) {
-            double tr = ti + k;
-            if (fabs(tr) <= 80 + 1e-9 && fabs(ti + tr) >= 5) {
-                if (out)
-                    brdf_pair_inplane(ti, tr, &out[n]);
-                n++;
-            }
-        }
-    }
-    return n;
-}
-
-static size_t full_domain(struct brdf_pair *out)
-{
-    size_t n = 0;
-    const double lim = cos(80 * BRDF_DEG) - 1e-12;
-    for (int i = 0; i < 90; i++)
-        for (int j = 0; j < 90; j++)
-            for (int k = 0; k < 180; k++) {
-                double th = (i / 90.0) * (i / 90.0) * BENCH_PI / 2;
-                struct brdf_pair p;
-                brdf_pair_from_hd(th, j / 90.0 * BENCH_PI / 2, k / 180.0 * BENCH_PI, &p);
-                if (p.wi[2] >= lim && p.wo[2] >= lim) {
-                    if (out)
-                        out[n] = p;
-                    n++;
-                }
-            }
-    return n;
-}
 
 static double log_error(const struct brdf_abc *p, const struct brdf_pair *g, const double *ref,
                         size_t n)
@@ -106,9 +47,9 @@ static int fit_set(const struct brdf_pair *g, const double *ref, size_t n,
         memcpy(s[k].rgb, ref + 3 * k, sizeof s[k].rgb);
     }
     struct gonio_err e = {0};
-    double t0 = now_s();
+    double t0 = bench_now_s();
     int rc = fit_abc(s, n, opt, p, info, &e);
-    *t = now_s() - t0;
+    *t = bench_now_s() - t0;
     free(s);
     if (rc < 0)
         fprintf(stderr, "fit failed: %s\n", e.msg);
@@ -134,27 +75,26 @@ int main(int argc, char **argv)
         opt.warm_start = &generic;
         first = 2;
     }
-    const char **mats = default_materials;
-    int nm = (int)(sizeof default_materials / sizeof *default_materials);
+    const char *const *mats = bench_study_materials;
+    int nm = BENCH_N_STUDY;
     if (argc > first) {
-        mats = (const char **)argv + first;
+        mats = (const char *const *)argv + first;
         nm = argc - first;
     }
 
-    size_t n1 = ds_grid(5, 5, 1, NULL);
-    struct brdf_pair *ds1 = malloc(n1 * sizeof *ds1);
-    ds_grid(5, 5, 1, ds1);
-    size_t n2 = ds_grid(15, 10, 2, NULL), n3 = ds_grid(30, 20, 3, NULL);
-    struct brdf_pair *ds2 = malloc(n2 * sizeof *ds2), *ds3 = malloc(n3 * sizeof *ds3);
-    ds_grid(15, 10, 2, ds2);
-    ds_grid(30, 20, 3, ds3);
-    struct brdf_pair ds4[6];
-    const double tr4[6] = {-60, -20, 20, 28, 36, 60};
-    for (int k = 0; k < 6; k++)
-        brdf_pair_inplane(30, tr4[k], &ds4[k]);
-    size_t nf = full_domain(NULL);
-    struct brdf_pair *full = malloc(nf * sizeof *full);
-    full_domain(full);
+    struct brdf_pair *ds1, *ds2, *ds3, *ds4;
+    size_t n1, n2, n3, n4;
+    if (bench_plan_pairs("ds1", &ds1, &n1) < 0 || bench_plan_pairs("ds2", &ds2, &n2) < 0 ||
+        bench_plan_pairs("ds3", &ds3, &n3) < 0 || bench_plan_pairs("ds4", &ds4, &n4) < 0)
+        return 1;
+    struct brdf_domain fd;
+    struct gonio_err ferr = {0};
+    if (brdf_domain_full(&fd, &ferr) < 0) {
+        fprintf(stderr, "%s\n", ferr.msg);
+        return 1;
+    }
+    size_t nf = fd.n;
+    const struct brdf_pair *full = fd.pairs;
     /* the oop200k reference plan's nodes (brdf/domain.h) */
     struct brdf_domain od;
     struct gonio_err derr = {0};
@@ -219,9 +159,10 @@ int main(int argc, char **argv)
     free(ds1);
     free(ds2);
     free(ds3);
+    free(ds4);
     free(r2);
     free(r3);
-    free(full);
+    brdf_domain_free(&fd);
     brdf_domain_free(&od);
     free(rf);
     free(r1);

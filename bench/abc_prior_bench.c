@@ -17,48 +17,9 @@
 #include "brdf/published.h"
 #include "fit/abc_prior.h"
 #include "fit/abc_prior_private.h"
+#include "bench/bench_util.h"
 #include "fit/fit.h"
 
-static const char *default_materials[] = {
-    "nylon", "tungsten-carbide", "specular-black-phenolic", "blue-acrylic", "brass",
-    "gold-metallic-paint", "white-diffuse-bball", "red-plastic", "alum-bronze", "pearl-paint",
-};
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-/* DS plans as in the design brief, section 3 (as bench/abc_fit_bench.c). */
-static size_t ds_grid(double step_i, double step_d, double step_g, struct brdf_pair *out)
-{
-    size_t n = 0;
-    const double w = 15;
-    for (double ti = 0; ti <= 80 + 1e-9; ti += step_i) {
-        for (double tr = -80; tr <= 80 + 1e-9; tr += step_d)
-            if (fabs(tr - ti) > w && fabs(ti + tr) >= 5) {
-                if (out)
-                    brdf_pair_inplane(ti, tr, &out[n]);
-                n++;
-            }
-        double kmax = floor(w / step_g + 1e-9) * step_g;
-        for (double k = -kmax; k <= kmax + 1e-9; k += step_g) {
-            double tr = ti + k;
-            if (fabs(tr) <= 80 + 1e-9 && fabs(ti + tr) >= 5) {
-                if (out)
-                    brdf_pair_inplane(ti, tr, &out[n]);
-                n++;
-            }
-        }
-    }
-    return n;
-}
-
-/* --table: the population table of fit/abc_prior_table.c, one C row per
- * MERL material: ABC fitted (fit_abc, defaults) to the DS1 samples of its
- * NBRDF network. */
 static int print_table(const struct brdf_pair *g, size_t n)
 {
     struct fit_sample *s = malloc(n * sizeof *s);
@@ -101,25 +62,18 @@ int main(int argc, char **argv)
         opt.global = FIT_GLOBAL_DE;
         first = 2;
     }
-    const char **mats = default_materials;
-    int nm = (int)(sizeof default_materials / sizeof *default_materials);
+    const char *const *mats = bench_study_materials;
+    int nm = BENCH_N_STUDY;
     if (argc > first) {
-        mats = (const char **)argv + first;
+        mats = (const char *const *)argv + first;
         nm = argc - first;
     }
-    const double steps[3][3] = {{5, 5, 1}, {15, 10, 2}, {30, 20, 3}};
+    static const char *const plans[4] = {"ds1", "ds2", "ds3", "ds4"};
     struct brdf_pair *ds[4];
     size_t nds[4];
-    for (int d = 0; d < 3; d++) {
-        nds[d] = ds_grid(steps[d][0], steps[d][1], steps[d][2], NULL);
-        ds[d] = malloc(nds[d] * sizeof *ds[d]);
-        ds_grid(steps[d][0], steps[d][1], steps[d][2], ds[d]);
-    }
-    const double tr4[6] = {-60, -20, 20, 28, 36, 60};
-    nds[3] = 6;
-    ds[3] = malloc(6 * sizeof *ds[3]);
-    for (int k = 0; k < 6; k++)
-        brdf_pair_inplane(30, tr4[k], &ds[3][k]);
+    for (int d = 0; d < 4; d++)
+        if (bench_plan_pairs(plans[d], &ds[d], &nds[d]) < 0)
+            return 1;
     if (argc > 1 && !strcmp(argv[1], "--table"))
         return print_table(ds[0], nds[0]);
     struct gonio_err e = {0};
@@ -163,11 +117,11 @@ int main(int argc, char **argv)
             }
             struct brdf_abc p0, p1;
             struct fit_info i0, i1;
-            double t0 = now_s();
+            double t0 = bench_now_s();
             int r0 = fit_abc(s, n, &opt, &p0, &i0, &e);
-            double t1 = now_s();
+            double t1 = bench_now_s();
             int r1 = fit_abc_map(s, n, &opt, &prior, &p1, &i1, &e);
-            double t2 = now_s();
+            double t2 = bench_now_s();
             double err0 = NAN, err1 = NAN;
             struct brdf_errors be;
             if (r0 == 0) {

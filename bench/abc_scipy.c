@@ -19,44 +19,10 @@
 #include "brdf/angles.h"
 #include "brdf/material.h"
 #include "fit/abc_problem.h"
+#include "bench/bench_util.h"
 #include "fit/fit.h"
 
 #define REPEATS 5
-
-static const char *default_materials[] = {
-    "nylon", "tungsten-carbide", "specular-black-phenolic", "blue-acrylic", "brass",
-    "gold-metallic-paint", "white-diffuse-bball", "red-plastic", "alum-bronze", "pearl-paint",
-};
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-/* DS1 as in the design brief (the grid of bench/abc_fit_bench.c). */
-static size_t ds1(struct brdf_pair *out)
-{
-    size_t n = 0;
-    for (double ti = 0; ti <= 80 + 1e-9; ti += 5) {
-        for (double tr = -80; tr <= 80 + 1e-9; tr += 5)
-            if (fabs(tr - ti) > 15 && fabs(ti + tr) >= 5) {
-                if (out)
-                    brdf_pair_inplane(ti, tr, &out[n]);
-                n++;
-            }
-        for (double k = -15; k <= 15 + 1e-9; k += 1) {
-            double tr = ti + k;
-            if (fabs(tr) <= 80 + 1e-9 && fabs(ti + tr) >= 5) {
-                if (out)
-                    brdf_pair_inplane(ti, tr, &out[n]);
-                n++;
-            }
-        }
-    }
-    return n;
-}
 
 int main(int argc, char **argv)
 {
@@ -65,17 +31,18 @@ int main(int argc, char **argv)
         return 2;
     }
     const char *dir = argv[1];
-    const char **mats = default_materials;
-    int nm = (int)(sizeof default_materials / sizeof *default_materials);
+    const char *const *mats = bench_study_materials;
+    int nm = BENCH_N_STUDY;
     if (argc > 2) {
-        mats = (const char **)argv + 2;
+        mats = (const char *const *)argv + 2;
         nm = argc - 2;
     }
-    size_t n = ds1(NULL);
-    struct brdf_pair *g = malloc(n * sizeof *g);
+    struct brdf_pair *g;
+    size_t n;
+    if (bench_plan_pairs("ds1", &g, &n) < 0)
+        return 1;
     struct fit_sample *s = malloc(n * sizeof *s);
     double *rgb = malloc(3 * n * sizeof *rgb);
-    ds1(g);
     struct fit_options opt = fit_default_options();
     for (int m = 0; m < nm; m++) {
         char spec[256], path[4096];
@@ -97,12 +64,12 @@ int main(int argc, char **argv)
         struct brdf_abc p;
         struct fit_info info;
         for (int r = 0; r < REPEATS; r++) {
-            double t0 = now_s();
+            double t0 = bench_now_s();
             if (fit_abc(s, n, &opt, &p, &info, &e) < 0) {
                 fprintf(stderr, "%s: %s\n", spec, e.msg);
                 return 1;
             }
-            double t = now_s() - t0;
+            double t = bench_now_s() - t0;
             if (t < best_t)
                 best_t = t;
         }
@@ -123,7 +90,7 @@ int main(int argc, char **argv)
          * lowest cost wins): the part SciPy does */
         double solve_t = INFINITY, solve_cost = INFINITY;
         for (int r = 0; r < REPEATS; r++) {
-            double t0 = now_s(), c = INFINITY;
+            double t0 = bench_now_s(), c = INFINITY;
             for (int k = 0; k < ns; k++) {
                 struct brdf_abc q, out;
                 struct fit_info qi;
@@ -133,7 +100,7 @@ int main(int argc, char **argv)
                 if (fit_abc(s, n, &wo, &out, &qi, NULL) == 0 && qi.cost < c)
                     c = qi.cost;
             }
-            double t = now_s() - t0;
+            double t = bench_now_s() - t0;
             if (t < solve_t)
                 solve_t = t;
             solve_cost = c;

@@ -23,39 +23,10 @@
 #include "fit/latent.h"
 #include "planner/planner.h"
 #include "planner/rig.h"
+#include "bench/bench_util.h"
 
 enum { NSET = 5 };
 static const char *set_names[NSET] = {"ds1", "ds2", "ds3", "ds4", "oop200k"};
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-/* Pairs of a plan's points, as the capture would measure them. */
-static int plan_pairs(const char *name, const struct plan_rig *rig, struct brdf_pair **out,
-                      size_t *n)
-{
-    struct gonio_err err = {0};
-    struct plan *p = NULL;
-    if (plan_load(name, rig, &p, &err) < 0) {
-        fprintf(stderr, "latent_table: %s\n", err.msg);
-        return -1;
-    }
-    *n = plan_count(p);
-    *out = malloc(*n * sizeof **out);
-    for (size_t i = 0; i < *n; i++) {
-        const struct plan_point *pt = plan_point(p, i);
-        if (pt->out_of_plane)
-            brdf_pair_spherical(pt->theta_i, pt->phi_i, pt->theta_o, pt->phi_o, &(*out)[i]);
-        else
-            brdf_pair_inplane(pt->theta_i, pt->theta_r, &(*out)[i]);
-    }
-    plan_free(p);
-    return 0;
-}
 
 int main(int argc, char **argv)
 {
@@ -103,15 +74,10 @@ int main(int argc, char **argv)
         fprintf(stderr, "latent_table: %s\n", err.msg);
         return 1;
     }
-    struct plan_rig rig;
-    if (plan_rig_load("default", &rig, &err) < 0) {
-        fprintf(stderr, "latent_table: %s\n", err.msg);
-        return 1;
-    }
     struct brdf_pair *sets[NSET];
     size_t nset[NSET];
     for (int s = 0; s < 4; s++)
-        if (plan_pairs(set_names[s], &rig, &sets[s], &nset[s]) < 0)
+        if (bench_plan_pairs(set_names[s], &sets[s], &nset[s]) < 0)
             return 1;
     struct brdf_domain oop, full, inpl;
     if (brdf_domain_oop_random(&oop, BRDF_DOMAIN_OOP200K_N, BRDF_DOMAIN_OOP200K_SEED, &err) < 0 ||
@@ -155,9 +121,9 @@ int main(int argc, char **argv)
             }
             double z[LATENT_MAX_NZ];
             struct latent_fit_info info;
-            double t0 = now_s();
+            double t0 = bench_now_s();
             int rc = fit_latent(dec, smp, n, &fo, z, &info, &err);
-            double t = now_s() - t0;
+            double t = bench_now_s() - t0;
             free(smp);
             free(rgb);
             if (rc < 0) {
