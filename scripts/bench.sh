@@ -18,6 +18,7 @@ rm -rf "$out"
 mkdir -p "$out"
 
 now() { date +%s.%N; }
+calc() { awk "BEGIN { print $1 }"; } # floating-point arithmetic without bc
 num() { # key file: the first numeric value of "key" in a JSON file
     sed -n "s/.*\"$1\": *\([-0-9.eE+]*\).*/\1/p" "$2" | head -n 1
 }
@@ -30,7 +31,7 @@ capture() { # dir args...: run a quiet offline capture, print its wall time
     t0=$(now)
     "$bin/gonio" capture --offline --quiet --scene "$scene" --out "$out/$dir" "$@" >/dev/null
     t1=$(now)
-    echo "$t1 - $t0" | bc -l
+    calc "$t1 - $t0"
 }
 
 echo "== 1. orderings (default rig): move time over greedy and over the lower bound"
@@ -56,11 +57,11 @@ for m in $materials; do
     er=$(full_log "$out/$name-full/results.json")
     ec=$(full_log "$out/$name-conv/results.json")
     printf '%-20s %-22s %6s %8.2f %7.3f %9.0f %8.1f %7.3f %9.4f %6.3f\n' "$m" travel/all "$nr" \
-        "$wr" 1 "$(echo "$nr / $wr" | bc -l)" "$rr" 1 "$er" 1
+        "$wr" 1 "$(calc "$nr / $wr")" "$rr" 1 "$er" 1
     printf '%-20s %-22s %6s %8.2f %7.3f %9.0f %8.1f %7.3f %9.4f %6.3f\n' "$m" \
-        progressive/converge "$nc" "$wc" "$(echo "$wc / $wr" | bc -l)" \
-        "$(echo "$nc / $wc" | bc -l)" "$rc" "$(echo "$rc / $rr" | bc -l)" "$ec" \
-        "$(echo "$ec / $er" | bc -l)"
+        progressive/converge "$nc" "$wc" "$(calc "$wc / $wr")" \
+        "$(calc "$nc / $wc")" "$rc" "$(calc "$rc / $rr")" "$ec" \
+        "$(calc "$ec / $er")"
 done
 
 echo
@@ -77,7 +78,7 @@ for p in ds1 ds2 ds3 ds4; do
     fi
     f=$(num fit_time_s "$r")
     [ -n "$ref" ] || ref=$f
-    printf '%-6s %7s %10.4f %7.3f\n' "$p" "$(num samples "$r")" "$f" "$(echo "$f / $ref" | bc -l)"
+    printf '%-6s %7s %10.4f %7.3f\n' "$p" "$(num samples "$r")" "$f" "$(calc "$f / $ref")"
 done
 
 echo
