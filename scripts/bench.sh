@@ -90,3 +90,11 @@ if [ -d "${GONIO_SHARED:-../shared}/data/merl" ] && /usr/bin/python3 -c "import 
 else
     echo "(needs ../shared and python3-scipy: skipped)"
 fi
+
+echo
+echo "== 5. MLP training: C vs PyTorch per epoch (same network, loss, Adam, batch)"
+"$bin/mlp_bench" 200 32
+
+echo
+echo "== 6. scene effects: ns per sample of the bare pipeline and of each effect"
+"$bin/effects_bench" 200000
