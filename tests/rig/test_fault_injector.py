@@ -183,10 +183,21 @@ def samples(d, name):
     return tg.read_samples(os.path.join(d.root, name, "samples.csv"))
 
 
-def once(at, make):
-    """A fault on the at-th exchange only."""
+def nth(match, k, make, times=1):
+    """A fault on the k-th request matching (slave, function, address) and
+    the times-1 exchanges after it. The targets are requests whose failure
+    fails the capture when the retries run out (checked with times=3); a
+    failed read of the detector's clock, for one, does not."""
+    seen = [0, None]
+
     def fault(n, req, reply):
-        return make(req, reply) if n == at else None
+        if seen[1] is None and (req[0], req[1], (req[2] << 8) | req[3]) == match:
+            seen[0] += 1
+            if seen[0] == k:
+                seen[1] = n
+        if seen[1] is not None and seen[1] <= n < seen[1] + times:
+            return make(req, reply)
+        return None
     return fault
 
 
@@ -220,16 +231,35 @@ def clean(rig, reference):
     return reference["ref"]
 
 
-@pytest.mark.parametrize("kind", [drop, garbage, bad_crc, late], ids=lambda f: f.__name__)
-def test_transient_fault_is_retried(rig, reference, kind):
+# Each fault on a different exchange: the arm's move command (a write whose
+# repetition restarts the same move), status and position reads.
+TRANSIENT = [(drop, (2, 0x10, 0x58)), (garbage, (1, 0x03, STATUS)),
+             (bad_crc, (2, 0x03, 0xCC)), (late, (1, 0x03, STATUS))]
+
+
+@pytest.mark.parametrize("kind,match", TRANSIENT, ids=lambda x: getattr(x, "__name__", ""))
+def test_transient_fault_is_retried(rig, reference, kind, match):
     want = clean(rig, reference)
-    stop, inj, d = capture(rig, "t", once(150, kind))
+    stop, inj, d = capture(rig, "t", nth(match, 10, kind))
     assert inj.injected == 1
     assert stop["reason"] == "complete", stop
     got = samples(d, "t")
     assert sorted(got) == sorted(want)
     for p in want:
         assert got[p] == want[p], (p, got[p], want[p])
+
+
+@pytest.mark.parametrize("kind,match", TRANSIENT, ids=lambda x: getattr(x, "__name__", ""))
+def test_fault_beyond_retries_fails(rig, kind, match):
+    """The same fault three times in a row outlasts the driver's two
+    retries: the capture fails naming the attempts. (A held reply also
+    holds up the other axes' requests behind it, so the axis named may be
+    another one than the target's.)"""
+    stop, inj, d = capture(rig, "t", nth(match, 10, kind, times=3))
+    assert inj.injected == 3
+    assert stop["exit_status"] == "fail", stop
+    assert "(3 attempts)" in stop["message"], stop
+    assert d.alive()
 
 
 def after(at, rewrite):
