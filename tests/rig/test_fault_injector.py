@@ -218,7 +218,7 @@ def late(req, reply):
 
 
 @pytest.fixture(scope="module")
-def reference(tmp_path_factory):
+def reference():
     """A fault-free capture's samples (run once per module)."""
     return {}
 
@@ -237,7 +237,7 @@ TRANSIENT = [(drop, (2, 0x10, 0x58)), (garbage, (1, 0x03, STATUS)),
              (bad_crc, (2, 0x03, 0xCC)), (late, (1, 0x03, STATUS))]
 
 
-@pytest.mark.parametrize("kind,match", TRANSIENT, ids=lambda x: getattr(x, "__name__", ""))
+@pytest.mark.parametrize("kind,match", TRANSIENT, ids=[k.__name__ for k, _ in TRANSIENT])
 def test_transient_fault_is_retried(rig, reference, kind, match):
     want = clean(rig, reference)
     stop, inj, d = capture(rig, "t", nth(match, 10, kind))
@@ -249,7 +249,7 @@ def test_transient_fault_is_retried(rig, reference, kind, match):
         assert got[p] == want[p], (p, got[p], want[p])
 
 
-@pytest.mark.parametrize("kind,match", TRANSIENT, ids=lambda x: getattr(x, "__name__", ""))
+@pytest.mark.parametrize("kind,match", TRANSIENT, ids=[k.__name__ for k, _ in TRANSIENT])
 def test_fault_beyond_retries_fails(rig, kind, match):
     """The same fault three times in a row outlasts the driver's two
     retries: the capture fails naming the attempts. (A held reply also
