@@ -39,4 +39,8 @@ double drv_clock_now(drv_clock *c);
 int drv_clock_sleep(drv_clock *c, double seconds);
 void drv_clock_free(drv_clock *c);
 
+/* Wall time (monotonic, seconds since creation): the clock of hardware
+ * whose devices keep no rig time. NULL when out of memory. */
+drv_clock *drv_clock_new_wall(void);
+
 #endif

@@ -5,7 +5,7 @@ set -eu
 
 PACKAGES="build-essential cmake pkg-config git
 libgsl-dev libyaml-dev libjansson-dev libcmocka-dev libopenexr-dev
-libmodbus-dev libusb-1.0-0-dev zlib1g-dev
+libmodbus-dev libusb-1.0-0-dev umockdev libumockdev-dev zlib1g-dev
 python3-serial python3-pytest python3-pymodbus python3-serial-asyncio python3-scipy"
 
 missing=""

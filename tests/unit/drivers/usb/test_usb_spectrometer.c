@@ -1,0 +1,495 @@
+/* The USB spectrometer driver against replayed USB traffic (umockdev).
+ *
+ * Runs under umockdev-wrapper (the LD_PRELOAD library that routes /sys,
+ * /dev and usbdevfs ioctls into a testbed). Each test builds a testbed from
+ * usb2000plus.umockdev and replays one .ioctl recording of this folder
+ * (make_recordings.py wrote them): libusb, and so the driver, see a
+ * USB2000+ on bus 1 as device 5. The timeout tests need a device that
+ * stays silent, which a recording cannot express (the replay answers every
+ * URB at once), so they attach a small scripted usbdevfs handler instead.
+ *
+ * Expected values come from the recordings themselves: the test parses the
+ * calibration replies and the spectrum packets out of the .ioctl file and
+ * computes the bands by numerical integration of the nearest-pixel
+ * spectrum, independently of the driver's overlap weights. */
+#include <errno.h>
+#include <linux/usbdevice_fs.h>
+#include <string.h>
+#include <sys/ioctl.h>
+
+#include <umockdev.h>
+
+#include "tests/gonio_test.h"
+
+#include "brdf/colour.h"
+#include "drivers/drv_usbspec.h"
+
+#define DEVNODE "/dev/bus/usb/001/005"
+
+static UMockdevTestbed *testbed(const char *recording)
+{
+    UMockdevTestbed *tb = umockdev_testbed_new();
+    GError *e = NULL;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/usb2000plus.umockdev", USB_DATA_DIR);
+    if (!umockdev_testbed_add_from_file(tb, path, &e))
+        fail_msg("%s: %s", path, e->message);
+    if (recording) {
+        snprintf(path, sizeof path, "%s/%s", USB_DATA_DIR, recording);
+        if (!umockdev_testbed_load_ioctl(tb, DEVNODE, path, &e))
+            fail_msg("%s: %s", path, e->message);
+    }
+    return tb;
+}
+
+/* ---- reading the recording back ------------------------------------- */
+
+struct urb_rec {
+    int ep, status, actual;
+    unsigned char data[512];
+};
+
+static int read_recording(const char *name, struct urb_rec *out, int max)
+{
+    char path[1024], line[2048];
+    snprintf(path, sizeof path, "%s/%s", USB_DATA_DIR, name);
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    int n = 0;
+    while (fgets(line, sizeof line, f) && n < max) {
+        const char *s = line + strspn(line, " ");
+        int ret, type, flags, len, errc, off = 0;
+        struct urb_rec *u = &out[n];
+        if (sscanf(s, "USBDEVFS_REAPURBNDELAY %d %d %d %d %d %d %d %d %n", &ret, &type, &u->ep,
+                   &u->status, &flags, &len, &u->actual, &errc, &off) < 8)
+            continue;
+        for (int i = 0; i < u->actual; i++) {
+            unsigned byte;
+            assert_int_equal(sscanf(s + off + 2 * i, "%2x", &byte), 1);
+            u->data[i] = (unsigned char)byte;
+        }
+        n++;
+    }
+    fclose(f);
+    return n;
+}
+
+/* Calibration: the ASCII of the replies that follow "0x05 slot". */
+static void recorded_coefficients(const struct urb_rec *r, int n, double c[4])
+{
+    for (int k = 0; k < 4; k++) {
+        c[k] = NAN;
+        for (int i = 0; i + 1 < n; i++)
+            if (r[i].ep == 0x01 && r[i].actual == 2 && r[i].data[0] == 0x05 &&
+                r[i].data[1] == k + 1 && r[i + 1].ep == 0x81)
+                c[k] = strtod((const char *)r[i + 1].data + 2, NULL);
+    }
+}
+
+/* Counts: the eight 512-byte packets from EP 0x82 after the request 0x09. */
+static void recorded_counts(const struct urb_rec *r, int n, double *counts)
+{
+    int i = 0;
+    while (i < n && !(r[i].ep == 0x01 && r[i].actual == 1 && r[i].data[0] == 0x09))
+        i++;
+    assert_true(i + 8 < n);
+    for (int k = 0; k < 8; k++) {
+        const struct urb_rec *u = &r[i + 1 + k];
+        assert_int_equal(u->ep, 0x82);
+        assert_int_equal(u->actual, 512);
+        for (int j = 0; j < 256; j++)
+            counts[256 * k + j] = u->data[2 * j] | u->data[2 * j + 1] << 8;
+    }
+}
+
+/* The band mean of the nearest-pixel spectrum, by midpoint quadrature. */
+static double band_mean(const double *lam, const double *v, double lo, double hi)
+{
+    enum { M = 50000 };
+    double sum = 0;
+    int p = 0;
+    for (int j = 0; j < M; j++) {
+        double x = lo + (j + 0.5) * (hi - lo) / M;
+        while (p + 1 < DRV_USBSPEC_PIXELS && fabs(lam[p + 1] - x) < fabs(lam[p] - x))
+            p++;
+        sum += v[p];
+    }
+    return sum / M;
+}
+
+/* ---- the tests --------------------------------------------------------- */
+
+/* Replayed replies come at once, but slowly under valgrind: a generous
+ * timeout for them, a short one where the device is meant to stay silent. */
+static double timeout_s = 2.0;
+
+static struct drv_usbspec_cfg cfg_default(void)
+{
+    struct drv_usbspec_cfg c;
+    drv_usbspec_cfg_default(&c);
+    c.timeout_s = timeout_s;
+    return c;
+}
+
+static void test_open_reads_calibration(void **state)
+{
+    (void)state;
+    UMockdevTestbed *tb = testbed("spectrum.ioctl");
+    struct urb_rec rec[64];
+    int n = read_recording("spectrum.ioctl", rec, 64);
+    double want[4], got[4];
+    recorded_coefficients(rec, n, want);
+    struct drv_usbspec_cfg cfg = cfg_default();
+    cfg.serial = "USB2+F01234";
+    struct gonio_err err = {0};
+    drv_usbspec *s = drv_usbspec_open(&cfg, &err);
+    if (!s)
+        fail_msg("open: %s", err.msg);
+    drv_usbspec_coefficients(s, got);
+    for (int k = 0; k < 4; k++)
+        assert_close(got[k], want[k], 0); /* the same ASCII, the same strtod */
+    assert_string_equal(drv_usbspec_serial(s), "USB2+F01234");
+    drv_usbspec_close(s);
+    g_object_unref(tb);
+}
+
+static void test_other_serial_is_not_opened(void **state)
+{
+    (void)state;
+    UMockdevTestbed *tb = testbed("spectrum.ioctl");
+    struct drv_usbspec_cfg cfg = cfg_default();
+    cfg.serial = "USB2+F99999";
+    struct gonio_err err = {0};
+    assert_null(drv_usbspec_open(&cfg, &err));
+    assert_int_equal(err.code, GONIO_EDEVICE);
+    assert_non_null(strstr(err.msg, "no such device"));
+    assert_non_null(strstr(err.msg, "USB2+F99999"));
+    g_object_unref(tb);
+}
+
+/* Integration time 0.1 s (the recording expects exactly 02 A0 86 01 00:
+ * any other bytes find no URB to replay and fail), then the spectrum. */
+static void check_spectrum(double first_nm, int n_bands)
+{
+    UMockdevTestbed *tb = testbed("spectrum.ioctl");
+    struct urb_rec rec[64];
+    int n = read_recording("spectrum.ioctl", rec, 64);
+    double c[4], counts[DRV_USBSPEC_PIXELS], lam[DRV_USBSPEC_PIXELS], v[DRV_USBSPEC_PIXELS];
+    recorded_coefficients(rec, n, c);
+    recorded_counts(rec, n, counts);
+    double dark = 0;
+    for (int p = 6; p <= 20; p++)
+        dark += counts[p] / 15.0;
+    for (int p = 0; p < DRV_USBSPEC_PIXELS; p++) {
+        double x = p;
+        lam[p] = c[0] + c[1] * x + c[2] * x * x + c[3] * x * x * x;
+        v[p] = counts[p] - dark;
+    }
+
+    struct drv_usbspec_cfg cfg = cfg_default();
+    cfg.first_nm = first_nm;
+    cfg.n_bands = n_bands;
+    cfg.scale = 2.5e-5;
+    struct gonio_err err = {0};
+    drv_usbspec *s = drv_usbspec_open(&cfg, &err);
+    if (!s)
+        fail_msg("open: %s", err.msg);
+    drv_detector *det = drv_detector_new_usbspec(s, &cfg, &err);
+    if (!det)
+        fail_msg("detector: %s", err.msg);
+    struct drv_reading r;
+    if (drv_detector_acquire(det, 0.1, &r, &err) < 0)
+        fail_msg("acquire: %s", err.msg);
+    assert_close(r.integration_s, 0.1, 1e-12);
+    assert_int_equal(r.flags, 0);
+    const double *centres, *spec;
+    assert_int_equal(drv_usbspec_last_spectrum(det, &centres, &spec), n_bands);
+    double k = cfg.scale / 0.1;
+    for (int b = 0; b < n_bands; b++) {
+        assert_close(centres[b], first_nm + 10 * b, 1e-9);
+        double want = band_mean(lam, v, centres[b] - 5, centres[b] + 5);
+        assert_close(spec[b] / k, want, 1.0); /* counts; quadrature error < 0.5 */
+    }
+    /* the reading's colour is the colour of that spectrum */
+    double xyz[3], rgb[3];
+    assert_int_equal(brdf_colour_spectrum_to_xyz(centres, spec, (size_t)n_bands, xyz, NULL), 0);
+    brdf_colour_xyz_to_srgb_linear(xyz, rgb);
+    for (int ch = 0; ch < 3; ch++)
+        assert_close(r.rgb[ch], rgb[ch], 1e-9 * fabs(rgb[ch]) + 1e-12);
+    drv_detector_free(det);
+    g_object_unref(tb);
+}
+
+static void test_spectrum_31_bands(void **state)
+{
+    (void)state;
+    check_spectrum(400, 31);
+}
+
+static void test_spectrum_35_bands(void **state)
+{
+    (void)state;
+    check_spectrum(390, 35);
+}
+
+/* Open a detector on a recording, acquire, expect failure naming `a` and `b`. */
+static void expect_acquire_failure(const char *recording, const char *a, const char *b,
+                                   drv_detector **keep)
+{
+    struct drv_usbspec_cfg cfg = cfg_default();
+    struct gonio_err err = {0};
+    drv_usbspec *s = drv_usbspec_open(&cfg, &err);
+    if (!s)
+        fail_msg("%s: open: %s", recording, err.msg);
+    drv_detector *det = drv_detector_new_usbspec(s, &cfg, &err);
+    assert_non_null(det);
+    struct drv_reading r;
+    assert_int_equal(drv_detector_acquire(det, 0.1, &r, &err), -GONIO_EDEVICE);
+    assert_int_equal(err.code, GONIO_EDEVICE);
+    fprintf(stderr, "  %s: %s\n", recording, err.msg); /* the operator's view */
+    if (!strstr(err.msg, a) || !strstr(err.msg, b))
+        fail_msg("%s: message '%s' lacks '%s' or '%s'", recording, err.msg, a, b);
+    if (keep)
+        *keep = det;
+    else
+        drv_detector_free(det);
+}
+
+static void test_short_read(void **state)
+{
+    (void)state;
+    UMockdevTestbed *tb = testbed("short_read.ioctl");
+    expect_acquire_failure("short_read.ioctl", "packet 3 of 8",
+                           "short read: 100 of 512 bytes from EP 0x82", NULL);
+    g_object_unref(tb);
+}
+
+static void test_wrong_sync_byte(void **state)
+{
+    (void)state;
+    UMockdevTestbed *tb = testbed("bad_sync.ioctl");
+    expect_acquire_failure("bad_sync.ioctl", "read spectrum", "sync byte 0x00, expected 0x69",
+                           NULL);
+    g_object_unref(tb);
+}
+
+/* The kernel ends the in-flight URB with -ESHUTDOWN when the device goes;
+ * the next call must fail at once instead of touching a dead handle. */
+static void test_unplugged_mid_read(void **state)
+{
+    (void)state;
+    UMockdevTestbed *tb = testbed("unplug.ioctl");
+    drv_detector *det = NULL;
+    expect_acquire_failure("unplug.ioctl", "packet 4 of 8", "device unplugged", &det);
+    struct drv_reading r;
+    struct gonio_err err = {0};
+    assert_int_equal(drv_detector_acquire(det, 0.1, &r, &err), -GONIO_EDEVICE);
+    assert_non_null(strstr(err.msg, "lost earlier"));
+    drv_detector_free(det);
+    g_object_unref(tb);
+}
+
+static void test_bad_calibration_reply(void **state)
+{
+    (void)state;
+    UMockdevTestbed *tb = testbed("bad_calibration.ioctl");
+    struct drv_usbspec_cfg cfg = cfg_default();
+    struct gonio_err err = {0};
+    assert_null(drv_usbspec_open(&cfg, &err));
+    assert_int_equal(err.code, GONIO_EDEVICE);
+    if (!strstr(err.msg, "coefficient 1 (slot 2)") || !strstr(err.msg, "'0.38O5263'"))
+        fail_msg("message: %s", err.msg);
+    g_object_unref(tb);
+}
+
+/* ---- a device that stops answering ----------------------------------- */
+
+/* A scripted USB2000+ on usbdevfs: answers the opening queries and the
+ * status, sends `packets` spectrum packets after a request and then stays
+ * silent; an URB it does not answer stays pending until libusb discards it
+ * (its own timeout), as the kernel does with a silent device. Runs on the
+ * testbed's thread. */
+struct silent_dev {
+    int packets, sent;
+    GQueue done;               /* UMockdevIoctlData of URBs ready to reap */
+    UMockdevIoctlData *pending;
+    unsigned char reply[32];   /* queued EP 0x81 reply */
+    int reply_len;
+};
+
+static void urb_finish(struct silent_dev *d, UMockdevIoctlData *u, const unsigned char *data,
+                       int len, int status)
+{
+    struct usbdevfs_urb *urb = (struct usbdevfs_urb *)u->data;
+    if (len > 0) {
+        GError *e = NULL;
+        UMockdevIoctlData *buf = umockdev_ioctl_data_resolve(
+            u, offsetof(struct usbdevfs_urb, buffer), (gsize)urb->buffer_length, &e);
+        if (buf)
+            umockdev_ioctl_data_update(buf, 0, (guint8 *)data, len);
+    }
+    int fields[2] = {status, len};
+    umockdev_ioctl_data_update(u, offsetof(struct usbdevfs_urb, status), (guint8 *)&fields[0],
+                               sizeof(int));
+    umockdev_ioctl_data_update(u, offsetof(struct usbdevfs_urb, actual_length),
+                               (guint8 *)&fields[1], sizeof(int));
+    g_queue_push_tail(&d->done, g_object_ref(u));
+}
+
+static void on_command(struct silent_dev *d, const unsigned char *c, int len)
+{
+    static const char *coef[4] = {"339.620361", "0.3805263", "-1.953270E-05", "-1.18845E-09"};
+    d->reply_len = 0;
+    if (c[0] == 0x05 && len == 2 && c[1] >= 1 && c[1] <= 4) {
+        memset(d->reply, 0, 17);
+        d->reply[0] = 0x05;
+        d->reply[1] = c[1];
+        memcpy(d->reply + 2, coef[c[1] - 1], strlen(coef[c[1] - 1]));
+        d->reply_len = 17;
+    } else if (c[0] == 0xFE) {
+        static const unsigned char st[16] = {0x00, 0x08, 0xA0, 0x86, 0x01, 0x00, 0, 0,
+                                             0, 9, 1, 0, 0, 0, 0x80, 0};
+        memcpy(d->reply, st, 16);
+        d->reply_len = 16;
+    } else if (c[0] == 0x09) {
+        d->sent = 0;
+    }
+}
+
+static gboolean silent_ioctl(UMockdevIoctlBase *base, UMockdevIoctlClient *client, gpointer p)
+{
+    (void)base;
+    struct silent_dev *d = p;
+    gulong req = umockdev_ioctl_client_get_request(client);
+    UMockdevIoctlData *arg = umockdev_ioctl_client_get_arg(client);
+    GError *e = NULL;
+    if (req == USBDEVFS_SUBMITURB) {
+        UMockdevIoctlData *u = umockdev_ioctl_data_resolve(arg, 0, sizeof(struct usbdevfs_urb),
+                                                           &e);
+        struct usbdevfs_urb *urb = (struct usbdevfs_urb *)u->data;
+        if (!(urb->endpoint & 0x80)) {
+            UMockdevIoctlData *buf = umockdev_ioctl_data_resolve(
+                u, offsetof(struct usbdevfs_urb, buffer), (gsize)urb->buffer_length, &e);
+            on_command(d, buf->data, urb->buffer_length);
+            urb_finish(d, u, NULL, 0, 0);
+            int all = urb->buffer_length;
+            umockdev_ioctl_data_update(u, offsetof(struct usbdevfs_urb, actual_length),
+                                       (guint8 *)&all, sizeof all);
+        } else if (urb->endpoint == 0x81 && d->reply_len) {
+            urb_finish(d, u, d->reply, d->reply_len, 0);
+            d->reply_len = 0;
+        } else if (urb->endpoint == 0x82 && d->sent < d->packets) {
+            unsigned char pk[512];
+            for (int i = 0; i < 512; i++)
+                pk[i] = (unsigned char)(i & 1 ? 0x10 : 0x00);
+            urb_finish(d, u, pk, 512, 0);
+            d->sent++;
+        } else {
+            d->pending = g_object_ref(u); /* silent */
+        }
+        umockdev_ioctl_client_complete(client, 0, 0);
+    } else if (req == USBDEVFS_REAPURB || req == USBDEVFS_REAPURBNDELAY) {
+        UMockdevIoctlData *u = g_queue_pop_head(&d->done);
+        if (!u) {
+            umockdev_ioctl_client_complete(client, -1, EAGAIN);
+            return TRUE;
+        }
+        UMockdevIoctlData *out = umockdev_ioctl_data_resolve(arg, 0, sizeof(void *), &e);
+        umockdev_ioctl_data_set_ptr(out, 0, u);
+        g_object_unref(u);
+        umockdev_ioctl_client_complete(client, 0, 0);
+    } else if (req == USBDEVFS_DISCARDURB) {
+        if (!d->pending) {
+            umockdev_ioctl_client_complete(client, -1, EINVAL);
+            return TRUE;
+        }
+        urb_finish(d, d->pending, NULL, 0, -ENOENT);
+        g_object_unref(d->pending);
+        d->pending = NULL;
+        umockdev_ioctl_client_complete(client, 0, 0);
+    } else { /* claim/release interface, capabilities: accepted */
+        umockdev_ioctl_client_complete(client, 0, 0);
+    }
+    return TRUE;
+}
+
+static void check_timeout(int packets, const char *step)
+{
+    UMockdevTestbed *tb = testbed(NULL);
+    struct silent_dev dev = {.packets = packets};
+    g_queue_init(&dev.done);
+    UMockdevIoctlBase *handler = umockdev_ioctl_base_new();
+    g_signal_connect(handler, "handle-ioctl", G_CALLBACK(silent_ioctl), &dev);
+    GError *e = NULL;
+    if (!umockdev_testbed_attach_ioctl(tb, DEVNODE, handler, &e))
+        fail_msg("attach: %s", e->message);
+    timeout_s = 0.5;
+    expect_acquire_failure("silent device", step, "timed out", NULL);
+    timeout_s = 2.0;
+    g_object_unref(tb);
+    g_object_unref(handler);
+    while (!g_queue_is_empty(&dev.done))
+        g_object_unref(g_queue_pop_head(&dev.done));
+}
+
+static void test_timeout_before_first_packet(void **state)
+{
+    (void)state;
+    check_timeout(0, "packet 1 of 8");
+}
+
+static void test_timeout_waiting_for_sync_byte(void **state)
+{
+    (void)state;
+    check_timeout(8, "sync byte");
+}
+
+/* ---- resampling alone -------------------------------------------------- */
+
+static void test_resample_flat_and_bounds(void **state)
+{
+    (void)state;
+    double lam[100], v[100], out[3];
+    for (int p = 0; p < 100; p++) {
+        lam[p] = 400 + 0.3 * p + 0.001 * p * p; /* uneven spacing */
+        v[p] = 7;
+    }
+    double centres[3] = {405, 410, 420};
+    assert_int_equal(drv_usbspec_resample(lam, v, 100, centres, 3, 10, out, NULL), 0);
+    for (int b = 0; b < 3; b++)
+        assert_close(out[b], 7, 1e-12);
+    double beyond[1] = {440}; /* 435-445 nm: the pixels end near 439.6 nm */
+    struct gonio_err err = {0};
+    assert_int_equal(drv_usbspec_resample(lam, v, 100, beyond, 1, 10, out, &err),
+                     -GONIO_EBADDATA);
+    assert_non_null(strstr(err.msg, "beyond"));
+    lam[50] = lam[49];
+    assert_int_equal(drv_usbspec_resample(lam, v, 100, centres, 1, 10, out, &err),
+                     -GONIO_EBADDATA);
+    assert_non_null(strstr(err.msg, "pixel 50"));
+}
+
+int main(void)
+{
+    /* umockdev_in_mock_environment() answers 0 under the wrapper in
+     * umockdev 0.17.16, so look for the preload library itself */
+    const char *preload = getenv("LD_PRELOAD");
+    if (!preload || !strstr(preload, "libumockdev-preload")) {
+        fprintf(stderr, "SKIPPED: run under umockdev-wrapper (ctest does)\n");
+        return 77;
+    }
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_resample_flat_and_bounds),
+        cmocka_unit_test(test_open_reads_calibration),
+        cmocka_unit_test(test_other_serial_is_not_opened),
+        cmocka_unit_test(test_spectrum_31_bands),
+        cmocka_unit_test(test_spectrum_35_bands),
+        cmocka_unit_test(test_short_read),
+        cmocka_unit_test(test_wrong_sync_byte),
+        cmocka_unit_test(test_unplugged_mid_read),
+        cmocka_unit_test(test_bad_calibration_reply),
+        cmocka_unit_test(test_timeout_before_first_packet),
+        cmocka_unit_test(test_timeout_waiting_for_sync_byte),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
