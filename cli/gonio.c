@@ -24,6 +24,8 @@ static const struct {
     {"export", cmd_export, "export a material as a MERL .binary table"},
     {"results", cmd_results, "tabulate the results of capture directories"},
     {"train-decoder", cmd_train_decoder, "train the latent model's decoder (docs/latent.md)"},
+    {"report", cmd_report, "a study's self-contained HTML report (docs/report.md)"},
+    {"plot", cmd_plot, "one figure as SVG or PNG: slices, pareto, bars (docs/report.md)"},
 };
 
 static void usage(FILE *out)
