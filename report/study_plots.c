@@ -114,7 +114,7 @@ int report_plot_pareto(const struct report_results *r, const struct report_plot_
         width = 560; /* room for the title and legend with one panel */
     double leg_h = plot_legend_height(width - LEFT - RIGHT, le, nl);
     double first = 40 + leg_h + 30;
-    double height = first + (double)rows * ph + (double)(rows - 1) * GAP_Y + 52;
+    double height = first + (double)rows * ph + (double)(rows - 1) * GAP_Y + 72;
     svg_doc *s = svg_new(width, height, id_prefix);
     if (!s)
         return gonio_err_set(err, GONIO_EFIT, "pareto: out of memory");
@@ -217,7 +217,10 @@ int report_plot_bars(const struct report_results *r, const struct report_plot_op
                              "bars: no row of scene '%s' has a %s on the %s domain", scene,
                              report_metric_name(o->metric), report_domain_name(o->domain));
     size_t np = r->plans.n, nm = r->models.n;
-    double group_w = 14.0 * (double)nm + 14; /* bars of 14 units, a gap between groups */
+    /* Bars of 14 units and a gap between groups, wide enough for the name. */
+    double group_w = 14.0 * (double)nm + 14;
+    for (size_t p = 0; p < np; p++)
+        group_w = fmax(group_w, 0.62 * PLOT_FONT_SMALL * (double)strlen(r->plans.name[p]) + 12);
     double pw = fmax(220, group_w * (double)np), ph = 190;
     size_t cols, rows;
     plot_grid(n_mat, pw > 400 ? 2 : MAX_COLS, &cols, &rows);
@@ -229,7 +232,7 @@ int report_plot_bars(const struct report_results *r, const struct report_plot_op
                                               {plot_color(k), 0, NULL, SVG_SQUARE, 11, 0}};
     double leg_h = plot_legend_height(width - LEFT - RIGHT, le, nl);
     double first = 40 + leg_h + 30;
-    double height = first + (double)rows * ph + (double)(rows - 1) * GAP_Y + 52;
+    double height = first + (double)rows * ph + (double)(rows - 1) * GAP_Y + 72;
     svg_doc *s = svg_new(width, height, id_prefix);
     if (!s)
         return gonio_err_set(err, GONIO_EFIT, "bars: out of memory");
