@@ -112,21 +112,76 @@ static int load_slaves(const struct cfg_doc *d, const struct cfg_node *drv,
     return 0;
 }
 
+/* A USB id: a number 0-0xffff, hex with 0x as lsusb prints them. */
+static int usb_id(const struct cfg_doc *d, const struct cfg_node *map, const char *key, int *out,
+                  struct gonio_err *err)
+{
+    const char *s = NULL;
+    int rc = cfg_string(d, map, key, CFG_OPTIONAL, &s, err);
+    if (rc < 0 || !s)
+        return rc;
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 0);
+    if (end == s || *end || errno || v < 0 || v > 0xffff)
+        return cfg_error(d, cfg_get(d, map, key), key, err,
+                         "must be a USB id 0x0000-0xffff (value '%.40s')", s);
+    *out = (int)v;
+    return 0;
+}
+
+/* detector: {kind: modbus} (the detector slave) or {kind: usb-spectrometer,
+ * vendor, product, serial, bands, scale, timeout_s}. */
+static int load_detector(const struct cfg_doc *d, const struct cfg_node *drv,
+                         struct goniod_config *cfg, struct gonio_err *err)
+{
+    static const char *const kinds[] = {"modbus", "usb-spectrometer", NULL};
+    static const char *const bands[] = {"400-700", "390-730", NULL};
+    static const char *const keys[] = {"kind",  "vendor", "product",   "serial",
+                                       "bands", "scale",  "timeout_s", NULL};
+    const struct cfg_node *m;
+    int rc = cfg_map(d, drv, "detector", CFG_OPTIONAL, &m, err), kind = 0;
+    if (rc < 0 || !m)
+        return rc;
+    if ((rc = cfg_enum(d, m, "kind", CFG_REQUIRED, kinds, &kind, err)) < 0)
+        return rc;
+    cfg->detector = (enum goniod_detector)kind;
+    if (cfg->detector == GONIOD_DETECTOR_MODBUS)
+        return cfg_check_keys(d, m, "detector", (const char *const[]){"kind", NULL}, err);
+    if ((rc = cfg_check_keys(d, m, "detector", keys, err)) < 0 ||
+        (rc = usb_id(d, m, "vendor", &cfg->usb.vendor, err)) < 0 ||
+        (rc = usb_id(d, m, "product", &cfg->usb.product, err)) < 0 ||
+        (rc = copy_string(d, m, "serial", CFG_OPTIONAL, cfg->usb.serial, sizeof cfg->usb.serial,
+                          err)) < 0 ||
+        (rc = cfg_enum(d, m, "bands", CFG_OPTIONAL, bands, &cfg->usb.bands_390, err)) < 0 ||
+        (rc = cfg_double(d, m, "scale", CFG_OPTIONAL, 1e-30, 1e30, &cfg->usb.scale, err)) < 0 ||
+        (rc = cfg_double(d, m, "timeout_s", CFG_OPTIONAL, 0.01, 60, &cfg->usb.timeout_s, err)) <
+            0)
+        return rc;
+    for (const char *c = cfg->usb.serial; *c; c++) /* printed back quoted by --check */
+        if (*c < 0x21 || *c > 0x7e || *c == '"' || *c == '\\')
+            return cfg_error(d, cfg_get(d, m, "serial"), "serial", err,
+                             "printable ASCII without spaces or quotes (value '%.40s')",
+                             cfg->usb.serial);
+    return 0;
+}
+
 static int load_modbus(const struct cfg_doc *d, const struct cfg_node *drv,
                        struct goniod_config *cfg, struct gonio_err *err)
 {
     static const char *const rtu_keys[] = {"kind",     "device",        "baud",
                                            "parity",   "data_bits",     "stop_bits",
                                            "slaves",   "steps_per_deg", "time_scale",
-                                           "timeout_s", NULL};
+                                           "timeout_s", "detector", NULL};
     static const char *const tcp_keys[] = {"kind",          "host",       "port",
                                            "slaves",        "steps_per_deg",
-                                           "time_scale",    "timeout_s",  NULL};
+                                           "time_scale",    "timeout_s",  "detector",
+                                           NULL};
     static const char *const parities[] = {"none", "even", "odd", NULL};
     int rtu = cfg->driver == GONIOD_DRIVER_MODBUS_RTU, rc;
     long v;
     if ((rc = cfg_check_keys(d, drv, "driver", rtu ? rtu_keys : tcp_keys, err)) < 0 ||
-        (rc = load_slaves(d, drv, cfg, err)) < 0 ||
+        (rc = load_slaves(d, drv, cfg, err)) < 0 || (rc = load_detector(d, drv, cfg, err)) < 0 ||
         (rc = cfg_double(d, drv, "steps_per_deg", CFG_OPTIONAL, 1e-3, 1e7, &cfg->steps_per_deg,
                          err)) < 0 ||
         (rc = cfg_double(d, drv, "time_scale", CFG_OPTIONAL, 1e-3, 1e4, &cfg->time_scale,
@@ -199,6 +254,8 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
     cfg->steps_per_deg = 100;
     cfg->time_scale = 1;
     cfg->timeout_s = 0.5;
+    cfg->usb = (struct goniod_usb_detector){.vendor = 0x2457, .product = 0x101e, .scale = 1,
+                                            .timeout_s = 1};
     cfg->max_clients = 16;
     cfg->idle_timeout_s = 600;
     cfg->max_queue_kib = 4096;
@@ -256,6 +313,15 @@ void goniod_config_print(FILE *out, const struct goniod_config *c)
                 c->slaves.sample, c->slaves.arm, c->slaves.azimuth, c->slaves.detector);
         fprintf(out, "  steps_per_deg: %g\n  time_scale: %g\n  timeout_s: %g\n",
                 c->steps_per_deg, c->time_scale, c->timeout_s);
+        if (c->detector == GONIOD_DETECTOR_USB) {
+            fprintf(out, "  detector:\n    kind: usb-spectrometer\n    vendor: 0x%04x\n"
+                         "    product: 0x%04x\n",
+                    c->usb.vendor, c->usb.product);
+            if (c->usb.serial[0])
+                fprintf(out, "    serial: \"%s\"\n", c->usb.serial);
+            fprintf(out, "    bands: %s\n    scale: %.17g\n    timeout_s: %g\n",
+                    c->usb.bands_390 ? "390-730" : "400-700", c->usb.scale, c->usb.timeout_s);
+        }
     }
     fprintf(out, "capture_root: %s\n", c->capture_root);
     fprintf(out, "socket:\n  path: %s\n", c->socket_path);

@@ -15,6 +15,18 @@ struct goniod_slaves {
     int sample, arm, azimuth, detector; /* Modbus slave ids; azimuth 0: none */
 };
 
+/* The detector of a Modbus rig: the detector slave on the bus, or a USB
+ * spectrometer (drivers/drv_usbspec.h; docs/usb-spectrometer.md). */
+enum goniod_detector { GONIOD_DETECTOR_MODBUS, GONIOD_DETECTOR_USB };
+
+struct goniod_usb_detector {
+    int vendor, product;     /* USB ids */
+    char serial[64];         /* "" : the first device with these ids */
+    int bands_390;           /* 1: 35 bands 390-730 nm; 0: 31 bands 400-700 nm */
+    double scale;            /* BRDF (1/sr) per dark-corrected count per second */
+    double timeout_s;        /* per USB transfer beyond the integration */
+};
+
 struct goniod_config {
     char path[1024];
     char rig[1024];          /* rig profile name or path */
@@ -32,6 +44,8 @@ struct goniod_config {
     int port;
     /* both Modbus kinds */
     struct goniod_slaves slaves;
+    enum goniod_detector detector;
+    struct goniod_usb_detector usb;
     double steps_per_deg, time_scale, timeout_s;
     /* files and socket */
     char capture_root[1024];

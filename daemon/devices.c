@@ -1,11 +1,44 @@
 #include "daemon/devices.h"
 
+#include <errno.h>
 #include <string.h>
 
 #include "drivers/drivers.h"
 
 #ifdef GONIOD_HAVE_MODBUS
 #include "drivers/drv_modbus.h"
+#ifdef GONIOD_HAVE_USB
+#include "drivers/drv_usbspec.h"
+#endif
+
+/* The USB spectrometer as the rig's detector; its clock is wall time. */
+static int open_usb_detector(const struct goniod_config *cfg, struct capture_devices *dev,
+                             struct gonio_err *err)
+{
+#ifdef GONIOD_HAVE_USB
+    struct drv_usbspec_cfg uc;
+    drv_usbspec_cfg_default(&uc);
+    uc.vendor = cfg->usb.vendor;
+    uc.product = cfg->usb.product;
+    uc.serial = cfg->usb.serial;
+    uc.timeout_s = cfg->usb.timeout_s;
+    uc.scale = cfg->usb.scale;
+    if (cfg->usb.bands_390) {
+        uc.first_nm = 390;
+        uc.n_bands = 35;
+    }
+    drv_usbspec *s = drv_usbspec_open(&uc, err);
+    if (!s || !(dev->detector = drv_detector_new_usbspec(s, &uc, err)))
+        return -GONIO_EDEVICE;
+    if (!(dev->clock = drv_clock_new_wall()))
+        return gonio_err_set(err, ENOMEM, "wall clock: out of memory");
+    return 0;
+#else
+    (void)dev;
+    return gonio_err_set(err, GONIO_EDEVICE, "%s: detector 'usb-spectrometer': this goniod was "
+                         "built without the USB backend (drivers/drv_usbspec.c)", cfg->path);
+#endif
+}
 
 int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *rig,
                         struct capture_devices *dev, void **bus_out, struct gonio_err *err)
@@ -39,10 +72,14 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *
     if (dev->arm && cfg->slaves.azimuth && rig->out_of_plane)
         dev->azimuth = drv_axis_new_modbus(bus, cfg->slaves.azimuth, &rig->azimuth, &opts,
                                            "azimuth", err);
-    if (dev->arm && (dev->azimuth || !cfg->slaves.azimuth || !rig->out_of_plane))
+    int axes_ok = dev->arm && (dev->azimuth || !cfg->slaves.azimuth || !rig->out_of_plane);
+    if (axes_ok && cfg->detector == GONIOD_DETECTOR_USB) {
+        open_usb_detector(cfg, dev, err);
+    } else if (axes_ok) {
         dev->detector = drv_detector_new_modbus(bus, cfg->slaves.detector, err);
-    if (dev->detector)
-        dev->clock = drv_clock_new_modbus(bus, cfg->slaves.detector, err);
+        if (dev->detector)
+            dev->clock = drv_clock_new_modbus(bus, cfg->slaves.detector, err);
+    }
     if (!dev->clock) {
         goniod_devices_close(dev, bus);
         return -(err && err->code ? err->code : GONIO_EDEVICE);

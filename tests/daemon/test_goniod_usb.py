@@ -1,0 +1,155 @@
+#!/usr/bin/python3
+"""goniod with a USB spectrometer as its detector (docs/usb-spectrometer.md):
+the config keys, and a capture on gonio-sim's axes (Modbus TCP) with the
+spectrometer replayed by umockdev-run from the driver tests' recording.
+
+Run from ctest, or by hand like test_goniod.py (whose helpers it uses).
+"""
+import math
+import os
+import shutil
+import subprocess
+import sys
+import unittest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import test_goniod as g  # noqa: E402
+
+USB_DATA = os.path.join(g.SOURCE, "tests", "unit", "drivers", "usb")
+UMOCKDEV_RUN = shutil.which("umockdev-run")
+
+
+class UsbConfigTests(unittest.TestCase):
+    DRIVER = ("rig: default\n"
+              "driver:\n  kind: modbus-tcp\n  host: 127.0.0.1\n"
+              "  detector: {kind: usb-spectrometer, vendor: 0x2457, product: 0x101E,\n"
+              "             serial: USB2+F01234, bands: 390-730, scale: 2.5e-5}\n"
+              "capture_root: caps\n"
+              "socket:\n  path: g.sock\n")
+
+    setUp = g.CheckTests.setUp
+    tearDown = g.CheckTests.tearDown
+    check = g.CheckTests.check
+    bad = g.CheckTests.bad
+
+    def test_resolved_and_round_trip(self):
+        path, r = self.check(self.DRIVER)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        for line in ("    kind: usb-spectrometer\n", "    vendor: 0x2457\n",
+                     "    product: 0x101e\n", '    serial: "USB2+F01234"\n',
+                     "    bands: 390-730\n", "    timeout_s: 1\n"):
+            self.assertIn(line, r.stdout)
+        path2, r2 = self.check(r.stdout)
+        self.assertEqual(r2.returncode, 0, r2.stderr)
+        strip = lambda s: "\n".join(l for l in s.splitlines() if not l.startswith("#"))
+        self.assertEqual(strip(r2.stdout), strip(r.stdout))
+
+    def test_shipped_config(self):
+        path = os.path.join(g.SOURCE, "configs", "goniod", "modbus-rtu-usb-spectrometer.yaml")
+        r = subprocess.run([g.GONIOD, "--config", path, "--check"], capture_output=True,
+                           text=True, timeout=20)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("kind: usb-spectrometer", r.stdout)
+
+    def test_bad_values(self):
+        text = self.DRIVER.replace("{kind: usb-spectrometer, vendor: 0x2457, product: 0x101E,\n"
+                                   "             serial: USB2+F01234, bands: 390-730, "
+                                   "scale: 2.5e-5}",
+                                   "\n    kind: usb-spectrometer\n    product: 0x12345\n")
+        self.bad(text, "product", "must be a USB id 0x0000-0xffff (value '0x12345')")
+        self.bad(text.replace("product: 0x12345", "bands: 380-780"), "bands", "380-780")
+        self.bad(text.replace("product: 0x12345", "serial: \"a b\""), "serial",
+                 "printable ASCII")
+        self.bad(text.replace("product: 0x12345", "colour: blue"), "colour", "colour")
+        # the detector's kind (line 6), not the driver's (line 3)
+        path, r = self.check(text.replace("kind: usb-spectrometer", "kind: camera")
+                             .replace("    product: 0x12345\n", ""))
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("%s:6:11: key 'kind'" % path, r.stderr)
+        self.assertIn("camera", r.stderr)
+
+
+@unittest.skipUnless(UMOCKDEV_RUN, "umockdev-run not installed")
+class UsbCaptureTests(unittest.TestCase):
+    """A 4-point capture: axes on gonio-sim, every reading from the replayed
+    USB2000+ (the recording answers each spectrum request the same way)."""
+    SIM = g.ModbusTests.SIM
+    setUp = g.ModbusTests.setUp
+
+    def tearDown(self):
+        if self.d and self.d.alive():
+            self.d.proc.kill()
+            self.d.proc.wait()
+        g.ModbusTests.tearDown(self)
+
+    def start(self, recording):
+        cap = os.path.join(self.folder, "cap")
+        os.makedirs(cap)
+        rig = open(os.path.join(g.SOURCE, "configs", "rigs", "default.yaml")).read()
+        rig = rig.replace("settle_s: 0.3", "settle_s: 0.01").replace("fixed_s: 0.05",
+                                                                       "fixed_s: 0.1")
+        with open(os.path.join(cap, "fast.yaml"), "w") as f:
+            f.write(rig)
+        with open(os.path.join(cap, "tiny.yaml"), "w") as f:
+            f.write("name: tiny\npairs:\n  - [15, 0]\n  - [15, 30]\n  - [45, -30]\n"
+                    "  - [45, 40]\norder: as-written\n")
+        # goniod runs inside umockdev-run's testbed, which serves the recording
+        wrapper = os.path.join(self.folder, "goniod-usb")
+        with open(wrapper, "w") as f:
+            f.write("#!/bin/sh\nexec %s --device %s --ioctl /dev/bus/usb/001/005=%s -- %s \"$@\"\n"
+                    % (UMOCKDEV_RUN, os.path.join(USB_DATA, "usb2000plus.umockdev"),
+                       os.path.join(USB_DATA, recording), os.path.abspath(g.GONIOD)))
+        os.chmod(wrapper, 0o755)
+        self.d = g.Daemon(self.folder, driver=(
+            "  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n  time_scale: 1000\n"
+            "  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
+            "  detector: {kind: usb-spectrometer, serial: USB2+F01234, timeout_s: 2}\n"
+            % self.port))
+        saved = g.GONIOD
+        g.GONIOD = wrapper
+        try:
+            self.d.start()
+        finally:
+            g.GONIOD = saved
+        c = self.d.connect()
+        c.request("watch")
+        return c
+
+    def finish(self, c):
+        """shutdown over the socket: umockdev-run passes no signal on."""
+        c.request("shutdown")
+        rc = self.d.proc.wait(timeout=20)
+        with open(self.d.log) as f:
+            self.assertEqual(rc, 0, f.read()[-2000:])
+
+    def test_capture_reads_the_spectrometer(self):
+        c = self.start("spectrum.ioctl")
+        self.assertEqual(c.request("capture", plan="tiny.yaml", rig="fast.yaml",
+                                   name="usb")["class"], "OK")
+        stop = c.until_stop("usb")[-1]
+        self.assertEqual(stop["reason"], "complete", stop)
+        got = g.read_samples(os.path.join(self.d.root, "usb", "samples.csv"))
+        self.assertEqual(sorted(got), [0, 1, 2, 3])
+        # one recorded spectrum, replayed at every point: one colour, a
+        # lamp-lit white tile's (all channels positive, red above blue)
+        first = got[0]
+        for p in got:
+            self.assertEqual(got[p], first)
+        self.assertTrue(all(v > 0 and math.isfinite(v) for v in first), first)
+        self.assertGreater(first[0], first[2])
+        self.finish(c)
+
+    def test_unplugged_device_fails_the_capture(self):
+        c = self.start("unplug.ioctl")
+        self.assertEqual(c.request("capture", plan="tiny.yaml", rig="fast.yaml",
+                                   name="gone")["class"], "OK")
+        stop = c.until_stop("gone")[-1]
+        self.assertEqual(stop["exit_status"], "fail", stop)
+        self.assertIn("usb spectrometer 2457:101e (serial USB2+F01234): read spectrum: "
+                      "packet 4 of 8: device unplugged", stop["message"])
+        self.assertEqual(c.request("status")["state"], "idle")
+        self.finish(c)
+
+
+if __name__ == "__main__":
+    unittest.main()
