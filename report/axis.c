@@ -47,7 +47,7 @@ static void label_power(char *out, int mantissa, int e)
         snprintf(out, PLOT_LABEL_MAX, "%g", mantissa * pow(10.0, e));
         return;
     }
-    char exp[64] = "";
+    char exp[16] = ""; /* "⁻" and up to three digits, 3 bytes each */
     int a = e < 0 ? -e : e;
     if (e < 0)
         strcat(exp, "⁻");
@@ -56,9 +56,9 @@ static void label_power(char *out, int mantissa, int e)
     for (const char *d = digits; *d; d++)
         strcat(exp, sup[*d - '0']);
     if (mantissa == 1)
-        snprintf(out, PLOT_LABEL_MAX, "10%s", exp);
+        snprintf(out, PLOT_LABEL_MAX, "10%.13s", exp);
     else
-        snprintf(out, PLOT_LABEL_MAX, "%d×10%s", mantissa, exp);
+        snprintf(out, PLOT_LABEL_MAX, "%d×10%.13s", mantissa, exp);
 }
 
 static int fit_linear(struct plot_axis *a, double lo, double hi, int max_ticks, int fixed)

@@ -14,7 +14,7 @@
 enum plot_scale { PLOT_LINEAR, PLOT_LOG, PLOT_DURATION };
 
 #define PLOT_TICKS_MAX 40
-#define PLOT_LABEL_MAX 24
+#define PLOT_LABEL_MAX 32
 
 struct plot_axis {
     enum plot_scale scale;
