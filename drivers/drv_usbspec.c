@@ -103,6 +103,8 @@ static int bulk(drv_usbspec *s, unsigned char ep, unsigned char *data, int len, 
     if (s->lost)
         return gonio_err_set(err, GONIO_EDEVICE, "%s: %s: the device was lost earlier",
                              s->who, step);
+    if (len < 1 || len > (int)sizeof s->buf || want > len)
+        return gonio_err_set(err, EINVAL, "%s: %s: transfer of %d bytes", s->who, step, len);
     struct libusb_transfer *t = libusb_alloc_transfer(0);
     if (!t)
         return gonio_err_set(err, ENOMEM, "%s: %s: out of memory", s->who, step);

@@ -96,7 +96,10 @@ class UsbCaptureTests(unittest.TestCase):
         # goniod runs inside umockdev-run's testbed, which serves the recording
         wrapper = os.path.join(self.folder, "goniod-usb")
         with open(wrapper, "w") as f:
-            f.write("#!/bin/sh\nexec %s --device %s --ioctl /dev/bus/usb/001/005=%s -- %s \"$@\"\n"
+            # (a sanitized goniod: the preload comes before ASan's runtime)
+            f.write("#!/bin/sh\nASAN_OPTIONS=${ASAN_OPTIONS:+$ASAN_OPTIONS:}"
+                    "verify_asan_link_order=0 exec %s --device %s "
+                    "--ioctl /dev/bus/usb/001/005=%s -- %s \"$@\"\n"
                     % (UMOCKDEV_RUN, os.path.join(USB_DATA, "usb2000plus.umockdev"),
                        os.path.join(USB_DATA, recording), os.path.abspath(g.GONIOD)))
         os.chmod(wrapper, 0o755)

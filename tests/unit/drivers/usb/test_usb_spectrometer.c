@@ -1,7 +1,8 @@
 /* The USB spectrometer driver against replayed USB traffic (umockdev).
  *
- * Runs under umockdev-wrapper (the LD_PRELOAD library that routes /sys,
- * /dev and usbdevfs ioctls into a testbed). Each test builds a testbed from
+ * Runs with libumockdev-preload in LD_PRELOAD (ctest sets it; by hand:
+ * umockdev-wrapper build/tests/test_usb_spectrometer), the library that
+ * routes /sys, /dev and usbdevfs ioctls into a testbed. Each test builds a testbed from
  * usb2000plus.umockdev and replays one .ioctl recording of this folder
  * (make_recordings.py wrote them): libusb, and so the driver, see a
  * USB2000+ on bus 1 as device 5. The timeout tests need a device that
@@ -475,7 +476,8 @@ int main(void)
      * umockdev 0.17.16, so look for the preload library itself */
     const char *preload = getenv("LD_PRELOAD");
     if (!preload || !strstr(preload, "libumockdev-preload")) {
-        fprintf(stderr, "SKIPPED: run under umockdev-wrapper (ctest does)\n");
+        fprintf(stderr, "SKIPPED: needs libumockdev-preload in LD_PRELOAD (ctest sets it; "
+                        "or run through umockdev-wrapper)\n");
         return 77;
     }
     const struct CMUnitTest tests[] = {
