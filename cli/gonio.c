@@ -26,6 +26,7 @@ static const struct {
     {"train-decoder", cmd_train_decoder, "train the latent model's decoder (docs/latent.md)"},
     {"report", cmd_report, "a study's self-contained HTML report (docs/report.md)"},
     {"plot", cmd_plot, "one figure as SVG or PNG: slices, pareto, bars (docs/report.md)"},
+    {"render", cmd_render, "render materials and fitted models on a lit sphere (EXR, PNG)"},
 };
 
 static void usage(FILE *out)

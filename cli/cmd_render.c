@@ -1,0 +1,152 @@
+/* gonio render: materials (ground truth or fitted models) on a lit sphere,
+ * written as linear OpenEXR and sRGB PNG (docs/render.md). Everything is
+ * checked (scene, every material) before the output directory is made. */
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "brdf/material.h"
+#include "cli/commands.h"
+#include "fit/model_file.h"
+#include "render/output.h"
+#include "render/render.h"
+#include "render/scene.h"
+
+#define MAX_ITEMS 64
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: gonio render --material SPEC [--material SPEC ...] [OPTIONS] --out DIR\n"
+            "       gonio render --grid --truth SPEC --model SPEC [--model SPEC ...]\n"
+            "                    [--label TEXT ...] [--columns N] [OPTIONS] --out DIR\n"
+            "  SPEC: nbrdf:NAME, abc:NAME, sgd:NAME, merl:FILE, builtin:NAME, spectral:NAME,\n"
+            "        default or model:FILE (a fitted model)\n"
+            "  --scene FILE|NAME  render scene (configs/render/NAME.yaml; default: 'default')\n"
+            "  --size N           pixels per side of each image (%d..%d, default 256)\n"
+            "  --label TEXT       with --grid: the label of the next --model (in order)\n"
+            "  --quiet            no progress lines\n"
+            "Writes DIR/NAME.exr (linear RGB), DIR/NAME.png (sRGB), DIR/render.json, and with\n"
+            "--grid DIR/grid.exr and DIR/grid.png (truth first, then each model).\n",
+            RENDER_MIN_SIZE, RENDER_MAX_SIZE);
+}
+
+static int bad(const char *msg, const char *value)
+{
+    fprintf(stderr, "gonio render: %s%s%s\n", msg, value ? ": " : "", value ? value : "");
+    usage(stderr);
+    return 2;
+}
+
+int cmd_render(int argc, char **argv)
+{
+    static const struct option opts[] = {
+        {"material", required_argument, NULL, 'm'}, {"truth", required_argument, NULL, 't'},
+        {"model", required_argument, NULL, 'M'},    {"label", required_argument, NULL, 'l'},
+        {"grid", no_argument, NULL, 'g'},           {"columns", required_argument, NULL, 'c'},
+        {"scene", required_argument, NULL, 's'},    {"size", required_argument, NULL, 'n'},
+        {"out", required_argument, NULL, 'o'},      {"quiet", no_argument, NULL, 'q'},
+        {"help", no_argument, NULL, 'h'},           {NULL, 0, NULL, 0},
+    };
+    const char *specs[MAX_ITEMS], *labels[MAX_ITEMS] = {0}, *truth = NULL, *scene_arg = NULL,
+                                  *out = NULL;
+    const char *models[MAX_ITEMS], *model_labels[MAX_ITEMS] = {0};
+    int n_specs = 0, n_models = 0, n_labels = 0, grid = 0, quiet = 0;
+    long size = 256, columns = 0;
+    char *end;
+    optind = 1;
+    int c;
+    while ((c = getopt_long(argc, argv, "m:o:h", opts, NULL)) != -1) {
+        switch (c) {
+        case 'm':
+            if (n_specs == MAX_ITEMS)
+                return bad("too many --material (at most 64)", optarg);
+            specs[n_specs++] = optarg;
+            break;
+        case 'M':
+            if (n_models == MAX_ITEMS - 1)
+                return bad("too many --model (at most 63)", optarg);
+            models[n_models++] = optarg;
+            break;
+        case 'l':
+            if (n_labels == MAX_ITEMS - 1)
+                return bad("too many --label (at most 63)", optarg);
+            model_labels[n_labels++] = optarg;
+            break;
+        case 't': truth = optarg; break;
+        case 'g': grid = 1; break;
+        case 's': scene_arg = optarg; break;
+        case 'o': out = optarg; break;
+        case 'q': quiet = 1; break;
+        case 'n':
+            size = strtol(optarg, &end, 10);
+            if (*end || end == optarg || size < RENDER_MIN_SIZE || size > RENDER_MAX_SIZE)
+                return bad("--size must be an integer in 8..4096, not", optarg);
+            break;
+        case 'c':
+            columns = strtol(optarg, &end, 10);
+            if (*end || end == optarg || columns < 1 || columns > MAX_ITEMS)
+                return bad("--columns must be an integer in 1..64, not", optarg);
+            break;
+        case 'h': usage(stdout); return 0;
+        default: usage(stderr); return 2;
+        }
+    }
+    if (optind != argc)
+        return bad("unexpected argument", argv[optind]);
+    if (!out)
+        return bad("--out DIR is required", NULL);
+    if (grid) {
+        if (!truth || !n_models)
+            return bad("--grid needs --truth SPEC and at least one --model SPEC", NULL);
+        if (n_specs)
+            return bad("--material does not go with --grid (use --truth and --model)", NULL);
+        if (n_labels > n_models)
+            return bad("more --label than --model", model_labels[n_labels - 1]);
+        specs[0] = truth;
+        labels[0] = "truth";
+        for (int i = 0; i < n_models; i++) {
+            specs[1 + i] = models[i];
+            labels[1 + i] = model_labels[i];
+        }
+        n_specs = 1 + n_models;
+    } else {
+        if (truth || n_models || n_labels || columns)
+            return bad("--truth, --model, --label and --columns need --grid", NULL);
+        if (!n_specs)
+            return bad("name at least one --material SPEC", NULL);
+    }
+
+    struct gonio_err err = {0};
+    struct render_scene sc;
+    int rc = render_scene_load(scene_arg ? scene_arg : "default", &sc, &err);
+    if (rc < 0) {
+        fprintf(stderr, "gonio render: %s\n", err.msg);
+        return gonio_exit_status(err.code);
+    }
+    struct render_item items[MAX_ITEMS];
+    brdf_material *mats[MAX_ITEMS] = {0};
+    int status = 0;
+    for (int i = 0; i < n_specs; i++) {
+        mats[i] = fit_material_open(specs[i], &err); /* model:FILE too */
+        if (!mats[i]) {
+            fprintf(stderr, "gonio render: %s\n", err.msg);
+            status = gonio_exit_status(err.code);
+            goto done;
+        }
+        items[i] = (struct render_item){specs[i], labels[i], mats[i]};
+    }
+    struct render_set_options o = {(int)size, grid, (int)columns, quiet ? NULL : stderr};
+    if (render_write_set(out, &sc, items, n_specs, &o, &err) < 0) {
+        fprintf(stderr, "gonio render: %s\n", err.msg);
+        status = gonio_exit_status(err.code);
+        goto done;
+    }
+    printf("wrote %d image%s%s to %s (scene %s)\n", n_specs, n_specs == 1 ? "" : "s",
+           grid ? " and grid.exr/grid.png" : "", out, sc.name);
+done:
+    for (int i = 0; i < n_specs; i++)
+        brdf_material_free(mats[i]);
+    return status;
+}
