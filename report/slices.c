@@ -60,7 +60,7 @@ int report_slices_theta_i(const struct report_slices *in, double *out, struct go
         return 6;
     }
     /* The distinct planned theta_i of the samples (rounded to 0.5 degree). */
-    double *t = malloc(in->n_samples * sizeof *t);
+    double *t = malloc((in->n_samples + 6) * sizeof *t);
     if (!t)
         return gonio_err_set(err, GONIO_EFIT, "out of memory");
     size_t n = 0;
@@ -73,7 +73,21 @@ int report_slices_theta_i(const struct report_slices *in, double *out, struct go
         if (!m || t[i] - t[m - 1] > SAMPLE_TOL_DEG)
             t[m++] = t[i];
     int k = 0;
-    if (m <= 6) {
+    if (m < 3) {
+        /* One or two incidences (a six-pair plan): show them among the
+         * standard ones, so the figure also shows how the models
+         * extrapolate to the incidences that were not measured. */
+        for (int i = 0; i < 6; i++) {
+            int dup = 0;
+            for (size_t j = 0; j < m; j++)
+                dup |= fabs(t[j] - 15.0 * i) <= SAMPLE_TOL_DEG;
+            if (!dup)
+                t[m++] = 15.0 * i;
+        }
+        qsort(t, m, sizeof *t, cmp_double);
+        for (size_t i = 0; i < m; i++)
+            out[k++] = t[i];
+    } else if (m <= 6) {
         for (size_t i = 0; i < m; i++)
             out[k++] = t[i];
     } else {
@@ -199,6 +213,8 @@ int report_plot_slices(const struct report_slices *in, const char *id_prefix, ch
     size_t cols, rows;
     plot_grid((size_t)np, MAX_COLS, &cols, &rows);
     double width = LEFT + (double)cols * PANEL_W + (double)(cols - 1) * GAP_X + RIGHT;
+    if (in->title && width < 0.62 * 14 * (double)strlen(in->title) + 40)
+        width = 0.62 * 14 * (double)strlen(in->title) + 40; /* the title fits */
     double top = in->title ? 34 : 12;
     double leg_h = plot_legend_height(width - LEFT - RIGHT, le, nl);
     double first = top + leg_h + 30;

@@ -32,7 +32,8 @@ struct report_slices {
     const struct report_sample *samples;
     size_t n_samples;
     /* The panels' theta_i; n_theta_i = 0 takes them from the samples (up to
-     * six, evenly spread) or, without samples, 0, 15, ..., 75. */
+     * six, evenly spread; samples at fewer than three incidences are shown
+     * among 0, 15, ..., 75) or, without samples, 0, 15, ..., 75. */
     const double *theta_i;
     size_t n_theta_i;
     enum report_channel channel;

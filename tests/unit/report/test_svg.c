@@ -106,6 +106,16 @@ static void slices_default_panels(void **state)
     assert_int_equal(report_slices_theta_i(&in, t, NULL), 6);
     assert_close(t[0], 0, 0);
     assert_close(t[5], 45, 0);
+    /* A six-pair plan at theta_i = 30 and one stray sample at 52: shown
+     * among the standard incidences, 30 not twice. */
+    for (int i = 0; i < 6; i++)
+        sm[i] = (struct report_sample){30.1, -60.0 + 20 * i, {1, 1, 1}};
+    sm[6] = (struct report_sample){52, 0, {1, 1, 1}};
+    in.n_samples = 7;
+    assert_int_equal(report_slices_theta_i(&in, t, NULL), 7);
+    const double want[] = {0, 15, 30, 45, 52, 60, 75};
+    for (int i = 0; i < 7; i++)
+        assert_close(t[i], want[i], 0);
     in.n_samples = 0;
     assert_int_equal(report_slices_theta_i(&in, t, NULL), 6);
     assert_close(t[5], 75, 0);
