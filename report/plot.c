@@ -58,7 +58,9 @@ void plot_draw_frame(svg_doc *s, const struct plot_panel *p, const char *title,
         /* Left of the widest tick label (about 0.6 em a character). */
         size_t widest = 0;
         for (size_t i = 0; i < p->ay.n_ticks; i++) {
-            size_t w = strlen(p->ay.labels[i]);
+            size_t w = 0; /* characters, not bytes: "10⁻³" is four */
+            for (const char *c = p->ay.labels[i]; *c; c++)
+                w += ((unsigned char)*c & 0xC0) != 0x80;
             widest = w > widest ? w : widest;
         }
         double x = x0 - TICK_LEN - 8 - 0.6 * PLOT_FONT_SMALL * (double)widest - 4;
