@@ -98,3 +98,7 @@ echo "== 5. MLP training: C vs PyTorch per epoch (same network, loss, Adam, batc
 echo
 echo "== 6. scene effects: ns per sample of the bare pipeline and of each effect"
 "$bin/effects_bench" 200000
+
+echo
+echo "== 7. gonio render: sphere pixels per second (CPU time), direct light vs light + environment"
+"$bin/render_bench" 256

@@ -31,4 +31,14 @@ echo
 # shellcheck disable=SC2086
 "$bin/gonio" results $dirs
 echo
-echo "Capture directories (plan.json, setup.json, samples.csv, results.json) are in $out/."
+echo "gonio render: the default material next to its ABC fits from DS2 and DS4 (docs/render.md)"
+for p in ds2 ds4; do
+    "$bin/gonio" fit "$out/default-$p" --model abc --quiet >/dev/null
+done
+"$bin/gonio" render --grid --truth default \
+    --model "model:$out/default-ds2/abc.model" --label "DS2 ABC" \
+    --model "model:$out/default-ds4/abc.model" --label "DS4 ABC" \
+    --size 128 --quiet --out "$out/renders"
+echo
+echo "Capture directories (plan.json, setup.json, samples.csv, results.json) are in $out/;"
+echo "renderings (grid.png, grid.exr, one EXR/PNG per cell, render.json) in $out/renders/."
