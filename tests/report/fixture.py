@@ -4,8 +4,7 @@ results.json follows docs/study.md (format gonio-study-1). The numbers are
 made up except where a test reads them back; the ds4/ideal job of the
 embedded default material is a real capture with real fitted models (gonio
 capture --offline, gonio fit), so the slices are drawn from real files. A
-renders/ folder holds a grid manifest (docs/render.md) whose PNG is a real
-PNG written by gonio plot.
+renders/ folder holds a real grid drawn by gonio render (docs/render.md).
 """
 import json
 import os
@@ -78,13 +77,10 @@ def make_study(bin_dir, out):
     with open(os.path.join(out, "results.json"), "w") as f:
         json.dump({"format": "gonio-study-1", "study": study, "complete": True,
                    "missing": [], "rows": rows}, f)
-    # Renderings: a grid manifest whose PNG is a real image.
+    # Renderings: gonio render's grid of the truth and the ds4 fits, small.
     renders = os.path.join(out, "renders", "default")
-    os.makedirs(renders)
-    run([gonio, "plot", "slices", "--material", "default", "--theta-i", "30",
-         "-o", os.path.join(renders, "grid.png")])
-    with open(os.path.join(renders, "render.json"), "w") as f:
-        json.dump({"size": 64, "effects": ["direct"], "images": [],
-                   "grid": {"png": "grid.png", "exr": "grid.exr", "columns": 2, "rows": 1,
-                            "cell": 64, "gap": 4, "cells": ["truth", "ds4/abc"]}}, f)
+    run([gonio, "render", "--grid", "--truth", "default",
+         "--model", "model:" + os.path.join(job, "abc.model"), "--label", "ds4/abc",
+         "--model", "model:" + os.path.join(job, "latent.model"), "--label", "ds4/latent",
+         "--size", "32", "--out", renders])
     return rows

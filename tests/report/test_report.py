@@ -134,7 +134,7 @@ class ReportTests(unittest.TestCase):
         html = self.s.html
         self.assertIn('id="slices-default-ideal-ds4"', html)
         self.assertIn('id="slices-default-ideal-ds2"', html)
-        self.assertIn("truth | ds4/abc", html)  # grid labels from the manifest
+        self.assertIn("truth | ds4/abc | ds4/latent", html)  # grid labels, manifest order
         # 'other' cannot be opened: a note, not a failure
         self.assertIn("builtin:does-not-exist", html)
 
