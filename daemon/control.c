@@ -17,6 +17,7 @@
 #include <jansson.h>
 
 #include "common/paths.h"
+#include "daemon/request.h"
 #include "planner/rig.h"
 
 #ifndef GONIO_RELEASE
@@ -305,22 +306,13 @@ static int load_request(struct worker_request *r, struct gonio_err *err)
 
 /* ---- commands -------------------------------------------------------- */
 
-enum arg_type { ARG_STRING, ARG_BOOL, ARG_INT };
-
-struct arg_spec {
-    const char *name;
-    enum arg_type type;
-};
-
 enum need { NEED_ANY, NEED_IDLE, NEED_ACTIVE };
 
 struct command {
-    const char *name;
     /* Fill reply (an OK document to send) or return an error (err set;
      * code names the error class). */
     int (*run)(control *c, struct client *cl, json_t *req, json_t *reply, const char **code,
                struct gonio_err *err);
-    const struct arg_spec *args; /* besides cmd and id; NULL-name terminated */
     enum need need;
 };
 
@@ -538,104 +530,43 @@ static int cmd_shutdown(control *c, struct client *cl, json_t *req, json_t *repl
     return 0;
 }
 
-static const struct arg_spec capture_args[] = {
-    {"plan", ARG_STRING},  {"scene", ARG_STRING}, {"material", ARG_STRING},
-    {"rig", ARG_STRING},   {"model", ARG_STRING}, {"order", ARG_STRING},
-    {"stop", ARG_STRING},  {"name", ARG_STRING},  {NULL, ARG_STRING},
+/* What each command does (docs/protocol.md); its fields are checked by
+ * control_request_parse (daemon/request.c). */
+static const struct command commands[CONTROL_CMD_COUNT] = {
+    [CONTROL_CMD_CAPTURE] = {cmd_capture, NEED_IDLE},
+    [CONTROL_CMD_STATUS] = {cmd_status, NEED_ANY},
+    [CONTROL_CMD_WATCH] = {cmd_watch, NEED_ANY},
+    [CONTROL_CMD_PAUSE] = {cmd_pause, NEED_ACTIVE},
+    [CONTROL_CMD_RESUME] = {cmd_resume, NEED_ANY},
+    [CONTROL_CMD_ABORT] = {cmd_abort, NEED_ACTIVE},
+    [CONTROL_CMD_SHUTDOWN] = {cmd_shutdown, NEED_ANY},
 };
-static const struct arg_spec resume_args[] = {{"capture_id", ARG_STRING}, {NULL, ARG_STRING}};
-static const struct arg_spec no_args[] = {{NULL, ARG_STRING}};
-
-/* The one table of commands (docs/protocol.md). */
-static const struct command commands[] = {
-    {"capture", cmd_capture, capture_args, NEED_IDLE},
-    {"status", cmd_status, no_args, NEED_ANY},
-    {"watch", cmd_watch, no_args, NEED_ANY},
-    {"pause", cmd_pause, no_args, NEED_ACTIVE},
-    {"resume", cmd_resume, resume_args, NEED_ANY},
-    {"abort", cmd_abort, no_args, NEED_ACTIVE},
-    {"shutdown", cmd_shutdown, no_args, NEED_ANY},
-};
-
-static const char *type_name(enum arg_type t)
-{
-    return t == ARG_STRING ? "a string" : t == ARG_BOOL ? "true or false" : "an integer";
-}
-
-static int type_ok(enum arg_type t, json_t *v)
-{
-    return t == ARG_STRING ? json_is_string(v) : t == ARG_BOOL ? json_is_boolean(v)
-                                                               : json_is_integer(v);
-}
 
 static void handle_line(control *c, struct client *cl, const char *line, size_t len)
 {
-    json_error_t je;
-    json_t *req = json_loadb(line, len, JSON_REJECT_DUPLICATES, &je);
-    if (!req) {
-        send_error(cl, "bad-json", NULL, "not JSON at column %d: %s", je.column, je.text);
+    struct control_request rq;
+    const char *bad;
+    char why[1024];
+    if (control_request_parse(line, len, &rq, &bad, why, sizeof why) < 0) {
+        send_error(cl, bad, rq.id, "%s", why);
+        control_request_free(&rq);
         return;
     }
-    json_t *id = json_object_get(req, "id");
-    if (!json_is_object(req)) {
-        send_error(cl, "bad-request", NULL, "a request is a JSON object");
-        json_decref(req);
-        return;
-    }
-    if (id && !json_is_string(id) && !json_is_integer(id)) {
-        send_error(cl, "bad-type", NULL, "field 'id' must be a string or an integer");
-        json_decref(req);
-        return;
-    }
-    json_t *jcmd = json_object_get(req, "cmd");
-    if (!json_is_string(jcmd)) {
-        send_error(cl, "bad-request", id, "field 'cmd' (a string) is required");
-        json_decref(req);
-        return;
-    }
-    const char *name = json_string_value(jcmd);
-    const struct command *cmd = NULL;
-    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
-        if (!strcmp(commands[i].name, name))
-            cmd = &commands[i];
-    if (!cmd) {
-        send_error(cl, "unknown-command", id, "unknown command '%.100s'", name);
-        json_decref(req);
-        return;
-    }
-    const char *key;
-    json_t *val;
-    json_object_foreach(req, key, val)
-    {
-        if (!strcmp(key, "cmd") || !strcmp(key, "id"))
-            continue;
-        const struct arg_spec *a = cmd->args;
-        while (a->name && strcmp(a->name, key))
-            a++;
-        if (!a->name) {
-            send_error(cl, "unknown-field", id, "%s: unknown field '%.100s'", name, key);
-            json_decref(req);
-            return;
-        }
-        if (!type_ok(a->type, val)) {
-            send_error(cl, "bad-type", id, "%s: field '%s' must be %s", name, key,
-                       type_name(a->type));
-            json_decref(req);
-            return;
-        }
-    }
+    const struct command *cmd = &commands[rq.cmd];
+    json_t *req = rq.doc, *id = rq.id;
+    const char *name = rq.name;
     struct worker_status st;
     worker_get_status(c->w, &st);
     if (cmd->need == NEED_IDLE && st.state != WORKER_IDLE) {
         send_error(cl, "busy", id,
                    "%s: capture '%s' is running; abort it or wait for it to finish", name,
                    st.id);
-        json_decref(req);
+        control_request_free(&rq);
         return;
     }
     if (cmd->need == NEED_ACTIVE && st.state == WORKER_IDLE) {
         send_error(cl, "not-running", id, "%s: no capture is running", name);
-        json_decref(req);
+        control_request_free(&rq);
         return;
     }
     json_t *reply = json_object();
@@ -658,7 +589,7 @@ static void handle_line(control *c, struct client *cl, const char *line, size_t 
             client_send_text(cl, c->descriptor_doc);
         }
     }
-    json_decref(req);
+    control_request_free(&rq);
 }
 
 /* ---- input ----------------------------------------------------------- */

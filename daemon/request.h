@@ -1,0 +1,43 @@
+/* One control-socket request line checked against the protocol's command
+ * table (docs/protocol.md): JSON, an object, a string or integer id, a
+ * known cmd, only that command's fields with their types. Kept apart from
+ * the socket code so that the parser of what a local client sends can be
+ * tested and fuzzed on its own (fuzz/fuzz_control.c). */
+#ifndef GONIO_DAEMON_REQUEST_H
+#define GONIO_DAEMON_REQUEST_H
+
+#include <stddef.h>
+
+#include <jansson.h>
+
+enum control_cmd {
+    CONTROL_CMD_CAPTURE,
+    CONTROL_CMD_STATUS,
+    CONTROL_CMD_WATCH,
+    CONTROL_CMD_PAUSE,
+    CONTROL_CMD_RESUME,
+    CONTROL_CMD_ABORT,
+    CONTROL_CMD_SHUTDOWN,
+    CONTROL_CMD_COUNT
+};
+
+struct control_request {
+    json_t *doc;      /* the parsed line (owned; NULL when not JSON) */
+    json_t *id;       /* borrowed from doc; NULL when absent or not usable */
+    enum control_cmd cmd;
+    const char *name; /* the command's name (static) */
+};
+
+/* Parse and check line[len] (no newline). Returns 0 with req filled, or -1
+ * with *code the error class ("bad-json", "bad-request", "bad-type",
+ * "unknown-command", "unknown-field") and msg the reason; req->id is then
+ * the id to echo (NULL when the id itself was bad). Call
+ * control_request_free in both cases. */
+int control_request_parse(const char *line, size_t len, struct control_request *req,
+                          const char **code, char *msg, size_t size);
+void control_request_free(struct control_request *req);
+
+/* The command's name on the wire, NULL when out of range. */
+const char *control_cmd_name(enum control_cmd cmd);
+
+#endif
