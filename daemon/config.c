@@ -292,22 +292,53 @@ out:
     return rc < 0 ? rc : 0;
 }
 
+/* A string as YAML reads it back: plain when it is made of characters
+ * with no YAML meaning (paths, names, hosts), else double-quoted, so a
+ * value holding ': ', ' #', a leading '&' and the like prints as itself. */
+static void put_str(FILE *out, const char *s)
+{
+    size_t plain = strspn(s, "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                             "0123456789_./+-");
+    if (s[0] && s[0] != '-' && !s[plain]) {
+        fputs(s, out);
+        return;
+    }
+    fputc('"', out);
+    for (const unsigned char *p = (const unsigned char *)s; *p; p++) {
+        if (*p == '"' || *p == '\\')
+            fprintf(out, "\\%c", *p);
+        else if (*p < 0x20 || *p == 0x7f)
+            fprintf(out, "\\x%02x", *p);
+        else
+            fputc(*p, out);
+    }
+    fputc('"', out);
+}
+
 void goniod_config_print(FILE *out, const struct goniod_config *c)
 {
-    fprintf(out, "# goniod configuration, resolved from %s\n", c->path);
-    fprintf(out, "rig: %s\n", c->rig);
-    fprintf(out, "driver:\n  kind: %s\n", goniod_driver_name(c->driver));
+    fputs("# goniod configuration, resolved from ", out);
+    for (const char *p = c->path; *p; p++) /* a comment ends at a newline */
+        fputc((unsigned char)*p < 0x20 ? '?' : *p, out);
+    fputs("\nrig: ", out);
+    put_str(out, c->rig);
+    fprintf(out, "\ndriver:\n  kind: %s\n", goniod_driver_name(c->driver));
     if (c->driver == GONIOD_DRIVER_SIM) {
-        fprintf(out, "  scene: %s\n  pace_s: %g\n", c->scene, c->pace_s);
+        fputs("  scene: ", out);
+        put_str(out, c->scene);
+        fprintf(out, "\n  pace_s: %g\n", c->pace_s);
     } else {
-        if (c->driver == GONIOD_DRIVER_MODBUS_RTU)
-            fprintf(out, "  device: %s\n  baud: %ld\n  parity: %s\n  data_bits: %d\n"
-                         "  stop_bits: %d\n",
-                    c->device, c->baud,
-                    c->parity == 'E' ? "even" : c->parity == 'O' ? "odd" : "none",
+        if (c->driver == GONIOD_DRIVER_MODBUS_RTU) {
+            fputs("  device: ", out);
+            put_str(out, c->device);
+            fprintf(out, "\n  baud: %ld\n  parity: %s\n  data_bits: %d\n  stop_bits: %d\n",
+                    c->baud, c->parity == 'E' ? "even" : c->parity == 'O' ? "odd" : "none",
                     c->data_bits, c->stop_bits);
-        else
-            fprintf(out, "  host: %s\n  port: %d\n", c->host, c->port);
+        } else {
+            fputs("  host: ", out);
+            put_str(out, c->host);
+            fprintf(out, "\n  port: %d\n", c->port);
+        }
         fprintf(out, "  slaves:\n    sample: %d\n    arm: %d\n    azimuth: %d\n"
                      "    detector: %d\n",
                 c->slaves.sample, c->slaves.arm, c->slaves.azimuth, c->slaves.detector);
@@ -323,10 +354,16 @@ void goniod_config_print(FILE *out, const struct goniod_config *c)
                     c->usb.bands_390 ? "390-730" : "400-700", c->usb.scale, c->usb.timeout_s);
         }
     }
-    fprintf(out, "capture_root: %s\n", c->capture_root);
-    fprintf(out, "socket:\n  path: %s\n", c->socket_path);
-    if (c->socket_group[0])
-        fprintf(out, "  group: %s\n", c->socket_group);
+    fputs("capture_root: ", out);
+    put_str(out, c->capture_root);
+    fputs("\nsocket:\n  path: ", out);
+    put_str(out, c->socket_path);
+    fputc('\n', out);
+    if (c->socket_group[0]) {
+        fputs("  group: ", out);
+        put_str(out, c->socket_group);
+        fputc('\n', out);
+    }
     fprintf(out, "  max_clients: %d\n  idle_timeout_s: %g\n  max_queue_kib: %ld\n",
             c->max_clients, c->idle_timeout_s, c->max_queue_kib);
 }
