@@ -54,6 +54,16 @@ static int parse_record(const char *line, size_t len, struct journal_sample *s)
     unsigned long crc = strtoul(crc_text, &end, 16);
     if (*end || crc != line_crc(line, (size_t)(comma + 1 - line)))
         return -1;
+    /* sscanf on the journal buffer itself would measure the rest of the
+     * file on every call (glibc takes strlen first): quadratic in the
+     * journal's length. A record is short; scan a copy of it. */
+    char rec[LINE_MAX_LEN];
+    if (len >= sizeof rec)
+        return -1;
+    memcpy(rec, line, len);
+    rec[len] = '\0';
+    comma = rec + (comma - line);
+    line = rec;
     int used = 0;
     int got = sscanf(line, "%d,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%u,%n", &s->point,
                      &s->theta_i, &s->theta_r, &s->phi_i, &s->theta_o, &s->phi_o, &s->s, &s->a,
