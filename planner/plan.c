@@ -216,6 +216,16 @@ static int load_grid(const struct cfg_doc *d, const struct cfg_node *gn, double 
         return cfg_error(d, cfg_get(d, gn, "theta_r_max"), "theta_r_max", err,
                          "must exceed theta_r_min (value '%g', allowed %g..90)", g.theta_r_max,
                          g.theta_r_min);
+    /* Refuse a grid too fine to hold before generating it: a step of 0.01
+     * on both axes would be 1.6e8 pairs (about 20 GB). */
+    double rows = floor(g.theta_i_max / g.theta_i_step + GRID_EPS) + 1,
+           per_row = floor((g.theta_r_max - g.theta_r_min) / g.diffuse_step + GRID_EPS) + 1 +
+                     2 * floor(g.glossy_half_width / g.glossy_step + GRID_EPS) + 1;
+    if (rows * per_row > PLAN_MAX_POINTS)
+        return cfg_error(d, gn, "grid", err,
+                         "up to %.0f pairs (%.0f theta_i rows of %.0f), more than a plan "
+                         "holds (%d); use coarser steps", rows * per_row, rows, per_row,
+                         PLAN_MAX_POINTS);
     rc = plan_grid_generate(&g, &p->pts);
     if (rc < 0)
         return gonio_err_set(err, -rc, "%s: out of memory", cfg_path(d));
@@ -233,9 +243,9 @@ static int load_pairs(const struct cfg_doc *d, const struct cfg_node *seq, struc
                       struct gonio_err *err)
 {
     size_t n = cfg_seq_len(d, seq);
-    if (n == 0)
-        return cfg_error(d, seq, "pairs", err, "empty list (value '[]', allowed 1..%d pairs)",
-                         1 << 24);
+    if (n == 0 || n > PLAN_MAX_POINTS)
+        return cfg_error(d, seq, "pairs", err, "%zu pairs (allowed 1..%d pairs)", n,
+                         PLAN_MAX_POINTS);
     p->pts = calloc(n, sizeof *p->pts);
     if (!p->pts)
         return gonio_err_set(err, ENOMEM, "%s: out of memory", cfg_path(d));
@@ -348,7 +358,7 @@ static int load_domain(const struct cfg_doc *d, const struct cfg_node *dn,
     int rc;
     if ((rc = cfg_check_keys(d, dn, "domain", keys, err)) < 0 ||
         (rc = cfg_enum(d, dn, "set", CFG_REQUIRED, sets, &set, err)) < 0 ||
-        (rc = cfg_int(d, dn, "n", CFG_OPTIONAL, 1, 100000000, &n, err)) < 0 ||
+        (rc = cfg_int(d, dn, "n", CFG_OPTIONAL, 1, PLAN_MAX_POINTS, &n, err)) < 0 ||
         (rc = cfg_int(d, dn, "seed", CFG_OPTIONAL, 0, 0x7fffffffL, &seed, err)) < 0)
         return rc;
     if (set != PLAN_DOMAIN_OOP_RANDOM && cfg_get(d, dn, "n"))

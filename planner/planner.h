@@ -17,6 +17,10 @@
 
 enum plan_kind { PLAN_KIND_GRID, PLAN_KIND_PAIRS, PLAN_KIND_DOMAIN };
 
+/* The most points a plan may hold (the full reference domain has 923,870):
+ * a file asking for more is refused before anything is generated. */
+#define PLAN_MAX_POINTS 2000000
+
 enum plan_order_mode {
     PLAN_ORDER_TRAVEL,      /* least move time (heuristic: 2-opt + Or-opt) */
     PLAN_ORDER_PROGRESSIVE, /* coarse to fine, each level travel-ordered */
