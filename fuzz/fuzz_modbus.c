@@ -1,0 +1,179 @@
+/* Modbus replies as the drivers see them (drivers/drv_modbus_*.c): the
+ * real axis, detector and clock drivers over a scripted bus whose every
+ * reply comes from the fuzz input. libmodbus checks the frames; what is
+ * fuzzed here is what the drivers make of well-formed replies with any
+ * register values, any failures, in any order, on a virtual clock (so
+ * timeouts and stall detection run without sleeping).
+ *
+ * Input: byte 0 picks the time scale and backlash, then a script of
+ * operations (one byte each, with an argument byte); each bus transaction
+ * takes one byte (0xFF: the transaction fails) and, for a read, two bytes
+ * a register. When the input runs out every transaction fails.
+ *
+ * Invariants: a move is never commanded outside the axis's soft limits;
+ * an accepted reading is finite, non-negative in integration time, and a
+ * position read back is finite. */
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+
+#include "drivers/drv_modbus.h"
+#include "drivers/drv_modbus_private.h"
+#include "fuzz/fuzz.h"
+
+struct drv_modbus_bus {
+    const uint8_t *data;
+    size_t size, pos;
+    double now, scale, timeout;
+    double steps_per_deg;
+    double min_deg, max_deg; /* soft limits of the axis on slave 1 */
+};
+
+static int next_byte(drv_modbus_bus *bus, uint8_t *b)
+{
+    if (bus->pos >= bus->size)
+        return -1;
+    *b = bus->data[bus->pos++];
+    return 0;
+}
+
+static int transaction(drv_modbus_bus *bus, const char *who, struct gonio_err *err)
+{
+    uint8_t b;
+    bus->now += 0.001; /* a round trip takes time on the virtual clock */
+    if (next_byte(bus, &b) < 0 || b == 0xFF)
+        return gonio_err_set(err, ETIMEDOUT, "%s: no answer (fuzz)", who);
+    return 0;
+}
+
+int drv_modbus_read(drv_modbus_bus *bus, int slave, int addr, int n, uint16_t *out,
+                    const char *who, struct gonio_err *err)
+{
+    (void)slave, (void)addr;
+    FUZZ_CHECK(n > 0 && n <= 125); /* a Modbus read holds at most 125 registers */
+    int rc = transaction(bus, who, err);
+    if (rc < 0)
+        return rc;
+    for (int i = 0; i < n; i++) {
+        uint8_t hi = 0, lo = 0;
+        if (next_byte(bus, &hi) < 0 || next_byte(bus, &lo) < 0)
+            return gonio_err_set(err, ETIMEDOUT, "%s: short answer (fuzz)", who);
+        out[i] = (uint16_t)(hi << 8 | lo);
+    }
+    return 0;
+}
+
+int drv_modbus_write(drv_modbus_bus *bus, int slave, int addr, int n, const uint16_t *regs,
+                     const char *who, struct gonio_err *err)
+{
+    FUZZ_CHECK(n > 0 && n <= 123); /* a Modbus write holds at most 123 registers */
+    /* Direct-data operation of the axis (0x58): the target position is the
+     * third 32-bit value; it must be within the soft limits. */
+    if (slave == 1 && addr == 0x58 && n >= 6) {
+        double target = (double)(int32_t)drv_modbus_get32(regs + 4) / bus->steps_per_deg;
+        FUZZ_CHECK(target >= bus->min_deg - 1.0 / bus->steps_per_deg &&
+                   target <= bus->max_deg + 1.0 / bus->steps_per_deg);
+    }
+    return transaction(bus, who, err);
+}
+
+double drv_modbus_time_scale(const drv_modbus_bus *bus)
+{
+    return bus->scale;
+}
+
+double drv_modbus_timeout(const drv_modbus_bus *bus)
+{
+    return bus->timeout;
+}
+
+static drv_modbus_bus *the_bus;
+
+double drv_modbus_wall(void)
+{
+    return the_bus->now;
+}
+
+void drv_modbus_sleep(double seconds)
+{
+    if (seconds > 0)
+        the_bus->now += seconds;
+}
+
+float drv_modbus_get_float(const uint16_t *r)
+{
+    uint32_t bits = drv_modbus_get32(r);
+    float f;
+    memcpy(&f, &bits, sizeof f);
+    return f;
+}
+
+void drv_modbus_put_float(uint16_t *r, float f)
+{
+    uint32_t bits;
+    memcpy(&bits, &f, sizeof bits);
+    drv_modbus_put32(r, bits);
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    if (size < 1)
+        return 0;
+    static const double scales[4] = {1.0, 10.0, 100.0, 1000.0};
+    drv_modbus_bus bus = {.data = data, .size = size, .pos = 1, .now = 1000.0,
+                          .scale = scales[data[0] & 3], .timeout = 0.05,
+                          .steps_per_deg = 100.0, .min_deg = -5.0, .max_deg = 95.0};
+    the_bus = &bus;
+    struct plan_axis prof = {.speed = 20, .accel = 40, .min = bus.min_deg, .max = bus.max_deg};
+    struct drv_modbus_axis_opts opts = {.steps_per_deg = bus.steps_per_deg,
+                                        .backlash_deg = (data[0] & 4) ? 0.5 : 0.0};
+    struct gonio_err err = {0};
+    drv_axis *ax = drv_axis_new_modbus(&bus, 1, &prof, &opts, "fuzz", &err);
+    drv_detector *det = drv_detector_new_modbus(&bus, 3, &err);
+    FUZZ_CHECK(ax && det);
+    drv_clock *clk = (data[0] & 8) ? drv_clock_new_modbus(&bus, 3, &err) : NULL;
+    uint8_t op, arg;
+    while (next_byte(&bus, &op) == 0 && next_byte(&bus, &arg) == 0) {
+        double deg;
+        struct drv_reading rd;
+        switch (op % 8) {
+        case 0: /* a move anywhere, limits or not */
+            if (drv_axis_start_move(ax, -20.0 + arg * 0.5, &err) == 0)
+                drv_axis_wait(ax, &err);
+            break;
+        case 1:
+            drv_axis_home(ax, &err);
+            break;
+        case 2:
+            if (drv_axis_position(ax, &deg, &err) == 0)
+                FUZZ_CHECK(isfinite(deg));
+            break;
+        case 3:
+            if (drv_detector_acquire(det, arg * 0.01, &rd, &err) == 0) {
+                for (int k = 0; k < 3; k++)
+                    FUZZ_CHECK(isfinite(rd.rgb[k]));
+                FUZZ_CHECK(isfinite(rd.integration_s) && rd.integration_s >= 0);
+            }
+            break;
+        case 4:
+            drv_axis_stop(ax, &err);
+            break;
+        case 5:
+            drv_axis_modbus_alarm_reset(ax, &err);
+            break;
+        case 6:
+            if (clk)
+                FUZZ_CHECK(isfinite(drv_clock_now(clk)));
+            break;
+        default:
+            if (clk)
+                drv_clock_sleep(clk, arg * 0.1);
+            break;
+        }
+    }
+    drv_clock_free(clk);
+    drv_detector_free(det);
+    drv_axis_free(ax);
+    the_bus = NULL;
+    return 0;
+}

@@ -1,0 +1,28 @@
+/* Rig profiles (planner/rig.h): YAML from the operator. */
+#include <math.h>
+
+#include "fuzz/fuzz.h"
+#include "planner/rig.h"
+
+static int axis_ok(const struct plan_axis *a)
+{
+    return a->speed > 0 && a->accel > 0 && isfinite(a->speed) && isfinite(a->accel) &&
+           a->min <= a->max && isfinite(a->min) && isfinite(a->max);
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    const char *path = fuzz_file("rig.yaml", data, size);
+    struct plan_rig rig;
+    struct gonio_err err = {0};
+    if (plan_rig_load(path, &rig, &err) < 0) {
+        FUZZ_CHECK(err.msg[0]);
+        return 0;
+    }
+    /* "Every value is range-checked": what loads is usable by the planner. */
+    FUZZ_CHECK(axis_ok(&rig.sample) && axis_ok(&rig.arm));
+    FUZZ_CHECK(!rig.out_of_plane || axis_ok(&rig.azimuth));
+    FUZZ_CHECK(rig.blind_deg >= 0 && rig.settle_s >= 0 && rig.integration_s >= 0);
+    FUZZ_CHECK(isfinite(rig.blind_deg) && isfinite(rig.settle_s) && isfinite(rig.integration_s));
+    return 0;
+}
