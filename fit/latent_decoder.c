@@ -305,6 +305,8 @@ latent_decoder *latent_decoder_load(const char *path, struct gonio_err *err)
         } else if (!strcmp(key, "heldout")) {
             /* informational: the held-out list of the build that trained it */
         } else if (!strcmp(key, "materials")) {
+            if (d) /* a second shape would replace (and leak) the first */
+                BAD("%s: 'materials' given twice", path);
             if (parse_long(val, 1, 100000, &nmat) < 0)
                 BAD("%s: materials '%s' is not a valid count", path, val);
             if (nin != LATENT_NIN || nout != LATENT_NOUT)
