@@ -116,6 +116,13 @@ def main():
     spectrum(lines, raw, status_at=(3, -108))              # unplugged during packet 4
     write("unplug.ioctl", lines)
 
+    lines = []
+    opening(lines)
+    sat = counts()
+    sat[700] = 65535                                       # one pixel at full scale (~580 nm)
+    spectrum(lines, b"".join(struct.pack("<H", v) for v in sat))
+    write("saturated.ioctl", lines)
+
     lines = [urb(0x01, b"\x01"), urb(0x01, b"\x05\x01"),
              urb(0x81, info_reply(1, COEF[0]), depth=1), urb(0x01, b"\x05\x02"),
              urb(0x81, info_reply(2, "0.38O5263"), depth=1)]   # a letter O in slot 2

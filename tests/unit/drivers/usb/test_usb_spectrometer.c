@@ -233,6 +233,28 @@ static void test_spectrum_35_bands(void **state)
     check_spectrum(390, 35);
 }
 
+/* One pixel at full scale (65535, near 596 nm) flags the reading; the
+ * reading itself still comes back. */
+static void test_saturated_pixel_flags_the_reading(void **state)
+{
+    (void)state;
+    UMockdevTestbed *tb = testbed("saturated.ioctl");
+    struct drv_usbspec_cfg cfg = cfg_default();
+    struct gonio_err err = {0};
+    drv_usbspec *s = drv_usbspec_open(&cfg, &err);
+    if (!s)
+        fail_msg("open: %s", err.msg);
+    drv_detector *det = drv_detector_new_usbspec(s, &cfg, &err);
+    assert_non_null(det);
+    struct drv_reading r;
+    if (drv_detector_acquire(det, 0.1, &r, &err) < 0)
+        fail_msg("acquire: %s", err.msg);
+    assert_int_equal(r.flags, DRV_READING_SATURATED);
+    assert_true(r.rgb[0] > 0 && r.rgb[1] > 0 && r.rgb[2] > 0);
+    drv_detector_free(det);
+    g_object_unref(tb);
+}
+
 /* Open a detector on a recording, acquire, expect failure naming `a` and `b`. */
 static void expect_acquire_failure(const char *recording, const char *a, const char *b,
                                    drv_detector **keep)
@@ -486,6 +508,7 @@ int main(void)
         cmocka_unit_test(test_other_serial_is_not_opened),
         cmocka_unit_test(test_spectrum_31_bands),
         cmocka_unit_test(test_spectrum_35_bands),
+        cmocka_unit_test(test_saturated_pixel_flags_the_reading),
         cmocka_unit_test(test_short_read),
         cmocka_unit_test(test_wrong_sync_byte),
         cmocka_unit_test(test_unplugged_mid_read),
