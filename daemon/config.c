@@ -220,7 +220,7 @@ static int load_socket(const struct cfg_doc *d, const struct cfg_node *root,
                        struct goniod_config *cfg, struct gonio_err *err)
 {
     static const char *const keys[] = {"path", "group", "max_clients", "idle_timeout_s",
-                                       "max_queue_kib", NULL};
+                                       "max_queue_kib", "rate_per_s", "burst", NULL};
     const struct cfg_node *m;
     int rc = cfg_map(d, root, "socket", CFG_REQUIRED, &m, err);
     long maxc = cfg->max_clients;
@@ -233,7 +233,10 @@ static int load_socket(const struct cfg_doc *d, const struct cfg_node *root,
         (rc = cfg_double(d, m, "idle_timeout_s", CFG_OPTIONAL, 0.1, 86400, &cfg->idle_timeout_s,
                          err)) < 0 ||
         (rc = cfg_int(d, m, "max_queue_kib", CFG_OPTIONAL, 16, 1048576, &cfg->max_queue_kib,
-                      err)) < 0)
+                      err)) < 0 ||
+        (rc = cfg_double(d, m, "rate_per_s", CFG_OPTIONAL, 0.01, 100000, &cfg->rate_per_s,
+                         err)) < 0 ||
+        (rc = cfg_int(d, m, "burst", CFG_OPTIONAL, 1, 100000, &cfg->burst, err)) < 0)
         return rc;
     cfg->max_clients = (int)maxc;
     return 0;
@@ -259,6 +262,8 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
     cfg->max_clients = 16;
     cfg->idle_timeout_s = 600;
     cfg->max_queue_kib = 4096;
+    cfg->rate_per_s = 20;
+    cfg->burst = 40;
 
     struct cfg_doc *d;
     int rc = cfg_load(path, &d, err);
@@ -366,4 +371,5 @@ void goniod_config_print(FILE *out, const struct goniod_config *c)
     }
     fprintf(out, "  max_clients: %d\n  idle_timeout_s: %g\n  max_queue_kib: %ld\n",
             c->max_clients, c->idle_timeout_s, c->max_queue_kib);
+    fprintf(out, "  rate_per_s: %g\n  burst: %ld\n", c->rate_per_s, c->burst);
 }

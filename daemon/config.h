@@ -54,6 +54,8 @@ struct goniod_config {
     int max_clients;
     double idle_timeout_s;   /* idle clients that do not watch are closed */
     long max_queue_kib;      /* a client with more output queued is dropped */
+    double rate_per_s;       /* requests a client may send per second, on average */
+    long burst;              /* ... and at once */
 };
 
 /* Load and check path. Relative paths inside the file are taken relative

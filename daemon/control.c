@@ -1,8 +1,11 @@
+#define _XOPEN_SOURCE 700 /* realpath */
 #include "daemon/control.h"
 
 #include <errno.h>
 #include <fcntl.h>
+#include <dirent.h>
 #include <grp.h>
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -17,6 +20,7 @@
 #include <jansson.h>
 
 #include "common/paths.h"
+#include "daemon/peer.h"
 #include "daemon/request.h"
 #include "planner/rig.h"
 
@@ -34,13 +38,17 @@ struct client {
     int watching;
     int closing;       /* close once out is sent */
     int dead;
-    double last_active;
+    double last_active; /* last complete request (or the connect) */
+    double tokens;      /* rate limit: requests it may send now */
+    double tokens_at;   /* when tokens was last refilled */
 };
 
 struct control {
     const struct goniod_config *cfg;
     worker *w;
     int listen_fd;
+    uid_t self_uid;     /* goniod's own user: always allowed */
+    gid_t allowed_gid;  /* peers in this group are allowed (socket.group, else ours) */
     struct client **clients;
     size_t n_clients;
     int shutdown;
@@ -183,22 +191,62 @@ static int valid_id(const char *s)
     return 1;
 }
 
+/* Where a path named by a request may lead. */
+enum { PATH_OK = 0, PATH_BAD = -1, PATH_MISSING = -2, PATH_ESCAPES = -3 };
+
+/* path (absolute) must exist and its real path lie inside the capture
+ * root's real path: a symbolic link inside the root that points out of it
+ * is refused. out gets the real path, which is what the capture opens, so
+ * no link is followed a second time. */
+static int inside_root(const control *c, const char *path, char *out, size_t size)
+{
+    char root[PATH_MAX], real[PATH_MAX];
+    if (!realpath(c->cfg->capture_root, root))
+        return PATH_MISSING;
+    if (!realpath(path, real))
+        return errno == ENOENT || errno == ENOTDIR ? PATH_MISSING : PATH_BAD;
+    size_t n = strlen(root);
+    if (n > 1 && (strncmp(real, root, n) || real[n] != '/'))
+        return PATH_ESCAPES;
+    if (strlen(real) >= size)
+        return PATH_BAD;
+    memcpy(out, real, strlen(real) + 1);
+    return PATH_OK;
+}
+
 /* A file named by a request: a relative path with no '..' component, taken
  * inside the capture root, so a client can read nothing outside it. */
 static int root_path(const control *c, const char *rel, char *out, size_t size)
 {
     if (!rel[0] || rel[0] == '/')
-        return -1;
+        return PATH_BAD;
     for (const char *p = rel; *p;) {
         size_t len = strcspn(p, "/");
         if (len == 2 && p[0] == '.' && p[1] == '.')
-            return -1;
+            return PATH_BAD;
         p += len;
         if (*p == '/')
             p++;
     }
-    int n = snprintf(out, size, "%s/%s", c->cfg->capture_root, rel);
-    return n < 0 || (size_t)n >= size ? -1 : 0;
+    char joined[PATH_MAX];
+    int n = snprintf(joined, sizeof joined, "%s/%s", c->cfg->capture_root, rel);
+    if (n < 0 || (size_t)n >= sizeof joined)
+        return PATH_BAD;
+    return inside_root(c, joined, out, size);
+}
+
+static int path_error(struct gonio_err *err, int why, const char *what, const char *v)
+{
+    if (why == PATH_MISSING)
+        return gonio_err_set(err, GONIO_EUSAGE, "%s '%s': no such file in the capture root",
+                             what, v);
+    if (why == PATH_ESCAPES)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "%s '%s': leads outside the capture root (symbolic link)", what,
+                             v);
+    return gonio_err_set(err, GONIO_EUSAGE,
+                         "%s '%s': a path must be relative to the capture root, without '..'",
+                         what, v);
 }
 
 static int is_path_like(const char *s)
@@ -214,12 +262,8 @@ static int resolve_ref(const control *c, const char *what, const char *v, char *
                        size_t size, struct gonio_err *err)
 {
     if (is_path_like(v)) {
-        if (root_path(c, v, out, size) < 0)
-            return gonio_err_set(err, GONIO_EUSAGE,
-                                 "%s '%s': a path must be relative to the capture root, "
-                                 "without '..'",
-                                 what, v);
-        return 0;
+        int why = root_path(c, v, out, size);
+        return why < 0 ? path_error(err, why, what, v) : 0;
     }
     if (!valid_id(v))
         return gonio_err_set(err, GONIO_EUSAGE, "%s '%s': not a valid name", what, v);
@@ -240,11 +284,9 @@ static int resolve_material(const control *c, const char *v, char *out, size_t s
     const char *rest = colon + 1;
     if (!strncmp(v, "merl:", 5)) {
         char path[2048];
-        if (root_path(c, rest, path, sizeof path) < 0)
-            return gonio_err_set(err, GONIO_EUSAGE,
-                                 "material '%s': the MERL file must be relative to the "
-                                 "capture root, without '..'",
-                                 v);
+        int why = root_path(c, rest, path, sizeof path);
+        if (why < 0)
+            return path_error(err, why, "material", v);
         if (strlen(path) + 6 > size)
             return gonio_err_set(err, GONIO_EUSAGE, "material '%.100s': path too long", v);
         memcpy(out, "merl:", 5);
@@ -258,6 +300,32 @@ static int resolve_material(const control *c, const char *v, char *out, size_t s
 }
 
 /* ---- the capture's request record (for resume) ------------------------ */
+
+/* Look for a symbolic link among dir's entries: *link names the first one
+ * found (in name), NULL when there is none. Returns -1 when dir cannot be
+ * read. */
+static int dir_symlink(const char *dir, char *name, size_t size, const char **link)
+{
+    *link = NULL;
+    int fd = open(dir, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    DIR *dp = fd >= 0 ? fdopendir(fd) : NULL;
+    if (!dp) {
+        if (fd >= 0)
+            close(fd);
+        return -1;
+    }
+    struct dirent *e;
+    while ((e = readdir(dp))) {
+        struct stat st;
+        if (fstatat(fd, e->d_name, &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISLNK(st.st_mode)) {
+            snprintf(name, size, "%s", e->d_name);
+            *link = name;
+            break;
+        }
+    }
+    closedir(dp);
+    return 0;
+}
 
 static const char request_file[] = "request.json";
 
@@ -276,7 +344,7 @@ static int save_request(const struct worker_request *r, struct gonio_err *err)
     return rc;
 }
 
-static int load_request(struct worker_request *r, struct gonio_err *err)
+static int load_request(const control *c, struct worker_request *r, struct gonio_err *err)
 {
     char path[2304];
     snprintf(path, sizeof path, "%s/%s", r->dir, request_file);
@@ -293,10 +361,29 @@ static int load_request(struct worker_request *r, struct gonio_err *err)
         json_decref(d);
         return gonio_err_set(err, GONIO_EBADDATA, "%s: lacks a field goniod writes", path);
     }
-    snprintf(r->plan, sizeof r->plan, "%s", plan);
-    snprintf(r->scene, sizeof r->scene, "%s", scene);
-    snprintf(r->rig, sizeof r->rig, "%s", rig);
-    snprintf(r->material, sizeof r->material, "%s", material);
+    /* goniod wrote these checked, but the record is a file: its paths are
+     * held to the capture root again before anything is opened. */
+    const char *merl = !strncmp(material, "merl:", 5) ? material + 5 : NULL;
+    int why = PATH_OK;
+    if ((strchr(plan, '/') && (why = inside_root(c, plan, r->plan, sizeof r->plan)) < 0) ||
+        (strchr(scene, '/') && (why = inside_root(c, scene, r->scene, sizeof r->scene)) < 0) ||
+        (strchr(rig, '/') && (why = inside_root(c, rig, r->rig, sizeof r->rig)) < 0) ||
+        (merl && (why = inside_root(c, merl, r->material + 5, sizeof r->material - 5)) < 0)) {
+        json_decref(d);
+        return gonio_err_set(err, GONIO_EBADDATA,
+                             "%s: a file it names is missing or lies outside the capture root",
+                             path);
+    }
+    if (!strchr(plan, '/'))
+        snprintf(r->plan, sizeof r->plan, "%s", plan);
+    if (!strchr(scene, '/'))
+        snprintf(r->scene, sizeof r->scene, "%s", scene);
+    if (!strchr(rig, '/'))
+        snprintf(r->rig, sizeof r->rig, "%s", rig);
+    if (merl)
+        memcpy(r->material, "merl:", 5);
+    else
+        snprintf(r->material, sizeof r->material, "%s", material);
     snprintf(r->model, sizeof r->model, "%s", model);
     snprintf(r->order, sizeof r->order, "%s", order);
     snprintf(r->stop, sizeof r->stop, "%s", stop);
@@ -493,13 +580,24 @@ static int cmd_resume(control *c, struct client *cl, json_t *req, json_t *reply,
     memset(&r, 0, sizeof r);
     snprintf(r.id, sizeof r.id, "%s", id);
     snprintf(r.dir, sizeof r.dir, "%s/%s", c->cfg->capture_root, id);
+    /* lstat: a capture directory that is a symbolic link is no capture,
+     * and neither is one holding a link goniod would write through. */
     struct stat sb;
-    if (stat(r.dir, &sb) != 0 || !S_ISDIR(sb.st_mode)) {
+    if (lstat(r.dir, &sb) != 0 || !S_ISDIR(sb.st_mode)) {
         *code = "not-found";
         return gonio_err_set(err, GONIO_ENOTFOUND, "no capture '%s' in %s", id,
                              c->cfg->capture_root);
     }
-    int rc = load_request(&r, err);
+    const char *link = NULL;
+    char name[256];
+    if (dir_symlink(r.dir, name, sizeof name, &link) < 0 || link) {
+        *code = "bad-value";
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "capture '%s': %s%s is a symbolic link or unreadable; goniod "
+                             "does not write through links",
+                             id, link ? "file " : "its directory", link ? name : "");
+    }
+    int rc = load_request(c, &r, err);
     if (rc < 0) {
         *code = "not-found";
         return rc;
@@ -594,45 +692,75 @@ static void handle_line(control *c, struct client *cl, const char *line, size_t 
 
 /* ---- input ----------------------------------------------------------- */
 
+/* Token bucket: rate_per_s requests a second on average, bursts of up to
+ * burst. A request beyond it is answered with an error and not run, so a
+ * flooding client costs a parse and a short reply per line, and if it does
+ * not read those either its output limit drops it. */
+static int client_take_token(control *c, struct client *cl)
+{
+    double t = now_s();
+    cl->tokens += (t - cl->tokens_at) * c->cfg->rate_per_s;
+    if (cl->tokens > c->cfg->burst)
+        cl->tokens = c->cfg->burst;
+    cl->tokens_at = t;
+    if (cl->tokens < 1)
+        return 0;
+    cl->tokens -= 1;
+    return 1;
+}
+
+static void refuse_rate(control *c, struct client *cl, const char *line, size_t len)
+{
+    /* Echo the id when there is one, so the client knows which request. */
+    json_t *req = json_loadb(line, len, JSON_REJECT_DUPLICATES, NULL);
+    json_t *id = json_object_get(req, "id");
+    send_error(cl, "rate-limited", json_is_string(id) || json_is_integer(id) ? id : NULL,
+               "more than %g requests a second (bursts of %ld); request not run",
+               c->cfg->rate_per_s, c->cfg->burst);
+    json_decref(req);
+}
+
+/* One recv per poll round: a client that writes without pause cannot keep
+ * the loop away from the others or from the worker's messages. */
 static void client_read(control *c, struct client *cl)
 {
-    for (;;) {
-        ssize_t n = recv(cl->fd, cl->in + cl->in_len, CONTROL_MAX_LINE + 1 - cl->in_len,
-                         MSG_DONTWAIT);
-        if (n == 0) {
-            cl->dead = 1; /* the client closed its end */
-            return;
-        }
-        if (n < 0) {
-            if (errno == EINTR)
-                continue;
-            if (errno != EAGAIN && errno != EWOULDBLOCK)
-                cl->dead = 1;
-            return;
-        }
+    ssize_t n = recv(cl->fd, cl->in + cl->in_len, CONTROL_MAX_LINE + 1 - cl->in_len,
+                     MSG_DONTWAIT);
+    if (n == 0) {
+        cl->dead = 1; /* the client closed its end */
+        return;
+    }
+    if (n < 0) {
+        if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)
+            cl->dead = 1;
+        return; /* EINTR, EAGAIN: poll says when to come back */
+    }
+    cl->in_len += (size_t)n;
+    char *nl;
+    size_t start = 0;
+    while (!cl->dead && !cl->closing &&
+           (nl = memchr(cl->in + start, '\n', cl->in_len - start))) {
+        size_t len = (size_t)(nl - (cl->in + start));
+        /* Only a whole request counts as activity: a client trickling
+         * bytes without ever finishing a line still times out. */
         cl->last_active = now_s();
-        cl->in_len += (size_t)n;
-        char *nl;
-        size_t start = 0;
-        while (!cl->dead && !cl->closing &&
-               (nl = memchr(cl->in + start, '\n', cl->in_len - start))) {
-            size_t len = (size_t)(nl - (cl->in + start));
-            if (len > 0 && !(len == 1 && cl->in[start] == '\r'))
+        if (len > 0 && !(len == 1 && cl->in[start] == '\r')) {
+            if (client_take_token(c, cl))
                 handle_line(c, cl, cl->in + start, len);
-            start += len + 1;
+            else
+                refuse_rate(c, cl, cl->in + start, len);
         }
-        memmove(cl->in, cl->in + start, cl->in_len - start);
-        cl->in_len -= start;
-        if (cl->in_len > CONTROL_MAX_LINE) {
-            send_error(cl, "line-too-long", NULL,
-                       "a request line is at most %d bytes; closing the connection",
-                       CONTROL_MAX_LINE);
-            cl->closing = 1;
-            cl->in_len = 0;
-            client_try_write(cl);
-        }
-        if (cl->closing || cl->dead)
-            return;
+        start += len + 1;
+    }
+    memmove(cl->in, cl->in + start, cl->in_len - start);
+    cl->in_len -= start;
+    if (cl->in_len > CONTROL_MAX_LINE) {
+        send_error(cl, "line-too-long", NULL,
+                   "a request line is at most %d bytes; closing the connection",
+                   CONTROL_MAX_LINE);
+        cl->closing = 1;
+        cl->in_len = 0;
+        client_try_write(cl);
     }
 }
 
@@ -667,8 +795,28 @@ static void accept_clients(control *c)
         }
         cl->fd = fd;
         cl->max_out = (size_t)c->cfg->max_queue_kib * 1024;
-        cl->last_active = now_s();
+        cl->last_active = cl->tokens_at = now_s();
+        cl->tokens = (double)c->cfg->burst;
         c->clients[c->n_clients++] = cl;
+        struct peer_cred pc;
+        int prc = peer_cred_get(fd, &pc);
+        if (prc < 0 || !peer_allowed(&pc, c->self_uid, c->allowed_gid)) {
+            if (prc < 0)
+                fprintf(stderr, "goniod: refused client %d: no peer credentials: %s\n", fd,
+                        strerror(-prc));
+            else
+                fprintf(stderr,
+                        "goniod: refused client %d: pid %ld uid %ld gid %ld is not root, not "
+                        "goniod's user and not in group %ld\n",
+                        fd, (long)pc.pid, (long)pc.uid, (long)pc.gid, (long)c->allowed_gid);
+            send_error(cl, "not-authorized", NULL,
+                       "not allowed: the control socket serves root, goniod's user and "
+                       "the members of group %ld",
+                       (long)c->allowed_gid);
+            cl->closing = 1;
+            client_try_write(cl);
+            continue;
+        }
         if (c->n_clients > (size_t)c->cfg->max_clients) {
             send_error(cl, "too-many-clients", NULL, "goniod serves at most %d connections",
                        c->cfg->max_clients);
@@ -704,7 +852,7 @@ control *control_new(const struct goniod_config *cfg, worker *w, struct gonio_er
         return NULL;
     }
     snprintf(sa.sun_path, sizeof sa.sun_path, "%s", cfg->socket_path);
-    gid_t gid = (gid_t)-1;
+    gid_t gid = (gid_t)-1, allowed = getegid();
     if (cfg->socket_group[0]) {
         struct group *g = getgrnam(cfg->socket_group);
         if (!g) {
@@ -712,17 +860,26 @@ control *control_new(const struct goniod_config *cfg, worker *w, struct gonio_er
                           cfg->path, cfg->socket_group);
             return NULL;
         }
-        gid = g->gr_gid;
+        gid = allowed = g->gr_gid;
     }
+    /* A socket folder goniod creates is 0750 in the socket's group: only
+     * the operators can even reach the socket. An existing folder is left
+     * as it is (systemd's RuntimeDirectory=, or a test's). */
     char dir[sizeof sa.sun_path];
     snprintf(dir, sizeof dir, "%s", cfg->socket_path);
     char *slash = strrchr(dir, '/');
+    struct stat st;
     if (slash && slash != dir) {
         *slash = '\0';
-        if (gonio_mkdir_p(dir, err) < 0)
-            return NULL;
+        if (stat(dir, &st) != 0) {
+            if (gonio_mkdir_p(dir, err) < 0)
+                return NULL;
+            if (chmod(dir, 0750) < 0 || (gid != (gid_t)-1 && chown(dir, (uid_t)-1, gid) < 0)) {
+                gonio_err_set(err, errno, "%s: %s", dir, strerror(errno));
+                return NULL;
+            }
+        }
     }
-    struct stat st;
     if (lstat(cfg->socket_path, &st) == 0 && !S_ISSOCK(st.st_mode)) {
         gonio_err_set(err, EEXIST, "%s: exists and is not a socket; not replacing it",
                       cfg->socket_path);
@@ -766,6 +923,8 @@ control *control_new(const struct goniod_config *cfg, worker *w, struct gonio_er
     c->cfg = cfg;
     c->w = w;
     c->listen_fd = fd;
+    c->self_uid = geteuid();
+    c->allowed_gid = allowed;
     return c;
 }
 

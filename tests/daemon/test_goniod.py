@@ -27,6 +27,10 @@ GONIOD = os.path.join(BIN, "goniod")
 GONIO = os.path.join(BIN, "gonio")
 JOURNAL_POINTS = os.path.join(TESTS_BIN, "journal_points")
 MAX_LINE = 65536  # docs/protocol.md
+# make check-valgrind runs goniod under valgrind: GONIO_WRAP is the command
+# put before it, and waits for the daemon to come up are stretched.
+WRAP = os.environ.get("GONIO_WRAP", "").split()
+START_S = 60 if WRAP else 10
 
 
 def tmpdir():
@@ -52,7 +56,7 @@ def plan_total(capdir):
 class Conn:
     """One client connection: JSON lines both ways."""
 
-    def __init__(self, path, timeout=20):
+    def __init__(self, path, timeout=2 * START_S):
         self.s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         self.s.settimeout(timeout)
         try:
@@ -131,10 +135,10 @@ class Daemon:
 
     def start(self):
         logf = open(self.log, "a")
-        self.proc = subprocess.Popen([GONIOD, "--config", self.config], stdout=logf,
+        self.proc = subprocess.Popen(WRAP + [GONIOD, "--config", self.config], stdout=logf,
                                      stderr=logf, env=self.env)
         logf.close()
-        deadline = time.time() + 10
+        deadline = time.time() + START_S
         while time.time() < deadline:
             try:
                 Conn(self.sock).close()
@@ -162,7 +166,7 @@ class Daemon:
         if self.proc and self.proc.poll() is None:
             self.proc.send_signal(signal.SIGTERM)
             try:
-                rc = self.proc.wait(timeout=20)
+                rc = self.proc.wait(timeout=2 * START_S)
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
@@ -172,6 +176,8 @@ class Daemon:
             log = open(self.log, errors="replace").read()
             if "Sanitizer" in log or "runtime error" in log:
                 raise AssertionError("goniod sanitizer report:\n" + log[-4000:])
+            if re.search(r"ERROR SUMMARY: [1-9]", log):
+                raise AssertionError("goniod valgrind report:\n" + log[-4000:])
         return rc
 
     def alive(self):
