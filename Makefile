@@ -3,7 +3,7 @@ BUILD ?= build
 ASAN_BUILD ?= build-asan
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps configure demo check check-asan bench clean fuzz
+.PHONY: all deps configure demo check check-asan check-valgrind bench clean fuzz
 
 all: configure
 	cmake --build $(BUILD) -j $(JOBS)
@@ -21,11 +21,16 @@ demo: all
 check: all
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
-# The unit tests again under AddressSanitizer and UndefinedBehaviorSanitizer.
+# The unit, daemon and rig tests again under AddressSanitizer and
+# UndefinedBehaviorSanitizer.
 check-asan: deps
 	@test -f $(ASAN_BUILD)/CMakeCache.txt || cmake -S . -B $(ASAN_BUILD) -DCMAKE_BUILD_TYPE=Debug -DGONIO_SANITIZE=ON >/dev/null
 	cmake --build $(ASAN_BUILD) -j $(JOBS)
-	cd $(ASAN_BUILD) && ctest --output-on-failure -j $(JOBS) -L unit
+	cd $(ASAN_BUILD) && ctest --output-on-failure -j $(JOBS) -L 'unit|daemon|rig'
+
+# The tests again under valgrind's memcheck (scripts/check-valgrind.sh).
+check-valgrind: all
+	sh scripts/check-valgrind.sh $(BUILD) $(JOBS)
 
 # libFuzzer runs (clang): FUZZ_SECONDS each, FUZZ_PARALLEL at a time; new
 # interesting inputs are merged into fuzz/corpus/ (docs/fuzzing.md).

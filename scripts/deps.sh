@@ -7,7 +7,8 @@ PACKAGES="build-essential cmake pkg-config git
 libgsl-dev libyaml-dev libjansson-dev libcmocka-dev libopenexr-dev
 libmodbus-dev libusb-1.0-0-dev umockdev libumockdev-dev zlib1g-dev
 libpng-dev openexr
-python3-serial python3-pytest python3-pymodbus python3-serial-asyncio python3-scipy"
+python3-serial python3-pytest python3-pymodbus python3-serial-asyncio python3-scipy
+valgrind"
 # report/: plots to PNG (librsvg, cairo) with a font for their text; chromium
 # opens the study report headless in a test (docs/report.md)
 PACKAGES="$PACKAGES librsvg2-dev libcairo2-dev fonts-dejavu-core chromium"

@@ -288,8 +288,8 @@ class LimitTests(DaemonTest):
 
 # ---------------------------------------------------------------------------
 
-class PathTests(DaemonTest):
-    """Paths in requests stay inside the capture root, links included."""
+class PathBase(DaemonTest):
+    """A daemon with a capture root and a folder outside it."""
     pace_s = 0.0
 
     def setUp(self):
@@ -312,6 +312,12 @@ class PathTests(DaemonTest):
     def outside_untouched(self):
         self.assertEqual(sorted(os.listdir(self.outside)), ["ds3.yaml"])
 
+
+class PathTests(PathBase):
+    """Paths in requests stay inside the capture root, links included. No
+    capture runs here (make check-valgrind runs goniod under memcheck for
+    this class)."""
+
     def test_symlinked_files_pointing_out_are_refused(self):
         os.symlink(os.path.join(self.outside, "ds3.yaml"), os.path.join(self.root, "p.yaml"))
         r = self.refused(plan="p.yaml", name="x1")
@@ -327,6 +333,68 @@ class PathTests(DaemonTest):
         self.assertEqual(sorted(os.listdir(self.root)), ["p.yaml", "plans"])
         self.outside_untouched()
 
+    def test_capture_name_that_is_a_link(self):
+        os.symlink(self.outside, os.path.join(self.root, "ln"))
+        os.symlink(os.path.join(self.folder, "nowhere"), os.path.join(self.root, "dangling"))
+        self.refused(code="exists", plan="ds3", name="ln")
+        self.refused(code="exists", plan="ds3", name="dangling")
+        self.assertFalse(os.path.exists(os.path.join(self.folder, "nowhere")))
+        self.outside_untouched()
+
+    def fake_capture(self, name, **fields):
+        """A capture directory as goniod leaves it before measuring: its
+        request.json (daemon/control.c, save_request) and nothing else."""
+        d = os.path.join(self.root, name)
+        os.makedirs(d)
+        rec = dict(id=name, plan="ds3", scene="ideal", rig="default", material="",
+                   model="abc", order="", stop="")
+        rec.update(fields)
+        with open(os.path.join(d, "request.json"), "w") as f:
+            json.dump(rec, f)
+        return d
+
+    def resume_refused(self, cid, code):
+        r = self.c.request("resume", capture_id=cid)
+        self.assertEqual(r["class"], "ERROR", r)
+        self.assertEqual(r["code"], code, r)
+        return r
+
+    def test_resume_through_links_is_refused(self):
+        # A capture directory elsewhere, linked into the root.
+        away = os.path.join(self.folder, "away")
+        os.rename(self.fake_capture("tmp"), away)
+        os.symlink(away, os.path.join(self.root, "linked"))
+        self.resume_refused("linked", "not-found")
+        self.assertEqual(os.listdir(away), ["request.json"])
+        # A capture whose journal is a link to a file elsewhere.
+        victim = os.path.join(self.outside, "victim.csv")
+        with open(victim, "w") as f:
+            f.write("keep me\n")
+        jl = self.fake_capture("jl")
+        os.symlink(victim, os.path.join(jl, "samples.csv"))
+        r = self.resume_refused("jl", "bad-value")
+        self.assertIn("samples.csv", r["message"])
+        self.assertEqual(open(victim).read(), "keep me\n")
+        # Request records naming files outside the root, directly or
+        # through a link.
+        self.fake_capture("ed", plan=os.path.join(self.outside, "ds3.yaml"))
+        r = self.resume_refused("ed", "not-found")
+        self.assertIn("outside the capture root", r["message"])
+        os.symlink(os.path.join(self.outside, "ds3.yaml"), os.path.join(self.root, "p.yaml"))
+        self.fake_capture("ed2", scene=os.path.join(self.root, "p.yaml"))
+        self.resume_refused("ed2", "not-found")
+        self.fake_capture("ed3", material="merl:" + os.path.join(self.outside, "ds3.yaml"))
+        self.resume_refused("ed3", "not-found")
+        self.assertEqual(self.c.request("status")["state"], "idle")
+        self.outside_untouched_but("victim.csv")
+
+    def outside_untouched_but(self, *extra):
+        self.assertEqual(sorted(os.listdir(self.outside)), sorted(["ds3.yaml", *extra]))
+
+
+class PathCaptureTests(PathBase):
+    """The same rules do not get in the way of real captures."""
+
     def test_link_that_stays_inside_is_fine(self):
         os.makedirs(os.path.join(self.root, "real"))
         shutil.copy(DS3, os.path.join(self.root, "real", "ds3.yaml"))
@@ -336,58 +404,21 @@ class PathTests(DaemonTest):
         self.assertEqual(self.c.until_stop("in")[-1]["reason"], "complete")
         self.check_complete("in")
 
-    def test_capture_name_that_is_a_link(self):
-        os.symlink(self.outside, os.path.join(self.root, "ln"))
-        os.symlink(os.path.join(self.folder, "nowhere"), os.path.join(self.root, "dangling"))
-        self.refused(code="exists", plan="ds3", name="ln")
-        self.refused(code="exists", plan="ds3", name="dangling")
-        self.assertFalse(os.path.exists(os.path.join(self.folder, "nowhere")))
-        self.outside_untouched()
-
-    def make_capture(self, name):
-        """A finished capture in the root, to resume or copy."""
-        r = self.c.request("capture", plan="ds3", name=name)
+    def test_real_capture_resumes_its_linked_copy_does_not(self):
+        r = self.c.request("capture", plan="ds3", name="good")
         self.assertEqual(r["class"], "OK", r)
-        self.assertEqual(self.c.until_stop(name)[-1]["reason"], "complete")
-        return os.path.join(self.root, name)
-
-    def resume_refused(self, cid, code):
-        r = self.c.request("resume", capture_id=cid)
-        self.assertEqual(r["class"], "ERROR", r)
-        self.assertEqual(r["code"], code, r)
-        return r
-
-    def test_resume_through_links_is_refused(self):
-        src = self.make_capture("good")
-        # A capture directory elsewhere, linked into the root.
+        self.assertEqual(self.c.until_stop("good")[-1]["reason"], "complete")
         away = os.path.join(self.folder, "away")
-        shutil.copytree(src, away)
-        os.symlink(away, os.path.join(self.root, "linked"))
+        shutil.copytree(os.path.join(self.root, "good"), away)
         before = sorted(os.listdir(away))
-        self.resume_refused("linked", "not-found")
-        # A capture whose journal is a link to a file elsewhere.
-        victim = os.path.join(self.outside, "victim.csv")
-        open(victim, "w").write("keep me\n")
-        dst = os.path.join(self.root, "jl")
-        shutil.copytree(src, dst)
-        os.remove(os.path.join(dst, "samples.csv"))
-        os.symlink(victim, os.path.join(dst, "samples.csv"))
-        r = self.resume_refused("jl", "bad-value")
-        self.assertIn("samples.csv", r["message"])
-        self.assertEqual(open(victim).read(), "keep me\n")
+        os.symlink(away, os.path.join(self.root, "linked"))
+        r = self.c.request("resume", capture_id="linked")
+        self.assertEqual((r["class"], r["code"]), ("ERROR", "not-found"), r)
         self.assertEqual(sorted(os.listdir(away)), before)
-        # A request record edited to name a plan outside the root.
-        ed = os.path.join(self.root, "ed")
-        shutil.copytree(src, ed)
-        rec = json.load(open(os.path.join(ed, "request.json")))
-        rec["plan"] = os.path.join(self.outside, "ds3.yaml")
-        json.dump(rec, open(os.path.join(ed, "request.json"), "w"))
-        r = self.resume_refused("ed", "not-found")
-        self.assertIn("outside the capture root", r["message"])
-        # The untouched original still resumes (nothing left to measure).
         r = self.c.request("resume", capture_id="good")
         self.assertEqual(r["class"], "OK", r)
         self.assertEqual(self.c.until_stop("good")[-1]["exit_status"], "success")
+        self.check_complete("good")
 
 
 # ---------------------------------------------------------------------------
