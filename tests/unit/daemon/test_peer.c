@@ -15,7 +15,8 @@
 static struct peer_cred cred(uid_t uid, gid_t gid, const gid_t *groups, size_t n)
 {
     struct peer_cred pc = {.pid = 1, .uid = uid, .gid = gid, .n_groups = n};
-    memcpy(pc.groups, groups, n * sizeof *groups);
+    if (n) /* groups may be NULL then; memcpy must not see NULL */
+        memcpy(pc.groups, groups, n * sizeof *groups);
     return pc;
 }
 

@@ -348,8 +348,10 @@ static void urb_finish(struct silent_dev *d, UMockdevIoctlData *u, const unsigne
         GError *e = NULL;
         UMockdevIoctlData *buf = umockdev_ioctl_data_resolve(
             u, offsetof(struct usbdevfs_urb, buffer), (gsize)urb->buffer_length, &e);
-        if (buf)
+        if (buf) {
             umockdev_ioctl_data_update(buf, 0, (guint8 *)data, len);
+            g_object_unref(buf);
+        }
     }
     int fields[2] = {status, len};
     umockdev_ioctl_data_update(u, offsetof(struct usbdevfs_urb, status), (guint8 *)&fields[0],
@@ -394,6 +396,7 @@ static gboolean silent_ioctl(UMockdevIoctlBase *base, UMockdevIoctlClient *clien
             UMockdevIoctlData *buf = umockdev_ioctl_data_resolve(
                 u, offsetof(struct usbdevfs_urb, buffer), (gsize)urb->buffer_length, &e);
             on_command(d, buf->data, urb->buffer_length);
+            g_object_unref(buf);
             urb_finish(d, u, NULL, 0, 0);
             int all = urb->buffer_length;
             umockdev_ioctl_data_update(u, offsetof(struct usbdevfs_urb, actual_length),
@@ -410,6 +413,8 @@ static gboolean silent_ioctl(UMockdevIoctlBase *base, UMockdevIoctlClient *clien
         } else {
             d->pending = g_object_ref(u); /* silent */
         }
+        /* resolve gave us a reference of our own; the queues hold theirs. */
+        g_object_unref(u);
         umockdev_ioctl_client_complete(client, 0, 0);
     } else if (req == USBDEVFS_REAPURB || req == USBDEVFS_REAPURBNDELAY) {
         UMockdevIoctlData *u = g_queue_pop_head(&d->done);
@@ -419,6 +424,7 @@ static gboolean silent_ioctl(UMockdevIoctlBase *base, UMockdevIoctlClient *clien
         }
         UMockdevIoctlData *out = umockdev_ioctl_data_resolve(arg, 0, sizeof(void *), &e);
         umockdev_ioctl_data_set_ptr(out, 0, u);
+        g_object_unref(out); /* resolve returns a reference of our own (valgrind) */
         g_object_unref(u);
         umockdev_ioctl_client_complete(client, 0, 0);
     } else if (req == USBDEVFS_DISCARDURB) {
