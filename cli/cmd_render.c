@@ -12,6 +12,7 @@
 #include "render/output.h"
 #include "render/render.h"
 #include "render/scene.h"
+#include "render/study.h"
 
 #define MAX_ITEMS 64
 
@@ -21,6 +22,8 @@ static void usage(FILE *out)
             "usage: gonio render --material SPEC [--material SPEC ...] [OPTIONS] --out DIR\n"
             "       gonio render --grid --truth SPEC --model SPEC [--model SPEC ...]\n"
             "                    [--label TEXT ...] [--columns N] [OPTIONS] --out DIR\n"
+            "       gonio render --study DIR [--study-scene NAME] [--columns N] [OPTIONS]\n"
+            "                    (a grid per material in DIR/renders/MATERIAL/)\n"
             "  SPEC: nbrdf:NAME, abc:NAME, sgd:NAME, merl:FILE, builtin:NAME, spectral:NAME,\n"
             "        default or model:FILE (a fitted model)\n"
             "  --scene FILE|NAME  render scene (configs/render/NAME.yaml; default: 'default')\n"
@@ -30,6 +33,63 @@ static void usage(FILE *out)
             "Writes DIR/NAME.exr (linear RGB), DIR/NAME.png (sRGB), DIR/render.json, and with\n"
             "--grid DIR/grid.exr and DIR/grid.png (truth first, then each model).\n",
             RENDER_MIN_SIZE, RENDER_MAX_SIZE);
+}
+
+/* --study DIR: one grid per material of the study's results, the truth
+ * first, then every fitted model of one capture scene (render/study.h). All
+ * materials are opened before anything is written. */
+static int render_study(const char *dir, const char *study_scene, const struct render_scene *sc,
+                        int size, int columns, int quiet)
+{
+    struct gonio_err err = {0};
+    struct render_study_material *mats;
+    int n, status = 0;
+    if (render_study_read(dir, study_scene, &mats, &n, &err) < 0) {
+        fprintf(stderr, "gonio render: %s\n", err.msg);
+        return gonio_exit_status(err.code);
+    }
+    int total = 0;
+    for (int i = 0; i < n; i++)
+        total += 1 + mats[i].n;
+    brdf_material **opened = calloc((size_t)total, sizeof *opened);
+    struct render_item *items = calloc((size_t)total, sizeof *items);
+    if (!opened || !items) {
+        fprintf(stderr, "gonio render: out of memory\n");
+        status = 1;
+        goto done;
+    }
+    for (int i = 0, k = 0; i < n; i++)
+        for (int c = -1; c < mats[i].n; c++, k++) {
+            const char *spec = c < 0 ? mats[i].truth : mats[i].cells[c].spec;
+            opened[k] = fit_material_open(spec, &err);
+            if (!opened[k]) {
+                fprintf(stderr, "gonio render: %s: %s\n", mats[i].name, err.msg);
+                status = gonio_exit_status(err.code);
+                goto done;
+            }
+            items[k] = (struct render_item){spec, c < 0 ? "truth" : mats[i].cells[c].label,
+                                            opened[k]};
+        }
+    for (int i = 0, k = 0; i < n; k += 1 + mats[i].n, i++) {
+        char out[4400];
+        snprintf(out, sizeof out, "%s/renders/%s", dir, mats[i].name);
+        int cols = columns ? columns : (1 + mats[i].n < 6 ? 1 + mats[i].n : 6);
+        struct render_set_options o = {size, 1, cols, quiet ? NULL : stderr};
+        if (render_write_set(out, sc, items + k, 1 + mats[i].n, &o, &err) < 0) {
+            fprintf(stderr, "gonio render: %s\n", err.msg);
+            status = gonio_exit_status(err.code);
+            goto done;
+        }
+        printf("wrote %s/grid.png: truth and %d model%s\n", out, mats[i].n,
+               mats[i].n == 1 ? "" : "s");
+    }
+done:
+    for (int k = 0; opened && k < total; k++)
+        brdf_material_free(opened[k]);
+    free(opened);
+    free(items);
+    render_study_free(mats, n);
+    return status;
 }
 
 static int bad(const char *msg, const char *value)
@@ -47,11 +107,13 @@ int cmd_render(int argc, char **argv)
         {"grid", no_argument, NULL, 'g'},           {"columns", required_argument, NULL, 'c'},
         {"scene", required_argument, NULL, 's'},    {"size", required_argument, NULL, 'n'},
         {"out", required_argument, NULL, 'o'},      {"quiet", no_argument, NULL, 'q'},
+        {"study", required_argument, NULL, 'S'},    {"study-scene", required_argument, NULL, 'C'},
         {"help", no_argument, NULL, 'h'},           {NULL, 0, NULL, 0},
     };
     const char *specs[MAX_ITEMS], *labels[MAX_ITEMS] = {0}, *truth = NULL, *scene_arg = NULL,
                                   *out = NULL;
-    const char *models[MAX_ITEMS], *model_labels[MAX_ITEMS] = {0};
+    const char *models[MAX_ITEMS], *model_labels[MAX_ITEMS] = {0}, *study = NULL,
+               *study_scene = NULL;
     int n_specs = 0, n_models = 0, n_labels = 0, grid = 0, quiet = 0;
     long size = 256, columns = 0;
     char *end;
@@ -75,6 +137,8 @@ int cmd_render(int argc, char **argv)
             model_labels[n_labels++] = optarg;
             break;
         case 't': truth = optarg; break;
+        case 'S': study = optarg; break;
+        case 'C': study_scene = optarg; break;
         case 'g': grid = 1; break;
         case 's': scene_arg = optarg; break;
         case 'o': out = optarg; break;
@@ -95,9 +159,17 @@ int cmd_render(int argc, char **argv)
     }
     if (optind != argc)
         return bad("unexpected argument", argv[optind]);
-    if (!out)
+    if (study) {
+        if (grid || truth || n_models || n_labels || n_specs || out)
+            return bad("--study DIR goes alone (it writes DIR/renders/MATERIAL/)", NULL);
+    } else if (study_scene) {
+        return bad("--study-scene needs --study", NULL);
+    } else if (!out) {
         return bad("--out DIR is required", NULL);
-    if (grid) {
+    }
+    if (study) {
+        /* checked below, with the scene */
+    } else if (grid) {
         if (!truth || !n_models)
             return bad("--grid needs --truth SPEC and at least one --model SPEC", NULL);
         if (n_specs)
@@ -113,7 +185,7 @@ int cmd_render(int argc, char **argv)
         n_specs = 1 + n_models;
     } else {
         if (truth || n_models || n_labels || columns)
-            return bad("--truth, --model, --label and --columns need --grid", NULL);
+            return bad("--truth, --model, --label and --columns need --grid or --study", NULL);
         if (!n_specs)
             return bad("name at least one --material SPEC", NULL);
     }
@@ -125,6 +197,8 @@ int cmd_render(int argc, char **argv)
         fprintf(stderr, "gonio render: %s\n", err.msg);
         return gonio_exit_status(err.code);
     }
+    if (study)
+        return render_study(study, study_scene, &sc, (int)size, (int)columns, quiet);
     struct render_item items[MAX_ITEMS];
     brdf_material *mats[MAX_ITEMS] = {0};
     int status = 0;
