@@ -2,11 +2,42 @@
  * their analytic Jacobian. */
 #include "fit/abc_problem.h"
 
+#include "fit/abc_vlog.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #define ABC_PI 3.14159265358979323846
+
+struct keyed {
+    double v;
+    size_t k;
+};
+
+static int cmp_keyed(const void *a, const void *b)
+{
+    double x = ((const struct keyed *)a)->v, y = ((const struct keyed *)b)->v;
+    return (x > y) - (x < y);
+}
+
+/* The distinct values of t[n] (sorted here) into *u, each sample's index
+ * into idx; returns the count, 0 on no memory. */
+static size_t distinct(struct keyed *t, size_t n, double **u, unsigned *idx)
+{
+    double *out = malloc((n ? n : 1) * sizeof *out);
+    *u = out;
+    if (!out)
+        return 0;
+    qsort(t, n, sizeof *t, cmp_keyed);
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (i == 0 || t[i].v != t[i - 1].v)
+            out[m++] = t[i].v;
+        idx[t[i].k] = (unsigned)(m - 1);
+    }
+    return m;
+}
 
 int abc_problem_init(struct abc_problem *pb, const struct fit_sample *s, const size_t *idx,
                      size_t n)
@@ -19,7 +50,14 @@ int abc_problem_init(struct abc_problem *pb, const struct fit_sample *s, const s
     pb->cosi = malloc(n * sizeof *pb->cosi);
     pb->f = malloc(3 * n * sizeof *pb->f);
     pb->y = malloc(3 * n * sizeof *pb->y);
-    if (!pb->x || !pb->vh || !pb->gterm || !pb->cosi || !pb->f || !pb->y) {
+    pb->iy = malloc(3 * n * sizeof *pb->iy);
+    pb->xi = malloc((n ? n : 1) * sizeof *pb->xi);
+    pb->vi = malloc((n ? n : 1) * sizeof *pb->vi);
+    struct keyed *tx = malloc((n ? n : 1) * sizeof *tx), *tv = malloc((n ? n : 1) * sizeof *tv);
+    if (!tx || !tv || !pb->x || !pb->vh || !pb->gterm || !pb->cosi || !pb->f || !pb->y || !pb->iy || !pb->xi ||
+        !pb->vi) {
+        free(tx);
+        free(tv);
         abc_problem_free(pb);
         return -1;
     }
@@ -31,10 +69,21 @@ int abc_problem_init(struct abc_problem *pb, const struct fit_sample *s, const s
         pb->vh[k] = geo.vh;
         pb->gterm[k] = geo.gterm;
         pb->cosi[k] = sk->g.wi[2];
+        tx[k] = (struct keyed){geo.x, k};
+        tv[k] = (struct keyed){geo.vh, k};
         for (int c = 0; c < 3; c++) {
             pb->f[3 * k + c] = sk->rgb[c];
             pb->y[3 * k + c] = log1p(sk->rgb[c] * pb->cosi[k]);
+            pb->iy[3 * k + c] = 1.0 / (1.0 + sk->rgb[c] * pb->cosi[k]);
         }
+    }
+    pb->nux = distinct(tx, n, &pb->ux, pb->xi);
+    pb->nuv = distinct(tv, n, &pb->uvh, pb->vi);
+    free(tx);
+    free(tv);
+    if (n && (!pb->nux || !pb->nuv)) {
+        abc_problem_free(pb);
+        return -1;
     }
     return 0;
 }
@@ -47,6 +96,11 @@ void abc_problem_free(struct abc_problem *pb)
     free(pb->cosi);
     free(pb->f);
     free(pb->y);
+    free(pb->iy);
+    free(pb->ux);
+    free(pb->uvh);
+    free(pb->xi);
+    free(pb->vi);
     free(pb->s);
     memset(pb, 0, sizeof *pb);
 }
@@ -211,4 +265,226 @@ double abc_problem_cost(const struct abc_problem *pb, const double th[ABC_NPAR])
         s += r[i] * r[i];
     free(r);
     return 0.5 * s;
+}
+
+int abc_cache_init(struct abc_cache *c, const struct abc_problem *pb)
+{
+    size_t n = pb->n;
+    memset(c, 0, sizeof *c);
+    c->spec = malloc((n ? 4 * n : 1) * sizeof *c->spec);
+    c->w = malloc((n ? 3 * n : 1) * sizeof *c->w);
+    c->q = malloc((3 * n + ABC_NPAR) * sizeof *c->q);
+    c->lobe = malloc((pb->nux ? 3 * pb->nux : 1) * sizeof *c->lobe);
+    c->fres = malloc((pb->nuv ? 2 * pb->nuv : 1) * sizeof *c->fres);
+    if (!c->spec || !c->w || !c->q || !c->lobe || !c->fres) {
+        abc_cache_free(c);
+        return -1;
+    }
+    return 0;
+}
+
+void abc_cache_free(struct abc_cache *c)
+{
+    free(c->spec);
+    free(c->w);
+    free(c->q);
+    free(c->lobe);
+    free(c->fres);
+    memset(c, 0, sizeof *c);
+}
+
+/* The parameters in natural units and d value / d theta (0 beyond a clamp). */
+struct abc_nat {
+    double kd[3], dkd[3], A[3], dA[3], B, dBt, C, dCt, eta, detat;
+};
+
+static void natural(const double th[ABC_NPAR], struct abc_nat *p)
+{
+    for (int c = 0; c < 3; c++) {
+        p->kd[c] = clamped_exp(th[c], ABC_LOGKD_MIN, ABC_LOGKD_MAX, &p->dkd[c]);
+        p->A[c] = clamped_exp(th[3 + c], ABC_LOGA_MIN, ABC_LOGA_MAX, &p->dA[c]);
+    }
+    p->B = clamped_exp(th[6] - th[7], ABC_LOGB_MIN, ABC_LOGB_MAX, &p->dBt);
+    p->C = clamped_exp(th[7], ABC_LOGC_MIN, ABC_LOGC_MAX, &p->dCt);
+    p->eta = eta_of(th[8], &p->detat);
+}
+
+double abc_problem_resid(const struct abc_problem *pb, const double th[ABC_NPAR], double *r,
+                         struct abc_cache *c)
+{
+    struct abc_nat p;
+    natural(th, &p);
+    int lin = pb->loss != FIT_LOSS_LOG;
+    double kdp[3] = {p.kd[0] / ABC_PI, p.kd[1] / ABC_PI, p.kd[2] / ABC_PI};
+    double ss = 0, *out = c->q;
+    for (size_t i = 0; i < pb->nux; i++) {
+        double *l = c->lobe + 3 * i;
+        l[0] = brdf_abc_distribution(p.B, p.C, pb->ux[i], &l[1], &l[2]);
+    }
+    for (size_t i = 0; i < pb->nuv; i++)
+        c->fres[2 * i] = brdf_abc_fresnel(p.eta, pb->uvh[i], &c->fres[2 * i + 1]);
+    for (size_t k = 0; k < pb->n; k++) {
+        const double *l = c->lobe + 3 * (size_t)pb->xi[k], *fr = c->fres + 2 * (size_t)pb->vi[k];
+        double F = fr[0], dF = fr[1], D = l[0], dDB = l[1], dDC = l[2];
+        double gt = pb->gterm[k], ci = pb->cosi[k], gF = gt * F;
+        double S = gF * D;
+        double *sp = c->spec + 4 * k;
+        sp[0] = S;
+        sp[1] = gF * dDB * p.dBt;                 /* dS/dtheta6 */
+        sp[2] = gF * (dDC * p.dCt - dDB * p.dBt); /* dS/dtheta7 */
+        sp[3] = gt * D * dF * p.detat;            /* dS/dtheta8 */
+        for (int ch = 0; ch < 3; ch++) {
+            size_t row = 3 * k + (size_t)ch;
+            double fhat = kdp[ch] + p.A[ch] * S;
+            if (lin) {
+                out[row] = (fhat - pb->f[row]) * pb->s[row];
+                c->w[row] = pb->s[row];
+            } else {
+                /* log(1 + fhat cos) - log(1 + f cos) as one log (below): its
+                 * absolute error is a rounding of 1, as the log1p pair's */
+                double q = 1.0 + fhat * ci;
+                out[row] = q * pb->iy[row];
+                c->w[row] = ci / q;
+            }
+        }
+    }
+    if (!lin)
+        abc_vlog(out, 3 * pb->n);
+    for (size_t row = 0; row < 3 * pb->n; row++)
+        ss += out[row] * out[row];
+    if (pb->prior) {
+        const struct abc_prior_term *pt = pb->prior;
+        for (int i = 0; i < ABC_NPAR; i++) {
+            double v = 0;
+            for (int j = 0; j < ABC_NPAR; j++)
+                v += pt->W[i * ABC_NPAR + j] * (th[j] - pt->mean[j]);
+            ss += v * v;
+            out[3 * pb->n + (size_t)i] = v;
+        }
+    }
+    if (r)
+        memcpy(r, out, abc_problem_nres(pb) * sizeof *r);
+    memcpy(c->theta, th, sizeof c->theta);
+    c->valid = 1;
+    return 0.5 * ss;
+}
+
+void abc_problem_normal(const struct abc_problem *pb, const double th[ABC_NPAR], int trans,
+                        const double *u, double *v, double *JTJ, struct abc_cache *c)
+{
+    if (!c->valid || memcmp(c->theta, th, sizeof c->theta) != 0)
+        abc_problem_resid(pb, th, NULL, c);
+    if (!u)
+        u = c->q; /* the residuals at th */
+    struct abc_nat p;
+    natural(th, &p);
+    double a[3][ABC_NPAR]; /* per channel: dfhat/dtheta factors of kd, A, and A for 6..8 */
+    for (int ch = 0; ch < 3; ch++) {
+        a[ch][0] = p.dkd[ch] / ABC_PI;
+        a[ch][1] = p.dA[ch];
+        a[ch][2] = p.A[ch];
+    }
+    size_t n = pb->n;
+    if (v) {
+        if (trans) {
+            double g[ABC_NPAR] = {0};
+            for (size_t k = 0; k < n; k++) {
+                const double *sp = c->spec + 4 * k;
+                for (int ch = 0; ch < 3; ch++) {
+                    size_t row = 3 * k + (size_t)ch;
+                    double wu = c->w[row] * u[row];
+                    g[ch] += wu * a[ch][0];
+                    g[3 + ch] += wu * a[ch][1] * sp[0];
+                    double au = wu * a[ch][2];
+                    g[6] += au * sp[1];
+                    g[7] += au * sp[2];
+                    g[8] += au * sp[3];
+                }
+            }
+            if (pb->prior)
+                for (int i = 0; i < ABC_NPAR; i++)
+                    for (int j = 0; j < ABC_NPAR; j++)
+                        g[j] += pb->prior->W[i * ABC_NPAR + j] * u[3 * n + (size_t)i];
+            memcpy(v, g, sizeof g);
+        } else {
+            for (size_t k = 0; k < n; k++) {
+                const double *sp = c->spec + 4 * k;
+                for (int ch = 0; ch < 3; ch++) {
+                    size_t row = 3 * k + (size_t)ch;
+                    v[row] = c->w[row] *
+                             (a[ch][0] * u[ch] + a[ch][1] * sp[0] * u[3 + ch] +
+                              a[ch][2] * (sp[1] * u[6] + sp[2] * u[7] + sp[3] * u[8]));
+                }
+            }
+            if (pb->prior)
+                for (int i = 0; i < ABC_NPAR; i++) {
+                    double s = 0;
+                    for (int j = 0; j < ABC_NPAR; j++)
+                        s += pb->prior->W[i * ABC_NPAR + j] * u[j];
+                    v[3 * n + (size_t)i] = s;
+                }
+        }
+    }
+    if (!JTJ)
+        return;
+    /* Per channel, sums over its rows of w^2 times 1, S, S^2, u_i, S u_i
+     * (u = dS/dtheta6..8); then over all rows of A^2 w^2 u_i u_j. Each pass
+     * keeps its few sums in registers. */
+    double M[ABC_NPAR][ABC_NPAR] = {{0}};
+    for (int ch = 0; ch < 3; ch++) {
+        double q1 = 0, qs = 0, qss = 0, q6 = 0, q7 = 0, q8 = 0, qs6 = 0, qs7 = 0, qs8 = 0;
+        const double *w = c->w + ch;
+        for (size_t k = 0; k < n; k++) {
+            const double *sp = c->spec + 4 * k;
+            double w2 = w[3 * k] * w[3 * k], w2s = w2 * sp[0];
+            q1 += w2;
+            qs += w2s;
+            qss += w2s * sp[0];
+            q6 += w2 * sp[1];
+            q7 += w2 * sp[2];
+            q8 += w2 * sp[3];
+            qs6 += w2s * sp[1];
+            qs7 += w2s * sp[2];
+            qs8 += w2s * sp[3];
+        }
+        double ak = a[ch][0], aa = a[ch][1], am = a[ch][2];
+        M[ch][ch] = ak * ak * q1;
+        M[3 + ch][ch] = ak * aa * qs;
+        M[3 + ch][3 + ch] = aa * aa * qss;
+        M[6][ch] = ak * am * q6;
+        M[7][ch] = ak * am * q7;
+        M[8][ch] = ak * am * q8;
+        M[6][3 + ch] = aa * am * qs6;
+        M[7][3 + ch] = aa * am * qs7;
+        M[8][3 + ch] = aa * am * qs8;
+    }
+    double A2[3] = {p.A[0] * p.A[0], p.A[1] * p.A[1], p.A[2] * p.A[2]};
+    double q66 = 0, q67 = 0, q68 = 0, q77 = 0, q78 = 0, q88 = 0;
+    for (size_t k = 0; k < n; k++) {
+        const double *sp = c->spec + 4 * k, *w = c->w + 3 * k;
+        double W = A2[0] * w[0] * w[0] + A2[1] * w[1] * w[1] + A2[2] * w[2] * w[2];
+        double wu6 = W * sp[1], wu7 = W * sp[2];
+        q66 += wu6 * sp[1];
+        q67 += wu6 * sp[2];
+        q68 += wu6 * sp[3];
+        q77 += wu7 * sp[2];
+        q78 += wu7 * sp[3];
+        q88 += W * sp[3] * sp[3];
+    }
+    M[6][6] = q66;
+    M[7][6] = q67;
+    M[8][6] = q68;
+    M[7][7] = q77;
+    M[8][7] = q78;
+    M[8][8] = q88;
+    if (pb->prior) {
+        const double *W = pb->prior->W;
+        for (int i = 0; i < ABC_NPAR; i++)
+            for (int j = 0; j <= i; j++)
+                for (int r = 0; r < ABC_NPAR; r++)
+                    M[i][j] += W[r * ABC_NPAR + i] * W[r * ABC_NPAR + j];
+    }
+    for (int i = 0; i < ABC_NPAR; i++)
+        for (int j = 0; j <= i; j++)
+            JTJ[i * ABC_NPAR + j] = JTJ[j * ABC_NPAR + i] = M[i][j];
 }

@@ -66,6 +66,14 @@ struct abc_problem {
     double *cosi;   /* n.l: the log loss weight */
     double *f;      /* measured RGB, 3n */
     double *y;      /* log(1 + f cos theta_i), 3n (the grid scores with it whatever the loss) */
+    double *iy;     /* 1 / (1 + f cos theta_i), 3n: abc_problem_resid's log((1 + fhat cos) iy) */
+    /* Distinct values of x and v.h (an in-plane plan repeats them: DS1's 912
+     * samples have 397 and 297), so that the lobe and the Fresnel term are
+     * evaluated once per value: ux[nux], uvh[nuv], and per sample its
+     * index xi[k], vi[k]. */
+    size_t nux, nuv;
+    double *ux, *uvh;
+    unsigned *xi, *vi;
     enum fit_loss loss; /* FIT_LOSS_LOG after init; abc_problem_set_loss changes it */
     double *s;      /* linear losses: r = (fhat - f) s, 3n (NULL for the log loss) */
     const struct abc_prior_term *prior; /* NULL: no prior rows */
@@ -97,6 +105,40 @@ void abc_params_to_theta(const struct brdf_abc *p, double theta[ABC_NPAR]);
  * wanted. nres = abc_problem_nres(pb). */
 void abc_problem_eval(const struct abc_problem *pb, const double theta[ABC_NPAR], double *r,
                       double *J);
+
+/* The solver's fused path. GSL's trust region evaluates the Jacobian only
+ * at an accepted trial point, right after its residuals: so the residual
+ * pass leaves in the cache what the Jacobian needs (the specular shape and
+ * its derivatives per sample, dr/dfhat per row), and the normal equations
+ * are then a pass of multiply-adds without a transcendental. The Jacobian
+ * is never stored: each data row has 5 non-zeros (kd and A of its channel,
+ * B C, C, eta), and J^T J is accumulated from per-channel sums. */
+struct abc_cache {
+    double theta[ABC_NPAR]; /* where spec and w were computed */
+    int valid;
+    double *spec;           /* 4n: S, and dS/dtheta6..8 without A, per sample */
+    double *w;              /* 3n: dr/dfhat per data row */
+    double *q;              /* nres: the residuals at theta */
+    double *lobe;           /* 3 nux: D, dD/dB, dD/dC per distinct x */
+    double *fres;           /* 2 nuv: F, dF/deta per distinct v.h */
+};
+
+int abc_cache_init(struct abc_cache *c, const struct abc_problem *pb);
+void abc_cache_free(struct abc_cache *c);
+
+/* Residuals r[nres] (NULL: only the cache and the cost) at theta, the same
+ * values as abc_problem_eval to rounding (the log loss as log((1 + fhat cos)
+ * / (1 + f cos)): one log, not a log1p, per row). Fills the cache. Returns
+ * 0.5 sum r^2. */
+double abc_problem_resid(const struct abc_problem *pb, const double th[ABC_NPAR], double *r,
+                         struct abc_cache *c);
+
+/* At theta (from the cache when it holds theta): v = J^T u (trans, u of
+ * nres, v of 9; u NULL: the residuals at theta, i.e. the gradient) or
+ * v = J u (!trans, u of 9, v of nres) when v is not NULL, and J^T J
+ * (9 x 9, row-major, both triangles) when JTJ is not NULL. */
+void abc_problem_normal(const struct abc_problem *pb, const double th[ABC_NPAR], int trans,
+                        const double *u, double *v, double *JTJ, struct abc_cache *c);
 
 /* 0.5 * sum of squared residuals (prior rows included). */
 double abc_problem_cost(const struct abc_problem *pb, const double theta[ABC_NPAR]);

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 
 #include "fit/abc_problem.h"
+#include "fit/abc_vlog.h"
 
 #define ABC_PI 3.14159265358979323846
 
@@ -100,25 +101,32 @@ double abc_linear_score(const struct abc_problem *pb, double B, double C, double
 
 int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts)
 {
-    size_t n = pb->n;
+    size_t n = pb->n, nu = pb->nux;
     int nnodes = N_B * N_C * N_ETA;
     struct node *nodes = malloc((size_t)nnodes * sizeof *nodes);
     double *fres = malloc((size_t)N_ETA * n * sizeof *fres); /* F * gterm per eta */
-    double *lg = malloc(n * sizeof *lg);                      /* log1p(B x) */
-    double *spec = malloc(n * sizeof *spec);
+    double *lg = malloc((size_t)N_B * nu * sizeof *lg);      /* log1p(B x) per B, distinct x */
+    double *lobe = malloc(nu * sizeof *lobe);
+    double *agg = malloc((size_t)N_ETA * nu * 9 * sizeof *agg);
     double *w = malloc(n * sizeof *w * 3);
-    if (!nodes || !fres || !lg || !spec || !w) {
+    double *fu = malloc((pb->nuv ? pb->nuv : 1) * sizeof *fu);
+    if (!nodes || !fres || !lg || !lobe || !agg || !w || !fu) {
+        free(fu);
         free(nodes);
         free(fres);
         free(lg);
-        free(spec);
+        free(lobe);
+        free(agg);
         free(w);
         return -1;
     }
-    for (int ie = 0; ie < N_ETA; ie++)
+    for (int ie = 0; ie < N_ETA; ie++) {
+        double *fr = fres + (size_t)ie * n;
+        for (size_t i = 0; i < pb->nuv; i++) /* F per distinct v.h */
+            fu[i] = brdf_abc_fresnel(grid_eta[ie], pb->uvh[i], NULL);
         for (size_t k = 0; k < n; k++)
-            fres[(size_t)ie * n + k] = brdf_abc_fresnel(grid_eta[ie], pb->vh[k], NULL) *
-                                       pb->gterm[k];
+            fr[k] = fu[pb->vi[k]] * pb->gterm[k];
+    }
     /* Weights of the linearised log loss: d log(1 + f cos) / df = cos / (1 + f cos),
      * squared because the linear solve minimises squared differences in f. */
     for (size_t k = 0; k < 3 * n; k++) {
@@ -137,28 +145,51 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
             t1[c] += wk * fk / ABC_PI;
             wff[c] += wk * fk * fk;
         }
+    /* The node sums are sums over samples of (weight x F G) times D(x) or
+     * D(x)^2, and D depends on the sample only through x: so the weights
+     * are summed once per eta and distinct x (agg[ie][i][9]: per channel
+     * w s, w s^2, w f s with s = F G), and each node's sums are then short
+     * dot products with D over the distinct x (397 for DS1's 912 samples). */
+    for (size_t i = 0; i < (size_t)N_ETA * nu * 9; i++)
+        agg[i] = 0;
+    for (int ie = 0; ie < N_ETA; ie++)
+        for (size_t k = 0; k < n; k++) {
+            double sk = fres[(size_t)ie * n + k];
+            double *ag = agg + ((size_t)ie * nu + pb->xi[k]) * 9;
+            for (int c = 0; c < 3; c++) {
+                double ws = w[3 * k + c] * sk;
+                ag[c] += ws;
+                ag[3 + c] += ws * sk;
+                ag[6 + c] += ws * pb->f[3 * k + c];
+            }
+        }
     int m = 0;
     for (int ib = 0; ib < N_B; ib++) {
         double B = pow(10.0, 0.5 * ib);
-        for (size_t k = 0; k < n; k++)
-            lg[k] = log1p(B * pb->x[k]);
+        double *lgb = lg + (size_t)ib * nu;
+        for (size_t i = 0; i < nu; i++)
+            lgb[i] = log1p(B * pb->ux[i]);
         for (int ic = 0; ic < N_C; ic++) {
             /* the lobe D(x) once per (B, C), shared by the eta nodes */
-            for (size_t k = 0; k < n; k++)
-                spec[k] = exp(-grid_c[ic] * lg[k]);
+            for (size_t i = 0; i < nu; i++)
+                lobe[i] = exp(-grid_c[ic] * lgb[i]);
             for (int ie = 0; ie < N_ETA; ie++) {
-                const double *fr = fres + (size_t)ie * n;
-                double s12[3] = {0}, s22[3] = {0}, t2[3] = {0};
-                for (size_t k = 0; k < n; k++) {
-                    double sk = fr[k] * spec[k];
-                    const double *wk = w + 3 * k, *fk = pb->f + 3 * k;
-                    for (int c = 0; c < 3; c++) {
-                        double ws = wk[c] * sk;
-                        s12[c] += ws / ABC_PI;
-                        s22[c] += ws * sk;
-                        t2[c] += ws * fk[c];
-                    }
+                const double *ag = agg + (size_t)ie * nu * 9;
+                /* nine scalar sums: kept in registers, not in arrays */
+                double a0 = 0, a1 = 0, a2 = 0, b0 = 0, b1 = 0, b2 = 0, c0 = 0, c1 = 0, c2 = 0;
+                for (size_t i = 0; i < nu; i++, ag += 9) {
+                    double d = lobe[i], d2 = d * d;
+                    a0 += ag[0] * d;
+                    a1 += ag[1] * d;
+                    a2 += ag[2] * d;
+                    b0 += ag[3] * d2;
+                    b1 += ag[4] * d2;
+                    b2 += ag[5] * d2;
+                    c0 += ag[6] * d;
+                    c1 += ag[7] * d;
+                    c2 += ag[8] * d;
                 }
+                double s12[3] = {a0, a1, a2}, s22[3] = {b0, b1, b2}, t2[3] = {c0, c1, c2};
                 struct node *nd = &nodes[m++];
                 nd->ib = ib;
                 nd->ic = ic;
@@ -167,6 +198,7 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
                 double lin = 0;
                 for (int c = 0; c < 3; c++) {
                     double a, bb;
+                    s12[c] /= ABC_PI;
                     nnls2(s11[c], s12[c], s22[c], t1[c], t2[c], &a, &bb);
                     nd->kd[c] = a;
                     nd->A[c] = bb;
@@ -178,7 +210,7 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
             }
         }
     }
-    /* The true log loss costs a log1p per residual: score only the nodes the
+    /* The true log loss costs a log per residual: score only the nodes the
      * linearised loss ranks best (it ranks them alike; the true loss decides
      * among them). Nodes not scored keep their linearised rank after these. */
     qsort(nodes, (size_t)nnodes, sizeof *nodes, cmp_node);
@@ -189,18 +221,23 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
         struct node *nd = &nodes[i];
         if (!isfinite(nd->score))
             break;
-        double B = pow(10.0, 0.5 * nd->ib), C = grid_c[nd->ic];
-        const double *fr = fres + (size_t)nd->ie * n;
-        double score = 0;
+        double C = grid_c[nd->ic];
+        const double *fr = fres + (size_t)nd->ie * n, *lgb = lg + (size_t)nd->ib * nu;
+        for (size_t j = 0; j < nu; j++)
+            lobe[j] = exp(-C * lgb[j]);
         for (size_t k = 0; k < n; k++) {
-            double sk = fr[k] * exp(-C * log1p(B * pb->x[k]));
+            double sk = fr[k] * lobe[pb->xi[k]];
             double ci = pb->cosi[k];
             for (int c = 0; c < 3; c++) {
                 double fhat = nd->kd[c] / ABC_PI + nd->A[c] * sk;
-                double r = log1p(fhat * ci) - pb->y[3 * k + c];
-                score += r * r;
+                /* log(1 + fhat cos) - log(1 + f cos) as one log */
+                w[3 * k + c] = (1.0 + fhat * ci) * pb->iy[3 * k + c];
             }
         }
+        abc_vlog(w, 3 * n); /* w is free by now: the residuals */
+        double score = 0;
+        for (size_t k = 0; k < 3 * n; k++)
+            score += w[k] * w[k];
         nd->score = isfinite(score) ? score : INFINITY;
         nd->scored = 1;
     }
@@ -238,7 +275,9 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
     free(nodes);
     free(fres);
     free(lg);
-    free(spec);
+    free(lobe);
+    free(agg);
     free(w);
+    free(fu);
     return got;
 }
