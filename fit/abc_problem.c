@@ -2,7 +2,7 @@
  * their analytic Jacobian. */
 #include "fit/abc_problem.h"
 
-#include "fit/abc_vlog.h"
+#include "fit/abc_vmath.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -317,12 +317,8 @@ double abc_problem_resid(const struct abc_problem *pb, const double th[ABC_NPAR]
     int lin = pb->loss != FIT_LOSS_LOG;
     double kdp[3] = {p.kd[0] / ABC_PI, p.kd[1] / ABC_PI, p.kd[2] / ABC_PI};
     double ss = 0, *out = c->q;
-    for (size_t i = 0; i < pb->nux; i++) {
-        double *l = c->lobe + 3 * i;
-        l[0] = brdf_abc_distribution(p.B, p.C, pb->ux[i], &l[1], &l[2]);
-    }
-    for (size_t i = 0; i < pb->nuv; i++)
-        c->fres[2 * i] = brdf_abc_fresnel(p.eta, pb->uvh[i], &c->fres[2 * i + 1]);
+    abc_vlobe(p.B, p.C, pb->ux, pb->nux, c->lobe);
+    abc_vfresnel(p.eta, pb->uvh, pb->nuv, c->fres);
     for (size_t k = 0; k < pb->n; k++) {
         const double *l = c->lobe + 3 * (size_t)pb->xi[k], *fr = c->fres + 2 * (size_t)pb->vi[k];
         double F = fr[0], dF = fr[1], D = l[0], dDB = l[1], dDC = l[2];

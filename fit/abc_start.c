@@ -3,9 +3,10 @@
  * exactly at each node covers the non-linear part without guessing. */
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "fit/abc_problem.h"
-#include "fit/abc_vlog.h"
+#include "fit/abc_vmath.h"
 
 #define ABC_PI 3.14159265358979323846
 
@@ -171,8 +172,8 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
             lgb[i] = log1p(B * pb->ux[i]);
         for (int ic = 0; ic < N_C; ic++) {
             /* the lobe D(x) once per (B, C), shared by the eta nodes */
-            for (size_t i = 0; i < nu; i++)
-                lobe[i] = exp(-grid_c[ic] * lgb[i]);
+            memcpy(lobe, lgb, nu * sizeof *lobe);
+            abc_vexp_neg(grid_c[ic], lobe, nu);
             for (int ie = 0; ie < N_ETA; ie++) {
                 const double *ag = agg + (size_t)ie * nu * 9;
                 /* nine scalar sums: kept in registers, not in arrays */
@@ -223,8 +224,8 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
             break;
         double C = grid_c[nd->ic];
         const double *fr = fres + (size_t)nd->ie * n, *lgb = lg + (size_t)nd->ib * nu;
-        for (size_t j = 0; j < nu; j++)
-            lobe[j] = exp(-C * lgb[j]);
+        memcpy(lobe, lgb, nu * sizeof *lobe);
+        abc_vexp_neg(C, lobe, nu);
         for (size_t k = 0; k < n; k++) {
             double sk = fr[k] * lobe[pb->xi[k]];
             double ci = pb->cosi[k];
