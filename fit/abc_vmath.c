@@ -4,18 +4,11 @@
  * <math.h> under __FAST_MATH__): 2 or 4 values per call, about 2.5x faster
  * than the scalar loops on DS1's 2736 residuals. Fast-math is harmless
  * here: the inputs are finite by contract, nothing here tests for NaN or
- * infinity, and nothing else lives in this file. target_clones builds an
- * AVX2 version beside the baseline one and picks at load time, so the
- * binary stays portable. */
+ * infinity, and nothing else lives in this file. ABC_VCLONES (abc_vmath.h)
+ * builds an AVX2 version beside the baseline one. */
 #include "fit/abc_vmath.h"
 
 #include <math.h>
-
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define ABC_VCLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define ABC_VCLONES
-#endif
 
 ABC_VCLONES
 void abc_vlog(double *v, size_t n)

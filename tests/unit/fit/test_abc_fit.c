@@ -139,6 +139,97 @@ static void test_jacobian_matches_finite_differences(void **state)
     abc_problem_free(&pb);
 }
 
+/* The solver's fused path (residuals with a cache, then J^T J, J^T r and
+ * J u without forming J) against the dense residuals and Jacobian, for
+ * each loss, with and without prior rows. */
+static void test_fused_path_matches_dense(void **state)
+{
+    (void)state;
+    struct brdf_pair g[400];
+    size_t n = ds2_grid(g);
+    struct fit_sample s[400];
+    synth(&truth, g, n, s);
+    struct abc_prior_term prior = {.mean = {-2, -2, -2, 2, 2, 2, 7, 0, -3}};
+    for (int i = 0; i < ABC_NPAR; i++)
+        for (int j = 0; j < ABC_NPAR; j++)
+            prior.W[i * ABC_NPAR + j] = i == j ? 0.3 + 0.1 * i : (i > j ? 0.05 * (i - j) : 0);
+    const struct brdf_abc at[] = {
+        {.kd = {0.1, 0.3, 0.05}, .A = {5, 30, 2}, .B = 500, .C = 1.7, .eta = 2.2},
+        {.kd = {0.01, 0.02, 0.03}, .A = {300, 200, 100}, .B = 2e5, .C = 0.3, .eta = 1.08},
+    };
+    const enum fit_loss losses[] = {FIT_LOSS_LOG, FIT_LOSS_RELATIVE, FIT_LOSS_COS_L2};
+    for (int with_prior = 0; with_prior < 2; with_prior++)
+        for (size_t l = 0; l < 3; l++) {
+            struct abc_problem pb;
+            assert_int_equal(abc_problem_init(&pb, s, NULL, n), 0);
+            assert_int_equal(abc_problem_set_loss(&pb, losses[l]), 0);
+            pb.prior = with_prior ? &prior : NULL;
+            /* in-plane data repeat their geometry: fewer lobes than samples */
+            assert_true(pb.nux < n && pb.nuv < n);
+            size_t nr = abc_problem_nres(&pb);
+            double *r = malloc(nr * sizeof *r), *rf = malloc(nr * sizeof *rf);
+            double *J = malloc(nr * ABC_NPAR * sizeof *J), *Ju = malloc(nr * sizeof *Ju);
+            struct abc_cache c;
+            assert_int_equal(abc_cache_init(&c, &pb), 0);
+            for (size_t a = 0; a < sizeof at / sizeof at[0]; a++) {
+                double th[ABC_NPAR], u[ABC_NPAR];
+                abc_params_to_theta(&at[a], th);
+                abc_problem_eval(&pb, th, r, J);
+                double cost = abc_problem_resid(&pb, th, rf, &c), ss = 0;
+                for (size_t i = 0; i < nr; i++) {
+                    assert_close(rf[i], r[i], 1e-12 * (1 + fabs(r[i])));
+                    ss += r[i] * r[i];
+                }
+                assert_rel_close(cost, 0.5 * ss, 1e-12);
+                double JTJ[ABC_NPAR * ABC_NPAR], gr[ABC_NPAR], g0[ABC_NPAR];
+                abc_problem_normal(&pb, th, 1, NULL, gr, JTJ, &c);
+                for (int i = 0; i < ABC_NPAR; i++) {
+                    g0[i] = 0;
+                    for (size_t k = 0; k < nr; k++)
+                        g0[i] += J[k * ABC_NPAR + (size_t)i] * r[k];
+                    u[i] = 0.1 * (i + 1);
+                }
+                for (int i = 0; i < ABC_NPAR; i++) {
+                    double scale = 1e-300;
+                    for (int j = 0; j < ABC_NPAR; j++) {
+                        double d = 0;
+                        for (size_t k = 0; k < nr; k++)
+                            d += J[k * ABC_NPAR + (size_t)i] * J[k * ABC_NPAR + (size_t)j];
+                        double si = 0, sj = 0;
+                        for (size_t k = 0; k < nr; k++) {
+                            si += J[k * ABC_NPAR + (size_t)i] * J[k * ABC_NPAR + (size_t)i];
+                            sj += J[k * ABC_NPAR + (size_t)j] * J[k * ABC_NPAR + (size_t)j];
+                        }
+                        /* relative to the diagonal: the off-diagonal sums cancel */
+                        assert_close(JTJ[i * ABC_NPAR + j], d, 1e-10 * sqrt(si * sj) + 1e-300);
+                        if (i == j)
+                            scale = sqrt(si * ss) + 1e-300;
+                    }
+                    assert_close(gr[i], g0[i], 1e-10 * scale);
+                }
+                /* J u from a fresh cache (computed at th on demand) */
+                struct abc_cache c2;
+                assert_int_equal(abc_cache_init(&c2, &pb), 0);
+                abc_problem_normal(&pb, th, 0, u, Ju, NULL, &c2);
+                for (size_t k = 0; k < nr; k++) {
+                    double d = 0, mag = 0;
+                    for (int j = 0; j < ABC_NPAR; j++) {
+                        d += J[k * ABC_NPAR + (size_t)j] * u[j];
+                        mag += fabs(J[k * ABC_NPAR + (size_t)j] * u[j]);
+                    }
+                    assert_close(Ju[k], d, 1e-12 * mag + 1e-300);
+                }
+                abc_cache_free(&c2);
+            }
+            abc_cache_free(&c);
+            free(r);
+            free(rf);
+            free(J);
+            free(Ju);
+            abc_problem_free(&pb);
+        }
+}
+
 static void test_parametrisation_round_trip(void **state)
 {
     (void)state;
@@ -311,6 +402,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_recovers_known_parameters),
         cmocka_unit_test(test_jacobian_matches_finite_differences),
+        cmocka_unit_test(test_fused_path_matches_dense),
         cmocka_unit_test(test_parametrisation_round_trip),
         cmocka_unit_test(test_six_samples_finite),
         cmocka_unit_test(test_all_diffuse_data),
