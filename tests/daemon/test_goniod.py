@@ -859,7 +859,9 @@ class ClientTests(DaemonTest):
         self.assertEqual(self.d.gonio("resume").returncode, 0)
         self.assertEqual(self.d.gonio("abort").returncode, 0)
         time.sleep(0.2)
-        self.assertEqual(self.d.gonio("status").stdout, "goniod idle\n")
+        # idle; a line with the progressive fit's error may follow when the
+        # capture got to FIRST_FIT samples before the abort (timing)
+        self.assertEqual(self.d.gonio("status").stdout.split("\n")[0], "goniod idle")
         r = self.d.gonio("capture", "--plan", "ds3", "--name", "cl")
         self.assertEqual(r.returncode, 1)
         self.assertIn("exists", r.stderr)
