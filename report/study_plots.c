@@ -15,6 +15,7 @@
 #define GAP_X 84.0
 #define GAP_Y 78.0
 #define MAX_COLS 3
+#define BARS_LOG_RATIO 30.0
 
 static size_t index_of(const struct report_list *l, const char *name)
 {
@@ -244,10 +245,15 @@ int report_plot_bars(const struct report_results *r, const struct report_plot_op
              report_domain_name(o->domain));
     for (size_t k = 0; k < n_mat; k++) {
         const char *mat = r->materials.name[mat_idx[k]];
-        double vmax = 0;
+        double vmax = 0, vmin = INFINITY;
         for (size_t i = 0; i < r->n_rows; i++)
-            if (!strcmp(r->rows[i].material, mat) && usable(&r->rows[i], scene, o, 0))
+            if (!strcmp(r->rows[i].material, mat) && usable(&r->rows[i], scene, o, 0)) {
                 vmax = fmax(vmax, value(&r->rows[i], o));
+                vmin = fmin(vmin, value(&r->rows[i], o));
+            }
+        /* Errors spanning more than a factor 30 (a six-pair fit next to a
+         * dense one) go on a log axis, or the small ones are invisible. */
+        int log_y = vmax > BARS_LOG_RATIO * vmin;
         struct plot_panel pn = {.x = LEFT + (double)(k % cols) * (pw + GAP_X),
                                 .y = first + (double)(k / cols) * (ph + GAP_Y),
                                 .w = pw,
@@ -255,8 +261,13 @@ int report_plot_bars(const struct report_results *r, const struct report_plot_op
         /* One category per plan: x runs 0..np with group p centred at p + 0.5. */
         plot_axis_fixed(&pn.ax, PLOT_LINEAR, 0, (double)np, 3);
         pn.ax.n_ticks = pn.ax.n_minor = 0;
-        plot_axis_fit(&pn.ay, PLOT_LINEAR, 0, vmax, 6);
-        plot_draw_frame(s, &pn, mat, NULL, k % cols == 0 ? ylabel : NULL);
+        if (log_y)
+            plot_axis_fit(&pn.ay, PLOT_LOG, vmin, vmax, 6);
+        else
+            plot_axis_fit(&pn.ay, PLOT_LINEAR, 0, vmax, 6);
+        char panel_title[REPORT_NAME_MAX + 16];
+        snprintf(panel_title, sizeof panel_title, "%s%s", mat, log_y ? " (log axis)" : "");
+        plot_draw_frame(s, &pn, panel_title, NULL, k % cols == 0 ? ylabel : NULL);
         double slot = pn.w / (double)np, bw = fmin(14, (slot - 10) / (double)nm);
         for (size_t p = 0; p < np; p++) {
             double cx = pn.x + slot * ((double)p + 0.5);

@@ -2,7 +2,9 @@
  *  - accuracy against rig time: every (plan, model) of a scene as a point
  *    (colour: model, marker: plan), with the material's Pareto front as a
  *    staircase (the best error each rig time buys);
- *  - bars of an error per plan (groups) and model (bars). */
+ *  - bars of an error per plan (groups) and model (bars), from 0 on a
+ *    linear axis, or from the axis floor on a log axis (said in the panel
+ *    title) when a panel's errors span more than a factor 30. */
 #ifndef GONIO_REPORT_STUDY_PLOTS_H
 #define GONIO_REPORT_STUDY_PLOTS_H
 
