@@ -75,8 +75,14 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
     uint16_t r[6];
     if ((rc = drv_modbus_read(d->bus, d->slave, R_CHANNELS, 6, r, d->who, err)) < 0)
         return rc;
-    for (int k = 0; k < 3; k++)
+    for (int k = 0; k < 3; k++) {
         out->rgb[k] = drv_modbus_get_float(r + 2 * k);
+        /* A NaN or infinite reading would be journalled and fitted as a
+         * sample: it is a device fault. */
+        if (!isfinite(out->rgb[k]))
+            return gonio_err_set(err, GONIO_EDEVICE, "%s (slave %d): channel %c reads %g",
+                                 d->who, d->slave, "RGB"[k], out->rgb[k]);
+    }
     d->seq_known = 1;
     d->seq = seq;
     out->integration_s = used_us * 1e-6;
