@@ -6,17 +6,47 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 #include <zlib.h>
 
 #define HEADER "point,theta_i,theta_r,phi_i,theta_o,phi_o,s,a,r,g,b,integration_s,rig_time_s,flags,crc32\n"
 #define LINE_MAX_LEN 1024
+#define RECORD_COMMAS 14 /* 15 fields a record, the CRC last */
 
 struct journal {
     int fd;
     off_t end; /* length of the valid records: a failed append is cut back to it */
+    double tear_s; /* crash torture only: pause between the halves of a record */
     char path[4096];
 };
+
+/* GONIO_JOURNAL_TEAR_S (crash torture, journal.h): seconds, 0..10. */
+static double tear_from_env(void)
+{
+    const char *v = getenv("GONIO_JOURNAL_TEAR_S");
+    char *end;
+    double s = v ? strtod(v, &end) : 0;
+    return v && *v && !*end && s > 0 && s <= 10 ? s : 0;
+}
+
+static ssize_t write_record(const journal *j, const char *line, size_t len)
+{
+    if (!(j->tear_s > 0))
+        return write(j->fd, line, len);
+    /* Two writes with a pause between: a kill in the pause leaves half a
+     * record on disk, the tear a power cut would leave. */
+    size_t half = len / 2;
+    ssize_t w = write(j->fd, line, half);
+    if (w != (ssize_t)half)
+        return w;
+    struct timespec ts = {.tv_sec = (time_t)j->tear_s};
+    ts.tv_nsec = (long)((j->tear_s - (double)ts.tv_sec) * 1e9);
+    while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
+        ;
+    ssize_t w2 = write(j->fd, line + half, len - half);
+    return w2 < 0 ? w2 : w + w2;
+}
 
 static unsigned long line_crc(const char *text, size_t len)
 {
@@ -122,7 +152,15 @@ static int read_all(const char *path, int fd, struct journal_sample **out, size_
         struct journal_sample s;
         size_t len = nl ? (size_t)(nl - (buf + pos)) : size - pos;
         if (!nl || len >= LINE_MAX_LEN || parse_record(buf + pos, len, &s) != 0) {
-            if (nl && memchr(nl + 1, '\n', size - (size_t)(nl + 1 - buf))) {
+            /* A crash tears at most the last record: a bad line before
+             * another, or a last line with more fields than one record
+             * (two records run together: a newline damaged), is not a
+             * tear. One damaged byte may add a comma, hence the + 1. */
+            size_t commas = 0;
+            for (size_t i = 0; i < len; i++)
+                commas += buf[pos + i] == ',';
+            if ((nl && memchr(nl + 1, '\n', size - (size_t)(nl + 1 - buf))) ||
+                commas > RECORD_COMMAS + 1) {
                 free(buf);
                 free(*out);
                 *out = NULL;
@@ -172,6 +210,7 @@ journal *journal_open(const char *path, struct journal_sample **samples, size_t 
         return NULL;
     }
     snprintf(j->path, sizeof j->path, "%s", path);
+    j->tear_s = tear_from_env();
     j->fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (j->fd < 0) {
         gonio_err_set(err, errno, "%s: cannot open journal: %s", path, strerror(errno));
@@ -207,7 +246,7 @@ int journal_append(journal *j, const struct journal_sample *s, struct gonio_err 
     /* One write() per record: the record is torn only by a crash, and the
      * reader cuts a torn record off. fdatasync makes it durable. */
     errno = 0;
-    ssize_t w = write(j->fd, line, (size_t)len);
+    ssize_t w = write_record(j, line, (size_t)len);
     if (w != len || fdatasync(j->fd) != 0) {
         int e = errno ? errno : EIO;
         /* Leave no partial record behind for the next append to follow. */

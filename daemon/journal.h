@@ -40,7 +40,10 @@ typedef struct journal journal;
 journal *journal_open(const char *path, struct journal_sample **samples, size_t *n,
                       struct gonio_err *err);
 
-/* Append one record and make it durable before returning. */
+/* Append one record and make it durable before returning. With
+ * GONIO_JOURNAL_TEAR_S=SECONDS in the environment (the crash torture,
+ * docs/torture.md) the record goes out in two write()s with that pause
+ * between them, so a kill can tear it; never set it in production. */
 int journal_append(journal *j, const struct journal_sample *s, struct gonio_err *err);
 
 void journal_close(journal *j);
