@@ -172,11 +172,11 @@ static int load_modbus(const struct cfg_doc *d, const struct cfg_node *drv,
     static const char *const rtu_keys[] = {"kind",     "device",        "baud",
                                            "parity",   "data_bits",     "stop_bits",
                                            "slaves",   "steps_per_deg", "time_scale",
-                                           "timeout_s", "detector", NULL};
+                                           "timeout_s", "retries",     "detector", NULL};
     static const char *const tcp_keys[] = {"kind",          "host",       "port",
                                            "slaves",        "steps_per_deg",
-                                           "time_scale",    "timeout_s",  "detector",
-                                           NULL};
+                                           "time_scale",    "timeout_s",  "retries",
+                                           "detector",      NULL};
     static const char *const parities[] = {"none", "even", "odd", NULL};
     int rtu = cfg->driver == GONIOD_DRIVER_MODBUS_RTU, rc;
     long v;
@@ -189,6 +189,10 @@ static int load_modbus(const struct cfg_doc *d, const struct cfg_node *drv,
         (rc = cfg_double(d, drv, "timeout_s", CFG_OPTIONAL, 0.01, 60, &cfg->timeout_s, err)) <
             0)
         return rc;
+    v = cfg->retries;
+    if ((rc = cfg_int(d, drv, "retries", CFG_OPTIONAL, 0, 10, &v, err)) < 0)
+        return rc;
+    cfg->retries = (int)v;
     if (!rtu) {
         v = cfg->port;
         if ((rc = copy_string(d, drv, "host", CFG_REQUIRED, cfg->host, sizeof cfg->host,
@@ -257,6 +261,7 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
     cfg->steps_per_deg = 100;
     cfg->time_scale = 1;
     cfg->timeout_s = 0.5;
+    cfg->retries = 4;
     cfg->usb = (struct goniod_usb_detector){.vendor = 0x2457, .product = 0x101e, .scale = 1,
                                             .timeout_s = 1};
     cfg->max_clients = 16;
@@ -347,8 +352,8 @@ void goniod_config_print(FILE *out, const struct goniod_config *c)
         fprintf(out, "  slaves:\n    sample: %d\n    arm: %d\n    azimuth: %d\n"
                      "    detector: %d\n",
                 c->slaves.sample, c->slaves.arm, c->slaves.azimuth, c->slaves.detector);
-        fprintf(out, "  steps_per_deg: %g\n  time_scale: %g\n  timeout_s: %g\n",
-                c->steps_per_deg, c->time_scale, c->timeout_s);
+        fprintf(out, "  steps_per_deg: %g\n  time_scale: %g\n  timeout_s: %g\n  retries: %d\n",
+                c->steps_per_deg, c->time_scale, c->timeout_s, c->retries);
         if (c->detector == GONIOD_DETECTOR_USB) {
             fprintf(out, "  detector:\n    kind: usb-spectrometer\n    vendor: 0x%04x\n"
                          "    product: 0x%04x\n",

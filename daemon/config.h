@@ -47,6 +47,7 @@ struct goniod_config {
     enum goniod_detector detector;
     struct goniod_usb_detector usb;
     double steps_per_deg, time_scale, timeout_s;
+    int retries; /* attempts after the first for a request that failed */
     /* files and socket */
     char capture_root[1024];
     char socket_path[108];   /* sizeof sockaddr_un.sun_path */

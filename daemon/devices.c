@@ -48,6 +48,7 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *
     struct drv_modbus_bus_cfg bc;
     drv_modbus_bus_cfg_default(&bc);
     bc.timeout_s = cfg->timeout_s;
+    bc.retries = cfg->retries;
     bc.time_scale = cfg->time_scale;
     drv_modbus_bus *bus;
     if (cfg->driver == GONIOD_DRIVER_MODBUS_RTU) {
@@ -88,6 +89,17 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *
     return 0;
 }
 
+void goniod_devices_stats(const void *bus, struct goniod_comm_stats *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!bus)
+        return;
+    struct drv_modbus_stats st;
+    drv_modbus_bus_stats(bus, &st);
+    *out = (struct goniod_comm_stats){st.requests, st.retries,    st.timeouts,
+                                      st.bad_replies, st.exceptions, st.failed};
+}
+
 void goniod_devices_close(struct capture_devices *dev, void *bus)
 {
     drv_axis_free(dev->sample);
@@ -111,6 +123,12 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *
                          "%s: driver '%s': this goniod was built without the Modbus backend "
                          "(drivers/drv_modbus.c); use driver kind 'sim'",
                          cfg->path, goniod_driver_name(cfg->driver));
+}
+
+void goniod_devices_stats(const void *bus, struct goniod_comm_stats *out)
+{
+    (void)bus;
+    memset(out, 0, sizeof *out);
 }
 
 void goniod_devices_close(struct capture_devices *dev, void *bus)

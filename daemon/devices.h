@@ -15,6 +15,13 @@
 int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *rig,
                         struct capture_devices *dev, void **bus, struct gonio_err *err);
 
+/* The bus's exchange counts so far (drivers/drv_modbus.h), for the stop
+ * document and the log; all zero without a bus. */
+struct goniod_comm_stats {
+    long requests, retries, timeouts, bad_replies, exceptions, failed;
+};
+void goniod_devices_stats(const void *bus, struct goniod_comm_stats *out);
+
 /* Free the devices, then the bus. */
 void goniod_devices_close(struct capture_devices *dev, void *bus);
 

@@ -10,8 +10,10 @@
  *
  * Errors: a request that gets no answer within the response timeout is
  * retried up to `retries` times, then fails with -ETIMEDOUT; after each
- * timeout the bus waits up to 0.1 s more for a late answer and flushes the
- * line, so a late answer is never taken for the next one. An exception
+ * failed attempt the bus drains the line until it stays quiet for the
+ * timeout (at most 0.1 s), so a late answer is not taken for the next one,
+ * and the axes read status and position with requests of different sizes,
+ * so one that slips through fails the size check instead. An exception
  * answer, a drive alarm or a stalled move fails with -GONIO_EDEVICE; the
  * message names the device, the register and the problem, e.g.
  * "axis arm (slave 2): drive alarm 0x30 (overload)". */
@@ -35,7 +37,7 @@ struct drv_modbus_bus_cfg {
     const char *host;
     int port;
     double timeout_s; /* response timeout per request; 0: 0.5 s */
-    int retries;      /* extra attempts after a timeout (default 2) */
+    int retries;      /* extra attempts after a failed one (default 4: docs/torture.md) */
     /* Simulated time runs time_scale times faster than wall time (gonio-sim
      * --time-scale); the devices pace their polling and the clock its
      * sleeps by it. 0: 1 (hardware). */
@@ -43,7 +45,7 @@ struct drv_modbus_bus_cfg {
     int trace; /* log every register transaction on stderr */
 };
 
-/* Fill cfg with the defaults above (all pointers NULL, retries 2). */
+/* Fill cfg with the defaults above (all pointers NULL, retries 4). */
 void drv_modbus_bus_cfg_default(struct drv_modbus_bus_cfg *cfg);
 
 /* Open an RTU bus on cfg->device, or a TCP connection to cfg->host:port.
@@ -55,6 +57,18 @@ drv_modbus_bus *drv_modbus_bus_new_tcp(const struct drv_modbus_bus_cfg *cfg,
 void drv_modbus_bus_free(drv_modbus_bus *bus);
 /* Switch the per-transaction trace (stderr) on or off. */
 void drv_modbus_bus_set_trace(drv_modbus_bus *bus, int on);
+
+/* What the bus has been through since it was opened: requests made,
+ * attempts sent (requests + retries), and why attempts failed. A fault
+ * soak reports these next to the faults the rig injected. */
+struct drv_modbus_stats {
+    long requests, retries;
+    long timeouts;    /* no (complete) answer within the timeout */
+    long bad_replies; /* a garbled, foreign or mismatched answer */
+    long exceptions;  /* the device refused (not retried) */
+    long failed;      /* requests that gave up after every attempt */
+};
+void drv_modbus_bus_stats(const drv_modbus_bus *bus, struct drv_modbus_stats *out);
 
 /* Axis options beyond the rig profile. */
 struct drv_modbus_axis_opts {

@@ -1,9 +1,10 @@
 /* A Modbus bus: one libmodbus context shared by the devices on it, with
- * bounded retries and a flush after every failed exchange, so that a reply
- * arriving late is never taken for the answer to the next request. */
+ * bounded retries and a drain after every failed exchange, so that a reply
+ * arriving late is not taken for the answer to the next request. */
 #include <errno.h>
 #include <math.h>
 #include <modbus.h>
+#include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,7 +17,13 @@ struct drv_modbus_bus {
     char where[300]; /* "/dev/pts/3" or "127.0.0.1:1502", for messages */
     double timeout_s, time_scale;
     int retries, trace;
+    struct drv_modbus_stats stats;
 };
+
+void drv_modbus_bus_stats(const drv_modbus_bus *bus, struct drv_modbus_stats *out)
+{
+    *out = bus->stats;
+}
 
 void drv_modbus_bus_cfg_default(struct drv_modbus_bus_cfg *cfg)
 {
@@ -26,7 +33,7 @@ void drv_modbus_bus_cfg_default(struct drv_modbus_bus_cfg *cfg)
     cfg->data_bits = 8;
     cfg->stop_bits = 1;
     cfg->timeout_s = 0.5;
-    cfg->retries = 2;
+    cfg->retries = 4;
     cfg->time_scale = 1.0;
 }
 
@@ -184,11 +191,34 @@ static void trace(const drv_modbus_bus *bus, int slave, int write, int addr, int
     }
 }
 
+/* Whatever went wrong (no answer, a garbled or foreign one), drop what
+ * the line holds before trying again. A device that is merely slow
+ * answers after the timeout, and the rest of a garbled frame may still be
+ * on its way: wait for the line to stay quiet for a window (the timeout,
+ * at most 0.1 s), dropping whatever arrives, so that a late answer is
+ * flushed rather than read as the answer to the next request. Bounded: a
+ * line that never goes quiet gets the retry anyway. */
+static void drain(drv_modbus_bus *bus)
+{
+    int window_ms = (int)ceil(1e3 * fmin(bus->timeout_s, 0.1));
+    int fd = modbus_get_socket(bus->ctx);
+    for (int i = 0; i < 10; i++) {
+        struct pollfd p = {.fd = fd, .events = POLLIN};
+        int r = fd >= 0 ? poll(&p, 1, window_ms) : 0;
+        modbus_flush(bus->ctx);
+        if (r <= 0)
+            return;
+    }
+}
+
 static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, uint16_t *regs,
                     const char *who, struct gonio_err *err)
 {
     int e = 0;
+    bus->stats.requests++;
     for (int attempt = 0; attempt <= bus->retries; attempt++) {
+        if (attempt > 0)
+            bus->stats.retries++;
         double t0 = bus->trace ? drv_modbus_wall() : 0;
         int rc = modbus_set_slave(bus->ctx, slave);
         if (rc == 0) {
@@ -206,20 +236,20 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
         if (rc == n)
             return 0;
         /* An exception is the device's considered answer: no retry. */
-        if (e > MODBUS_ENOBASE && e < EMBBADCRC)
+        if (e > MODBUS_ENOBASE && e < EMBBADCRC) {
+            bus->stats.exceptions++;
             return gonio_err_set(err, GONIO_EDEVICE,
                                  "%s (slave %d): %s register 0x%04x (%d): exception %d (%s)",
                                  who, slave, write ? "writing" : "reading", (unsigned)addr, n,
                                  e - MODBUS_ENOBASE, exception_name(e - MODBUS_ENOBASE));
-        /* Whatever else went wrong (no answer, a garbled or foreign one),
-         * drop what the line holds before trying again. A device that is
-         * merely slow answers after the timeout: wait for that answer to
-         * land first (up to 0.1 s), so that it is flushed rather than read
-         * as the answer to the next request. */
+        }
         if (e == ETIMEDOUT)
-            drv_modbus_sleep(fmin(bus->timeout_s, 0.1));
-        modbus_flush(bus->ctx);
+            bus->stats.timeouts++;
+        else
+            bus->stats.bad_replies++;
+        drain(bus);
     }
+    bus->stats.failed++;
     if (e == ETIMEDOUT)
         return gonio_err_set(err, ETIMEDOUT,
                              "%s (slave %d) on %s: no answer within %g s (%d attempts)", who,

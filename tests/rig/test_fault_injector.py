@@ -166,8 +166,10 @@ def capture(rig, name, fault=None):
     driver = shipped.split("driver:\n", 1)[1].split("capture_root")[0]
     driver = (driver.replace("/dev/ttyUSB0", inj.path)
               .replace("time_scale: 1 ", "time_scale: %d " % SCALE)
-              .replace("timeout_s: 0.5", "timeout_s: %g" % TIMEOUT_S))
+              .replace("timeout_s: 0.5", "timeout_s: %g" % TIMEOUT_S)
+              .replace("retries: 4", "retries: 2"))  # three faults in a row outlast them
     assert inj.path in driver and "timeout_s: %g" % TIMEOUT_S in driver, driver
+    assert "retries: 2" in driver, driver
     folder = os.path.join(rig["folder"], name)
     os.mkdir(folder)
     d = tg.Daemon(folder, driver=driver).start()
