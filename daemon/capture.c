@@ -107,19 +107,34 @@ static int devices_open_sim(sim_rig *sim, struct capture_devices *d, struct goni
     return 0;
 }
 
+const char *capture_phase_name(enum capture_phase phase)
+{
+    static const char *const names[] = {"between", "move", "acquire", "journal", "fit"};
+    return (unsigned)phase < sizeof names / sizeof *names ? names[phase] : "?";
+}
+
+static void phase(const struct capture_hooks *hooks, enum capture_phase ph, int point)
+{
+    if (hooks->on_phase)
+        hooks->on_phase(hooks->user, ph, point);
+}
+
 /* Move the axes together, settle, integrate, and record where the axes
  * actually were: the sample is what the rig measured, not what was asked. */
-static int measure_point(struct capture_devices *d, const struct plan_rig *rig,
-                         const struct plan_point *pt, int index, struct journal_sample *s,
-                         struct gonio_err *err)
+static int measure_point(struct capture_devices *d, const struct capture_hooks *hooks,
+                         const struct plan_rig *rig, const struct plan_point *pt, int index,
+                         struct journal_sample *s, struct gonio_err *err)
 {
     int rc;
     if ((rc = drv_axis_start_move(d->sample, pt->ax.s, err)) < 0 ||
         (rc = drv_axis_start_move(d->arm, pt->ax.a, err)) < 0 ||
-        (d->azimuth && (rc = drv_axis_start_move(d->azimuth, pt->ax.az, err)) < 0) ||
-        (rc = drv_axis_wait(d->sample, err)) < 0 || (rc = drv_axis_wait(d->arm, err)) < 0 ||
+        (d->azimuth && (rc = drv_axis_start_move(d->azimuth, pt->ax.az, err)) < 0))
+        return rc;
+    phase(hooks, CAPTURE_PHASE_MOVE, index);
+    if ((rc = drv_axis_wait(d->sample, err)) < 0 || (rc = drv_axis_wait(d->arm, err)) < 0 ||
         (d->azimuth && (rc = drv_axis_wait(d->azimuth, err)) < 0))
         return rc;
+    phase(hooks, CAPTURE_PHASE_ACQUIRE, index);
     if ((rc = drv_clock_sleep(d->clock, rig->settle_s)) < 0)
         return gonio_err_set(err, -rc, "settle: %s", gonio_strerror(rc));
     struct drv_reading r;
@@ -244,7 +259,7 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
         }
         struct journal_sample s;
         const struct plan_point *pt = plan_point(in->plan, k);
-        rc = measure_point(&dev, &in->rig, pt, (int)k, &s, err);
+        rc = measure_point(&dev, hooks, &in->rig, pt, (int)k, &s, err);
         if (rc < 0) {
             stop_axes(&dev); /* a failed point leaves no axis moving */
             if (err) { /* name the point the operator will find in plan.json */
@@ -254,8 +269,11 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
                               pt->theta_i, pt->theta_r, msg);
             }
         }
-        if (rc == 0)
+        if (rc == 0) {
+            phase(hooks, CAPTURE_PHASE_JOURNAL, (int)k);
             rc = journal_append(j, &s, err);
+            phase(hooks, CAPTURE_PHASE_BETWEEN, (int)k);
+        }
         if (rc == 0) {
             all[(*n)++] = s;
             if (hooks->on_sample)
@@ -414,6 +432,8 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
                  aborted ? "aborted" : converged ? "converged" : "complete");
     }
     if (rc == 0 && !aborted)
+        phase(hooks, CAPTURE_PHASE_FIT, -1);
+    if (rc == 0 && !aborted)
         rc = fit_samples(samples, n, fs ? fit_stream_params(fs) : NULL, cfg->model,
                          brdf_material_name(in.material), out, err);
     if (rc == 0 && converged)
@@ -422,6 +442,8 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
         rc = assess_truth(in.material, out, err);
     if (rc == 0 && !aborted)
         rc = capture_files_results(cfg->out_dir, out, err);
+    if (rc == 0 && !aborted)
+        phase(hooks, CAPTURE_PHASE_BETWEEN, -1);
     free(samples);
     fit_stream_free(fs);
     inputs_free(&in);

@@ -56,6 +56,22 @@ struct capture_devices {
 
 enum capture_control { CAPTURE_GO = 0, CAPTURE_ABORT = 1 };
 
+/* What the engine is doing, for hosts that report it (goniod's phase log,
+ * which the crash torture reads to know where each kill landed). MOVE
+ * starts once the axes are commanded, ACQUIRE covers settle and
+ * integration, JOURNAL the record's write and fdatasync, FIT the final fit
+ * and its assessment; BETWEEN follows each of them. */
+enum capture_phase {
+    CAPTURE_PHASE_BETWEEN,
+    CAPTURE_PHASE_MOVE,
+    CAPTURE_PHASE_ACQUIRE,
+    CAPTURE_PHASE_JOURNAL,
+    CAPTURE_PHASE_FIT,
+};
+
+/* "between", "move", "acquire", "journal", "fit". */
+const char *capture_phase_name(enum capture_phase phase);
+
 /* How a host (gonio, goniod) takes part in a capture. Every member may be
  * NULL. */
 struct capture_hooks {
@@ -71,6 +87,10 @@ struct capture_hooks {
     /* Asked at every point boundary; a host pauses a capture by blocking
      * here, and aborts it by returning CAPTURE_ABORT. */
     enum capture_control (*control)(void *user);
+    /* Called as the engine enters a phase (point: the plan index, -1 for
+     * the final fit). The host may take its time here: the crash torture
+     * widens phases this way. */
+    void (*on_phase)(void *user, enum capture_phase phase, int point);
     void *user;
 };
 

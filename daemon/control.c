@@ -1080,6 +1080,14 @@ static json_t *stop_doc(const struct worker_msg *m)
     json_object_set_new(d, "exit_status",
                         json_string(m->rc < 0 ? "fail" : aborted ? "abort" : "success"));
     json_object_set_new(d, "reason", json_string(m->reason));
+    if (m->has_comm) /* the bus's exchanges: what the retries absorbed */
+        json_object_set_new(
+            d, "comm",
+            json_pack("{s:I,s:I,s:I,s:I,s:I,s:I}", "requests", (json_int_t)m->comm.requests,
+                      "retries", (json_int_t)m->comm.retries, "timeouts",
+                      (json_int_t)m->comm.timeouts, "bad_replies",
+                      (json_int_t)m->comm.bad_replies, "exceptions",
+                      (json_int_t)m->comm.exceptions, "failed", (json_int_t)m->comm.failed));
     if (m->rc < 0) {
         json_t *msg = json_string(m->err.msg);
         json_object_set_new(d, "message", msg ? msg : json_string("(not UTF-8)"));
@@ -1154,6 +1162,11 @@ void control_dispatch(control *c, struct worker_msg *msgs)
             else
                 fprintf(stderr, "goniod: capture %s stopped: %s, %zu samples\n", m->req.id,
                         m->reason, m->summary.samples);
+            if (m->has_comm)
+                fprintf(stderr, "goniod: capture %s: bus %ld requests, %ld retries (%ld "
+                        "timeouts, %ld bad replies), %ld exceptions, %ld failed\n", m->req.id,
+                        m->comm.requests, m->comm.retries, m->comm.timeouts,
+                        m->comm.bad_replies, m->comm.exceptions, m->comm.failed);
             doc = stop_doc(m);
             free(c->start_doc);
             free(c->descriptor_doc);

@@ -31,6 +31,8 @@ struct worker {
     double rig_time_s;
     struct worker_msg *head, *tail;
     void *bus; /* the Modbus bus while a capture holds it */
+    int has_comm; /* the last capture's bus counts, taken as it closed */
+    struct goniod_comm_stats comm;
     int has_fit;
     char fit_id[128];
     double fit_log, fit_rmse;
@@ -40,11 +42,56 @@ struct worker {
     size_t fs_n, fs_cap, next_fit;
     struct brdf_abc params;
     int have_params;
+    /* Crash torture (docs/torture.md): GONIOD_PHASE_LOG names a file that
+     * gets a line per engine phase, GONIOD_PHASE_HOLD pauses in phases. */
+    int phase_fd;
+    double hold_s[CAPTURE_PHASE_FIT + 1];
 };
+
+/* The phase log and holds from the environment; none without it. A bad
+ * GONIOD_PHASE_HOLD item is ignored: it is a test aid, not configuration. */
+static void phase_debug_init(worker *w)
+{
+    const char *path = getenv("GONIOD_PHASE_LOG");
+    w->phase_fd = path && *path ? open(path, O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644)
+                                : -1;
+    const char *hold = getenv("GONIOD_PHASE_HOLD"); /* "move=0.03,fit=0.02" */
+    while (hold && *hold) {
+        for (int p = CAPTURE_PHASE_MOVE; p <= CAPTURE_PHASE_FIT; p++) {
+            const char *name = capture_phase_name((enum capture_phase)p);
+            size_t len = strlen(name);
+            if (!strncmp(hold, name, len) && hold[len] == '=') {
+                double v = strtod(hold + len + 1, NULL);
+                w->hold_s[p] = v > 0 && v <= 10 ? v : 0;
+            }
+        }
+        hold = strchr(hold, ',');
+        hold = hold ? hold + 1 : NULL;
+    }
+}
+
+static void hook_on_phase(void *user, enum capture_phase phase, int point)
+{
+    worker *w = user;
+    if (w->phase_fd >= 0) {
+        /* One write() a line, no fsync: a SIGKILL keeps the page cache, and
+         * the torture only ever kills the process. */
+        char line[64];
+        int n = snprintf(line, sizeof line, "%s %d\n", capture_phase_name(phase), point);
+        ssize_t r = write(w->phase_fd, line, (size_t)n);
+        (void)r;
+    }
+    if (w->hold_s[phase] > 0) {
+        struct timespec ts = {.tv_sec = (time_t)w->hold_s[phase]};
+        ts.tv_nsec = (long)((w->hold_s[phase] - (double)ts.tv_sec) * 1e9);
+        while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
+            ;
+    }
+}
 
 /* Fit the samples so far (warm-started from the previous fit) and publish
  * the in-sample errors. A failed fit just leaves the last figures. */
-static void progressive_fit(worker *w)
+static void progressive_fit_run(worker *w)
 {
     size_t n = w->fs_n;
     struct fit_options opt = fit_default_options();
@@ -77,6 +124,15 @@ static void progressive_fit(worker *w)
     free(pairs);
     free(truth);
     free(pred);
+}
+
+static void progressive_fit(worker *w)
+{
+    /* The phase log tells this fit from the engine's final one (-1) by
+     * its sample count. */
+    hook_on_phase(w, CAPTURE_PHASE_FIT, (int)w->fs_n);
+    progressive_fit_run(w);
+    hook_on_phase(w, CAPTURE_PHASE_BETWEEN, -1);
 }
 
 /* Add a sample to the progressive fit; refit when the count doubles. */
@@ -205,6 +261,8 @@ static int hook_open(void *user, const struct plan_rig *rig, struct capture_devi
 static void hook_close(void *user, struct capture_devices *dev)
 {
     worker *w = user;
+    goniod_devices_stats(w->bus, &w->comm);
+    w->has_comm = w->bus != NULL;
     goniod_devices_close(dev, w->bus);
     w->bus = NULL;
 }
@@ -230,11 +288,13 @@ static void *run(void *arg)
         .on_start = hook_on_start,
         .on_sample = hook_on_sample,
         .control = hook_control,
+        .on_phase = hook_on_phase,
         .user = w,
     };
     /* The simulator runs inside the engine (it reads the capture's own
      * material and continues the rig clock on a resume); hardware goes
      * through the configured drivers. */
+    w->has_comm = 0;
     if (w->cfg->driver != GONIOD_DRIVER_SIM) {
         hooks.open_devices = hook_open;
         hooks.close_devices = hook_close;
@@ -267,6 +327,8 @@ static void *run(void *arg)
         snprintf(m->reason, sizeof m->reason, "%s", reason);
         m->err = err;
         m->summary = sum;
+        m->has_comm = w->has_comm;
+        m->comm = w->comm;
         push(w, m);
     }
     return NULL;
@@ -289,6 +351,7 @@ worker *worker_new(const struct goniod_config *cfg, struct gonio_err *err)
     w->pipe_rd = fds[0];
     w->pipe_wr = fds[1];
     w->cfg = cfg;
+    phase_debug_init(w);
     pthread_condattr_t ca;
     pthread_condattr_init(&ca);
     pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
@@ -325,6 +388,8 @@ void worker_free(worker *w)
         free(m);
     }
     free(w->fs);
+    if (w->phase_fd >= 0)
+        close(w->phase_fd);
     close(w->pipe_rd);
     close(w->pipe_wr);
     pthread_cond_destroy(&w->cv);

@@ -17,6 +17,7 @@
 #include "common/err.h"
 #include "daemon/capture.h"
 #include "daemon/config.h"
+#include "daemon/devices.h"
 #include "daemon/journal.h"
 
 /* What to capture. Names and paths are already checked and resolved. */
@@ -61,6 +62,8 @@ struct worker_msg {
     char reason[32];             /* complete, aborted, shutdown, error */
     struct gonio_err err;
     struct capture_summary summary;
+    int has_comm; /* the capture ran on a bus: its exchange counts */
+    struct goniod_comm_stats comm;
 };
 
 typedef struct worker worker;

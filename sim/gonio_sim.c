@@ -29,13 +29,16 @@ static void usage(FILE *out)
             "                 [--time-scale K] [--steps-per-deg N] [--link PATH]\n"
             "                 [--tcp 127.0.0.1:PORT] [--trace] [--check]\n"
             "                 [--stall SLAVE:DEG] [--overload SLAVE:DEG] [--delay SLAVE:MS]\n"
+            "                 [--stats FILE]\n"
             "  Serves the rig's Modbus bus (docs/protocol-modbus.md) as RTU on a new\n"
             "  pseudo-terminal, whose path is the first line on stdout, and with --tcp\n"
             "  also as Modbus TCP (second line: 'tcp HOST:PORT'; PORT 0 picks one).\n"
             "  Simulated time runs K times faster than wall time (default 1).\n"
             "  --check prints the resolved setup and exits. --stall and --overload put an\n"
             "  obstacle on an axis: moves across it halt there, still moving (stall) or\n"
-            "  with alarm 0x30 (overload). --delay makes a slave answer MS ms late.\n");
+            "  with alarm 0x30 (overload). --delay makes a slave answer MS ms late.\n"
+            "  --stats writes, at exit, the exchanges, the faults injected and each axis's\n"
+            "  commanded and reached range as JSON.\n");
 }
 
 static int parse_positive(const char *opt, const char *s, double *out)
@@ -59,11 +62,11 @@ int main(int argc, char **argv)
         {"tcp", required_argument, NULL, 't'},        {"trace", no_argument, NULL, 'T'},
         {"check", no_argument, NULL, 'c'},            {"help", no_argument, NULL, 'h'},
         {"stall", required_argument, NULL, 'S'},      {"overload", required_argument, NULL, 'O'},
-        {"delay", required_argument, NULL, 'D'},
+        {"delay", required_argument, NULL, 'D'},     {"stats", required_argument, NULL, 'X'},
         {NULL, 0, NULL, 0},
     };
     const char *scene_name = "ideal", *material_spec = NULL, *rig_name = NULL, *link = NULL,
-               *tcp = NULL;
+               *tcp = NULL, *stats = NULL;
     struct msim_cfg cfg = {.time_scale = 1.0, .steps_per_deg = 100.0};
     int check = 0, c, n_jams = 0;
     struct {
@@ -87,6 +90,7 @@ int main(int argc, char **argv)
         case 'l': link = optarg; break;
         case 't': tcp = optarg; break;
         case 'T': cfg.trace = 1; break;
+        case 'X': stats = optarg; break;
         case 'c': check = 1; break;
         case 'S':
         case 'D':
@@ -181,6 +185,15 @@ int main(int argc, char **argv)
     }
     if (rc < 0 || !m)
         fprintf(stderr, "gonio-sim: %s\n", err.msg);
+    if (m && stats) { /* written at exit: what the rig saw over its life */
+        FILE *f = fopen(stats, "w");
+        if (f) {
+            msim_write_stats(m, f);
+            fclose(f);
+        } else {
+            fprintf(stderr, "gonio-sim: --stats %s: cannot write\n", stats);
+        }
+    }
     if (link)
         remove(link);
     msim_free(m);

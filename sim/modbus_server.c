@@ -52,6 +52,11 @@ struct msim_axis {
     enum msim_jam_kind jam;
     double jam_deg;
     int jammed;
+    /* What was asked of the drive and where it went (msim_write_stats):
+     * a trapezoidal move stays between its ends, so the ends bound every
+     * position the axis took. */
+    long moves, refused, alarms;
+    double cmd_min, cmd_max, pos_min, pos_max;
 };
 
 struct msim_detector {
@@ -76,6 +81,7 @@ struct msim {
     /* RTU: the pty master, a held-open slave (so the master never sees a
      * hang-up between clients) and a libmodbus context that writes replies. */
     int pty_master, pty_slave;
+    long exchanges; /* requests to a present slave, faulty or not */
     modbus_t *rtu;
     uint8_t rtu_buf[MODBUS_RTU_MAX_ADU_LENGTH];
     int rtu_len;
@@ -140,6 +146,8 @@ msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
     m->n_axes = profile->out_of_plane ? 3 : 2;
     for (int i = 0; i < SIM_N_AXES; i++) {
         m->axis[i].id = (enum sim_axis_id)i;
+        m->axis[i].cmd_min = m->axis[i].pos_min = INFINITY;
+        m->axis[i].cmd_max = m->axis[i].pos_max = -INFINITY;
         m->axis[i].prof = profs[i];
         m->axis[i].map = modbus_mapping_new_start_address(0, 0, 0, 0, 0, AX_NREGS, 0, 0);
         if (!m->axis[i].map)
@@ -202,13 +210,16 @@ static void axis_refresh(msim *m, struct msim_axis *ax)
     int moving = axis_moving(m, ax);
     /* A scene's move effects (stall) raise the core's alarm; the drive
      * shows it once the move has come to its end. */
-    if (!moving && !ax->alarm && sim_rig_alarm(m->rig, ax->id))
+    if (!moving && !ax->alarm && sim_rig_alarm(m->rig, ax->id)) {
         ax->alarm = sim_rig_alarm(m->rig, ax->id);
+        ax->alarms++;
+    }
     if (ax->jammed && !moving) {
         if (ax->jam == MSIM_JAM_OVERLOAD) { /* the drive gives up at once */
             ax->jammed = 0;
             ax->homing = 0;
             ax->alarm = MSIM_ALARM_OVERLOAD;
+            ax->alarms++;
         } else { /* stuck, still commanded to move, no alarm */
             moving = 1;
         }
@@ -233,10 +244,20 @@ static void axis_refresh(msim *m, struct msim_axis *ax)
     put32(r, AX_FEEDBACK, (uint32_t)(int32_t)lround(pos * m->cfg.steps_per_deg));
 }
 
+static void note_range(double v, double *lo, double *hi)
+{
+    if (!(v >= *lo))
+        *lo = v;
+    if (!(v <= *hi))
+        *hi = v;
+}
+
 static void axis_start(msim *m, struct msim_axis *ax, double target_deg, double speed_deg,
                        double accel_deg)
 {
     double here = sim_rig_position(m->rig, ax->id), goal = target_deg;
+    note_range(target_deg, &ax->cmd_min, &ax->cmd_max);
+    note_range(here, &ax->pos_min, &ax->pos_max);
     int jams = ax->jam != MSIM_JAM_NONE && target_deg >= ax->prof->min &&
                target_deg <= ax->prof->max && ax->jam_deg != here &&
                (ax->jam_deg - here) * (target_deg - ax->jam_deg) >= 0;
@@ -247,8 +268,12 @@ static void axis_start(msim *m, struct msim_axis *ax, double target_deg, double 
         ax->alarm = target_deg < ax->prof->min || target_deg > ax->prof->max || !isfinite(target_deg)
                         ? MSIM_ALARM_OVERTRAVEL
                         : MSIM_ALARM_DATA;
+        ax->refused++;
+        ax->alarms++;
         return;
     }
+    ax->moves++;
+    note_range(goal, &ax->pos_min, &ax->pos_max);
     ax->target_deg = target_deg;
     ax->home_end = 0;
     ax->jammed = jams;
@@ -273,6 +298,7 @@ static void axis_trigger(msim *m, struct msim_axis *ax)
         target = NAN;
     if (!isfinite(target) || !(speed > 0) || !(accel > 0)) {
         ax->alarm = MSIM_ALARM_DATA;
+        ax->alarms++;
         return;
     }
     ax->homing = 0;
@@ -377,6 +403,32 @@ static uint16_t crc16(const uint8_t *p, int n)
             crc = (crc & 1) ? (uint16_t)((crc >> 1) ^ 0xA001) : (uint16_t)(crc >> 1);
     }
     return crc;
+}
+
+void msim_write_stats(const msim *m, FILE *out)
+{
+    long c[4] = {0};
+    sim_faults *f = sim_rig_faults(m->rig);
+    if (f)
+        sim_faults_counts(f, c);
+    fprintf(out, "{\"exchanges\": %ld, \"faults\": {\"dropped\": %ld, \"corrupted\": %ld, "
+            "\"late\": %ld},\n \"axes\": {", m->exchanges, c[SIM_FAULT_DROP],
+            c[SIM_FAULT_CORRUPT], c[SIM_FAULT_LATE]);
+    static const char *names[SIM_N_AXES] = {"sample", "arm", "azimuth"};
+    for (int i = 0; i < m->n_axes; i++) {
+        const struct msim_axis *ax = &m->axis[i];
+        /* JSON has no infinity: an axis never commanded reports nulls. */
+        char cmd[64] = "null, null", pos[64] = "null, null";
+        if (ax->moves + ax->refused > 0)
+            snprintf(cmd, sizeof cmd, "%.17g, %.17g", ax->cmd_min, ax->cmd_max);
+        if (ax->moves > 0)
+            snprintf(pos, sizeof pos, "%.17g, %.17g", ax->pos_min, ax->pos_max);
+        fprintf(out, "%s\n  \"%s\": {\"moves\": %ld, \"refused\": %ld, \"limits\": [%.17g, %.17g], "
+                "\"commanded\": [%s], \"positions\": [%s], \"alarms\": %ld}", i ? "," : "",
+                names[i], ax->moves, ax->refused, ax->prof->min, ax->prof->max, cmd, pos,
+                ax->alarms);
+    }
+    fprintf(out, "}}\n");
 }
 
 /* ---- Requests ------------------------------------------------------------ */
@@ -496,6 +548,7 @@ static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int 
         fprintf(stderr, "gonio-sim: slave %d fn 0x%02x addr 0x%04x n %d%s%s\n", slave, fn,
                 addr < 0 ? 0 : addr, n, exc ? " -> exception " : "",
                 exc == 1 ? "01" : exc == 2 ? "02" : exc == 3 ? "03" : "");
+    m->exchanges++;
     double late_s = m->delay_ms[slave] * 1e-3;
     sim_faults *faults = sim_rig_faults(m->rig);
     enum sim_fault fault = SIM_FAULT_NONE;

@@ -10,6 +10,7 @@
 
 #include <signal.h>
 #include <stddef.h>
+#include <stdio.h>
 
 #include "brdf/material.h"
 #include "common/err.h"
@@ -62,6 +63,13 @@ int msim_open_pty(msim *m, const char *link, char *path, size_t size, struct gon
 /* Listen for Modbus TCP on addr ("127.0.0.1:PORT", IPv4; PORT 0 picks a
  * free one); the port actually bound goes to *port. */
 int msim_open_tcp(msim *m, const char *addr, int *port, struct gonio_err *err);
+
+/* What the rig saw, as one JSON object: exchanges with present slaves,
+ * the comm_faults injected by kind, and per axis the moves started, the
+ * commands refused (beyond the limits: alarm 0x66), the rig profile's
+ * limits, the range of commanded targets, the range of positions the axis
+ * took, and the alarms raised. A fault soak holds the drivers to these. */
+void msim_write_stats(const msim *m, FILE *out);
 
 /* Answer requests until *stop becomes non-zero (a signal handler sets it).
  * Malformed input is answered or ignored as a real slave would; only a
