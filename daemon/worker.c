@@ -37,6 +37,14 @@ struct worker {
     char fit_id[128];
     double fit_log, fit_rmse;
     size_t fit_n;
+    /* The last completed capture's figures: what status shows again once
+     * a capture stops without completing (docs/protocol.md, fit_error). */
+    struct {
+        int has;
+        char id[128];
+        double log, rmse;
+        size_t n;
+    } done_fit;
     /* The progressive fit (capture thread only, but for the results above). */
     struct fit_sample *fs;
     size_t fs_n, fs_cap, next_fit;
@@ -311,11 +319,18 @@ static void *run(void *arg)
                          : aborted ? (w->abort_reason[0] ? w->abort_reason : "aborted")
                                    : sum.stop_reason;
     if (rc == 0 && !aborted) {
-        w->has_fit = 1;
+        w->has_fit = w->done_fit.has = 1;
         snprintf(w->fit_id, sizeof w->fit_id, "%s", w->req.id);
-        w->fit_log = sum.err_plan.log;
-        w->fit_rmse = sum.err_plan.rel_rmse;
-        w->fit_n = sum.samples;
+        snprintf(w->done_fit.id, sizeof w->done_fit.id, "%s", w->req.id);
+        w->fit_log = w->done_fit.log = sum.err_plan.log;
+        w->fit_rmse = w->done_fit.rmse = sum.err_plan.rel_rmse;
+        w->fit_n = w->done_fit.n = sum.samples;
+    } else { /* the stopped capture's progressive fit goes with it */
+        w->has_fit = w->done_fit.has;
+        snprintf(w->fit_id, sizeof w->fit_id, "%s", w->done_fit.id);
+        w->fit_log = w->done_fit.log;
+        w->fit_rmse = w->done_fit.rmse;
+        w->fit_n = w->done_fit.n;
     }
     w->running = 0;
     w->paused = 0;
