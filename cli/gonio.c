@@ -27,6 +27,7 @@ static const struct {
     {"report", cmd_report, "a study's self-contained HTML report (docs/report.md)"},
     {"plot", cmd_plot, "one figure as SVG or PNG: slices, pareto, bars (docs/report.md)"},
     {"render", cmd_render, "render materials and fitted models on a lit sphere (EXR, PNG)"},
+    {"study", cmd_study, "accuracy against rig time: materials x plans x models x scenes"},
 };
 
 static void usage(FILE *out)

@@ -416,6 +416,8 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
         snprintf(path, sizeof path, "%s/samples.csv", cfg->out_dir);
         j = journal_open(path, &samples, &n, err);
         rc = j ? 0 : -abs(err ? err->code : EIO);
+        if (j && cfg->lazy_journal)
+            journal_set_lazy(j);
     }
     if (rc == 0) {
         rc = acquire(cfg, &in, hooks, j, &samples, &n, &aborted, fs, &converged, err);
@@ -431,16 +433,16 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
         snprintf(out->stop_reason, sizeof out->stop_reason, "%s",
                  aborted ? "aborted" : converged ? "converged" : "complete");
     }
-    if (rc == 0 && !aborted)
+    if (rc == 0 && !aborted && !cfg->measure_only)
         phase(hooks, CAPTURE_PHASE_FIT, -1);
-    if (rc == 0 && !aborted)
+    if (rc == 0 && !aborted && !cfg->measure_only)
         rc = fit_samples(samples, n, fs ? fit_stream_params(fs) : NULL, cfg->model,
                          brdf_material_name(in.material), out, err);
     if (rc == 0 && converged)
         out->converged = 1; /* the stop rule decided: the capture converged */
-    if (rc == 0 && !aborted)
+    if (rc == 0 && !aborted && !cfg->measure_only)
         rc = assess_truth(in.material, out, err);
-    if (rc == 0 && !aborted)
+    if (rc == 0 && !aborted && !cfg->measure_only)
         rc = capture_files_results(cfg->out_dir, out, err);
     if (rc == 0 && !aborted)
         phase(hooks, CAPTURE_PHASE_BETWEEN, -1);

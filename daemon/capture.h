@@ -31,6 +31,11 @@ struct capture_config {
     const char *order;    /* overrides the plan's ordering, or NULL */
     const char *stop;     /* "all" or "converge": overrides the plan's stop rule, or NULL */
     int quiet;            /* no progress lines on stderr */
+    /* gonio study: measure and journal only (no fit, no truth errors, no
+     * results.json: the study fits its models itself), and journal without
+     * fdatasync per sample (journal_set_lazy). */
+    int measure_only;
+    int lazy_journal;
 };
 
 struct capture_summary {

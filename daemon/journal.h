@@ -40,12 +40,19 @@ typedef struct journal journal;
 journal *journal_open(const char *path, struct journal_sample **samples, size_t *n,
                       struct gonio_err *err);
 
-/* Append one record and make it durable before returning. With
+/* Stop syncing every record: appends are still one write() each (a crash
+ * tears at most the last record, which the reader cuts off), but durable
+ * only at journal_close. For gonio study, where a sample lost to a power cut
+ * is simply measured again and fdatasync per sample would dominate the cost. */
+void journal_set_lazy(journal *j);
+
+/* Append one record and make it durable before returning (unless lazy). With
  * GONIO_JOURNAL_TEAR_S=SECONDS in the environment (the crash torture,
  * docs/torture.md) the record goes out in two write()s with that pause
  * between them, so a kill can tear it; never set it in production. */
 int journal_append(journal *j, const struct journal_sample *s, struct gonio_err *err);
 
+/* Close; a lazy journal is fdatasync'd first. */
 void journal_close(journal *j);
 
 /* Read a journal without opening it for writing (torn tail ignored). */

@@ -1,0 +1,321 @@
+/* gonio study: run a study's jobs in worker processes, show progress, and
+ * gather the rows; gonio study merge: join shard folders (docs/study.md). */
+#include <errno.h>
+#include <getopt.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/prctl.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "cli/commands.h"
+#include "study/study.h"
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: gonio study [--quick] [--materials LIST] [--plans LIST] [--models LIST]\n"
+            "                   [--scenes LIST] [--jobs N] [--shard I/N] [--list] --out DIR\n"
+            "       gonio study merge DIR... --out DIR\n"
+            "  Every material x scene x plan x model on the in-process simulated rig; one\n"
+            "  row per combination in DIR/results.csv and DIR/results.json. LISTs are\n"
+            "  comma-separated:\n"
+            "    --materials  MERL names of ../shared (nylon,...), default, or specs (abc:NAME)\n"
+            "    --plans      ds1,ds2,ds3,ds4,progressive,inplane-full,oop200k\n"
+            "    --models     abc,abc-prior,mlp,latent\n"
+            "    --scenes     scene names or files (ideal,lab)\n"
+            "  --quick: 3 materials, plans ds1,ds2,ds4,progressive, models abc,latent.\n"
+            "  --jobs N: worker processes (default: the number of cores). --shard I/N: run\n"
+            "  only share I of N (merge the shares with gonio study merge). --list: print\n"
+            "  the job ids and exit. Rerunning on DIR resumes: finished rows are kept.\n");
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static double cpu_children_s(void)
+{
+    struct rusage ru;
+    getrusage(RUSAGE_CHILDREN, &ru);
+    return (double)ru.ru_utime.tv_sec + 1e-6 * (double)ru.ru_utime.tv_usec +
+           (double)ru.ru_stime.tv_sec + 1e-6 * (double)ru.ru_stime.tv_usec;
+}
+
+static int cmd_study_merge(int argc, char **argv)
+{
+    static const struct option opts[] = {
+        {"out", required_argument, NULL, 'o'},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0},
+    };
+    const char *out = NULL;
+    optind = 1;
+    int c;
+    while ((c = getopt_long(argc, argv, "o:h", opts, NULL)) != -1) {
+        switch (c) {
+        case 'o': out = optarg; break;
+        case 'h': usage(stdout); return 0;
+        default: usage(stderr); return 2;
+        }
+    }
+    if (!out || optind >= argc) {
+        fprintf(stderr, "gonio study merge: at least one DIR and --out are required\n");
+        return 2;
+    }
+    struct gonio_err err = {0};
+    int rc = study_merge((const char *const *)argv + optind, (size_t)(argc - optind), out, &err);
+    if (rc < 0) {
+        fprintf(stderr, "gonio study merge: %s\n", err.msg);
+        return gonio_exit_status(err.code);
+    }
+    if (rc > 0) {
+        fprintf(stderr, "gonio study merge: %s: %d rows missing (listed in results.json)\n", out,
+                rc);
+        return 1;
+    }
+    printf("merged %d folders into %s\n", argc - optind, out);
+    return 0;
+}
+
+struct running {
+    pid_t pid;
+    size_t job; /* index into the pending list */
+    double t0;
+};
+
+/* Run one job in this (child) process and exit. */
+static void child_run(const struct study_spec *s, const struct study_job *job, const char *dir)
+{
+    /* Die with the parent: an orphaned worker would hold its job's lock. */
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (getppid() == 1)
+        _exit(1);
+    struct gonio_err err = {0};
+    int rc = study_job_run(s, job, dir, &err);
+    if (rc < 0) {
+        fprintf(stderr, "gonio study: %s\n", err.msg);
+        fflush(stderr);
+        _exit(gonio_exit_status(err.code));
+    }
+    _exit(0);
+}
+
+struct pending {
+    struct study_job job;
+    double weight;
+};
+
+static int by_weight(const void *a, const void *b)
+{
+    const struct pending *x = a, *y = b;
+    if (x->weight != y->weight)
+        return x->weight > y->weight ? -1 : 1;
+    return x->job.index < y->job.index ? -1 : x->job.index > y->job.index;
+}
+
+static int run_jobs(const struct study_spec *s, const char *dir, int n_workers)
+{
+    size_t total = 0, finished = 0, n = 0;
+    struct pending *p = malloc((study_job_count(s) + 1) * sizeof *p);
+    if (!p) {
+        fprintf(stderr, "gonio study: out of memory\n");
+        return 1;
+    }
+    for (size_t k = 0; k < study_job_count(s); k++) {
+        if (!study_job_in_shard(s, k))
+            continue;
+        total++;
+        study_job_at(s, k, &p[n].job);
+        if (study_job_rows_done(s, &p[n].job, dir) == s->n_models) {
+            finished++;
+            continue;
+        }
+        p[n].weight = study_job_weight(s, &p[n].job);
+        n++;
+    }
+    /* The big jobs first, so that no long job starts last. */
+    qsort(p, n, sizeof *p, by_weight);
+    double weight_all = 0, weight_done = 0;
+    for (size_t i = 0; i < n; i++)
+        weight_all += p[i].weight;
+    fprintf(stderr,
+            "study: %zu jobs (%zu rows) in shard %d/%d: %zu finished, %zu to run on %d "
+            "workers\n",
+            total, total * s->n_models, s->shard_i, s->shard_n, finished, n, n_workers);
+    struct running *run = calloc((size_t)n_workers, sizeof *run);
+    if (!run) {
+        free(p);
+        fprintf(stderr, "gonio study: out of memory\n");
+        return 1;
+    }
+    double t_start = now_s();
+    size_t next = 0, done = 0, failed = 0;
+    int active = 0;
+    while (done < n) {
+        while (active < n_workers && next < n) {
+            fflush(stdout);
+            fflush(stderr);
+            pid_t pid = fork();
+            if (pid < 0) {
+                fprintf(stderr, "gonio study: fork: %s\n", strerror(errno));
+                break;
+            }
+            if (pid == 0)
+                child_run(s, &p[next].job, dir);
+            for (int w = 0; w < n_workers; w++)
+                if (run[w].pid == 0) {
+                    run[w] = (struct running){pid, next, now_s()};
+                    break;
+                }
+            active++;
+            next++;
+        }
+        if (active == 0) { /* fork failed with nothing running */
+            failed += n - done;
+            break;
+        }
+        int status;
+        pid_t pid = wait(&status);
+        if (pid < 0) {
+            if (errno == EINTR)
+                continue;
+            fprintf(stderr, "gonio study: wait: %s\n", strerror(errno));
+            break;
+        }
+        for (int w = 0; w < n_workers; w++) {
+            if (run[w].pid != pid)
+                continue;
+            const struct pending *q = &p[run[w].job];
+            int ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+            done++;
+            failed += !ok;
+            weight_done += q->weight;
+            double t = now_s(), elapsed = t - t_start;
+            double left = weight_done > 0 ? elapsed * (weight_all - weight_done) / weight_done : 0;
+            fprintf(stderr, "study: [%zu/%zu] %s %s in %.1f s, elapsed %.0f s, about %.0f s left\n",
+                    finished + done, total, q->job.id,
+                    ok ? "done"
+                    : WIFSIGNALED(status) ? "killed"
+                                          : "FAILED",
+                    t - run[w].t0, elapsed, left);
+            run[w].pid = 0;
+            active--;
+        }
+    }
+    free(run);
+    free(p);
+    return failed ? 1 : 0;
+}
+
+int cmd_study(int argc, char **argv)
+{
+    if (argc >= 2 && !strcmp(argv[1], "merge"))
+        return cmd_study_merge(argc - 1, argv + 1);
+    static const struct option opts[] = {
+        {"quick", no_argument, NULL, 'q'},       {"materials", required_argument, NULL, 'M'},
+        {"plans", required_argument, NULL, 'p'}, {"models", required_argument, NULL, 'm'},
+        {"scenes", required_argument, NULL, 's'}, {"jobs", required_argument, NULL, 'j'},
+        {"shard", required_argument, NULL, 'S'}, {"out", required_argument, NULL, 'o'},
+        {"list", no_argument, NULL, 'l'},        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0},
+    };
+    const char *lists[4] = {NULL, NULL, NULL, NULL}, *shard = NULL, *out = NULL;
+    long n_workers = sysconf(_SC_NPROCESSORS_ONLN);
+    int quick = 0, list = 0, c;
+    optind = 1;
+    while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+        char *end;
+        switch (c) {
+        case 'q': quick = 1; break;
+        case 'M': lists[STUDY_MATERIALS] = optarg; break;
+        case 's': lists[STUDY_SCENES] = optarg; break;
+        case 'p': lists[STUDY_PLANS] = optarg; break;
+        case 'm': lists[STUDY_MODELS] = optarg; break;
+        case 'S': shard = optarg; break;
+        case 'o': out = optarg; break;
+        case 'l': list = 1; break;
+        case 'j':
+            errno = 0;
+            n_workers = strtol(optarg, &end, 10);
+            if (end == optarg || *end || errno || n_workers < 1 || n_workers > 64) {
+                fprintf(stderr, "gonio study: --jobs '%s': use a number of workers 1..64\n",
+                        optarg);
+                return 2;
+            }
+            break;
+        case 'h': usage(stdout); return 0;
+        default: usage(stderr); return 2;
+        }
+    }
+    if (optind != argc) {
+        fprintf(stderr, "gonio study: unexpected argument '%s'\n", argv[optind]);
+        usage(stderr);
+        return 2;
+    }
+    if (!out && !list) {
+        fprintf(stderr, "gonio study: --out DIR is required\n");
+        usage(stderr);
+        return 2;
+    }
+    if (n_workers < 1)
+        n_workers = 1;
+    struct study_spec *s = malloc(sizeof *s);
+    if (!s) {
+        fprintf(stderr, "gonio study: out of memory\n");
+        return 1;
+    }
+    struct gonio_err err = {0};
+    int rc = study_spec_default(s, quick, &err);
+    for (int i = 0; rc == 0 && i < 4; i++)
+        if (lists[i])
+            rc = study_spec_set(s, (enum study_list)i, lists[i], &err);
+    if (rc == 0 && shard)
+        rc = study_spec_set_shard(s, shard, &err);
+    if (rc < 0) {
+        fprintf(stderr, "gonio study: %s\n", err.msg);
+        free(s);
+        return gonio_exit_status(err.code);
+    }
+    if (list) {
+        for (size_t k = 0; k < study_job_count(s); k++) {
+            if (!study_job_in_shard(s, k))
+                continue;
+            struct study_job job;
+            study_job_at(s, k, &job);
+            printf("%s\n", job.id);
+        }
+        free(s);
+        return 0;
+    }
+    if ((rc = study_dir_prepare(s, out, &err)) < 0) {
+        fprintf(stderr, "gonio study: %s\n", err.msg);
+        free(s);
+        return gonio_exit_status(err.code);
+    }
+    double t0 = now_s();
+    int status = run_jobs(s, out, (int)n_workers);
+    size_t missing = 0;
+    if ((rc = study_results_write(s, out, &missing, &err)) < 0) {
+        fprintf(stderr, "gonio study: %s\n", err.msg);
+        status = gonio_exit_status(err.code);
+    } else {
+        size_t rows = 0;
+        for (size_t k = 0; k < study_job_count(s); k++)
+            rows += study_job_in_shard(s, k) ? s->n_models : 0;
+        fprintf(stderr, "study: %s/results.csv: %zu rows, %zu missing; wall %.1f s, worker CPU "
+                        "%.1f s\n",
+                out, rows - missing, missing, now_s() - t0, cpu_children_s());
+        if (missing && !status)
+            status = 1;
+    }
+    free(s);
+    return status;
+}

@@ -1,0 +1,43 @@
+/* Inside study/: the plan table, file names, and the row columns shared by
+ * the job (which writes rows), the results writer and merge. */
+#ifndef GONIO_STUDY_PRIVATE_H
+#define GONIO_STUDY_PRIVATE_H
+
+#include <stddef.h>
+
+#include <jansson.h>
+
+#include "study/study.h"
+
+#define STUDY_FORMAT "gonio-study-1"
+#define STUDY_N_FULL_MATERIALS 10
+
+extern const char *const study_materials_full[STUDY_N_FULL_MATERIALS];
+
+struct study_plan {
+    const char *name;  /* study plan name */
+    const char *file;  /* plan name for plan_load */
+    const char *order; /* capture order override, or NULL */
+    const char *stop;  /* capture stop override, or NULL */
+    double weight;     /* relative cost of a job, for scheduling */
+};
+
+const struct study_plan *study_plan_find(const char *name);
+
+/* dir/jobs/JOB_ID/MODEL.row.json */
+void study_row_path(const char *dir, const char *job_id, const char *model, char *out,
+                    size_t size);
+
+/* The columns of results.csv, in order, and the keys of a row object. */
+enum study_col_type { STUDY_COL_STR, STUDY_COL_INT, STUDY_COL_REAL, STUDY_COL_TIME };
+struct study_col {
+    const char *name;
+    enum study_col_type type;
+};
+extern const struct study_col study_cols[];
+extern const size_t study_n_cols;
+
+/* study.json's content (without shard when shard is 0: for comparisons). */
+json_t *study_spec_json(const struct study_spec *s, int with_shard);
+
+#endif
