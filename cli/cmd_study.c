@@ -113,9 +113,14 @@ struct pending {
     double weight;
 };
 
+/* Material by material, and within a material the big jobs first: an
+ * interrupted study then holds whole materials, and no long job of a
+ * material starts last. */
 static int by_weight(const void *a, const void *b)
 {
     const struct pending *x = a, *y = b;
+    if (x->job.material != y->job.material)
+        return x->job.material < y->job.material ? -1 : 1;
     if (x->weight != y->weight)
         return x->weight > y->weight ? -1 : 1;
     return x->job.index < y->job.index ? -1 : x->job.index > y->job.index;
@@ -141,7 +146,6 @@ static int run_jobs(const struct study_spec *s, const char *dir, int n_workers)
         p[n].weight = study_job_weight(s, &p[n].job);
         n++;
     }
-    /* The big jobs first, so that no long job starts last. */
     qsort(p, n, sizeof *p, by_weight);
     double weight_all = 0, weight_done = 0;
     for (size_t i = 0; i < n; i++)

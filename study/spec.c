@@ -22,8 +22,8 @@ static const struct study_plan plans[] = {
     {"ds3", "ds3", NULL, NULL, 1.0},
     {"ds4", "ds4", NULL, NULL, 0.8},
     {"progressive", "ds1", "progressive", "converge", 4.0},
-    {"inplane-full", "inplane-full", NULL, NULL, 20.0},
-    {"oop200k", "oop200k", NULL, NULL, 60.0},
+    {"inplane-full", "inplane-full", NULL, NULL, 8.0},
+    {"oop200k", "oop200k", NULL, NULL, 30.0},
 };
 
 static const char *const models[] = {"abc", "abc-prior", "mlp", "latent"};
