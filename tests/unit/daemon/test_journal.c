@@ -81,6 +81,37 @@ static void test_round_trip_is_exact(void **state)
     free(s);
 }
 
+/* A lazy journal (gonio study) writes the same records, and a reopened one
+ * continues it like a synced one. */
+static void test_lazy_journal_reads_back(void **state)
+{
+    (void)state;
+    char path[300];
+    snprintf(path, sizeof path, "%s/lazy.csv", dir);
+    struct journal_sample *old = NULL;
+    size_t n = 0;
+    struct gonio_err err = {0};
+    journal *j = journal_open(path, &old, &n, &err);
+    assert_non_null(j);
+    journal_set_lazy(j);
+    for (int i = 0; i < 20; i++) {
+        struct journal_sample x = make(i);
+        assert_int_equal(journal_append(j, &x, &err), 0);
+    }
+    journal_close(j);
+    free(old);
+    append_n(path, 20, 25);
+    struct journal_sample *s;
+    assert_int_equal(journal_read(path, &s, &n, NULL), 0);
+    assert_int_equal(n, 25);
+    for (int i = 0; i < 25; i++) {
+        struct journal_sample want = make(i);
+        assert_int_equal(s[i].point, i);
+        assert_memory_equal(s[i].rgb, want.rgb, sizeof want.rgb);
+    }
+    free(s);
+}
+
 static void test_torn_tail_is_cut(void **state)
 {
     (void)state;
@@ -183,6 +214,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip_is_exact),
+        cmocka_unit_test(test_lazy_journal_reads_back),
         cmocka_unit_test(test_torn_tail_is_cut),
         cmocka_unit_test(test_complete_line_with_bad_crc_at_end_is_torn),
         cmocka_unit_test(test_corrupt_middle_is_refused),
