@@ -36,7 +36,12 @@ function mean_over(arr, sc, p, mo,    m, s, n) {
     for (m = 1; m <= nm; m++) if ((mats[m], sc, p, mo) in arr) { s += arr[mats[m], sc, p, mo]; n++ }
     return n ? s / n : ""
 }
-NR == 1 { for (i = 1; i <= NF; i++) col[$i] = i; next }
+# Pass 1: rows per material. A material with fewer rows than the most
+# complete one (an interrupted or partial study) is left out, so that every
+# mean is over the same materials.
+FNR == 1 { for (i = 1; i <= NF; i++) col[$i] = i; pass++; next }
+pass == 1 { cnt[$col["material"]]++; if (cnt[$col["material"]] > maxcnt) maxcnt = cnt[$col["material"]]; next }
+cnt[$col["material"]] < maxcnt { if (!($col["material"] in partial)) { partial[$col["material"]] = cnt[$col["material"]]; partlist = add(partlist, $col["material"]) } next }
 $col["status"] != "ok" { failed++; next }
 {
     m = $col["material"]; sc = $col["scene"]; p = $col["plan"]; mo = $col["model"]
@@ -61,6 +66,12 @@ END {
     print "rig, each model fitted to the same samples, errors against the true material)."
     printf "%d rows (%d fits failed and are left out), %d materials: %s.\n", rows, failed + 0, nm, matlist()
     print "Scenes: " scenes "; plans: " plans "; models: " models "."
+    if (partlist != "") {
+        n = split(partlist, PL, " ")
+        printf "Left out, their rows incomplete (of %d each):", maxcnt
+        for (i = 1; i <= n; i++) printf " %s (%d)%s", PL[i], partial[PL[i]], i < n ? "," : "."
+        print ""
+    }
     print ""
     print "Errors are DESIGN.md section 6 log errors (mean |log(1 + fhat cos) - log(1 + f cos)|) on the"
     print "**full out-of-plane domain** (923,870 MERL nodes up to 80 degrees) unless a table says"
@@ -221,7 +232,7 @@ function both(ok, no, dummy,    n, a, i, out) {
     for (i = 1; i <= n; i++) if (!index(" " no " ", " " a[i] " ")) out = out (out == "" ? "" : ", ") a[i]
     return out == "" ? "none" : out
 }
-' "$csv" >"$tmp"
+' "$csv" "$csv" >"$tmp"
 if [ -f "$run" ]; then
     { echo ""; echo "## The run"; echo ""; echo '```'; cat "$run"; echo '```'; } >>"$tmp"
 fi

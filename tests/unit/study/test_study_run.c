@@ -201,6 +201,17 @@ static void test_rows_match_independent_evaluation(void **state)
         assert_csv_value(getd(&c, r, "inplane_log"), e.log);
         assert_csv_value(getd(&c, r, "inplane_rel_rmse"), e.rel_rmse);
         assert_int_equal((size_t)atol(get(&c, r, "inplane_n")), e.n_used);
+        /* The full domain (923,870 nodes) for the ds4 rows only: the costly
+         * check, and the one-model-file path it tests is the same. */
+        if (strcmp(get(&c, r, "plan"), "ds4") != 0) {
+            brdf_material_free(truth);
+            brdf_material_free(model);
+            free(pairs);
+            free(meas);
+            free(pred);
+            free(js);
+            continue;
+        }
         assert_int_equal(brdf_errors_material(truth, model, &full, &e, &err), 0);
         assert_int_equal((size_t)atol(get(&c, r, "full_n")), e.n_used);
         assert_int_equal((size_t)atol(get(&c, r, "full_skipped")), e.n_skipped);
