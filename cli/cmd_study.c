@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "cli/commands.h"
+#include "report/page.h"
 #include "study/study.h"
 
 static void usage(FILE *out)
@@ -31,7 +32,24 @@ static void usage(FILE *out)
             "  --quick: 3 materials, plans ds1,ds2,ds4,progressive, models abc,latent.\n"
             "  --jobs N: worker processes (default: the number of cores). --shard I/N: run\n"
             "  only share I of N (merge the shares with gonio study merge). --list: print\n"
-            "  the job ids and exit. Rerunning on DIR resumes: finished rows are kept.\n");
+            "  the job ids and exit. Rerunning on DIR resumes: finished rows are kept.\n"
+            "  A complete study (or merge) also writes DIR/report.html and DIR/plots/\n"
+            "  (gonio report, docs/report.md).\n");
+}
+
+/* The figures and the HTML page of a complete study (report/page.h). */
+static int write_report(const char *dir)
+{
+    char plots[4096];
+    snprintf(plots, sizeof plots, "%s/plots", dir);
+    struct gonio_err err = {0};
+    if (report_write_page(dir, &(struct report_page_opts){.plots_dir = plots, .quiet = 1},
+                          &err) < 0) {
+        fprintf(stderr, "gonio study: report: %s\n", err.msg);
+        return gonio_exit_status(err.code);
+    }
+    fprintf(stderr, "study: %s/report.html, figures in %s\n", dir, plots);
+    return 0;
 }
 
 static double now_s(void)
@@ -82,7 +100,7 @@ static int cmd_study_merge(int argc, char **argv)
         return 1;
     }
     printf("merged %d folders into %s\n", argc - optind, out);
-    return 0;
+    return write_report(out);
 }
 
 struct running {
@@ -319,6 +337,8 @@ int cmd_study(int argc, char **argv)
                 out, rows - missing, missing, now_s() - t0, cpu_children_s());
         if (missing && !status)
             status = 1;
+        if (!missing && !status && s->shard_n == 1)
+            status = write_report(out);
     }
     free(s);
     return status;

@@ -98,6 +98,12 @@ def test_shards_merged_equal_one_run(tmp):
     assert a["study"] == b["study"] and b["complete"] is True
     strip = lambda rs: [{k: v for k, v in r.items() if k not in TIME_COLUMNS} for r in rs]
     assert strip(a["rows"]) == strip(b["rows"])
+    # A complete study or merge carries its report and figures; a shard does not.
+    for d in (one, merged):
+        page = open(os.path.join(d, "report.html")).read()
+        assert "<svg" in page and full[0]["material"] in page
+        assert os.path.getsize(os.path.join(d, "plots", "pareto-full-" + full[0]["scene"] + ".png")) > 0
+    assert not any(os.path.exists(os.path.join(d, "report.html")) for d in shards)
     # A shard of another study is refused.
     other = os.path.join(tmp, "other")
     assert gonio("study", *TINY[:-2], "--scenes", "ideal", "--out", other).returncode == 0
