@@ -6,7 +6,8 @@
 #include <stddef.h>
 #include <stdio.h>
 
-/* Text with &, <, >, " and ' escaped (control characters dropped). */
+/* Text with &, <, >, " and ' escaped (control characters dropped), valid
+ * in HTML and in XML (SVG) alike. */
 void html_text(FILE *f, const char *text);
 
 /* An SVG document inlined into HTML: the XML namespace declaration is left

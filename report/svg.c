@@ -1,6 +1,8 @@
 /* SVG writer over open_memstream (svg.h). */
 #include "report/svg.h"
 
+#include "report/html.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -46,23 +48,6 @@ svg_doc *svg_new(double width, double height, const char *id_prefix)
     fprintf(s->f, "<rect x=\"0\" y=\"0\" width=\"%.0f\" height=\"%.0f\" fill=\"#ffffff\"/>\n",
             width, height);
     return s;
-}
-
-static void put_escaped(FILE *f, const char *t)
-{
-    for (; *t; t++) {
-        switch (*t) {
-        case '&': fputs("&amp;", f); break;
-        case '<': fputs("&lt;", f); break;
-        case '>': fputs("&gt;", f); break;
-        case '"': fputs("&quot;", f); break;
-        case '\'': fputs("&apos;", f); break;
-        default:
-            /* Control characters are not allowed in XML 1.0. */
-            if ((unsigned char)*t >= 0x20 || *t == '\t' || *t == '\n')
-                fputc(*t, f);
-        }
-    }
 }
 
 static void dash_attr(FILE *f, const char *dash)
@@ -121,7 +106,7 @@ static void close_marker(svg_doc *s, const char *tooltip)
 {
     if (tooltip) {
         fputs("><title>", s->f);
-        put_escaped(s->f, tooltip);
+        html_text(s->f, tooltip);
         fputs("</title></path>\n", s->f);
     } else {
         fputs("/>\n", s->f);
@@ -193,7 +178,7 @@ void svg_text(svg_doc *s, double x, double y, enum svg_anchor anchor, double siz
     if (rotate_deg != 0)
         fprintf(s->f, " transform=\"rotate(%.1f %.2f %.2f)\"", rotate_deg, x, y);
     fputc('>', s->f);
-    put_escaped(s->f, text);
+    html_text(s->f, text);
     fputs("</text>\n", s->f);
 }
 
