@@ -405,3 +405,28 @@ int cfg_doubles(const struct cfg_doc *doc, const struct cfg_node *map, const cha
     *n = len;
     return 1;
 }
+
+int cfg_named_item(const struct cfg_doc *doc, const struct cfg_node *item, const char *list_key,
+                   const char *what, const char *const *names, int n,
+                   const struct cfg_node **name_node, struct gonio_err *err)
+{
+    const struct cfg_node *node = item;
+    if (cfg_is_map(doc, item)) {
+        node = cfg_get(doc, item, "name");
+        if (!node)
+            return cfg_error(doc, item, list_key, err, "%s without a 'name'", what);
+    }
+    const char *name;
+    int rc = cfg_node_string(doc, node, "name", &name, err);
+    if (rc < 0)
+        return rc;
+    *name_node = node;
+    for (int k = 0; k < n; k++)
+        if (!strcmp(name, names[k]))
+            return k;
+    char known[GONIO_ERR_MSG_MAX] = "";
+    size_t len = 0;
+    for (int k = 0; k < n && len < sizeof known; k++)
+        len += (size_t)snprintf(known + len, sizeof known - len, "%s%s", k ? ", " : "", names[k]);
+    return cfg_error(doc, node, "name", err, "unknown %s '%s' (known: %s)", what, name, known);
+}

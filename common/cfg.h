@@ -45,6 +45,14 @@ int cfg_error(const struct cfg_doc *doc, const struct cfg_node *node, const char
               struct gonio_err *err, const char *fmt, ...)
     __attribute__((format(printf, 5, 6)));
 
+/* An item of a list of named things (a scene's effects): a bare name or a
+ * mapping with a 'name'. Returns the index of the name in names[0..n) and
+ * sets *name_node; an item without a name, or an unknown name (the message
+ * lists the known ones, calling them `what`), is refused. */
+int cfg_named_item(const struct cfg_doc *doc, const struct cfg_node *item, const char *list_key,
+                   const char *what, const char *const *names, int n,
+                   const struct cfg_node **name_node, struct gonio_err *err);
+
 /* The value under key in a mapping, or NULL when map is not a mapping or
  * has no such key. */
 const struct cfg_node *cfg_get(const struct cfg_doc *doc, const struct cfg_node *map,

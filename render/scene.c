@@ -132,22 +132,12 @@ static int parse_effects(const struct cfg_doc *doc, const struct cfg_node *root,
     size_t n = cfg_seq_len(doc, list);
     int seen[RENDER_FX_KINDS] = {0};
     for (size_t i = 0; i < n; i++) {
-        const struct cfg_node *item = cfg_seq_item(doc, list, i), *name_node = item;
-        if (cfg_is_map(doc, item)) {
-            name_node = cfg_get(doc, item, "name");
-            if (!name_node)
-                return cfg_error(doc, item, "effects", err, "effect without a 'name'");
-        }
-        const char *name;
-        if ((rc = cfg_node_string(doc, name_node, "name", &name, err)) < 0)
-            return rc;
-        int kind = -1;
-        for (int k = 0; k < RENDER_FX_KINDS; k++)
-            if (!strcmp(name, effect_names[k]))
-                kind = k;
+        const struct cfg_node *item = cfg_seq_item(doc, list, i), *name_node;
+        int kind = cfg_named_item(doc, item, "effects", "effect", effect_names, RENDER_FX_KINDS,
+                                  &name_node, err);
         if (kind < 0)
-            return cfg_error(doc, name_node, "name", err,
-                             "unknown effect '%s' (known: direct, environment)", name);
+            return kind;
+        const char *name = effect_names[kind];
         if (seen[kind])
             return cfg_error(doc, name_node, "name", err, "effect '%s' named twice", name);
         seen[kind] = 1;
