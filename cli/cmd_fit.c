@@ -39,7 +39,9 @@ static double now_s(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static int read_rgb(const char *path, struct fit_sample **out, size_t *n, struct gonio_err *err)
+/* The journal's samples a fit uses; *saturated counts those left out. */
+static int read_rgb(const char *path, struct fit_sample **out, size_t *n, size_t *saturated,
+                    struct gonio_err *err)
 {
     struct journal_sample *js = NULL;
     size_t m = 0;
@@ -51,13 +53,10 @@ static int read_rgb(const char *path, struct fit_sample **out, size_t *n, struct
         free(js);
         return gonio_err_set(err, GONIO_EBADDATA, "%s: out of memory", path);
     }
-    for (size_t i = 0; i < m; i++) {
-        journal_sample_pair(&js[i], &s[i].g);
-        memcpy(s[i].rgb, js[i].rgb, sizeof s[i].rgb);
-    }
+    *n = journal_fit_samples(js, m, s);
+    *saturated = m - *n;
     free(js);
     *out = s;
-    *n = m;
     return 0;
 }
 
@@ -185,9 +184,10 @@ int cmd_fit(int argc, char **argv)
     struct gonio_err err = {0};
     struct fit_data data = {0};
     struct fit_sample *rgb = NULL;
+    size_t saturated = 0;
     struct fit_spectral_sample *spec = NULL;
     int rc = kind->spectral ? fit_spectral_samples_read(samples_path, &spec, &data.n_spectral, &err)
-                            : read_rgb(samples_path, &rgb, &data.n_rgb, &err);
+                            : read_rgb(samples_path, &rgb, &data.n_rgb, &saturated, &err);
     if (rc < 0) {
         fprintf(stderr, "gonio fit: %s\n", err.msg);
         return gonio_exit_status(err.code);
@@ -231,6 +231,8 @@ int cmd_fit(int argc, char **argv)
     if (!rc) {
         printf("%-10s %s\n", "model", model);
         printf("%-10s %zu (%s)\n", "samples", n, samples_path);
+        if (saturated)
+            printf("%-10s %zu readings left out (lower bounds only)\n", "saturated", saturated);
         printf("%-10s %.3f s, %s\n", "fit", fit_s, rep.converged ? "converged" : "not converged");
         printf("%-10s %s\n", "details", rep.note);
         if (kind->spectral) {

@@ -176,13 +176,12 @@ static int stream_feed(fit_stream *fs, const struct plan *plan, const struct jou
     if (!fs)
         return 0;
     struct fit_sample s;
-    journal_sample_pair(js, &s.g);
-    memcpy(s.rgb, js->rgb, sizeof s.rgb);
+    int usable = journal_fit_samples(js, 1, &s) == 1; /* a saturated one is not */
     const struct plan_point *pt = plan_point(plan, (size_t)js->point),
                             *next = plan_point(plan, (size_t)js->point + 1);
     int level_end = plan_current_order(plan) == PLAN_ORDER_PROGRESSIVE &&
                     (!next || next->level != pt->level);
-    return fit_stream_add(fs, &s, level_end, err);
+    return fit_stream_add(fs, usable ? &s : NULL, level_end, err);
 }
 
 /* Measure every point the journal does not hold yet, in plan order. Sets
@@ -299,13 +298,12 @@ static int fit_samples(const struct journal_sample *js, size_t n, const struct b
                        const char *model, const char *material, struct capture_summary *out,
                        struct gonio_err *err)
 {
-    struct fit_sample *fs = malloc(n * sizeof *fs);
+    struct fit_sample *fs = malloc((n ? n : 1) * sizeof *fs);
     if (!fs)
         return gonio_err_set(err, ENOMEM, "out of memory");
-    for (size_t i = 0; i < n; i++) {
-        journal_sample_pair(&js[i], &fs[i].g);
-        memcpy(fs[i].rgb, js[i].rgb, sizeof fs[i].rgb);
-    }
+    size_t used = journal_fit_samples(js, n, fs);
+    out->saturated = n - used;
+    n = used;
     struct fit_options opt = fit_default_options();
     opt.warm_start = warm; /* the streaming fit's last parameters, when there is one */
     struct fit_info info;

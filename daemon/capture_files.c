@@ -177,6 +177,8 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
         s->converged, "params", "kd", rgb_json(s->params.kd), "A", rgb_json(s->params.A), "B",
         s->params.B, "C", s->params.C, "eta", s->params.eta, "convention",
         "A without the 1/pi of the published MERL fits (docs/fitting.md)", "errors", errors);
+    if (root)
+        json_object_set_new(root, "saturated", json_integer((json_int_t)s->saturated));
     if (root) /* parameter sds from the fit's Jacobian, natural units (fit/fit.h) */
         json_object_set_new(root, "uncertainty", uncertainty_json(&s->sd, s->warning));
     return write_json(dir, "results.json", root, err);

@@ -10,6 +10,8 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include "fit/fit.h"
+
 #define HEADER "point,theta_i,theta_r,phi_i,theta_o,phi_o,s,a,r,g,b,integration_s,rig_time_s,flags,crc32\n"
 #define LINE_MAX_LEN 1024
 #define RECORD_COMMAS 14 /* 15 fields a record, the CRC last */
@@ -282,4 +284,17 @@ void journal_sample_pair(const struct journal_sample *s, struct brdf_pair *p)
         brdf_pair_inplane(s->theta_i, s->theta_r, p);
     else
         brdf_pair_spherical(s->theta_i, s->phi_i, s->theta_o, s->phi_o, p);
+}
+
+size_t journal_fit_samples(const struct journal_sample *js, size_t n, struct fit_sample *out)
+{
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (js[i].flags & JOURNAL_FLAG_SATURATED)
+            continue;
+        journal_sample_pair(&js[i], &out[m].g);
+        memcpy(out[m].rgb, js[i].rgb, sizeof out[m].rgb);
+        m++;
+    }
+    return m;
 }

@@ -32,6 +32,12 @@ struct journal_sample {
  * spherical angles. */
 void journal_sample_pair(const struct journal_sample *s, struct brdf_pair *p);
 
+struct fit_sample;
+/* The samples a fit uses, in journal order: all but the saturated ones. A
+ * clipped reading is only a lower bound of the BRDF; fitted as a value it
+ * pulls a specular peak down. out has room for n; returns how many it got. */
+size_t journal_fit_samples(const struct journal_sample *js, size_t n, struct fit_sample *out);
+
 typedef struct journal journal;
 
 /* Open (creating if needed) the journal at path for appending. Records

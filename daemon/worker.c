@@ -154,9 +154,7 @@ static void progressive_add(worker *w, const struct journal_sample *s, int may_f
         w->fs = p;
         w->fs_cap = cap;
     }
-    journal_sample_pair(s, &w->fs[w->fs_n].g);
-    memcpy(w->fs[w->fs_n].rgb, s->rgb, sizeof s->rgb);
-    w->fs_n++;
+    w->fs_n += journal_fit_samples(s, 1, &w->fs[w->fs_n]); /* not a saturated one */
     if (may_fit && w->fs_n >= w->next_fit) {
         progressive_fit(w);
         while (w->next_fit <= w->fs_n)

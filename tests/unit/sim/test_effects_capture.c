@@ -133,10 +133,15 @@ static void test_bad_day_fails_where_the_stall_is_and_resumes(void **state)
     assert_int_equal(n2, 52);
     for (size_t i = 0; i < n1; i++)
         same_sample(&all[i], &first[i]);
+    size_t flagged = 0;
     for (size_t i = 0; i < n2; i++) {
         assert_int_equal(all[i].point, (int)i);
         check_valid(&all[i], plan, &rig);
+        flagged += (all[i].flags & JOURNAL_FLAG_SATURATED) != 0;
     }
+    /* the fit saw only the unsaturated readings (lower bounds are not values) */
+    assert_true(flagged > 0);
+    assert_int_equal(sum.saturated, flagged);
     assert_int_equal(access(path, F_OK), 0);
     free(first);
     free(all);
