@@ -7,16 +7,26 @@
 #   is copied to docs/results-study.csv first; without, the page is rebuilt
 #   from the committed docs/results-study.csv. docs/results-study-run.txt, when
 #   present, is the run's timing (wall and CPU), quoted in the page.
+#   The run's figures (STUDY_DIR/plots: Pareto fronts, error bars, the DS4
+#   in-plane slices) are copied to docs/figures/study/ and shown on the page.
 # Env: STUDY_CSV, STUDY_DOC, STUDY_RUN to use other files; SUFFICE (default
 #   1.25): the error ratio under which a cheaper capture "suffices".
 set -eu
 csv=${STUDY_CSV:-docs/results-study.csv}
+figs=${STUDY_FIGS:-docs/figures/study}
 doc=${STUDY_DOC:-docs/results-study.md}
 run=${STUDY_RUN:-docs/results-study-run.txt}
 suffice=${SUFFICE:-1.25}
 if [ $# -ge 1 ]; then
     [ -f "$1/results.csv" ] || { echo "study_results: $1/results.csv: no such file" >&2; exit 2; }
     cp "$1/results.csv" "$csv"
+    if [ -d "$1/plots" ]; then
+        rm -rf "$figs"
+        mkdir -p "$figs"
+        for f in "$1"/plots/pareto-*.svg "$1"/plots/bars-*.svg "$1"/plots/slices-*-ds4.svg; do
+            [ -f "$f" ] && cp "$f" "$figs/"
+        done
+    fi
 fi
 [ -f "$csv" ] || { echo "study_results: $csv: no such file (run gonio study first)" >&2; exit 2; }
 head -n 1 "$csv" | grep -q '^row_id,material,' ||
@@ -233,6 +243,24 @@ function both(ok, no, dummy,    n, a, i, out) {
     return out == "" ? "none" : out
 }
 ' "$csv" "$csv" >"$tmp"
+# Figures, linked relative to the page.
+if [ -d "$figs" ] && ls "$figs"/*.svg >/dev/null 2>&1; then
+    rel=$(realpath --relative-to="$(dirname "$doc")" "$figs")
+    {
+        echo ""
+        echo "## Figures"
+        echo ""
+        echo "SVG, as \`gonio study\` wrote them for this run (report/, docs/report.md)."
+        for kind in pareto bars slices; do
+            for f in "$figs"/$kind-*.svg; do
+                [ -f "$f" ] || continue
+                b=$(basename "$f" .svg)
+                echo ""
+                echo "![$b]($rel/$b.svg)"
+            done
+        done
+    } >>"$tmp"
+fi
 if [ -f "$run" ]; then
     { echo ""; echo "## The run"; echo ""; echo '```'; cat "$run"; echo '```'; } >>"$tmp"
 fi
