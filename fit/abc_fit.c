@@ -1,5 +1,6 @@
 /* fit_abc: validation, start search, local trust-region solves with GSL. */
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -302,6 +303,57 @@ static double predictive_sd(const double th[ABC_NPAR], double c[ABC_NPAR][ABC_NP
     return sum / (double)(3 * n);
 }
 
+/* A square root of J^T J at theta: rows K (nk x 9, row-major) with
+ * K^T K = J^T J, and cn[j] > 0 exactly when J's column j is not zero. The
+ * data rows of channel c have non-zeros only in columns c, 3 + c, 6, 7, 8
+ * (an n x 5 block J_c, abc_problem_jblock), so K stacks the R of each
+ * block's QR (J^T J = sum_c R_c^T R_c; below 5 samples the block itself)
+ * and the prior rows. QR is backward stable, so the pivoted QR of K
+ * decides the rank as J's own would, for a fraction of the work (J's
+ * 3n x 9 pivoted QR and its scalar evaluation were a tenth of a DS1 fit).
+ * Returns nk (>= 9), 0 on no memory. */
+static size_t jacobian_root(const struct abc_problem *pb, const double th[ABC_NPAR], double *K,
+                            double cn[ABC_NPAR])
+{
+    static const int col[5] = {0, 3, 6, 7, 8}; /* + c for the first two */
+    size_t n = pb->n, rows = n >= 5 ? 5 : n, nk = 0;
+    struct abc_cache c;
+    gsl_matrix *Jc = gsl_matrix_alloc(n, 5);
+    gsl_vector *tau = gsl_vector_alloc(5);
+    int ok = Jc && tau && abc_cache_init(&c, pb) == 0;
+    if (ok) {
+        abc_problem_resid(pb, th, NULL, &c);
+        for (int j = 0; j < ABC_NPAR; j++)
+            cn[j] = 0.0;
+        for (int ch = 0; ch < 3 && ok; ch++) {
+            abc_problem_jblock(pb, th, &c, ch, Jc->data);
+            for (size_t j = 0; j < 5; j++) {
+                gsl_vector_view cv = gsl_matrix_column(Jc, j);
+                int at = col[j] + (j < 2 ? ch : 0);
+                cn[at] = fmax(cn[at], gsl_blas_dnrm2(&cv.vector));
+            }
+            if (n >= 5 && gsl_linalg_QR_decomp(Jc, tau) != GSL_SUCCESS) {
+                ok = 0;
+                break;
+            }
+            for (size_t i = 0; i < rows; i++, nk++) {
+                double *out = K + nk * ABC_NPAR;
+                for (int j = 0; j < ABC_NPAR; j++)
+                    out[j] = 0.0;
+                for (size_t j = n >= 5 ? i : 0; j < 5; j++) /* R: the upper triangle */
+                    out[col[j] + (j < 2 ? ch : 0)] = gsl_matrix_get(Jc, i, j);
+            }
+        }
+        abc_cache_free(&c);
+    }
+    if (ok && pb->prior) /* the prior rows: W */
+        for (int i = 0; i < ABC_NPAR; i++, nk++)
+            memcpy(K + nk * ABC_NPAR, pb->prior->W + i * ABC_NPAR, ABC_NPAR * sizeof *K);
+    gsl_matrix_free(Jc);
+    gsl_vector_free(tau);
+    return ok ? nk : 0;
+}
+
 /* Parameter standard deviations at theta: covariance s2 (J^T J)^-1 from
  * GSL, mapped to natural units. A parameter whose column of J is zero
  * (clamped, or without influence) is undetermined: INFINITY. */
@@ -313,18 +365,13 @@ static void uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR],
         sd[i] = NAN;
     if (!isfinite(s2))
         return;
-    size_t m = abc_problem_nres(pb);
-    gsl_matrix *J = gsl_matrix_alloc(m, ABC_NPAR);
+    double K[(15 + ABC_NPAR) * ABC_NPAR], cn[ABC_NPAR];
     gsl_matrix *cov = gsl_matrix_alloc(ABC_NPAR, ABC_NPAR);
-    if (!J || !cov)
+    size_t nk = cov ? jacobian_root(pb, th, K, cn) : 0;
+    if (nk < ABC_NPAR)
         goto done;
-    abc_problem_eval(pb, th, NULL, J->data);
-    double cn[ABC_NPAR];
-    for (size_t j = 0; j < ABC_NPAR; j++) {
-        gsl_vector_view col = gsl_matrix_column(J, j);
-        cn[j] = gsl_blas_dnrm2(&col.vector);
-    }
-    if (gsl_multifit_nlinear_covar(J, 1e-12, cov) != GSL_SUCCESS)
+    gsl_matrix_view Kv = gsl_matrix_view_array(K, nk, ABC_NPAR);
+    if (gsl_multifit_nlinear_covar(&Kv.matrix, 1e-12, cov) != GSL_SUCCESS)
         goto done;
     /* GSL zeroes the rows and columns of the parameters it found dependent */
     double c[ABC_NPAR][ABC_NPAR];
@@ -340,13 +387,17 @@ static void uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR],
     }
     /* log B = theta6 - theta7 */
     u->log_B = undet[6] || undet[7] ? INFINITY : sqrt(fmax(0.0, c[6][6] + c[7][7] - 2 * c[6][7]));
-    u->log_C = undet[7] ? INFINITY : sqrt(c[7][7]);
+    /* C beyond its clamp moves nothing, but theta7 still moves B (log B =
+     * theta6 - theta7): columns 6 and 7 are then exactly opposite, and
+     * which of the two the pivoted QR drops is a tie decided by rounding.
+     * C itself is undetermined either way. */
+    int c_clamped = !(th[7] >= ABC_LOGC_MIN && th[7] <= ABC_LOGC_MAX);
+    u->log_C = undet[7] || c_clamped ? INFINITY : sqrt(c[7][7]);
     double sg = 1.0 / (1.0 + exp(-th[8]));
     double deta = (ABC_ETA_MAX - 1.0) * sg * (1.0 - sg); /* d eta / d theta8 */
     u->eta = undet[8] ? INFINITY : deta * sqrt(c[8][8]);
     u->pred_log = predictive_sd(th, c);
 done:
-    gsl_matrix_free(J);
     gsl_matrix_free(cov);
 }
 
@@ -398,24 +449,6 @@ static int shape_starts(const struct abc_problem *pb, const struct abc_prior_ter
     return got;
 }
 
-/* Order of samples for finding exact duplicates: geometry, then value. */
-static const struct fit_sample *dup_base;
-
-static int cmp_sample(const void *a, const void *b)
-{
-    const struct fit_sample *x = &dup_base[*(const size_t *)a], *y = &dup_base[*(const size_t *)b];
-    double kx[9] = {x->g.wi[0], x->g.wi[1], x->g.wi[2], x->g.wo[0], x->g.wo[1], x->g.wo[2],
-                    x->rgb[0], x->rgb[1], x->rgb[2]};
-    double ky[9] = {y->g.wi[0], y->g.wi[1], y->g.wi[2], y->g.wo[0], y->g.wo[1], y->g.wo[2],
-                    y->rgb[0], y->rgb[1], y->rgb[2]};
-    for (int i = 0; i < 9; i++)
-        if (kx[i] != ky[i])
-            return kx[i] < ky[i] ? -1 : 1;
-    /* keep the first occurrence: order equal samples by index */
-    size_t ia = *(const size_t *)a, ib = *(const size_t *)b;
-    return (ia > ib) - (ia < ib);
-}
-
 static int same_sample(const struct fit_sample *x, const struct fit_sample *y)
 {
     for (int i = 0; i < 3; i++)
@@ -424,44 +457,52 @@ static int same_sample(const struct fit_sample *x, const struct fit_sample *y)
     return 1;
 }
 
+/* A hash of what same_sample compares: the bit patterns, with -0 taken as
+ * +0 (== treats them alike; the samples here are finite). */
+static uint64_t sample_hash(const struct fit_sample *s)
+{
+    const double v[9] = {s->g.wi[0], s->g.wi[1], s->g.wi[2], s->g.wo[0], s->g.wo[1],
+                         s->g.wo[2], s->rgb[0],  s->rgb[1],  s->rgb[2]};
+    uint64_t h = 0x9E3779B97F4A7C15u;
+    for (int i = 0; i < 9; i++) {
+        double x = v[i] == 0 ? 0.0 : v[i];
+        uint64_t b;
+        memcpy(&b, &x, sizeof b);
+        h = (h ^ b) * 0xFF51AFD7ED558CCDu;
+        h ^= h >> 32;
+    }
+    return h;
+}
+
 /* Drop exact duplicates (same directions and value: a journal replayed
  * twice, a sample pasted twice) from idx[0..nv), keeping the first and
  * the original order; returns the new count. A repeated measurement with
- * another value is data and stays. Not thread-safe (qsort's comparator
- * reads a static), like the first fit_abc call (see fit.h). */
+ * another value is data and stays. An open-addressing hash table: one pass
+ * in input order (a sort with a nine-key comparator was a tenth of a DS1
+ * fit). */
 static size_t drop_duplicates(const struct fit_sample *s, size_t *idx, size_t nv)
 {
     if (nv < 2)
         return nv;
-    size_t *ord = malloc(nv * sizeof *ord);
-    unsigned char *dup = calloc(nv, 1);
-    if (!ord || !dup) { /* keep everything rather than fail */
-        free(ord);
-        free(dup);
+    size_t cap = 4;
+    while (cap < 2 * nv)
+        cap *= 2;
+    size_t *slot = calloc(cap, sizeof *slot); /* sample index + 1; 0: empty */
+    if (!slot) /* keep everything rather than fail */
         return nv;
-    }
-    memcpy(ord, idx, nv * sizeof *ord);
-    dup_base = s;
-    qsort(ord, nv, sizeof *ord, cmp_sample);
-    /* mark by position in idx: idx is increasing, so bsearch the index */
-    for (size_t i = 1; i < nv; i++)
-        if (same_sample(&s[ord[i]], &s[ord[i - 1]])) {
-            size_t lo = 0, hi = nv;
-            while (lo < hi) {
-                size_t mid = (lo + hi) / 2;
-                if (idx[mid] < ord[i])
-                    lo = mid + 1;
-                else
-                    hi = mid;
-            }
-            dup[lo] = 1;
-        }
     size_t m = 0;
-    for (size_t i = 0; i < nv; i++)
-        if (!dup[i])
-            idx[m++] = idx[i];
-    free(ord);
-    free(dup);
+    for (size_t i = 0; i < nv; i++) {
+        const struct fit_sample *si = &s[idx[i]];
+        size_t h = (size_t)sample_hash(si) & (cap - 1);
+        int dup = 0;
+        while (slot[h] && !(dup = same_sample(&s[slot[h] - 1], si)))
+            h = (h + 1) & (cap - 1);
+        if (dup)
+            continue;
+        slot[h] = idx[i] + 1;
+        idx[m++] = idx[i];
+    }
+    free(slot);
     return m;
 }
 

@@ -74,7 +74,7 @@ int abc_problem_init(struct abc_problem *pb, const struct fit_sample *s, const s
         for (int c = 0; c < 3; c++) {
             pb->f[3 * k + c] = sk->rgb[c];
             pb->y[3 * k + c] = log1p(sk->rgb[c] * pb->cosi[k]);
-            pb->iy[3 * k + c] = 1.0 / (1.0 + sk->rgb[c] * pb->cosi[k]);
+            pb->iy[(size_t)c * n + k] = 1.0 / (1.0 + sk->rgb[c] * pb->cosi[k]);
         }
     }
     pb->nux = distinct(tx, n, &pb->ux, pb->xi);
@@ -309,44 +309,91 @@ static void natural(const double th[ABC_NPAR], struct abc_nat *p)
     p->eta = eta_of(th[8], &p->detat);
 }
 
+/* The log loss's per-sample pass: the specular shape and its derivatives
+ * (SoA), and per channel 1 + fhat cos over 1 + f cos (to be logged) and
+ * dr/dfhat = cos / (1 + fhat cos). Channel-major and contiguous in k, so
+ * that it vectorises (an AVX2 clone: 4-wide divisions, gathers of the
+ * lobe and Fresnel terms). */
+ABC_VCLONES
+static void resid_log_pass(const struct abc_problem *pb, const struct abc_nat *p,
+                           struct abc_cache *c)
+{
+    size_t n = pb->n;
+    const double kdp[3] = {p->kd[0] / ABC_PI, p->kd[1] / ABC_PI, p->kd[2] / ABC_PI};
+    const double A0 = p->A[0], A1 = p->A[1], A2 = p->A[2], dBt = p->dBt, dCt = p->dCt,
+                 det = p->detat;
+    const unsigned *restrict xi = pb->xi, *restrict vi = pb->vi;
+    size_t nux = pb->nux, nuv = pb->nuv;
+    const double *restrict lobe = c->lobe, *restrict fres = c->fres, *restrict gtm = pb->gterm,
+                 *restrict cos_i = pb->cosi;
+    const double *restrict iy0 = pb->iy, *restrict iy1 = pb->iy + n, *restrict iy2 = pb->iy + 2 * n;
+    double *restrict s0 = c->spec, *restrict s1 = c->spec + n, *restrict s2 = c->spec + 2 * n,
+           *restrict s3 = c->spec + 3 * n;
+    double *restrict q0 = c->q, *restrict q1 = c->q + n, *restrict q2 = c->q + 2 * n;
+    double *restrict w0 = c->w, *restrict w1 = c->w + n, *restrict w2 = c->w + 2 * n;
+    /* ivdep: the arrays do not overlap (GCC gives up on the alias checks of
+     * this many arrays, and restrict on locals is not used) */
+#pragma GCC ivdep
+    for (size_t k = 0; k < n; k++) {
+        int ix = (int)xi[k], iv = (int)vi[k];
+        double F = fres[iv], dF = fres[nuv + iv], D = lobe[ix], dDB = lobe[nux + ix],
+               dDC = lobe[2 * nux + ix];
+        double gt = gtm[k], gF = gt * F;
+        s0[k] = gF * D;
+        s1[k] = gF * dDB * dBt;               /* dS/dtheta6 */
+        s2[k] = gF * (dDC * dCt - dDB * dBt); /* dS/dtheta7 */
+        s3[k] = gt * D * dF * det;            /* dS/dtheta8 */
+    }
+#pragma GCC ivdep
+    for (size_t k = 0; k < n; k++) {
+        double S = s0[k], ci = cos_i[k];
+        /* log(1 + fhat cos) - log(1 + f cos) as one log (abc_vlog, after):
+         * its absolute error is a rounding of 1, as the log1p pair's */
+        double qa = 1.0 + (kdp[0] + A0 * S) * ci;
+        double qb = 1.0 + (kdp[1] + A1 * S) * ci;
+        double qc = 1.0 + (kdp[2] + A2 * S) * ci;
+        q0[k] = qa * iy0[k];
+        q1[k] = qb * iy1[k];
+        q2[k] = qc * iy2[k];
+        w0[k] = ci / qa;
+        w1[k] = ci / qb;
+        w2[k] = ci / qc;
+    }
+}
+
 double abc_problem_resid(const struct abc_problem *pb, const double th[ABC_NPAR], double *r,
                          struct abc_cache *c)
 {
     struct abc_nat p;
     natural(th, &p);
-    int lin = pb->loss != FIT_LOSS_LOG;
-    double kdp[3] = {p.kd[0] / ABC_PI, p.kd[1] / ABC_PI, p.kd[2] / ABC_PI};
+    size_t n = pb->n;
     double ss = 0, *out = c->q;
     abc_vlobe(p.B, p.C, pb->ux, pb->nux, c->lobe);
     abc_vfresnel(p.eta, pb->uvh, pb->nuv, c->fres);
-    for (size_t k = 0; k < pb->n; k++) {
-        const double *l = c->lobe + 3 * (size_t)pb->xi[k], *fr = c->fres + 2 * (size_t)pb->vi[k];
-        double F = fr[0], dF = fr[1], D = l[0], dDB = l[1], dDC = l[2];
-        double gt = pb->gterm[k], ci = pb->cosi[k], gF = gt * F;
-        double S = gF * D;
-        double *sp = c->spec + 4 * k;
-        sp[0] = S;
-        sp[1] = gF * dDB * p.dBt;                 /* dS/dtheta6 */
-        sp[2] = gF * (dDC * p.dCt - dDB * p.dBt); /* dS/dtheta7 */
-        sp[3] = gt * D * dF * p.detat;            /* dS/dtheta8 */
-        for (int ch = 0; ch < 3; ch++) {
-            size_t row = 3 * k + (size_t)ch;
-            double fhat = kdp[ch] + p.A[ch] * S;
-            if (lin) {
-                out[row] = (fhat - pb->f[row]) * pb->s[row];
-                c->w[row] = pb->s[row];
-            } else {
-                /* log(1 + fhat cos) - log(1 + f cos) as one log (below): its
-                 * absolute error is a rounding of 1, as the log1p pair's */
-                double q = 1.0 + fhat * ci;
-                out[row] = q * pb->iy[row];
-                c->w[row] = ci / q;
+    if (pb->loss == FIT_LOSS_LOG) {
+        resid_log_pass(pb, &p, c);
+        abc_vlog(out, 3 * n);
+    } else {
+        double kdp[3] = {p.kd[0] / ABC_PI, p.kd[1] / ABC_PI, p.kd[2] / ABC_PI};
+        for (size_t k = 0; k < n; k++) {
+            size_t ix = pb->xi[k], iv = pb->vi[k], nux = pb->nux, nuv = pb->nuv;
+            double F = c->fres[iv], dF = c->fres[nuv + iv], D = c->lobe[ix],
+                   dDB = c->lobe[nux + ix], dDC = c->lobe[2 * nux + ix];
+            double gt = pb->gterm[k], gF = gt * F;
+            double S = gF * D;
+            c->spec[k] = S;
+            c->spec[n + k] = gF * dDB * p.dBt;
+            c->spec[2 * n + k] = gF * (dDC * p.dCt - dDB * p.dBt);
+            c->spec[3 * n + k] = gt * D * dF * p.detat;
+            for (int ch = 0; ch < 3; ch++) {
+                size_t row = 3 * k + (size_t)ch, cm = (size_t)ch * n + k;
+                double fhat = kdp[ch] + p.A[ch] * S;
+                out[cm] = (fhat - pb->f[row]) * pb->s[row];
+                c->w[cm] = pb->s[row];
             }
         }
     }
-    if (!lin)
-        abc_vlog(out, 3 * pb->n);
-    for (size_t row = 0; row < 3 * pb->n; row++)
+    for (size_t row = 0; row < 3 * n; row++)
         ss += out[row] * out[row];
     if (pb->prior) {
         const struct abc_prior_term *pt = pb->prior;
@@ -355,14 +402,93 @@ double abc_problem_resid(const struct abc_problem *pb, const double th[ABC_NPAR]
             for (int j = 0; j < ABC_NPAR; j++)
                 v += pt->W[i * ABC_NPAR + j] * (th[j] - pt->mean[j]);
             ss += v * v;
-            out[3 * pb->n + (size_t)i] = v;
+            out[3 * n + (size_t)i] = v;
         }
     }
-    if (r)
-        memcpy(r, out, abc_problem_nres(pb) * sizeof *r);
+    if (r) { /* rows in the public order: sample-major */
+        for (size_t k = 0; k < n; k++)
+            for (size_t ch = 0; ch < 3; ch++)
+                r[3 * k + ch] = out[ch * n + k];
+        memcpy(r + 3 * n, out + 3 * n, (abc_problem_nres(pb) - 3 * n) * sizeof *r);
+    }
     memcpy(c->theta, th, sizeof c->theta);
     c->valid = 1;
     return 0.5 * ss;
+}
+
+/* The per-channel sums of the normal equations over the data rows of one
+ * channel (w its dr/dfhat, s0..s3 the specular shape S and dS/dtheta6..8,
+ * all contiguous): out[0..8] = sums of w^2 times 1, S, S^2, s1, s2, s3,
+ * S s1, S s2, S s3. An AVX2 clone. */
+ABC_VCLONES
+static void channel_sums(const double *w, const double *s0, const double *s1, const double *s2,
+                         const double *s3, size_t n, double out[9])
+{
+    double q1 = 0, qs = 0, qss = 0, q6 = 0, q7 = 0, q8 = 0, qs6 = 0, qs7 = 0, qs8 = 0;
+    for (size_t k = 0; k < n; k++) {
+        double w2 = w[k] * w[k], w2s = w2 * s0[k];
+        q1 += w2;
+        qs += w2s;
+        qss += w2s * s0[k];
+        q6 += w2 * s1[k];
+        q7 += w2 * s2[k];
+        q8 += w2 * s3[k];
+        qs6 += w2s * s1[k];
+        qs7 += w2s * s2[k];
+        qs8 += w2s * s3[k];
+    }
+    out[0] = q1, out[1] = qs, out[2] = qss, out[3] = q6, out[4] = q7, out[5] = q8;
+    out[6] = qs6, out[7] = qs7, out[8] = qs8;
+}
+
+/* Over all data rows: sums of W s_i s_j, i, j in 1..3, with W = sum over
+ * channels of A_c^2 w_c^2: out = {11, 12, 13, 22, 23, 33}. */
+ABC_VCLONES
+static void shape_sums(const double *w, const double A2[3], const double *s1, const double *s2,
+                       const double *s3, size_t n, double out[6])
+{
+    const double *w0 = w, *w1 = w + n, *w2 = w + 2 * n;
+    double q66 = 0, q67 = 0, q68 = 0, q77 = 0, q78 = 0, q88 = 0;
+    for (size_t k = 0; k < n; k++) {
+        double W = A2[0] * w0[k] * w0[k] + A2[1] * w1[k] * w1[k] + A2[2] * w2[k] * w2[k];
+        double wu6 = W * s1[k], wu7 = W * s2[k];
+        q66 += wu6 * s1[k];
+        q67 += wu6 * s2[k];
+        q68 += wu6 * s3[k];
+        q77 += wu7 * s2[k];
+        q78 += wu7 * s3[k];
+        q88 += W * s3[k] * s3[k];
+    }
+    out[0] = q66, out[1] = q67, out[2] = q68, out[3] = q77, out[4] = q78, out[5] = q88;
+}
+
+/* Sums over one channel's rows of w u times 1, S, s1, s2, s3 (u of stride us). */
+ABC_VCLONES
+static void grad_sums(const double *w, const double *u, size_t us, const double *s0,
+                      const double *s1, const double *s2, const double *s3, size_t n,
+                      double out[5])
+{
+    double g0 = 0, g1 = 0, g2 = 0, g3 = 0, g4 = 0;
+    if (us == 1) {
+        for (size_t k = 0; k < n; k++) {
+            double wu = w[k] * u[k];
+            g0 += wu;
+            g1 += wu * s0[k];
+            g2 += wu * s1[k];
+            g3 += wu * s2[k];
+            g4 += wu * s3[k];
+        }
+    } else {
+        for (size_t k = 0; k < n; k++) {
+            double wu = w[k] * u[k * us];
+            g0 += wu;
+            g1 += wu * s0[k];
+            g2 += wu * s1[k];
+            g3 += wu * s2[k];
+            g4 += wu * s3[k];
+        }
+    }
+    out[0] = g0, out[1] = g1, out[2] = g2, out[3] = g3, out[4] = g4;
 }
 
 void abc_problem_normal(const struct abc_problem *pb, const double th[ABC_NPAR], int trans,
@@ -370,8 +496,11 @@ void abc_problem_normal(const struct abc_problem *pb, const double th[ABC_NPAR],
 {
     if (!c->valid || memcmp(c->theta, th, sizeof c->theta) != 0)
         abc_problem_resid(pb, th, NULL, c);
-    if (!u)
-        u = c->q; /* the residuals at th */
+    /* u NULL: the residuals at th, channel-major in the cache; a caller's u
+     * is in row order (sample-major) */
+    int own = !u;
+    if (own)
+        u = c->q;
     struct abc_nat p;
     natural(th, &p);
     double a[3][ABC_NPAR]; /* per channel: dfhat/dtheta factors of kd, A, and A for 6..8 */
@@ -381,21 +510,19 @@ void abc_problem_normal(const struct abc_problem *pb, const double th[ABC_NPAR],
         a[ch][2] = p.A[ch];
     }
     size_t n = pb->n;
+    const double *s0 = c->spec, *s1 = c->spec + n, *s2 = c->spec + 2 * n, *s3 = c->spec + 3 * n;
     if (v) {
         if (trans) {
             double g[ABC_NPAR] = {0};
-            for (size_t k = 0; k < n; k++) {
-                const double *sp = c->spec + 4 * k;
-                for (int ch = 0; ch < 3; ch++) {
-                    size_t row = 3 * k + (size_t)ch;
-                    double wu = c->w[row] * u[row];
-                    g[ch] += wu * a[ch][0];
-                    g[3 + ch] += wu * a[ch][1] * sp[0];
-                    double au = wu * a[ch][2];
-                    g[6] += au * sp[1];
-                    g[7] += au * sp[2];
-                    g[8] += au * sp[3];
-                }
+            for (int ch = 0; ch < 3; ch++) {
+                double gs[5];
+                grad_sums(c->w + (size_t)ch * n, own ? u + (size_t)ch * n : u + ch, own ? 1 : 3,
+                          s0, s1, s2, s3, n, gs);
+                g[ch] = a[ch][0] * gs[0];
+                g[3 + ch] = a[ch][1] * gs[1];
+                g[6] += a[ch][2] * gs[2];
+                g[7] += a[ch][2] * gs[3];
+                g[8] += a[ch][2] * gs[4];
             }
             if (pb->prior)
                 for (int i = 0; i < ABC_NPAR; i++)
@@ -404,12 +531,11 @@ void abc_problem_normal(const struct abc_problem *pb, const double th[ABC_NPAR],
             memcpy(v, g, sizeof g);
         } else {
             for (size_t k = 0; k < n; k++) {
-                const double *sp = c->spec + 4 * k;
                 for (int ch = 0; ch < 3; ch++) {
                     size_t row = 3 * k + (size_t)ch;
-                    v[row] = c->w[row] *
-                             (a[ch][0] * u[ch] + a[ch][1] * sp[0] * u[3 + ch] +
-                              a[ch][2] * (sp[1] * u[6] + sp[2] * u[7] + sp[3] * u[8]));
+                    v[row] = c->w[(size_t)ch * n + k] *
+                             (a[ch][0] * u[ch] + a[ch][1] * s0[k] * u[3 + ch] +
+                              a[ch][2] * (s1[k] * u[6] + s2[k] * u[7] + s3[k] * u[8]));
                 }
             }
             if (pb->prior)
@@ -428,51 +554,27 @@ void abc_problem_normal(const struct abc_problem *pb, const double th[ABC_NPAR],
      * keeps its few sums in registers. */
     double M[ABC_NPAR][ABC_NPAR] = {{0}};
     for (int ch = 0; ch < 3; ch++) {
-        double q1 = 0, qs = 0, qss = 0, q6 = 0, q7 = 0, q8 = 0, qs6 = 0, qs7 = 0, qs8 = 0;
-        const double *w = c->w + ch;
-        for (size_t k = 0; k < n; k++) {
-            const double *sp = c->spec + 4 * k;
-            double w2 = w[3 * k] * w[3 * k], w2s = w2 * sp[0];
-            q1 += w2;
-            qs += w2s;
-            qss += w2s * sp[0];
-            q6 += w2 * sp[1];
-            q7 += w2 * sp[2];
-            q8 += w2 * sp[3];
-            qs6 += w2s * sp[1];
-            qs7 += w2s * sp[2];
-            qs8 += w2s * sp[3];
-        }
+        double q[9];
+        channel_sums(c->w + (size_t)ch * n, s0, s1, s2, s3, n, q);
         double ak = a[ch][0], aa = a[ch][1], am = a[ch][2];
-        M[ch][ch] = ak * ak * q1;
-        M[3 + ch][ch] = ak * aa * qs;
-        M[3 + ch][3 + ch] = aa * aa * qss;
-        M[6][ch] = ak * am * q6;
-        M[7][ch] = ak * am * q7;
-        M[8][ch] = ak * am * q8;
-        M[6][3 + ch] = aa * am * qs6;
-        M[7][3 + ch] = aa * am * qs7;
-        M[8][3 + ch] = aa * am * qs8;
+        M[ch][ch] = ak * ak * q[0];
+        M[3 + ch][ch] = ak * aa * q[1];
+        M[3 + ch][3 + ch] = aa * aa * q[2];
+        M[6][ch] = ak * am * q[3];
+        M[7][ch] = ak * am * q[4];
+        M[8][ch] = ak * am * q[5];
+        M[6][3 + ch] = aa * am * q[6];
+        M[7][3 + ch] = aa * am * q[7];
+        M[8][3 + ch] = aa * am * q[8];
     }
-    double A2[3] = {p.A[0] * p.A[0], p.A[1] * p.A[1], p.A[2] * p.A[2]};
-    double q66 = 0, q67 = 0, q68 = 0, q77 = 0, q78 = 0, q88 = 0;
-    for (size_t k = 0; k < n; k++) {
-        const double *sp = c->spec + 4 * k, *w = c->w + 3 * k;
-        double W = A2[0] * w[0] * w[0] + A2[1] * w[1] * w[1] + A2[2] * w[2] * w[2];
-        double wu6 = W * sp[1], wu7 = W * sp[2];
-        q66 += wu6 * sp[1];
-        q67 += wu6 * sp[2];
-        q68 += wu6 * sp[3];
-        q77 += wu7 * sp[2];
-        q78 += wu7 * sp[3];
-        q88 += W * sp[3] * sp[3];
-    }
-    M[6][6] = q66;
-    M[7][6] = q67;
-    M[8][6] = q68;
-    M[7][7] = q77;
-    M[8][7] = q78;
-    M[8][8] = q88;
+    double A2[3] = {p.A[0] * p.A[0], p.A[1] * p.A[1], p.A[2] * p.A[2]}, q[6];
+    shape_sums(c->w, A2, s1, s2, s3, n, q);
+    M[6][6] = q[0];
+    M[7][6] = q[1];
+    M[8][6] = q[2];
+    M[7][7] = q[3];
+    M[8][7] = q[4];
+    M[8][8] = q[5];
     if (pb->prior) {
         const double *W = pb->prior->W;
         for (int i = 0; i < ABC_NPAR; i++)
@@ -483,4 +585,23 @@ void abc_problem_normal(const struct abc_problem *pb, const double th[ABC_NPAR],
     for (int i = 0; i < ABC_NPAR; i++)
         for (int j = 0; j <= i; j++)
             JTJ[i * ABC_NPAR + j] = JTJ[j * ABC_NPAR + i] = M[i][j];
+}
+
+void abc_problem_jblock(const struct abc_problem *pb, const double th[ABC_NPAR],
+                        const struct abc_cache *c, int ch, double *Jc)
+{
+    struct abc_nat p;
+    natural(th, &p);
+    size_t n = pb->n;
+    double a0 = p.dkd[ch] / ABC_PI, a1 = p.dA[ch], am = p.A[ch];
+    const double *w = c->w + (size_t)ch * n, *s0 = c->spec, *s1 = c->spec + n,
+                 *s2 = c->spec + 2 * n, *s3 = c->spec + 3 * n;
+    for (size_t k = 0; k < n; k++) {
+        double *row = Jc + 5 * k;
+        row[0] = w[k] * a0;
+        row[1] = w[k] * a1 * s0[k];
+        row[2] = w[k] * am * s1[k];
+        row[3] = w[k] * am * s2[k];
+        row[4] = w[k] * am * s3[k];
+    }
 }

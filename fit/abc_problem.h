@@ -66,7 +66,8 @@ struct abc_problem {
     double *cosi;   /* n.l: the log loss weight */
     double *f;      /* measured RGB, 3n */
     double *y;      /* log(1 + f cos theta_i), 3n (the grid scores with it whatever the loss) */
-    double *iy;     /* 1 / (1 + f cos theta_i), 3n: abc_problem_resid's log((1 + fhat cos) iy) */
+    double *iy;     /* 1 / (1 + f cos theta_i), 3n channel-major (iy[c n + k]):
+                     * abc_problem_resid's log((1 + fhat cos) iy) */
     /* Distinct values of x and v.h (an in-plane plan repeats them: DS1's 912
      * samples have 397 and 297), so that the lobe and the Fresnel term are
      * evaluated once per value: ux[nux], uvh[nuv], and per sample its
@@ -116,11 +117,14 @@ void abc_problem_eval(const struct abc_problem *pb, const double theta[ABC_NPAR]
 struct abc_cache {
     double theta[ABC_NPAR]; /* where spec and w were computed */
     int valid;
-    double *spec;           /* 4n: S, and dS/dtheta6..8 without A, per sample */
-    double *w;              /* 3n: dr/dfhat per data row */
-    double *q;              /* nres: the residuals at theta */
-    double *lobe;           /* 3 nux: D, dD/dB, dD/dC per distinct x */
-    double *fres;           /* 2 nuv: F, dF/deta per distinct v.h */
+    /* Structure of arrays, contiguous over the samples k (the passes
+     * vectorise): */
+    double *spec;           /* 4n: S, and dS/dtheta6..8 without A: spec[j n + k] */
+    double *w;              /* 3n: dr/dfhat per data row, channel-major: w[c n + k] */
+    double *q;              /* nres: the residuals at theta, data rows channel-major
+                             * (q[c n + k]), then the prior rows */
+    double *lobe;           /* 3 nux: D, dD/dB, dD/dC per distinct x (lobe[j nux + i]) */
+    double *fres;           /* 2 nuv: F, dF/deta per distinct v.h (fres[j nuv + i]) */
 };
 
 int abc_cache_init(struct abc_cache *c, const struct abc_problem *pb);
@@ -139,6 +143,11 @@ double abc_problem_resid(const struct abc_problem *pb, const double th[ABC_NPAR]
  * (9 x 9, row-major, both triangles) when JTJ is not NULL. */
 void abc_problem_normal(const struct abc_problem *pb, const double th[ABC_NPAR], int trans,
                         const double *u, double *v, double *JTJ, struct abc_cache *c);
+
+/* The non-zero block of channel ch's data rows of J at theta (the cache
+ * must hold theta): Jc[5k + j], k < n, for the columns ch, 3 + ch, 6, 7, 8. */
+void abc_problem_jblock(const struct abc_problem *pb, const double th[ABC_NPAR],
+                        const struct abc_cache *c, int ch, double *Jc);
 
 /* 0.5 * sum of squared residuals (prior rows included). */
 double abc_problem_cost(const struct abc_problem *pb, const double theta[ABC_NPAR]);

@@ -100,6 +100,36 @@ double abc_linear_score(const struct abc_problem *pb, double B, double C, double
     return isfinite(score) ? score : INFINITY;
 }
 
+/* The nine node sums of every eta at one (B, C): per eta and channel,
+ * sum_i agg[ie][c][i] D_i, sum_i agg[ie][3 + c][i] D_i^2 and
+ * sum_i agg[ie][6 + c][i] D_i, over the distinct x. Contiguous dot
+ * products: vectorised, with an AVX2 clone (945 nodes x 9 sums x 397 terms
+ * per DS1 grid). */
+ABC_VCLONES
+static void node_sums(const double *agg, const double *d, size_t nu, double out[N_ETA][9])
+{
+    for (int ie = 0; ie < N_ETA; ie++) {
+        const double *a = agg + (size_t)ie * 9 * nu;
+        /* nine scalar sums: kept in registers, not in arrays */
+        double a0 = 0, a1 = 0, a2 = 0, b0 = 0, b1 = 0, b2 = 0, c0 = 0, c1 = 0, c2 = 0;
+        for (size_t i = 0; i < nu; i++) {
+            double di = d[i], d2 = di * di;
+            a0 += a[i] * di;
+            a1 += a[nu + i] * di;
+            a2 += a[2 * nu + i] * di;
+            b0 += a[3 * nu + i] * d2;
+            b1 += a[4 * nu + i] * d2;
+            b2 += a[5 * nu + i] * d2;
+            c0 += a[6 * nu + i] * di;
+            c1 += a[7 * nu + i] * di;
+            c2 += a[8 * nu + i] * di;
+        }
+        double *o = out[ie];
+        o[0] = a0, o[1] = a1, o[2] = a2, o[3] = b0, o[4] = b1, o[5] = b2;
+        o[6] = c0, o[7] = c1, o[8] = c2;
+    }
+}
+
 int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts)
 {
     size_t n = pb->n, nu = pb->nux;
@@ -148,20 +178,21 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
         }
     /* The node sums are sums over samples of (weight x F G) times D(x) or
      * D(x)^2, and D depends on the sample only through x: so the weights
-     * are summed once per eta and distinct x (agg[ie][i][9]: per channel
-     * w s, w s^2, w f s with s = F G), and each node's sums are then short
-     * dot products with D over the distinct x (397 for DS1's 912 samples). */
+     * are summed once per eta and distinct x (agg[ie][j][i], j < 9: per
+     * channel w s, w s^2, w f s with s = F G, over distinct x i), and each
+     * node's sums are then dot products with D over the distinct x (397 for
+     * DS1's 912 samples), contiguous in i so that they vectorise. */
     for (size_t i = 0; i < (size_t)N_ETA * nu * 9; i++)
         agg[i] = 0;
     for (int ie = 0; ie < N_ETA; ie++)
         for (size_t k = 0; k < n; k++) {
             double sk = fres[(size_t)ie * n + k];
-            double *ag = agg + ((size_t)ie * nu + pb->xi[k]) * 9;
+            double *ag = agg + (size_t)ie * 9 * nu + pb->xi[k];
             for (int c = 0; c < 3; c++) {
                 double ws = w[3 * k + c] * sk;
-                ag[c] += ws;
-                ag[3 + c] += ws * sk;
-                ag[6 + c] += ws * pb->f[3 * k + c];
+                ag[(size_t)c * nu] += ws;
+                ag[(size_t)(3 + c) * nu] += ws * sk;
+                ag[(size_t)(6 + c) * nu] += ws * pb->f[3 * k + c];
             }
         }
     int m = 0;
@@ -174,23 +205,12 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
             /* the lobe D(x) once per (B, C), shared by the eta nodes */
             memcpy(lobe, lgb, nu * sizeof *lobe);
             abc_vexp_neg(grid_c[ic], lobe, nu);
+            double sums[N_ETA][9];
+            node_sums(agg, lobe, nu, sums);
             for (int ie = 0; ie < N_ETA; ie++) {
-                const double *ag = agg + (size_t)ie * nu * 9;
-                /* nine scalar sums: kept in registers, not in arrays */
-                double a0 = 0, a1 = 0, a2 = 0, b0 = 0, b1 = 0, b2 = 0, c0 = 0, c1 = 0, c2 = 0;
-                for (size_t i = 0; i < nu; i++, ag += 9) {
-                    double d = lobe[i], d2 = d * d;
-                    a0 += ag[0] * d;
-                    a1 += ag[1] * d;
-                    a2 += ag[2] * d;
-                    b0 += ag[3] * d2;
-                    b1 += ag[4] * d2;
-                    b2 += ag[5] * d2;
-                    c0 += ag[6] * d;
-                    c1 += ag[7] * d;
-                    c2 += ag[8] * d;
-                }
-                double s12[3] = {a0, a1, a2}, s22[3] = {b0, b1, b2}, t2[3] = {c0, c1, c2};
+                double s12[3] = {sums[ie][0], sums[ie][1], sums[ie][2]};
+                double s22[3] = {sums[ie][3], sums[ie][4], sums[ie][5]};
+                double t2[3] = {sums[ie][6], sums[ie][7], sums[ie][8]};
                 struct node *nd = &nodes[m++];
                 nd->ib = ib;
                 nd->ic = ic;
@@ -232,7 +252,7 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
             for (int c = 0; c < 3; c++) {
                 double fhat = nd->kd[c] / ABC_PI + nd->A[c] * sk;
                 /* log(1 + fhat cos) - log(1 + f cos) as one log */
-                w[3 * k + c] = (1.0 + fhat * ci) * pb->iy[3 * k + c];
+                w[(size_t)c * n + k] = (1.0 + fhat * ci) * pb->iy[(size_t)c * n + k];
             }
         }
         abc_vlog(w, 3 * n); /* w is free by now: the residuals */

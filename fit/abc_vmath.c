@@ -25,9 +25,9 @@ void abc_vlobe(double B, double C, const double *x, size_t n, double *out)
         double bx = B * x[i];
         double lg = log1p(bx);
         double d = exp(-C * lg);
-        out[3 * i] = d;
-        out[3 * i + 1] = -C * x[i] / (1.0 + bx) * d;
-        out[3 * i + 2] = -lg * d;
+        out[i] = d;
+        out[n + i] = -C * x[i] / (1.0 + bx) * d;
+        out[2 * n + i] = -lg * d;
     }
 }
 
@@ -55,7 +55,7 @@ void abc_vfresnel(double eta, const double *vh, size_t n, double *out)
         double dp_dg = 4.0 * c * gm / (gp * gp * gp);
         double dr_dg = 2.0 * c * (1.0 - c * c) / (den * den);
         double df_dg = 0.5 * (dp_dg * qq + p * 2.0 * r * dr_dg);
-        out[2 * i] = 0.5 * p * qq;
-        out[2 * i + 1] = g > 0 ? df_dg * eta / (g > 0 ? g : 1.0) : 0.0;
+        out[i] = 0.5 * p * qq;
+        out[n + i] = g > 0 ? df_dg * eta / (g > 0 ? g : 1.0) : 0.0;
     }
 }

@@ -7,12 +7,14 @@
 
 #include <stddef.h>
 
-/* On x86-64 with GCC: an AVX2+FMA version of the function beside the
- * baseline one, chosen at load time (the binary stays portable): the
- * 4-wide libmvec functions. (Tried on the residual, normal-equation and
- * grid passes too: no measurable gain, so not there.) */
+/* On x86-64 with GCC: an x86-64-v3 (AVX2, FMA) version of the function
+ * beside the baseline one, chosen at load time (the binary stays
+ * portable): 4-wide vectors and libmvec functions. Also on the residual,
+ * normal-equation and grid passes (abc_problem.c, abc_start.c). Not
+ * "arch=haswell": for an arch= clone GCC's resolver asks whether the CPU
+ * *is* that model, so on every other AVX2 machine the baseline ran. */
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define ABC_VCLONES __attribute__((target_clones("arch=haswell", "default")))
+#define ABC_VCLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
 #else
 #define ABC_VCLONES
 #endif
@@ -22,12 +24,13 @@
 void abc_vlog(double *v, size_t n);
 
 /* The lobe D = (1 + B x)^-C of brdf_abc_distribution and its derivatives,
- * for x[i] >= 0, i < n, B, C >= 0 finite: out[3i] = D, out[3i+1] = dD/dB,
- * out[3i+2] = dD/dC. Within a few ulp of brdf_abc_distribution. */
+ * for x[i] >= 0, i < n, B, C >= 0 finite: out[i] = D, out[n+i] = dD/dB,
+ * out[2n+i] = dD/dC (structure of arrays: the residual pass gathers from
+ * them). Within a few ulp of brdf_abc_distribution. */
 void abc_vlobe(double B, double C, const double *x, size_t n, double *out);
 
 /* The Fresnel term of brdf_abc_fresnel and dF/deta at v.h = vh[i], i < n
- * (eta >= 1 finite): out[2i] = F, out[2i+1] = dF/deta. */
+ * (eta >= 1 finite): out[i] = F, out[n+i] = dF/deta. */
 void abc_vfresnel(double eta, const double *vh, size_t n, double *out);
 
 /* v[i] = exp(-C v[i]) for i < n (v[i], C finite): the lobe from a stored
