@@ -35,61 +35,16 @@ static void usage(FILE *out)
             RENDER_MIN_SIZE, RENDER_MAX_SIZE);
 }
 
-/* --study DIR: one grid per material of the study's results, the truth
- * first, then every fitted model of one capture scene (render/study.h). All
- * materials are opened before anything is written. */
+/* --study DIR: one grid per material of the study's results (render/study.h). */
 static int render_study(const char *dir, const char *study_scene, const struct render_scene *sc,
                         int size, int columns, int quiet)
 {
     struct gonio_err err = {0};
-    struct render_study_material *mats;
-    int n, status = 0;
-    if (render_study_read(dir, study_scene, &mats, &n, &err) < 0) {
+    if (render_study_write(dir, study_scene, sc, size, columns, quiet ? NULL : stderr, &err) < 0) {
         fprintf(stderr, "gonio render: %s\n", err.msg);
         return gonio_exit_status(err.code);
     }
-    int total = 0;
-    for (int i = 0; i < n; i++)
-        total += 1 + mats[i].n;
-    brdf_material **opened = calloc((size_t)total, sizeof *opened);
-    struct render_item *items = calloc((size_t)total, sizeof *items);
-    if (!opened || !items) {
-        fprintf(stderr, "gonio render: out of memory\n");
-        status = 1;
-        goto done;
-    }
-    for (int i = 0, k = 0; i < n; i++)
-        for (int c = -1; c < mats[i].n; c++, k++) {
-            const char *spec = c < 0 ? mats[i].truth : mats[i].cells[c].spec;
-            opened[k] = fit_material_open(spec, &err);
-            if (!opened[k]) {
-                fprintf(stderr, "gonio render: %s: %s\n", mats[i].name, err.msg);
-                status = gonio_exit_status(err.code);
-                goto done;
-            }
-            items[k] = (struct render_item){spec, c < 0 ? "truth" : mats[i].cells[c].label,
-                                            opened[k]};
-        }
-    for (int i = 0, k = 0; i < n; k += 1 + mats[i].n, i++) {
-        char out[4400];
-        snprintf(out, sizeof out, "%s/renders/%s", dir, mats[i].name);
-        int cols = columns ? columns : (1 + mats[i].n < 6 ? 1 + mats[i].n : 6);
-        struct render_set_options o = {size, 1, cols, quiet ? NULL : stderr};
-        if (render_write_set(out, sc, items + k, 1 + mats[i].n, &o, &err) < 0) {
-            fprintf(stderr, "gonio render: %s\n", err.msg);
-            status = gonio_exit_status(err.code);
-            goto done;
-        }
-        printf("wrote %s/grid.png: truth and %d model%s\n", out, mats[i].n,
-               mats[i].n == 1 ? "" : "s");
-    }
-done:
-    for (int k = 0; opened && k < total; k++)
-        brdf_material_free(opened[k]);
-    free(opened);
-    free(items);
-    render_study_free(mats, n);
-    return status;
+    return 0;
 }
 
 static int bad(const char *msg, const char *value)

@@ -13,8 +13,14 @@
 #include <unistd.h>
 
 #include "cli/commands.h"
+#include "render/scene.h"
+#include "render/study.h"
 #include "report/page.h"
 #include "study/study.h"
+
+/* Pixels a side of each sphere a complete study renders (gonio render
+ * --study draws them at any size). */
+#define STUDY_RENDER_SIZE 96
 
 static void usage(FILE *out)
 {
@@ -33,16 +39,24 @@ static void usage(FILE *out)
             "  --jobs N: worker processes (default: the number of cores). --shard I/N: run\n"
             "  only share I of N (merge the shares with gonio study merge). --list: print\n"
             "  the job ids and exit. Rerunning on DIR resumes: finished rows are kept.\n"
-            "  A complete study (or merge) also writes DIR/report.html and DIR/plots/\n"
-            "  (gonio report, docs/report.md).\n");
+            "  A complete study (or merge) also writes DIR/renders/, DIR/plots/ and\n"
+            "  DIR/report.html (gonio render --study, gonio report; docs/report.md).\n");
 }
 
-/* The figures and the HTML page of a complete study (report/page.h). */
+/* The renderings, figures and HTML page of a complete study (render/study.h,
+ * report/page.h). Renderings are a view of the rows: when they cannot be
+ * drawn (no model that predicts out of plane), the page says so and the
+ * study still succeeds. */
 static int write_report(const char *dir)
 {
     char plots[4096];
     snprintf(plots, sizeof plots, "%s/plots", dir);
     struct gonio_err err = {0};
+    struct render_scene sc;
+    if (render_scene_load("default", &sc, &err) < 0 ||
+        render_study_write(dir, NULL, &sc, STUDY_RENDER_SIZE, 0, NULL, &err) < 0)
+        fprintf(stderr, "gonio study: renderings left out: %s\n", err.msg);
+    memset(&err, 0, sizeof err);
     if (report_write_page(dir, &(struct report_page_opts){.plots_dir = plots, .quiet = 1},
                           &err) < 0) {
         fprintf(stderr, "gonio study: report: %s\n", err.msg);

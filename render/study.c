@@ -7,6 +7,10 @@
 
 #include <jansson.h>
 
+#include "brdf/material.h"
+#include "fit/model_file.h"
+#include "render/output.h"
+
 /* A row's string field, or NULL (the caller names the missing field). */
 static const char *str(json_t *row, const char *key)
 {
@@ -58,12 +62,12 @@ int render_study_read(const char *dir, const char *scene, struct render_study_ma
     struct render_study_material *mats = NULL;
     int n = 0;
     json_t *rows = json_object_get(root, "rows");
-    if (!scene)
-        scene = json_string_value(
-            json_array_get(json_object_get(json_object_get(root, "study"), "scenes"), 0));
+    if (!scene) /* the study's first scene: study.scenes[0].name (docs/study.md) */
+        scene = str(json_array_get(json_object_get(json_object_get(root, "study"), "scenes"), 0),
+                    "name");
     if (!json_is_array(rows) || !scene) {
         rc = gonio_err_set(err, GONIO_EBADDATA, "%s: field '%s' missing (not a gonio study?)",
-                           path, json_is_array(rows) ? "study.scenes" : "rows");
+                           path, json_is_array(rows) ? "study.scenes[0].name" : "rows");
         goto done;
     }
     size_t i;
@@ -136,4 +140,50 @@ void render_study_free(struct render_study_material *m, int n)
     for (int i = 0; m && i < n; i++)
         free(m[i].cells);
     free(m);
+}
+
+int render_study_write(const char *dir, const char *scene, const struct render_scene *sc,
+                       int size, int columns, FILE *progress, struct gonio_err *err)
+{
+    struct render_study_material *mats;
+    int n;
+    int rc = render_study_read(dir, scene, &mats, &n, err);
+    if (rc < 0)
+        return rc;
+    int total = 0;
+    for (int i = 0; i < n; i++)
+        total += 1 + mats[i].n;
+    brdf_material **opened = calloc((size_t)total, sizeof *opened);
+    struct render_item *items = calloc((size_t)total, sizeof *items);
+    if (!opened || !items)
+        rc = gonio_err_set(err, ENOMEM, "out of memory");
+    for (int i = 0, k = 0; rc == 0 && i < n; i++)
+        for (int c = -1; rc == 0 && c < mats[i].n; c++, k++) {
+            const char *spec = c < 0 ? mats[i].truth : mats[i].cells[c].spec;
+            if (!(opened[k] = fit_material_open(spec, err))) {
+                char msg[GONIO_ERR_MSG_MAX];
+                snprintf(msg, sizeof msg, "%s", err->msg);
+                rc = gonio_err_set(err, err->code ? err->code : GONIO_EBADDATA, "%s: %s",
+                                   mats[i].name, msg);
+                break;
+            }
+            items[k] = (struct render_item){spec, c < 0 ? "truth" : mats[i].cells[c].label,
+                                            opened[k]};
+        }
+    for (int i = 0, k = 0; rc == 0 && i < n; k += 1 + mats[i].n, i++) {
+        char out[4400];
+        snprintf(out, sizeof out, "%s/renders/%s", dir, mats[i].name);
+        int cols = columns ? columns : (1 + mats[i].n < 6 ? 1 + mats[i].n : 6);
+        struct render_set_options o = {size, 1, cols, progress};
+        rc = render_write_set(out, sc, items + k, 1 + mats[i].n, &o, err);
+        if (rc == 0 && progress)
+            fprintf(progress, "wrote %s/grid.png: truth and %d model%s\n", out, mats[i].n,
+                    mats[i].n == 1 ? "" : "s");
+    }
+    for (int k = 0; opened && k < total; k++)
+        brdf_material_free(opened[k]);
+    free(opened);
+    free(items);
+    render_study_free(mats, n);
+    return rc < 0 ? rc : 0;
 }

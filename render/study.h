@@ -7,6 +7,8 @@
 #ifndef GONIO_RENDER_STUDY_H
 #define GONIO_RENDER_STUDY_H
 
+#include <stdio.h>
+
 #include "common/err.h"
 
 struct render_study_cell {
@@ -29,5 +31,14 @@ int render_study_read(const char *dir, const char *scene, struct render_study_ma
                       int *n, struct gonio_err *err);
 
 void render_study_free(struct render_study_material *m, int n);
+
+struct render_scene;
+
+/* Read DIR/results.json as above and write each material's images and grid
+ * to DIR/renders/MATERIAL/ (render_write_set; `columns` 0: up to 6 a row),
+ * with a line per image and per grid on `progress` (NULL: none). Every material is opened before
+ * anything is written. Returns 0 or a negative code with err filled. */
+int render_study_write(const char *dir, const char *scene, const struct render_scene *sc,
+                       int size, int columns, FILE *progress, struct gonio_err *err);
 
 #endif

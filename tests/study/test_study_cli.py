@@ -98,12 +98,21 @@ def test_shards_merged_equal_one_run(tmp):
     assert a["study"] == b["study"] and b["complete"] is True
     strip = lambda rs: [{k: v for k, v in r.items() if k not in TIME_COLUMNS} for r in rs]
     assert strip(a["rows"]) == strip(b["rows"])
-    # A complete study or merge carries its report and figures; a shard does not.
+    # A complete study or merge carries its renderings, report and figures
+    # (the grid of the first scene: the truth, then each fitted model); a
+    # shard does not.
     for d in (one, merged):
         page = open(os.path.join(d, "report.html")).read()
         assert "<svg" in page and full[0]["material"] in page
         assert os.path.getsize(os.path.join(d, "plots", "pareto-full-" + full[0]["scene"] + ".png")) > 0
+        grids = {m: os.path.join(d, "renders", m, "grid.png") for m in {r["material"] for r in full}}
+        assert all(os.path.getsize(g) > 0 for g in grids.values()), os.listdir(d)
+        first = [r for r in full if r["scene"] == full[0]["scene"]]
+        renders = page[page.index('id="renders"'):page.index('id="rows"')]
+        assert renders.count("<img") == len(grids)
+        assert all(f'{r["plan"]}/{r["model"]}' in renders for r in first)
     assert not any(os.path.exists(os.path.join(d, "report.html")) for d in shards)
+    assert not any(os.path.exists(os.path.join(d, "renders")) for d in shards)
     # A shard of another study is refused.
     other = os.path.join(tmp, "other")
     assert gonio("study", *TINY[:-2], "--scenes", "ideal", "--out", other).returncode == 0

@@ -27,7 +27,8 @@ static void write_results(const char *rows)
     snprintf(path, sizeof path, "%s/results.json", tmpdir);
     FILE *f = fopen(path, "w");
     assert_non_null(f);
-    fprintf(f, "{\"format\": \"gonio-study-1\", \"study\": {\"scenes\": [\"ideal\", \"lab\"]},"
+    fprintf(f, "{\"format\": \"gonio-study-1\", \"study\": {\"scenes\": [{\"name\": \"ideal\", \"spec\": \"ideal\"}, "
+               "{\"name\": \"lab\", \"spec\": \"lab\"}]},"
                " \"rows\": [%s]}", rows);
     fclose(f);
 }
