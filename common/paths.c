@@ -27,6 +27,13 @@ const char *gonio_config_dir(void)
     return env && *env ? env : GONIO_CONFIG_DEFAULT;
 }
 
+int gonio_ref_is_file(const char *ref)
+{
+    size_t n = strlen(ref);
+    return strchr(ref, '/') || (n > 5 && !strcmp(ref + n - 5, ".yaml")) ||
+           (n > 4 && !strcmp(ref + n - 4, ".yml"));
+}
+
 int gonio_write_file_atomic(const char *path, const void *data, size_t len,
                             struct gonio_err *err)
 {

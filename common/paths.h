@@ -13,6 +13,12 @@ const char *gonio_shared_dir(void);
 /* The configs folder: $GONIO_CONFIG, else configs/ in the source tree. */
 const char *gonio_config_dir(void);
 
+/* Whether a plan, scene, rig or render reference names a file (it holds a
+ * '/' or ends in .yaml or .yml) rather than a name in the configs folder.
+ * One rule, so that the loaders (planner/rig.h plan_resolve_path), goniod's
+ * config and goniod's requests agree on what a reference means. */
+int gonio_ref_is_file(const char *ref);
+
 /* Write len bytes to path atomically: a temporary file beside it, fsync,
  * then rename, so a reader never sees half a file and a failure leaves no
  * file behind. */

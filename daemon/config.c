@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "common/cfg.h"
+#include "common/paths.h"
 #include "planner/rig.h"
 #include "sim/scene.h"
 
@@ -62,11 +63,8 @@ static int copy_ref(const struct cfg_doc *d, const struct cfg_node *map, const c
     int rc = cfg_string(d, map, key, CFG_OPTIONAL, &s, err);
     if (rc <= 0)
         return rc;
-    size_t n = strlen(s);
-    int is_path = strchr(s, '/') || (n > 5 && !strcmp(s + n - 5, ".yaml")) ||
-                  (n > 4 && !strcmp(s + n - 4, ".yml"));
-    return is_path ? copy_path(d, map, key, CFG_OPTIONAL, out, size, err)
-                   : copy_string(d, map, key, CFG_OPTIONAL, out, size, err);
+    return gonio_ref_is_file(s) ? copy_path(d, map, key, CFG_OPTIONAL, out, size, err)
+                                : copy_string(d, map, key, CFG_OPTIONAL, out, size, err);
 }
 
 static int load_sim(const struct cfg_doc *d, const struct cfg_node *drv,

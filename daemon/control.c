@@ -249,19 +249,12 @@ static int path_error(struct gonio_err *err, int why, const char *what, const ch
                          what, v);
 }
 
-static int is_path_like(const char *s)
-{
-    size_t n = strlen(s);
-    return strchr(s, '/') || (n > 5 && !strcmp(s + n - 5, ".yaml")) ||
-           (n > 4 && !strcmp(s + n - 4, ".yml"));
-}
-
 /* A plan, scene or rig: a bare name from the configs folder, or a file
  * inside the capture root. */
 static int resolve_ref(const control *c, const char *what, const char *v, char *out,
                        size_t size, struct gonio_err *err)
 {
-    if (is_path_like(v)) {
+    if (gonio_ref_is_file(v)) {
         int why = root_path(c, v, out, size);
         return why < 0 ? path_error(err, why, what, v) : 0;
     }

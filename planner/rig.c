@@ -24,13 +24,9 @@ void plan_rig_default(struct plan_rig *rig)
 
 int plan_resolve_path(const char *path_or_name, const char *sub, char *out, size_t size)
 {
-    size_t len = strlen(path_or_name);
-    int is_path = strchr(path_or_name, '/') ||
-                  (len > 5 && !strcmp(path_or_name + len - 5, ".yaml")) ||
-                  (len > 4 && !strcmp(path_or_name + len - 4, ".yml"));
-    int n = is_path ? snprintf(out, size, "%s", path_or_name)
-                    : snprintf(out, size, "%s/%s/%s.yaml", gonio_config_dir(), sub,
-                               path_or_name);
+    int n = gonio_ref_is_file(path_or_name)
+                ? snprintf(out, size, "%s", path_or_name)
+                : snprintf(out, size, "%s/%s/%s.yaml", gonio_config_dir(), sub, path_or_name);
     return n < 0 || (size_t)n >= size ? -ENAMETOOLONG : 0;
 }
 
