@@ -1,0 +1,308 @@
+/* What each control command does (docs/protocol.md). A request's fields are
+ * checked before it gets here, by control_request_parse (daemon/request.c,
+ * the part the fuzzer reaches); this file keeps the handlers, whether each
+ * needs the rig idle or busy, and the reply. */
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+
+#include "common/paths.h"
+#include "daemon/control_private.h"
+#include "daemon/request.h"
+
+enum need { NEED_ANY, NEED_IDLE, NEED_ACTIVE };
+
+struct command {
+    /* Fill reply (an OK document to send) or return an error (err set;
+     * code names the error class). */
+    int (*run)(control *c, struct control_client *cl, json_t *req, json_t *reply,
+               const char **code, struct gonio_err *err);
+    enum need need;
+};
+
+static const char *jstr(json_t *req, const char *key)
+{
+    return json_string_value(json_object_get(req, key));
+}
+
+static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_t *reply,
+                       const char **code, struct gonio_err *err)
+{
+    (void)cl;
+    struct worker_request r;
+    memset(&r, 0, sizeof r);
+    const char *plan = jstr(req, "plan"), *scene = jstr(req, "scene"),
+               *rig = jstr(req, "rig"), *material = jstr(req, "material"),
+               *model = jstr(req, "model"), *order = jstr(req, "order"),
+               *stop = jstr(req, "stop"), *name = jstr(req, "name");
+    *code = "bad-value";
+    if (!plan)
+        return gonio_err_set(err, GONIO_EUSAGE, "capture: 'plan' is required");
+    if (stop && strcmp(stop, "all") && strcmp(stop, "converge"))
+        return gonio_err_set(err, GONIO_EUSAGE, "stop '%s': use all or converge", stop);
+    if (order && strcmp(order, "travel") && strcmp(order, "progressive") &&
+        strcmp(order, "as-written") && strcmp(order, "greedy"))
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "order '%s': use travel, progressive, as-written or greedy", order);
+    if (model && strcmp(model, "abc"))
+        return gonio_err_set(err, GONIO_EUSAGE, "model '%s': the only model is 'abc'", model);
+    int rc;
+    if ((rc = control_resolve_ref(c, "plan", plan, r.plan, sizeof r.plan, err)) < 0)
+        return rc;
+    if (scene) {
+        if ((rc = control_resolve_ref(c, "scene", scene, r.scene, sizeof r.scene, err)) < 0)
+            return rc;
+    } else {
+        snprintf(r.scene, sizeof r.scene, "%s", c->cfg->scene);
+    }
+    if (rig) {
+        if ((rc = control_resolve_ref(c, "rig", rig, r.rig, sizeof r.rig, err)) < 0)
+            return rc;
+    } else {
+        snprintf(r.rig, sizeof r.rig, "%s", c->cfg->rig);
+    }
+    if (material &&
+        (rc = control_resolve_material(c, material, r.material, sizeof r.material, err)) < 0)
+        return rc;
+    snprintf(r.model, sizeof r.model, "%s", model ? model : "abc");
+    snprintf(r.order, sizeof r.order, "%s", order ? order : "");
+    snprintf(r.stop, sizeof r.stop, "%s", stop ? stop : "");
+
+    if (name) {
+        if (!control_valid_id(name))
+            return gonio_err_set(err, GONIO_EUSAGE,
+                                 "name '%s': a capture id is 1..100 letters, digits, '.', '_' "
+                                 "or '-', not starting with '.' or '-'",
+                                 name);
+        snprintf(r.id, sizeof r.id, "%s", name);
+    } else {
+        /* A readable, sortable id; the suffix keeps two captures started
+         * in the same second apart. */
+        char stamp[32];
+        time_t t = time(NULL);
+        struct tm tm;
+        gmtime_r(&t, &tm);
+        strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm);
+        char base[96];
+        snprintf(base, sizeof base, "%s-%.40s", stamp, control_valid_id(plan) ? plan : "plan");
+        snprintf(r.id, sizeof r.id, "%s", base);
+        for (int k = 2; k < 1000; k++) {
+            char probe[2304];
+            struct stat st;
+            snprintf(probe, sizeof probe, "%s/%s", c->cfg->capture_root, r.id);
+            if (stat(probe, &st) != 0)
+                break;
+            snprintf(r.id, sizeof r.id, "%s-%d", base, k);
+        }
+    }
+    snprintf(r.dir, sizeof r.dir, "%s/%s", c->cfg->capture_root, r.id);
+    if ((rc = gonio_mkdir_p(c->cfg->capture_root, err)) < 0) {
+        *code = "io";
+        return rc;
+    }
+    if (mkdir(r.dir, 0755) < 0) {
+        *code = errno == EEXIST ? "exists" : "io";
+        return gonio_err_set(err, errno == EEXIST ? GONIO_EUSAGE : errno,
+                             errno == EEXIST
+                                 ? "capture '%s' exists; resume it or choose another name"
+                                 : "capture '%s': cannot create its directory",
+                             r.id);
+    }
+    if ((rc = control_save_request(&r, err)) < 0 || (rc = worker_start(c->w, &r, err)) < 0) {
+        *code = "busy";
+        control_discard_request(&r);
+        return rc;
+    }
+    fprintf(stderr, "goniod: capture %s started (plan %s)\n", r.id, plan);
+    json_object_set_new(reply, "capture_id", json_string(r.id));
+    json_object_set_new(reply, "dir", json_string(r.dir));
+    return 0;
+}
+
+static json_t *status_doc(control *c)
+{
+    struct worker_status st;
+    worker_get_status(c->w, &st);
+    static const char *const names[] = {"idle", "running", "paused"};
+    json_t *d = json_object();
+    json_object_set_new(d, "class", json_string("STATUS"));
+    json_object_set_new(d, "state", json_string(names[st.state]));
+    json_object_set_new(d, "capture_id", st.state == WORKER_IDLE ? json_null()
+                                                                 : json_string(st.id));
+    json_object_set_new(d, "points_done", json_integer((json_int_t)st.done));
+    json_object_set_new(d, "points_total", json_integer((json_int_t)st.total));
+    json_object_set_new(d, "rig_time_s", control_json_number(st.rig_time_s));
+    if (st.has_fit)
+        json_object_set_new(d, "fit_error",
+                            json_pack("{s:s, s:o, s:o, s:I}", "capture_id", st.fit_id,
+                                      "log_error", control_json_number(st.fit_log_error),
+                                      "rel_rmse", control_json_number(st.fit_rel_rmse),
+                                      "samples", (json_int_t)st.fit_samples));
+    else
+        json_object_set_new(d, "fit_error", json_null());
+    return d;
+}
+
+static int cmd_status(control *c, struct control_client *cl, json_t *req, json_t *reply,
+                      const char **code, struct gonio_err *err)
+{
+    (void)cl, (void)req, (void)code, (void)err;
+    json_t *d = status_doc(c);
+    json_object_update(reply, d);
+    json_decref(d);
+    return 0;
+}
+
+static int cmd_watch(control *c, struct control_client *cl, json_t *req, json_t *reply,
+                     const char **code, struct gonio_err *err)
+{
+    (void)req, (void)reply, (void)code, (void)err;
+    (void)c;
+    cl->watching = 1;
+    return 0;
+}
+
+static int cmd_pause(control *c, struct control_client *cl, json_t *req, json_t *reply,
+                     const char **code, struct gonio_err *err)
+{
+    (void)cl, (void)req, (void)reply;
+    *code = "not-running";
+    return worker_pause(c->w, err);
+}
+
+static int cmd_resume(control *c, struct control_client *cl, json_t *req, json_t *reply,
+                      const char **code, struct gonio_err *err)
+{
+    (void)cl;
+    const char *id = jstr(req, "capture_id");
+    struct worker_status st;
+    worker_get_status(c->w, &st);
+    if (!id || (st.state != WORKER_IDLE && !strcmp(id, st.id))) {
+        /* Resume the paused capture. */
+        *code = "not-paused";
+        return worker_continue(c->w, err);
+    }
+    *code = "bad-value";
+    if (!control_valid_id(id))
+        return gonio_err_set(err, GONIO_EUSAGE, "capture_id '%s': not a capture id", id);
+    if (st.state != WORKER_IDLE) {
+        *code = "busy";
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "capture '%s' is running; it must end before '%s' can resume",
+                             st.id, id);
+    }
+    struct worker_request r;
+    memset(&r, 0, sizeof r);
+    snprintf(r.id, sizeof r.id, "%s", id);
+    snprintf(r.dir, sizeof r.dir, "%s/%s", c->cfg->capture_root, id);
+    /* lstat: a capture directory that is a symbolic link is no capture,
+     * and neither is one holding a link goniod would write through. */
+    struct stat sb;
+    if (lstat(r.dir, &sb) != 0 || !S_ISDIR(sb.st_mode)) {
+        *code = "not-found";
+        return gonio_err_set(err, GONIO_ENOTFOUND, "no capture '%s' in %s", id,
+                             c->cfg->capture_root);
+    }
+    const char *link = NULL;
+    char name[256];
+    if (control_dir_symlink(r.dir, name, sizeof name, &link) < 0 || link) {
+        *code = "bad-value";
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "capture '%s': %s%s is a symbolic link or unreadable; goniod "
+                             "does not write through links",
+                             id, link ? "file " : "its directory", link ? name : "");
+    }
+    int rc = control_load_request(c, &r, err);
+    if (rc < 0) {
+        *code = "not-found";
+        return rc;
+    }
+    r.resume = 1;
+    *code = "busy";
+    if ((rc = worker_start(c->w, &r, err)) < 0)
+        return rc;
+    fprintf(stderr, "goniod: capture %s resumed\n", id);
+    json_object_set_new(reply, "capture_id", json_string(id));
+    json_object_set_new(reply, "dir", json_string(r.dir));
+    return 0;
+}
+
+static int cmd_abort(control *c, struct control_client *cl, json_t *req, json_t *reply,
+                     const char **code, struct gonio_err *err)
+{
+    (void)cl, (void)req, (void)reply;
+    *code = "not-running";
+    return worker_abort(c->w, "aborted", err);
+}
+
+static int cmd_shutdown(control *c, struct control_client *cl, json_t *req, json_t *reply,
+                        const char **code, struct gonio_err *err)
+{
+    (void)cl, (void)req, (void)reply, (void)code, (void)err;
+    c->shutdown = 1;
+    return 0;
+}
+
+/* What each command does, indexed like request.c's table of names and
+ * fields. */
+static const struct command commands[CONTROL_CMD_COUNT] = {
+    [CONTROL_CMD_CAPTURE] = {cmd_capture, NEED_IDLE},
+    [CONTROL_CMD_STATUS] = {cmd_status, NEED_ANY},
+    [CONTROL_CMD_WATCH] = {cmd_watch, NEED_ANY},
+    [CONTROL_CMD_PAUSE] = {cmd_pause, NEED_ACTIVE},
+    [CONTROL_CMD_RESUME] = {cmd_resume, NEED_ANY},
+    [CONTROL_CMD_ABORT] = {cmd_abort, NEED_ACTIVE},
+    [CONTROL_CMD_SHUTDOWN] = {cmd_shutdown, NEED_ANY},
+};
+
+void control_handle_line(control *c, struct control_client *cl, const char *line, size_t len)
+{
+    struct control_request rq;
+    const char *bad;
+    char why[1024];
+    if (control_request_parse(line, len, &rq, &bad, why, sizeof why) < 0) {
+        control_send_error(cl, bad, rq.id, "%s", why);
+        control_request_free(&rq);
+        return;
+    }
+    const struct command *cmd = &commands[rq.cmd];
+    json_t *req = rq.doc, *id = rq.id;
+    const char *name = rq.name;
+    struct worker_status st;
+    worker_get_status(c->w, &st);
+    if (cmd->need == NEED_IDLE && st.state != WORKER_IDLE) {
+        control_send_error(cl, "busy", id,
+                           "%s: capture '%s' is running; abort it or wait for it to finish",
+                           name, st.id);
+        control_request_free(&rq);
+        return;
+    }
+    if (cmd->need == NEED_ACTIVE && st.state == WORKER_IDLE) {
+        control_send_error(cl, "not-running", id, "%s: no capture is running", name);
+        control_request_free(&rq);
+        return;
+    }
+    json_t *reply = json_object();
+    json_object_set_new(reply, "class", json_string("OK"));
+    json_object_set_new(reply, "cmd", json_string(name));
+    if (id)
+        json_object_set(reply, "id", id);
+    struct gonio_err err = {0};
+    const char *code = "failed";
+    int rc = cmd->run(c, cl, req, reply, &code, &err);
+    if (rc < 0) {
+        json_decref(reply);
+        control_send_error(cl, code, id, "%s", err.msg[0] ? err.msg : gonio_strerror(rc));
+    } else {
+        control_client_send(cl, reply);
+        /* A watcher that subscribes mid-capture still gets the capture's
+         * start and descriptor first. */
+        if (cmd->run == cmd_watch && c->start_doc) {
+            control_client_send_text(cl, c->start_doc);
+            control_client_send_text(cl, c->descriptor_doc);
+        }
+    }
+    control_request_free(&rq);
+}

@@ -1,0 +1,122 @@
+/* Inside goniod's control socket: the state its files share.
+ *
+ *   control.c           the listening socket's life cycle and the poll loop's calls
+ *   control_clients.c   connections: bounded buffers, reading lines, rate and idle
+ *                       limits (control_tick)
+ *   control_commands.c  the command table and what each command does
+ *   control_paths.c     what a request may name on disk, and the request record
+ *   control_stream.c    the documents streamed to watchers during a capture
+ *                       (control_dispatch)
+ *
+ * Nothing outside these files includes this header: daemon/control.h is the
+ * interface. */
+#ifndef GONIO_DAEMON_CONTROL_PRIVATE_H
+#define GONIO_DAEMON_CONTROL_PRIVATE_H
+
+#include <math.h>
+#include <stddef.h>
+#include <sys/types.h>
+
+#include <jansson.h>
+
+#include "common/err.h"
+#include "daemon/control.h"
+#include "daemon/worker.h"
+
+struct control_client {
+    int fd;
+    size_t max_out;    /* queued output beyond this drops the client */
+    char *in;          /* CONTROL_MAX_LINE + 1 bytes */
+    size_t in_len;
+    char *out;
+    size_t out_len, out_cap;
+    int watching;
+    int closing;       /* close once out is sent */
+    int dead;
+    double last_active; /* last complete request (or the connect) */
+    double tokens;      /* rate limit: requests it may send now */
+    double tokens_at;   /* when tokens was last refilled */
+};
+
+struct control {
+    const struct goniod_config *cfg;
+    worker *w;
+    int listen_fd;
+    uid_t self_uid;     /* goniod's own user: always allowed */
+    gid_t allowed_gid;  /* peers in this group are allowed (socket.group, else ours) */
+    struct control_client **clients;
+    size_t n_clients;
+    int shutdown;
+    /* The running capture's start and descriptor documents, for watchers
+     * that subscribe mid-capture; NULL when idle. */
+    char *start_doc, *descriptor_doc;
+    unsigned long long seq; /* event sequence number within a capture */
+};
+
+/* ---- control_clients.c ------------------------------------------------ */
+
+/* Monotonic seconds: idle and rate limits must not jump with the wall clock. */
+double control_now_s(void);
+
+/* The one-line text of doc (compact, keys in insertion order); takes the
+ * reference to doc. NULL when out of memory. */
+char *control_json_text(json_t *doc);
+
+/* NaN and infinities have no JSON form: they become null. */
+static inline json_t *control_json_number(double v)
+{
+    return isfinite(v) ? json_real(v) : json_null();
+}
+
+/* Accept every pending connection: greet it with VERSION, or refuse it
+ * (wrong peer, too many clients) with an ERROR and close it. */
+void control_accept_clients(control *c);
+/* Read what arrived and run each complete line through control_handle_line. */
+void control_client_read(control *c, struct control_client *cl);
+/* Send what is queued without blocking; a client that closed is marked dead. */
+void control_client_try_write(struct control_client *cl);
+/* Queue one line (text plus '\n'); a client whose queue would pass its limit
+ * is dropped. */
+void control_client_send_text(struct control_client *cl, const char *text);
+/* Queue doc as one line; takes the reference to doc. */
+void control_client_send(struct control_client *cl, json_t *doc);
+/* Queue {"class":"ERROR",...}; id (borrowed, may be NULL) is echoed. */
+void control_send_error(struct control_client *cl, const char *code, json_t *id,
+                        const char *fmt, ...) __attribute__((format(printf, 4, 5)));
+/* Queue one line to every watching client. */
+void control_broadcast(control *c, const char *text);
+/* Close and free the dead clients, keeping the others in order. */
+void control_reap(control *c);
+void control_client_free(struct control_client *cl);
+
+/* ---- control_commands.c ----------------------------------------------- */
+
+/* Run one request line (without its newline) and queue the reply. */
+void control_handle_line(control *c, struct control_client *cl, const char *line, size_t len);
+
+/* ---- control_paths.c -------------------------------------------------- */
+
+/* A capture id: one path component of 1..100 safe characters, not starting
+ * with '.' or '-'. */
+int control_valid_id(const char *s);
+/* A plan, scene or rig named by a request (what names it in messages): a
+ * bare name from the configs folder, or a file inside the capture root,
+ * written to out as its real path. 0, or a GONIO_EUSAGE error. */
+int control_resolve_ref(const control *c, const char *what, const char *v, char *out,
+                        size_t size, struct gonio_err *err);
+/* A material spec named by a request; a merl: file is held to the capture
+ * root like control_resolve_ref's files. 0, or a GONIO_EUSAGE error. */
+int control_resolve_material(const control *c, const char *v, char *out, size_t size,
+                             struct gonio_err *err);
+/* Look for a symbolic link among dir's entries: *link names the first one
+ * found (in name), NULL when there is none. Returns -1 when dir cannot be
+ * read. */
+int control_dir_symlink(const char *dir, char *name, size_t size, const char **link);
+/* r->dir/request.json, the record of the request that resume reads back. */
+int control_save_request(const struct worker_request *r, struct gonio_err *err);
+/* Fill r (id and dir set) from its record, its paths checked again. */
+int control_load_request(const control *c, struct worker_request *r, struct gonio_err *err);
+/* Undo a capture that did not start: its record and its (empty) directory. */
+void control_discard_request(const struct worker_request *r);
+
+#endif

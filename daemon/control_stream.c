@@ -1,0 +1,220 @@
+/* The capture stream watchers receive (docs/protocol.md): start and
+ * descriptor when a capture begins, an event per sample, stop at its end.
+ * The start and descriptor are kept while the capture runs, so a watcher
+ * that subscribes late is told what it is watching. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "daemon/control_private.h"
+#include "planner/rig.h"
+
+static json_t *start_doc(const struct worker_msg *m)
+{
+    json_t *s = json_object();
+    json_object_set_new(s, "class", json_string("start"));
+    json_object_set_new(s, "capture_id", json_string(m->req.id));
+    json_object_set_new(s, "dir", json_string(m->req.dir));
+    json_object_set_new(s, "plan", json_string(m->plan_name));
+    json_object_set_new(s, "scene", json_string(m->req.scene));
+    json_object_set_new(s, "material", m->req.material[0] ? json_string(m->req.material)
+                                                          : json_null());
+    json_object_set_new(s, "rig", json_string(m->req.rig));
+    json_object_set_new(s, "model", json_string(m->req.model));
+    json_object_set_new(s, "order", m->req.order[0] ? json_string(m->req.order) : json_null());
+    json_object_set_new(s, "stop", m->req.stop[0] ? json_string(m->req.stop) : json_null());
+    json_object_set_new(s, "resume", json_boolean(m->req.resume));
+    json_object_set_new(s, "total", json_integer((json_int_t)m->total));
+    json_object_set_new(s, "already_done", json_integer((json_int_t)m->already_done));
+    json_object_set_new(s, "time", json_integer((json_int_t)time(NULL)));
+    return s;
+}
+
+static json_t *sample_doc(const control *c, const struct worker_msg *m)
+{
+    const struct journal_sample *s = &m->sample;
+    json_t *d = json_object();
+    json_object_set_new(d, "class", json_string("event"));
+    json_object_set_new(d, "seq", json_integer((json_int_t)c->seq));
+    json_object_set_new(d, "point", json_integer(s->point));
+    json_object_set_new(d, "done", json_integer((json_int_t)m->done));
+    json_object_set_new(d, "total", json_integer((json_int_t)m->total));
+    json_object_set_new(d, "theta_i", control_json_number(s->theta_i));
+    json_object_set_new(d, "theta_r", control_json_number(s->theta_r));
+    json_object_set_new(d, "phi_i", control_json_number(s->phi_i));
+    json_object_set_new(d, "theta_o", control_json_number(s->theta_o));
+    json_object_set_new(d, "phi_o", control_json_number(s->phi_o));
+    json_object_set_new(d, "s", control_json_number(s->s));
+    json_object_set_new(d, "a", control_json_number(s->a));
+    json_object_set_new(d, "rgb",
+                        json_pack("[o,o,o]", control_json_number(s->rgb[0]),
+                                  control_json_number(s->rgb[1]),
+                                  control_json_number(s->rgb[2])));
+    json_object_set_new(d, "integration_s", control_json_number(s->integration_s));
+    json_object_set_new(d, "rig_time_s", control_json_number(s->rig_time_s));
+    json_object_set_new(d, "saturated", json_boolean(s->flags & JOURNAL_FLAG_SATURATED));
+    if (isfinite(m->fit_log_error))
+        json_object_set_new(d, "fit_log_error", json_real(m->fit_log_error));
+    return d;
+}
+
+static json_t *axis_doc(const struct plan_axis *a)
+{
+    return json_pack("{s:o, s:o, s:o, s:o}", "speed", control_json_number(a->speed), "accel",
+                     control_json_number(a->accel), "min", control_json_number(a->min), "max",
+                     control_json_number(a->max));
+}
+
+static json_t *descriptor_doc(const control *c, const struct worker_msg *m)
+{
+    const struct goniod_config *cfg = c->cfg;
+    json_t *drv = json_object();
+    json_object_set_new(drv, "kind", json_string(goniod_driver_name(cfg->driver)));
+    if (cfg->driver == GONIOD_DRIVER_SIM) {
+        json_object_set_new(drv, "scene", json_string(m->req.scene));
+        json_object_set_new(drv, "pace_s", control_json_number(cfg->pace_s));
+    } else {
+        if (cfg->driver == GONIOD_DRIVER_MODBUS_RTU) {
+            char parity[2] = {cfg->parity, 0};
+            json_object_set_new(drv, "device", json_string(cfg->device));
+            json_object_set_new(drv, "baud", json_integer(cfg->baud));
+            json_object_set_new(drv, "parity", json_string(parity));
+            json_object_set_new(drv, "data_bits", json_integer(cfg->data_bits));
+            json_object_set_new(drv, "stop_bits", json_integer(cfg->stop_bits));
+        } else {
+            json_object_set_new(drv, "host", json_string(cfg->host));
+            json_object_set_new(drv, "port", json_integer(cfg->port));
+        }
+        json_object_set_new(drv, "slaves",
+                            json_pack("{s:i, s:i, s:i, s:i}", "sample", cfg->slaves.sample,
+                                      "arm", cfg->slaves.arm, "azimuth", cfg->slaves.azimuth,
+                                      "detector", cfg->slaves.detector));
+        json_object_set_new(drv, "steps_per_deg", control_json_number(cfg->steps_per_deg));
+        json_object_set_new(drv, "time_scale", control_json_number(cfg->time_scale));
+    }
+    json_t *d = json_object();
+    json_object_set_new(d, "class", json_string("descriptor"));
+    json_object_set_new(d, "capture_id", json_string(m->req.id));
+    json_object_set_new(d, "driver", drv);
+    struct plan_rig rig;
+    struct gonio_err err = {0};
+    if (plan_rig_load(m->req.rig, &rig, &err) == 0) {
+        json_t *r = json_object();
+        json_object_set_new(r, "name", json_string(rig.name));
+        json_object_set_new(r, "sample", axis_doc(&rig.sample));
+        json_object_set_new(r, "arm", axis_doc(&rig.arm));
+        if (rig.out_of_plane)
+            json_object_set_new(r, "azimuth", axis_doc(&rig.azimuth));
+        json_object_set_new(r, "out_of_plane", json_boolean(rig.out_of_plane));
+        json_object_set_new(r, "blind_deg", control_json_number(rig.blind_deg));
+        json_object_set_new(r, "settle_s", control_json_number(rig.settle_s));
+        json_object_set_new(r, "integration_s", control_json_number(rig.integration_s));
+        json_object_set_new(d, "rig", r);
+    }
+    return d;
+}
+
+static json_t *errors_doc(const struct brdf_errors *e)
+{
+    return json_pack("{s:o, s:o, s:I}", "log_error", control_json_number(e->log), "rel_rmse",
+                     control_json_number(e->rel_rmse), "pairs", (json_int_t)e->n_used);
+}
+
+static json_t *stop_doc(const struct worker_msg *m)
+{
+    const struct capture_summary *s = &m->summary;
+    json_t *d = json_object();
+    json_object_set_new(d, "class", json_string("stop"));
+    json_object_set_new(d, "capture_id", json_string(m->req.id));
+    json_object_set_new(d, "dir", json_string(m->req.dir));
+    int aborted = !strcmp(m->reason, "aborted") || !strcmp(m->reason, "shutdown");
+    json_object_set_new(d, "exit_status",
+                        json_string(m->rc < 0 ? "fail" : aborted ? "abort" : "success"));
+    json_object_set_new(d, "reason", json_string(m->reason));
+    if (m->has_comm) /* the bus's exchanges: what the retries absorbed */
+        json_object_set_new(
+            d, "comm",
+            json_pack("{s:I,s:I,s:I,s:I,s:I,s:I}", "requests", (json_int_t)m->comm.requests,
+                      "retries", (json_int_t)m->comm.retries, "timeouts",
+                      (json_int_t)m->comm.timeouts, "bad_replies",
+                      (json_int_t)m->comm.bad_replies, "exceptions",
+                      (json_int_t)m->comm.exceptions, "failed", (json_int_t)m->comm.failed));
+    if (m->rc < 0) {
+        json_t *msg = json_string(m->err.msg);
+        json_object_set_new(d, "message", msg ? msg : json_string("(not UTF-8)"));
+        return d;
+    }
+    json_object_set_new(d, "samples", json_integer((json_int_t)s->samples));
+    json_object_set_new(d, "rig_time_s", control_json_number(s->rig_time_s));
+    if (!aborted) {
+        const struct brdf_abc *p = &s->params;
+        json_t *r = json_object();
+        json_object_set_new(r, "plan", json_string(s->plan));
+        json_t *mat = json_string(s->material);
+        json_object_set_new(r, "material", mat ? mat : json_null());
+        json_object_set_new(r, "model", json_string(s->model));
+        json_object_set_new(r, "converged", json_boolean(s->converged));
+        json_object_set_new(r, "fit_time_s", control_json_number(s->fit_time_s));
+        json_object_set_new(
+            r, "params",
+            json_pack("{s:[o,o,o], s:[o,o,o], s:o, s:o, s:o}", "kd",
+                      control_json_number(p->kd[0]), control_json_number(p->kd[1]),
+                      control_json_number(p->kd[2]), "A", control_json_number(p->A[0]),
+                      control_json_number(p->A[1]), control_json_number(p->A[2]), "B",
+                      control_json_number(p->B), "C", control_json_number(p->C), "eta",
+                      control_json_number(p->eta)));
+        json_object_set_new(r, "err_plan", errors_doc(&s->err_plan));
+        if (s->has_truth) {
+            json_object_set_new(r, "err_inplane", errors_doc(&s->err_inplane));
+            json_object_set_new(r, "err_full", errors_doc(&s->err_full));
+        }
+        json_object_set_new(d, "results", r);
+    }
+    return d;
+}
+
+void control_dispatch(control *c, struct worker_msg *msgs)
+{
+    for (struct worker_msg *m = msgs, *next; m; m = next) {
+        next = m->next;
+        json_t *doc = NULL;
+        if (m->kind == WORKER_MSG_START) {
+            c->seq = 0;
+            free(c->start_doc);
+            free(c->descriptor_doc);
+            c->start_doc = control_json_text(start_doc(m));
+            c->descriptor_doc = control_json_text(descriptor_doc(c, m));
+            if (c->start_doc)
+                control_broadcast(c, c->start_doc);
+            if (c->descriptor_doc)
+                control_broadcast(c, c->descriptor_doc);
+        } else if (m->kind == WORKER_MSG_SAMPLE) {
+            c->seq++;
+            doc = sample_doc(c, m);
+        } else {
+            if (m->rc < 0)
+                fprintf(stderr, "goniod: capture %s failed: %s\n", m->req.id, m->err.msg);
+            else
+                fprintf(stderr, "goniod: capture %s stopped: %s, %zu samples\n", m->req.id,
+                        m->reason, m->summary.samples);
+            if (m->has_comm)
+                fprintf(stderr, "goniod: capture %s: bus %ld requests, %ld retries (%ld "
+                        "timeouts, %ld bad replies), %ld exceptions, %ld failed\n", m->req.id,
+                        m->comm.requests, m->comm.retries, m->comm.timeouts,
+                        m->comm.bad_replies, m->comm.exceptions, m->comm.failed);
+            doc = stop_doc(m);
+            free(c->start_doc);
+            free(c->descriptor_doc);
+            c->start_doc = c->descriptor_doc = NULL;
+        }
+        if (doc) {
+            char *text = control_json_text(doc);
+            if (text)
+                control_broadcast(c, text);
+            free(text);
+        }
+        free(m);
+    }
+    control_reap(c);
+}
