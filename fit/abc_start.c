@@ -29,13 +29,64 @@ struct node {
     double kd[3], A[3];
 };
 
+/* The ranking is sorted, not the nodes (80 bytes each): a node's score,
+ * whether it is the true loss, its position before this sort (ties keep
+ * their order, as a stable sort) and its index. */
+struct rank {
+    double score;
+    int scored, at, node;
+};
+
 /* Nodes scored by the true loss first, each group by score. */
-static int cmp_node(const void *a, const void *b)
+static int cmp_rank(const void *a, const void *b)
 {
-    const struct node *x = a, *y = b;
+    const struct rank *x = a, *y = b;
     if (x->scored != y->scored)
         return y->scored - x->scored;
-    return (x->score > y->score) - (x->score < y->score);
+    if (x->score != y->score)
+        return x->score < y->score ? -1 : 1;
+    return (x->at > y->at) - (x->at < y->at);
+}
+
+/* The k best of rk[n] (cmp_rank) sorted into rk[0..k), the rest after them
+ * in any order: an insertion into the short sorted prefix (sorting all 945
+ * ranks was a twentieth of a DS1 fit, and the starts rarely look past the
+ * first k). */
+static void best_first(struct rank *rk, int n, int k)
+{
+    if (k <= 0)
+        return;
+    qsort(rk, (size_t)k, sizeof *rk, cmp_rank);
+    for (int i = k; i < n; i++) {
+        if (cmp_rank(&rk[i], &rk[k - 1]) >= 0)
+            continue;
+        struct rank t = rk[i];
+        rk[i] = rk[k - 1];
+        int j = k - 1;
+        while (j > 0 && cmp_rank(&t, &rk[j - 1]) < 0) {
+            rk[j] = rk[j - 1];
+            j--;
+        }
+        rk[j] = t;
+    }
+}
+
+/* One node's residual ratios for the true log loss, channel-major in w[3n]:
+ * (1 + fhat cos) / (1 + f cos), to be logged. Vectorised (an AVX2 clone,
+ * gathers of the lobe). */
+ABC_VCLONES
+static void true_rows(size_t n, const double *restrict fr, const double *restrict lobe,
+                      const unsigned *restrict xi, const double *restrict cosi,
+                      const double *restrict iy, const double kdp[3], const double A[3],
+                      double *restrict w)
+{
+    double k0 = kdp[0], k1 = kdp[1], k2 = kdp[2], a0 = A[0], a1 = A[1], a2 = A[2];
+    for (size_t k = 0; k < n; k++) {
+        double sk = fr[k] * lobe[(int)xi[k]], ci = cosi[k];
+        w[k] = (1.0 + (k0 + a0 * sk) * ci) * iy[k];
+        w[n + k] = (1.0 + (k1 + a1 * sk) * ci) * iy[n + k];
+        w[2 * n + k] = (1.0 + (k2 + a2 * sk) * ci) * iy[2 * n + k];
+    }
 }
 
 /* Nodes whose true log loss is computed (at least 8 per start). */
@@ -199,8 +250,7 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
     for (int ib = 0; ib < N_B; ib++) {
         double B = pow(10.0, 0.5 * ib);
         double *lgb = lg + (size_t)ib * nu;
-        for (size_t i = 0; i < nu; i++)
-            lgb[i] = log1p(B * pb->ux[i]);
+        abc_vlog1p_mul(B, pb->ux, nu, lgb);
         for (int ic = 0; ic < N_C; ic++) {
             /* the lobe D(x) once per (B, C), shared by the eta nodes */
             memcpy(lobe, lgb, nu * sizeof *lobe);
@@ -234,47 +284,54 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
     /* The true log loss costs a log per residual: score only the nodes the
      * linearised loss ranks best (it ranks them alike; the true loss decides
      * among them). Nodes not scored keep their linearised rank after these. */
-    qsort(nodes, (size_t)nnodes, sizeof *nodes, cmp_node);
+    struct rank *rk = malloc((size_t)nnodes * sizeof *rk);
+    int *taken = malloc((size_t)(max_starts > 0 ? max_starts : 1) * sizeof *taken);
+    int got = 0;
+    if (!rk || !taken)
+        goto out;
+    for (int i = 0; i < nnodes; i++)
+        rk[i] = (struct rank){nodes[i].score, 0, i, i};
     int ntrue = GRID_TRUE_SCORED > 8 * max_starts ? GRID_TRUE_SCORED : 8 * max_starts;
     if (ntrue > nnodes)
         ntrue = nnodes;
+    best_first(rk, nnodes, ntrue);
     for (int i = 0; i < ntrue; i++) {
-        struct node *nd = &nodes[i];
+        struct node *nd = &nodes[rk[i].node];
         if (!isfinite(nd->score))
             break;
         double C = grid_c[nd->ic];
         const double *fr = fres + (size_t)nd->ie * n, *lgb = lg + (size_t)nd->ib * nu;
         memcpy(lobe, lgb, nu * sizeof *lobe);
         abc_vexp_neg(C, lobe, nu);
-        for (size_t k = 0; k < n; k++) {
-            double sk = fr[k] * lobe[pb->xi[k]];
-            double ci = pb->cosi[k];
-            for (int c = 0; c < 3; c++) {
-                double fhat = nd->kd[c] / ABC_PI + nd->A[c] * sk;
-                /* log(1 + fhat cos) - log(1 + f cos) as one log */
-                w[(size_t)c * n + k] = (1.0 + fhat * ci) * pb->iy[(size_t)c * n + k];
-            }
-        }
-        abc_vlog(w, 3 * n); /* w is free by now: the residuals */
+        double kdp[3] = {nd->kd[0] / ABC_PI, nd->kd[1] / ABC_PI, nd->kd[2] / ABC_PI};
+        /* log(1 + fhat cos) - log(1 + f cos) as one log; w is free by now */
+        true_rows(n, fr, lobe, pb->xi, pb->cosi, pb->iy, kdp, nd->A, w);
+        abc_vlog(w, 3 * n);
         double score = 0;
         for (size_t k = 0; k < 3 * n; k++)
             score += w[k] * w[k];
         nd->score = isfinite(score) ? score : INFINITY;
         nd->scored = 1;
+        rk[i].score = nd->score;
+        rk[i].scored = 1;
     }
-    qsort(nodes, (size_t)nnodes, sizeof *nodes, cmp_node);
+    /* Re-rank: the scored nodes all lie in the first ntrue, and the rest
+     * keep their order behind them, so only that prefix moves. */
+    for (int i = 0; i < ntrue; i++)
+        rk[i].at = i;
+    qsort(rk, (size_t)ntrue, sizeof *rk, cmp_rank);
 
     /* Best nodes first, skipping grid neighbours of a node already taken, so
      * the starts probe different basins rather than one basin several times. */
-    int got = 0;
-    int *taken = malloc((size_t)(max_starts > 0 ? max_starts : 1) * sizeof *taken);
-    for (int i = 0; taken && i < nnodes && got < max_starts; i++) {
-        const struct node *nd = &nodes[i];
+    for (int i = 0; i < nnodes && got < max_starts; i++) {
+        if (i == ntrue) /* the starts need nodes beyond the scored ones */
+            qsort(rk + ntrue, (size_t)(nnodes - ntrue), sizeof *rk, cmp_rank);
+        const struct node *nd = &nodes[rk[i].node];
         if (!isfinite(nd->score))
             continue;
         int near = 0;
         for (int j = 0; j < got && !near; j++) {
-            const struct node *o = &nodes[taken[j]];
+            const struct node *o = &nodes[rk[taken[j]].node];
             near = abs(o->ib - nd->ib) <= 1 && abs(o->ic - nd->ic) <= 1 &&
                    abs(o->ie - nd->ie) <= 1;
         }
@@ -292,6 +349,8 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
         abc_params_to_theta(&p, starts + (size_t)got * ABC_NPAR);
         got++;
     }
+out:
+    free(rk);
     free(taken);
     free(nodes);
     free(fres);

@@ -59,3 +59,10 @@ void abc_vfresnel(double eta, const double *vh, size_t n, double *out)
         out[n + i] = g > 0 ? df_dg * eta / (g > 0 ? g : 1.0) : 0.0;
     }
 }
+
+ABC_VCLONES
+void abc_vlog1p_mul(double B, const double *x, size_t n, double *out)
+{
+    for (size_t i = 0; i < n; i++)
+        out[i] = log1p(B * x[i]);
+}

@@ -14,7 +14,7 @@
  * "arch=haswell": for an arch= clone GCC's resolver asks whether the CPU
  * *is* that model, so on every other AVX2 machine the baseline ran. */
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define ABC_VCLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#define ABC_VCLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
 #else
 #define ABC_VCLONES
 #endif
@@ -36,5 +36,9 @@ void abc_vfresnel(double eta, const double *vh, size_t n, double *out);
 /* v[i] = exp(-C v[i]) for i < n (v[i], C finite): the lobe from a stored
  * log1p(B x). */
 void abc_vexp_neg(double C, double *v, size_t n);
+
+/* out[i] = log1p(B x[i]) for i < n (B x[i] > -1 finite): the grid's lobe
+ * exponents per B. */
+void abc_vlog1p_mul(double B, const double *x, size_t n, double *out);
 
 #endif
