@@ -370,7 +370,8 @@ static double predictive_sd(const double th[ABC_NPAR], double c[ABC_NPAR][ABC_NP
 }
 
 /* A square root of J^T J at theta: rows K (nk x 9, row-major) with
- * K^T K = J^T J, and cn[j] > 0 exactly when J's column j is not zero. The
+ * K^T K = J^T J, and cn[j] > 0 exactly when J's column j is not zero (its
+ * largest |entry|). The
  * data rows of channel c have non-zeros only in columns c, 3 + c, 6, 7, 8
  * (an n x 5 block J_c, abc_problem_jblock), so K stacks the R of each
  * block's QR (J^T J = sum_c R_c^T R_c; below 5 samples the block itself)
@@ -393,11 +394,13 @@ static size_t jacobian_root(const struct abc_problem *pb, const double th[ABC_NP
             cn[j] = 0.0;
         for (int ch = 0; ch < 3 && ok; ch++) {
             abc_problem_jblock(pb, th, &c, ch, Jc->data);
-            for (size_t j = 0; j < 5; j++) {
-                gsl_vector_view cv = gsl_matrix_column(Jc, j);
-                int at = col[j] + (j < 2 ? ch : 0);
-                cn[at] = fmax(cn[at], gsl_blas_dnrm2(&cv.vector));
-            }
+            for (size_t k = 0; k < n; k++) /* cn only tells zero columns apart */
+                for (size_t j = 0; j < 5; j++) {
+                    int at = col[j] + (j < 2 ? ch : 0);
+                    double a = fabs(Jc->data[5 * k + j]);
+                    if (a > cn[at])
+                        cn[at] = a;
+                }
             if (n >= 5 && gsl_linalg_QR_decomp(Jc, tau) != GSL_SUCCESS) {
                 ok = 0;
                 break;

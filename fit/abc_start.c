@@ -181,6 +181,36 @@ static void node_sums(const double *agg, const double *d, size_t nu, double out[
     }
 }
 
+/* node_sums for two lobes at once (two values of C at one B): each pass
+ * over agg, which is larger than the L1 cache, serves both. */
+ABC_VCLONES
+static void node_sums2(const double *agg, const double *d, const double *e, size_t nu,
+                       double out[N_ETA][9], double out2[N_ETA][9])
+{
+    for (int ie = 0; ie < N_ETA; ie++) {
+        const double *a = agg + (size_t)ie * 9 * nu;
+        double a0 = 0, a1 = 0, a2 = 0, b0 = 0, b1 = 0, b2 = 0, c0 = 0, c1 = 0, c2 = 0;
+        double p0 = 0, p1 = 0, p2 = 0, q0 = 0, q1 = 0, q2 = 0, r0 = 0, r1 = 0, r2 = 0;
+        for (size_t i = 0; i < nu; i++) {
+            double di = d[i], d2 = di * di, ei = e[i], e2 = ei * ei;
+            double x0 = a[i], x1 = a[nu + i], x2 = a[2 * nu + i];
+            double y0 = a[3 * nu + i], y1 = a[4 * nu + i], y2 = a[5 * nu + i];
+            double z0 = a[6 * nu + i], z1 = a[7 * nu + i], z2 = a[8 * nu + i];
+            a0 += x0 * di, a1 += x1 * di, a2 += x2 * di;
+            b0 += y0 * d2, b1 += y1 * d2, b2 += y2 * d2;
+            c0 += z0 * di, c1 += z1 * di, c2 += z2 * di;
+            p0 += x0 * ei, p1 += x1 * ei, p2 += x2 * ei;
+            q0 += y0 * e2, q1 += y1 * e2, q2 += y2 * e2;
+            r0 += z0 * ei, r1 += z1 * ei, r2 += z2 * ei;
+        }
+        double *o = out[ie], *o2 = out2[ie];
+        o[0] = a0, o[1] = a1, o[2] = a2, o[3] = b0, o[4] = b1, o[5] = b2;
+        o[6] = c0, o[7] = c1, o[8] = c2;
+        o2[0] = p0, o2[1] = p1, o2[2] = p2, o2[3] = q0, o2[4] = q1, o2[5] = q2;
+        o2[6] = r0, o2[7] = r1, o2[8] = r2;
+    }
+}
+
 int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts)
 {
     size_t n = pb->n, nu = pb->nux;
@@ -188,7 +218,7 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
     struct node *nodes = malloc((size_t)nnodes * sizeof *nodes);
     double *fres = malloc((size_t)N_ETA * n * sizeof *fres); /* F * gterm per eta */
     double *lg = malloc((size_t)N_B * nu * sizeof *lg);      /* log1p(B x) per B, distinct x */
-    double *lobe = malloc(nu * sizeof *lobe);
+    double *lobe = malloc(2 * nu * sizeof *lobe); /* two lobes (node_sums2) */
     double *agg = malloc((size_t)N_ETA * nu * 9 * sizeof *agg);
     double *w = malloc(n * sizeof *w * 3);
     double *fu = malloc((pb->nuv ? pb->nuv : 1) * sizeof *fu);
@@ -251,16 +281,26 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
         double B = pow(10.0, 0.5 * ib);
         double *lgb = lg + (size_t)ib * nu;
         abc_vlog1p_mul(B, pb->ux, nu, lgb);
+        double sums[2][N_ETA][9];
         for (int ic = 0; ic < N_C; ic++) {
-            /* the lobe D(x) once per (B, C), shared by the eta nodes */
-            memcpy(lobe, lgb, nu * sizeof *lobe);
-            abc_vexp_neg(grid_c[ic], lobe, nu);
-            double sums[N_ETA][9];
-            node_sums(agg, lobe, nu, sums);
+            /* the lobe D(x) once per (B, C), shared by the eta nodes; two
+             * values of C per pass over the aggregated weights */
+            if (ic % 2 == 0) {
+                memcpy(lobe, lgb, nu * sizeof *lobe);
+                abc_vexp_neg(grid_c[ic], lobe, nu);
+                if (ic + 1 < N_C) {
+                    memcpy(lobe + nu, lgb, nu * sizeof *lobe);
+                    abc_vexp_neg(grid_c[ic + 1], lobe + nu, nu);
+                    node_sums2(agg, lobe, lobe + nu, nu, sums[0], sums[1]);
+                } else {
+                    node_sums(agg, lobe, nu, sums[0]);
+                }
+            }
+            double (*sm)[9] = sums[ic % 2];
             for (int ie = 0; ie < N_ETA; ie++) {
-                double s12[3] = {sums[ie][0], sums[ie][1], sums[ie][2]};
-                double s22[3] = {sums[ie][3], sums[ie][4], sums[ie][5]};
-                double t2[3] = {sums[ie][6], sums[ie][7], sums[ie][8]};
+                double s12[3] = {sm[ie][0], sm[ie][1], sm[ie][2]};
+                double s22[3] = {sm[ie][3], sm[ie][4], sm[ie][5]};
+                double t2[3] = {sm[ie][6], sm[ie][7], sm[ie][8]};
                 struct node *nd = &nodes[m++];
                 nd->ib = ib;
                 nd->ic = ic;
