@@ -1,7 +1,8 @@
 /* latent_table: the latent model's acceptance table (docs/results-latent.md).
  *
  *   latent_table [--decoder FILE] [--markdown] [--starts N] [--iter N] [--lambda X]
- *                [--lr X] [--max-samples N] [MATERIAL...]
+ *                [--prior-scale B] [--bandwidth H] [--lr X] [--max-samples N]
+ *                [--sets ds1,ds2,ds3,ds4,oop200k] [MATERIAL...]
  *
  * For each material (default: the 10 held-out study materials) the NBRDF
  * network nbrdf:NAME is sampled at the points of the DS1..DS4 plans (built
@@ -32,7 +33,7 @@ int main(int argc, char **argv)
 {
     char dpath[4096];
     latent_decoder_default_path(dpath, sizeof dpath);
-    int first = 1, markdown = 0;
+    int first = 1, markdown = 0, want[NSET] = {1, 1, 1, 1, 1};
     struct latent_fit_options fo = latent_fit_default_options();
     while (first < argc && argv[first][0] == '-') {
         if (!strcmp(argv[first], "--starts") && first + 1 < argc) {
@@ -44,6 +45,12 @@ int main(int argc, char **argv)
         } else if (!strcmp(argv[first], "--lambda") && first + 1 < argc) {
             fo.lambda_z = atof(argv[first + 1]);
             first += 2;
+        } else if (!strcmp(argv[first], "--prior-scale") && first + 1 < argc) {
+            fo.prior_scale = atof(argv[first + 1]);
+            first += 2;
+        } else if (!strcmp(argv[first], "--bandwidth") && first + 1 < argc) {
+            fo.bandwidth = atof(argv[first + 1]);
+            first += 2;
         } else if (!strcmp(argv[first], "--max-samples") && first + 1 < argc) {
             fo.max_samples = (size_t)atol(argv[first + 1]);
             first += 2;
@@ -53,12 +60,21 @@ int main(int argc, char **argv)
         } else if (!strcmp(argv[first], "--decoder") && first + 1 < argc) {
             snprintf(dpath, sizeof dpath, "%s", argv[first + 1]);
             first += 2;
+        } else if (!strcmp(argv[first], "--sets") && first + 1 < argc) {
+            for (int k = 0; k < NSET; k++) {
+                const char *hit = strstr(argv[first + 1], set_names[k]);
+                size_t len = strlen(set_names[k]);
+                want[k] = hit && (hit == argv[first + 1] || hit[-1] == ',') &&
+                          (hit[len] == 0 || hit[len] == ',');
+            }
+            first += 2;
         } else if (!strcmp(argv[first], "--markdown")) {
             markdown = 1;
             first++;
         } else {
             fprintf(stderr, "usage: latent_table [--decoder FILE] [--markdown] [--starts N] [--iter N] "
-                            "[--lambda X] [--lr X] [--max-samples N] [MATERIAL...]\n");
+                            "[--lambda X] [--prior-scale B] [--bandwidth H] [--lr X] "
+                            "[--max-samples N] [--sets LIST] [MATERIAL...]\n");
             return 2;
         }
     }
@@ -91,6 +107,8 @@ int main(int argc, char **argv)
     printf("decoder %s (crc %08x, %zu training materials, nz %d)\n", dpath,
            (unsigned)latent_decoder_crc(dec), latent_decoder_n_materials(dec),
            latent_decoder_nz(dec));
+    printf("population prior: scale b %g, kernel bandwidth %.4f\n", fo.prior_scale,
+           fo.bandwidth > 0 ? fo.bandwidth : latent_decoder_prior_bandwidth(dec));
     printf("samples: ds1 %zu, ds2 %zu, ds3 %zu, ds4 %zu, oop200k %zu; full domain %zu, "
            "in-plane domain %zu pairs\n\n",
            nset[0], nset[1], nset[2], nset[3], nset[4], full.n, inpl.n);
@@ -111,6 +129,9 @@ int main(int argc, char **argv)
         }
         double full_log[NSET];
         for (int s = 0; s < NSET; s++) {
+            full_log[s] = NAN;
+            if (!want[s])
+                continue;
             size_t n = nset[s];
             struct fit_sample *smp = malloc(n * sizeof *smp);
             double *rgb = malloc(3 * n * sizeof *rgb);

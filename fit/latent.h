@@ -88,6 +88,9 @@ const double *latent_decoder_latent(const latent_decoder *d, size_t i);
 long latent_decoder_find(const latent_decoder *d, const char *name);
 /* The mean of the training latents (nz values). */
 const double *latent_decoder_mean_latent(const latent_decoder *d);
+/* Kernel bandwidth of the population prior of fits: the one that maximises
+ * the training latents' leave-one-out likelihood (fit_latent). */
+double latent_decoder_prior_bandwidth(const latent_decoder *d);
 /* CRC-32 of the weight file's data block: identifies the decoder in model
  * files. */
 uint32_t latent_decoder_crc(const latent_decoder *d);
@@ -101,6 +104,11 @@ void latent_decoder_eval(const latent_decoder *d, const double *z, const struct 
  * ("latent"). NULL on out of memory. */
 brdf_material *latent_material(const latent_decoder *d, const double *z, const char *name);
 
+/* Laplace scale b of the log residuals that the population prior assumes:
+ * the prior enters a fit of n samples with weight b / (3 n) (docs/latent.md
+ * says how b was chosen: on the training materials, not the held-out ones). */
+#define LATENT_PRIOR_SCALE 0.03
+
 struct latent_fit_options {
     int max_iter;         /* Adam iterations per start */
     int n_starts;         /* starts: best training latents by initial loss, plus the mean */
@@ -108,6 +116,10 @@ struct latent_fit_options {
     double lr;            /* Adam step size (cosine decay to lr / 20) */
     double lambda_z;      /* weight of the prior mean(z^2); < 0: the decoder's
                              training value (the training objective) */
+    double prior_scale;   /* b of the population prior (LATENT_PRIOR_SCALE); 0: no
+                             population prior */
+    double bandwidth;     /* its kernel bandwidth; <= 0: the decoder's (leave-one-out
+                             maximum likelihood over the training latents) */
     uint64_t seed;
 };
 
@@ -120,9 +132,15 @@ struct latent_fit_info {
     int starts;
     size_t used;          /* samples in the fit (after dropping and subsetting) */
     size_t dropped;       /* non-finite, below the horizon, or 1 + f cos <= 0 */
+    double prior_weight;  /* weight of the population prior's -log density: b / (3 used) */
+    double bandwidth;     /* its kernel bandwidth */
 };
 
-/* Fit z (nz values, written to z) to n samples with the decoder frozen.
+/* Fit z (nz values, written to z) to n samples with the decoder frozen: the
+ * MAP estimate under Laplace noise of scale b on log(1 + f cos ti) and a
+ * kernel-density prior over the training latents, on top of the training
+ * objective (docs/latent.md). Six samples do not pin 12 latent numbers; the
+ * prior keeps z near real materials then, and fades as 1 / n with more data.
  * Fewer than 3 usable samples is a GONIO_EFIT error. opt and info may be
  * NULL. Deterministic for opt->seed. */
 int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t n,

@@ -115,6 +115,7 @@ void latent_decoder_refresh(latent_decoder *d)
             s += d->latents[m * (size_t)d->nz + (size_t)k];
         d->mean[k] = d->n_materials ? s / (double)d->n_materials : 0.0;
     }
+    d->prior_h = latent_prior_bandwidth(d);
     size_t n;
     unsigned char *b = data_block(d, &n);
     d->crc = b ? crc_of(b, 8 * n) : 0;
@@ -388,6 +389,7 @@ int latent_decoder_default_path(char *buf, size_t size)
 int latent_decoder_nz(const latent_decoder *d) { return d->nz; }
 size_t latent_decoder_n_materials(const latent_decoder *d) { return d->n_materials; }
 uint32_t latent_decoder_crc(const latent_decoder *d) { return d->crc; }
+double latent_decoder_prior_bandwidth(const latent_decoder *d) { return d->prior_h; }
 uint64_t latent_decoder_seed(const latent_decoder *d) { return d->train.seed; }
 const double *latent_decoder_mean_latent(const latent_decoder *d) { return d->mean; }
 

@@ -3,7 +3,10 @@
  * The objective is the training objective of one material: mean |log(1 +
  * fhat cos ti) - log(1 + f cos ti)| + lambda_z mean(z^2), so a fitted z is
  * what training would have given the material (MAP under the latent prior
- * the decoder was trained with). It is minimised by Adam on z, full batch,
+ * the decoder was trained with), plus the population prior of
+ * latent_prior.c with the weight Bayes gives it for n samples (b / 3n):
+ * with six samples many z fit the data equally well, and the prior picks
+ * those near real materials. It is minimised by Adam on z, full batch,
  * from the training latents that fit the samples best at the start: the
  * L1 objective is not smooth (ReLU kinks, |r|) and Gauss-Newton on it would
  * have to fall back to least squares, which lets a few bad specular samples
@@ -26,12 +29,21 @@ struct latent_fit_options latent_fit_default_options(void)
         .max_samples = 4096,
         .lr = 0.05,
         .lambda_z = -1,
+        .prior_scale = LATENT_PRIOR_SCALE,
+        .bandwidth = 0,
         .seed = 1,
     };
 }
 
+/* The priors of a fit: lambda mean(z^2) (the training objective's) and
+ * w (-log kernel density of the training latents, bandwidth h). */
+struct fit_prior {
+    double lambda, w, h;
+};
+
 static double objective(const latent_decoder *d, const double *z, size_t n, const double *x,
-                        const double *c, const double *t, double lambda, double *gz)
+                        const double *c, const double *t, const struct fit_prior *p,
+                        double *gz)
 {
     double scale = 1.0 / (3.0 * (double)n);
     if (gz)
@@ -41,9 +53,10 @@ static double objective(const latent_decoder *d, const double *z, size_t n, cons
     for (int k = 0; k < d->nz; k++) {
         r += z[k] * z[k];
         if (gz)
-            gz[k] += 2.0 * lambda / d->nz * z[k];
+            gz[k] += 2.0 * p->lambda / d->nz * z[k];
     }
-    return l + lambda * r / d->nz;
+    double kde = p->w > 0 ? p->w * latent_prior_nll(d, p->h, z, p->w, gz) : 0.0;
+    return l + p->lambda * r / d->nz + kde;
 }
 
 /* The mean |r| part only, for reporting. */
@@ -54,14 +67,14 @@ static double data_loss(const latent_decoder *d, const double *z, size_t n, cons
 }
 
 static double adam_z(const latent_decoder *d, double *z, size_t n, const double *x,
-                     const double *c, const double *t, double lambda,
+                     const double *c, const double *t, const struct fit_prior *p,
                      const struct latent_fit_options *o)
 {
     const int nz = d->nz;
     double m1[LATENT_MAX_NZ] = {0}, m2[LATENT_MAX_NZ] = {0}, g[LATENT_MAX_NZ];
     double best[LATENT_MAX_NZ], best_f = INFINITY;
     for (int it = 0; it < o->max_iter; it++) {
-        double f = objective(d, z, n, x, c, t, lambda, g);
+        double f = objective(d, z, n, x, c, t, p, g);
         if (f < best_f) {
             best_f = f;
             memcpy(best, z, (size_t)nz * sizeof *z);
@@ -75,7 +88,7 @@ static double adam_z(const latent_decoder *d, double *z, size_t n, const double 
             z[k] -= lr * (m1[k] / c1) / (sqrt(m2[k] / c2) + 1e-12);
         }
     }
-    double f = objective(d, z, n, x, c, t, lambda, NULL);
+    double f = objective(d, z, n, x, c, t, p, NULL);
     if (f < best_f) {
         best_f = f;
         memcpy(best, z, (size_t)nz * sizeof *z);
@@ -89,7 +102,6 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
                struct gonio_err *err)
 {
     struct latent_fit_options o = opt ? *opt : latent_fit_default_options();
-    double lambda = o.lambda_z >= 0 ? o.lambda_z : d->train.lambda_z;
     if (o.max_iter < 1)
         o.max_iter = 1;
     if (o.max_samples < 3)
@@ -147,6 +159,14 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
         for (int ch = 0; ch < 3; ch++)
             t[3 * k + ch] = log1p(s->rgb[ch] * c[k]);
     }
+    /* Priors. The data term is a mean over 3 used residuals, so Laplace noise
+     * of scale b puts the prior's -log density at b / (3 used): decisive for
+     * six samples, 1e-5 for DS1's 912. */
+    struct fit_prior pr = {
+        .lambda = o.lambda_z >= 0 ? o.lambda_z : d->train.lambda_z,
+        .w = o.prior_scale > 0 ? o.prior_scale / (3.0 * (double)used) : 0.0,
+        .h = o.bandwidth > 0 ? o.bandwidth : d->prior_h,
+    };
     /* Starts: score every training latent and the mean on (a subset of) the
      * samples, keep the n_starts best. */
     const int nz = d->nz;
@@ -165,7 +185,7 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
     }
     for (size_t m = 0; m < ncand; m++) {
         const double *zc = m < d->n_materials ? d->latents + m * (size_t)nz : d->mean;
-        double sc = objective(d, zc, nscore, x, c, t, lambda, NULL);
+        double sc = objective(d, zc, nscore, x, c, t, &pr, NULL);
         for (int k = 0; k < ns; k++)
             if (sc < best_s[k]) {
                 for (int q = ns - 1; q > k; q--) {
@@ -184,7 +204,7 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
         memcpy(zk, m < d->n_materials ? d->latents + m * (size_t)nz : d->mean,
                (size_t)nz * sizeof *zk);
         double s0 = data_loss(d, zk, used, x, c, t);
-        double f = adam_z(d, zk, used, x, c, t, lambda, &o);
+        double f = adam_z(d, zk, used, x, c, t, &pr, &o);
         if (f < fbest) {
             fbest = f;
             start_loss = s0;
@@ -199,6 +219,8 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
         info->starts = ns;
         info->used = used;
         info->dropped = dropped;
+        info->prior_weight = pr.w;
+        info->bandwidth = pr.h;
     }
     free(idx);
     free(x);

@@ -45,6 +45,12 @@ int fit_latent_model_fit(const struct fit_data *data, const struct fit_model_opt
     rc = rc ? rc : fit_model_file_set(f, "nz", "%d", d->nz);
     rc = rc ? rc : fit_model_file_set(f, "loss", "%.6g", info.loss);
     rc = rc ? rc : fit_model_file_set(f, "seed", "%llu", (unsigned long long)o.seed);
+    rc = rc ? rc
+            : fit_model_file_set(f, "prior",
+                                 "kernel density of %zu training latents, bandwidth %.4g, "
+                                 "scale %g, weight %.3g",
+                                 d->n_materials, info.bandwidth, lo.prior_scale,
+                                 info.prior_weight);
     rc = rc ? rc : fit_model_file_set_data(f, z, (size_t)d->nz);
     latent_decoder_free(d);
     if (rc) {
@@ -55,8 +61,9 @@ int fit_latent_model_fit(const struct fit_data *data, const struct fit_model_opt
         rep->converged = 1;
         snprintf(rep->note, sizeof rep->note,
                  "latent: %d starts x %d Adam steps on %zu samples (%zu dropped), mean |log "
-                 "residual| %.4f",
-                 info.starts, info.iterations, info.used, info.dropped, info.loss);
+                 "residual| %.4f, population prior weight %.2g",
+                 info.starts, info.iterations, info.used, info.dropped, info.loss,
+                 info.prior_weight);
     }
     *out = f;
     return 0;

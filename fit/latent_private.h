@@ -25,6 +25,7 @@ struct latent_decoder {
     char (*names)[LATENT_NAME_MAX];
     double *latents; /* [n_materials][nz] */
     double *mean;    /* [nz] */
+    double prior_h;  /* kernel bandwidth of the population prior (latent_prior.c) */
     struct latent_train_options train; /* as trained (from the file header) */
     uint32_t crc;
 };
@@ -34,6 +35,15 @@ latent_decoder *latent_decoder_alloc(int nz, int layers, int width, size_t n_mat
 
 /* Recompute the mean latent and the data CRC after the weights change. */
 void latent_decoder_refresh(latent_decoder *d);
+
+/* The population prior of fits (latent_prior.c): a Gaussian kernel density
+ * over the training latents. latent_prior_bandwidth: the bandwidth that
+ * maximises the latents' leave-one-out likelihood (0 with fewer than 2).
+ * latent_prior_nll: -log of the density at z (up to a constant; 0 when
+ * h <= 0 or no latents); adds scale * its gradient to gz when not NULL. */
+double latent_prior_bandwidth(const latent_decoder *d);
+double latent_prior_nll(const latent_decoder *d, double h, const double *z, double scale,
+                        double *gz);
 
 /* The NBRDF input encoding of a pair. */
 void latent_encode(const struct brdf_pair *p, double x[LATENT_NIN]);

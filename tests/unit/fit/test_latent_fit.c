@@ -7,7 +7,11 @@
  *    a random training latent over the full domain;
  *  - outputs are finite and non-negative at grazing angles and theta_h = 0,
  *    even for latents far outside the training set;
- *  - too few usable samples is a GONIO_EFIT error.
+ *  - too few usable samples is a GONIO_EFIT error;
+ *  - DS4 (six pairs) of the held-out materials that need the population
+ *    prior stays within the acceptance's 0.12 over the full domain;
+ *  - the prior's gradient matches finite differences, and its bandwidth
+ *    maximises the latents' leave-one-out likelihood.
  * Errors are computed here, with the metrics' formula written out. */
 #include <string.h>
 
@@ -15,6 +19,7 @@
 #include "brdf/domain.h"
 #include "brdf/material.h"
 #include "fit/latent.h"
+#include "fit/latent_private.h"
 #include "tests/gonio_test.h"
 
 static latent_decoder *dec;
@@ -108,6 +113,7 @@ static void test_recovers_latent(void **state)
     struct gonio_err err = {0};
     struct latent_fit_options o = latent_fit_default_options();
     o.lambda_z = 0; /* exact data: no prior pull */
+    o.prior_scale = 0;
     if (fit_latent(dec, s, n, &o, z, &info, &err) < 0)
         fail_msg("%s", err.msg);
     assert_int_equal(info.used, n);
@@ -276,6 +282,113 @@ static void test_too_few_samples(void **state)
     assert_non_null(strstr(err.msg, "2 usable"));
 }
 
+/* Issue 4's acceptance for the regularised fit: DS4 (six in-plane pairs at
+ * theta_i 30, configs/plans/ds4.yaml) of held-out materials, full-domain log
+ * error <= 0.12. These three are the ones the population prior was added
+ * for (gold-metallic-paint was 0.173 and blue-acrylic 0.108 without it) and
+ * the one it moved most the other way (alum-bronze 0.050 -> 0.106). Error:
+ * the design's log error on every 13th node of the full reference domain
+ * (71k of 923,870; 13 and the 180 phi_d steps are coprime, so every phi_d
+ * is visited; within 0.001 of the whole domain's figure for these three). The fit without the prior is printed, not asserted: it shows
+ * what the prior is worth, and may change with the decoder. */
+static void test_ds4_heldout(void **state)
+{
+    (void)state;
+    gonio_test_shared_or_skip();
+    const char *names[] = {"gold-metallic-paint", "blue-acrylic", "alum-bronze"};
+    const double tr[6] = {-60, -20, 20, 28, 36, 60};
+    struct brdf_pair g[6];
+    for (int k = 0; k < 6; k++)
+        brdf_pair_inplane(30, tr[k], &g[k]);
+    struct brdf_domain full;
+    struct gonio_err err = {0};
+    assert_true(brdf_domain_full(&full, &err) >= 0);
+    struct brdf_domain d = {0};
+    d.pairs = malloc((full.n / 13 + 1) * sizeof *d.pairs);
+    for (size_t k = 0; k < full.n; k += 13)
+        d.pairs[d.n++] = full.pairs[k];
+    brdf_domain_free(&full);
+    for (int i = 0; i < 3; i++) {
+        assert_true(latent_decoder_find(dec, names[i]) < 0); /* really held out */
+        char spec[96];
+        snprintf(spec, sizeof spec, "nbrdf:%s", names[i]);
+        brdf_material *m = brdf_material_open(spec, &err);
+        if (!m)
+            fail_msg("%s", err.msg);
+        double v[18];
+        brdf_material_eval(m, g, 6, v);
+        brdf_material_free(m);
+        struct fit_sample *s = samples_of(v, g, 6);
+        double z[LATENT_MAX_NZ], z0[LATENT_MAX_NZ];
+        struct latent_fit_info info;
+        if (fit_latent(dec, s, 6, NULL, z, &info, &err) < 0)
+            fail_msg("%s", err.msg);
+        struct latent_fit_options o = latent_fit_default_options();
+        o.prior_scale = 0;
+        if (fit_latent(dec, s, 6, &o, z0, NULL, &err) < 0)
+            fail_msg("%s", err.msg);
+        free(s);
+        double e = full_err(names[i], z, &d), e0 = full_err(names[i], z0, &d);
+        print_message("%s DS4: full-domain log error %.4f (without the population prior "
+                      "%.4f), prior weight %.2e, bandwidth %.3f\n",
+                      names[i], e, e0, info.prior_weight, info.bandwidth);
+        assert_true(e <= 0.12);
+        assert_close(info.prior_weight, LATENT_PRIOR_SCALE / 18.0, 1e-12);
+    }
+    free(d.pairs);
+}
+
+static void test_prior_gradient_and_bandwidth(void **state)
+{
+    (void)state;
+    int nz = latent_decoder_nz(dec);
+    double h = latent_decoder_prior_bandwidth(dec);
+    assert_true(h > 0 && isfinite(h));
+    /* between two training latents, where several kernels contribute */
+    double z[LATENT_MAX_NZ], g[LATENT_MAX_NZ] = {0};
+    for (int k = 0; k < nz; k++)
+        z[k] = 0.6 * latent_decoder_latent(dec, 3)[k] + 0.4 * latent_decoder_latent(dec, 7)[k];
+    double f = latent_prior_nll(dec, h, z, 2.0, g);
+    assert_true(isfinite(f));
+    for (int k = 0; k < nz; k++) {
+        double zp[LATENT_MAX_NZ], zm[LATENT_MAX_NZ], eps = 1e-6;
+        memcpy(zp, z, sizeof zp);
+        memcpy(zm, z, sizeof zm);
+        zp[k] += eps;
+        zm[k] -= eps;
+        double fd = (latent_prior_nll(dec, h, zp, 0, NULL) - latent_prior_nll(dec, h, zm, 0, NULL)) /
+                    (2 * eps);
+        assert_close(g[k], 2.0 * fd, 1e-5 * (1 + fabs(fd)));
+    }
+    /* at a training latent the density is higher than half-way to another */
+    assert_true(latent_prior_nll(dec, h, latent_decoder_latent(dec, 3), 0, NULL) < f);
+    /* the bandwidth maximises the leave-one-out log likelihood, computed here */
+    size_t m = latent_decoder_n_materials(dec);
+    double ll[3];
+    const double fac[3] = {0.9, 1.0, 1.0 / 0.9};
+    for (int t = 0; t < 3; t++) {
+        double hh = h * fac[t], s = 0;
+        for (size_t a = 0; a < m; a++) {
+            double acc = 0;
+            for (size_t b = 0; b < m; b++) {
+                if (b == a)
+                    continue;
+                double d2 = 0;
+                for (int k = 0; k < nz; k++) {
+                    double u = latent_decoder_latent(dec, a)[k] - latent_decoder_latent(dec, b)[k];
+                    d2 += u * u;
+                }
+                acc += exp(-d2 / (2 * hh * hh)) / pow(hh, nz);
+            }
+            s += log(acc);
+        }
+        ll[t] = s;
+    }
+    print_message("bandwidth %.4f: leave-one-out log likelihood %.3f, x0.9 %.3f, /0.9 %.3f\n", h,
+                  ll[1], ll[0], ll[2]);
+    assert_true(ll[1] > ll[0] && ll[1] > ll[2]);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -284,6 +397,8 @@ int main(void)
         cmocka_unit_test(test_heldout_beats_mean),
         cmocka_unit_test(test_finite_at_extremes),
         cmocka_unit_test(test_too_few_samples),
+        cmocka_unit_test(test_ds4_heldout),
+        cmocka_unit_test(test_prior_gradient_and_bandwidth),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
