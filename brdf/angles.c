@@ -69,19 +69,28 @@ void brdf_pair_spherical(double theta_i_deg, double phi_i_deg, double theta_o_de
 
 void brdf_pair_from_hd(double theta_h, double theta_d, double phi_d, struct brdf_pair *p)
 {
+    const struct brdf_angle h = {theta_h, cos(theta_h), sin(theta_h)};
+    const struct brdf_angle d = {theta_d, cos(theta_d), sin(theta_d)};
+    const struct brdf_angle f = {phi_d, cos(phi_d), sin(phi_d)};
+    brdf_pair_from_hd_cs(&h, &d, &f, p);
+}
+
+void brdf_pair_from_hd_cs(const struct brdf_angle *theta_h, const struct brdf_angle *theta_d,
+                          const struct brdf_angle *phi_d, struct brdf_pair *p)
+{
     /* In the half-vector frame wi is the difference vector d and wo its
      * mirror image about the half vector; rotate both by theta_h about y. */
-    double d[3] = {sin(theta_d) * cos(phi_d), sin(theta_d) * sin(phi_d), cos(theta_d)};
-    double ch = cos(theta_h), sh = sin(theta_h);
+    double d[3] = {theta_d->s * phi_d->c, theta_d->s * phi_d->s, theta_d->c};
+    double ch = theta_h->c, sh = theta_h->s;
     p->wi[0] = d[0] * ch + d[2] * sh;
     p->wi[1] = d[1];
     p->wi[2] = -d[0] * sh + d[2] * ch;
     p->wo[0] = -d[0] * ch + d[2] * sh;
     p->wo[1] = -d[1];
     p->wo[2] = d[0] * sh + d[2] * ch;
-    p->theta_h = theta_h;
-    p->theta_d = theta_d;
-    p->phi_d = phi_d;
+    p->theta_h = theta_h->rad;
+    p->theta_d = theta_d->rad;
+    p->phi_d = phi_d->rad;
 }
 
 double brdf_pair_theta_i_deg(const struct brdf_pair *p)

@@ -31,6 +31,17 @@ void brdf_pair_from_dirs(const double wi[3], const double wo[3], struct brdf_pai
 /* Build a pair from half/difference angles (radians), phi_h = 0. */
 void brdf_pair_from_hd(double theta_h, double theta_d, double phi_d, struct brdf_pair *p);
 
+/* An angle with its cosine and sine, as a grid's tables hold them. */
+struct brdf_angle {
+    double rad, c, s;
+};
+
+/* brdf_pair_from_hd with the cosines and sines given: the same arithmetic,
+ * so the same pair to the last bit, without the trigonometry (the
+ * reference domains build a million pairs from 90 + 90 + 180 angles). */
+void brdf_pair_from_hd_cs(const struct brdf_angle *theta_h, const struct brdf_angle *theta_d,
+                          const struct brdf_angle *phi_d, struct brdf_pair *p);
+
 /* Polar angles of the two directions, degrees. */
 double brdf_pair_theta_i_deg(const struct brdf_pair *p);
 double brdf_pair_theta_o_deg(const struct brdf_pair *p);

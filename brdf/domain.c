@@ -1,6 +1,7 @@
 #include "brdf/domain.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdlib.h>
 
 #define PI 3.14159265358979323846
@@ -19,37 +20,73 @@ int brdf_domain_keeps(const struct brdf_pair *p)
            brdf_pair_theta_o_deg(p) <= BRDF_DOMAIN_MAX_THETA_DEG + THETA_TOL_DEG;
 }
 
-static double node_theta_h(int i)
+/* The grid's angles with their cosines and sines, computed once per
+ * domain: building a pair from them is the arithmetic of
+ * brdf_pair_from_hd without its trigonometry. */
+struct grid {
+    struct brdf_angle th[N_TH], td[N_TD], pd[N_PD];
+    int n_pd;
+    double cz; /* cos 80 degrees */
+};
+
+static struct brdf_angle angle(double rad)
 {
-    double u = i / (double)N_TH;
-    return u * u * (PI / 2);
+    return (struct brdf_angle){rad, cos(rad), sin(rad)};
 }
 
-static double node_theta_d(int j)
+static void grid_init(struct grid *g, const double *phis, int n_phi)
 {
-    return j / (double)N_TD * (PI / 2);
+    for (int i = 0; i < N_TH; i++) {
+        double u = i / (double)N_TH;
+        g->th[i] = angle(u * u * (PI / 2));
+    }
+    for (int j = 0; j < N_TD; j++)
+        g->td[j] = angle(j / (double)N_TD * (PI / 2));
+    for (int k = 0; k < n_phi; k++)
+        g->pd[k] = angle(phis[k]);
+    g->n_pd = n_phi;
+    g->cz = cos(BRDF_DOMAIN_MAX_THETA_DEG * BRDF_DEG);
 }
 
-/* Append the kept pairs of the given phi_d values over all (i, j). Grows the
- * array geometrically; the caller shrinks it at the end. */
+static void grid_pair(const struct grid *g, int i, int j, int k, struct brdf_pair *p)
+{
+    brdf_pair_from_hd_cs(&g->th[i], &g->td[j], &g->pd[k], p);
+}
+
+/* brdf_domain_keeps, deciding by the height of the unit directions where
+ * it is clear: 1e-10 in cos theta is ~6e-9 degrees near 80, six times the
+ * rule's tolerance and a million times the rounding of the directions, so
+ * only nodes within that band of the limit take the exact angles. */
+static int grid_keeps(const struct grid *g, const struct brdf_pair *p)
+{
+    double lo = g->cz - 1e-10, hi = g->cz + 1e-10;
+    if (p->wi[2] >= hi && p->wo[2] >= hi)
+        return 1;
+    if (p->wi[2] <= lo || p->wo[2] <= lo)
+        return 0;
+    return brdf_domain_keeps(p);
+}
+
+/* Append the kept pairs over all (i, j, k), i slowest. Grows the array
+ * geometrically; shrinks it at the end. */
 static int build(struct brdf_domain *d, const double *phis, int n_phi, struct gonio_err *err,
                  const char *what)
 {
     d->pairs = NULL;
     d->n = 0;
+    struct grid g;
+    grid_init(&g, phis, n_phi);
     size_t cap = 1024;
     struct brdf_pair *buf = malloc(cap * sizeof *buf);
     if (!buf)
         return gonio_err_set(err, ENOMEM, "%s domain: out of memory", what);
     size_t n = 0;
     for (int i = 0; i < N_TH; i++) {
-        double th = node_theta_h(i);
         for (int j = 0; j < N_TD; j++) {
-            double td = node_theta_d(j);
             for (int k = 0; k < n_phi; k++) {
                 struct brdf_pair p;
-                brdf_pair_from_hd(th, td, phis[k], &p);
-                if (!brdf_domain_keeps(&p))
+                grid_pair(&g, i, j, k, &p);
+                if (!grid_keeps(&g, &p))
                     continue;
                 if (n == cap) {
                     struct brdf_pair *nb = realloc(buf, 2 * cap * sizeof *buf);
@@ -71,11 +108,16 @@ static int build(struct brdf_domain *d, const double *phis, int n_phi, struct go
     return 0;
 }
 
+static void full_phis(double *phis)
+{
+    for (int k = 0; k < N_PD; k++)
+        phis[k] = k / (double)N_PD * PI;
+}
+
 int brdf_domain_full(struct brdf_domain *d, struct gonio_err *err)
 {
     double phis[N_PD];
-    for (int k = 0; k < N_PD; k++)
-        phis[k] = k / (double)N_PD * PI;
+    full_phis(phis);
     return build(d, phis, N_PD, err, "full");
 }
 
@@ -105,9 +147,9 @@ static uint64_t uniform_below(uint64_t *state, uint64_t range)
     return x % range;
 }
 
-static int cmp_size(const void *a, const void *b)
+static int cmp_u32(const void *a, const void *b)
 {
-    size_t x = *(const size_t *)a, y = *(const size_t *)b;
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
     return (x > y) - (x < y);
 }
 
@@ -116,41 +158,52 @@ int brdf_domain_oop_random(struct brdf_domain *d, size_t n, uint64_t seed,
 {
     d->pairs = NULL;
     d->n = 0;
-    struct brdf_domain full;
-    int rc = brdf_domain_full(&full, err);
-    if (rc < 0)
-        return rc;
-    if (n > full.n) {
-        size_t have = full.n;
-        brdf_domain_free(&full);
+    /* The kept nodes' grid numbers, in full-domain order: the draw permutes
+     * these instead of a million built pairs, and only the n drawn are
+     * built (the same pairs, bit for bit, as brdf_domain_full's). */
+    double phis[N_PD];
+    full_phis(phis);
+    struct grid g;
+    grid_init(&g, phis, N_PD);
+    uint32_t *code = malloc((size_t)N_TH * N_TD * N_PD * sizeof *code);
+    if (!code)
+        return gonio_err_set(err, ENOMEM, "oop random domain: out of memory");
+    size_t total = 0;
+    for (int i = 0; i < N_TH; i++)
+        for (int j = 0; j < N_TD; j++)
+            for (int k = 0; k < N_PD; k++) {
+                struct brdf_pair p;
+                grid_pair(&g, i, j, k, &p);
+                if (grid_keeps(&g, &p))
+                    code[total++] = (uint32_t)((i * N_TD + j) * N_PD + k);
+            }
+    if (n > total) {
+        free(code);
         return gonio_err_set(err, GONIO_EBADCONFIG,
                              "oop random domain: n = %zu: more than the %zu full-domain nodes",
-                             n, have);
+                             n, total);
     }
-    size_t *idx = malloc((full.n ? full.n : 1) * sizeof *idx);
     struct brdf_pair *out = malloc((n ? n : 1) * sizeof *out);
-    if (!idx || !out) {
-        free(idx);
-        free(out);
-        brdf_domain_free(&full);
+    if (!out) {
+        free(code);
         return gonio_err_set(err, ENOMEM, "oop random domain: out of memory");
     }
-    for (size_t i = 0; i < full.n; i++)
-        idx[i] = i;
     /* Partial Fisher-Yates: position i takes a uniform pick of the rest. */
     uint64_t state = seed;
     for (size_t i = 0; i < n; i++) {
-        size_t j = i + (size_t)uniform_below(&state, (uint64_t)(full.n - i));
-        size_t t = idx[i];
-        idx[i] = idx[j];
-        idx[j] = t;
+        size_t j = i + (size_t)uniform_below(&state, (uint64_t)(total - i));
+        uint32_t t = code[i];
+        code[i] = code[j];
+        code[j] = t;
     }
     /* Grid order keeps nearby nodes together for the materials' caches. */
-    qsort(idx, n, sizeof *idx, cmp_size);
-    for (size_t i = 0; i < n; i++)
-        out[i] = full.pairs[idx[i]];
-    free(idx);
-    brdf_domain_free(&full);
+    qsort(code, n, sizeof *code, cmp_u32);
+    for (size_t i = 0; i < n; i++) {
+        uint32_t c = code[i];
+        grid_pair(&g, (int)(c / (N_TD * N_PD)), (int)(c / N_PD % N_TD), (int)(c % N_PD),
+                  &out[i]);
+    }
+    free(code);
     d->pairs = out;
     d->n = n;
     return 0;
