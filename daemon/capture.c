@@ -345,8 +345,9 @@ static int fit_samples(const struct journal_sample *js, size_t n, const struct b
 }
 
 /* Errors against the true material over the in-plane and full domains. */
-static int assess_truth(const brdf_material *truth, struct capture_summary *out,
-                        struct gonio_err *err)
+#define ASSESS_SEED UINT64_C(20261201) /* the sample of the full domain (assess_nodes) */
+static int assess_truth(const brdf_material *truth, size_t assess_nodes,
+                        struct capture_summary *out, struct gonio_err *err)
 {
     brdf_material *model = brdf_abc_material(&out->params, "abc");
     if (!model)
@@ -354,7 +355,8 @@ static int assess_truth(const brdf_material *truth, struct capture_summary *out,
     struct brdf_domain inplane = {0}, full = {0};
     int rc = brdf_domain_inplane(&inplane, err);
     if (rc >= 0)
-        rc = brdf_domain_full(&full, err);
+        rc = assess_nodes ? brdf_domain_oop_random(&full, assess_nodes, ASSESS_SEED, err)
+                          : brdf_domain_full(&full, err);
     if (rc >= 0)
         rc = brdf_errors_material(truth, model, &inplane, &out->err_inplane, err);
     if (rc >= 0)
@@ -439,7 +441,7 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
     if (rc == 0 && converged)
         out->converged = 1; /* the stop rule decided: the capture converged */
     if (rc == 0 && !aborted && !cfg->measure_only)
-        rc = assess_truth(in.material, out, err);
+        rc = assess_truth(in.material, cfg->assess_nodes, out, err);
     if (rc == 0 && !aborted && !cfg->measure_only)
         rc = capture_files_results(cfg->out_dir, out, err);
     if (rc == 0 && !aborted)

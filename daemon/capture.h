@@ -36,6 +36,12 @@ struct capture_config {
      * fdatasync per sample (journal_set_lazy). */
     int measure_only;
     int lazy_journal;
+    /* The truth errors' full domain: 0, all its ~924k nodes; N, a seeded
+     * sample of N of them (brdf_domain_oop_random), which estimates the
+     * same mean for hosts that cannot afford the full evaluation (goniod's
+     * assess_nodes; the tests under valgrind). results.json gives the
+     * count either way. */
+    size_t assess_nodes;
 };
 
 struct capture_summary {

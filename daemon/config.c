@@ -246,7 +246,8 @@ static int load_socket(const struct cfg_doc *d, const struct cfg_node *root,
 
 int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio_err *err)
 {
-    static const char *const keys[] = {"rig", "driver", "capture_root", "socket", NULL};
+    static const char *const keys[] = {"rig",    "driver",       "capture_root",
+                                       "socket", "assess_nodes", NULL};
     memset(cfg, 0, sizeof *cfg);
     snprintf(cfg->path, sizeof cfg->path, "%s", path);
     snprintf(cfg->rig, sizeof cfg->rig, "default");
@@ -279,6 +280,8 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
         (rc = copy_path(d, root, "capture_root", CFG_REQUIRED, cfg->capture_root,
                         sizeof cfg->capture_root, err)) < 0 ||
         (rc = load_socket(d, root, cfg, err)) < 0 ||
+        (rc = cfg_int(d, root, "assess_nodes", CFG_OPTIONAL, 0, 900000, &cfg->assess_nodes,
+                      err)) < 0 ||
         (rc = cfg_map(d, root, "driver", CFG_REQUIRED, &drv, err)) < 0 ||
         (rc = cfg_enum(d, drv, "kind", CFG_REQUIRED, driver_names, &kind, err)) < 0)
         goto out;
@@ -375,4 +378,6 @@ void goniod_config_print(FILE *out, const struct goniod_config *c)
     fprintf(out, "  max_clients: %d\n  idle_timeout_s: %g\n  max_queue_kib: %ld\n",
             c->max_clients, c->idle_timeout_s, c->max_queue_kib);
     fprintf(out, "  rate_per_s: %g\n  burst: %ld\n", c->rate_per_s, c->burst);
+    if (c->assess_nodes)
+        fprintf(out, "assess_nodes: %ld\n", c->assess_nodes);
 }

@@ -57,6 +57,9 @@ struct goniod_config {
     long max_queue_kib;      /* a client with more output queued is dropped */
     double rate_per_s;       /* requests a client may send per second, on average */
     long burst;              /* ... and at once */
+    /* truth errors over a sample of this many full-domain nodes; 0: all
+     * (capture_config.assess_nodes) */
+    long assess_nodes;
 };
 
 /* Load and check path. Relative paths inside the file are taken relative

@@ -289,6 +289,7 @@ static void *run(void *arg)
         .order = w->req.order[0] ? w->req.order : NULL,
         .stop = w->req.stop[0] ? w->req.stop : NULL,
         .quiet = 1,
+        .assess_nodes = (size_t)w->cfg->assess_nodes,
     };
     struct capture_hooks hooks = {
         .on_start = hook_on_start,
