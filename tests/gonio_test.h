@@ -10,8 +10,10 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include <cmocka.h>
+#include <valgrind/valgrind.h>
 
 #include "common/paths.h"
 
@@ -46,6 +48,44 @@ static inline const char *gonio_test_shared_or_skip(void)
         skip();
     }
     return dir;
+}
+
+/* Nonzero when the test should run at its small size: under valgrind
+ * (make check-valgrind; memcheck costs some 50x in CPU) or with
+ * GONIO_TEST_SMALL=1 (to run the small size natively or under ASan).
+ * A test's small size runs the same code on less (fewer materials, a
+ * coarser plan, a sample of a domain) and asserts real values all the
+ * same; the full size runs natively and under ASan in make check and make
+ * check-asan. docs/testing-memory.md lists what each test shrinks. */
+static inline int gonio_test_small(void)
+{
+    static int small = -1;
+    if (small < 0) {
+        const char *e = getenv("GONIO_TEST_SMALL");
+        small = RUNNING_ON_VALGRIND || (e && *e && strcmp(e, "0") != 0);
+        if (small)
+            fprintf(stderr, "gonio_test_small: small size (%s)\n",
+                    RUNNING_ON_VALGRIND ? "under valgrind" : "GONIO_TEST_SMALL");
+    }
+    return small;
+}
+
+/* capture_config.assess_nodes for a test's captures: their truth errors
+ * on all ~924k nodes of the full domain (0), or at the small size on a
+ * seeded sample of 20000 of them, which memcheck evaluates in seconds
+ * instead of a minute per capture. */
+static inline size_t gonio_test_assess_nodes(void)
+{
+    return gonio_test_small() ? 20000 : 0;
+}
+
+/* The factor Modbus timeouts, and the delays that provoke them, stretch
+ * by: 1 natively, 4 under valgrind, where the test's side of an exchange
+ * runs some 20-50x slower and would miss a deadline of a few tens of
+ * milliseconds that it meets natively. */
+static inline double gonio_test_time_factor(void)
+{
+    return RUNNING_ON_VALGRIND ? 4.0 : 1.0;
 }
 
 #endif

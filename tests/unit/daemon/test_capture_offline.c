@@ -38,7 +38,8 @@ static int exists(const char *path)
 static struct capture_config config(const char *out)
 {
     return (struct capture_config){
-        .plan = "ds3", .scene = "ideal", .model = "abc", .out_dir = out, .quiet = 1};
+        .plan = "ds3", .scene = "ideal", .model = "abc", .out_dir = out, .quiet = 1,
+        .assess_nodes = gonio_test_assess_nodes()};
 }
 
 /* Every planned point exactly once, each sample the material's exact value. */

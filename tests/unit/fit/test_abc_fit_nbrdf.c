@@ -30,9 +30,19 @@ static size_t ds1_grid(struct brdf_pair *out)
     return n;
 }
 
-static size_t full_domain(struct brdf_pair *out)
+/* The full domain, built once for the three materials; at the small size
+ * (valgrind) every 37th node of it (~25k), on which the mean error is the
+ * same to a few thousandths. */
+static struct brdf_pair *full;
+static size_t nf, nf_all;
+
+static int setup(void **state)
 {
-    size_t n = 0;
+    (void)state;
+    full = malloc((size_t)90 * 90 * 180 * sizeof *full);
+    if (!full)
+        return -1;
+    size_t stride = gonio_test_small() ? 37 : 1;
     double lim = cos(80 * BRDF_DEG) - 1e-12;
     for (int i = 0; i < 90; i++)
         for (int j = 0; j < 90; j++)
@@ -41,12 +51,19 @@ static size_t full_domain(struct brdf_pair *out)
                 brdf_pair_from_hd((i / 90.0) * (i / 90.0) * PI / 2, j / 90.0 * PI / 2,
                                   k / 180.0 * PI, &p);
                 if (p.wi[2] >= lim && p.wo[2] >= lim) {
-                    if (out)
-                        out[n] = p;
-                    n++;
+                    if (nf_all % stride == 0)
+                        full[nf++] = p;
+                    nf_all++;
                 }
             }
-    return n;
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    free(full);
+    return 0;
 }
 
 static void check_material(const char *name, double limit)
@@ -72,9 +89,6 @@ static void check_material(const char *name, double limit)
     struct fit_info info;
     assert_int_equal(fit_abc(s, n, NULL, &p, &info, &err), 0);
 
-    size_t nf = full_domain(NULL);
-    struct brdf_pair *full = malloc(nf * sizeof *full);
-    full_domain(full);
     double *ref = malloc(3 * nf * sizeof *ref);
     brdf_material_eval(m, full, nf, ref);
     double sum = 0;
@@ -85,14 +99,13 @@ static void check_material(const char *name, double limit)
             sum += fabs(log1p(f[c] * ci) - log1p(ref[3 * k + c] * ci));
     }
     double e = sum / (3.0 * (double)nf);
-    printf("%s: DS1 fit, full-domain log error %.4f over %zu nodes (limit %.3f); "
+    printf("%s: DS1 fit, full-domain log error %.4f over %zu of its %zu nodes (limit %.3f); "
            "kd %.4g %.4g %.4g A %.4g %.4g %.4g B %.4g C %.4g eta %.4g\n",
-           name, e, nf, limit, p.kd[0], p.kd[1], p.kd[2], p.A[0], p.A[1], p.A[2], p.B, p.C,
+           name, e, nf, nf_all, limit, p.kd[0], p.kd[1], p.kd[2], p.A[0], p.A[1], p.A[2], p.B, p.C,
            p.eta);
-    assert_true(nf > 900000);
+    assert_true(nf_all > 900000);
     assert_true(e <= limit);
     free(ref);
-    free(full);
     free(s);
     free(rgb);
     brdf_material_free(m);
@@ -126,5 +139,5 @@ int main(void)
         cmocka_unit_test(test_blue_acrylic),
         cmocka_unit_test(test_tungsten_carbide),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -26,7 +26,8 @@ static void test_ds4_capture_with_prior(void **state)
     snprintf(cap, sizeof cap, "%s/cap", dir);
     struct capture_config cfg = {.plan = "ds4", .scene = "ideal",
                                  .material = "nbrdf:tungsten-carbide", .model = "abc-prior",
-                                 .out_dir = cap, .quiet = 1};
+                                 .out_dir = cap, .quiet = 1,
+                                 .assess_nodes = gonio_test_assess_nodes()};
     struct capture_summary s;
     struct gonio_err err = {0};
     int rc = capture_run_offline(&cfg, &s, &err);

@@ -5,6 +5,9 @@
  *    about as good out of plane as the latent training gave it;
  *  - DS1 samples of a held-out material: the fit beats the mean latent and
  *    a random training latent over the full domain;
+ *  (at the small size, gonio_test_small: the blend fitted on the fit's own
+ *  300-sample subset, the NBRDF fits on DS2 samples, nylon only held out,
+ *  a 2000-node evaluation domain, DS4's errors on every 143rd node);
  *  - outputs are finite and non-negative at grazing angles and theta_h = 0,
  *    even for latents far outside the training set;
  *  - too few usable samples is a GONIO_EFIT error;
@@ -44,15 +47,19 @@ static int teardown(void **state)
     return 0;
 }
 
-/* The DS1 grid of the design brief, written out (not from the planner). */
-static size_t ds1_grid(struct brdf_pair *out)
+/* The DS1 grid of the design brief, written out (not from the planner);
+ * small: DS2 (theta_i step 15, diffuse step 10, glossy step 2), for the
+ * fits of NBRDF samples at the small size (valgrind: a fit's cost goes
+ * with its samples). */
+static size_t ds_grid(struct brdf_pair *out, int small)
 {
+    int si = small ? 15 : 5, sd = small ? 10 : 5, sg = small ? 2 : 1;
     size_t n = 0;
-    for (int ti = 0; ti <= 80; ti += 5) {
-        for (int tr = -80; tr <= 80; tr += 5)
+    for (int ti = 0; ti <= 80; ti += si) {
+        for (int tr = -80; tr <= 80; tr += sd)
             if (abs(tr - ti) > 15 && abs(ti + tr) >= 5)
                 brdf_pair_inplane(ti, tr, &out[n++]);
-        for (int k = -15; k <= 15; k++) {
+        for (int k = -15; k <= 15; k += sg) {
             int tr = ti + k;
             if (abs(tr) <= 80 && abs(ti + tr) >= 5)
                 brdf_pair_inplane(ti, tr, &out[n++]);
@@ -87,7 +94,7 @@ static struct brdf_domain eval_domain(void)
 {
     struct brdf_domain d;
     struct gonio_err err = {0};
-    if (brdf_domain_oop_random(&d, 8000, 99, &err) < 0)
+    if (brdf_domain_oop_random(&d, gonio_test_small() ? 2000 : 8000, 99, &err) < 0)
         fail_msg("%s", err.msg);
     return d;
 }
@@ -104,7 +111,7 @@ static void test_recovers_latent(void **state)
         zt[k] = 0.7 * latent_decoder_latent(dec, (size_t)m)[k] +
                 0.3 * latent_decoder_latent(dec, (size_t)m2)[k];
     struct brdf_pair ds1[2000];
-    size_t n = ds1_grid(ds1);
+    size_t n = ds_grid(ds1, 0);
     double *rgb = malloc(3 * n * sizeof *rgb);
     latent_decoder_eval(dec, zt, ds1, n, rgb);
     struct fit_sample *s = samples_of(rgb, ds1, n);
@@ -114,9 +121,12 @@ static void test_recovers_latent(void **state)
     struct latent_fit_options o = latent_fit_default_options();
     o.lambda_z = 0; /* exact data: no prior pull */
     o.prior_scale = 0;
+    /* small (valgrind): the fit's own seeded subset of 300 of the samples */
+    if (gonio_test_small())
+        o.max_samples = 300;
     if (fit_latent(dec, s, n, &o, z, &info, &err) < 0)
         fail_msg("%s", err.msg);
-    assert_int_equal(info.used, n);
+    assert_int_equal(info.used, n < o.max_samples ? n : o.max_samples);
     assert_true(info.loss < 0.01);
     assert_true(info.start_loss > 2 * info.loss); /* the starts were not the answer */
 
@@ -149,7 +159,7 @@ static void fit_nbrdf_ds1(const char *name, double *z, struct latent_fit_info *i
     if (!m)
         fail_msg("%s", err.msg);
     struct brdf_pair ds1[2000];
-    size_t n = ds1_grid(ds1);
+    size_t n = ds_grid(ds1, gonio_test_small());
     double *rgb = malloc(3 * n * sizeof *rgb);
     brdf_material_eval(m, ds1, n, rgb);
     struct fit_sample *s = samples_of(rgb, ds1, n);
@@ -213,7 +223,7 @@ static void test_heldout_beats_mean(void **state)
     gonio_test_shared_or_skip();
     struct brdf_domain d = eval_domain();
     const char *names[] = {"nylon", "brass"};
-    for (int i = 0; i < 2; i++) {
+    for (int i = 0; i < (gonio_test_small() ? 1 : 2); i++) { /* small: nylon only */
         assert_true(latent_decoder_find(dec, names[i]) < 0); /* really held out */
         double z[LATENT_MAX_NZ];
         struct latent_fit_info info;
@@ -303,9 +313,12 @@ static void test_ds4_heldout(void **state)
     struct brdf_domain full;
     struct gonio_err err = {0};
     assert_true(brdf_domain_full(&full, &err) >= 0);
+    /* small (valgrind): every 143rd node (6.5k; 143 = 11 x 13 is coprime
+     * with 180 too) */
+    size_t stride = gonio_test_small() ? 143 : 13;
     struct brdf_domain d = {0};
-    d.pairs = malloc((full.n / 13 + 1) * sizeof *d.pairs);
-    for (size_t k = 0; k < full.n; k += 13)
+    d.pairs = malloc((full.n / stride + 1) * sizeof *d.pairs);
+    for (size_t k = 0; k < full.n; k += stride)
         d.pairs[d.n++] = full.pairs[k];
     brdf_domain_free(&full);
     for (int i = 0; i < 3; i++) {

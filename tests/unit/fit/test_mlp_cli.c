@@ -33,7 +33,8 @@ static int setup(void **state)
         return -1;
     snprintf(cap, sizeof cap, "%s/cap", dir);
     struct capture_config cfg = {
-        .plan = "ds2", .scene = "ideal", .model = "abc", .out_dir = cap, .quiet = 1};
+        .plan = "ds2", .scene = "ideal", .model = "abc", .out_dir = cap, .quiet = 1,
+        .assess_nodes = gonio_test_assess_nodes()};
     struct capture_summary s;
     struct gonio_err err = {0};
     if (capture_run_offline(&cfg, &s, &err) != 0) {
@@ -124,8 +125,9 @@ static void test_mlp_on_capture(void **state)
     (void)state;
     char model[400];
     snprintf(model, sizeof model, "%s/m.model", dir);
-    char *argv[] = {"fit", cap, "--model", "mlp", "--epochs", "300", "-o", model, "--seed", "3",
-                    NULL};
+    /* small (valgrind): 100 epochs, a third of the training */
+    char *argv[] = {"fit", cap, "--model", "mlp", "--epochs", gonio_test_small() ? "100" : "300",
+                    "-o", model, "--seed", "3", NULL};
     char *out, *errtext;
     int rc = run(argv, 10, &out, &errtext);
     if (rc)
@@ -182,7 +184,8 @@ static void test_abc_pseudo(void **state)
     (void)state;
     char model[400];
     snprintf(model, sizeof model, "%s/pseudo.model", dir);
-    char *argv[] = {"fit", cap, "--model", "abc-pseudo", "--epochs", "100", "-o", model, NULL};
+    char *argv[] = {"fit", cap, "--model", "abc-pseudo", "--epochs",
+                    gonio_test_small() ? "40" : "100", "-o", model, NULL};
     char *out, *errtext;
     int rc = run(argv, 8, &out, &errtext);
     if (rc)

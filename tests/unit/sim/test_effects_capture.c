@@ -38,7 +38,8 @@ static int teardown(void **state)
 static struct capture_config config(const char *scene, const char *plan, const char *out)
 {
     return (struct capture_config){
-        .plan = plan, .scene = scene, .model = "abc", .out_dir = out, .quiet = 1};
+        .plan = plan, .scene = scene, .model = "abc", .out_dir = out, .quiet = 1,
+        .assess_nodes = gonio_test_assess_nodes()};
 }
 
 static void read_journal(const char *out, struct journal_sample **s, size_t *n)
