@@ -7,6 +7,7 @@ Run from ctest (the environment names the binaries), or by hand:
   GONIO_BIN=build/bin GONIO_TESTS_BIN=build/tests GONIO_CONFIG=configs \
       python3 tests/daemon/test_goniod.py -v
 """
+import glob
 import json
 import os
 import random
@@ -27,10 +28,60 @@ GONIOD = os.path.join(BIN, "goniod")
 GONIO = os.path.join(BIN, "gonio")
 JOURNAL_POINTS = os.path.join(TESTS_BIN, "journal_points")
 MAX_LINE = 65536  # docs/protocol.md
-# make check-valgrind runs goniod under valgrind: GONIO_WRAP is the command
-# put before it, and waits for the daemon to come up are stretched.
+# make check-valgrind runs goniod, and the gonio-sim processes the tests
+# start, under valgrind's memcheck: GONIO_WRAP is the valgrind command line
+# (scripts/check-valgrind.sh). Each wrapped process writes its report to a
+# file of its own beside the test's files (wrap), and a test fails when one
+# of them shows an error (assert_valgrind_clean, run when the test is done
+# with the process). Under valgrind waits for a process stretch (START_S),
+# Modbus timeouts and the delays that provoke them stretch by SLOW (the
+# driver's side of an exchange runs 20-50x slower), and a finished capture
+# computes its truth errors on a sample of ASSESS_NODES nodes of the full
+# domain (goniod's assess_nodes) instead of all 924k: evaluating those takes
+# memcheck a minute per capture. docs/testing-memory.md.
 WRAP = os.environ.get("GONIO_WRAP", "").split()
+VALGRIND = bool(WRAP)
 START_S = 60 if WRAP else 10
+SLOW = 20 if WRAP else 1
+ASSESS_NODES = 20000 if WRAP else 0
+
+
+def wrap(argv, log_dir):
+    """argv as run under GONIO_WRAP, valgrind's report going to
+    log_dir/<program>.<pid>.valgrind (argv itself without GONIO_WRAP)."""
+    if not WRAP:
+        return list(argv)
+    log = os.path.join(os.path.abspath(log_dir), os.path.basename(argv[0]) + ".%p.valgrind")
+    return WRAP + ["--log-file=" + log] + list(argv)
+
+
+def valgrind_reports(log_dir):
+    """The valgrind reports in log_dir that show an error, with their text."""
+    bad = []
+    for path in sorted(glob.glob(os.path.join(log_dir, "*.valgrind"))):
+        with open(path, errors="replace") as f:
+            text = f.read()
+        m = re.search(r"ERROR SUMMARY: (\d+) errors", text)
+        # A process killed with SIGKILL writes no summary (and runs no leak
+        # check): any report with a stack in its file is an error.
+        if (int(m.group(1)) > 0) if m else re.search(r"^==\d+== +(at|by) 0x", text, re.M):
+            bad.append("%s:\n%s" % (path, text[-6000:]))
+    return bad
+
+
+def assert_valgrind_clean(log_dir):
+    bad = valgrind_reports(log_dir)
+    if bad:
+        raise AssertionError("valgrind found errors:\n" + "\n".join(bad))
+
+
+def run_wrapped(argv, log_dir, **kw):
+    """subprocess.run of argv under GONIO_WRAP (output captured as text),
+    failing on a valgrind error."""
+    kw.setdefault("timeout", 2 * START_S)
+    r = subprocess.run(wrap(argv, log_dir), capture_output=True, text=True, **kw)
+    assert_valgrind_clean(log_dir)
+    return r
 
 
 def tmpdir():
@@ -112,7 +163,10 @@ class Conn:
 
 class Daemon:
     def __init__(self, folder, pace_s=0.0, extra_socket="", env=None, scene="ideal",
-                 driver=None):
+                 driver=None, command=None):
+        # command: what runs goniod (a wrapper taking goniod's arguments,
+        # itself responsible for GONIO_WRAP); default goniod under wrap().
+        self.command = command
         self.folder = folder
         self.sock = os.path.join(folder, "s.sock")
         self.root = os.path.join(folder, "cap")
@@ -122,9 +176,10 @@ class Daemon:
             f.write(
                 "rig: default\n"
                 "driver:\n%s"
-                "capture_root: cap\n"
+                "capture_root: cap\n%s"
                 "socket:\n  path: s.sock\n%s" % (
                     driver or "  kind: sim\n  scene: %s\n  pace_s: %g\n" % (scene, pace_s),
+                    "assess_nodes: %d\n" % ASSESS_NODES if ASSESS_NODES else "",
                     extra_socket))
         self.env = dict(os.environ)
         self.env.pop("NOTIFY_SOCKET", None)
@@ -135,8 +190,9 @@ class Daemon:
 
     def start(self):
         logf = open(self.log, "a")
-        self.proc = subprocess.Popen(WRAP + [GONIOD, "--config", self.config], stdout=logf,
-                                     stderr=logf, env=self.env)
+        argv = (self.command + ["--config", self.config] if self.command else
+                wrap([GONIOD, "--config", self.config], self.folder))
+        self.proc = subprocess.Popen(argv, stdout=logf, stderr=logf, env=self.env)
         logf.close()
         deadline = time.time() + START_S
         while time.time() < deadline:
@@ -171,13 +227,13 @@ class Daemon:
                 self.proc.kill()
                 self.proc.wait()
                 raise AssertionError("goniod ignored SIGTERM")
-        # Sanitizer builds: a report in the daemon's log fails the test.
+        # Sanitizer builds: a report in the daemon's log fails the test;
+        # under valgrind, an error in its report.
         if os.path.exists(self.log):
             log = open(self.log, errors="replace").read()
             if "Sanitizer" in log or "runtime error" in log:
                 raise AssertionError("goniod sanitizer report:\n" + log[-4000:])
-            if re.search(r"ERROR SUMMARY: [1-9]", log):
-                raise AssertionError("goniod valgrind report:\n" + log[-4000:])
+        assert_valgrind_clean(self.folder)
         return rc
 
     def alive(self):
@@ -241,8 +297,7 @@ class CheckTests(unittest.TestCase):
         path = os.path.join(self.folder, "c.yaml")
         with open(path, "w") as f:
             f.write(text)
-        r = subprocess.run([GONIOD, "--config", path, "--check"], capture_output=True, text=True,
-                           timeout=20)
+        r = run_wrapped([GONIOD, "--config", path, "--check"], self.folder)
         return path, r
 
     def test_good_config_resolved(self):
@@ -278,12 +333,11 @@ class CheckTests(unittest.TestCase):
     def test_shipped_configs(self):
         for name in ("sim.yaml", "modbus-rtu.yaml", "modbus-tcp.yaml"):
             path = os.path.join(SOURCE, "configs", "goniod", name)
-            r = subprocess.run([GONIOD, "--config", path, "--check"], capture_output=True,
-                               text=True, timeout=20)
+            r = run_wrapped([GONIOD, "--config", path, "--check"], self.folder)
             self.assertEqual(r.returncode, 0, name + ": " + r.stderr)
-        r = subprocess.run([GONIOD, "--config",
-                            os.path.join(SOURCE, "configs", "goniod", "modbus-rtu.yaml"),
-                            "--check"], capture_output=True, text=True, timeout=20)
+        r = run_wrapped([GONIOD, "--config",
+                         os.path.join(SOURCE, "configs", "goniod", "modbus-rtu.yaml"),
+                         "--check"], self.folder)
         for line in ("kind: modbus-rtu", "device: /dev/ttyUSB0", "baud: 115200",
                      "parity: none", "data_bits: 8", "stop_bits: 1", "arm: 2",
                      "detector: 3", "steps_per_deg: 100"):
@@ -351,10 +405,10 @@ class CheckTests(unittest.TestCase):
         self.assertRegex(r.stderr, re.escape(path) + r":\d+:\d+: ")
 
     def test_usage(self):
-        r = subprocess.run([GONIOD], capture_output=True, text=True, timeout=20)
+        r = run_wrapped([GONIOD], self.folder)
         self.assertEqual(r.returncode, 2)
-        r = subprocess.run([GONIOD, "--config", os.path.join(self.folder, "none.yaml"),
-                            "--check"], capture_output=True, text=True, timeout=20)
+        r = run_wrapped([GONIOD, "--config", os.path.join(self.folder, "none.yaml"), "--check"],
+                        self.folder)
         self.assertEqual(r.returncode, 2)
         self.assertIn("none.yaml", r.stderr)
 
@@ -479,8 +533,7 @@ class ProtocolTests(DaemonTest):
         self.assertEqual(os.stat(self.d.sock).st_mode & 0o777, 0o660)
         # A second daemon on the same socket refuses to start; so does one
         # whose socket path is an ordinary file.
-        r = subprocess.run([GONIOD, "--config", self.d.config], capture_output=True, text=True,
-                           timeout=20)
+        r = run_wrapped([GONIOD, "--config", self.d.config], self.folder)
         self.assertEqual(r.returncode, 1)
         self.assertIn("another goniod", r.stderr)
         self.assertEqual(self.d.connect().request("status")["class"], "STATUS")
@@ -489,8 +542,7 @@ class ProtocolTests(DaemonTest):
             with open(os.path.join(other, "s.sock"), "w") as f:
                 f.write("precious")
             d2 = Daemon(other)
-            r = subprocess.run([GONIOD, "--config", d2.config], capture_output=True, text=True,
-                               timeout=20)
+            r = run_wrapped([GONIOD, "--config", d2.config], other)
             self.assertEqual(r.returncode, 1)
             self.assertIn("not a socket", r.stderr)
             self.assertEqual(open(os.path.join(other, "s.sock")).read(), "precious")
@@ -512,7 +564,7 @@ class ProtocolTests(DaemonTest):
         s.close()
         self.assertEqual(a.request("status")["class"], "STATUS")
         b.close()
-        deadline = time.time() + 10
+        deadline = time.time() + START_S
         while True:  # until the daemon has seen b go
             c = self.d.connect()
             if c.version["class"] == "VERSION" or time.time() > deadline:
@@ -620,7 +672,7 @@ class CaptureTests(DaemonTest):
         # The point in progress (and a progressive fit) may still finish:
         # wait until the count holds, then it must keep holding.
         st1 = c.request("status")
-        deadline = time.time() + 10
+        deadline = time.time() + START_S
         while time.time() < deadline:
             time.sleep(0.3)
             st = c.request("status")
@@ -707,7 +759,7 @@ class CaptureTests(DaemonTest):
         self.d.proc.send_signal(signal.SIGTERM)
         stop = c.until_stop("term")[-1]
         self.assertEqual(stop["reason"], "shutdown")
-        self.assertEqual(self.d.proc.wait(timeout=20), 0)
+        self.assertEqual(self.d.proc.wait(timeout=2 * START_S), 0)
         self.assertFalse(os.path.exists(self.d.sock))
         pts = journal_points(os.path.join(self.d.root, "term", "samples.csv"))
         self.assertEqual(len(pts), stop["samples"])
@@ -727,7 +779,7 @@ class CaptureTests(DaemonTest):
     def test_shutdown_command(self):
         c = self.d.connect()
         self.assertEqual(c.request("shutdown")["class"], "OK")
-        self.assertEqual(self.d.proc.wait(timeout=20), 0)
+        self.assertEqual(self.d.proc.wait(timeout=2 * START_S), 0)
 
 
 class ConvergeTests(DaemonTest):
@@ -873,7 +925,7 @@ class ClientTests(DaemonTest):
         self.assertEqual(r.returncode, 1)
         self.assertIn("exists", r.stderr)
         self.assertEqual(self.d.gonio("shutdown").returncode, 0)
-        self.assertEqual(self.d.proc.wait(timeout=20), 0)
+        self.assertEqual(self.d.proc.wait(timeout=2 * START_S), 0)
 
     def test_offline_still_offline(self):
         out = os.path.join(self.folder, "off")
@@ -902,11 +954,11 @@ class ModbusTests(unittest.TestCase):
             self.skipTest("gonio-sim not built")
         self.folder = tmpdir()
         out = open(os.path.join(self.folder, "sim.out"), "w")
-        self.sim = subprocess.Popen([self.SIM, "--scene", "ideal", "--time-scale", "1000",
-                                     "--link", os.path.join(self.folder, "tty"), "--tcp",
-                                     "127.0.0.1:0"], stdout=out,
+        self.sim = subprocess.Popen(wrap([self.SIM, "--scene", "ideal", "--time-scale", "1000",
+                                          "--link", os.path.join(self.folder, "tty"), "--tcp",
+                                          "127.0.0.1:0"], self.folder), stdout=out,
                                     stderr=open(os.path.join(self.folder, "sim.err"), "w"))
-        deadline = time.time() + 10
+        deadline = time.time() + START_S
         text = ""
         while time.time() < deadline and "tcp" not in text:
             time.sleep(0.05)
@@ -918,11 +970,19 @@ class ModbusTests(unittest.TestCase):
         self.d = None
 
     def tearDown(self):
-        if self.d:
-            self.d.stop()
-        self.sim.terminate()
-        self.sim.wait(timeout=20)
-        shutil.rmtree(self.folder, ignore_errors=True)
+        try:
+            if self.d:
+                self.d.stop()
+            rc = self.stop_sim()
+            assert_valgrind_clean(self.folder)
+            self.assertEqual(rc, 0, "gonio-sim's exit status on SIGTERM")
+        finally:
+            shutil.rmtree(self.folder, ignore_errors=True)
+
+    def stop_sim(self):
+        if self.sim.poll() is None:
+            self.sim.terminate()
+        return self.sim.wait(timeout=2 * START_S)
 
     def offline(self):
         out = os.path.join(self.folder, "offline")
@@ -950,8 +1010,8 @@ class ModbusTests(unittest.TestCase):
 
     def test_rtu_capture(self):
         c = self.capture("  kind: modbus-rtu\n  device: %s\n  baud: 115200\n"
-                         "  time_scale: 1000\n  slaves: {sample: 1, arm: 2, detector: 3, "
-                         "azimuth: 4}\n" % self.pty, "rtu")
+                         "  time_scale: 1000\n  timeout_s: %g\n  slaves: {sample: 1, arm: 2, "
+                         "detector: 3, azimuth: 4}\n" % (self.pty, 0.5 * SLOW), "rtu")
         docs = c.until_stop("rtu")
         self.assertEqual(docs[1]["driver"]["kind"], "modbus-rtu")
         self.assertEqual(docs[1]["driver"]["device"], self.pty)
@@ -960,8 +1020,8 @@ class ModbusTests(unittest.TestCase):
 
     def test_tcp_abort_and_resume(self):
         c = self.capture("  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n"
-                         "  time_scale: 1000\n  slaves: {sample: 1, arm: 2, detector: 3, "
-                         "azimuth: 4}\n" % self.port, "tcp")
+                         "  time_scale: 1000\n  timeout_s: %g\n  slaves: {sample: 1, arm: 2, "
+                         "detector: 3, azimuth: 4}\n" % (self.port, 0.5 * SLOW), "tcp")
         while c.read()["class"] != "event":
             pass
         c.request("abort")
@@ -975,8 +1035,7 @@ class ModbusTests(unittest.TestCase):
         self.same_as_offline("tcp")
 
     def test_no_rig_answering(self):
-        self.sim.terminate()
-        self.sim.wait(timeout=20)
+        self.stop_sim()
         c = self.capture("  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n"
                          "  timeout_s: 0.05\n" % self.port, "gone")
         stop = c.until_stop("gone")[-1]
@@ -995,13 +1054,13 @@ class NotifyTests(unittest.TestCase):
             d = Daemon(folder, env={"NOTIFY_SOCKET": name, "WATCHDOG_USEC": "100000"})
             d.start()
             got = []
-            deadline = time.time() + 10
+            deadline = time.time() + START_S
             while time.time() < deadline and sum("WATCHDOG=1" in g for g in got) < 3:
                 got.append(rx.recv(4096).decode())
             d.proc.send_signal(signal.SIGTERM)
             while not any("STOPPING=1" in g for g in got):
                 got.append(rx.recv(4096).decode())
-            self.assertEqual(d.proc.wait(timeout=20), 0)
+            self.assertEqual(d.proc.wait(timeout=2 * START_S), 0)
             rx.close()
             self.assertIn("READY=1", got[0])
             self.assertIn("MAINPID=%d" % d.proc.pid, got[0])

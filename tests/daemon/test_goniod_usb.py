@@ -7,6 +7,7 @@ Run from ctest, or by hand like test_goniod.py (whose helpers it uses).
 """
 import math
 import os
+import shlex
 import shutil
 import subprocess
 import sys
@@ -46,8 +47,7 @@ class UsbConfigTests(unittest.TestCase):
 
     def test_shipped_config(self):
         path = os.path.join(g.SOURCE, "configs", "goniod", "modbus-rtu-usb-spectrometer.yaml")
-        r = subprocess.run([g.GONIOD, "--config", path, "--check"], capture_output=True,
-                           text=True, timeout=20)
+        r = g.run_wrapped([g.GONIOD, "--config", path, "--check"], self.folder)
         self.assertEqual(r.returncode, 0, r.stderr)
         self.assertIn("kind: usb-spectrometer", r.stdout)
 
@@ -75,6 +75,7 @@ class UsbCaptureTests(unittest.TestCase):
     USB2000+ (the recording answers each spectrum request the same way)."""
     SIM = g.ModbusTests.SIM
     setUp = g.ModbusTests.setUp
+    stop_sim = g.ModbusTests.stop_sim
 
     def tearDown(self):
         if self.d and self.d.alive():
@@ -94,6 +95,7 @@ class UsbCaptureTests(unittest.TestCase):
             f.write("name: tiny\npairs:\n  - [15, 0]\n  - [15, 30]\n  - [45, -30]\n"
                     "  - [45, 40]\norder: as-written\n")
         # goniod runs inside umockdev-run's testbed, which serves the recording
+        # (under GONIO_WRAP: valgrind inside the testbed, on goniod itself)
         wrapper = os.path.join(self.folder, "goniod-usb")
         with open(wrapper, "w") as f:
             # (a sanitized goniod: the preload comes before ASan's runtime)
@@ -101,19 +103,16 @@ class UsbCaptureTests(unittest.TestCase):
                     "verify_asan_link_order=0 exec %s --device %s "
                     "--ioctl /dev/bus/usb/001/005=%s -- %s \"$@\"\n"
                     % (UMOCKDEV_RUN, os.path.join(USB_DATA, "usb2000plus.umockdev"),
-                       os.path.join(USB_DATA, recording), os.path.abspath(g.GONIOD)))
+                       os.path.join(USB_DATA, recording),
+                       " ".join(shlex.quote(a) for a in
+                                g.wrap([os.path.abspath(g.GONIOD)], self.folder))))
         os.chmod(wrapper, 0o755)
-        self.d = g.Daemon(self.folder, driver=(
+        self.d = g.Daemon(self.folder, command=[wrapper], driver=(
             "  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n  time_scale: 1000\n"
-            "  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
+            "  timeout_s: %g\n  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
             "  detector: {kind: usb-spectrometer, serial: USB2+F01234, timeout_s: 2}\n"
-            % self.port))
-        saved = g.GONIOD
-        g.GONIOD = wrapper
-        try:
-            self.d.start()
-        finally:
-            g.GONIOD = saved
+            % (self.port, 0.5 * g.SLOW)))
+        self.d.start()
         c = self.d.connect()
         c.request("watch")
         return c
@@ -121,7 +120,7 @@ class UsbCaptureTests(unittest.TestCase):
     def finish(self, c):
         """shutdown over the socket: umockdev-run passes no signal on."""
         c.request("shutdown")
-        rc = self.d.proc.wait(timeout=20)
+        rc = self.d.proc.wait(timeout=2 * g.START_S)
         with open(self.d.log) as f:
             self.assertEqual(rc, 0, f.read()[-2000:])
 

@@ -315,8 +315,7 @@ class PathBase(DaemonTest):
 
 class PathTests(PathBase):
     """Paths in requests stay inside the capture root, links included. No
-    capture runs here (make check-valgrind runs goniod under memcheck for
-    this class)."""
+    capture runs here."""
 
     def test_symlinked_files_pointing_out_are_refused(self):
         os.symlink(os.path.join(self.outside, "ds3.yaml"), os.path.join(self.root, "p.yaml"))

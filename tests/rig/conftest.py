@@ -3,11 +3,19 @@
 from the specification (frames and CRC-16 by hand), independent of the C
 drivers and of libmodbus."""
 import os
+import shutil
 import signal
 import subprocess
+import sys
+import tempfile
 import time
 
 import pytest
+
+# goniod's test helpers: under make check-valgrind (GONIO_WRAP) gonio-sim
+# runs on memcheck too, and its report fails the test that started it.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "daemon"))
+import test_goniod as tg  # noqa: E402
 
 TIME_SCALE = 50.0
 
@@ -110,15 +118,21 @@ def gonio_bin():
 def sim():
     pytest.importorskip("serial")
     exe = os.path.join(gonio_bin(), "gonio-sim")
-    proc = subprocess.Popen([exe, "--time-scale", str(TIME_SCALE), "--tcp", "127.0.0.1:0"],
-                            stdout=subprocess.PIPE, text=True)
-    pty = proc.stdout.readline().strip()
-    tcp = proc.stdout.readline().strip()
-    assert pty.startswith("/"), pty
-    assert tcp.startswith("tcp 127.0.0.1:"), tcp
-    yield {"pty": pty, "port": int(tcp.rsplit(":", 1)[1]), "proc": proc}
-    proc.send_signal(signal.SIGTERM)
-    assert proc.wait(timeout=10) == 0  # a clean exit on SIGTERM
+    logs = tempfile.mkdtemp(prefix="rig-sim")
+    try:
+        proc = subprocess.Popen(tg.wrap([exe, "--time-scale", str(TIME_SCALE), "--tcp",
+                                         "127.0.0.1:0"], logs), stdout=subprocess.PIPE, text=True)
+        pty = proc.stdout.readline().strip()
+        tcp = proc.stdout.readline().strip()
+        assert pty.startswith("/"), pty
+        assert tcp.startswith("tcp 127.0.0.1:"), tcp
+        yield {"pty": pty, "port": int(tcp.rsplit(":", 1)[1]), "proc": proc}
+        proc.send_signal(signal.SIGTERM)
+        rc = proc.wait(timeout=2 * tg.START_S)
+        tg.assert_valgrind_clean(logs)
+        assert rc == 0  # a clean exit on SIGTERM
+    finally:
+        shutil.rmtree(logs, ignore_errors=True)
 
 
 @pytest.fixture

@@ -1,14 +1,19 @@
 """gonio-sim's command line: --check resolves the scene without serving,
 bad input exits 2 with a message on stderr and nothing on stdout."""
 import os
-import subprocess
+import shutil
+import tempfile
 
-from conftest import gonio_bin
+from conftest import gonio_bin, tg
 
 
 def run(*args):
-    return subprocess.run([os.path.join(gonio_bin(), "gonio-sim"), *args],
-                          capture_output=True, text=True, timeout=20)
+    """gonio-sim with args (under GONIO_WRAP, failing on a valgrind error)."""
+    logs = tempfile.mkdtemp(prefix="rig-cli")
+    try:
+        return tg.run_wrapped([os.path.join(gonio_bin(), "gonio-sim"), *args], logs)
+    finally:
+        shutil.rmtree(logs, ignore_errors=True)
 
 
 def test_check_prints_the_resolved_setup():

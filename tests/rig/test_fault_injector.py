@@ -28,7 +28,9 @@ import test_goniod as tg  # noqa: E402  (Daemon, Conn, read_samples)
 BIN = os.environ.get("GONIO_BIN", "build/bin")
 SIM = os.path.join(BIN, "gonio-sim")
 SCALE = 1000
-TIMEOUT_S = 0.1
+# goniod's response timeout; under valgrind (tg.VALGRIND), where goniod and
+# gonio-sim run on memcheck, 0.4 s so that only the injected faults time out.
+TIMEOUT_S = 0.1 * (4 if tg.VALGRIND else 1)
 PLAN = "ds3"
 STATUS, ALARM = 0x7E, 0x80
 ALM_A, MOVE, IN_POS = 1 << 7, 1 << 13, 1 << 14
@@ -101,7 +103,7 @@ class Injector:
         self.sim.reset_input_buffer()
         self.sim.write(req)
         buf = b""
-        deadline = time.monotonic() + 1.0
+        deadline = time.monotonic() + 10 * TIMEOUT_S
         while time.monotonic() < deadline:
             n = self.sim.in_waiting
             if n:
@@ -140,20 +142,24 @@ def rig():
         pytest.skip("gonio-sim not built")
     folder = tg.tmpdir()
     out = os.path.join(folder, "sim.out")
-    sim = subprocess.Popen([SIM, "--scene", "ideal", "--time-scale", str(SCALE)],
+    sim = subprocess.Popen(tg.wrap([SIM, "--scene", "ideal", "--time-scale", str(SCALE)], folder),
                            stdout=open(out, "w"), stderr=subprocess.DEVNULL)
-    deadline = time.time() + 10
+    deadline = time.time() + tg.START_S
     text = ""
     while time.time() < deadline and "\n" not in text:
         time.sleep(0.02)
         text = open(out).read()
     state = {"folder": folder, "pty": text.split("\n")[0], "objs": []}
     yield state
-    for o in state["objs"]:
-        o.close() if isinstance(o, Injector) else o.stop()
-    sim.terminate()
-    sim.wait(timeout=20)
-    shutil.rmtree(folder, ignore_errors=True)
+    try:
+        for o in state["objs"]:
+            o.close() if isinstance(o, Injector) else o.stop()
+        sim.terminate()
+        rc = sim.wait(timeout=2 * tg.START_S)
+        tg.assert_valgrind_clean(folder)
+        assert rc == 0, "gonio-sim exited %d on SIGTERM" % rc
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def capture(rig, name, fault=None):
