@@ -56,7 +56,7 @@ int main(int argc, char **argv)
     int rounds = 0, calm_run = 0;
     for (size_t i = 0; i < n; i++) {
         struct fit_sample s;
-        int usable = journal_fit_samples(&js[i], 1, &s) == 1;
+        journal_fit_samples(&js[i], 1, &s);
         /* ends: theta_i rows (whole-row sub-levels of progressive order) */
         int end = getenv("REPLAY_ROWS") && i >= (size_t)atol(getenv("REPLAY_ROWS")) &&
                   (i + 1 == n || js[i + 1].theta_i != js[i].theta_i);
@@ -64,7 +64,7 @@ int main(int argc, char **argv)
         for (const char *l = getenv("REPLAY_LEVELS"); l && *l; l = strchr(l, ',') ? strchr(l, ',') + 1 : "")
             if ((size_t)atol(l) == i + 1)
                 end = 1;
-        if (fit_stream_add(fs, usable ? &s : NULL, end, &err) < 0)
+        if (fit_stream_add(fs, &s, end, &err) < 0)
             return 1;
         struct fit_stream_status st;
         fit_stream_status(fs, &st);

@@ -82,7 +82,8 @@ int cmd_capture(int argc, char **argv)
            s.samples, s.rig_time_s, s.move_s, s.settle_s, s.integration_s, s.fit_time_s,
            s.converged ? "" : " (fit did not converge)");
     if (s.saturated)
-        printf("  %zu saturated readings left out of the fit (lower bounds only)\n", s.saturated);
+        printf("  %zu saturated readings, fitted at their clipped values (lower bounds)\n",
+               s.saturated);
     if (!strcmp(s.stop_reason, "converged"))
         printf("  stopped on convergence after %zu samples\n", s.samples);
     if (s.warning[0]) /* abc-prior: too few samples to pin the lobe */

@@ -39,7 +39,7 @@ static double now_s(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-/* The journal's samples a fit uses; *saturated counts those left out. */
+/* The journal's samples as a fit takes them; *saturated counts the clipped ones. */
 static int read_rgb(const char *path, struct fit_sample **out, size_t *n, size_t *saturated,
                     struct gonio_err *err)
 {
@@ -53,8 +53,8 @@ static int read_rgb(const char *path, struct fit_sample **out, size_t *n, size_t
         free(js);
         return gonio_err_set(err, GONIO_EBADDATA, "%s: out of memory", path);
     }
-    *n = journal_fit_samples(js, m, s);
-    *saturated = m - *n;
+    *saturated = journal_fit_samples(js, m, s);
+    *n = m;
     free(js);
     *out = s;
     return 0;
@@ -232,7 +232,8 @@ int cmd_fit(int argc, char **argv)
         printf("%-10s %s\n", "model", model);
         printf("%-10s %zu (%s)\n", "samples", n, samples_path);
         if (saturated)
-            printf("%-10s %zu readings left out (lower bounds only)\n", "saturated", saturated);
+            printf("%-10s %zu readings, fitted at their clipped values (lower bounds)\n",
+                   "saturated", saturated);
         printf("%-10s %.3f s, %s\n", "fit", fit_s, rep.converged ? "converged" : "not converged");
         printf("%-10s %s\n", "details", rep.note);
         if (kind->spectral) {

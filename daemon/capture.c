@@ -176,12 +176,12 @@ static int stream_feed(fit_stream *fs, const struct plan *plan, const struct jou
     if (!fs)
         return 0;
     struct fit_sample s;
-    int usable = journal_fit_samples(js, 1, &s) == 1; /* a saturated one is not */
+    journal_fit_samples(js, 1, &s);
     const struct plan_point *pt = plan_point(plan, (size_t)js->point),
                             *next = plan_point(plan, (size_t)js->point + 1);
     int level_end = plan_current_order(plan) == PLAN_ORDER_PROGRESSIVE &&
                     (!next || next->level != pt->level);
-    return fit_stream_add(fs, usable ? &s : NULL, level_end, err);
+    return fit_stream_add(fs, &s, level_end, err);
 }
 
 /* Measure every point the journal does not hold yet, in plan order. Sets
@@ -301,9 +301,7 @@ static int fit_samples(const struct journal_sample *js, size_t n, const struct b
     struct fit_sample *fs = malloc((n ? n : 1) * sizeof *fs);
     if (!fs)
         return gonio_err_set(err, ENOMEM, "out of memory");
-    size_t used = journal_fit_samples(js, n, fs);
-    out->saturated = n - used;
-    n = used;
+    out->saturated = journal_fit_samples(js, n, fs);
     struct fit_options opt = fit_default_options();
     opt.warm_start = warm; /* the streaming fit's last parameters, when there is one */
     struct fit_info info;

@@ -47,7 +47,7 @@ struct capture_config {
 struct capture_summary {
     char plan[128], material[512], model[32];
     size_t samples;
-    size_t saturated; /* samples the fit left out: the detector saturated */
+    size_t saturated; /* samples the detector saturated (fitted at their clipped value) */
     double rig_time_s, move_s, settle_s, integration_s;
     double fit_time_s;
     int converged;

@@ -288,13 +288,11 @@ void journal_sample_pair(const struct journal_sample *s, struct brdf_pair *p)
 
 size_t journal_fit_samples(const struct journal_sample *js, size_t n, struct fit_sample *out)
 {
-    size_t m = 0;
+    size_t saturated = 0;
     for (size_t i = 0; i < n; i++) {
-        if (js[i].flags & JOURNAL_FLAG_SATURATED)
-            continue;
-        journal_sample_pair(&js[i], &out[m].g);
-        memcpy(out[m].rgb, js[i].rgb, sizeof out[m].rgb);
-        m++;
+        saturated += (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
+        journal_sample_pair(&js[i], &out[i].g);
+        memcpy(out[i].rgb, js[i].rgb, sizeof out[i].rgb);
     }
-    return m;
+    return saturated;
 }

@@ -33,9 +33,10 @@ struct journal_sample {
 void journal_sample_pair(const struct journal_sample *s, struct brdf_pair *p);
 
 struct fit_sample;
-/* The samples a fit uses, in journal order: all but the saturated ones. A
- * clipped reading is only a lower bound of the BRDF; fitted as a value it
- * pulls a specular peak down. out has room for n; returns how many it got. */
+/* The samples as a fit takes them, in journal order (out has room for n);
+ * returns how many are saturated. Those keep their clipped value: only a
+ * lower bound of the BRDF, but leaving them out cost sparse plans their only
+ * peak samples (docs/formats.md has the figures). */
 size_t journal_fit_samples(const struct journal_sample *js, size_t n, struct fit_sample *out);
 
 typedef struct journal journal;

@@ -154,7 +154,8 @@ static void progressive_add(worker *w, const struct journal_sample *s, int may_f
         w->fs = p;
         w->fs_cap = cap;
     }
-    w->fs_n += journal_fit_samples(s, 1, &w->fs[w->fs_n]); /* not a saturated one */
+    journal_fit_samples(s, 1, &w->fs[w->fs_n]);
+    w->fs_n++;
     if (may_fit && w->fs_n >= w->next_fit) {
         progressive_fit(w);
         while (w->next_fit <= w->fs_n)

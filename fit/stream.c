@@ -159,7 +159,7 @@ static void round_run(fit_stream *s)
 int fit_stream_add(fit_stream *s, const struct fit_sample *sample, int level_end,
                    struct gonio_err *err)
 {
-    if (sample && s->n == s->cap) {
+    if (s->n == s->cap) {
         size_t cap = s->cap ? 2 * s->cap : 256;
         struct fit_sample *m = realloc(s->samples, cap * sizeof *m);
         if (!m)
@@ -167,11 +167,9 @@ int fit_stream_add(fit_stream *s, const struct fit_sample *sample, int level_end
         s->samples = m;
         s->cap = cap;
     }
-    if (sample) {
-        s->samples[s->n++] = *sample;
-        s->st.samples = s->n;
-        s->since++;
-    }
+    s->samples[s->n++] = *sample;
+    s->st.samples = s->n;
+    s->since++;
     if (s->st.converged)
         return 1;
     /* Rounds before a fit is possible (9 residuals at least) would only fail. */

@@ -68,8 +68,7 @@ int fit_stream_new(const struct fit_stream_options *opt, fit_stream **out,
 void fit_stream_free(fit_stream *s);
 
 /* Add one sample. level_end != 0 says the sample ends a progressive level,
- * which forces a round. sample may be NULL (a measured point the fit cannot
- * use, e.g. a saturated reading) to pass on only its level end. Returns 1 when the stream has converged (now or
+ * which forces a round. Returns 1 when the stream has converged (now or
  * before), 0 otherwise, or a negative code with err filled (out of memory).
  * A failed fit round is not an error: it counts as a restless round. */
 int fit_stream_add(fit_stream *s, const struct fit_sample *sample, int level_end,

@@ -331,7 +331,7 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
     }
     if (rc == 0 && !(samples = malloc((n ? n : 1) * sizeof *samples)))
         rc = gonio_err_set(err, ENOMEM, "out of memory");
-    size_t used = rc == 0 ? journal_fit_samples(js, n, samples) : 0;
+    size_t saturated = rc == 0 ? journal_fit_samples(js, n, samples) : 0;
     if (rc == 0 && !(truth = brdf_material_open(mat->spec, err)))
         rc = -abs(err && err->code ? err->code : GONIO_ENOTFOUND);
     if (rc == 0)
@@ -346,13 +346,12 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
         if (access(path, F_OK) == 0)
             continue; /* finished by an earlier run */
         struct row_fit f;
-        rc = fit_one(s, m, jobdir, samples, used, mat->spec, &t, &f, err);
+        rc = fit_one(s, m, jobdir, samples, n, mat->spec, &t, &f, err);
         if (rc < 0)
             break;
-        if (used < n) { /* say what the fit did not see */
+        if (saturated) { /* say what the fit took at a clipped value */
             char note[sizeof f.note];
-            snprintf(note, sizeof note, "%zu saturated samples left out; %.540s", n - used,
-                     f.note);
+            snprintf(note, sizeof note, "%zu saturated samples; %.540s", saturated, f.note);
             memcpy(f.note, note, sizeof note);
         }
         json_t *row = row_json(&rc_info, &f);

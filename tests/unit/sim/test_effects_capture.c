@@ -140,7 +140,7 @@ static void test_bad_day_fails_where_the_stall_is_and_resumes(void **state)
         check_valid(&all[i], plan, &rig);
         flagged += (all[i].flags & JOURNAL_FLAG_SATURATED) != 0;
     }
-    /* the fit saw only the unsaturated readings (lower bounds are not values) */
+    /* the capture reports the clipped readings its fit took */
     assert_true(flagged > 0);
     assert_int_equal(sum.saturated, flagged);
     assert_int_equal(access(path, F_OK), 0);
