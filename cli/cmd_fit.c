@@ -7,7 +7,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <time.h>
 
 #include <jansson.h>
 
@@ -17,6 +16,7 @@
 #include "daemon/journal.h"
 #include "fit/mlp.h"
 #include "fit/model_file.h"
+#include "fit/model_run.h"
 #include "fit/models.h"
 
 static void usage(FILE *out)
@@ -30,13 +30,6 @@ static void usage(FILE *out)
                  "models:\n");
     for (size_t i = 0; fit_model_at(i); i++)
         fprintf(out, "  %-13s %s\n", fit_model_at(i)->name, fit_model_at(i)->summary);
-}
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 /* The journal's samples as a fit takes them; *saturated counts the clipped ones. */
@@ -218,16 +211,11 @@ int cmd_fit(int argc, char **argv)
         free(spec);
         return gonio_exit_status(err.code);
     }
-    struct fit_model_file *mf = NULL;
     struct fit_model_report rep = {0};
-    double t0 = now_s();
-    rc = kind->fit(&data, &mo, &mf, &rep, &err);
-    double fit_s = now_s() - t0;
-    if (!rc)
-        rc = fit_model_file_write(mf, out, &err);
-    fit_model_file_free(mf);
-    char spec_buf[4300];
-    snprintf(spec_buf, sizeof spec_buf, "model:%s", out);
+    double fit_s = 0;
+    /* RGB models are assessed as read back from their file; the spectral
+     * MLP on its own samples (spectral_errors). */
+    rc = fit_model_run(kind, &data, &mo, out, &rep, &fit_s, kind->spectral ? NULL : &m, &err);
     if (!rc) {
         printf("%-10s %s\n", "model", model);
         printf("%-10s %zu (%s)\n", "samples", n, samples_path);
@@ -238,27 +226,11 @@ int cmd_fit(int argc, char **argv)
         printf("%-10s %s\n", "details", rep.note);
         if (kind->spectral) {
             rc = spectral_errors(out, spec, n, &err);
-        } else if ((m = fit_material_open(spec_buf, &err))) {
-            /* Errors on the samples: the model read back from its file. */
-            struct brdf_pair *pairs = malloc(n * sizeof *pairs);
-            double *tr = malloc(3 * n * sizeof *tr), *pr = malloc(3 * n * sizeof *pr);
-            if (pairs && tr && pr) {
-                for (size_t i = 0; i < n; i++) {
-                    pairs[i] = rgb[i].g;
-                    memcpy(tr + 3 * i, rgb[i].rgb, sizeof rgb[i].rgb);
-                }
-                brdf_material_eval(m, pairs, n, pr);
-                struct brdf_errors e;
-                brdf_errors_compute(pairs, tr, pr, n, &e);
-                print_errors("samples", &e);
-            } else {
-                rc = gonio_err_set(&err, GONIO_EFIT, "out of memory");
-            }
-            free(pairs);
-            free(tr);
-            free(pr);
         } else {
-            rc = -1;
+            struct brdf_errors e;
+            rc = fit_sample_errors(m, rgb, n, &e, &err);
+            if (!rc)
+                print_errors("samples", &e);
         }
     }
     if (!rc && truth && m) {

@@ -19,6 +19,7 @@
 #include "daemon/capture.h"
 #include "daemon/journal.h"
 #include "fit/model_file.h"
+#include "fit/model_run.h"
 #include "fit/models.h"
 #include "study/study_private.h"
 
@@ -85,31 +86,6 @@ static int domain_errors(const brdf_material *model, const struct brdf_domain *d
     }
     free(pred);
     brdf_errors_acc_finish(&acc, out);
-    return 0;
-}
-
-/* The model against the measured samples. */
-static int sample_errors(const brdf_material *model, const struct fit_sample *s, size_t n,
-                         struct brdf_errors *out, struct gonio_err *err)
-{
-    struct brdf_pair *pairs = malloc((n ? n : 1) * sizeof *pairs);
-    double *meas = malloc(3 * (n ? n : 1) * sizeof *meas),
-           *pred = malloc(3 * (n ? n : 1) * sizeof *pred);
-    if (!pairs || !meas || !pred) {
-        free(pairs);
-        free(meas);
-        free(pred);
-        return gonio_err_set(err, ENOMEM, "out of memory");
-    }
-    for (size_t i = 0; i < n; i++) {
-        pairs[i] = s[i].g;
-        memcpy(meas + 3 * i, s[i].rgb, sizeof s[i].rgb);
-    }
-    brdf_material_eval(model, pairs, n, pred);
-    brdf_errors_compute(pairs, meas, pred, n, out);
-    free(pairs);
-    free(meas);
-    free(pred);
     return 0;
 }
 
@@ -253,7 +229,7 @@ static int fit_one(const struct study_spec *s, size_t mi, const char *jobdir,
     brdf_material *m = fit_material_open(spec, err);
     if (!m)
         return -abs(err && err->code ? err->code : GONIO_EBADDATA);
-    rc = sample_errors(m, samples, n, &f->plan, err);
+    rc = fit_sample_errors(m, samples, n, &f->plan, err);
     if (rc == 0)
         rc = domain_errors(m, &t->inplane, t->v_inplane, &f->inplane, err);
     if (rc == 0)
