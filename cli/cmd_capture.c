@@ -11,13 +11,15 @@ static void usage(FILE *out)
 {
     fprintf(out,
             "usage: gonio capture --offline --scene NAME|FILE --plan NAME|FILE --out DIR\n"
-            "                     [--material SPEC] [--model abc|abc-prior] [--rig NAME|FILE]\n"
+            "                     [--material SPEC] [--model NAME] [--rig NAME|FILE]\n"
             "                     [--order travel|progressive|as-written|greedy]\n"
             "                     [--stop all|converge] [--quiet]\n"
             "  --material overrides the scene's material: nbrdf:NAME, merl:FILE, abc:NAME,\n"
             "  sgd:NAME or default. DIR receives plan.json, setup.json, samples.csv and\n"
             "  results.json; running again on the same DIR resumes the capture.\n"
-            "  --stop converge ends the capture once the streaming fit has converged\n"
+            "  --model: the final fit's model, any RGB model of 'gonio fit --help' (default\n"
+            "  abc); models other than abc and abc-prior also write DIR/NAME.model.\n"
+            "  --stop converge ends the capture once the streaming ABC fit has converged\n"
             "  (the plan's stop tolerances, or the defaults of docs/fitting.md); --stop all\n"
             "  measures every point whatever the plan says.\n");
 }
@@ -86,6 +88,8 @@ int cmd_capture(int argc, char **argv)
                s.saturated);
     if (!strcmp(s.stop_reason, "converged"))
         printf("  stopped on convergence after %zu samples\n", s.samples);
+    if (s.model_file[0])
+        printf("  model file %s/%s\n", cfg.out_dir, s.model_file);
     if (s.warning[0]) /* abc-prior: too few samples to pin the lobe */
         printf("  %s\n", s.warning);
     print_errors("plan", &s.err_plan);

@@ -15,6 +15,7 @@
 #include <jansson.h>
 
 #include "cli/commands.h"
+#include "fit/models.h"
 
 #define GONIO_SOCKET_DEFAULT "/run/goniod/goniod.sock"
 
@@ -415,11 +416,12 @@ static void capture_usage(FILE *out)
 {
     fprintf(out,
             "usage: gonio capture --plan NAME|FILE [--scene NAME|FILE] [--material SPEC]\n"
-            "                     [--rig NAME|FILE] [--model abc] [--order ORDER]\n"
+            "                     [--rig NAME|FILE] [--model NAME] [--order ORDER]\n"
             "                     [--stop all|converge] [--name ID] [--wait] [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). Files are relative to goniod's capture\n"
-            "  root. --wait follows the capture to its end: exit 0 when it completes.\n"
+            "  root. --model: the final fit's model, any RGB model of 'gonio fit --help'\n"
+            "  (default abc). --wait follows the capture to its end: exit 0 when it completes.\n"
             "  The socket is --socket, else $GONIO_SOCKET, else " GONIO_SOCKET_DEFAULT ".\n");
 }
 
@@ -456,6 +458,11 @@ int cmd_capture_daemon(int argc, char **argv)
         fprintf(stderr, optind != argc ? "gonio capture: unexpected argument\n"
                                        : "gonio capture: --plan is required\n");
         capture_usage(stderr);
+        return 2;
+    }
+    struct gonio_err merr = {0};
+    if (vals[4] && !fit_model_find_rgb(vals[4], "--model", &merr)) {
+        fprintf(stderr, "gonio capture: %s\n", merr.msg);
         return 2;
     }
     if (vals[6] && strcmp(vals[6], "all") && strcmp(vals[6], "converge")) {

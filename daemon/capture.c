@@ -14,6 +14,8 @@
 #include "drivers/drv_sim.h"
 #include "fit/abc_prior.h"
 #include "fit/fit.h"
+#include "fit/model_run.h"
+#include "fit/models.h"
 #include "fit/stream.h"
 #include "planner/planner.h"
 #include "sim/scene.h"
@@ -25,6 +27,7 @@ struct capture_inputs {
     struct plan_rig rig;
     struct plan *plan;
     brdf_material *material;
+    const struct fit_model_kind *model; /* the final fit's (fit/models.h) */
 };
 
 static void inputs_free(struct capture_inputs *in)
@@ -57,10 +60,9 @@ static int resolve_inputs(const struct capture_config *cfg, struct capture_input
             return gonio_err_set(err, -rc, "ordering plan: %s", gonio_strerror(rc));
         }
     }
-    if (strcmp(cfg->model, "abc") != 0 && strcmp(cfg->model, "abc-prior") != 0) {
+    if (!(in->model = fit_model_find_rgb(cfg->model, "--model", err))) {
         inputs_free(in);
-        return gonio_err_set(err, GONIO_EUSAGE, "--model '%s': use abc or abc-prior",
-                             cfg->model);
+        return -GONIO_EUSAGE;
     }
     const char *spec = cfg->material ? cfg->material : in->scene.material;
     if (!strcmp(spec, "default")) /* name the material actually used */
@@ -294,14 +296,14 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
     return rc;
 }
 
-static int fit_samples(const struct journal_sample *js, size_t n, const struct brdf_abc *warm,
-                       const char *model, const char *material, struct capture_summary *out,
-                       struct gonio_err *err)
+/* abc and abc-prior: fit_abc / fit_abc_map, warm-started from the
+ * streaming fit, with parameter sds and (abc-prior) the too-few-samples
+ * warning; the parameters go into results.json. */
+static int fit_abc_capture(const struct fit_sample *fs, size_t n, const struct brdf_abc *warm,
+                           const char *model, const char *material,
+                           struct capture_summary *out, brdf_material **fitted,
+                           struct gonio_err *err)
 {
-    struct fit_sample *fs = malloc((n ? n : 1) * sizeof *fs);
-    if (!fs)
-        return gonio_err_set(err, ENOMEM, "out of memory");
-    out->saturated = journal_fit_samples(js, n, fs);
     struct fit_options opt = fit_default_options();
     opt.warm_start = warm; /* the streaming fit's last parameters, when there is one */
     struct fit_info info;
@@ -314,42 +316,73 @@ static int fit_samples(const struct journal_sample *js, size_t n, const struct b
         rc = use_prior ? fit_abc_map(fs, n, &opt, &prior, &out->params, &info, err)
                        : fit_abc(fs, n, &opt, &out->params, &info, err);
     out->fit_time_s = monotonic_s() - t0;
-    if (rc == 0) {
-        out->sd = info.sd;
-        if (use_prior)
-            fit_abc_prior_warning(&info, n - info.dropped, out->warning, sizeof out->warning);
+    if (rc < 0)
+        return rc;
+    out->has_params = 1;
+    out->sd = info.sd;
+    if (use_prior)
+        fit_abc_prior_warning(&info, n - info.dropped, out->warning, sizeof out->warning);
+    out->converged = info.converged;
+    *fitted = brdf_abc_material(&out->params, "abc");
+    return *fitted ? 0 : gonio_err_set(err, ENOMEM, "out of memory");
+}
+
+/* Any other registered RGB model: the fit `gonio fit` makes, its model
+ * file written as DIR/NAME.model and read back, so that the errors below
+ * are those of the file an operator renders or exports. */
+static int fit_registry_capture(const struct fit_sample *fs, size_t n, const char *dir,
+                                const struct fit_model_kind *kind, const char *material,
+                                struct capture_summary *out, brdf_material **fitted,
+                                struct gonio_err *err)
+{
+    struct fit_data data = {.rgb = fs, .n_rgb = n, .material = material};
+    struct fit_model_options mo = fit_model_default_options();
+    struct fit_model_report rep = {0};
+    char path[4200];
+    snprintf(out->model_file, sizeof out->model_file, "%s.model", kind->name);
+    snprintf(path, sizeof path, "%.4000s/%s", dir, out->model_file);
+    int rc = fit_model_run(kind, &data, &mo, path, &rep, &out->fit_time_s, fitted, err);
+    if (rc < 0) {
+        out->model_file[0] = '\0';
+        return rc;
     }
-    out->converged = rc == 0 && info.converged;
-    if (rc == 0) {
-        /* Plan-domain error: the model against what was measured. */
-        double *truth = malloc(n * 3 * sizeof *truth), *pred = malloc(n * 3 * sizeof *pred);
-        struct brdf_pair *pairs = malloc(n * sizeof *pairs);
-        if (!truth || !pred || !pairs) {
-            rc = gonio_err_set(err, ENOMEM, "out of memory");
-        } else {
-            for (size_t i = 0; i < n; i++) {
-                pairs[i] = fs[i].g;
-                memcpy(truth + 3 * i, fs[i].rgb, sizeof fs[i].rgb);
-                brdf_abc_eval(&out->params, &fs[i].g, pred + 3 * i);
-            }
-            brdf_errors_compute(pairs, truth, pred, n, &out->err_plan);
-        }
-        free(truth);
-        free(pred);
-        free(pairs);
+    out->converged = rep.converged;
+    return 0;
+}
+
+/* The final fit of the journalled samples with the capture's model, and its
+ * error on them (the plan domain). A failed fit names the model and leaves
+ * the journal as it is. */
+static int fit_samples(const struct journal_sample *js, size_t n, const struct brdf_abc *warm,
+                       const struct fit_model_kind *kind, const char *dir, const char *material,
+                       struct capture_summary *out, brdf_material **fitted,
+                       struct gonio_err *err)
+{
+    struct fit_sample *fs = malloc((n ? n : 1) * sizeof *fs);
+    if (!fs)
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    out->saturated = journal_fit_samples(js, n, fs);
+    int rc = !strcmp(kind->name, "abc") || !strcmp(kind->name, "abc-prior")
+                 ? fit_abc_capture(fs, n, warm, kind->name, material, out, fitted, err)
+                 : fit_registry_capture(fs, n, dir, kind, material, out, fitted, err);
+    if (rc < 0 && err) {
+        char msg[GONIO_ERR_MSG_MAX];
+        snprintf(msg, sizeof msg, "%s", err->msg);
+        gonio_err_set(err, err->code,
+                      "final fit (model %s): %s; the %zu samples stay in %s/samples.csv",
+                      kind->name, msg, n, dir);
     }
+    if (rc == 0) /* Plan-domain error: the model against what was measured. */
+        rc = fit_sample_errors(*fitted, fs, n, &out->err_plan, err);
     free(fs);
     return rc;
 }
 
 /* Errors against the true material over the in-plane and full domains. */
 #define ASSESS_SEED UINT64_C(20261201) /* the sample of the full domain (assess_nodes) */
-static int assess_truth(const brdf_material *truth, size_t assess_nodes,
-                        struct capture_summary *out, struct gonio_err *err)
+static int assess_truth(const brdf_material *truth, const brdf_material *model,
+                        size_t assess_nodes, struct capture_summary *out, struct gonio_err *err)
 {
-    brdf_material *model = brdf_abc_material(&out->params, "abc");
-    if (!model)
-        return gonio_err_set(err, ENOMEM, "out of memory");
     struct brdf_domain inplane = {0}, full = {0};
     int rc = brdf_domain_inplane(&inplane, err);
     if (rc >= 0)
@@ -365,7 +398,6 @@ static int assess_truth(const brdf_material *truth, size_t assess_nodes,
     }
     brdf_domain_free(&inplane);
     brdf_domain_free(&full);
-    brdf_material_free(model);
     return rc;
 }
 
@@ -389,6 +421,7 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
     int aborted = 0, converged = 0;
     journal *j = NULL;
     fit_stream *fs = NULL;
+    brdf_material *fitted = NULL; /* the final fit, as a material */
     struct plan_stop stop = *plan_stop(in.plan);
     if (cfg->stop && strcmp(cfg->stop, "all") && strcmp(cfg->stop, "converge")) {
         inputs_free(&in);
@@ -434,16 +467,17 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
     if (rc == 0 && !aborted && !cfg->measure_only)
         phase(hooks, CAPTURE_PHASE_FIT, -1);
     if (rc == 0 && !aborted && !cfg->measure_only)
-        rc = fit_samples(samples, n, fs ? fit_stream_params(fs) : NULL, cfg->model,
-                         brdf_material_name(in.material), out, err);
+        rc = fit_samples(samples, n, fs ? fit_stream_params(fs) : NULL, in.model, cfg->out_dir,
+                         brdf_material_name(in.material), out, &fitted, err);
     if (rc == 0 && converged)
         out->converged = 1; /* the stop rule decided: the capture converged */
     if (rc == 0 && !aborted && !cfg->measure_only)
-        rc = assess_truth(in.material, cfg->assess_nodes, out, err);
+        rc = assess_truth(in.material, fitted, cfg->assess_nodes, out, err);
     if (rc == 0 && !aborted && !cfg->measure_only)
         rc = capture_files_results(cfg->out_dir, out, err);
     if (rc == 0 && !aborted)
         phase(hooks, CAPTURE_PHASE_BETWEEN, -1);
+    brdf_material_free(fitted);
     free(samples);
     fit_stream_free(fs);
     inputs_free(&in);

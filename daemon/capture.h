@@ -26,7 +26,8 @@ struct capture_config {
     const char *scene;    /* name or path */
     const char *material; /* overrides the scene's material, or NULL */
     const char *rig;      /* overrides the scene's rig profile, or NULL */
-    const char *model;    /* "abc" or "abc-prior" (fit/abc_prior.h) */
+    const char *model;    /* any RGB model of the registry (fit/models.h); the
+                             streaming fit of --stop converge is ABC whatever it is */
     const char *out_dir;  /* the capture directory */
     const char *order;    /* overrides the plan's ordering, or NULL */
     const char *stop;     /* "all" or "converge": overrides the plan's stop rule, or NULL */
@@ -51,11 +52,14 @@ struct capture_summary {
     double rig_time_s, move_s, settle_s, integration_s;
     double fit_time_s;
     int converged;
+    int has_params;         /* abc, abc-prior: params and sd hold the ABC fit */
     struct brdf_abc params;
+    char model_file[64];    /* other models: their model file in the directory
+                               (NAME.model, as gonio fit writes it), else "" */
     struct brdf_errors err_plan, err_inplane, err_full;
     int has_truth; /* inplane/full errors computed against the known material */
     char stop_reason[32]; /* "complete", "converged" (stop rule), "aborted" */
-    struct fit_uncertainty sd; /* parameter sds of the final fit (fit/fit.h) */
+    struct fit_uncertainty sd; /* parameter sds of an ABC final fit (fit/fit.h) */
     char warning[256];         /* abc-prior: "too few samples" warning, or "" */
 };
 

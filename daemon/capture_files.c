@@ -169,17 +169,29 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
         json_object_set_new(errors, "inplane", errors_json(&s->err_inplane));
         json_object_set_new(errors, "full", errors_json(&s->err_full));
     }
-    json_t *root = json_pack(
-        "{s:s,s:s,s:s,s:I,s:f,s:{s:f,s:f,s:f},s:f,s:b,s:{s:o,s:o,s:f,s:f,s:f,s:s},s:o}", "plan",
-        s->plan, "material", s->material, "model", s->model, "samples", (json_int_t)s->samples,
-        "rig_time_s", s->rig_time_s, "rig_time", "move_s", s->move_s, "settle_s", s->settle_s,
-        "integration_s", s->integration_s, "fit_time_s", s->fit_time_s, "converged",
-        s->converged, "params", "kd", rgb_json(s->params.kd), "A", rgb_json(s->params.A), "B",
-        s->params.B, "C", s->params.C, "eta", s->params.eta, "convention",
-        "A without the 1/pi of the published MERL fits (docs/fitting.md)", "errors", errors);
+    /* ABC's parameters and their sds; null for the other models, whose
+     * parameters are in their model file (docs/formats.md). */
+    json_t *params = s->has_params
+                         ? json_pack("{s:o,s:o,s:f,s:f,s:f,s:s}", "kd", rgb_json(s->params.kd),
+                                     "A", rgb_json(s->params.A), "B", s->params.B, "C",
+                                     s->params.C, "eta", s->params.eta, "convention",
+                                     "A without the 1/pi of the published MERL fits "
+                                     "(docs/fitting.md)")
+                         : json_null();
+    json_t *root = json_pack("{s:s,s:s,s:s,s:I,s:f,s:{s:f,s:f,s:f},s:f,s:b,s:o,s:o}", "plan",
+                             s->plan, "material", s->material, "model", s->model, "samples",
+                             (json_int_t)s->samples, "rig_time_s", s->rig_time_s, "rig_time",
+                             "move_s", s->move_s, "settle_s", s->settle_s, "integration_s",
+                             s->integration_s, "fit_time_s", s->fit_time_s, "converged",
+                             s->converged, "params", params, "errors", errors);
+    if (root)
+        json_object_set_new(root, "model_file", s->model_file[0] ? json_string(s->model_file)
+                                                                  : json_null());
     if (root)
         json_object_set_new(root, "saturated", json_integer((json_int_t)s->saturated));
     if (root) /* parameter sds from the fit's Jacobian, natural units (fit/fit.h) */
-        json_object_set_new(root, "uncertainty", uncertainty_json(&s->sd, s->warning));
+        json_object_set_new(root, "uncertainty", s->has_params
+                                                     ? uncertainty_json(&s->sd, s->warning)
+                                                     : json_null());
     return write_json(dir, "results.json", root, err);
 }

@@ -11,6 +11,7 @@
 #include "common/paths.h"
 #include "daemon/control_private.h"
 #include "daemon/request.h"
+#include "fit/models.h"
 
 enum need { NEED_ANY, NEED_IDLE, NEED_ACTIVE };
 
@@ -46,8 +47,8 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
         strcmp(order, "as-written") && strcmp(order, "greedy"))
         return gonio_err_set(err, GONIO_EUSAGE,
                              "order '%s': use travel, progressive, as-written or greedy", order);
-    if (model && strcmp(model, "abc"))
-        return gonio_err_set(err, GONIO_EUSAGE, "model '%s': the only model is 'abc'", model);
+    if (model && !fit_model_find_rgb(model, "model", err)) /* names the RGB models */
+        return -GONIO_EUSAGE;
     int rc;
     if ((rc = control_resolve_ref(c, "plan", plan, r.plan, sizeof r.plan, err)) < 0)
         return rc;

@@ -158,12 +158,16 @@ static json_t *stop_doc(const struct worker_msg *m)
         json_object_set_new(r, "fit_time_s", control_json_number(s->fit_time_s));
         json_object_set_new(
             r, "params",
-            json_pack("{s:[o,o,o], s:[o,o,o], s:o, s:o, s:o}", "kd",
-                      control_json_number(p->kd[0]), control_json_number(p->kd[1]),
-                      control_json_number(p->kd[2]), "A", control_json_number(p->A[0]),
-                      control_json_number(p->A[1]), control_json_number(p->A[2]), "B",
-                      control_json_number(p->B), "C", control_json_number(p->C), "eta",
-                      control_json_number(p->eta)));
+            !s->has_params
+                ? json_null() /* not ABC: the parameters are in model_file */
+                : json_pack("{s:[o,o,o], s:[o,o,o], s:o, s:o, s:o}", "kd",
+                            control_json_number(p->kd[0]), control_json_number(p->kd[1]),
+                            control_json_number(p->kd[2]), "A", control_json_number(p->A[0]),
+                            control_json_number(p->A[1]), control_json_number(p->A[2]), "B",
+                            control_json_number(p->B), "C", control_json_number(p->C), "eta",
+                            control_json_number(p->eta)));
+        json_object_set_new(r, "model_file",
+                            s->model_file[0] ? json_string(s->model_file) : json_null());
         json_object_set_new(r, "err_plan", errors_doc(&s->err_plan));
         if (s->has_truth) {
             json_object_set_new(r, "err_inplane", errors_doc(&s->err_inplane));

@@ -1,6 +1,7 @@
 /* The model registry (fit/models.h). Add a row per model. */
 #include "fit/models.h"
 
+#include <stdio.h>
 #include <string.h>
 
 #include "fit/abc_model.h"
@@ -36,6 +37,33 @@ const struct fit_model_kind *fit_model_find(const char *name)
     for (size_t i = 0; i < N_MODELS; i++)
         if (!strcmp(models[i].name, name))
             return &models[i];
+    return NULL;
+}
+
+const struct fit_model_kind *fit_model_find_rgb(const char *name, const char *what,
+                                                struct gonio_err *err)
+{
+    char list[256] = "";
+    size_t len = 0, n_rgb = 0, k = 0;
+    for (size_t i = 0; i < N_MODELS; i++)
+        n_rgb += !models[i].spectral;
+    for (size_t i = 0; i < N_MODELS && len < sizeof list; i++) {
+        if (models[i].spectral)
+            continue;
+        k++;
+        len += (size_t)snprintf(list + len, sizeof list - len, "%s%s",
+                                k == 1 ? "" : k == n_rgb ? " or " : ", ", models[i].name);
+    }
+    const struct fit_model_kind *kind = fit_model_find(name);
+    if (kind && !kind->spectral)
+        return kind;
+    if (kind)
+        gonio_err_set(err, GONIO_EUSAGE,
+                      "%s '%s': a spectral model, and a capture fits RGB samples; use %s "
+                      "(or gonio fit --model %s on its spectra.csv)",
+                      what, name, list, name);
+    else
+        gonio_err_set(err, GONIO_EUSAGE, "%s '%s': unknown model; use %s", what, name, list);
     return NULL;
 }
 

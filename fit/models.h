@@ -71,6 +71,13 @@ struct fit_model_kind {
 /* The row for a model name, or NULL. */
 const struct fit_model_kind *fit_model_find(const char *name);
 
+/* The RGB model a capture fits (`gonio capture --model`, goniod's capture
+ * command): the row of that name, or NULL with a GONIO_EUSAGE error
+ * "WHAT 'NAME': ..." that lists the RGB model names (an unknown name) or
+ * says that the model fits spectral samples. */
+const struct fit_model_kind *fit_model_find_rgb(const char *name, const char *what,
+                                                struct gonio_err *err);
+
 /* The row that opens model files of this kind, or NULL. */
 const struct fit_model_kind *fit_model_for_kind(const char *file_kind);
 

@@ -761,6 +761,46 @@ class CaptureTests(DaemonTest):
         self.assertIn("no-such-plan", stop["message"])
         self.assertEqual(c.request("status")["state"], "idle")
 
+    def test_capture_models(self):
+        """Any RGB model of the registry is a capture's final fit; ABC
+        models report parameters, the others a model file in the capture."""
+        c = self.d.connect()
+        c.request("watch")
+        for name, model in (("ap", "abc-prior"), ("lt", "latent")):
+            r = c.request("capture", plan="ds4", name=name, model=model,
+                          material="builtin:nylon")
+            self.assertEqual(r["class"], "OK", r)
+            docs = c.until_stop(name)
+            self.assertEqual(docs[0]["model"], model)
+            stop = docs[-1]
+            self.assertEqual(stop["exit_status"], "success", stop)
+            res = stop["results"]
+            self.assertEqual(res["model"], model)
+            capdir = os.path.join(self.d.root, name)
+            with open(os.path.join(capdir, "results.json")) as f:
+                results = json.load(f)
+            self.assertEqual(results["model"], model)
+            # results.json prints 12 significant digits
+            self.assertAlmostEqual(results["errors"]["full"]["log"],
+                                   res["err_full"]["log_error"], delta=1e-9)
+            if model == "latent":
+                self.assertIsNone(res["params"])
+                self.assertIsNone(results["uncertainty"])
+                self.assertEqual(res["model_file"], "latent.model")
+                with open(os.path.join(capdir, "latent.model"), "rb") as f:
+                    self.assertTrue(f.readline().startswith(b"gonio-model latent "))
+            else:
+                self.assertGreater(res["params"]["B"], 0)
+                self.assertIsNone(res["model_file"])
+                self.assertIn("sd_log_B", results["uncertainty"])
+        for model, needle in (("nonsense", "unknown model"), ("mlp-spectral", "spectral")):
+            r = c.request("capture", plan="ds4", name="bad", model=model)
+            self.assertEqual(r["code"], "bad-value", r)
+            self.assertIn("'%s'" % model, r["message"])
+            self.assertIn(needle, r["message"])
+            self.assertIn("latent", r["message"])  # the valid names are listed
+        self.assertFalse(os.path.exists(os.path.join(self.d.root, "bad")))
+
     def test_sigterm_aborts_and_keeps_data(self):
         c = self.d.connect()
         c.request("watch")
@@ -894,6 +934,17 @@ class ClientTests(DaemonTest):
         self.assertEqual(st["fit_error"]["capture_id"], "cw")
         r = self.d.gonio("status")
         self.assertIn("fit (cw, %d samples): log error" % total, r.stdout)
+
+    def test_capture_model(self):
+        r = self.d.gonio("capture", "--plan", "ds4", "--model", "nonsense")
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("'nonsense'", r.stderr)
+        self.assertIn("abc-prior", r.stderr)
+        r = self.d.gonio("capture", "--plan", "ds4", "--name", "cm", "--model", "latent",
+                         "--wait")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("fit latent", r.stdout)
+        self.assertTrue(os.path.exists(os.path.join(self.d.root, "cm", "latent.model")))
 
     def test_exit_statuses(self):
         r = self.d.gonio("pause")

@@ -1,0 +1,258 @@
+/* Every RGB model of the registry as a capture's final fit (`gonio capture
+ * --model NAME`): the latent model's capture writes the model file `gonio
+ * fit` would, reports errors of that file through the material interface,
+ * and meets the DS4 target; abc on the same samples of a shiny material
+ * does not, so the option changes the fit. Unknown and spectral names are
+ * refused before anything is written, and a failed final fit keeps the
+ * samples. */
+#include "tests/gonio_test.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <jansson.h>
+
+#include "common/paths.h"
+#include "daemon/capture.h"
+#include "daemon/journal.h"
+#include "fit/model_file.h"
+#include "fit/model_run.h"
+#include "fit/models.h"
+
+static char dir[] = "/tmp/gonio-capmodelsXXXXXX";
+
+static int setup(void **state)
+{
+    (void)state;
+    return mkdtemp(dir) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[300];
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+static int capture(const char *material, const char *model, const char *out,
+                   struct capture_summary *s, struct gonio_err *err)
+{
+    struct capture_config cfg = {.plan = "ds4", .scene = "ideal", .material = material,
+                                 .model = model, .out_dir = out, .quiet = 1,
+                                 .assess_nodes = gonio_test_assess_nodes()};
+    return capture_run_offline(&cfg, s, err);
+}
+
+static json_t *results(const char *cap)
+{
+    char path[400];
+    snprintf(path, sizeof path, "%s/results.json", cap);
+    json_t *root = json_load_file(path, 0, NULL);
+    assert_non_null(root);
+    return root;
+}
+
+static double jerr(json_t *root, const char *domain, const char *key)
+{
+    json_t *v = json_object_get(json_object_get(json_object_get(root, "errors"), domain), key);
+    assert_true(json_is_number(v));
+    return json_number_value(v);
+}
+
+/* The journal's samples as a fit takes them. */
+static size_t read_samples(const char *cap, struct fit_sample **out)
+{
+    char path[400];
+    snprintf(path, sizeof path, "%s/samples.csv", cap);
+    struct journal_sample *js = NULL;
+    size_t n = 0;
+    struct gonio_err err = {0};
+    assert_true(journal_read(path, &js, &n, &err) >= 0);
+    *out = malloc((n ? n : 1) * sizeof **out);
+    assert_non_null(*out);
+    journal_fit_samples(js, n, *out);
+    free(js);
+    return n;
+}
+
+static void test_latent_capture_ds4(void **state)
+{
+    (void)state;
+    gonio_test_shared_or_skip();
+    char cap[300], path[400], spec[420];
+    snprintf(cap, sizeof cap, "%s/gold-latent", dir);
+    struct capture_summary s;
+    struct gonio_err err = {0};
+    int rc = capture("nbrdf:gold-metallic-paint", "latent", cap, &s, &err);
+    if (rc)
+        printf("capture: %s\n", err.msg);
+    assert_int_equal(rc, 0);
+    assert_string_equal(s.model, "latent");
+    assert_string_equal(s.model_file, "latent.model");
+    assert_false(s.has_params);
+    printf("latent DS4 gold-metallic-paint: plan %.4f, in-plane %.4f, full %.4f (%zu nodes), "
+           "fit %.3f s\n",
+           s.err_plan.log, s.err_inplane.log, s.err_full.log, s.err_full.n_used, s.fit_time_s);
+
+    json_t *root = results(cap);
+    assert_string_equal(json_string_value(json_object_get(root, "model")), "latent");
+    assert_string_equal(json_string_value(json_object_get(root, "model_file")), "latent.model");
+    assert_true(json_is_null(json_object_get(root, "params")));
+    assert_true(json_is_null(json_object_get(root, "uncertainty")));
+    double full = jerr(root, "full", "log"), plan = jerr(root, "plan", "log");
+    assert_true(full <= 0.12); /* the DS4 target (docs/results-latent.md) */
+    json_decref(root);
+
+    /* The model file opens through the material interface, and it is the
+     * model results.json assessed: its error on the samples is the plan
+     * error reported. */
+    snprintf(path, sizeof path, "%s/latent.model", cap);
+    snprintf(spec, sizeof spec, "model:%s", path);
+    brdf_material *m = fit_material_open(spec, &err);
+    assert_non_null(m);
+    struct fit_sample *fs = NULL;
+    size_t n = read_samples(cap, &fs);
+    assert_int_equal((int)n, 6);
+    struct brdf_errors e;
+    assert_int_equal(fit_sample_errors(m, fs, n, &e, &err), 0);
+    assert_close(e.log, plan, 1e-12);
+    brdf_material_free(m);
+
+    /* It is the file `gonio fit DIR --model latent` writes: the registry's
+     * fit of the same samples gives the same values, bit for bit. */
+    struct fit_data data = {.rgb = fs, .n_rgb = n, .material = "nbrdf:gold-metallic-paint"};
+    struct fit_model_options mo = fit_model_default_options();
+    struct fit_model_file *mine = NULL, *written = fit_model_file_read(path, &err);
+    assert_non_null(written);
+    assert_int_equal(fit_model_find("latent")->fit(&data, &mo, &mine, NULL, &err), 0);
+    assert_int_equal((int)mine->n_data, (int)written->n_data);
+    assert_memory_equal(mine->data, written->data, mine->n_data * sizeof *mine->data);
+    fit_model_file_free(mine);
+    fit_model_file_free(written);
+    free(fs);
+}
+
+/* tungsten-carbide: six pairs give plain ABC a lobe the rest of the
+ * hemisphere does not have (issue 4: full log error 0.3-0.5); the latent
+ * model on the same capture stays near the material. */
+static void test_model_option_changes_the_fit(void **state)
+{
+    (void)state;
+    gonio_test_shared_or_skip();
+    char abc[300], lat[300];
+    snprintf(abc, sizeof abc, "%s/tc-abc", dir);
+    snprintf(lat, sizeof lat, "%s/tc-latent", dir);
+    struct capture_summary sa, sl;
+    struct gonio_err err = {0};
+    assert_int_equal(capture("nbrdf:tungsten-carbide", "abc", abc, &sa, &err), 0);
+    assert_int_equal(capture("nbrdf:tungsten-carbide", "latent", lat, &sl, &err), 0);
+    printf("DS4 tungsten-carbide full log error: abc %.4f, latent %.4f\n", sa.err_full.log,
+           sl.err_full.log);
+    assert_true(sa.has_params);
+    assert_string_equal(sa.model_file, "");
+    json_t *ra = results(abc), *rl = results(lat);
+    assert_true(json_is_object(json_object_get(ra, "params")));
+    assert_true(json_is_null(json_object_get(ra, "model_file")));
+    double fa = jerr(ra, "full", "log"), fl = jerr(rl, "full", "log");
+    assert_true(fl <= 0.12);
+    assert_true(fa > 3 * fl);
+    json_decref(ra);
+    json_decref(rl);
+    /* abc leaves no model file behind: its parameters are in results.json */
+    char path[400];
+    struct stat st;
+    snprintf(path, sizeof path, "%s/abc.model", abc);
+    assert_int_not_equal(stat(path, &st), 0);
+}
+
+static void test_bad_names_refused(void **state)
+{
+    (void)state;
+    char cap[300];
+    snprintf(cap, sizeof cap, "%s/never", dir);
+    struct capture_summary s;
+    struct gonio_err err = {0};
+    assert_int_equal(capture(NULL, "nonsense", cap, &s, &err), -GONIO_EUSAGE);
+    printf("%s\n", err.msg);
+    assert_non_null(strstr(err.msg, "'nonsense'"));
+    for (size_t i = 0; fit_model_at(i); i++) /* every RGB model is offered */
+        if (!fit_model_at(i)->spectral)
+            assert_non_null(strstr(err.msg, fit_model_at(i)->name));
+    assert_int_equal(capture(NULL, "mlp-spectral", cap, &s, &err), -GONIO_EUSAGE);
+    printf("%s\n", err.msg);
+    assert_non_null(strstr(err.msg, "'mlp-spectral'"));
+    assert_non_null(strstr(err.msg, "spectral model"));
+    struct stat st;
+    assert_int_not_equal(stat(cap, &st), 0); /* refused before anything is written */
+}
+
+/* A final fit that fails (here: the latent decoder is damaged) names the
+ * model and keeps every sample; a resume with the decoder back fits them
+ * without measuring again. */
+static void test_failed_fit_keeps_samples(void **state)
+{
+    (void)state;
+    gonio_test_shared_or_skip();
+    char conf[300], link[400], target[4200], cap[300], path[400];
+    const char *real = gonio_config_dir();
+    snprintf(conf, sizeof conf, "%s/config", dir);
+    assert_int_equal(mkdir(conf, 0755), 0);
+    static const char *const subdirs[] = {"plans", "rigs", "scenes"};
+    for (int i = 0; i < 3; i++) {
+        snprintf(link, sizeof link, "%s/%s", conf, subdirs[i]);
+        snprintf(target, sizeof target, "%s/%s", real, subdirs[i]);
+        assert_int_equal(symlink(target, link), 0);
+    }
+    snprintf(path, sizeof path, "%s/models", conf);
+    assert_int_equal(mkdir(path, 0755), 0);
+    snprintf(path, sizeof path, "%s/models/latent-decoder.gld", conf);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("not a decoder\n", f);
+    fclose(f);
+
+    char saved[4096];
+    snprintf(saved, sizeof saved, "%s", real);
+    setenv("GONIO_CONFIG", conf, 1);
+    snprintf(cap, sizeof cap, "%s/failed", dir);
+    struct capture_summary s;
+    struct gonio_err err = {0};
+    int rc = capture("nbrdf:red-plastic", "latent", cap, &s, &err);
+    unsetenv("GONIO_CONFIG");
+    printf("%s\n", err.msg);
+    assert_true(rc < 0);
+    assert_non_null(strstr(err.msg, "model latent"));
+    assert_non_null(strstr(err.msg, "samples.csv"));
+    struct stat st;
+    snprintf(path, sizeof path, "%s/results.json", cap);
+    assert_int_not_equal(stat(path, &st), 0);
+    snprintf(path, sizeof path, "%s/latent.model", cap);
+    assert_int_not_equal(stat(path, &st), 0);
+    struct fit_sample *fs = NULL;
+    assert_int_equal((int)read_samples(cap, &fs), 6);
+    free(fs);
+
+    assert_string_equal(gonio_config_dir(), saved);
+    rc = capture("nbrdf:red-plastic", "latent", cap, &s, &err);
+    if (rc)
+        printf("resume: %s\n", err.msg);
+    assert_int_equal(rc, 0);
+    assert_int_equal((int)s.samples, 6);
+    assert_int_equal(stat(path, &st), 0); /* latent.model written now */
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_latent_capture_ds4),
+        cmocka_unit_test(test_model_option_changes_the_fit),
+        cmocka_unit_test(test_bad_names_refused),
+        cmocka_unit_test(test_failed_fit_keeps_samples),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
