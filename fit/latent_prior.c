@@ -12,6 +12,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_min.h>
+
 #include "fit/latent_private.h"
 
 static double sqdist(const double *a, const double *b, int n)
@@ -44,6 +47,19 @@ static double loo_loglik(const double *d2, size_t m, int nz, double h)
     return s / (double)m;
 }
 
+struct loo_ctx {
+    const double *d2;
+    size_t m;
+    int nz;
+};
+
+/* -loo_loglik at h = e^x: what the minimiser minimises. */
+static double neg_loo_loglik(double x, void *p)
+{
+    const struct loo_ctx *c = p;
+    return -loo_loglik(c->d2, c->m, c->nz, exp(x));
+}
+
 double latent_prior_bandwidth(const latent_decoder *d)
 {
     size_t m = d->n_materials;
@@ -64,30 +80,43 @@ double latent_prior_bandwidth(const latent_decoder *d)
         free(d2);
         return 0;
     }
-    /* Golden-section search on log h over [rms/1000, rms]: the leave-one-out
-     * likelihood of a kernel density is unimodal in h for data like these
-     * (too small: each point sees no neighbour; too large: all is flat). */
-    const double g = 0.6180339887498949;
-    double lo = log(rms * 1e-3), hi = log(rms);
-    double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
-    double f1 = loo_loglik(d2, m, nz, exp(x1)), f2 = loo_loglik(d2, m, nz, exp(x2));
-    for (int it = 0; it < 60 && hi - lo > 1e-4; it++) {
-        if (f1 >= f2) {
-            hi = x2;
-            x2 = x1;
-            f2 = f1;
-            x1 = hi - g * (hi - lo);
-            f1 = loo_loglik(d2, m, nz, exp(x1));
-        } else {
-            lo = x1;
-            x1 = x2;
-            f1 = f2;
-            x2 = lo + g * (hi - lo);
-            f2 = loo_loglik(d2, m, nz, exp(x2));
+    /* The leave-one-out likelihood of a kernel density is unimodal in h for
+     * data like these (too small: each point sees no neighbour; too large:
+     * all is flat). A coarse scan of log h over [rms/1000, rms] brackets the
+     * maximum; GSL's Brent minimiser refines it. */
+    struct loo_ctx ctx = {d2, m, nz};
+    gsl_function fn = {neg_loo_loglik, &ctx};
+    enum { SCAN = 12 };
+    double lo = log(rms * 1e-3), hi = log(rms), step = (hi - lo) / (SCAN - 1);
+    double fbest = INFINITY;
+    int best = 0;
+    for (int k = 0; k < SCAN; k++) {
+        double f = neg_loo_loglik(lo + k * step, &ctx);
+        if (f < fbest) {
+            fbest = f;
+            best = k;
         }
     }
+    double x = lo + best * step;
+    double fl = best > 0 ? neg_loo_loglik(x - step, &ctx) : -INFINITY;
+    double fr = best < SCAN - 1 ? neg_loo_loglik(x + step, &ctx) : -INFINITY;
+    if (fbest < fl && fbest < fr) { /* a bracket, as gsl_min needs */
+        gsl_min_fminimizer *s = gsl_min_fminimizer_alloc(gsl_min_fminimizer_brent);
+        if (s && gsl_min_fminimizer_set_with_values(s, &fn, x, fbest, x - step, fl, x + step,
+                                                    fr) == GSL_SUCCESS) {
+            for (int it = 0; it < 100; it++) {
+                if (gsl_min_fminimizer_iterate(s) != GSL_SUCCESS)
+                    break;
+                if (gsl_min_test_interval(gsl_min_fminimizer_x_lower(s),
+                                          gsl_min_fminimizer_x_upper(s), 1e-5, 0) == GSL_SUCCESS)
+                    break;
+            }
+            x = gsl_min_fminimizer_x_minimum(s);
+        }
+        gsl_min_fminimizer_free(s);
+    }
     free(d2);
-    return exp(0.5 * (lo + hi));
+    return exp(x);
 }
 
 double latent_prior_nll(const latent_decoder *d, double h, const double *z, double scale,
