@@ -2,7 +2,7 @@
  *
  *   latent_table [--decoder FILE] [--markdown] [--starts N] [--iter N] [--lambda X]
  *                [--prior-scale B] [--bandwidth H] [--lr X] [--max-samples N]
- *                [--sets ds1,ds2,ds3,ds4,oop200k] [MATERIAL...]
+ *                [--sets ds1,ds2,ds3,ds4,oop200k] [--bins] [MATERIAL...]
  *
  * For each material (default: the 10 held-out study materials) the NBRDF
  * network nbrdf:NAME is sampled at the points of the DS1..DS4 plans (built
@@ -11,6 +11,9 @@
  * material is scored against the network on the full domain and on the
  * in-plane domain (log error and relative RMSE, brdf/metrics.h). The
  * acceptance ratio is full-domain log error (DS1 fit) / (oop200k fit).
+ * --bins also prints each fit's full-domain log error by theta_d and by the
+ * distance of phi_d from the incidence plane: where an in-plane fit's error
+ * comes from (docs/results-latent.md).
  * Needs the shared data (GONIO_SHARED or ../shared). */
 #include <math.h>
 #include <stdio.h>
@@ -29,11 +32,54 @@
 enum { NSET = 5 };
 static const char *set_names[NSET] = {"ds1", "ds2", "ds3", "ds4", "oop200k"};
 
+/* Mean log residual |r| (and mean signed r: fhat above the truth > 0) over
+ * the full domain, by theta_d (4 bins of 22.5 degrees) and by the distance of
+ * phi_d from the incidence plane (phi_d = 0 or pi; 6 bins of 15 degrees). */
+static int print_bins(const brdf_material *truth, const brdf_material *model,
+                      const struct brdf_domain *full, const char *set)
+{
+    enum { ND = 4, NP = 6 };
+    double *ft = malloc(full->n * 3 * sizeof *ft), *fm = malloc(full->n * 3 * sizeof *fm);
+    if (!ft || !fm) {
+        free(ft);
+        free(fm);
+        fprintf(stderr, "latent_table: out of memory\n");
+        return -1;
+    }
+    brdf_material_eval(truth, full->pairs, full->n, ft);
+    brdf_material_eval(model, full->pairs, full->n, fm);
+    double abs_r[ND][NP] = {{0}}, sum_r[ND][NP] = {{0}}, cnt[ND][NP] = {{0}};
+    for (size_t q = 0; q < full->n; q++) {
+        const struct brdf_pair *p = &full->pairs[q];
+        double pd = fabs(p->phi_d), off = pd < 90 * BRDF_DEG ? pd : 180 * BRDF_DEG - pd;
+        int a = (int)(off / (90 * BRDF_DEG) * NP), b = (int)(p->theta_d / (90 * BRDF_DEG) * ND);
+        a = a < NP ? a : NP - 1;
+        b = b < ND ? b : ND - 1;
+        for (int ch = 0; ch < 3; ch++) {
+            double r = log1p(fm[3 * q + ch] * p->wi[2]) - log1p(ft[3 * q + ch] * p->wi[2]);
+            abs_r[b][a] += fabs(r);
+            sum_r[b][a] += r;
+            cnt[b][a] += 1;
+        }
+    }
+    printf("  %s fit, full-domain mean |r| (mean r) by theta_d (rows) and phi_d off the "
+           "plane (columns 0-15, ..., 75-90 degrees):\n", set);
+    for (int b = 0; b < ND; b++) {
+        printf("    theta_d %2.0f-%2.0f:", b * 22.5, (b + 1) * 22.5);
+        for (int a = 0; a < NP; a++)
+            printf(" %.4f (%+.4f)", abs_r[b][a] / cnt[b][a], sum_r[b][a] / cnt[b][a]);
+        printf("\n");
+    }
+    free(ft);
+    free(fm);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     char dpath[4096];
     latent_decoder_default_path(dpath, sizeof dpath);
-    int first = 1, markdown = 0, want[NSET] = {1, 1, 1, 1, 1};
+    int first = 1, markdown = 0, bins = 0, want[NSET] = {1, 1, 1, 1, 1};
     struct latent_fit_options fo = latent_fit_default_options();
     while (first < argc && argv[first][0] == '-') {
         if (!strcmp(argv[first], "--starts") && first + 1 < argc) {
@@ -68,13 +114,16 @@ int main(int argc, char **argv)
                           (hit[len] == 0 || hit[len] == ',');
             }
             first += 2;
+        } else if (!strcmp(argv[first], "--bins")) {
+            bins = 1;
+            first++;
         } else if (!strcmp(argv[first], "--markdown")) {
             markdown = 1;
             first++;
         } else {
             fprintf(stderr, "usage: latent_table [--decoder FILE] [--markdown] [--starts N] [--iter N] "
                             "[--lambda X] [--prior-scale B] [--bandwidth H] [--lr X] "
-                            "[--max-samples N] [--sets LIST] [MATERIAL...]\n");
+                            "[--max-samples N] [--sets LIST] [--bins] [MATERIAL...]\n");
             return 2;
         }
     }
@@ -155,6 +204,8 @@ int main(int argc, char **argv)
             struct brdf_errors ef, ei;
             brdf_errors_material(truth, model, &full, &ef, NULL);
             brdf_errors_material(truth, model, &inpl, &ei, NULL);
+            if (bins && print_bins(truth, model, &full, set_names[s]) < 0)
+                return 1;
             brdf_material_free(model);
             full_log[s] = ef.log;
             sum_t[s] += t;
