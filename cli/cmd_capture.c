@@ -18,7 +18,7 @@ static void usage(FILE *out)
             "  sgd:NAME or default. DIR receives plan.json, setup.json, samples.csv and\n"
             "  results.json; running again on the same DIR resumes the capture.\n"
             "  --model: the final fit's model, any RGB model of 'gonio fit --help' (default\n"
-            "  abc); models other than abc and abc-prior also write DIR/NAME.model.\n"
+            "  abc); every model also writes DIR/NAME.model (gonio fit's model file).\n"
             "  --stop converge ends the capture once the streaming ABC fit has converged\n"
             "  (the plan's stop tolerances, or the defaults of docs/fitting.md); --stop all\n"
             "  measures every point whatever the plan says.\n");

@@ -12,8 +12,10 @@
 #include "daemon/capture_files.h"
 #include "daemon/journal.h"
 #include "drivers/drv_sim.h"
+#include "fit/abc_model.h"
 #include "fit/abc_prior.h"
 #include "fit/fit.h"
+#include "fit/model_file.h"
 #include "fit/model_run.h"
 #include "fit/models.h"
 #include "fit/stream.h"
@@ -296,11 +298,21 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
     return rc;
 }
 
+/* The capture's model file, DIR/NAME.model (the name `gonio fit DIR --model
+ * NAME` writes by default), recorded in the summary. */
+static void model_path(const char *dir, const char *name, struct capture_summary *out,
+                       char *path, size_t len)
+{
+    snprintf(out->model_file, sizeof out->model_file, "%s.model", name);
+    snprintf(path, len, "%.4000s/%s", dir, out->model_file);
+}
+
 /* abc and abc-prior: fit_abc / fit_abc_map, warm-started from the
  * streaming fit, with parameter sds and (abc-prior) the too-few-samples
- * warning; the parameters go into results.json. */
+ * warning; the parameters go into results.json and, as gonio fit's abc
+ * kind, into DIR/NAME.model, read back so that the errors are the file's. */
 static int fit_abc_capture(const struct fit_sample *fs, size_t n, const struct brdf_abc *warm,
-                           const char *model, const char *material,
+                           const char *dir, const char *model, const char *material,
                            struct capture_summary *out, brdf_material **fitted,
                            struct gonio_err *err)
 {
@@ -323,8 +335,26 @@ static int fit_abc_capture(const struct fit_sample *fs, size_t n, const struct b
     if (use_prior)
         fit_abc_prior_warning(&info, n - info.dropped, out->warning, sizeof out->warning);
     out->converged = info.converged;
-    *fitted = brdf_abc_material(&out->params, "abc");
-    return *fitted ? 0 : gonio_err_set(err, ENOMEM, "out of memory");
+
+    /* The keys gonio fit's abc and abc-prior files carry, and where the
+     * start came from (a warm start makes the file differ from gonio fit's). */
+    struct fit_model_file *mf = fit_abc_model_file(&out->params);
+    if (mf && (fit_model_file_set(mf, "seed", "%u", opt.seed) ||
+               fit_model_file_set(mf, "cost", "%.6g", info.cost) ||
+               (warm && fit_model_file_set(mf, "warm_start", "the capture's streaming fit")) ||
+               (use_prior && fit_abc_prior_file_keys(mf, &prior, &info)))) {
+        fit_model_file_free(mf);
+        mf = NULL;
+    }
+    if (!mf)
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    char path[4200];
+    model_path(dir, model, out, path, sizeof path);
+    rc = fit_model_write_open(mf, path, fitted, err);
+    fit_model_file_free(mf);
+    if (rc < 0)
+        out->model_file[0] = '\0';
+    return rc;
 }
 
 /* Any other registered RGB model: the fit `gonio fit` makes, its model
@@ -339,8 +369,7 @@ static int fit_registry_capture(const struct fit_sample *fs, size_t n, const cha
     struct fit_model_options mo = fit_model_default_options();
     struct fit_model_report rep = {0};
     char path[4200];
-    snprintf(out->model_file, sizeof out->model_file, "%s.model", kind->name);
-    snprintf(path, sizeof path, "%.4000s/%s", dir, out->model_file);
+    model_path(dir, kind->name, out, path, sizeof path);
     int rc = fit_model_run(kind, &data, &mo, path, &rep, &out->fit_time_s, fitted, err);
     if (rc < 0) {
         out->model_file[0] = '\0';
@@ -363,7 +392,7 @@ static int fit_samples(const struct journal_sample *js, size_t n, const struct b
         return gonio_err_set(err, ENOMEM, "out of memory");
     out->saturated = journal_fit_samples(js, n, fs);
     int rc = !strcmp(kind->name, "abc") || !strcmp(kind->name, "abc-prior")
-                 ? fit_abc_capture(fs, n, warm, kind->name, material, out, fitted, err)
+                 ? fit_abc_capture(fs, n, warm, dir, kind->name, material, out, fitted, err)
                  : fit_registry_capture(fs, n, dir, kind, material, out, fitted, err);
     if (rc < 0 && err) {
         char msg[GONIO_ERR_MSG_MAX];

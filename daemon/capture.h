@@ -54,8 +54,8 @@ struct capture_summary {
     int converged;
     int has_params;         /* abc, abc-prior: params and sd hold the ABC fit */
     struct brdf_abc params;
-    char model_file[64];    /* other models: their model file in the directory
-                               (NAME.model, as gonio fit writes it), else "" */
+    char model_file[64];    /* the final fit's model file in the directory (NAME.model,
+                               the name and format gonio fit writes), else "" */
     struct brdf_errors err_plan, err_inplane, err_full;
     int has_truth; /* inplane/full errors computed against the known material */
     char stop_reason[32]; /* "complete", "converged" (stop rule), "aborted" */

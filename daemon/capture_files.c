@@ -169,8 +169,9 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
         json_object_set_new(errors, "inplane", errors_json(&s->err_inplane));
         json_object_set_new(errors, "full", errors_json(&s->err_full));
     }
-    /* ABC's parameters and their sds; null for the other models, whose
-     * parameters are in their model file (docs/formats.md). */
+    /* ABC's parameters and their sds (also in its model file); null for the
+     * other models, whose parameters are only in their model file
+     * (docs/formats.md). */
     json_t *params = s->has_params
                          ? json_pack("{s:o,s:o,s:f,s:f,s:f,s:s}", "kd", rgb_json(s->params.kd),
                                      "A", rgb_json(s->params.A), "B", s->params.B, "C",

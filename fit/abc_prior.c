@@ -117,6 +117,25 @@ int fit_abc_prior_warning(const struct fit_info *info, size_t n_samples, char *b
     return 1;
 }
 
+int fit_abc_prior_file_keys(struct fit_model_file *f, const struct fit_abc_prior *prior,
+                            const struct fit_info *info)
+{
+    /* the population is gonio's DS1 fits of the NBRDFs (fit/abc_prior_table.c) */
+    int rc = fit_model_file_set(f, "prior", "ABC fits (DS1) of %zu MERL materials%s%s, "
+                                "sigma %g", prior->n_materials,
+                                prior->excluded[0] ? " without " : "", prior->excluded,
+                                prior->sigma);
+    if (rc == 0)
+        rc = fit_model_file_set(f, "sd_log_B", "%.4g", info->sd.log_B);
+    if (rc == 0)
+        rc = fit_model_file_set(f, "sd_log_C", "%.4g", info->sd.log_C);
+    if (rc == 0)
+        rc = fit_model_file_set(f, "sd_eta", "%.4g", info->sd.eta);
+    if (rc == 0)
+        rc = fit_model_file_set(f, "sd_pred_log", "%.4g", info->sd.pred_log);
+    return rc;
+}
+
 int fit_abc_prior_model_fit(const struct fit_data *data, const struct fit_model_options *opt,
                             struct fit_model_file **out, struct fit_model_report *rep,
                             struct gonio_err *err)
@@ -139,13 +158,7 @@ int fit_abc_prior_model_fit(const struct fit_data *data, const struct fit_model_
         return gonio_err_set(err, ENOMEM, "abc-prior: out of memory");
     fit_model_file_set(f, "seed", "%llu", (unsigned long long)o.seed);
     fit_model_file_set(f, "cost", "%.6g", info.cost);
-    fit_model_file_set(f, "prior", "published ABC fits of %zu MERL materials%s%s, sigma %g",
-                       prior.n_materials, prior.excluded[0] ? " without " : "", prior.excluded,
-                       prior.sigma);
-    fit_model_file_set(f, "sd_log_B", "%.4g", info.sd.log_B);
-    fit_model_file_set(f, "sd_log_C", "%.4g", info.sd.log_C);
-    fit_model_file_set(f, "sd_eta", "%.4g", info.sd.eta);
-    fit_model_file_set(f, "sd_pred_log", "%.4g", info.sd.pred_log);
+    fit_abc_prior_file_keys(f, &prior, &info);
     if (rep) {
         char warn[200];
         int w = fit_abc_prior_warning(&info, data->n_rgb - info.dropped, warn, sizeof warn);

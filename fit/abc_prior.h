@@ -75,6 +75,13 @@ int fit_abc_map(const struct fit_sample *samples, size_t n, const struct fit_opt
  * FIT_PRIOR_WARN_PRED_SD (or is not finite), else 0 and buf empty. */
 int fit_abc_prior_warning(const struct fit_info *info, size_t n_samples, char *buf, size_t len);
 
+/* The keys an abc-prior fit adds to its abc model file: the prior it used
+ * (`prior`) and the posterior sds (`sd_log_B`, `sd_log_C`, `sd_eta`,
+ * `sd_pred_log`). Shared by the registry fit and a capture's final fit, so
+ * both files say the same. Returns 0 or a negative code. */
+int fit_abc_prior_file_keys(struct fit_model_file *f, const struct fit_abc_prior *prior,
+                            const struct fit_info *info);
+
 /* The registry row's fit (`gonio fit --model abc-prior`): writes an "abc"
  * model file. data->material (when set) is left out of the prior; the
  * note carries the sd of log B and the warning. */

@@ -32,8 +32,17 @@ int fit_model_run(const struct fit_model_kind *kind, const struct fit_data *data
         *rep = r;
     if (rc < 0)
         return rc;
-    rc = fit_model_file_write(mf, path, err);
+    rc = fit_model_write_open(mf, path, material, err);
     fit_model_file_free(mf);
+    return rc;
+}
+
+int fit_model_write_open(const struct fit_model_file *mf, const char *path,
+                         brdf_material **material, struct gonio_err *err)
+{
+    if (material)
+        *material = NULL;
+    int rc = fit_model_file_write(mf, path, err);
     if (rc < 0 || !material)
         return rc;
     char spec[4200];

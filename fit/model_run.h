@@ -22,6 +22,14 @@ int fit_model_run(const struct fit_model_kind *kind, const struct fit_data *data
                   struct fit_model_report *rep, double *fit_s, brdf_material **material,
                   struct gonio_err *err);
 
+/* A model file written atomically to path and, when material is not NULL,
+ * opened back (`model:PATH`) into *material: what a reader of the file
+ * gets. The step fit_model_run ends with, for callers that fitted the
+ * parameters themselves (a capture's warm-started ABC fit). Returns 0 or a
+ * negative code with err set. */
+int fit_model_write_open(const struct fit_model_file *mf, const char *path,
+                         brdf_material **material, struct gonio_err *err);
+
 /* The errors of a material against fit samples at their own pairs
  * (brdf/metrics.h): a model's in-sample error. */
 int fit_sample_errors(const brdf_material *m, const struct fit_sample *s, size_t n,

@@ -762,8 +762,9 @@ class CaptureTests(DaemonTest):
         self.assertEqual(c.request("status")["state"], "idle")
 
     def test_capture_models(self):
-        """Any RGB model of the registry is a capture's final fit; ABC
-        models report parameters, the others a model file in the capture."""
+        """Any RGB model of the registry is a capture's final fit; every
+        model writes its model file in the capture, ABC models also report
+        their parameters."""
         c = self.d.connect()
         c.request("watch")
         for name, model in (("ap", "abc-prior"), ("lt", "latent")):
@@ -789,9 +790,12 @@ class CaptureTests(DaemonTest):
                 self.assertEqual(res["model_file"], "latent.model")
                 with open(os.path.join(capdir, "latent.model"), "rb") as f:
                     self.assertTrue(f.readline().startswith(b"gonio-model latent "))
-            else:
+            else:  # the parameters, also as gonio fit's abc model file
                 self.assertGreater(res["params"]["B"], 0)
-                self.assertIsNone(res["model_file"])
+                self.assertEqual(res["model_file"], "abc-prior.model")
+                self.assertEqual(results["model_file"], "abc-prior.model")
+                with open(os.path.join(capdir, "abc-prior.model"), "rb") as f:
+                    self.assertEqual(f.readline(), b"gonio-model abc 1\n")
                 self.assertIn("sd_log_B", results["uncertainty"])
         for model, needle in (("nonsense", "unknown model"), ("mlp-spectral", "spectral")):
             r = c.request("capture", plan="ds4", name="bad", model=model)
