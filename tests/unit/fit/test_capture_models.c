@@ -3,7 +3,8 @@
  * fit` would, reports errors of that file through the material interface,
  * and meets the DS4 target; abc on the same samples of a shiny material
  * does not, so the option changes the fit. abc and abc-prior captures
- * write their parameters as gonio fit's abc model file too. Unknown and
+ * write their parameters as gonio fit's abc model file too (abc-prior with
+ * the captured material left out of its prior). Unknown and
  * spectral names are refused before anything is written, and a failed
  * final fit keeps the samples. */
 #include "tests/gonio_test.h"
@@ -21,6 +22,7 @@
 #include "daemon/capture.h"
 #include "daemon/journal.h"
 #include "fit/abc_model.h"
+#include "fit/abc_prior.h"
 #include "fit/model_file.h"
 #include "fit/model_run.h"
 #include "fit/models.h"
@@ -229,8 +231,10 @@ static void test_model_option_changes_the_fit(void **state)
 
 /* abc-prior on the same material: its file is the one `gonio fit DIR
  * --model abc-prior` writes (no streaming fit to warm-start from: the same
- * values bit for bit) and carries the prior it was fitted with. The truth
- * errors are not what this checks: a 20000-node sample keeps it fast. */
+ * values bit for bit) and carries the prior it was fitted with, the
+ * captured material left out of it; six samples are reported as not
+ * enough, with the uncertainty in results.json. The truth errors are not
+ * what this checks: a 20000-node sample keeps it fast. */
 static void test_abc_prior_capture_file(void **state)
 {
     (void)state;
@@ -265,7 +269,29 @@ static void test_abc_prior_capture_file(void **state)
     assert_string_equal(fit_model_file_get(mine, "prior"), prior);
     fit_model_file_free(mine);
     fit_model_file_free(written);
+
+    /* the exclusion took effect: the prior of all 100 gives another fit */
+    struct fit_abc_prior without, all;
+    struct brdf_abc p, q;
+    struct fit_info info;
+    assert_int_equal(fit_abc_prior_build("tungsten-carbide", &without, &err), 0);
+    assert_int_equal((int)without.n_materials, 99);
+    assert_int_equal(fit_abc_map(fs, n, NULL, &without, &p, &info, &err), 0);
+    assert_int_equal(fit_abc_prior_build(NULL, &all, &err), 0);
+    assert_int_equal(fit_abc_map(fs, n, NULL, &all, &q, NULL, &err), 0);
+    assert_true(fabs(q.B / p.B - 1) > 1e-6 || fabs(q.A[0] / p.A[0] - 1) > 1e-6);
     free(fs);
+
+    printf("warning: %s\n", s.warning);
+    assert_non_null(strstr(s.warning, "not enough"));
+    json_t *root = results(cap);
+    json_t *u = json_object_get(root, "uncertainty");
+    assert_true(json_is_object(u));
+    assert_close(json_number_value(json_object_get(u, "sd_pred_log")), info.sd.pred_log,
+                 1e-9 * fmax(1, info.sd.pred_log));
+    assert_true(json_is_string(json_object_get(u, "warning")));
+    assert_int_equal((int)json_array_size(json_object_get(u, "sd_log_A")), 3);
+    json_decref(root);
 }
 
 static void test_bad_names_refused(void **state)
