@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "cli/commands.h"
+#include "common/clock.h"
 #include "render/scene.h"
 #include "render/study.h"
 #include "report/page.h"
@@ -64,13 +65,6 @@ static int write_report(const char *dir)
     }
     fprintf(stderr, "study: %s/report.html, figures in %s\n", dir, plots);
     return 0;
-}
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 static double cpu_children_s(void)
@@ -192,7 +186,7 @@ static int run_jobs(const struct study_spec *s, const char *dir, int n_workers)
         fprintf(stderr, "gonio study: out of memory\n");
         return 1;
     }
-    double t_start = now_s();
+    double t_start = gonio_monotonic_s();
     size_t next = 0, done = 0, failed = 0;
     int active = 0;
     while (done < n) {
@@ -208,7 +202,7 @@ static int run_jobs(const struct study_spec *s, const char *dir, int n_workers)
                 child_run(s, &p[next].job, dir);
             for (int w = 0; w < n_workers; w++)
                 if (run[w].pid == 0) {
-                    run[w] = (struct running){pid, next, now_s()};
+                    run[w] = (struct running){pid, next, gonio_monotonic_s()};
                     break;
                 }
             active++;
@@ -234,7 +228,7 @@ static int run_jobs(const struct study_spec *s, const char *dir, int n_workers)
             done++;
             failed += !ok;
             weight_done += q->weight;
-            double t = now_s(), elapsed = t - t_start;
+            double t = gonio_monotonic_s(), elapsed = t - t_start;
             double left = weight_done > 0 ? elapsed * (weight_all - weight_done) / weight_done : 0;
             fprintf(stderr, "study: [%zu/%zu] %s %s in %.1f s, elapsed %.0f s, about %.0f s left\n",
                     finished + done, total, q->job.id,
@@ -336,7 +330,7 @@ int cmd_study(int argc, char **argv)
         free(s);
         return gonio_exit_status(err.code);
     }
-    double t0 = now_s();
+    double t0 = gonio_monotonic_s();
     int status = run_jobs(s, out, (int)n_workers);
     size_t missing = 0;
     if ((rc = study_results_write(s, out, &missing, &err)) < 0) {
@@ -348,7 +342,7 @@ int cmd_study(int argc, char **argv)
             rows += study_job_in_shard(s, k) ? s->n_models : 0;
         fprintf(stderr, "study: %s/results.csv: %zu rows, %zu missing; wall %.1f s, worker CPU "
                         "%.1f s\n",
-                out, rows - missing, missing, now_s() - t0, cpu_children_s());
+                out, rows - missing, missing, gonio_monotonic_s() - t0, cpu_children_s());
         if (missing && !status)
             status = 1;
         if (!missing && !status && s->shard_n == 1)

@@ -9,6 +9,7 @@
 
 #include "brdf/domain.h"
 #include "brdf/material.h"
+#include "common/clock.h"
 #include "daemon/capture_files.h"
 #include "daemon/journal.h"
 #include "drivers/drv_sim.h"
@@ -75,13 +76,6 @@ static int resolve_inputs(const struct capture_config *cfg, struct capture_input
         return -abs(err ? err->code : GONIO_ENOTFOUND);
     }
     return 0;
-}
-
-static double monotonic_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 static void devices_close(struct capture_devices *d)
@@ -319,7 +313,7 @@ static int fit_abc_capture(const struct fit_sample *fs, size_t n, const struct b
     struct fit_options opt = fit_default_options();
     opt.warm_start = warm; /* the streaming fit's last parameters, when there is one */
     struct fit_info info;
-    double t0 = monotonic_s();
+    double t0 = gonio_monotonic_s();
     /* abc-prior: MAP with the population prior, the material left out of it */
     struct fit_abc_prior prior;
     int use_prior = !strcmp(model, "abc-prior");
@@ -327,7 +321,7 @@ static int fit_abc_capture(const struct fit_sample *fs, size_t n, const struct b
     if (rc == 0)
         rc = use_prior ? fit_abc_map(fs, n, &opt, &prior, &out->params, &info, err)
                        : fit_abc(fs, n, &opt, &out->params, &info, err);
-    out->fit_time_s = monotonic_s() - t0;
+    out->fit_time_s = gonio_monotonic_s() - t0;
     if (rc < 0)
         return rc;
     out->has_params = 1;

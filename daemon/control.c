@@ -154,14 +154,14 @@ void control_handle(control *c, const struct pollfd *pfd, size_t n)
 
 void control_flush(control *c, int timeout_ms)
 {
-    double end = control_now_s() + timeout_ms / 1000.0;
+    double end = gonio_monotonic_s() + timeout_ms / 1000.0;
     for (;;) {
         struct pollfd pfd[256];
         size_t n = 0;
         for (size_t i = 0; i < c->n_clients && n < 256; i++)
             if (!c->clients[i]->dead && c->clients[i]->out_len)
                 pfd[n++] = (struct pollfd){.fd = c->clients[i]->fd, .events = POLLOUT};
-        double left = end - control_now_s();
+        double left = end - gonio_monotonic_s();
         if (n == 0 || left <= 0)
             return;
         if (poll(pfd, n, (int)(left * 1000) + 1) <= 0)

@@ -18,13 +18,6 @@
 #define GONIO_RELEASE "0.0.0"
 #endif
 
-double control_now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 /* ---- output ---------------------------------------------------------- */
 
 static void client_drop(struct control_client *cl, const char *why)
@@ -135,7 +128,7 @@ void control_broadcast(control *c, const char *text)
  * not read those either its output limit drops it. */
 static int client_take_token(control *c, struct control_client *cl)
 {
-    double t = control_now_s();
+    double t = gonio_monotonic_s();
     cl->tokens += (t - cl->tokens_at) * c->cfg->rate_per_s;
     if (cl->tokens > c->cfg->burst)
         cl->tokens = c->cfg->burst;
@@ -180,7 +173,7 @@ void control_client_read(control *c, struct control_client *cl)
         size_t len = (size_t)(nl - (cl->in + start));
         /* Only a whole request counts as activity: a client trickling
          * bytes without ever finishing a line still times out. */
-        cl->last_active = control_now_s();
+        cl->last_active = gonio_monotonic_s();
         if (len > 0 && !(len == 1 && cl->in[start] == '\r')) {
             if (client_take_token(c, cl))
                 control_handle_line(c, cl, cl->in + start, len);
@@ -234,7 +227,7 @@ void control_accept_clients(control *c)
         }
         cl->fd = fd;
         cl->max_out = (size_t)c->cfg->max_queue_kib * 1024;
-        cl->last_active = cl->tokens_at = control_now_s();
+        cl->last_active = cl->tokens_at = gonio_monotonic_s();
         cl->tokens = (double)c->cfg->burst;
         c->clients[c->n_clients++] = cl;
         struct peer_cred pc;
@@ -285,7 +278,7 @@ void control_reap(control *c)
  * protects the daemon from one that stops reading. */
 int control_tick(control *c)
 {
-    double t = control_now_s(), next = c->cfg->idle_timeout_s;
+    double t = gonio_monotonic_s(), next = c->cfg->idle_timeout_s;
     for (size_t i = 0; i < c->n_clients; i++) {
         struct control_client *cl = c->clients[i];
         if (cl->watching || cl->closing || cl->dead)

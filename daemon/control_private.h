@@ -19,6 +19,7 @@
 
 #include <jansson.h>
 
+#include "common/clock.h"
 #include "common/err.h"
 #include "daemon/control.h"
 #include "daemon/worker.h"
@@ -54,9 +55,6 @@ struct control {
 };
 
 /* ---- control_clients.c ------------------------------------------------ */
-
-/* Monotonic seconds: idle and rate limits must not jump with the wall clock. */
-double control_now_s(void);
 
 /* The one-line text of doc (compact, keys in insertion order); takes the
  * reference to doc. NULL when out of memory. */

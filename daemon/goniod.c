@@ -14,6 +14,7 @@
 
 #include <gsl/gsl_errno.h>
 
+#include "common/clock.h"
 #include "daemon/config.h"
 #include "daemon/control.h"
 #include "daemon/notify.h"
@@ -28,13 +29,6 @@ static void on_signal(int sig)
     ssize_t n = write(signal_pipe[1], &b, 1);
     (void)n;
     errno = saved;
-}
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 static void usage(FILE *out)
@@ -82,7 +76,7 @@ static int serve(const struct goniod_config *cfg)
     notify_send("READY=1\nSTATUS=idle\nMAINPID=%ld", (long)getpid());
 
     unsigned long long wd_usec = notify_watchdog_usec();
-    double wd_period = wd_usec ? (double)wd_usec / 2e6 : 0, wd_next = now_s() + wd_period;
+    double wd_period = wd_usec ? (double)wd_usec / 2e6 : 0, wd_next = gonio_monotonic_s() + wd_period;
     char last_status[256] = "idle";
     int stopping = 0;
     size_t cap = (size_t)cfg->max_clients + 8;
@@ -109,7 +103,7 @@ static int serve(const struct goniod_config *cfg)
         }
         int timeout = control_tick(c);
         if (wd_period > 0) {
-            double left = wd_next - now_s();
+            double left = wd_next - gonio_monotonic_s();
             int ms = left <= 0 ? 0 : (int)(left * 1000) + 1;
             if (ms < timeout)
                 timeout = ms;
@@ -139,9 +133,9 @@ static int serve(const struct goniod_config *cfg)
             control_dispatch(c, worker_take(w));
         if (rc > 0)
             control_handle(c, pfd + 2, n);
-        if (wd_period > 0 && now_s() >= wd_next) {
+        if (wd_period > 0 && gonio_monotonic_s() >= wd_next) {
             notify_send("WATCHDOG=1");
-            wd_next = now_s() + wd_period;
+            wd_next = gonio_monotonic_s() + wd_period;
         }
         char status[256];
         control_status_text(c, status, sizeof status);

@@ -102,7 +102,7 @@ static int send_leg(struct mb_axis *a, double from, double to, struct gonio_err 
         drv_modbus_put32(r + 2 * i, v[i]);
     a->leg_target = pos / a->spd;
     a->leg_time = plan_axis_time(fabs(a->leg_target - from), speed / a->spd, accel / a->spd);
-    a->leg_start = drv_modbus_wall();
+    a->leg_start = gonio_monotonic_s();
     return drv_modbus_write(a->bus, a->slave, R_DIRECT, 16, r, a->who, err);
 }
 
@@ -140,8 +140,8 @@ static int wait_for(struct mb_axis *a, uint32_t want, struct gonio_err *err)
     double deadline = due + (0.25 * a->leg_time + 2.0) / scale + 0.5 +
                       4 * drv_modbus_timeout(a->bus);
     double poll = fmin(fmax(0.01 / scale, 0.0002), 0.01);
-    double last_pos = NAN, last_change = drv_modbus_wall();
-    drv_modbus_sleep(due - drv_modbus_wall());
+    double last_pos = NAN, last_change = gonio_monotonic_s();
+    drv_modbus_sleep(due - gonio_monotonic_s());
     for (;;) {
         uint32_t st, alarm;
         int rc = read_status(a, &st, &alarm, err);
@@ -151,7 +151,7 @@ static int wait_for(struct mb_axis *a, uint32_t want, struct gonio_err *err)
             return alarm_error(a, alarm, err);
         if ((st & want) == want && !(st & ST_MOVE))
             return 0;
-        double now = drv_modbus_wall(), pos = NAN;
+        double now = gonio_monotonic_s(), pos = NAN;
         if (!(st & ST_MOVE) || (now - due) * scale > 0.25) {
             if ((rc = read_steps(a, &pos, err)) < 0)
                 return rc;
@@ -219,7 +219,7 @@ static int mb_home(void *priv, struct gonio_err *err)
     a->final_pending = 0;
     a->leg_target = 0;
     a->leg_time = plan_axis_time(fabs(here), a->prof.speed, a->prof.accel);
-    a->leg_start = drv_modbus_wall();
+    a->leg_start = gonio_monotonic_s();
     if ((rc = pulse_input(a, IN_ZHOME, err)) < 0)
         return rc;
     rc = wait_for(a, ST_HOME_END, err);

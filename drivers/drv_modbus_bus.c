@@ -132,13 +132,6 @@ double drv_modbus_timeout(const drv_modbus_bus *bus)
     return bus->timeout_s;
 }
 
-double drv_modbus_wall(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 void drv_modbus_sleep(double seconds)
 {
     if (!(seconds > 0))
@@ -219,7 +212,7 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
     for (int attempt = 0; attempt <= bus->retries; attempt++) {
         if (attempt > 0)
             bus->stats.retries++;
-        double t0 = bus->trace ? drv_modbus_wall() : 0;
+        double t0 = bus->trace ? gonio_monotonic_s() : 0;
         int rc = modbus_set_slave(bus->ctx, slave);
         if (rc == 0) {
             if (write && n == 1)
@@ -232,7 +225,7 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
         e = errno;
         if (bus->trace)
             trace(bus, slave, write, addr, n, regs, rc == n ? 0 : -1, e,
-                  1e3 * (drv_modbus_wall() - t0));
+                  1e3 * (gonio_monotonic_s() - t0));
         if (rc == n)
             return 0;
         /* An exception is the device's considered answer: no retry. */

@@ -31,7 +31,7 @@ static int read_ms(struct mb_clock *c, uint32_t *ms, struct gonio_err *err)
 static double mb_now(void *priv)
 {
     struct mb_clock *c = priv;
-    double wall = drv_modbus_wall();
+    double wall = gonio_monotonic_s();
     uint32_t ms;
     if (c->simulated && read_ms(c, &ms, NULL) == 0) {
         c->last = (uint32_t)(ms - c->ms0) * 1e-3; /* unsigned: survives a wrap */
@@ -71,7 +71,7 @@ drv_clock *drv_clock_new_modbus(drv_modbus_bus *bus, int detector_slave, struct 
     }
     c->bus = bus;
     c->slave = detector_slave;
-    c->wall0 = c->last_wall = drv_modbus_wall();
+    c->wall0 = c->last_wall = gonio_monotonic_s();
     int rc = read_ms(c, &c->ms0, err);
     if (rc == 0 && c->ms0 == 0) { /* a simulator that just started reads 0 too */
         drv_modbus_sleep(0.005);

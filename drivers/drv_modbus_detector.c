@@ -54,22 +54,22 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
     drv_modbus_put32(w, (uint32_t)us);
     drv_modbus_put32(w + 2, 1);
     double scale = drv_modbus_time_scale(d->bus);
-    double t0 = drv_modbus_wall();
+    double t0 = gonio_monotonic_s();
     if ((rc = drv_modbus_write(d->bus, d->slave, R_INTEGRATION, 4, w, d->who, err)) < 0)
         return rc;
     double deadline = t0 + (1.5 * integration_s + 2.0) / scale + 0.5 + 4 * drv_modbus_timeout(d->bus);
     double poll = fmin(fmax(0.01 / scale, 0.0002), 0.01);
-    drv_modbus_sleep(t0 + integration_s / scale - drv_modbus_wall());
+    drv_modbus_sleep(t0 + integration_s / scale - gonio_monotonic_s());
     for (;;) {
         if ((rc = read_state(d, &st, &count, &seq, &used_us, err)) < 0)
             return rc;
         if ((st & ST_READY) && !(st & ST_BUSY) && seq != seq0)
             break;
-        if (drv_modbus_wall() > deadline)
+        if (gonio_monotonic_s() > deadline)
             return gonio_err_set(err, GONIO_EDEVICE,
                                  "%s (slave %d): no fresh reading %.3g s after the trigger "
                                  "(status 0x%x, sequence %u)", d->who, d->slave,
-                                 drv_modbus_wall() - t0, st, seq);
+                                 gonio_monotonic_s() - t0, st, seq);
         drv_modbus_sleep(poll);
     }
     uint16_t r[6];

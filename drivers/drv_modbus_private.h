@@ -5,6 +5,7 @@
 
 #include <stdint.h>
 
+#include "common/clock.h"
 #include "drivers/drv_modbus.h"
 
 /* Read or write n holding registers at addr of slave, with the bus's
@@ -19,8 +20,7 @@ double drv_modbus_time_scale(const drv_modbus_bus *bus);
 /* The response timeout, wall seconds. */
 double drv_modbus_timeout(const drv_modbus_bus *bus);
 
-/* Wall clock (monotonic) and wall sleep, seconds. */
-double drv_modbus_wall(void);
+/* Sleep, wall seconds (time is read with gonio_monotonic_s, common/clock.h). */
 void drv_modbus_sleep(double seconds);
 
 /* 32-bit values as two registers, upper word first (the AZ convention);

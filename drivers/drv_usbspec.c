@@ -13,6 +13,8 @@
 #include <string.h>
 #include <time.h>
 
+#include "common/clock.h"
+
 enum { EP_CMD = 0x01, EP_REPLY = 0x81, EP_SPECTRUM = 0x82 };
 enum { CMD_INIT = 0x01, CMD_INTEGRATION = 0x02, CMD_QUERY_INFO = 0x05, CMD_SPECTRUM = 0x09,
        CMD_STATUS = 0xFE };
@@ -50,13 +52,6 @@ void drv_usbspec_cfg_default(struct drv_usbspec_cfg *cfg)
     cfg->scale = 1.0;
 }
 
-static double wall(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
 static void LIBUSB_CALL on_done(struct libusb_transfer *t)
 {
     struct xfer_state *xs = t->user_data;
@@ -69,7 +64,7 @@ static void LIBUSB_CALL on_done(struct libusb_transfer *t)
 static int wait_done(drv_usbspec *s, double deadline)
 {
     while (!s->xs.done) {
-        double left = deadline - wall();
+        double left = deadline - gonio_monotonic_s();
         if (left <= 0)
             return LIBUSB_ERROR_TIMEOUT;
         if (left > 0.1)
@@ -126,10 +121,10 @@ static int bulk(drv_usbspec *s, unsigned char ep, unsigned char *data, int len, 
                                  : libusb_error_name(rc));
     }
     /* libusb's own timer ends the transfer at ms; ours is the backstop */
-    int wrc = wait_done(s, wall() + timeout_s + 0.5);
+    int wrc = wait_done(s, gonio_monotonic_s() + timeout_s + 0.5);
     if (!s->xs.done) {
         libusb_cancel_transfer(t);
-        wait_done(s, wall() + 0.5);
+        wait_done(s, gonio_monotonic_s() + 0.5);
         if (!s->xs.done) { /* libusb still owns it: never free or reuse it */
             s->lost = 1;
             return gonio_err_set(err, GONIO_EDEVICE, "%s: %s: no completion within %.3g s (%s)",

@@ -4,18 +4,12 @@
 #include <stdlib.h>
 #include <time.h>
 
+#include "common/clock.h"
 #include "drivers/drivers_private.h"
-
-static double mono(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 static double wall_now(void *priv)
 {
-    return mono() - *(double *)priv;
+    return gonio_monotonic_s() - *(double *)priv;
 }
 
 static int wall_sleep(void *priv, double seconds)
@@ -42,6 +36,6 @@ drv_clock *drv_clock_new_wall(void)
     double *t0 = malloc(sizeof *t0);
     if (!t0)
         return NULL;
-    *t0 = mono();
+    *t0 = gonio_monotonic_s();
     return drv_clock_alloc(&wall_clock_ops, t0);
 }

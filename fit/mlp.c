@@ -12,6 +12,7 @@
 #include <time.h>
 
 #include "brdf/domain.h"
+#include "common/clock.h"
 #include "fit/model_file.h"
 
 /* Outputs beyond this are clamped in the loss: e^60 is far past any BRDF,
@@ -154,13 +155,6 @@ static void shuffle(size_t *idx, size_t n, uint64_t *s)
         idx[i - 1] = idx[j];
         idx[j] = t;
     }
-}
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 /* Everything an epoch touches, allocated once. */
@@ -542,7 +536,7 @@ int fit_mlp_train(struct fit_mlp *net, const double *u, const double *f, const d
     long since_best = 0, since_cut = 0;
     long t = 0;
     memcpy(w.best, net->params, net->n_params * sizeof(double));
-    double t0 = now_s();
+    double t0 = gonio_monotonic_s();
     for (long ep = 1; ep <= max_epochs; ep++) {
         shuffle(tr, n_tr, &rng);
         double epoch_loss = 0;
@@ -581,7 +575,7 @@ int fit_mlp_train(struct fit_mlp *net, const double *u, const double *f, const d
                     score / ((double)(n_val ? n_val : n_tr) * nout),
                     best / ((double)(n_val ? n_val : n_tr) * nout), r.best_epoch);
     }
-    r.seconds = now_s() - t0;
+    r.seconds = gonio_monotonic_s() - t0;
     memcpy(net->params, w.best, net->n_params * sizeof(double));
     r.train_loss = batch_loss(net, &w, tr, n_tr) / ((double)n_tr * nout);
     r.val_loss = n_val ? batch_loss(net, &w, val, n_val) / ((double)n_val * nout) : NAN;

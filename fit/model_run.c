@@ -6,14 +6,8 @@
 #include <string.h>
 #include <time.h>
 
+#include "common/clock.h"
 #include "fit/model_file.h"
-
-static double monotonic_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 int fit_model_run(const struct fit_model_kind *kind, const struct fit_data *data,
                   const struct fit_model_options *opt, const char *path,
@@ -24,10 +18,10 @@ int fit_model_run(const struct fit_model_kind *kind, const struct fit_data *data
     struct fit_model_report r = {0};
     if (material)
         *material = NULL;
-    double t0 = monotonic_s();
+    double t0 = gonio_monotonic_s();
     int rc = kind->fit(data, opt, &mf, &r, err);
     if (fit_s)
-        *fit_s = monotonic_s() - t0;
+        *fit_s = gonio_monotonic_s() - t0;
     if (rep)
         *rep = r;
     if (rc < 0)

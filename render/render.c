@@ -9,6 +9,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "common/clock.h"
 #include "render/effects_private.h"
 
 int render_pixel_normal(int size, int x, int y, double n[3])
@@ -39,20 +40,13 @@ void render_tangent_frame(const double n[3], double t[3], double b[3])
     b[2] = -n[1];
 }
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 int render_sphere(const struct render_scene *sc, const brdf_material *m, int size, float *rgb,
                   struct render_stats *stats, struct gonio_err *err)
 {
     if (size < RENDER_MIN_SIZE || size > RENDER_MAX_SIZE)
         return gonio_err_set(err, GONIO_EUSAGE, "render size %d outside %d..%d", size,
                              RENDER_MIN_SIZE, RENDER_MAX_SIZE);
-    double t0 = now_s();
+    double t0 = gonio_monotonic_s();
     struct render_stats st = {.pixels = (long)size * size};
     size_t npix = (size_t)size * (size_t)size;
     double *accum = calloc(3 * npix, sizeof *accum);
@@ -103,7 +97,7 @@ int render_sphere(const struct render_scene *sc, const brdf_material *m, int siz
                                     : v < -FLT_MAX ? -FLT_MAX
                                                    : (float)v;
         }
-    st.seconds = now_s() - t0;
+    st.seconds = gonio_monotonic_s() - t0;
     if (stats)
         *stats = st;
 done:

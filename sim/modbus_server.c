@@ -18,6 +18,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "common/clock.h"
 #include "sim/effects_detector.h"
 #include "sim/effects_faults.h"
 #include "sim/scene.h"
@@ -91,13 +92,6 @@ struct msim {
     int clients[MAX_CLIENTS];
 };
 
-static double wall_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 static uint32_t get32(const uint16_t *r, int addr)
 {
     return ((uint32_t)r[addr] << 16) | r[addr + 1];
@@ -160,7 +154,7 @@ msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
         return NULL;
     }
     put32(m->det.map->tab_registers, DET_COUNT, DET_NCHANNELS);
-    m->wall0 = wall_now();
+    m->wall0 = gonio_monotonic_s();
     return m;
 }
 
@@ -193,7 +187,7 @@ void msim_free(msim *m)
 /* Bring the simulated clock to the wall clock's scaled time. */
 static void sync_clock(msim *m)
 {
-    double target = (wall_now() - m->wall0) * m->cfg.time_scale;
+    double target = (gonio_monotonic_s() - m->wall0) * m->cfg.time_scale;
     sim_rig_advance(m->rig, target - sim_rig_now(m->rig));
 }
 
