@@ -5,7 +5,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "brdf/domain.h"
 #include "brdf/material.h"
@@ -332,10 +331,8 @@ static int fit_abc_capture(const struct fit_sample *fs, size_t n, const struct b
 
     /* The keys gonio fit's abc and abc-prior files carry, and where the
      * start came from (a warm start makes the file differ from gonio fit's). */
-    struct fit_model_file *mf = fit_abc_model_file(&out->params);
-    if (mf && (fit_model_file_set(mf, "seed", "%u", opt.seed) ||
-               fit_model_file_set(mf, "cost", "%.6g", info.cost) ||
-               (warm && fit_model_file_set(mf, "warm_start", "the capture's streaming fit")) ||
+    struct fit_model_file *mf = fit_abc_fitted_file(&out->params, opt.seed, info.cost);
+    if (mf && ((warm && fit_model_file_set(mf, "warm_start", "the capture's streaming fit")) ||
                (use_prior && fit_abc_prior_file_keys(mf, &prior, &info)))) {
         fit_model_file_free(mf);
         mf = NULL;

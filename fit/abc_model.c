@@ -21,6 +21,18 @@ struct fit_model_file *fit_abc_model_file(const struct brdf_abc *p)
     return f;
 }
 
+struct fit_model_file *fit_abc_fitted_file(const struct brdf_abc *p, unsigned long long seed,
+                                           double cost)
+{
+    struct fit_model_file *f = fit_abc_model_file(p);
+    if (f && (fit_model_file_set(f, "seed", "%llu", seed) ||
+              fit_model_file_set(f, "cost", "%.6g", cost))) {
+        fit_model_file_free(f);
+        return NULL;
+    }
+    return f;
+}
+
 int fit_abc_model_params(const struct fit_model_file *f, const char *path, struct brdf_abc *p,
                          struct gonio_err *err)
 {
@@ -68,11 +80,9 @@ int fit_abc_model_fit(const struct fit_data *data, const struct fit_model_option
     int rc = fit_abc(data->rgb, data->n_rgb, &fo, &p, &info, err);
     if (rc)
         return rc;
-    struct fit_model_file *f = fit_abc_model_file(&p);
+    struct fit_model_file *f = fit_abc_fitted_file(&p, o.seed, info.cost);
     if (!f)
         return gonio_err_set(err, ENOMEM, "abc: out of memory");
-    fit_model_file_set(f, "seed", "%llu", (unsigned long long)o.seed);
-    fit_model_file_set(f, "cost", "%.6g", info.cost);
     if (rep) {
         rep->converged = info.converged;
         snprintf(rep->note, sizeof rep->note, "%d starts, %d iterations, %s; %zu samples dropped",

@@ -16,6 +16,12 @@ int fit_abc_model_fit(const struct fit_data *data, const struct fit_model_option
 /* A model file holding these parameters (NULL: out of memory). */
 struct fit_model_file *fit_abc_model_file(const struct brdf_abc *p);
 
+/* The same for the result of a fit: also the seed it ran with and its final
+ * cost, the keys every abc file written by a fit carries (NULL: out of
+ * memory). */
+struct fit_model_file *fit_abc_fitted_file(const struct brdf_abc *p, unsigned long long seed,
+                                           double cost);
+
 /* The parameters of an abc model file, checked (finite, kd, A, B, C >= 0,
  * eta >= 1); errors name path. */
 int fit_abc_model_params(const struct fit_model_file *f, const char *path, struct brdf_abc *p,

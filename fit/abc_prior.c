@@ -153,12 +153,13 @@ int fit_abc_prior_model_fit(const struct fit_data *data, const struct fit_model_
     struct fit_info info;
     if ((rc = fit_abc_map(data->rgb, data->n_rgb, &fo, &prior, &p, &info, err)) < 0)
         return rc;
-    struct fit_model_file *f = fit_abc_model_file(&p);
+    struct fit_model_file *f = fit_abc_fitted_file(&p, o.seed, info.cost);
+    if (f && fit_abc_prior_file_keys(f, &prior, &info)) {
+        fit_model_file_free(f);
+        f = NULL;
+    }
     if (!f)
         return gonio_err_set(err, ENOMEM, "abc-prior: out of memory");
-    fit_model_file_set(f, "seed", "%llu", (unsigned long long)o.seed);
-    fit_model_file_set(f, "cost", "%.6g", info.cost);
-    fit_abc_prior_file_keys(f, &prior, &info);
     if (rep) {
         char warn[200];
         int w = fit_abc_prior_warning(&info, data->n_rgb - info.dropped, warn, sizeof warn);
