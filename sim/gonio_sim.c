@@ -14,12 +14,14 @@
 #include "sim/modbus_server.h"
 #include "sim/scene.h"
 
-static volatile sig_atomic_t stop_flag;
+static volatile sig_atomic_t stop_flag, hangup_flag;
 
 static void on_signal(int sig)
 {
-    (void)sig;
-    stop_flag = 1;
+    if (sig == SIGUSR1)
+        hangup_flag = 1;
+    else
+        stop_flag = 1;
 }
 
 static void usage(FILE *out)
@@ -29,7 +31,7 @@ static void usage(FILE *out)
             "                 [--time-scale K] [--steps-per-deg N] [--link PATH]\n"
             "                 [--tcp 127.0.0.1:PORT] [--trace] [--check]\n"
             "                 [--stall SLAVE:DEG] [--overload SLAVE:DEG] [--delay SLAVE:MS]\n"
-            "                 [--stats FILE]\n"
+            "                 [--stats FILE] [--baud N] [--tcp-latency MS]\n"
             "  Serves the rig's Modbus bus (docs/protocol-modbus.md) as RTU on a new\n"
             "  pseudo-terminal, whose path is the first line on stdout, and with --tcp\n"
             "  also as Modbus TCP (second line: 'tcp HOST:PORT'; PORT 0 picks one).\n"
@@ -38,7 +40,10 @@ static void usage(FILE *out)
             "  obstacle on an axis: moves across it halt there, still moving (stall) or\n"
             "  with alarm 0x30 (overload). --delay makes a slave answer MS ms late.\n"
             "  --stats writes, at exit, the exchanges, the faults injected and each axis's\n"
-            "  commanded and reached range as JSON.\n");
+            "  commanded and reached range as JSON.\n"
+            "  --baud makes each RTU exchange take its frames' time on a serial line at N\n"
+            "  baud, --tcp-latency each TCP reply MS ms, both in rig time. SIGUSR1 closes\n"
+            "  every TCP connection (a network drop).\n");
 }
 
 static int parse_positive(const char *opt, const char *s, double *out)
@@ -63,6 +68,7 @@ int main(int argc, char **argv)
         {"check", no_argument, NULL, 'c'},            {"help", no_argument, NULL, 'h'},
         {"stall", required_argument, NULL, 'S'},      {"overload", required_argument, NULL, 'O'},
         {"delay", required_argument, NULL, 'D'},     {"stats", required_argument, NULL, 'X'},
+        {"baud", required_argument, NULL, 'b'},      {"tcp-latency", required_argument, NULL, 'L'},
         {NULL, 0, NULL, 0},
     };
     const char *scene_name = "ideal", *material_spec = NULL, *rig_name = NULL, *link = NULL,
@@ -86,6 +92,22 @@ int main(int argc, char **argv)
         case 'n':
             if (parse_positive("--steps-per-deg", optarg, &cfg.steps_per_deg) < 0)
                 return 2;
+            break;
+        case 'b': {
+            double baud;
+            if (parse_positive("--baud", optarg, &baud) < 0)
+                return 2;
+            if (baud != floor(baud)) {
+                fprintf(stderr, "gonio-sim: --baud '%s': expected a whole number\n", optarg);
+                return 2;
+            }
+            cfg.baud = (long)baud;
+            break;
+        }
+        case 'L':
+            if (parse_positive("--tcp-latency", optarg, &cfg.tcp_latency_s) < 0)
+                return 2;
+            cfg.tcp_latency_s *= 1e-3;
             break;
         case 'l': link = optarg; break;
         case 't': tcp = optarg; break;
@@ -143,6 +165,10 @@ int main(int argc, char **argv)
                scene.name, scene.path, brdf_material_name(material), rig.name,
                rig.out_of_plane ? " (out of plane: azimuth slave 4)" : "", cfg.time_scale,
                cfg.steps_per_deg);
+        if (cfg.baud > 0)
+            printf("RTU line %ld baud\n", cfg.baud);
+        if (cfg.tcp_latency_s > 0)
+            printf("TCP latency %g ms\n", cfg.tcp_latency_s * 1e3);
         const struct plan_axis *ax[3] = {&rig.sample, &rig.arm, &rig.azimuth};
         static const char *names[3] = {"sample (slave 1)", "arm (slave 2)", "azimuth (slave 4)"};
         for (int i = 0; i < (rig.out_of_plane ? 3 : 2); i++)
@@ -157,6 +183,7 @@ int main(int argc, char **argv)
     sigemptyset(&sa.sa_mask);
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGUSR1, &sa, NULL);
     signal(SIGPIPE, SIG_IGN);
 
     msim *m = msim_new(&rig, material, &scene, &cfg, &err);
@@ -181,7 +208,7 @@ int main(int argc, char **argv)
         if (tcp)
             printf("tcp %.*s:%d\n", (int)(strrchr(tcp, ':') - tcp), tcp, port);
         fflush(stdout);
-        rc = msim_serve(m, &stop_flag, &err);
+        rc = msim_serve(m, &stop_flag, &hangup_flag, &err);
     }
     if (rc < 0 || !m)
         fprintf(stderr, "gonio-sim: %s\n", err.msg);

@@ -40,6 +40,12 @@ enum { DST_BUSY = 1u << 0, DST_READY = 1u << 1, DST_SATURATED = 1u << 2 };
 
 #define MAX_CLIENTS 8
 #define RTU_GAP_MS 10 /* silence that ends a frame of unknown length */
+/* The longest request a function's own length fields can describe: FC
+ * 0x10 with a byte count of 255 (header, address, quantity, count, data).
+ * Longer than the protocol's ADU limits, so that a write of too many
+ * registers still arrives whole and gets its exception 03. */
+#define RTU_MAX_FRAME (1 + 6 + 255 + 2)
+#define TCP_MAX_ADU (7 + 6 + 255)
 
 struct msim_axis {
     modbus_mapping_t *map;
@@ -84,12 +90,16 @@ struct msim {
     int pty_master, pty_slave;
     long exchanges; /* requests to a present slave, faulty or not */
     modbus_t *rtu;
-    uint8_t rtu_buf[MODBUS_RTU_MAX_ADU_LENGTH];
+    uint8_t rtu_buf[RTU_MAX_FRAME];
     int rtu_len;
-    /* TCP: listening socket and clients. */
+    /* TCP: listening socket and clients, each with the part of a frame
+     * received so far (frames are cut by the MBAP header's length). */
     modbus_t *tcp;
     int listen_fd;
-    int clients[MAX_CLIENTS];
+    struct tcp_client {
+        int fd, len;
+        uint8_t buf[TCP_MAX_ADU];
+    } clients[MAX_CLIENTS];
 };
 
 static uint32_t get32(const uint16_t *r, int addr)
@@ -129,7 +139,7 @@ msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
     m->profile = profile;
     m->pty_master = m->pty_slave = m->listen_fd = -1;
     for (int i = 0; i < MAX_CLIENTS; i++)
-        m->clients[i] = -1;
+        m->clients[i].fd = -1;
     m->rig = sim_rig_new_scene(profile, material, scene, NULL, err);
     if (!m->rig) {
         free(m);
@@ -170,8 +180,8 @@ void msim_free(msim *m)
     if (m->tcp)
         modbus_free(m->tcp);
     for (int i = 0; i < MAX_CLIENTS; i++)
-        if (m->clients[i] >= 0)
-            close(m->clients[i]);
+        if (m->clients[i].fd >= 0)
+            close(m->clients[i].fd);
     if (m->listen_fd >= 0)
         close(m->listen_fd);
     if (m->pty_slave >= 0)
@@ -468,36 +478,81 @@ static struct msim_axis *axis_of(msim *m, int slave)
     }
 }
 
-/* A reply damaged on the line: an exception frame with a bad CRC (RTU), or
- * a header naming another transaction and protocol (TCP); either way the
- * master detects a bad answer. */
-static void send_garbled(msim *m, modbus_t *ctx, const uint8_t *req, int hdr)
+/* Sleep for wall seconds, whatever signal arrives meanwhile. */
+static void wait_wall(double s)
 {
-    uint8_t out[9];
-    int n;
+    if (!(s > 0))
+        return;
+    struct timespec ts = {.tv_sec = (time_t)s, .tv_nsec = (long)((s - (double)(time_t)s) * 1e9)};
+    while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
+        ;
+}
+
+/* Seconds a frame of n bytes holds an RTU line at baud, with the silence
+ * that must follow it (t3.5 of the Modbus serial line guide: 3.5
+ * characters, fixed at 1.75 ms above 19200 baud). RTU characters are 11
+ * bits whatever the parity: start, 8 data, parity or a second stop, stop. */
+static double rtu_frame_s(long baud, int n)
+{
+    double ch = 11.0 / (double)baud;
+    return n * ch + (baud > 19200 ? 1.75e-3 : 3.5 * ch);
+}
+
+/* What a frame carrying pdu_len bytes of PDU costs on the bus, in rig
+ * time, waited in wall time (time_scale times shorter), with the server
+ * held up meanwhile as a line is: its time on the RTU line (request and
+ * reply), or the TCP latency (replies only). */
+static void bus_wait(const msim *m, int hdr, int pdu_len, int reply)
+{
+    double s = hdr != 1                ? (reply ? m->cfg.tcp_latency_s : 0.0)
+               : m->cfg.baud > 0 ? rtu_frame_s(m->cfg.baud, 1 + pdu_len + 2)
+                                 : 0.0;
+    wait_wall(s / m->cfg.time_scale);
+}
+
+/* Send a PDU framed for the transport the request came on (hdr 1: RTU, 7:
+ * TCP), for the answers libmodbus cannot frame: an exception to any
+ * function code (modbus_reply_exception adds 0x80 to the code, so a
+ * request with code 0x80 came back with 0x00), and a reply damaged on the
+ * line (garbled): a bad CRC on RTU, a header naming another transaction
+ * and protocol on TCP; either way the master detects a bad answer. */
+static void send_pdu(modbus_t *ctx, const uint8_t *req, int hdr, const uint8_t *pdu, int n,
+                     int garbled)
+{
+    uint8_t out[16];
+    int len = 0;
     if (hdr == 1) {
-        out[0] = req[0];
-        out[1] = (uint8_t)(req[1] | 0x80);
-        out[2] = 0x04;
-        uint16_t crc = (uint16_t)~crc16(out, 3);
-        out[3] = (uint8_t)(crc & 0xFF);
-        out[4] = (uint8_t)(crc >> 8);
-        n = 5;
+        out[len++] = req[0];
     } else {
-        out[0] = (uint8_t)~req[0];
-        out[1] = (uint8_t)~req[1];
-        out[2] = 0xFF; /* protocol id must be 0 */
-        out[3] = 0xFF;
-        out[4] = 0;
-        out[5] = 3;
-        out[6] = req[6];
-        out[7] = (uint8_t)(req[7] | 0x80);
-        out[8] = 0x04;
-        n = 9;
+        uint8_t mask = garbled ? 0xFF : 0x00;
+        out[len++] = req[0] ^ mask;
+        out[len++] = req[1] ^ mask;
+        out[len++] = mask; /* protocol id: 0 is Modbus */
+        out[len++] = mask;
+        out[len++] = 0;
+        out[len++] = (uint8_t)(n + 1);
+        out[len++] = req[6];
     }
-    (void)m;
-    if (write(modbus_get_socket(ctx), out, (size_t)n) < 0)
-        return; /* the client went away: nothing to garble */
+    memcpy(out + len, pdu, (size_t)n);
+    len += n;
+    if (hdr == 1) {
+        uint16_t crc = crc16(out, len);
+        if (garbled)
+            crc = (uint16_t)~crc;
+        out[len++] = (uint8_t)(crc & 0xFF);
+        out[len++] = (uint8_t)(crc >> 8);
+    }
+    if (write(modbus_get_socket(ctx), out, (size_t)len) < 0)
+        return; /* the client went away: nobody to answer */
+}
+
+/* The exception answer: the function code with its top bit set. */
+static void send_exception(const msim *m, modbus_t *ctx, const uint8_t *req, int hdr, int exc,
+                           int garbled)
+{
+    uint8_t pdu[2] = {(uint8_t)(req[hdr] | 0x80), (uint8_t)exc};
+    bus_wait(m, hdr, 2, 1);
+    send_pdu(ctx, req, hdr, pdu, 2, garbled);
 }
 
 /* Answer one request: req is the whole ADU as libmodbus frames it (hdr
@@ -506,6 +561,7 @@ static void send_garbled(msim *m, modbus_t *ctx, const uint8_t *req, int hdr)
 static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int hdr, int len)
 {
     int slave = req[hdr - 1];
+    bus_wait(m, hdr, len, 0); /* the request is on the line, whoever it is for */
     struct msim_axis *ax = axis_of(m, slave);
     int is_det = slave == MSIM_SLAVE_DETECTOR;
     if (!ax && !is_det)
@@ -530,7 +586,7 @@ static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int 
         n = len >= 5 ? (pdu[3] << 8) | pdu[4] : 0;
         write = 1;
         if (n < 1 || n > MODBUS_MAX_WRITE_REGISTERS || len < 6 || pdu[5] != 2 * n ||
-            len < 6 + 2 * n)
+            len != 6 + 2 * n)
             exc = MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
         break;
     default:
@@ -554,19 +610,14 @@ static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int 
     if (fault == SIM_FAULT_DROP) /* lost on the line: not executed, no answer */
         return;
     if (fault == SIM_FAULT_CORRUPT) { /* garbled on the line: not executed */
-        send_garbled(m, ctx, req, hdr);
+        send_exception(m, ctx, req, hdr, MODBUS_EXCEPTION_SLAVE_OR_SERVER_FAILURE, 1);
         return;
     }
     if (fault == SIM_FAULT_LATE)
         late_s += sim_faults_timeout(faults);
-    if (late_s > 0) {
-        struct timespec ts = {.tv_sec = (time_t)late_s,
-                              .tv_nsec = (long)((late_s - (double)(time_t)late_s) * 1e9)};
-        while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
-            ;
-    }
+    wait_wall(late_s);
     if (exc) {
-        modbus_reply_exception(ctx, req, (unsigned)exc);
+        send_exception(m, ctx, req, hdr, exc, 0);
         return;
     }
     sync_clock(m);
@@ -574,6 +625,9 @@ static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int 
         axis_refresh(m, ax);
     else
         det_refresh(m);
+    /* The registers are read as the request arrived; the reply then takes
+     * its time on the bus: 2 + 2n bytes of PDU for a read, 5 for a write. */
+    bus_wait(m, hdr, write ? 5 : 2 + 2 * n, 1);
     modbus_reply(ctx, req, req_len, ax ? ax->map : m->det.map);
     if (!write)
         return;
@@ -725,8 +779,6 @@ int msim_open_tcp(msim *m, const char *addr, int *port, struct gonio_err *err)
     m->tcp = modbus_new_tcp(host, (int)p);
     if (!m->tcp)
         return gonio_err_set(err, ENOMEM, "--tcp %s: %s", addr, modbus_strerror(errno));
-    /* A client that sends half a frame must not hold up the bus for long. */
-    modbus_set_byte_timeout(m->tcp, 0, 20000);
     m->listen_fd = modbus_tcp_listen(m->tcp, MAX_CLIENTS);
     if (m->listen_fd < 0)
         return gonio_err_set(err, errno, "--tcp %s: %s", addr, modbus_strerror(errno));
@@ -744,36 +796,72 @@ static void tcp_accept(msim *m)
     if (fd < 0)
         return;
     for (int i = 0; i < MAX_CLIENTS; i++)
-        if (m->clients[i] < 0) {
-            m->clients[i] = fd;
+        if (m->clients[i].fd < 0) {
+            m->clients[i].fd = fd;
+            m->clients[i].len = 0;
             return;
         }
     close(fd); /* full: refuse */
 }
 
+static void tcp_close(msim *m, int slot)
+{
+    close(m->clients[slot].fd);
+    m->clients[slot].fd = -1;
+}
+
+/* Read what a client sent and answer each complete frame. The MBAP
+ * header's length cuts the frames, as the Modbus TCP implementation guide
+ * has a server do, so a PDU whose own fields disagree with it (an FC 0x10
+ * byte count) gets its exception 03 and the stream stays in step. A frame
+ * whose protocol id is not 0 (Modbus) is discarded unanswered; a length no
+ * request can have loses the stream, and the connection is closed. */
 static void tcp_read(msim *m, int slot)
 {
-    uint8_t req[MODBUS_TCP_MAX_ADU_LENGTH];
-    modbus_set_socket(m->tcp, m->clients[slot]);
-    int rc = modbus_receive(m->tcp, req);
-    if (rc < 0) {
-        if (errno == EMBBADDATA || errno == EMBMDATA || errno == EMBBADCRC) {
-            modbus_flush(m->tcp);
-            return;
-        }
-        close(m->clients[slot]); /* the client went away, or sent garbage */
-        m->clients[slot] = -1;
+    struct tcp_client *c = &m->clients[slot];
+    ssize_t got = recv(c->fd, c->buf + c->len, sizeof c->buf - (size_t)c->len, MSG_DONTWAIT);
+    if (got < 0 && (errno == EAGAIN || errno == EINTR))
+        return;
+    if (got <= 0) { /* the client went away */
+        tcp_close(m, slot);
         return;
     }
-    if (rc >= 8)
-        handle(m, m->tcp, req, rc, 7, rc - 7);
+    c->len += (int)got;
+    while (c->len >= 7) {
+        int n = 6 + ((c->buf[4] << 8) | c->buf[5]); /* the whole frame */
+        if (n < 8 || n > TCP_MAX_ADU) {
+            if (m->cfg.trace)
+                fprintf(stderr, "gonio-sim: TCP frame length %d: connection closed\n", n - 6);
+            tcp_close(m, slot);
+            return;
+        }
+        if (c->len < n)
+            return;
+        if (c->buf[2] || c->buf[3]) {
+            if (m->cfg.trace)
+                fprintf(stderr, "gonio-sim: TCP frame of protocol %u discarded\n",
+                        (unsigned)((c->buf[2] << 8) | c->buf[3]));
+        } else {
+            modbus_set_socket(m->tcp, c->fd);
+            handle(m, m->tcp, c->buf, n, 7, n - 7);
+        }
+        memmove(c->buf, c->buf + n, (size_t)(c->len - n));
+        c->len -= n;
+    }
 }
 
 /* ---- The loop -------------------------------------------------------------- */
 
-int msim_serve(msim *m, volatile sig_atomic_t *stop, struct gonio_err *err)
+int msim_serve(msim *m, volatile sig_atomic_t *stop, volatile sig_atomic_t *hangup,
+               struct gonio_err *err)
 {
     while (!*stop) {
+        if (*hangup) {
+            *hangup = 0;
+            for (int i = 0; i < MAX_CLIENTS; i++)
+                if (m->clients[i].fd >= 0)
+                    tcp_close(m, i);
+        }
         struct pollfd pf[2 + MAX_CLIENTS];
         int slot[2 + MAX_CLIENTS];
         int n = 0;
@@ -782,8 +870,9 @@ int msim_serve(msim *m, volatile sig_atomic_t *stop, struct gonio_err *err)
         if (m->listen_fd >= 0)
             pf[n] = (struct pollfd){.fd = m->listen_fd, .events = POLLIN}, slot[n++] = -2;
         for (int i = 0; i < MAX_CLIENTS; i++)
-            if (m->clients[i] >= 0)
-                pf[n] = (struct pollfd){.fd = m->clients[i], .events = POLLIN}, slot[n++] = i;
+            if (m->clients[i].fd >= 0)
+                pf[n] = (struct pollfd){.fd = m->clients[i].fd, .events = POLLIN},
+                slot[n++] = i;
         int rc = poll(pf, (nfds_t)n, m->rtu_len > 0 ? RTU_GAP_MS : 200);
         if (rc < 0) {
             if (errno == EINTR)

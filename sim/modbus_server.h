@@ -28,6 +28,13 @@ struct msim_cfg {
     double time_scale;    /* simulated seconds per wall second, > 0 */
     double steps_per_deg; /* drive steps per degree, > 0 */
     int trace;            /* one stderr line per request */
+    /* Bus costs, in rig time (so each is waited time_scale times shorter
+     * in wall time; docs/gonio-sim.md "Line time"): an RTU exchange takes
+     * its frames' time on a serial line at baud (11 bits a character, and
+     * the inter-frame silence after each frame; 0: free), a TCP reply
+     * tcp_latency_s (0: none). */
+    long baud;
+    double tcp_latency_s;
 };
 
 typedef struct msim msim;
@@ -72,8 +79,11 @@ int msim_open_tcp(msim *m, const char *addr, int *port, struct gonio_err *err);
 void msim_write_stats(const msim *m, FILE *out);
 
 /* Answer requests until *stop becomes non-zero (a signal handler sets it).
- * Malformed input is answered or ignored as a real slave would; only a
- * failure of the server's own descriptors ends it early. */
-int msim_serve(msim *m, volatile sig_atomic_t *stop, struct gonio_err *err);
+ * Whenever *hangup is non-zero the server closes every TCP connection (a
+ * network drop) and clears it. Malformed input is answered or ignored as a
+ * real slave would; only a failure of the server's own descriptors ends it
+ * early. */
+int msim_serve(msim *m, volatile sig_atomic_t *stop, volatile sig_atomic_t *hangup,
+               struct gonio_err *err);
 
 #endif
