@@ -13,7 +13,11 @@
  * failed attempt the bus drains the line until it stays quiet for the
  * timeout (at most 0.1 s), so a late answer is not taken for the next one,
  * and the axes read status and position with requests of different sizes,
- * so one that slips through fails the size check instead. An exception
+ * so one that slips through fails the size check instead. On TCP, a
+ * connection the peer closed or reset is re-opened, after a pause doubling
+ * from 0.05 s, and the request sent again; each reconnection is one of the
+ * request's attempts (a write may thus reach the device twice: every
+ * write of this map is idempotent or restarts the same operation). An exception
  * answer, a drive alarm or a stalled move fails with -GONIO_EDEVICE; the
  * message names the device, the register and the problem, e.g.
  * "axis arm (slave 2): drive alarm 0x30 (overload)". */
@@ -67,6 +71,7 @@ struct drv_modbus_stats {
     long bad_replies; /* a garbled, foreign or mismatched answer */
     long exceptions;  /* the device refused (not retried) */
     long failed;      /* requests that gave up after every attempt */
+    long reconnects;  /* TCP: connections re-opened after the peer dropped one */
 };
 void drv_modbus_bus_stats(const drv_modbus_bus *bus, struct drv_modbus_stats *out);
 
