@@ -19,24 +19,30 @@
 #include <unistd.h>
 
 #include "common/clock.h"
+#include "modbus_map/modbus_map.h"
 #include "sim/effects_detector.h"
 #include "sim/effects_faults.h"
 #include "sim/scene.h"
 #include "sim/sim.h"
 
-/* Register addresses (docs/protocol-modbus.md). */
+/* The register map (modbus_map/modbus_map.h) under this file's short
+ * names; the simulated detector has three channels. */
 enum {
-    AX_DATA_NO = 0x58, AX_OP_TYPE = 0x5A, AX_POSITION = 0x5C, AX_SPEED = 0x5E, AX_ACCEL = 0x60,
-    AX_DECEL = 0x62, AX_CURRENT = 0x64, AX_TRIGGER = 0x66, AX_INPUT = 0x7C, AX_STATUS = 0x7E,
-    AX_ALARM = 0x80, AX_FEEDBACK = 0xCC, AX_NREGS = 0xCE,
-    DET_INTEGRATION = 0x00, DET_TRIGGER = 0x02, DET_STATUS = 0x04, DET_COUNT = 0x06,
-    DET_SEQUENCE = 0x08, DET_CLOCK = 0x0A, DET_CHANNELS = 0x10, DET_NCHANNELS = 3,
+    AX_DATA_NO = MB_AX_DATA_NO, AX_OP_TYPE = MB_AX_OP_TYPE, AX_POSITION = MB_AX_POSITION,
+    AX_SPEED = MB_AX_SPEED, AX_ACCEL = MB_AX_ACCEL, AX_TRIGGER = MB_AX_TRIGGER,
+    AX_INPUT = MB_AX_INPUT, AX_STATUS = MB_AX_STATUS, AX_ALARM = MB_AX_ALARM,
+    AX_FEEDBACK = MB_AX_FEEDBACK, AX_NREGS = MB_AX_NREGS,
+    DET_INTEGRATION = MB_DET_INTEGRATION, DET_TRIGGER = MB_DET_TRIGGER,
+    DET_STATUS = MB_DET_STATUS, DET_COUNT = MB_DET_COUNT, DET_SEQUENCE = MB_DET_SEQUENCE,
+    DET_CLOCK = MB_DET_CLOCK, DET_CHANNELS = MB_DET_CHANNELS, DET_NCHANNELS = 3,
     DET_NREGS = DET_CHANNELS + 2 * DET_NCHANNELS,
 };
-enum { IN_ZHOME = 1u << 4, IN_STOP = 1u << 5, IN_ALM_RST = 1u << 7 };
-enum { ST_HOME_END = 1u << 4, ST_READY = 1u << 5, ST_ALM_A = 1u << 7, ST_MOVE = 1u << 13,
-       ST_IN_POS = 1u << 14 };
-enum { DST_BUSY = 1u << 0, DST_READY = 1u << 1, DST_SATURATED = 1u << 2 };
+enum { IN_ZHOME = MB_IN_ZHOME, IN_STOP = MB_IN_STOP, IN_ALM_RST = MB_IN_ALM_RST };
+enum { ST_HOME_END = MB_ST_HOME_END, ST_READY = MB_ST_READY, ST_ALM_A = MB_ST_ALM_A,
+       ST_MOVE = MB_ST_MOVE, ST_IN_POS = MB_ST_IN_POS };
+enum { DST_BUSY = MB_DET_BUSY, DST_READY = MB_DET_READY, DST_SATURATED = MB_DET_SATURATED };
+enum { MSIM_ALARM_OVERLOAD = MB_ALARM_OVERLOAD, MSIM_ALARM_DEVIATION = MB_ALARM_DEVIATION,
+       MSIM_ALARM_OVERTRAVEL = MB_ALARM_OVERTRAVEL, MSIM_ALARM_DATA = MB_ALARM_DATA };
 
 #define MAX_CLIENTS 8
 #define RTU_GAP_MS 10 /* silence that ends a frame of unknown length */
@@ -102,23 +108,15 @@ struct msim {
     } clients[MAX_CLIENTS];
 };
 
+/* The map's codec at a register address of a device's table. */
 static uint32_t get32(const uint16_t *r, int addr)
 {
-    return ((uint32_t)r[addr] << 16) | r[addr + 1];
+    return mb_get32(r + addr);
 }
 
 static void put32(uint16_t *r, int addr, uint32_t v)
 {
-    r[addr] = (uint16_t)(v >> 16);
-    r[addr + 1] = (uint16_t)(v & 0xFFFF);
-}
-
-static void put_float(uint16_t *r, int addr, double v)
-{
-    float f = (float)v;
-    uint32_t bits;
-    memcpy(&bits, &f, sizeof bits);
-    put32(r, addr, bits);
+    mb_put32(r + addr, v);
 }
 
 msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
@@ -339,7 +337,7 @@ static void det_refresh(msim *m)
         d->ready = 1;
         d->sequence++;
         for (int k = 0; k < DET_NCHANNELS; k++)
-            put_float(r, DET_CHANNELS + 2 * k, d->pending[k]);
+            mb_put_float(r + DET_CHANNELS + 2 * k, (float)d->pending[k]);
         /* The integration register reads back what was actually used
          * (auto-exposure may have chosen another). */
         put32(r, DET_INTEGRATION, d->pending_us);
@@ -377,10 +375,10 @@ static void det_trigger(msim *m)
 int msim_jam(msim *m, int slave, enum msim_jam_kind kind, double deg, struct gonio_err *err)
 {
     struct msim_axis *ax = NULL;
-    if (slave == MSIM_SLAVE_SAMPLE || slave == MSIM_SLAVE_ARM ||
-        (slave == MSIM_SLAVE_AZIMUTH && m->n_axes > 2))
-        ax = &m->axis[slave == MSIM_SLAVE_SAMPLE ? SIM_AXIS_SAMPLE
-                      : slave == MSIM_SLAVE_ARM  ? SIM_AXIS_ARM
+    if (slave == MB_SLAVE_SAMPLE || slave == MB_SLAVE_ARM ||
+        (slave == MB_SLAVE_AZIMUTH && m->n_axes > 2))
+        ax = &m->axis[slave == MB_SLAVE_SAMPLE ? SIM_AXIS_SAMPLE
+                      : slave == MB_SLAVE_ARM  ? SIM_AXIS_ARM
                                                  : SIM_AXIS_AZIMUTH];
     if (!ax || !isfinite(deg) || deg < ax->prof->min || deg > ax->prof->max)
         return gonio_err_set(err, GONIO_EUSAGE, "jam: no axis at slave %d, or %g deg outside "
@@ -471,9 +469,9 @@ static int overlaps(int addr, int n, int reg)
 static struct msim_axis *axis_of(msim *m, int slave)
 {
     switch (slave) {
-    case MSIM_SLAVE_SAMPLE: return &m->axis[SIM_AXIS_SAMPLE];
-    case MSIM_SLAVE_ARM: return &m->axis[SIM_AXIS_ARM];
-    case MSIM_SLAVE_AZIMUTH: return m->n_axes > 2 ? &m->axis[SIM_AXIS_AZIMUTH] : NULL;
+    case MB_SLAVE_SAMPLE: return &m->axis[SIM_AXIS_SAMPLE];
+    case MB_SLAVE_ARM: return &m->axis[SIM_AXIS_ARM];
+    case MB_SLAVE_AZIMUTH: return m->n_axes > 2 ? &m->axis[SIM_AXIS_AZIMUTH] : NULL;
     default: return NULL;
     }
 }
@@ -563,7 +561,7 @@ static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int 
     int slave = req[hdr - 1];
     bus_wait(m, hdr, len, 0); /* the request is on the line, whoever it is for */
     struct msim_axis *ax = axis_of(m, slave);
-    int is_det = slave == MSIM_SLAVE_DETECTOR;
+    int is_det = slave == MB_SLAVE_DETECTOR;
     if (!ax && !is_det)
         return;
     const uint8_t *pdu = req + hdr;

@@ -2,7 +2,8 @@
  * map of docs/protocol-modbus.md, served as one bus with several slave ids
  * over Modbus RTU on a pseudo-terminal and/or Modbus TCP on loopback.
  *
- * The simulated clock follows wall time scaled by time_scale: every request
+ * Slave ids, registers and alarm codes: modbus_map/modbus_map.h. The
+ * simulated clock follows wall time scaled by time_scale: every request
  * first brings the rig to now, so motion, homing and integration advance
  * between requests exactly as they would on a real rig, only faster. */
 #ifndef GONIO_SIM_MODBUS_SERVER_H
@@ -15,14 +16,6 @@
 #include "brdf/material.h"
 #include "common/err.h"
 #include "planner/rig.h"
-
-/* Slave ids of the rig's devices on its bus. */
-enum msim_slave { MSIM_SLAVE_SAMPLE = 1, MSIM_SLAVE_ARM = 2, MSIM_SLAVE_DETECTOR = 3,
-                  MSIM_SLAVE_AZIMUTH = 4 };
-
-/* Drive alarm codes (present-alarm register). */
-enum msim_alarm { MSIM_ALARM_OVERLOAD = 0x30, MSIM_ALARM_DEVIATION = 0x28,
-                  MSIM_ALARM_OVERTRAVEL = 0x66, MSIM_ALARM_DATA = 0x70 };
 
 struct msim_cfg {
     double time_scale;    /* simulated seconds per wall second, > 0 */
