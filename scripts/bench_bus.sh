@@ -74,3 +74,4 @@ row "RTU, no line cost" rtu-free rtu
 BAUD=115200 row "RTU 115200 baud" rtu-115200 rtu --baud 115200
 BAUD=19200 row "RTU 19200 baud" rtu-19200 rtu --baud 19200
 row "TCP, 1 ms latency" tcp-1ms tcp --tcp-latency 1
+echo "targets (issue 13): overhead <= 2 % at 115200 baud, <= 5 % at 19200"
