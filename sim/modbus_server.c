@@ -553,9 +553,9 @@ static void send_exception(const msim *m, modbus_t *ctx, const uint8_t *req, int
     send_pdu(ctx, req, hdr, pdu, 2, garbled);
 }
 
-/* Answer one request: req is the whole ADU as libmodbus frames it (hdr
- * bytes of header ending with the unit id, then the PDU); len counts the
- * bytes the PDU may use. Requests to absent slaves get no answer. */
+/* Answer one request: req is the whole ADU (hdr bytes of header ending
+ * with the unit id, then the PDU, then an RTU frame's CRC); len counts the
+ * PDU's bytes. Requests to absent slaves get no answer. */
 static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int hdr, int len)
 {
     int slave = req[hdr - 1];
