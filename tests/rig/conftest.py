@@ -140,3 +140,14 @@ def rtu(sim):
     m = RtuMaster(sim["pty"])
     yield m
     m.close()
+
+
+@pytest.fixture
+def tcp(sim):
+    """pymodbus's TCP client on gonio-sim: an independent Modbus TCP master."""
+    client = pytest.importorskip("pymodbus.client").ModbusTcpClient("127.0.0.1", port=sim["port"],
+                                                                    timeout=1)
+    assert client.connect()
+    yield client
+    client.close()
+

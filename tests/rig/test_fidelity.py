@@ -74,14 +74,6 @@ def raw(sim):
     c.close()
 
 
-@pytest.fixture
-def tcp(sim):
-    client = pymodbus_client.ModbusTcpClient("127.0.0.1", port=sim["port"], timeout=1)
-    assert client.connect()
-    yield client
-    client.close()
-
-
 def read_status_pdu():
     return bytes([0x03, 0, STATUS, 0, 2])
 
