@@ -49,7 +49,7 @@ run() { # dir transport sim-args...: one capture; prints "requests points rig_s"
     done
     "$bin/gonio" capture --plan ds3 --name bus --wait --socket "$d/s.sock" >"$d/capture.out" ||
         echo "bench_bus: $1: capture failed (see $d)" >&2
-    kill "$daemon" "$sim"
+    kill "$daemon" "$sim" 2>/dev/null || true
     wait "$daemon" "$sim" || true
     requests=$(sed -n 's/.*: bus \([0-9]*\) requests.*/\1/p' "$d/goniod.log" | tail -n 1)
     points=$(sed -n 's/.*, \([0-9]*\) samples, rig time.*/\1/p' "$d/capture.out")
