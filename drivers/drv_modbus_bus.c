@@ -146,21 +146,6 @@ void drv_modbus_sleep(double seconds)
         ;
 }
 
-float drv_modbus_get_float(const uint16_t *r)
-{
-    uint32_t bits = drv_modbus_get32(r);
-    float f;
-    memcpy(&f, &bits, sizeof f);
-    return f;
-}
-
-void drv_modbus_put_float(uint16_t *r, float f)
-{
-    uint32_t bits;
-    memcpy(&bits, &f, sizeof bits);
-    drv_modbus_put32(r, bits);
-}
-
 static const char *exception_name(int code)
 {
     switch (code) {

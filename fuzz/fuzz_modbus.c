@@ -15,7 +15,6 @@
  * position read back is finite. */
 #include <errno.h>
 #include <math.h>
-#include <string.h>
 
 #include "drivers/drv_modbus.h"
 #include "drivers/drv_modbus_private.h"
@@ -67,10 +66,11 @@ int drv_modbus_write(drv_modbus_bus *bus, int slave, int addr, int n, const uint
                      const char *who, struct gonio_err *err)
 {
     FUZZ_CHECK(n > 0 && n <= 123); /* a Modbus write holds at most 123 registers */
-    /* Direct-data operation of the axis (0x58): the target position is the
-     * third 32-bit value; it must be within the soft limits. */
-    if (slave == 1 && addr == 0x58 && n >= 6) {
-        double target = (double)(int32_t)drv_modbus_get32(regs + 4) / bus->steps_per_deg;
+    /* Direct-data operation of the axis: the target position must be
+     * within the soft limits. */
+    int at = MB_AX_POSITION - MB_AX_DATA_NO;
+    if (slave == MB_SLAVE_SAMPLE && addr == MB_AX_DATA_NO && n >= at + 2) {
+        double target = (double)(int32_t)mb_get32(regs + at) / bus->steps_per_deg;
         FUZZ_CHECK(target >= bus->min_deg - 1.0 / bus->steps_per_deg &&
                    target <= bus->max_deg + 1.0 / bus->steps_per_deg);
     }
@@ -105,21 +105,6 @@ void drv_modbus_sleep(double seconds)
         the_bus->now += seconds;
 }
 
-float drv_modbus_get_float(const uint16_t *r)
-{
-    uint32_t bits = drv_modbus_get32(r);
-    float f;
-    memcpy(&f, &bits, sizeof f);
-    return f;
-}
-
-void drv_modbus_put_float(uint16_t *r, float f)
-{
-    uint32_t bits;
-    memcpy(&bits, &f, sizeof bits);
-    drv_modbus_put32(r, bits);
-}
-
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     if (size < 1)
@@ -133,10 +118,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     struct drv_modbus_axis_opts opts = {.steps_per_deg = bus.steps_per_deg,
                                         .backlash_deg = (data[0] & 4) ? 0.5 : 0.0};
     struct gonio_err err = {0};
-    drv_axis *ax = drv_axis_new_modbus(&bus, 1, &prof, &opts, "fuzz", &err);
-    drv_detector *det = drv_detector_new_modbus(&bus, 3, &err);
+    drv_axis *ax = drv_axis_new_modbus(&bus, MB_SLAVE_SAMPLE, &prof, &opts, "fuzz", &err);
+    drv_detector *det = drv_detector_new_modbus(&bus, MB_SLAVE_DETECTOR, &err);
     FUZZ_CHECK(ax && det);
-    drv_clock *clk = (data[0] & 8) ? drv_clock_new_modbus(&bus, 3, &err) : NULL;
+    drv_clock *clk = (data[0] & 8) ? drv_clock_new_modbus(&bus, MB_SLAVE_DETECTOR, &err) : NULL;
     uint8_t op, arg;
     while (next_byte(&bus, &op) == 0 && next_byte(&bus, &arg) == 0) {
         double deg;
