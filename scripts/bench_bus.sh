@@ -7,7 +7,9 @@
 # = rig time / estimate - 1. The first row has no line cost at all: what
 # remains there is the drivers' polling and the host's own time per request
 # (multiplied by the time scale), so the rows below it also show the line's
-# share (their rig time minus the first row's, over the estimate).
+# share (their rig time minus the first row's, over the estimate), and
+# where the requests go: per point, to the sample, arm and azimuth drives
+# and to the detector (gonio-sim --stats).
 # Usage: bench_bus.sh BIN OUT. BENCH_BUS_SCALE: gonio-sim's --time-scale
 # (default 4; the host's time per request counts that many times over).
 set -eu
@@ -19,13 +21,13 @@ mkdir -p "$out"
 calc() { awk "BEGIN { print $1 }"; }
 estimate=$("$bin/gonio" plan ds3 --json | tr ',' '\n' | sed -n 's/.*"total_s": *\([0-9.eE+-]*\).*/\1/p')
 
-run() { # dir transport sim-args...: one capture; prints "requests points rig_s"
+run() { # dir transport sim-args...: one capture; prints "requests points rig_s s a az det"
     d=$out/$1
     kind=$2
     shift 2
     rm -rf "$d"
     mkdir -p "$d/cap"
-    "$bin/gonio-sim" --scene ideal --time-scale "$scale" --tcp 127.0.0.1:0 "$@" \
+    "$bin/gonio-sim" --scene ideal --time-scale "$scale" --tcp 127.0.0.1:0 --stats "$d/stats.json" "$@" \
         >"$d/sim.out" 2>"$d/sim.err" &
     sim=$!
     i=0
@@ -54,11 +56,14 @@ run() { # dir transport sim-args...: one capture; prints "requests points rig_s"
     requests=$(sed -n 's/.*: bus \([0-9]*\) requests.*/\1/p' "$d/goniod.log" | tail -n 1)
     points=$(sed -n 's/.*, \([0-9]*\) samples, rig time.*/\1/p' "$d/capture.out")
     rig=$(tr -d ' \n' <"$d/cap/bus/results.json" | sed -n 's/.*"rig_time_s":\([-0-9.eE+]*\).*/\1/p')
-    echo "${requests:-0} ${points:-0} ${rig:-nan}"
+    by=$(tr -d ' \n' <"$d/stats.json" |
+        sed -n 's/.*"detector":{"exchanges":\([0-9]*\)}.*"sample":{"exchanges":\([0-9]*\),.*"arm":{"exchanges":\([0-9]*\),.*"azimuth":{"exchanges":\([0-9]*\),.*/\2 \3 \4 \1/p')
+    echo "${requests:-0} ${points:-0} ${rig:-nan} ${by:-0 0 0 0}"
 }
 
 echo "DS3, ideal scene, goniod over gonio-sim --time-scale $scale; plan estimate $estimate s of rig time"
-printf '%-24s %8s %6s %9s %7s %9s %9s\n' bus requests points req/point rig_s overhead line
+printf '%-24s %8s %6s %9s %7s %9s %9s  %s\n' bus requests points req/point rig_s overhead line \
+    "per point: sample/arm/azimuth/detector"
 free=""
 row() { # label dir kind sim-args...
     label=$1
@@ -68,7 +73,10 @@ row() { # label dir kind sim-args...
     over=$(calc "100 * ($3 / $estimate - 1)")
     [ -n "$free" ] || free=$3
     line=$(calc "100 * ($3 - $free) / $estimate")
-    printf '%-24s %8s %6s %9.1f %7.1f %8.1f%% %8.1f%%\n' "$label" "$1" "$2" "$per" "$3" "$over" "$line"
+    n=$(calc "($2 > 0 ? $2 : 1)")
+    printf '%-24s %8s %6s %9.1f %7.1f %8.1f%% %8.1f%%  %.1f/%.1f/%.1f/%.1f\n' "$label" "$1" "$2" \
+        "$per" "$3" "$over" "$line" "$(calc "$4 / $n")" "$(calc "$5 / $n")" "$(calc "$6 / $n")" \
+        "$(calc "$7 / $n")"
 }
 row "RTU, no line cost" rtu-free rtu
 BAUD=115200 row "RTU 115200 baud" rtu-115200 rtu --baud 115200

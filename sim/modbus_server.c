@@ -94,7 +94,8 @@ struct msim {
     /* RTU: the pty master, a held-open slave (so the master never sees a
      * hang-up between clients) and a libmodbus context that writes replies. */
     int pty_master, pty_slave;
-    long exchanges; /* requests to a present slave, faulty or not */
+    /* Requests to a present slave, faulty or not: all, and per slave id. */
+    long exchanges, slave_exchanges[256];
     modbus_t *rtu;
     uint8_t rtu_buf[RTU_MAX_FRAME];
     int rtu_len;
@@ -414,9 +415,11 @@ void msim_write_stats(const msim *m, FILE *out)
     if (f)
         sim_faults_counts(f, c);
     fprintf(out, "{\"exchanges\": %ld, \"faults\": {\"dropped\": %ld, \"corrupted\": %ld, "
-            "\"late\": %ld},\n \"axes\": {", m->exchanges, c[SIM_FAULT_DROP],
-            c[SIM_FAULT_CORRUPT], c[SIM_FAULT_LATE]);
+            "\"late\": %ld},\n \"detector\": {\"exchanges\": %ld},\n \"axes\": {",
+            m->exchanges, c[SIM_FAULT_DROP], c[SIM_FAULT_CORRUPT], c[SIM_FAULT_LATE],
+            m->slave_exchanges[MB_SLAVE_DETECTOR]);
     static const char *names[SIM_N_AXES] = {"sample", "arm", "azimuth"};
+    static const int slaves[SIM_N_AXES] = {MB_SLAVE_SAMPLE, MB_SLAVE_ARM, MB_SLAVE_AZIMUTH};
     for (int i = 0; i < m->n_axes; i++) {
         const struct msim_axis *ax = &m->axis[i];
         /* JSON has no infinity: an axis never commanded reports nulls. */
@@ -425,10 +428,10 @@ void msim_write_stats(const msim *m, FILE *out)
             snprintf(cmd, sizeof cmd, "%.17g, %.17g", ax->cmd_min, ax->cmd_max);
         if (ax->moves > 0)
             snprintf(pos, sizeof pos, "%.17g, %.17g", ax->pos_min, ax->pos_max);
-        fprintf(out, "%s\n  \"%s\": {\"moves\": %ld, \"refused\": %ld, \"limits\": [%.17g, %.17g], "
-                "\"commanded\": [%s], \"positions\": [%s], \"alarms\": %ld}", i ? "," : "",
-                names[i], ax->moves, ax->refused, ax->prof->min, ax->prof->max, cmd, pos,
-                ax->alarms);
+        fprintf(out, "%s\n  \"%s\": {\"exchanges\": %ld, \"moves\": %ld, \"refused\": %ld, "
+                "\"limits\": [%.17g, %.17g], \"commanded\": [%s], \"positions\": [%s], "
+                "\"alarms\": %ld}", i ? "," : "", names[i], m->slave_exchanges[slaves[i]], ax->moves,
+                ax->refused, ax->prof->min, ax->prof->max, cmd, pos, ax->alarms);
     }
     fprintf(out, "}}\n");
 }
@@ -597,6 +600,7 @@ static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int 
                 addr < 0 ? 0 : addr, n, exc ? " -> exception " : "",
                 exc == 1 ? "01" : exc == 2 ? "02" : exc == 3 ? "03" : "");
     m->exchanges++;
+    m->slave_exchanges[slave]++;
     double late_s = m->delay_ms[slave] * 1e-3;
     sim_faults *faults = sim_rig_faults(m->rig);
     enum sim_fault fault = SIM_FAULT_NONE;

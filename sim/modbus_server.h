@@ -65,10 +65,12 @@ int msim_open_pty(msim *m, const char *link, char *path, size_t size, struct gon
 int msim_open_tcp(msim *m, const char *addr, int *port, struct gonio_err *err);
 
 /* What the rig saw, as one JSON object: exchanges with present slaves,
- * the comm_faults injected by kind, and per axis the moves started, the
- * commands refused (beyond the limits: alarm 0x66), the rig profile's
- * limits, the range of commanded targets, the range of positions the axis
- * took, and the alarms raised. A fault soak holds the drivers to these. */
+ * the comm_faults injected by kind, the detector's exchanges, and per axis
+ * its exchanges, the moves started, the commands refused (beyond the
+ * limits: alarm 0x66), the rig profile's limits, the range of commanded
+ * targets, the range of positions the axis took, and the alarms raised. A
+ * fault soak holds the drivers to these; make bench reports the exchanges
+ * per device. */
 void msim_write_stats(const msim *m, FILE *out);
 
 /* Answer requests until *stop becomes non-zero (a signal handler sets it).
