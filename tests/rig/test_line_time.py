@@ -4,17 +4,12 @@ least what the frames in between cost on the line (the first reply and the
 second request, each with its t3.5 silence), and over TCP by at least the
 latency. Lower bounds only: a wait never ends early, but a loaded machine
 may make it longer, and no test asserts how long anything takes."""
-import os
-import shutil
-import signal
 import socket
 import struct
-import subprocess
-import tempfile
 
 import pytest
 
-from conftest import RtuMaster, gonio_bin, tg
+from conftest import RtuMaster, gonio_sim
 
 BAUD, SCALE, LATENCY_MS = 1200, 10, 200
 CLOCK = 0x0A
@@ -24,20 +19,9 @@ DETECTOR = 3
 @pytest.fixture(scope="module")
 def slow_sim():
     pytest.importorskip("serial")
-    logs = tempfile.mkdtemp(prefix="rig-line")
-    try:
-        proc = subprocess.Popen(tg.wrap([os.path.join(gonio_bin(), "gonio-sim"), "--time-scale",
-                                         str(SCALE), "--baud", str(BAUD), "--tcp-latency",
-                                         str(LATENCY_MS), "--tcp", "127.0.0.1:0"], logs),
-                                stdout=subprocess.PIPE, text=True)
-        pty = proc.stdout.readline().strip()
-        port = int(proc.stdout.readline().strip().rsplit(":", 1)[1])
-        yield {"pty": pty, "port": port}
-        proc.send_signal(signal.SIGTERM)
-        assert proc.wait(timeout=2 * tg.START_S) == 0
-        tg.assert_valgrind_clean(logs)
-    finally:
-        shutil.rmtree(logs, ignore_errors=True)
+    with gonio_sim("--time-scale", str(SCALE), "--baud", str(BAUD), "--tcp-latency",
+                   str(LATENCY_MS)) as s:
+        yield s
 
 
 def frame_s(n):

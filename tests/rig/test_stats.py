@@ -4,13 +4,11 @@ and one to an absent slave, which is no exchange."""
 import json
 import os
 import shutil
-import signal
-import subprocess
 import tempfile
 
 import pytest
 
-from conftest import RtuMaster, frame, gonio_bin, tg
+from conftest import RtuMaster, frame, gonio_sim
 
 SAMPLE, DETECTOR = 1, 3
 
@@ -18,26 +16,22 @@ SAMPLE, DETECTOR = 1, 3
 def test_exchanges_per_device():
     pytest.importorskip("serial")
     folder = tempfile.mkdtemp(prefix="rig-stats")
+    stats = os.path.join(folder, "stats.json")
     try:
-        stats = os.path.join(folder, "stats.json")
-        proc = subprocess.Popen(tg.wrap([os.path.join(gonio_bin(), "gonio-sim"), "--stats", stats],
-                                        folder), stdout=subprocess.PIPE, text=True)
-        m = RtuMaster(proc.stdout.readline().strip())
-        try:
-            for _ in range(3):
-                m.read(DETECTOR, 0x06, 2)
-            for _ in range(2):
-                m.read(SAMPLE, 0x7E, 2)
-            assert m.raw(frame(bytes([9, 0x03, 0, 0x7E, 0, 2])), timeout=0.2) is None
-        finally:
-            m.close()
-        proc.send_signal(signal.SIGTERM)
-        assert proc.wait(timeout=2 * tg.START_S) == 0
-        tg.assert_valgrind_clean(folder)
-        with open(stats) as f:
+        with gonio_sim("--stats", stats) as s:
+            m = RtuMaster(s["pty"])
+            try:
+                for _ in range(3):
+                    m.read(DETECTOR, 0x06, 2)
+                for _ in range(2):
+                    m.read(SAMPLE, 0x7E, 2)
+                assert m.raw(frame(bytes([9, 0x03, 0, 0x7E, 0, 2])), timeout=0.2) is None
+            finally:
+                m.close()
+        with open(stats) as f:  # written as gonio-sim exits
             doc = json.load(f)
-        assert doc["exchanges"] == 5
-        assert doc["detector"]["exchanges"] == 3
-        assert [doc["axes"][a]["exchanges"] for a in ("sample", "arm", "azimuth")] == [2, 0, 0]
     finally:
         shutil.rmtree(folder, ignore_errors=True)
+    assert doc["exchanges"] == 5
+    assert doc["detector"]["exchanges"] == 3
+    assert [doc["axes"][a]["exchanges"] for a in ("sample", "arm", "azimuth")] == [2, 0, 0]

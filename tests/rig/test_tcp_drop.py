@@ -4,14 +4,9 @@ would), twice during a DS3 capture; the drivers re-open the connection
 within the request's retries and the capture completes with every point
 exactly once."""
 import os
-import shutil
 import signal
-import subprocess
-import time
 
-import pytest
-
-from conftest import gonio_bin, tg
+from conftest import gonio_sim, tg
 
 SCALE = 100
 
@@ -22,61 +17,34 @@ def journal_rows(path):
         return [int(line.split(",", 1)[0]) for line in f.read().splitlines()[1:]]
 
 
-@pytest.fixture
-def folder():
-    d = tg.tmpdir()
-    yield d
-    shutil.rmtree(d, ignore_errors=True)
-
-
-def start_sim(folder):
-    out = os.path.join(folder, "sim.out")
-    proc = subprocess.Popen(tg.wrap([os.path.join(gonio_bin(), "gonio-sim"), "--scene", "ideal",
-                                     "--time-scale", str(SCALE), "--tcp", "127.0.0.1:0"],
-                                    folder), stdout=open(out, "w"),
-                            stderr=open(os.path.join(folder, "sim.err"), "w"))
-    deadline = time.time() + tg.START_S
-    lines = []
-    while time.time() < deadline and len(lines) < 2:
-        time.sleep(0.05)
-        lines = open(out).read().splitlines()
-    assert len(lines) == 2, lines
-    return proc, int(lines[1].rsplit(":", 1)[1])
-
-
-def test_capture_survives_tcp_drops(folder):
-    sim, port = start_sim(folder)
-    d = None
-    try:
-        d = tg.Daemon(folder, driver="  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n"
+def test_capture_survives_tcp_drops():
+    with gonio_sim("--scene", "ideal", "--time-scale", str(SCALE)) as sim:
+        d = tg.Daemon(sim["folder"], driver="  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n"
                       "  time_scale: %d\n  timeout_s: %g\n  slaves: {sample: 1, arm: 2, "
-                      "detector: 3, azimuth: 4}\n" % (port, SCALE, 0.5 * tg.SLOW)).start()
-        c = d.connect()
-        c.request("watch")
-        assert c.request("capture", plan="ds3", name="drop")["class"] == "OK"
-        events = drops = 0
-        docs = []
-        while True:
-            doc = c.read()
-            assert doc is not None, docs[-3:]
-            docs.append(doc)
-            if doc.get("class") == "stop":
-                break
-            if doc.get("class") == "event":
-                events += 1
-                if events in (1, 26):  # after the first point, and half way
-                    sim.send_signal(signal.SIGUSR1)
-                    drops += 1
-        stop = docs[-1]
-        assert drops == 2, "the capture ended before both drops: %r" % stop
-        assert stop["reason"] == "complete", stop
-        assert stop["samples"] == 52
-        assert stop["comm"]["failed"] == 0 and stop["comm"]["retries"] >= 2, stop["comm"]
-        assert journal_rows(os.path.join(d.root, "drop", "samples.csv")) == list(range(52))
-    finally:
-        if d:
+                      "detector: 3, azimuth: 4}\n" % (sim["port"], SCALE, 0.5 * tg.SLOW))
+        try:
+            d.start()
+            c = d.connect()
+            c.request("watch")
+            assert c.request("capture", plan="ds3", name="drop")["class"] == "OK"
+            events = drops = 0
+            docs = []
+            while True:
+                doc = c.read()
+                assert doc is not None, docs[-3:]
+                docs.append(doc)
+                if doc.get("class") == "stop":
+                    break
+                if doc.get("class") == "event":
+                    events += 1
+                    if events in (1, 26):  # after the first point, and half way
+                        sim["proc"].send_signal(signal.SIGUSR1)
+                        drops += 1
+            stop = docs[-1]
+            assert drops == 2, "the capture ended before both drops: %r" % stop
+            assert stop["reason"] == "complete", stop
+            assert stop["samples"] == 52
+            assert stop["comm"]["failed"] == 0 and stop["comm"]["retries"] >= 2, stop["comm"]
+            assert journal_rows(os.path.join(d.root, "drop", "samples.csv")) == list(range(52))
+        finally:
             d.stop()
-        if sim.poll() is None:
-            sim.terminate()
-        assert sim.wait(timeout=2 * tg.START_S) == 0
-        tg.assert_valgrind_clean(folder)
