@@ -8,16 +8,19 @@
  * bus's only master: an axis remembers where a completed move left it and
  * the detector its last sequence number, to save round trips.
  *
+ * On TCP, a connection the peer closed or reset (a restarted device or
+ * gateway, a network drop) is re-opened, after a pause doubling from
+ * 0.05 s, and the request sent again; each reconnection is one of the
+ * request's attempts below. A write may thus reach a device twice: the
+ * drivers' writes are stored values, triggers that restart the same
+ * operation, or input edges, which bear it.
+ *
  * Errors: a request that gets no answer within the response timeout is
  * retried up to `retries` times, then fails with -ETIMEDOUT; after each
  * failed attempt the bus drains the line until it stays quiet for the
  * timeout (at most 0.1 s), so a late answer is not taken for the next one,
  * and the axes read status and position with requests of different sizes,
- * so one that slips through fails the size check instead. On TCP, a
- * connection the peer closed or reset is re-opened, after a pause doubling
- * from 0.05 s, and the request sent again; each reconnection is one of the
- * request's attempts (a write may thus reach the device twice: every
- * write of this map is idempotent or restarts the same operation). An exception
+ * so one that slips through fails the size check instead. An exception
  * answer, a drive alarm or a stalled move fails with -GONIO_EDEVICE; the
  * message names the device, the register and the problem, e.g.
  * "axis arm (slave 2): drive alarm 0x30 (overload)". */

@@ -28,8 +28,10 @@ enum { MB_IN_ZHOME = 1u << 4, MB_IN_STOP = 1u << 5, MB_IN_ALM_RST = 1u << 7 };
 /* Output status bits (MB_AX_STATUS). */
 enum { MB_ST_HOME_END = 1u << 4, MB_ST_READY = 1u << 5, MB_ST_ALM_A = 1u << 7,
        MB_ST_MOVE = 1u << 13, MB_ST_IN_POS = 1u << 14 };
-/* Present-alarm codes (MB_AX_ALARM; 0: none). */
-enum mb_alarm { MB_ALARM_DEVIATION = 0x28, MB_ALARM_OVERLOAD = 0x30,
+/* Present-alarm codes (MB_AX_ALARM; 0: none), as the AZ manual numbers
+ * them: excessive position deviation, sensor error, overload, software
+ * overtravel, abnormal operation data. */
+enum mb_alarm { MB_ALARM_DEVIATION = 0x10, MB_ALARM_SENSOR = 0x28, MB_ALARM_OVERLOAD = 0x30,
                 MB_ALARM_OVERTRAVEL = 0x66, MB_ALARM_DATA = 0x70 };
 
 /* The detector. Channel k is the float at MB_DET_CHANNELS + 2k. */

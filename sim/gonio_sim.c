@@ -61,6 +61,7 @@ static int parse_positive(const char *opt, const char *s, double *out)
 int main(int argc, char **argv)
 {
     static const struct option opts[] = {
+        {"baud", required_argument, NULL, 'b'},      {"tcp-latency", required_argument, NULL, 'L'},
         {"scene", required_argument, NULL, 's'},      {"material", required_argument, NULL, 'm'},
         {"rig", required_argument, NULL, 'r'},        {"time-scale", required_argument, NULL, 'k'},
         {"steps-per-deg", required_argument, NULL, 'n'}, {"link", required_argument, NULL, 'l'},
@@ -68,7 +69,6 @@ int main(int argc, char **argv)
         {"check", no_argument, NULL, 'c'},            {"help", no_argument, NULL, 'h'},
         {"stall", required_argument, NULL, 'S'},      {"overload", required_argument, NULL, 'O'},
         {"delay", required_argument, NULL, 'D'},     {"stats", required_argument, NULL, 'X'},
-        {"baud", required_argument, NULL, 'b'},      {"tcp-latency", required_argument, NULL, 'L'},
         {NULL, 0, NULL, 0},
     };
     const char *scene_name = "ideal", *material_spec = NULL, *rig_name = NULL, *link = NULL,
@@ -93,6 +93,10 @@ int main(int argc, char **argv)
             if (parse_positive("--steps-per-deg", optarg, &cfg.steps_per_deg) < 0)
                 return 2;
             break;
+        case 'l': link = optarg; break;
+        case 't': tcp = optarg; break;
+        case 'T': cfg.trace = 1; break;
+        case 'X': stats = optarg; break;
         case 'b': {
             double baud;
             if (parse_positive("--baud", optarg, &baud) < 0)
@@ -109,10 +113,6 @@ int main(int argc, char **argv)
                 return 2;
             cfg.tcp_latency_s *= 1e-3;
             break;
-        case 'l': link = optarg; break;
-        case 't': tcp = optarg; break;
-        case 'T': cfg.trace = 1; break;
-        case 'X': stats = optarg; break;
         case 'c': check = 1; break;
         case 'S':
         case 'D':
@@ -165,16 +165,16 @@ int main(int argc, char **argv)
                scene.name, scene.path, brdf_material_name(material), rig.name,
                rig.out_of_plane ? " (out of plane: azimuth slave 4)" : "", cfg.time_scale,
                cfg.steps_per_deg);
-        if (cfg.baud > 0)
-            printf("RTU line %ld baud\n", cfg.baud);
-        if (cfg.tcp_latency_s > 0)
-            printf("TCP latency %g ms\n", cfg.tcp_latency_s * 1e3);
         const struct plan_axis *ax[3] = {&rig.sample, &rig.arm, &rig.azimuth};
         static const char *names[3] = {"sample (slave 1)", "arm (slave 2)", "azimuth (slave 4)"};
         for (int i = 0; i < (rig.out_of_plane ? 3 : 2); i++)
             printf("axis %s: limits [%g, %g] deg, profile %g deg/s, %g deg/s^2\n", names[i],
                    ax[i]->min, ax[i]->max, ax[i]->speed, ax[i]->accel);
         printf("detector (slave 3): rgb\n");
+        if (cfg.baud > 0)
+            printf("RTU line %ld baud\n", cfg.baud);
+        if (cfg.tcp_latency_s > 0)
+            printf("TCP latency %g ms\n", cfg.tcp_latency_s * 1e3);
         brdf_material_free(material);
         return 0;
     }

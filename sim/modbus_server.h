@@ -18,9 +18,6 @@
 #include "planner/rig.h"
 
 struct msim_cfg {
-    double time_scale;    /* simulated seconds per wall second, > 0 */
-    double steps_per_deg; /* drive steps per degree, > 0 */
-    int trace;            /* one stderr line per request */
     /* Bus costs, in rig time (so each is waited time_scale times shorter
      * in wall time; docs/gonio-sim.md "Line time"): an RTU exchange takes
      * its frames' time on a serial line at baud (11 bits a character, and
@@ -28,6 +25,9 @@ struct msim_cfg {
      * tcp_latency_s (0: none). */
     long baud;
     double tcp_latency_s;
+    double time_scale;    /* simulated seconds per wall second, > 0 */
+    double steps_per_deg; /* drive steps per degree, > 0 */
+    int trace;            /* one stderr line per request */
 };
 
 typedef struct msim msim;
