@@ -18,8 +18,9 @@ configure: deps
 demo: all
 	@sh scripts/demo.sh $(BUILD)/bin
 
+# ctest, then how many tests were skipped and why (scripts/ctest-skips.sh).
 check: all
-	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+	sh scripts/ctest-skips.sh $(BUILD) --output-on-failure -j $(JOBS)
 
 # The unit, daemon and rig tests again under AddressSanitizer and
 # UndefinedBehaviorSanitizer, at the small sizes valgrind uses
@@ -28,9 +29,9 @@ check: all
 check-asan: deps
 	@test -f $(ASAN_BUILD)/CMakeCache.txt || cmake -S . -B $(ASAN_BUILD) -DCMAKE_BUILD_TYPE=Debug -DGONIO_SANITIZE=ON >/dev/null
 	cmake --build $(ASAN_BUILD) -j $(JOBS)
-	cd $(ASAN_BUILD) && GONIO_TEST_SMALL=1 \
+	GONIO_TEST_SMALL=1 \
 	    LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp:print_suppressions=0 \
-	    ctest --output-on-failure -j $(JOBS) -L 'unit|daemon|rig'
+	    sh scripts/ctest-skips.sh $(ASAN_BUILD) --output-on-failure -j $(JOBS) -L 'unit|daemon|rig'
 
 # The tests again under valgrind's memcheck (scripts/check-valgrind.sh).
 check-valgrind: all
