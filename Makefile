@@ -3,7 +3,7 @@ BUILD ?= build
 ASAN_BUILD ?= build-asan
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps configure demo check check-asan check-valgrind bench clean fuzz
+.PHONY: all deps configure demo check check-asan check-valgrind bench clean fuzz fuzz-smoke
 
 all: configure
 	cmake --build $(BUILD) -j $(JOBS)
@@ -38,16 +38,23 @@ check-valgrind: all
 	sh scripts/check-valgrind.sh $(BUILD) $(JOBS)
 
 # libFuzzer runs (clang): FUZZ_SECONDS each, FUZZ_PARALLEL at a time; new
-# interesting inputs are merged into fuzz/corpus/ (docs/fuzzing.md).
+# interesting inputs are merged into fuzz/corpus/ unless FUZZ_MERGE=0
+# (docs/fuzzing.md).
 FUZZ_BUILD ?= build-fuzz
 FUZZ_SECONDS ?= 600
 FUZZ_PARALLEL ?= 1
+FUZZ_MERGE ?= 1
 FUZZ_TARGETS ?= $(patsubst fuzz/fuzz_%.c,%,$(filter-out fuzz/fuzz_util.c,$(wildcard fuzz/fuzz_*.c)))
 fuzz: deps
 	@command -v clang >/dev/null || { echo "make fuzz needs clang (apt-get install clang)"; exit 2; }
 	@test -f $(FUZZ_BUILD)/CMakeCache.txt || CC=clang cmake -S . -B $(FUZZ_BUILD) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DGONIO_FUZZ=ON >/dev/null
 	cmake --build $(FUZZ_BUILD) -j $(JOBS) --target fuzz_all
-	bash scripts/fuzz.sh $(FUZZ_BUILD)/fuzz $(FUZZ_SECONDS) $(FUZZ_PARALLEL) $(FUZZ_TARGETS)
+	FUZZ_MERGE=$(FUZZ_MERGE) bash scripts/fuzz.sh $(FUZZ_BUILD)/fuzz $(FUZZ_SECONDS) $(FUZZ_PARALLEL) $(FUZZ_TARGETS)
+
+# CI's smoke run: every target a few seconds, the committed corpora left as
+# they are.
+fuzz-smoke:
+	$(MAKE) fuzz FUZZ_SECONDS=5 FUZZ_PARALLEL=$(JOBS) FUZZ_MERGE=0
 
 bench: all
 	@sh scripts/bench.sh $(BUILD)/bin
