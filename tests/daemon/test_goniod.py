@@ -25,6 +25,9 @@ BIN = os.environ.get("GONIO_BIN", "build/bin")
 TESTS_BIN = os.environ.get("GONIO_TESTS_BIN", "build/tests")
 SOURCE = os.environ.get("GONIO_SOURCE", os.path.join(os.path.dirname(__file__), "..", ".."))
 GONIOD = os.path.join(BIN, "goniod")
+# The test variant: goniod with the crash torture's hooks compiled in
+# (GONIOD_PHASE_LOG, GONIOD_PHASE_HOLD, GONIO_JOURNAL_TEAR_S; docs/torture.md).
+GONIOD_TEST = os.path.join(BIN, "goniod-test")
 GONIO = os.path.join(BIN, "gonio")
 JOURNAL_POINTS = os.path.join(TESTS_BIN, "journal_points")
 MAX_LINE = 65536  # docs/protocol.md
@@ -163,10 +166,11 @@ class Conn:
 
 class Daemon:
     def __init__(self, folder, pace_s=0.0, extra_socket="", env=None, scene="ideal",
-                 driver=None, command=None):
+                 driver=None, command=None, binary=GONIOD):
         # command: what runs goniod (a wrapper taking goniod's arguments,
         # itself responsible for GONIO_WRAP); default goniod under wrap().
         self.command = command
+        self.binary = binary
         self.folder = folder
         self.sock = os.path.join(folder, "s.sock")
         self.root = os.path.join(folder, "cap")
@@ -191,7 +195,7 @@ class Daemon:
     def start(self):
         logf = open(self.log, "a")
         argv = (self.command + ["--config", self.config] if self.command else
-                wrap([GONIOD, "--config", self.config], self.folder))
+                wrap([self.binary, "--config", self.config], self.folder))
         self.proc = subprocess.Popen(argv, stdout=logf, stderr=logf, env=self.env)
         logf.close()
         deadline = time.time() + START_S
