@@ -733,6 +733,38 @@ class CaptureTests(DaemonTest):
         self.assertEqual(docs[-1]["reason"], "complete")
         self.check_complete("ab")
 
+    def test_offline_capture_into_goniods_directory_is_refused(self):
+        # goniod holds the capture directory while the capture runs (here
+        # paused): an offline capture into it writes nothing.
+        c = self.d.connect()
+        c.request("watch")
+        c.request("capture", plan="ds3", name="held")
+        while c.read()["class"] != "event":
+            pass
+        self.assertEqual(c.request("pause")["class"], "OK")
+        capdir = os.path.join(self.d.root, "held")
+        journal = os.path.join(capdir, "samples.csv")
+        # the point in progress is journalled first: wait until the count holds
+        done, deadline = -1, time.time() + START_S
+        while time.time() < deadline:
+            time.sleep(0.3)
+            now = c.request("status")["points_done"]
+            if now == done:
+                break
+            done = now
+        before = open(journal, "rb").read()
+        r = subprocess.run([GONIO, "capture", "--offline", "--scene", "ideal", "--plan", "ds3",
+                            "--out", capdir, "--quiet"], capture_output=True, text=True,
+                           timeout=30)
+        self.assertEqual(r.returncode, 1, r.stderr)
+        self.assertIn("%s: capture directory is in use by pid %d" % (capdir, self.d.proc.pid),
+                      r.stderr)
+        self.assertEqual(open(journal, "rb").read(), before)
+        self.assertFalse(os.path.exists(os.path.join(capdir, "results.json")))
+        self.assertEqual(c.request("resume")["class"], "OK")
+        self.assertEqual(c.until_stop("held")[-1]["reason"], "complete")
+        self.check_complete("held")
+
     def test_second_capture_refused(self):
         c = self.d.connect()
         c.request("watch")
@@ -1014,17 +1046,19 @@ def read_samples(path):
     return {int(r[0]): [float(r[8]), float(r[9]), float(r[10])] for r in rows}
 
 
-class ModbusTests(unittest.TestCase):
-    """goniod on the Modbus drivers against gonio-sim (RTU on its pty, and
-    TCP), compared with the in-process simulator."""
+class ModbusRig(unittest.TestCase):
+    """A gonio-sim process (scene ideal, time scale SIM_SCALE) serving RTU on
+    its pty and TCP, for goniod on the Modbus drivers."""
     SIM = os.path.join(BIN, "gonio-sim")
+    SIM_SCALE = 1000
 
     def setUp(self):
         if not os.path.exists(self.SIM):
             self.skipTest("gonio-sim not built")
         self.folder = tmpdir()
         out = open(os.path.join(self.folder, "sim.out"), "w")
-        self.sim = subprocess.Popen(wrap([self.SIM, "--scene", "ideal", "--time-scale", "1000",
+        self.sim = subprocess.Popen(wrap([self.SIM, "--scene", "ideal", "--time-scale",
+                                          "%g" % self.SIM_SCALE,
                                           "--link", os.path.join(self.folder, "tty"), "--tcp",
                                           "127.0.0.1:0"], self.folder), stdout=out,
                                     stderr=open(os.path.join(self.folder, "sim.err"), "w"))
@@ -1061,6 +1095,16 @@ class ModbusTests(unittest.TestCase):
                            timeout=30)
         self.assertEqual(r.returncode, 0, r.stderr)
         return read_samples(os.path.join(out, "samples.csv"))
+
+    def tcp_driver(self, time_scale):
+        return ("  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n  time_scale: %g\n"
+                "  timeout_s: %g\n  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
+                % (self.port, time_scale, 0.5 * SLOW))
+
+
+class ModbusTests(ModbusRig):
+    """goniod on the Modbus drivers against gonio-sim (RTU on its pty, and
+    TCP), compared with the in-process simulator."""
 
     def capture(self, driver, name):
         self.d = Daemon(self.folder, driver=driver).start()
@@ -1112,6 +1156,122 @@ class ModbusTests(unittest.TestCase):
         self.assertEqual(stop["exit_status"], "fail")
         self.assertTrue(stop["message"])
         self.assertEqual(c.request("status")["state"], "idle")
+
+
+def rig_times(capdir):
+    """samples.csv's rig_time_s column, in journal order."""
+    with open(os.path.join(capdir, "samples.csv")) as f:
+        return [float(l.split(",")[12]) for l in f.read().splitlines()[1:]]
+
+
+def load_json(path):
+    with open(path) as f:
+        return json.load(f)
+
+
+class ModbusClockTests(ModbusRig):
+    """The rig clock over Modbus: gonio-sim's clock runs on wall time (x
+    SIM_SCALE), so it keeps running while goniod is dead or the capture is
+    paused; neither may count as rig time. And what goniod cannot know on
+    hardware (the material) gives no truth errors unless the request names
+    a reference."""
+    SIM_SCALE = 10
+
+    def run_capture(self, c, name, **args):
+        c.request("watch")
+        r = c.request("capture", plan="ds3", name=name, **args)
+        self.assertEqual(r["class"], "OK", r)
+        return c.until_stop(name)[-1]
+
+    def test_rig_clock_across_kill9_pause_and_truth(self):
+        self.d = Daemon(self.folder, driver=self.tcp_driver(self.SIM_SCALE)).start()
+        c = self.d.connect()
+        stop = self.run_capture(c, "whole")
+        self.assertEqual(stop["exit_status"], "success", stop)
+        whole_dir = os.path.join(self.d.root, "whole")
+        whole = load_json(os.path.join(whole_dir, "results.json"))
+        # No reference named: no truth errors, nothing claimed about the material.
+        self.assertEqual(sorted(whole["errors"]), ["plan"])
+        self.assertIsNone(whole["truth"])
+        self.assertIsNone(whole["material"])
+        self.assertNotIn("err_full", stop["results"])
+        setup = load_json(os.path.join(whole_dir, "setup.json"))
+        self.assertEqual((setup["driver"], setup["detector"]), ("modbus-tcp", "modbus"))
+        self.assertNotIn("scene", setup)
+        r = subprocess.run([GONIO, "results", whole_dir], capture_output=True, text=True)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn(" - ", r.stdout.splitlines()[1])
+
+        # kill -9 mid-capture; gonio-sim's clock runs on while goniod is down.
+        c.request("capture", plan="ds3", name="cut")
+        while True:
+            d = c.read()
+            if d["class"] == "event" and d["done"] >= 20:
+                break
+        self.d.kill9()
+        time.sleep(1.0)
+        self.d.start()
+        c = self.d.connect()
+        c.request("watch")
+        self.assertEqual(c.request("resume", capture_id="cut")["class"], "OK")
+        self.assertEqual(c.until_stop("cut")[-1]["exit_status"], "success")
+        cut = load_json(os.path.join(self.d.root, "cut", "results.json"))
+
+        # Each capture starts where the last one left the axes: compare the
+        # rig time from the first sample on. Allowed: one point's time on
+        # this rig, bus and journal included, plus half of what they cost
+        # over the whole capture (how much that cost may vary between two
+        # captures on a loaded machine).
+        times = rig_times(whole_dir)
+        one_point = max(b - a for a, b in zip(times, times[1:]))
+        overhead = whole["rig_time_s"] - load_json(
+            os.path.join(self.offline_dir(), "results.json"))["rig_time_s"]
+        allowed = one_point + 0.5 * max(overhead, 0.0)
+
+        def span(name, results):
+            return results["rig_time_s"] - rig_times(os.path.join(self.d.root, name))[0]
+        sys.stderr.write("rig time after the first point: uninterrupted %.2f s, kill -9 and "
+                         "resume %.2f s; one point %.2f s, bus and host %.2f s\n"
+                         % (span("whole", whole), span("cut", cut), one_point, overhead))
+        self.assertLessEqual(abs(span("cut", cut) - span("whole", whole)), allowed)
+        self.assertEqual(rig_times(os.path.join(self.d.root, "cut")),
+                         sorted(rig_times(os.path.join(self.d.root, "cut"))))
+
+        # A pause of 1.5 s wall is 15 s of gonio-sim's clock: paused, not rig time
+        # (the point in progress when it came is finished first).
+        c.request("capture", plan="ds3", name="pz", truth="default")
+        while c.read()["class"] != "event":
+            pass
+        self.assertEqual(c.request("pause")["class"], "OK")
+        time.sleep(1.5)
+        self.assertEqual(c.request("resume")["class"], "OK")
+        stop = c.until_stop("pz")[-1]
+        pz = load_json(os.path.join(self.d.root, "pz", "results.json"))
+        sys.stderr.write("paused 1.5 s wall: rig time after the first point %.2f s, "
+                         "paused_s %.2f s\n" % (span("pz", pz), pz["paused_s"]))
+        self.assertGreaterEqual(pz["paused_s"], 1.5 * self.SIM_SCALE - one_point)
+        self.assertEqual(stop["paused_s"], pz["paused_s"])
+        self.assertLessEqual(abs(span("pz", pz) - span("whole", whole)), allowed)
+        # A named reference: truth errors, labelled with it.
+        self.assertEqual(pz["truth"], "builtin:nylon")
+        self.assertIn("full", pz["errors"])
+        self.assertEqual(stop["results"]["truth"], "builtin:nylon")
+
+    def offline_dir(self):
+        self.offline()
+        return os.path.join(self.folder, "offline")
+
+    def test_time_scale_mismatch_is_refused(self):
+        # gonio-sim at x10, goniod told x1: every wait would be 10x off.
+        self.d = Daemon(self.folder, driver=self.tcp_driver(1)).start()
+        c = self.d.connect()
+        stop = self.run_capture(c, "mismatch")
+        self.assertEqual(stop["exit_status"], "fail")
+        self.assertIn("time_scale is 1", stop["message"])
+        self.assertRegex(stop["message"], r"runs at (9\.\d+|10(\.\d+)?) x wall time")
+        self.assertEqual(journal_points(os.path.join(self.d.root, "mismatch", "samples.csv"))
+                         if os.path.exists(os.path.join(self.d.root, "mismatch", "samples.csv"))
+                         else [], [])
 
 
 class NotifyTests(unittest.TestCase):
