@@ -125,7 +125,8 @@ struct capture_hooks {
     void (*close_devices)(void *user, struct capture_devices *dev);
     /* Called once the inputs are resolved and the directory is ready. */
     void (*on_start)(void *user, const char *plan, size_t total, size_t already_done);
-    /* Called after each sample is journalled. */
+    /* Called after each sample is journalled (and after the streaming fit
+     * round it set off, so that the host's figures include it). */
     void (*on_sample)(void *user, const struct journal_sample *s, size_t done, size_t total);
     /* Asked at every point boundary; a host pauses a capture by blocking
      * here (then returning CAPTURE_PAUSED), and aborts it by returning
@@ -142,8 +143,10 @@ struct capture_hooks {
 };
 
 /* Run a capture: resolve and validate the inputs, prepare the directory
- * (or resume it), measure the points the journal lacks, fit and write
- * results.json. An aborted capture keeps its samples, stops the axes and
+ * (or resume it: the same plan, scene, material, rig and detector only,
+ * else -GONIO_EUSAGE naming the difference), holding its lock until the
+ * end (another writer: EBUSY, nothing written), measure the points the
+ * journal lacks, fit and write results.json. An aborted capture keeps its samples, stops the axes and
  * returns 0 with stop_reason "aborted" (no fit, no results.json). Returns
  * a negative code with err filled on failure (see gonio_exit_status). */
 int capture_run(const struct capture_config *cfg, const struct capture_hooks *hooks,

@@ -765,6 +765,21 @@ class CaptureTests(DaemonTest):
         self.assertEqual(c.until_stop("held")[-1]["reason"], "complete")
         self.check_complete("held")
 
+    def test_shipped_goniod_reads_no_test_hooks(self):
+        # The crash torture's hooks exist in goniod-test only (docs/torture.md).
+        folder = os.path.join(self.folder, "h")
+        os.makedirs(folder)
+        log = os.path.join(folder, "phases.log")
+        d = Daemon(folder, env={"GONIOD_PHASE_LOG": log, "GONIO_JOURNAL_TEAR_S": "0.01"}).start()
+        try:
+            c = d.connect()
+            c.request("watch")
+            c.request("capture", plan="ds3", name="h")
+            self.assertEqual(c.until_stop("h")[-1]["reason"], "complete")
+        finally:
+            d.stop()
+        self.assertFalse(os.path.exists(log))
+
     def test_second_capture_refused(self):
         c = self.d.connect()
         c.request("watch")
