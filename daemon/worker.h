@@ -39,7 +39,7 @@ struct worker_status {
     char id[128];
     size_t done, total;
     double rig_time_s;
-    /* The latest fit error known: the running capture's progressive fit
+    /* The latest fit error known: the running capture's streaming fit
      * once it has one, else the last finished capture's fit. */
     int has_fit;
     char fit_id[128];

@@ -651,7 +651,7 @@ class CaptureTests(DaemonTest):
         self.assertEqual([e["point"] for e in events], pts)
         self.assertEqual([e["done"] for e in events], list(range(1, total + 1)))
         self.assertEqual([e["seq"] for e in events], list(range(1, total + 1)))
-        # The progressive fit: first at 16 samples, refitted at 32.
+        # The engine's streaming fit (stop: all): first at 16 samples, refitted at 32.
         self.assertTrue(all("fit_log_error" not in e for e in events[:15]))
         fits = [e["fit_log_error"] for e in events[15:]]
         self.assertTrue(all(0 <= f < 1 for f in fits), fits)
@@ -684,7 +684,7 @@ class CaptureTests(DaemonTest):
         c.request("capture", plan="ds3", name="pz")
         time.sleep(0.2)
         self.assertEqual(c.request("pause")["class"], "OK")
-        # The point in progress (and a progressive fit) may still finish:
+        # The point in progress (and a streaming fit round) may still finish:
         # wait until the count holds, then it must keep holding.
         st1 = c.request("status")
         deadline = time.time() + START_S
@@ -1029,8 +1029,8 @@ class ClientTests(DaemonTest):
         self.assertEqual(self.d.gonio("abort").returncode, 0)
         # idle once the abort is taken, which waits for a fit under way (on
         # a loaded machine the capture may have measured every point and be
-        # in its final fit); a line with the progressive fit's error may
-        # follow when the capture got to FIRST_FIT samples before the abort
+        # in its final fit); a line with the streaming fit's error may
+        # follow when the capture got to 16 samples before the abort
         deadline = time.monotonic() + 60
         while True:
             first = self.d.gonio("status").stdout.split("\n")[0]
