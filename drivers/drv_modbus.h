@@ -99,7 +99,9 @@ drv_detector *drv_detector_new_modbus(drv_modbus_bus *bus, int slave, struct gon
 
 /* The rig clock: seconds since the clock was created, read from the
  * detector's rig-clock register when it is non-zero (a simulator), else
- * wall time. Sleeping waits seconds / time_scale of wall time (bus cfg). */
+ * wall time. Sleeping waits seconds / time_scale of wall time (bus cfg).
+ * A simulator's clock whose measured rate is not the bus's time_scale
+ * (beyond a factor 1.5) is refused: NULL, GONIO_EBADCONFIG naming both. */
 drv_clock *drv_clock_new_modbus(drv_modbus_bus *bus, int detector_slave, struct gonio_err *err);
 
 #endif
