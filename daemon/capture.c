@@ -156,6 +156,20 @@ static int measure_point(struct capture_devices *d, const struct capture_hooks *
     return 0;
 }
 
+/* What the axes' mechanics cost (re-commands, alarms, re-homes), summed. */
+static void add_axis_stats(const struct capture_devices *d, struct drv_axis_stats *sum)
+{
+    const drv_axis *axes[3] = {d->sample, d->arm, d->azimuth};
+    for (int i = 0; i < 3; i++) {
+        struct drv_axis_stats st;
+        drv_axis_stats(axes[i], &st);
+        sum->moves += st.moves;
+        sum->recommands += st.recommands;
+        sum->alarms_recovered += st.alarms_recovered;
+        sum->rehomes += st.rehomes;
+    }
+}
+
 static void stop_axes(struct capture_devices *d)
 {
     drv_axis_stop(d->sample, NULL);
@@ -187,7 +201,8 @@ static int stream_feed(fit_stream *fs, const struct plan *plan, const struct jou
 static int acquire(const struct capture_config *cfg, const struct capture_inputs *in,
                    const struct capture_hooks *hooks, journal *j,
                    struct journal_sample **samples, size_t *n, int *aborted,
-                   fit_stream *fs, int *converged, struct gonio_err *err)
+                   fit_stream *fs, int *converged, struct drv_axis_stats *mech,
+                   struct gonio_err *err)
 {
     size_t count = plan_count(in->plan);
     unsigned char *done = calloc(count, 1);
@@ -282,6 +297,7 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
             }
         }
     }
+    add_axis_stats(&dev, mech);
     if (hooks->close_devices)
         hooks->close_devices(hooks->user, &dev);
     else
@@ -471,7 +487,8 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
             journal_set_lazy(j);
     }
     if (rc == 0) {
-        rc = acquire(cfg, &in, hooks, j, &samples, &n, &aborted, fs, &converged, err);
+        rc = acquire(cfg, &in, hooks, j, &samples, &n, &aborted, fs, &converged, &out->mech,
+                     err);
         journal_close(j);
     }
     if (rc == 0) {

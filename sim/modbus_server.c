@@ -231,7 +231,11 @@ static void axis_refresh(msim *m, struct msim_axis *ax)
         st |= ST_ALM_A;
     if (moving)
         st |= ST_MOVE;
-    if (!moving && fabs(pos - ax->target_deg) < 0.5 / m->cfg.steps_per_deg)
+    /* IN-POS: the operation has ended and the motor rests within the
+     * positioning completion band of its target (a half-step band at
+     * least: the drive cannot do better than its step). Not in alarm. */
+    double band = fmax(m->cfg.in_pos_deg, 0.5 / m->cfg.steps_per_deg);
+    if (!moving && !ax->alarm && fabs(pos - ax->target_deg) <= band)
         st |= ST_IN_POS;
     put32(r, AX_STATUS, st);
     put32(r, AX_ALARM, (uint32_t)ax->alarm);
