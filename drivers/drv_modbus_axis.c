@@ -138,6 +138,13 @@ static int miss_error(struct mb_axis *a, double pos, struct gonio_err *err)
                          fabs(over), over > 0 ? "past (overshoot)" : "short of", a->target, t);
 }
 
+/* Within the band of the target. Steps in degrees are not exact in
+ * binary (12.35 - 12.30 > 0.05): a nanodegree of slack. */
+static int in_band(const struct mb_axis *a, double pos)
+{
+    return fabs(pos - a->target) <= a->band + 1e-9;
+}
+
 static int32_t to_steps(double v, double spd)
 {
     double s = nearbyint(v * spd);
@@ -202,7 +209,7 @@ static int mb_start_move(void *priv, double target, struct gonio_err *err)
     a->final_pending = 0;
     a->moving = 0;
     /* Already resting there: nothing to send, nothing to wait for. */
-    if (a->pos_known && fabs(a->pos_deg - target) <= a->band)
+    if (a->pos_known && in_band(a, a->pos_deg))
         return 0;
     double here = a->pos_deg;
     int rc = a->pos_known ? 0 : read_steps(a, &here, err);
@@ -362,7 +369,7 @@ static int mb_wait(void *priv, struct gonio_err *err)
             return rc;
         }
         a->pos_deg = pos;
-        if ((st & ST_IN_POS) || fabs(pos - a->target) <= a->band) {
+        if ((st & ST_IN_POS) || in_band(a, pos)) {
             a->moving = 0;
             a->pos_known = 1;
             return 0;
