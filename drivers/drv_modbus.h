@@ -14,9 +14,10 @@
  * timeout (at most 0.1 s), so a late answer is not taken for the next one,
  * and the axes read status and position with requests of different sizes,
  * so one that slips through fails the size check instead. An exception
- * answer, a drive alarm or a stalled move fails with -GONIO_EDEVICE; the
- * message names the device, the register and the problem, e.g.
- * "axis arm (slave 2): drive alarm 0x30 (overload)". */
+ * answer, a stalled move, or a drive alarm or a miss of the in-position
+ * band that the axis's tries could not recover (drv_axis_new_modbus) fails
+ * with -GONIO_EDEVICE; the message names the device, the register and the
+ * problem, e.g. "axis arm (slave 2): drive alarm 0x30 (overload)". */
 #ifndef GONIO_DRIVERS_DRV_MODBUS_H
 #define GONIO_DRIVERS_DRV_MODBUS_H
 
