@@ -232,6 +232,20 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
     return 0;
 }
 
+/* What the axes' mechanics cost (re-commands, alarms, re-homes), summed. */
+static void add_axis_stats(const struct capture_devices *d, struct drv_axis_stats *sum)
+{
+    const drv_axis *axes[3] = {d->sample, d->arm, d->azimuth};
+    for (int i = 0; i < 3; i++) {
+        struct drv_axis_stats st;
+        drv_axis_stats(axes[i], &st);
+        sum->moves += st.moves;
+        sum->recommands += st.recommands;
+        sum->alarms_recovered += st.alarms_recovered;
+        sum->rehomes += st.rehomes;
+    }
+}
+
 static void stop_axes(struct capture_devices *d)
 {
     drv_axis_stop(d->sample, NULL);
@@ -315,6 +329,7 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
                    const struct capture_hooks *hooks, journal *j,
                    struct journal_sample **samples, size_t *n, int *aborted,
                    const struct stream *fs, int *converged, double *paused_s,
+                   struct drv_axis_stats *mech,
                    struct gonio_err *err)
 {
     size_t count = plan_count(in->plan);
@@ -419,6 +434,7 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
         }
     }
     *paused_s = clk.paused;
+    add_axis_stats(&dev, mech);
     if (hooks->close_devices)
         hooks->close_devices(hooks->user, &dev);
     else
@@ -633,7 +649,7 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
     }
     if (rc == 0) {
         rc = acquire(cfg, &in, hooks, j, &samples, &n, &aborted, &fs, &converged,
-                     &out->paused_s, err);
+                     &out->paused_s, &out->mech, err);
         journal_close(j);
     }
     if (rc == 0) {

@@ -19,6 +19,7 @@
 #include "brdf/metrics.h"
 #include "common/err.h"
 #include "daemon/journal.h"
+#include "drivers/drivers.h"
 #include "planner/rig.h"
 
 struct drv_axis;
@@ -85,6 +86,7 @@ struct capture_summary {
     char stop_reason[32]; /* "complete", "converged" (stop rule), "aborted" */
     struct fit_uncertainty sd; /* parameter sds of an ABC final fit (fit/fit.h) */
     char warning[256];         /* abc-prior: "too few samples" warning, or "" */
+    struct drv_axis_stats mech; /* this run's axis mechanics, all axes (drivers.h) */
 };
 
 /* The devices a capture runs on. */

@@ -299,6 +299,12 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
                                                                   : json_null());
     if (root)
         json_object_set_new(root, "saturated", json_integer((json_int_t)s->saturated));
+    if (root) /* what the axes' mechanics cost this run (drivers/drivers.h) */
+        json_object_set_new(root, "mechanics",
+                            json_pack("{s:I,s:I,s:I,s:I}", "moves", (json_int_t)s->mech.moves,
+                                      "recommands", (json_int_t)s->mech.recommands,
+                                      "alarms_recovered", (json_int_t)s->mech.alarms_recovered,
+                                      "rehomes", (json_int_t)s->mech.rehomes));
     if (root) /* parameter sds from the fit's Jacobian, natural units (fit/fit.h) */
         json_object_set_new(root, "uncertainty", s->has_params
                                                      ? uncertainty_json(&s->sd, s->warning)

@@ -21,12 +21,17 @@ enum msim_slave { MSIM_SLAVE_SAMPLE = 1, MSIM_SLAVE_ARM = 2, MSIM_SLAVE_DETECTOR
                   MSIM_SLAVE_AZIMUTH = 4 };
 
 /* Drive alarm codes (present-alarm register). */
-enum msim_alarm { MSIM_ALARM_OVERLOAD = 0x30, MSIM_ALARM_DEVIATION = 0x28,
+enum msim_alarm { MSIM_ALARM_OVERLOAD = 0x30, MSIM_ALARM_DEVIATION = 0x10,
                   MSIM_ALARM_OVERTRAVEL = 0x66, MSIM_ALARM_DATA = 0x70 };
 
 struct msim_cfg {
     double time_scale;    /* simulated seconds per wall second, > 0 */
     double steps_per_deg; /* drive steps per degree, > 0 */
+    /* The drives' positioning completion band, load degrees: IN-POS turns
+     * on when an operation has ended with the motor this close to its
+     * target (the AZ's "IN-POS positioning completion signal range";
+     * docs/protocol-modbus.md). 0: half a step. */
+    double in_pos_deg;
     int trace;            /* one stderr line per request */
 };
 
