@@ -83,6 +83,9 @@ int cmd_capture(int argc, char **argv)
            "%.3f s%s\n",
            s.samples, s.rig_time_s, s.move_s, s.settle_s, s.integration_s, s.fit_time_s,
            s.converged ? "" : " (fit did not converge)");
+    char status[400];
+    fit_status_line(&s.status, status, sizeof status);
+    printf("  fit status: %s\n", status);
     if (s.saturated)
         printf("  %zu saturated readings, fitted at their clipped values (lower bounds)\n",
                s.saturated);

@@ -222,7 +222,10 @@ int cmd_fit(int argc, char **argv)
         if (saturated)
             printf("%-10s %zu readings, fitted at their clipped values (lower bounds)\n",
                    "saturated", saturated);
-        printf("%-10s %.3f s, %s\n", "fit", fit_s, rep.converged ? "converged" : "not converged");
+        char line[400];
+        fit_status_line(&rep.status, line, sizeof line);
+        printf("%-10s %.3f s, %s\n", "fit", fit_s, fit_status_name(fit_status_code(&rep.status)));
+        printf("%-10s %s\n", "status", line);
         printf("%-10s %s\n", "details", rep.note);
         if (kind->spectral) {
             rc = spectral_errors(out, spec, n, &err);

@@ -61,6 +61,7 @@ struct capture_summary {
     char stop_reason[32]; /* "complete", "converged" (stop rule), "aborted" */
     struct fit_uncertainty sd; /* parameter sds of an ABC final fit (fit/fit.h) */
     char warning[256];         /* abc-prior: "too few samples" warning, or "" */
+    struct fit_status status;  /* what the final fit can know (fit/fit_status.h) */
 };
 
 /* The devices a capture runs on. */

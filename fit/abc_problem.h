@@ -168,6 +168,22 @@ double abc_linear_score(const struct abc_problem *pb, double B, double C, double
  * instead of the grid. Same contract as abc_grid_starts. */
 int abc_de_starts(const struct abc_problem *pb, unsigned seed, int max_starts, double *starts);
 
+/* A square root of J^T J at theta (abc_status.c): rows K (nk x 9,
+ * row-major; room for 15 + ABC_NPAR rows) with K^T K = J^T J (the prior's
+ * rows included when pb->prior), and cn[j] > 0 exactly when J's column j is
+ * not zero. Returns nk, 0 on no memory. */
+size_t abc_jacobian_root(const struct abc_problem *pb, const double th[ABC_NPAR], double *K,
+                         double cn[ABC_NPAR]);
+
+struct fit_status;
+/* The status figures of a fit at theta (fit/fit_status.h): the parameters
+ * on a bound (at_bound; kd or A at their lower clamp are absent terms,
+ * neither free nor named), params (the free ones), and the rank and
+ * condition number of the data rows of J on the free columns scaled to
+ * unit length. Findings are left to fit_status_decide. */
+void abc_status_figures(const struct abc_problem *pb, const double th[ABC_NPAR],
+                        struct fit_status *st);
+
 /* fit_abc with an optional prior (NULL: fit_abc itself). prior_sigma is the
  * noise level the prior rows assume, used for the posterior covariance. */
 int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_options *opt,

@@ -48,8 +48,9 @@ struct fit_model_options fit_model_default_options(void);
 
 /* What a fit reports besides its model file. */
 struct fit_model_report {
-    int converged;    /* 1 when the fit met its stopping rule normally */
+    int converged;    /* 1 when the fit met its stopping rule, not a limit */
     char note[512];   /* one line for people: iterations/epochs, stop reason */
+    struct fit_status status; /* what the fit can know (fit/fit_status.h) */
 };
 
 struct fit_model_kind {
