@@ -316,7 +316,9 @@ static int local_solve(const struct abc_problem *pb, const double theta0[ABC_NPA
     return 0;
 }
 
-static int sample_usable(const struct fit_sample *s)
+/* Finite, above the horizon, and 1 + f cos > 0 for the values divided by
+ * scale (the log loss's domain, on the data the fit sees). */
+static int sample_usable(const struct fit_sample *s, double scale)
 {
     const struct brdf_pair *g = &s->g;
     for (int k = 0; k < 3; k++)
@@ -325,7 +327,7 @@ static int sample_usable(const struct fit_sample *s)
     if (!(g->wi[2] > 0) || !(g->wo[2] > 0))
         return 0;
     for (int c = 0; c < 3; c++)
-        if (!isfinite(s->rgb[c]) || !(1.0 + s->rgb[c] * g->wi[2] > 0))
+        if (!isfinite(s->rgb[c]) || !(1.0 + s->rgb[c] / scale * g->wi[2] > 0))
             return 0;
     return 1;
 }
@@ -611,11 +613,21 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
     size_t *idx = malloc((n ? n : 1) * sizeof *idx);
     if (!idx)
         return gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", n);
+    /* The data's scale, from the finite samples above the horizon (any
+     * value is finite divided by infinity), is divided out of the data
+     * before anything else looks at them: multiplied back into kd and A at
+     * the end (fit_data_scale); a warm start moves with it. A prior stays:
+     * the data it meets are in 1/sr again. */
     size_t nv = 0;
     for (size_t i = 0; i < n; i++)
-        if (sample_usable(&samples[i]))
+        if (sample_usable(&samples[i], INFINITY))
             idx[nv++] = i;
-    nv = drop_duplicates(samples, idx, nv);
+    double scale = fit_data_scale(samples, idx, nv);
+    size_t kept = 0;
+    for (size_t k = 0; k < nv; k++)
+        if (sample_usable(&samples[idx[k]], scale))
+            idx[kept++] = idx[k];
+    nv = drop_duplicates(samples, idx, kept);
     if (nv < (prior ? 1u : 3u)) {
         free(idx);
         return gonio_err_set(err, GONIO_EFIT,
@@ -625,11 +637,7 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
                              nv, n);
     }
 
-    /* The data's scale: divided out here, multiplied back into kd and A at
-     * the end (fit_data_scale); warm start and prior move with it. */
-    double scale = fit_data_scale(samples, idx, nv), lscale = log(scale);
     struct fit_sample *scaled = NULL;
-    struct abc_prior_term prior_scaled;
     struct brdf_abc warm_scaled;
     if (scale != 1.0) {
         if (!(scaled = malloc(n * sizeof *scaled))) {
@@ -649,12 +657,6 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
                 warm_scaled.A[c] /= scale;
             }
             opt.warm_start = &warm_scaled;
-        }
-        if (prior) {
-            prior_scaled = *prior;
-            for (int j = 0; j < 6; j++) /* log kd, log A */
-                prior_scaled.mean[j] -= lscale;
-            prior = &prior_scaled;
         }
     }
 

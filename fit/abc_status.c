@@ -92,7 +92,7 @@ void abc_status_figures(const struct abc_problem *pb, const double th[ABC_NPAR],
                         struct fit_status *st)
 {
     static const char *const amp[6] = {"kd_r", "kd_g", "kd_b", "A_r", "A_g", "A_b"};
-    int bound[ABC_NPAR] = {0};
+    int bound[ABC_NPAR] = {0}, absent = 0;
     size_t at = 0;
     st->at_bound[0] = '\0';
     /* kd or A at the lower clamp is a term that is absent (0, the bound of a
@@ -104,15 +104,22 @@ void abc_status_figures(const struct abc_problem *pb, const double th[ABC_NPAR],
         bound[j] = near(th[j], lo, hi, 0) || near(th[j], lo, hi, 1);
         if (near(th[j], lo, hi, 1))
             name(st, &at, amp[j]);
+        absent += j >= 3 && near(th[j], lo, hi, 0);
     }
     double logb = th[6] - th[7], sg = 1.0 / (1.0 + exp(-th[8]));
     bound[6] = near(logb, ABC_LOGB_MIN, ABC_LOGB_MAX, 0) || near(logb, ABC_LOGB_MIN, ABC_LOGB_MAX, 1);
     bound[7] = near(th[7], ABC_LOGC_MIN, ABC_LOGC_MAX, 0) || near(th[7], ABC_LOGC_MIN, ABC_LOGC_MAX, 1);
     bound[8] = near(sg, 0.0, 1.0, 0) || near(sg, 0.0, 1.0, 1);
+    /* Without a lobe (A absent in every channel) B, C and eta shape
+     * nothing: free parameters the data say nothing about, wherever the
+     * solver left them. */
+    int no_lobe = absent == 3;
     static const char *const shape[3] = {"B", "C", "eta"};
-    for (int j = 6; j < ABC_NPAR; j++)
+    for (int j = 6; j < ABC_NPAR; j++) {
+        bound[j] = bound[j] && !no_lobe;
         if (bound[j])
             name(st, &at, shape[j - 6]);
+    }
 
     /* Rank and condition of the data rows (a prior's rows would hide what
      * the data cannot tell) on the free columns scaled to unit length, so
@@ -125,6 +132,10 @@ void abc_status_figures(const struct abc_problem *pb, const double th[ABC_NPAR],
     for (int j = 0; j < ABC_NPAR; j++)
         if (!bound[j])
             free_col[nf++] = j;
+    if (no_lobe)
+        for (size_t i = 0; i < nk; i++)
+            for (int j = 6; j < ABC_NPAR; j++)
+                K[i * ABC_NPAR + j] = 0.0;
     st->params = nf;
     st->rank = -1;
     st->cond = NAN;

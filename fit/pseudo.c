@@ -44,7 +44,7 @@ int fit_abc_pseudo_fit(const struct fit_data *data, const struct fit_model_optio
     struct fit_mlp net;
     struct fit_mlp_train_report tr;
     int rc = fit_mlp_rgb_train_samples(data->rgb, data->n_rgb, o.seed, o.max_epochs, o.quiet,
-                                       &net, &tr, NULL, err);
+                                       &net, &tr, NULL, NULL, err);
     if (rc)
         return rc;
     struct brdf_pair *grid = NULL;
