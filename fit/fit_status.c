@@ -30,7 +30,7 @@ void fit_status_decide(struct fit_status *st)
         add |= 1u << FIT_STATUS_ILL_CONDITIONED;
     if (st->at_bound[0])
         add |= 1u << FIT_STATUS_AT_BOUND;
-    if (st->heldout > FIT_STATUS_POOR_FACTOR * FIT_STATUS_NOISE_LOG)
+    if (fmax(st->heldout, st->insample) > FIT_STATUS_POOR_FACTOR * FIT_STATUS_NOISE_LOG)
         add |= 1u << FIT_STATUS_POOR_FIT;
     st->findings |= add;
 }

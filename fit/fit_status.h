@@ -7,7 +7,9 @@
  *   underdetermined  fewer distinct geometries than free parameters, or a
  *                    data Jacobian of lower rank: the data cannot pick the
  *                    parameters (a prior, a start or chance did)
- *   poor-fit         the model's residual on held-out samples is far above
+ *   poor-fit         the model's residual on held-out samples (or on the
+ *                    samples it was fitted to, when that is larger: a
+ *                    model that misses what it was shown) is far above
  *                    what the noise explains
  *   at-bound         parameters ended on a bound of the fitter (named)
  *   ill-conditioned  the condition number of J^T J (unit columns) is above
@@ -58,7 +60,8 @@ struct fit_status fit_status_init(void);
 
 /* Add the findings the figures imply: underdetermined (geometries or rank
  * below params), ill-conditioned, at-bound (at_bound not empty), poor-fit
- * (heldout above FIT_STATUS_POOR_FACTOR * FIT_STATUS_NOISE_LOG). A limit is
+ * (heldout or insample above FIT_STATUS_POOR_FACTOR * FIT_STATUS_NOISE_LOG;
+ * fmax ignores a NAN). A limit is
  * the caller's: st->findings |= 1u << FIT_STATUS_NOT_CONVERGED. */
 void fit_status_decide(struct fit_status *st);
 

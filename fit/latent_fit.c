@@ -86,14 +86,14 @@ static double rms_log(const latent_decoder *d, const double *z, size_t n, const 
 }
 
 /* Adam on z from z; returns the best objective and leaves its z in z.
- * *gain: how much the best objective fell, relative, over the last tenth
- * of the steps (still falling: not converged). */
+ * *gain: the share of the objective's whole fall that came in the last
+ * tenth of the steps (still falling: not converged). */
 static double adam_z(const latent_decoder *d, double *z, size_t n, const double *x,
                      const double *c, const double *t, const struct fit_prior *p,
                      const struct latent_fit_options *o, double *gain)
 {
     int late = o->max_iter - (o->max_iter + 9) / 10;
-    double f_late = INFINITY;
+    double f_late = INFINITY, f_first = INFINITY;
     const int nz = d->nz;
     double m1[LATENT_MAX_NZ] = {0}, m2[LATENT_MAX_NZ] = {0}, g[LATENT_MAX_NZ];
     double best[LATENT_MAX_NZ], best_f = INFINITY;
@@ -101,6 +101,8 @@ static double adam_z(const latent_decoder *d, double *z, size_t n, const double 
         if (it == late)
             f_late = best_f;
         double f = objective(d, z, n, x, c, t, p, g);
+        if (it == 0)
+            f_first = f;
         if (f < best_f) {
             best_f = f;
             memcpy(best, z, (size_t)nz * sizeof *z);
@@ -121,7 +123,8 @@ static double adam_z(const latent_decoder *d, double *z, size_t n, const double 
     }
     memcpy(z, best, (size_t)nz * sizeof *z);
     if (gain)
-        *gain = isfinite(f_late) ? (f_late - best_f) / fmax(fabs(best_f), 1e-300) : 0.0;
+        *gain = isfinite(f_late) && f_first > best_f ? (f_late - best_f) / (f_first - best_f)
+                                                     : 0.0;
     return best_f;
 }
 
@@ -301,6 +304,7 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
         info->prior_weight = pr.w;
         info->bandwidth = pr.h;
         info->scale = scale;
+        info->gain = gain;
         struct fit_status *st = &info->status;
         *st = fit_status_init();
         st->geometries = fit_status_geometries(samples, idx, used);

@@ -65,9 +65,10 @@ int fit_latent_model_fit(const struct fit_data *data, const struct fit_model_opt
         rep->status = info.status;
         snprintf(rep->note, sizeof rep->note,
                  "latent: %d starts x %d Adam steps on %zu samples (%zu dropped), mean |log "
-                 "residual| %.4f, population prior weight %.2g",
+                 "residual| %.4f, population prior weight %.2g, %.2g of the objective's fall "
+                 "in the last tenth of the steps",
                  info.starts, info.iterations, info.used, info.dropped, info.loss,
-                 info.prior_weight);
+                 info.prior_weight, info.gain);
     }
     *out = f;
     return 0;

@@ -61,10 +61,14 @@ static size_t row_geometries(const double *u, size_t stride, const size_t *twin,
     return g;
 }
 
+/* Held-out rows below which a network's held-out residual is a guess. */
+#define MLP_MIN_HELDOUT 10
+
 /* A network's status: its weights outnumber any capture, so what checks it
- * is its held-out rows: without them (fewer than 8 rows) it is
- * underdetermined; their RMS log error is the held-out residual; an epoch
- * limit is not convergence. */
+ * is its held-out rows: with fewer than MLP_MIN_HELDOUT (DS4's 6 samples
+ * give 12 rows with their reciprocals, 2 held out) it is underdetermined;
+ * their RMS log error is the held-out residual; an epoch limit is not
+ * convergence. */
 static struct fit_status mlp_status(const struct fit_mlp_train_report *r, size_t geometries)
 {
     struct fit_status st = fit_status_init();
@@ -73,7 +77,7 @@ static struct fit_status mlp_status(const struct fit_mlp_train_report *r, size_t
     st.heldout = r->n_val ? sqrt(r->val_loss) : NAN;
     if (!r->early_stopped)
         st.findings |= 1u << FIT_STATUS_NOT_CONVERGED;
-    if (!r->n_val)
+    if (r->n_val < MLP_MIN_HELDOUT)
         st.findings |= 1u << FIT_STATUS_UNDERDETERMINED;
     fit_status_decide(&st);
     return st;
