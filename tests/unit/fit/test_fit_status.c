@@ -186,6 +186,26 @@ static void test_models_converged_and_limits(void **state)
     assert_true(st.heldout > 0 && st.heldout < 0.1);
 }
 
+/* A Gaussian lobe exp(-3000 x): ABC's (1 + B x)^-C with B C = 3000 as C ->
+ * infinity (C 1e4 here, beyond the fitter's bound e^3.5): the fit ends
+ * with C on its bound and names it. */
+static void test_at_bound(void **state)
+{
+    (void)state;
+    static struct fit_sample s[NS];
+    const struct brdf_abc sharp = {{0.2, 0.15, 0.1}, {20, 15, 10}, 0.3, 1e4, 1.5};
+    size_t n = grid_samples(&sharp, s);
+    struct brdf_abc p;
+    struct fit_info info;
+    assert_int_equal(fit_abc(s, n, NULL, &p, &info, NULL), 0);
+    char line[400];
+    fit_status_line(&info.status, line, sizeof line);
+    print_message("C 1e4: fitted C %g; %s\n", p.C, line);
+    assert_true(info.status.findings & (1u << FIT_STATUS_AT_BOUND));
+    assert_non_null(strstr(info.status.at_bound, "C"));
+    assert_true(info.status.params < 9); /* C is not free */
+}
+
 /* The spectral network at its epoch limit (it once reported converged). */
 static void test_spectral_limit(void **state)
 {
@@ -253,6 +273,7 @@ int main(void)
         cmocka_unit_test(test_rules),
         cmocka_unit_test(test_distinct_pairs),
         cmocka_unit_test(test_models_converged_and_limits),
+        cmocka_unit_test(test_at_bound),
         cmocka_unit_test(test_spectral_limit),
         cmocka_unit_test(test_models_underdetermined),
         cmocka_unit_test(test_models_poor_fit),

@@ -4,7 +4,9 @@
  * materials at the edges of the model (chrome, a fabric, white diffuse).
  *
  * Every case asks for finite parameters, a fit that returns, and an error
- * no worse than the bound stated next to it. Synthetic truths are ABC
+ * no worse than the bound stated next to it: 1e-9 for exact model data
+ * (the fits reach 1e-11 or better), bounds derived from the noise for
+ * noisy data, the measured figure plus 10 % for real materials. Synthetic truths are ABC
  * parameter sets evaluated with brdf_abc_eval (independent of the fitter's
  * residual code); errors are mean |log(1 + fhat cos) - log(1 + f cos)|
  * over the channels of pairs the fit did not see unless said otherwise. */
@@ -61,6 +63,17 @@ static void assert_finite_params(const struct brdf_abc *p)
     assert_true(isfinite(p->eta) && p->eta > 1 && p->eta <= 40);
 }
 
+/* Largest relative difference between the nine parameters of p and q. */
+static double param_rel(const struct brdf_abc *p, const struct brdf_abc *q)
+{
+    double x[9] = {p->kd[0], p->kd[1], p->kd[2], p->A[0], p->A[1], p->A[2], p->B, p->C, p->eta};
+    double y[9] = {q->kd[0], q->kd[1], q->kd[2], q->A[0], q->A[1], q->A[2], q->B, q->C, q->eta};
+    double m = 0;
+    for (int k = 0; k < 9; k++)
+        m = fmax(m, fabs(x[k] - y[k]) / fabs(y[k]));
+    return m;
+}
+
 /* Error of the model p against rgb values ref at pairs g (3n values). */
 static double log_err(const struct brdf_abc *p, const struct brdf_pair *g, const double *ref,
                       size_t n)
@@ -111,7 +124,8 @@ static double fit_synth(const struct brdf_abc *truth, const struct brdf_pair *g,
 
 /* Grazing: samples up to 89.9 degrees (n.l, n.v -> 0) and pairs with
  * l ~ -v at grazing (v.h -> 0). Bound: exact model data, so the fit must
- * reproduce it to 1e-3 out of plane up to 89 degrees. */
+ * give the truth's parameters to 1e-9 relative (measured 7e-16) and its
+ * BRDF to 1e-9 out of plane up to 89 degrees (measured 2e-17). */
 static void test_grazing_and_vh_to_zero(void **state)
 {
     (void)state;
@@ -126,13 +140,16 @@ static void test_grazing_and_vh_to_zero(void **state)
     struct brdf_abc p;
     struct fit_info info;
     double e = fit_synth(&truth, g, n, 89.0, &p, &info);
-    printf("grazing: %zu samples, oop log error %.2e\n", n, e);
-    assert_true(e <= 1e-3);
+    printf("grazing: %zu samples, oop log error %.2e, parameters off by %.2e\n", n, e,
+           param_rel(&p, &truth));
+    assert_true(e <= 1e-9);
+    assert_true(param_rel(&p, &truth) <= 1e-9);
 }
 
-/* eta -> 1 (Fresnel -> 0: the lobe vanishes) and eta at the upper bound
- * (F flat, metal-like). Bound: 0.01 out of plane (eta -> 1 leaves A and
- * eta trading off, so the parameters are not asked for, only the BRDF). */
+/* eta -> 1 (Fresnel -> 0: the lobe vanishes) and eta near the upper bound
+ * (F flat, metal-like), exact model data. Bounds: the BRDF to 1e-9 out of
+ * plane (measured 1e-17) and the parameters to 1e-9 relative (measured
+ * 1.5e-11 at eta 1.001, where A and eta nearly trade off, 8e-14 at 39). */
 static void test_eta_extremes(void **state)
 {
     (void)state;
@@ -143,24 +160,30 @@ static void test_eta_extremes(void **state)
     struct brdf_abc p;
     struct fit_info info;
     double e1 = fit_synth(&t1, g, n, 80, &p, &info);
-    printf("eta 1.001: oop log error %.2e, fitted eta %g\n", e1, p.eta);
-    assert_true(e1 <= 0.01);
+    printf("eta 1.001: oop log error %.2e, fitted eta %g, parameters off by %.2e\n", e1, p.eta,
+           param_rel(&p, &t1));
+    assert_true(e1 <= 1e-9);
+    assert_true(param_rel(&p, &t1) <= 1e-9);
     double e2 = fit_synth(&t2, g, n, 80, &p, &info);
-    printf("eta 39: oop log error %.2e, fitted eta %g\n", e2, p.eta);
-    assert_true(e2 <= 0.01);
+    printf("eta 39: oop log error %.2e, fitted eta %g, parameters off by %.2e\n", e2, p.eta,
+           param_rel(&p, &t2));
+    assert_true(e2 <= 1e-9);
+    assert_true(param_rel(&p, &t2) <= 1e-9);
     /* beyond the bound (the published tungsten-carbide fit has ior 100):
-     * the fit keeps eta inside (1, 40] and still fits; F is so flat there
-     * that eta itself is not determined (a fit lands near 5 with A lower) */
+     * the fit keeps eta inside (1, 40] and still fits, to 1e-3 (measured
+     * 3.0e-4: not model data any more); F is so flat there that eta itself
+     * is not determined (a fit lands near 5 with A lower) */
     const struct brdf_abc t3 = {{0.003, 0.003, 0.004}, {60, 50, 45}, 9e4, 1.7, 100.0};
     double e3 = fit_synth(&t3, g, n, 80, &p, &info);
     printf("eta 100: oop log error %.2e, fitted eta %g\n", e3, p.eta);
-    assert_true(e3 <= 0.01);
+    assert_true(e3 <= 1e-3);
 }
 
 /* B = 1e7 with a peak 1e4 times the diffuse level: the lobe is 0.03 degrees
- * wide, so only the mirror samples see it. Bound: the fit matches its own
- * samples to 0.02 (out of plane the lobe is not determined by any sample),
- * and the peak value at the mirror to 20% in log(1 + f cos). */
+ * wide, so only the mirror samples see it. Exact model data: the fit
+ * matches its samples to 1e-9 (measured 4e-17), the peak value at the
+ * mirror to 1e-9 in log(1 + f cos), and the parameters to 1e-9 relative
+ * (measured 6e-16). */
 static void test_very_sharp_bright_lobe(void **state)
 {
     (void)state;
@@ -189,15 +212,18 @@ static void test_very_sharp_bright_lobe(void **state)
     brdf_abc_eval(&p, &m, fm);
     brdf_abc_eval(&truth, &m, ft);
     double peak = fabs(log1p(fm[0] * m.wi[2]) / log1p(ft[0] * m.wi[2]) - 1);
+    printf("B 1e7: parameters off by %.2e\n", param_rel(&p, &truth));
     printf("B 1e7: sample log error %.2e, mirror value %g vs %g, fitted B %g\n", e, fm[0],
            ft[0], p.B);
-    assert_true(e <= 0.02);
-    assert_true(peak <= 0.2);
+    assert_true(e <= 1e-9);
+    assert_true(peak <= 1e-9);
+    assert_true(param_rel(&p, &truth) <= 1e-9);
 }
 
-/* All diffuse (A = 0): the lobe parameters have no influence. Bound: 1e-3
- * out of plane, the lobe's share at the mirror below 1% of the diffuse
- * level, and the uncertainty of log B reported as undetermined or large. */
+/* All diffuse (A = 0): the lobe parameters have no influence. Bound: 1e-9
+ * out of plane (measured 9e-16), the lobe's share at the mirror below 1e-9
+ * of the diffuse level, and the uncertainty of log B reported as
+ * undetermined or large. */
 static void test_all_diffuse(void **state)
 {
     (void)state;
@@ -213,16 +239,17 @@ static void test_all_diffuse(void **state)
     brdf_abc_eval(&p, &m, f);
     printf("all diffuse: oop log error %.2e, mirror %g vs kd/pi %g, sd log B %g\n", e, f[0],
            p.kd[0] / PI, info.sd.log_B);
-    assert_true(e <= 1e-3);
-    assert_true(f[0] - p.kd[0] / PI <= 0.01 * p.kd[0] / PI);
+    assert_true(e <= 1e-9);
+    assert_true(f[0] - p.kd[0] / PI <= 1e-9 * p.kd[0] / PI);
     assert_true(!(info.sd.log_B < 1.0)); /* INFINITY, NaN or large: not determined */
     /* and the status says so: B, C, eta shape a lobe that is not there */
     assert_int_equal(fit_status_code(&info.status), FIT_STATUS_UNDERDETERMINED);
 }
 
-/* Six samples (DS4's pairs): both fits return finite parameters. Bound:
- * fit_abc matches its six samples to 0.01 (18 residuals, 9 parameters);
- * the prior fit stays within 0.05 of them. */
+/* Six samples (DS4's pairs) of exact model data: fit_abc gives the truth's
+ * parameters to 1e-9 relative (measured 1.6e-14) and its samples to 1e-9
+ * (18 residuals, 9 parameters); the prior fit, pulled towards the
+ * population, stays within 1e-3 of them (measured 2.2e-4). */
 static void test_six_samples(void **state)
 {
     (void)state;
@@ -246,10 +273,12 @@ static void test_six_samples(void **state)
     assert_int_equal(fit_abc_map(s, 6, NULL, &prior, &q, &i2, &err), 0);
     assert_finite_params(&q);
     double e1 = log_err(&p, g, ref, 6), e2 = log_err(&q, g, ref, 6);
+    printf("six samples: parameters off by %.2e\n", param_rel(&p, &truth));
     printf("six samples: sample log error %.2e (abc), %.2e (abc-prior), sd log B %g\n", e1, e2,
            i2.sd.log_B);
-    assert_true(e1 <= 0.01);
-    assert_true(e2 <= 0.05);
+    assert_true(e1 <= 1e-9);
+    assert_true(param_rel(&p, &truth) <= 1e-9);
+    assert_true(e2 <= 1e-3);
     assert_true(isfinite(i2.sd.log_B));
 }
 
@@ -300,11 +329,10 @@ static void test_nan_and_duplicates_dropped(void **state)
 }
 
 /* Real materials at the model's edges, DS3-sized grids of their NBRDF
- * networks: a metal whose fit runs eta to its bound (chrome), a fabric with
- * back-scatter (beige-fabric) and white diffuse. Bounds (full-hemisphere
- * random pairs up to 80 degrees, mostly away from the mirror): 0.03 for
- * chrome and the fabric, 0.02 for white (the DS3 full-domain errors of
- * docs/fitting.md are 0.01-0.1; random pairs weigh the lobe less). */
+ * networks: a metal (chrome), a fabric with back-scatter (beige-fabric) and
+ * white diffuse. Bounds (full-hemisphere random pairs up to 80 degrees,
+ * mostly away from the mirror): the measured errors (0.0037, 0.0029,
+ * 0.0041) plus 10 %. */
 static void test_real_edge_materials(void **state)
 {
     (void)state;
@@ -317,8 +345,8 @@ static void test_real_edge_materials(void **state)
     const struct {
         const char *spec;
         double bound;
-    } mats[] = {{"nbrdf:chrome", 0.03}, {"nbrdf:beige-fabric", 0.03},
-                {"nbrdf:white-diffuse-bball", 0.02}};
+    } mats[] = {{"nbrdf:chrome", 0.0041}, {"nbrdf:beige-fabric", 0.0032},
+                {"nbrdf:white-diffuse-bball", 0.0045}};
     for (size_t i = 0; i < sizeof mats / sizeof mats[0]; i++) {
         struct gonio_err err = {0};
         brdf_material *mat = brdf_material_open(mats[i].spec, &err);
@@ -337,7 +365,7 @@ static void test_real_edge_materials(void **state)
         assert_int_equal(fit_abc(s, n, NULL, &p, &info, &err), 0);
         assert_finite_params(&p);
         double e = log_err(&p, r, ref, m);
-        printf("%s: %zu samples, oop log error %.4f (bound %.2f), eta %g, B %g, %d iterations\n",
+        printf("%s: %zu samples, oop log error %.5f (bound %.4f), eta %g, B %g, %d iterations\n",
                mats[i].spec, n, e, mats[i].bound, p.eta, p.B, info.iterations);
         assert_true(e <= mats[i].bound);
     }
@@ -494,6 +522,7 @@ static void test_one_geometry_underdetermined(void **state)
     assert_int_equal((int)info.status.geometries, 1);
     assert_int_equal(fit_status_code(&info.status), FIT_STATUS_UNDERDETERMINED);
     assert_true(info.status.rank < info.status.params);
+    assert_true(info.status.findings & (1u << FIT_STATUS_ILL_CONDITIONED));
 }
 
 /* Every sample at theta_h = 0 (the mirror, at many theta_d): the lobe
