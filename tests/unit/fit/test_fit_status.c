@@ -206,6 +206,39 @@ static void test_at_bound(void **state)
     assert_true(info.status.params < 9); /* C is not free */
 }
 
+/* The latent fit divides out the data's scale like fit_abc: data x1e12 and
+ * x1e-12 give the same z to 1e-6 relative, a material x1e12 the values. */
+static void test_latent_scale(void **state)
+{
+    (void)state;
+    static struct fit_sample s[NS], t[NS];
+    size_t n = grid_samples(&plastic, s);
+    struct fit_data data = {.rgb = s, .n_rgb = n};
+    struct fit_model_options mo = fit_model_default_options();
+    const struct fit_model_kind *kind = fit_model_find("latent");
+    struct fit_model_file *f1 = NULL, *fk = NULL;
+    struct fit_model_report rep;
+    assert_int_equal(kind->fit(&data, &mo, &f1, &rep, NULL), 0);
+    const double ks[] = {1e12, 1e-12};
+    for (int i = 0; i < 2; i++) {
+        for (size_t k = 0; k < n; k++) {
+            t[k] = s[k];
+            for (int c = 0; c < 3; c++)
+                t[k].rgb[c] *= ks[i];
+        }
+        data.rgb = t;
+        assert_int_equal(kind->fit(&data, &mo, &fk, &rep, NULL), 0);
+        assert_int_equal(fk->n_data, f1->n_data);
+        for (size_t j = 0; j < f1->n_data; j++)
+            assert_close(fk->data[j], f1->data[j], 1e-6 * fmax(1.0, fabs(f1->data[j])));
+        double sc;
+        assert_int_equal(fit_model_file_get_double(fk, "scale", NULL, &sc, NULL), 0);
+        assert_rel_close(sc, ks[i], 1e-15);
+        fit_model_file_free(fk);
+    }
+    fit_model_file_free(f1);
+}
+
 /* The spectral network at its epoch limit (it once reported converged). */
 static void test_spectral_limit(void **state)
 {
@@ -274,6 +307,7 @@ int main(void)
         cmocka_unit_test(test_distinct_pairs),
         cmocka_unit_test(test_models_converged_and_limits),
         cmocka_unit_test(test_at_bound),
+        cmocka_unit_test(test_latent_scale),
         cmocka_unit_test(test_spectral_limit),
         cmocka_unit_test(test_models_underdetermined),
         cmocka_unit_test(test_models_poor_fit),

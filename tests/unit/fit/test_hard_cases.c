@@ -551,8 +551,8 @@ static void test_one_theta_h_underdetermined(void **state)
 
 /* Noise at three SNRs: the fit's in-sample RMS residual is the noise's,
  * sigma sqrt((m - 9) / m) for m residuals, within 4 of its standard
- * deviations (sigma / sqrt(2 m)); the held-out residual is above it and
- * below 1.5 sigma; log B lies within 4 reported sds of the truth; and the
+ * deviations (sigma / sqrt(2 m)); the held-out residual is at least 1 %
+ * above it and below 1.5 sigma; log B lies within 4 reported sds of the truth; and the
  * status is converged (noise 1 % to 10 % is what the model is for). */
 static void test_noisy_snr(void **state)
 {
@@ -574,7 +574,10 @@ static void test_noisy_snr(void **state)
                sg, info.status.insample, want, tol, info.status.heldout, zb,
                fit_status_name(fit_status_code(&info.status)));
         assert_close(info.status.insample, want, tol);
-        assert_true(info.status.heldout >= info.status.insample);
+        /* held out, each sample is predicted by a fit that did not see it:
+         * about (1 + 9 / m) times the in-sample residual (measured 1.045 to
+         * 1.059); the fit of all samples scores 1 */
+        assert_true(info.status.heldout >= 1.01 * info.status.insample);
         assert_true(info.status.heldout <= 1.5 * sg);
         assert_true(fabs(zb) <= 4);
         assert_int_equal(fit_status_code(&info.status), FIT_STATUS_CONVERGED);
