@@ -107,12 +107,15 @@ static void test_distinct_pairs(void **state)
 #define NS 200
 
 /* An in-plane grid of a material (ABC truth), theta_i 0..60 step 10,
- * theta_r -70..70 step 5 (the blind zone left out): 172 samples. */
-static size_t grid_samples(const struct brdf_abc *p, struct fit_sample *s)
+ * theta_r -70..70 step 5 (the blind zone left out): 172 samples; with
+ * coarse at the small size step 10 (the latent fits dominate under
+ * valgrind). */
+static size_t grid_samples(const struct brdf_abc *p, struct fit_sample *s, int coarse)
 {
     size_t n = 0;
+    int step = coarse && gonio_test_small() ? 10 : 5;
     for (int ti = 0; ti <= 60; ti += 10)
-        for (int tr = -70; tr <= 70; tr += 5) {
+        for (int tr = -70; tr <= 70; tr += step) {
             if (abs(ti + tr) < 5 || n >= NS)
                 continue;
             brdf_pair_inplane(ti, tr, &s[n].g);
@@ -158,11 +161,11 @@ static void test_models_converged_and_limits(void **state)
 {
     (void)state;
     static struct fit_sample s[NS];
-    struct fit_data data = {.rgb = s, .n_rgb = grid_samples(&plastic, s)};
+    struct fit_data data = {.rgb = s, .n_rgb = grid_samples(&plastic, s, 1)};
     struct fit_model_report rep;
     struct fit_status st = fit_kind("abc", &data, 0, &rep);
     assert_int_equal(fit_status_code(&st), FIT_STATUS_CONVERGED);
-    assert_true(st.geometries >= 100);
+    assert_true(st.geometries >= 40);
     assert_int_equal(st.rank, st.params);
     assert_true(st.cond >= 1 && st.cond < FIT_STATUS_COND_MAX);
     assert_true(st.heldout >= 0 && st.heldout < 1e-6); /* exact model data */
@@ -194,7 +197,7 @@ static void test_at_bound(void **state)
     (void)state;
     static struct fit_sample s[NS];
     const struct brdf_abc sharp = {{0.2, 0.15, 0.1}, {20, 15, 10}, 0.3, 1e4, 1.5};
-    size_t n = grid_samples(&sharp, s);
+    size_t n = grid_samples(&sharp, s, 0);
     struct brdf_abc p;
     struct fit_info info;
     assert_int_equal(fit_abc(s, n, NULL, &p, &info, NULL), 0);
@@ -207,14 +210,16 @@ static void test_at_bound(void **state)
 }
 
 /* The latent fit divides out the data's scale like fit_abc: data x1e12 and
- * x1e-12 give the same z to 1e-6 relative, a material x1e12 the values. */
+ * x1e-12 give the same z to 1e-6 relative, and the file keeps the scale.
+ * 60 Adam steps at the small size. */
 static void test_latent_scale(void **state)
 {
     (void)state;
     static struct fit_sample s[NS], t[NS];
-    size_t n = grid_samples(&plastic, s);
+    size_t n = grid_samples(&plastic, s, 1);
     struct fit_data data = {.rgb = s, .n_rgb = n};
     struct fit_model_options mo = fit_model_default_options();
+    mo.max_epochs = gonio_test_small() ? 60 : 0;
     const struct fit_model_kind *kind = fit_model_find("latent");
     struct fit_model_file *f1 = NULL, *fk = NULL;
     struct fit_model_report rep;
@@ -284,7 +289,7 @@ static void test_models_poor_fit(void **state)
 {
     (void)state;
     static struct fit_sample s[NS];
-    size_t n = grid_samples(&plastic, s);
+    size_t n = grid_samples(&plastic, s, 1);
     uint64_t seed = 99;
     for (size_t k = 0; k < n; k++)
         for (int c = 0; c < 3; c++)
