@@ -562,7 +562,9 @@ static double heldout_rms(const struct fit_sample *s, const size_t *idx, size_t 
         struct abc_problem tp = {0}, hp = {0};
         struct solve_result r;
         if (abc_problem_init(&tp, s, train, nt) == 0 && abc_problem_set_loss(&tp, opt->loss) == 0 &&
-            abc_problem_init(&hp, s, test, nh) == 0) {
+            abc_problem_set_lower(&tp, opt->lower_bound, train) == 0 &&
+            abc_problem_init(&hp, s, test, nh) == 0 &&
+            abc_problem_set_lower(&hp, opt->lower_bound, test) == 0) {
             tp.prior = prior;
             if (local_solve(&tp, theta, opt, ABC_COARSE_FTOL, NULL, &r) == 0) {
                 sum += 2.0 * abc_problem_cost(&hp, r.theta);
@@ -682,7 +684,8 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
     int ran = 0;
 
     if (abc_problem_init(&local, samples, idx, n_local) < 0 ||
-        abc_problem_set_loss(&local, opt.loss) < 0) {
+        abc_problem_set_loss(&local, opt.loss) < 0 ||
+        abc_problem_set_lower(&local, opt.lower_bound, idx) < 0) {
         rc = gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", n_local);
         goto done;
     }
@@ -692,12 +695,28 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
         nstarts = 1;
     } else {
         const struct abc_problem *gp = &local;
-        if (n_grid < n_local) {
-            if (abc_problem_init(&grid, samples, idx, n_grid) < 0) {
+        /* The start search scores exact values: lower bounds (clipped
+         * peaks) would point it at a lobe as low as the clip. It runs on
+         * the other samples when at least 3 are left. */
+        size_t ng = n_grid, *gidx = opt.lower_bound ? malloc(n_grid * sizeof *gidx) : NULL;
+        if (gidx) { /* (without memory: all samples) */
+            ng = 0;
+            for (size_t k = 0; k < n_grid; k++)
+                if (!opt.lower_bound[idx[k]])
+                    gidx[ng++] = idx[k];
+            if (ng < 3)
+                ng = n_grid;
+        }
+        if (ng < n_local) {
+            int ok = abc_problem_init(&grid, samples, ng < n_grid ? gidx : idx, ng) == 0;
+            free(gidx);
+            if (!ok) {
                 rc = gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory");
                 goto done;
             }
             gp = &grid;
+        } else {
+            free(gidx);
         }
         nstarts = opt.global == FIT_GLOBAL_DE ? abc_de_starts(gp, opt.seed, opt.n_starts, starts)
                                               : abc_grid_starts(gp, opt.n_starts, starts);
@@ -738,7 +757,8 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
     }
     if (n_local < nv && isfinite(best.cost)) {
         if (abc_problem_init(&full, samples, idx, nv) < 0 ||
-            abc_problem_set_loss(&full, opt.loss) < 0) {
+            abc_problem_set_loss(&full, opt.loss) < 0 ||
+            abc_problem_set_lower(&full, opt.lower_bound, idx) < 0) {
             rc = gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", nv);
             goto done;
         }

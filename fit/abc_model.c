@@ -77,6 +77,7 @@ int fit_abc_model_fit(const struct fit_data *data, const struct fit_model_option
         return gonio_err_set(err, GONIO_EUSAGE, "abc: needs RGB samples");
     struct fit_options fo = fit_default_options();
     fo.seed = (unsigned)o.seed;
+    fo.lower_bound = data->rgb_lower;
     struct brdf_abc p;
     struct fit_info info;
     int rc = fit_abc(data->rgb, data->n_rgb, &fo, &p, &info, err);

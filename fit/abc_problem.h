@@ -75,6 +75,10 @@ struct abc_problem {
     size_t nux, nuv;
     double *ux, *uvh;
     unsigned *xi, *vi;
+    /* lower[k] 1: sample k's values are lower bounds (fit_options.lower_bound):
+     * its residuals count only while negative (the model below the value).
+     * NULL when no sample is (abc_problem_set_lower). */
+    unsigned char *lower;
     enum fit_loss loss; /* FIT_LOSS_LOG after init; abc_problem_set_loss changes it */
     double *s;      /* linear losses: r = (fhat - f) s, 3n (NULL for the log loss) */
     const struct abc_prior_term *prior; /* NULL: no prior rows */
@@ -89,6 +93,10 @@ struct abc_problem {
 int abc_problem_init(struct abc_problem *pb, const struct fit_sample *s, const size_t *idx,
                      size_t n);
 void abc_problem_free(struct abc_problem *pb);
+
+/* Mark the samples whose values are lower bounds: flags[idx[k]] (idx as
+ * given to abc_problem_init; flags NULL: none). Returns 0, -1 on no memory. */
+int abc_problem_set_lower(struct abc_problem *pb, const unsigned char *flags, const size_t *idx);
 
 /* Switch the data residuals to another loss (fit/fit.h enum fit_loss).
  * Returns 0, or -1 for an unknown loss or no memory. */

@@ -40,6 +40,13 @@ struct fit_options {
     double ftol;       /* stop when the cost fell less than this, relative, in 8 steps */
     const struct brdf_abc *warm_start; /* NULL: global start; else refine from here */
     enum fit_global global; /* start search when warm_start is NULL */
+    /* NULL, or one flag per sample given (in their order): 1 when the
+     * detector saturated on that reading, so each of its values is a lower
+     * bound of the BRDF (the clipped channel's, and the others' too: their
+     * true value is at least what was read). Fitted one-sided, as censored
+     * data: no residual while the model is above the value
+     * (docs/fitting.md "Saturated readings"). */
+    const unsigned char *lower_bound;
 };
 
 struct fit_options fit_default_options(void);

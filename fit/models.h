@@ -33,6 +33,10 @@ struct fit_spectral_sample {
 struct fit_data {
     const struct fit_sample *rgb;
     size_t n_rgb;
+    const unsigned char *rgb_lower; /* NULL, or n_rgb flags: 1 for a saturated reading, a
+                                       lower bound (fit_options.lower_bound); the ABC
+                                       fits take it one-sided, the networks and the
+                                       latent fit at its value */
     const struct fit_spectral_sample *spectral;
     size_t n_spectral;
     const char *material; /* the captured material (nbrdf:NAME) when known, else NULL */

@@ -50,11 +50,17 @@ int fit_abc_pseudo_fit(const struct fit_data *data, const struct fit_model_optio
     struct brdf_pair *grid = NULL;
     int ng = fit_pseudo_grid(&grid);
     struct fit_sample *dense = ng > 0 ? malloc(((size_t)ng + data->n_rgb) * sizeof *dense) : NULL;
-    if (!dense) {
+    /* the measured lower bounds stay lower bounds; the network's values are values */
+    unsigned char *lower = data->rgb_lower ? calloc((size_t)ng + data->n_rgb, 1) : NULL;
+    if (!dense || (data->rgb_lower && !lower)) {
         fit_mlp_free(&net);
         free(grid);
+        free(dense);
+        free(lower);
         return gonio_err_set(err, ENOMEM, "abc-pseudo: out of memory");
     }
+    if (lower)
+        memcpy(lower, data->rgb_lower, data->n_rgb);
     /* Measured samples first, then the network's values at the grid. */
     memcpy(dense, data->rgb, data->n_rgb * sizeof *dense);
     size_t n = data->n_rgb;
@@ -73,10 +79,12 @@ int fit_abc_pseudo_fit(const struct fit_data *data, const struct fit_model_optio
     free(grid);
     struct fit_options fo = fit_default_options();
     fo.seed = (unsigned)o.seed;
+    fo.lower_bound = lower;
     struct brdf_abc p;
     struct fit_info info;
     rc = fit_abc(dense, n, &fo, &p, &info, err);
     free(dense);
+    free(lower);
     if (rc)
         return rc;
     /* What the data can determine is set by the measured geometries, not by

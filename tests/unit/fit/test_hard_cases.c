@@ -549,6 +549,48 @@ static void test_one_theta_h_underdetermined(void **state)
     assert_int_equal(fit_status_code(&info.status), FIT_STATUS_UNDERDETERMINED);
 }
 
+/* Saturated readings: values above 1.0 clipped there (the peak of every
+ * specular sample) and flagged (fit_options.lower_bound). Taken one-sided (censored), the
+ * fit recovers the truth from the rest and the bounds: parameters to 1e-6
+ * relative. Taken at their clipped value, as before, the lobe's amplitude
+ * falls far below the truth's (A_r 0.46 for 20 once). */
+static void test_clipped_censored(void **state)
+{
+    (void)state;
+    static struct brdf_pair g[MAXS];
+    static struct fit_sample s[MAXS];
+    static unsigned char lower[MAXS];
+    size_t n = grid(80, g);
+    synth(&noisy_truth, g, n, s);
+    size_t clipped = 0;
+    for (size_t k = 0; k < n; k++) {
+        lower[k] = 0;
+        for (int c = 0; c < 3; c++)
+            if (s[k].rgb[c] > 1.0) {
+                s[k].rgb[c] = 1.0;
+                lower[k] = 1;
+            }
+        clipped += lower[k];
+    }
+    struct brdf_abc p, q;
+    struct fit_info info;
+    struct fit_options o = fit_default_options();
+    o.lower_bound = lower;
+    assert_int_equal(fit_abc(s, n, &o, &p, &info, NULL), 0);
+    assert_int_equal(fit_abc(s, n, NULL, &q, NULL, NULL), 0);
+    printf("clipped at 1.0 (%zu of %zu samples): censored A_r %.9g B %.9g (parameters off by "
+           "%.2e, %s); at the clipped value A_r %.3g B %.3g\n",
+           clipped, n, p.A[0], p.B, param_rel(&p, &noisy_truth),
+           fit_status_name(fit_status_code(&info.status)), q.A[0], q.B);
+    assert_true(clipped >= 5);
+    assert_true(param_rel(&p, &noisy_truth) <= 1e-6);
+    assert_true(q.A[0] < 0.5 * noisy_truth.A[0]);
+    /* the status's residuals (abc_problem_eval's path) are one-sided too:
+     * the truth is above its clipped values, so nothing is left */
+    assert_true(info.status.insample < 1e-9);
+    assert_int_equal(fit_status_code(&info.status), FIT_STATUS_CONVERGED);
+}
+
 /* Noise at three SNRs: the fit's in-sample RMS residual is the noise's,
  * sigma sqrt((m - 9) / m) for m residuals, within 4 of its standard
  * deviations (sigma / sqrt(2 m)); the held-out residual is at least 1 %
@@ -630,6 +672,7 @@ int main(void)
         cmocka_unit_test(test_nan_inf_refused),
         cmocka_unit_test(test_one_geometry_underdetermined),
         cmocka_unit_test(test_one_theta_h_underdetermined),
+        cmocka_unit_test(test_clipped_censored),
         cmocka_unit_test(test_noisy_snr),
         cmocka_unit_test(test_uncertainty_calibrated),
     };

@@ -303,6 +303,7 @@ static void test_bad_input(void **state)
         {{"fit", missing, "--model", "abc", NULL}, 4},
         {{"fit", cap, "--model", "abc", "--seed", "x"}, 6},
         {{"fit", cap, "--model", "mlp", "--epochs", "0"}, 6},
+        {{"fit", cap, "--model", "abc", "--saturated", "dropped"}, 6},
     };
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
         char *out, *errtext;
