@@ -31,15 +31,18 @@ enum fit_status_code {
 };
 
 /* cond(J^T J) of the free parameters' columns scaled to unit length above
- * this: the normal equations lose 12 of double's 16 digits, and a step of
- * 1e-4 relative in the data moves the parameters at will. */
+ * this: cond(J) 1e6, so the normal equations lose 12 of double's 16 digits
+ * and a change of 1e-4 relative in the data can move the parameters by
+ * 100 times their size. */
 #define FIT_STATUS_COND_MAX 1e12
 
 /* The noise level, in RMS log(1 + f cos theta_i), that held-out residuals
- * are judged against: the simulated detectors' calibrated noise is near 1 %
- * (docs/scenes.md), and 0.05 leaves room for what a 9-parameter model of a
- * measured material cannot represent (the ABC DS1 fits of the ten study
- * materials hold out at 0.006 to 0.094 RMS). */
+ * are judged against: the lab scene's detector noise (shot noise at 1e4 to
+ * 1e5 electrons, 0.5 % drift; docs/scenes.md) is near 1 %, and 0.05 leaves
+ * room for what a 9-parameter model of a measured material cannot hold:
+ * the ABC DS1 fits of the ten study materials (ideal scene) hold out at
+ * 0.013 to 0.099 RMS, but tungsten-carbide at 0.171, its index of
+ * refraction beyond the model's bound (docs/fitting.md "Fit status"). */
 #define FIT_STATUS_NOISE_LOG 0.05
 /* poor-fit: held-out RMS above this many times the noise level */
 #define FIT_STATUS_POOR_FACTOR 3.0
