@@ -89,6 +89,9 @@ int cmd_capture(int argc, char **argv)
            s.converged ? "" : " (fit did not converge)");
     if (s.paused_s > 0)
         printf("  paused %.1f s of rig clock (not in the rig time)\n", s.paused_s);
+    char status[400];
+    fit_status_line(&s.status, status, sizeof status);
+    printf("  fit status: %s\n", status);
     if (s.saturated)
         printf("  %zu saturated readings, fitted at their clipped values (lower bounds)\n",
                s.saturated);

@@ -481,10 +481,11 @@ static int fit_abc_capture(const struct fit_sample *fs, size_t n, const struct b
     if (use_prior)
         fit_abc_prior_warning(&info, n - info.dropped, out->warning, sizeof out->warning);
     out->converged = info.converged;
+    out->status = info.status;
 
     /* The keys gonio fit's abc and abc-prior files carry, and where the
      * start came from (a warm start makes the file differ from gonio fit's). */
-    struct fit_model_file *mf = fit_abc_fitted_file(&out->params, opt.seed, info.cost);
+    struct fit_model_file *mf = fit_abc_fitted_file(&out->params, opt.seed, &info);
     if (mf && ((warm && fit_model_file_set(mf, "warm_start", "the capture's streaming fit")) ||
                (use_prior && fit_abc_prior_file_keys(mf, &prior, &info)))) {
         fit_model_file_free(mf);
@@ -520,6 +521,7 @@ static int fit_registry_capture(const struct fit_sample *fs, size_t n, const cha
         return rc;
     }
     out->converged = rep.converged;
+    out->status = rep.status;
     return 0;
 }
 

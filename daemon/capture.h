@@ -87,6 +87,7 @@ struct capture_summary {
     struct fit_uncertainty sd; /* parameter sds of an ABC final fit (fit/fit.h) */
     char warning[256];         /* abc-prior: "too few samples" warning, or "" */
     struct drv_axis_stats mech; /* this run's axis mechanics, all axes (drivers.h) */
+    struct fit_status status;  /* what the final fit can know (fit/fit_status.h) */
 };
 
 /* The devices a capture runs on. */

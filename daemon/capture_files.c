@@ -265,6 +265,25 @@ static json_t *uncertainty_json(const struct fit_uncertainty *u, const char *war
     return o;
 }
 
+/* The final fit's status and the figures behind it (fit/fit_status.h,
+ * docs/fitting.md "Fit status"); null for a figure not computed. */
+static json_t *status_json(const struct fit_status *st)
+{
+    char findings[96];
+    fit_status_findings(st, findings, sizeof findings);
+    json_t *o = json_object();
+    json_object_set_new(o, "status", json_string(fit_status_name(fit_status_code(st))));
+    json_object_set_new(o, "findings", json_string(findings));
+    json_object_set_new(o, "geometries", json_integer((json_int_t)st->geometries));
+    json_object_set_new(o, "params", st->params >= 0 ? json_integer(st->params) : json_null());
+    json_object_set_new(o, "rank", st->rank >= 0 ? json_integer(st->rank) : json_null());
+    json_object_set_new(o, "condition", num_or_null(st->cond));
+    json_object_set_new(o, "at_bound", json_string(st->at_bound));
+    json_object_set_new(o, "rms_log_insample", num_or_null(st->insample));
+    json_object_set_new(o, "rms_log_heldout", num_or_null(st->heldout));
+    return o;
+}
+
 int capture_files_results(const char *dir, const struct capture_summary *s,
                           struct gonio_err *err)
 {
@@ -309,5 +328,7 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
         json_object_set_new(root, "uncertainty", s->has_params
                                                      ? uncertainty_json(&s->sd, s->warning)
                                                      : json_null());
+    if (root)
+        json_object_set_new(root, "fit_status", status_json(&s->status));
     return write_json(dir, "results.json", root, err);
 }
