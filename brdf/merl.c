@@ -157,6 +157,21 @@ int brdf_merl_read(const char *path, double **data, struct gonio_err *err)
         return gonio_err_set(err, GONIO_EBADDATA, "%s: MERL table longer than %zu bytes", path,
                              (size_t)BRDF_MERL_FILE_BYTES);
     }
+    /* A cell with a negative channel was not measured (evaluated as NaN). A
+     * table without one measured cell would be read as a material whose
+     * every value is NaN, found only when the fit at the end of a capture
+     * fails: refuse it here. */
+    size_t valid = 0;
+    for (size_t cell = 0; cell < BRDF_MERL_CELLS && !valid; cell++)
+        valid = d[cell] >= 0 && d[BRDF_MERL_CELLS + cell] >= 0 &&
+                d[2 * (size_t)BRDF_MERL_CELLS + cell] >= 0;
+    if (!valid) {
+        free(d);
+        return gonio_err_set(err, GONIO_EBADDATA,
+                             "%s: MERL table has no valid cell (every cell has a negative "
+                             "channel, MERL's mark for not measured)",
+                             path);
+    }
     *data = d;
     return 0;
 }

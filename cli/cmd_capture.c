@@ -13,10 +13,13 @@ static void usage(FILE *out)
             "usage: gonio capture --offline --scene NAME|FILE --plan NAME|FILE --out DIR\n"
             "                     [--material SPEC] [--model NAME] [--rig NAME|FILE]\n"
             "                     [--order travel|progressive|as-written|greedy]\n"
-            "                     [--stop all|converge] [--quiet]\n"
+            "                     [--stop all|converge] [--truth SPEC] [--quiet]\n"
             "  --material overrides the scene's material: nbrdf:NAME, merl:FILE, abc:NAME,\n"
             "  sgd:NAME or default. DIR receives plan.json, setup.json, samples.csv and\n"
-            "  results.json; running again on the same DIR resumes the capture.\n"
+            "  results.json; running again on the same DIR resumes the capture (of the same\n"
+            "  plan, scene, material and rig only).\n"
+            "  --truth: the reference of the in-plane and full-domain errors (default: the\n"
+            "  material the simulated rig measures).\n"
             "  --model: the final fit's model, any RGB model of 'gonio fit --help' (default\n"
             "  abc); every model also writes DIR/NAME.model (gonio fit's model file).\n"
             "  --stop converge ends the capture once the streaming ABC fit has converged\n"
@@ -38,7 +41,7 @@ int cmd_capture(int argc, char **argv)
         {"model", required_argument, NULL, 'M'}, {"rig", required_argument, NULL, 'r'},
         {"order", required_argument, NULL, 'o'}, {"out", required_argument, NULL, 'd'},
         {"quiet", no_argument, NULL, 'q'},     {"help", no_argument, NULL, 'h'},
-        {"stop", required_argument, NULL, 'S'},
+        {"stop", required_argument, NULL, 'S'}, {"truth", required_argument, NULL, 't'},
         {NULL, 0, NULL, 0},
     };
     struct capture_config cfg = {.model = "abc"};
@@ -55,6 +58,7 @@ int cmd_capture(int argc, char **argv)
         case 'o': cfg.order = optarg; break;
         case 'd': cfg.out_dir = optarg; break;
         case 'S': cfg.stop = optarg; break;
+        case 't': cfg.truth = optarg; break;
         case 'q': cfg.quiet = 1; break;
         case 'h': usage(stdout); return 0;
         default: usage(stderr); return 2;
@@ -83,6 +87,11 @@ int cmd_capture(int argc, char **argv)
            "%.3f s%s\n",
            s.samples, s.rig_time_s, s.move_s, s.settle_s, s.integration_s, s.fit_time_s,
            s.converged ? "" : " (fit did not converge)");
+    if (s.paused_s > 0)
+        printf("  paused %.1f s of rig clock (not in the rig time)\n", s.paused_s);
+    char status[400];
+    fit_status_line(&s.status, status, sizeof status);
+    printf("  fit status: %s\n", status);
     if (s.saturated)
         printf("  %zu saturated readings, fitted at their clipped values (lower bounds)\n",
                s.saturated);
@@ -94,6 +103,7 @@ int cmd_capture(int argc, char **argv)
         printf("  %s\n", s.warning);
     print_errors("plan", &s.err_plan);
     if (s.has_truth) {
+        printf("  against %s:\n", s.truth);
         print_errors("in-plane", &s.err_inplane);
         print_errors("full", &s.err_full);
     }

@@ -228,8 +228,9 @@ static void show_stop(struct progress *p, json_t *d)
                json_is_true(json_object_get(res, "converged")) ? "" : " (did not converge)",
                jreal(ep, "log_error"), jreal(ep, "rel_rmse"));
         json_t *ef = json_object_get(res, "err_full");
+        const char *truth = json_string_value(json_object_get(res, "truth"));
         if (ef)
-            printf("  against the material: full-domain log error %.4f\n",
+            printf("  against %s: full-domain log error %.4f\n", truth ? truth : "the material",
                    jreal(ef, "log_error"));
     }
     fflush(stdout);
@@ -417,11 +418,15 @@ static void capture_usage(FILE *out)
     fprintf(out,
             "usage: gonio capture --plan NAME|FILE [--scene NAME|FILE] [--material SPEC]\n"
             "                     [--rig NAME|FILE] [--model NAME] [--order ORDER]\n"
-            "                     [--stop all|converge] [--name ID] [--wait] [--socket PATH]\n"
+            "                     [--stop all|converge] [--truth SPEC] [--name ID] [--wait]\n"
+            "                     [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). Files are relative to goniod's capture\n"
             "  root. --model: the final fit's model, any RGB model of 'gonio fit --help'\n"
-            "  (default abc). --wait follows the capture to its end: exit 0 when it completes.\n"
+            "  (default abc). --truth SPEC: the reference material of the in-plane and\n"
+            "  full-domain errors (on hardware there are none without it; on the simulator\n"
+            "  the default is the material it measures). --wait follows the capture to its\n"
+            "  end: exit 0 when it completes.\n"
             "  The socket is --socket, else $GONIO_SOCKET, else " GONIO_SOCKET_DEFAULT ".\n");
 }
 
@@ -433,12 +438,13 @@ int cmd_capture_daemon(int argc, char **argv)
         {"material", required_argument, NULL, 'm'}, {"rig", required_argument, NULL, 'r'},
         {"model", required_argument, NULL, 'M'}, {"order", required_argument, NULL, 'o'},
         {"stop", required_argument, NULL, 'x'},  {"name", required_argument, NULL, 'n'},
-        {"wait", no_argument, NULL, 'w'},        {NULL, 0, NULL, 0},
+        {"truth", required_argument, NULL, 't'}, {"wait", no_argument, NULL, 'w'},
+        {NULL, 0, NULL, 0},
     };
     static const char *const keys[] = {"plan", "scene", "material", "rig",
-                                       "model", "order", "stop", "name"};
-    static const char letters[] = "psmrMoxn";
-    const char *vals[8] = {0}, *sock = NULL;
+                                       "model", "order", "stop", "name", "truth"};
+    static const char letters[] = "psmrMoxnt";
+    const char *vals[9] = {0}, *sock = NULL;
     int wait = 0, ch;
     optind = 1;
     while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
@@ -481,7 +487,7 @@ int cmd_capture_daemon(int argc, char **argv)
     json_t *rep = NULL;
     if (!rc) {
         json_t *req = json_pack("{s:s}", "cmd", "capture");
-        for (int i = 0; i < 8; i++)
+        for (int i = 0; i < 9; i++)
             if (vals[i])
                 json_object_set_new(req, keys[i], json_string(vals[i]));
         rep = conn_request(&c, req);

@@ -22,19 +22,22 @@
 static void usage(FILE *out)
 {
     fprintf(out, "usage: gonio fit SAMPLES --model NAME [-o MODEL_FILE] [--seed N] [--epochs N]\n"
-                 "                 [--truth SPEC] [--quiet]\n"
+                 "                 [--truth SPEC] [--saturated clipped|censored] [--quiet]\n"
                  "  SAMPLES: a capture directory or its samples.csv; for mlp-spectral a\n"
                  "           spectral CSV (theta_i,theta_r,wavelength_nm,value)\n"
                  "  -o: default SAMPLES_DIR/NAME.model\n"
                  "  --truth: also report errors against SPEC on the in-plane and full domains\n"
+                 "  --saturated: fit saturated readings at their clipped value (default) or,\n"
+                 "           in the ABC fits, as lower bounds (one-sided residuals)\n"
                  "models:\n");
     for (size_t i = 0; fit_model_at(i); i++)
         fprintf(out, "  %-13s %s\n", fit_model_at(i)->name, fit_model_at(i)->summary);
 }
 
-/* The journal's samples as a fit takes them; *saturated counts the clipped ones. */
-static int read_rgb(const char *path, struct fit_sample **out, size_t *n, size_t *saturated,
-                    struct gonio_err *err)
+/* The journal's samples as a fit takes them; *lower flags the saturated
+ * readings (lower bounds, fit/models.h) and *saturated counts them. */
+static int read_rgb(const char *path, struct fit_sample **out, unsigned char **lower, size_t *n,
+                    size_t *saturated, struct gonio_err *err)
 {
     struct journal_sample *js = NULL;
     size_t m = 0;
@@ -42,11 +45,17 @@ static int read_rgb(const char *path, struct fit_sample **out, size_t *n, size_t
     if (rc < 0)
         return rc;
     struct fit_sample *s = malloc((m ? m : 1) * sizeof *s);
-    if (!s) {
+    unsigned char *lb = malloc(m ? m : 1);
+    if (!s || !lb) {
         free(js);
+        free(s);
+        free(lb);
         return gonio_err_set(err, GONIO_EBADDATA, "%s: out of memory", path);
     }
     *saturated = journal_fit_samples(js, m, s);
+    for (size_t i = 0; i < m; i++)
+        lb[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
+    *lower = lb;
     *n = m;
     free(js);
     *out = s;
@@ -115,6 +124,7 @@ int cmd_fit(int argc, char **argv)
         {"model", required_argument, NULL, 'm'}, {"output", required_argument, NULL, 'o'},
         {"seed", required_argument, NULL, 's'},  {"epochs", required_argument, NULL, 'e'},
         {"truth", required_argument, NULL, 't'}, {"quiet", no_argument, NULL, 'q'},
+        {"saturated", required_argument, NULL, 'S'},
         {"help", no_argument, NULL, 'h'},        {NULL, 0, NULL, 0},
     };
     const char *model = NULL, *out = NULL, *truth_spec = NULL;
@@ -122,6 +132,7 @@ int cmd_fit(int argc, char **argv)
     mo.quiet = 0; /* progress lines on stderr unless --quiet */
     optind = 1;
     int c;
+    int censored = 0;
     while ((c = getopt_long(argc, argv, "m:o:s:e:t:qh", opts, NULL)) != -1) {
         char *end;
         switch (c) {
@@ -129,6 +140,13 @@ int cmd_fit(int argc, char **argv)
         case 'o': out = optarg; break;
         case 't': truth_spec = optarg; break;
         case 'q': mo.quiet = 1; break;
+        case 'S':
+            if (strcmp(optarg, "clipped") && strcmp(optarg, "censored")) {
+                fprintf(stderr, "gonio fit: --saturated '%s': use clipped or censored\n", optarg);
+                return 2;
+            }
+            censored = !strcmp(optarg, "censored");
+            break;
         case 's':
             mo.seed = strtoull(optarg, &end, 10);
             if (end == optarg || *end || optarg[0] == '-') {
@@ -177,15 +195,17 @@ int cmd_fit(int argc, char **argv)
     struct gonio_err err = {0};
     struct fit_data data = {0};
     struct fit_sample *rgb = NULL;
+    unsigned char *lower = NULL;
     size_t saturated = 0;
     struct fit_spectral_sample *spec = NULL;
     int rc = kind->spectral ? fit_spectral_samples_read(samples_path, &spec, &data.n_spectral, &err)
-                            : read_rgb(samples_path, &rgb, &data.n_rgb, &saturated, &err);
+                            : read_rgb(samples_path, &rgb, &lower, &data.n_rgb, &saturated, &err);
     if (rc < 0) {
         fprintf(stderr, "gonio fit: %s\n", err.msg);
         return gonio_exit_status(err.code);
     }
     data.rgb = rgb;
+    data.rgb_lower = censored ? lower : NULL;
     data.spectral = spec;
     /* The captured material, so that abc-prior leaves it out of its prior:
      * --truth, else the capture's setup.json (simulated captures name it). */
@@ -201,6 +221,7 @@ int cmd_fit(int argc, char **argv)
     if (!n) {
         fprintf(stderr, "gonio fit: %s: no samples\n", samples_path);
         free(rgb);
+        free(lower);
         free(spec);
         return 2;
     }
@@ -208,6 +229,7 @@ int cmd_fit(int argc, char **argv)
     if (truth_spec && !(truth = fit_material_open(truth_spec, &err))) {
         fprintf(stderr, "gonio fit: %s\n", err.msg);
         free(rgb);
+        free(lower);
         free(spec);
         return gonio_exit_status(err.code);
     }
@@ -220,9 +242,17 @@ int cmd_fit(int argc, char **argv)
         printf("%-10s %s\n", "model", model);
         printf("%-10s %zu (%s)\n", "samples", n, samples_path);
         if (saturated)
-            printf("%-10s %zu readings, fitted at their clipped values (lower bounds)\n",
-                   "saturated", saturated);
-        printf("%-10s %.3f s, %s\n", "fit", fit_s, rep.converged ? "converged" : "not converged");
+            printf("%-10s %zu readings, lower bounds: %s\n", "saturated", saturated,
+                   !censored ? "fitted at their clipped values"
+                   : !strcmp(model, "abc") || !strcmp(model, "abc-prior")
+                       ? "fitted one-sided (censored)"
+                   : !strcmp(model, "abc-pseudo")
+                       ? "one-sided in the ABC fit, at their clipped values in the network"
+                       : "fitted at their clipped values (censoring is the ABC fits')");
+        char line[400];
+        fit_status_line(&rep.status, line, sizeof line);
+        printf("%-10s %.3f s, %s\n", "fit", fit_s, fit_status_name(fit_status_code(&rep.status)));
+        printf("%-10s %s\n", "status", line);
         printf("%-10s %s\n", "details", rep.note);
         if (kind->spectral) {
             rc = spectral_errors(out, spec, n, &err);
@@ -243,6 +273,7 @@ int cmd_fit(int argc, char **argv)
     brdf_material_free(m);
     brdf_material_free(truth);
     free(rgb);
+    free(lower);
     free(spec);
     if (rc < 0) {
         fprintf(stderr, "gonio fit: %s\n", err.msg);

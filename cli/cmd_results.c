@@ -1,5 +1,7 @@
 /* gonio results DIR...: one table row per capture directory, read from its
- * results.json (plan, samples, rig and fit time, errors by domain). */
+ * results.json (plan, samples, rig and fit time, errors by domain). A
+ * capture of unknown material (hardware) shows "-" for it, and one without
+ * a reference "-" for its in-plane and full-domain errors. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -12,6 +14,11 @@ static double number(json_t *root, const char *domain, const char *key)
 {
     json_t *v = json_object_get(json_object_get(json_object_get(root, "errors"), domain), key);
     return json_is_number(v) ? json_number_value(v) : NAN;
+}
+
+static int has_domain(json_t *root, const char *domain)
+{
+    return json_object_get(json_object_get(root, "errors"), domain) != NULL;
 }
 
 /* --format: %plan %material %samples %rig %fit and %<domain>_log,
@@ -35,7 +42,8 @@ static void print_format(const char *fmt, json_t *root)
         snprintf(name, sizeof name, "%.*s", (int)len, p + 1);
         p += len;
         if (!strcmp(name, "plan") || !strcmp(name, "material")) {
-            fputs(json_string_value(json_object_get(root, name)), stdout);
+            const char *v = json_string_value(json_object_get(root, name));
+            fputs(v ? v : "-", stdout);
         } else if (!strcmp(name, "samples")) {
             printf("%lld", (long long)json_integer_value(json_object_get(root, "samples")));
         } else if (!strcmp(name, "rig") || !strcmp(name, "fit")) {
@@ -45,10 +53,12 @@ static void print_format(const char *fmt, json_t *root)
             size_t i = 0;
             while (i < sizeof errs / sizeof errs[0] && strcmp(errs[i].name, name) != 0)
                 i++;
-            if (i < sizeof errs / sizeof errs[0])
+            if (i == sizeof errs / sizeof errs[0])
+                printf("%%%s", name);
+            else if (has_domain(root, errs[i].domain))
                 printf("%.6g", number(root, errs[i].domain, errs[i].key));
             else
-                printf("%%%s", name);
+                putchar('-'); /* no reference: no such error */
         }
     }
     putchar('\n');
@@ -75,6 +85,8 @@ static int row(const char *dir, const char *fmt)
     const char *plan = json_string_value(json_object_get(root, "plan"));
     json_t *samples = json_object_get(root, "samples");
     json_t *rig = json_object_get(root, "rig_time_s"), *fit = json_object_get(root, "fit_time_s");
+    if (!material && json_is_null(json_object_get(root, "material")))
+        material = "-"; /* hardware: what it measured is not known */
     if (!material || !plan || !json_is_integer(samples) || !json_is_number(rig) ||
         !json_is_number(fit)) {
         fprintf(stderr, "gonio results: %s: missing plan, material, samples, rig_time_s or "
@@ -89,11 +101,18 @@ static int row(const char *dir, const char *fmt)
         return 0;
     }
     double rig_s = json_number_value(rig);
-    printf("%-28s %-6s %7lld %4.0f:%02.0f min %7.3fs  %.4f / %-8.4f %.4f / %-8.4f\n", material,
-           plan, (long long)json_integer_value(samples), (double)(long)(rig_s / 60),
-           rig_s - 60 * (double)(long)(rig_s / 60), json_number_value(fit),
-           number(root, "inplane", "log"), number(root, "inplane", "rel_rmse"),
-           number(root, "full", "log"), number(root, "full", "rel_rmse"));
+    printf("%-28s %-6s %7lld %4.0f:%02.0f min %7.3fs  ", material, plan,
+           (long long)json_integer_value(samples), (double)(long)(rig_s / 60),
+           rig_s - 60 * (double)(long)(rig_s / 60), json_number_value(fit));
+    for (int d = 0; d < 2; d++) {
+        const char *domain = d ? "full" : "inplane";
+        if (has_domain(root, domain))
+            printf("%.4f / %-8.4f ", number(root, domain, "log"),
+                   number(root, domain, "rel_rmse"));
+        else
+            printf("%-17s ", "-");
+    }
+    printf("\n");
     json_decref(root);
     return 0;
 }

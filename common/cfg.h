@@ -23,9 +23,10 @@ struct cfg_node; /* a node inside it; valid while the document lives */
 
 enum cfg_need { CFG_OPTIONAL = 0, CFG_REQUIRED = 1 };
 
-/* Load and parse path. A syntax error, an empty file or an unreadable file
- * fails with GONIO_EBADCONFIG (GONIO_ENOTFOUND when the file does not
- * exist), the message giving path:line:col. */
+/* Load and parse path. A syntax error, an empty file, an unreadable file, a
+ * file over 1 MiB or nested deeper than 64 levels fails with
+ * GONIO_EBADCONFIG (GONIO_ENOTFOUND when the file does not exist), the
+ * message giving path:line:col (path alone for the size). */
 int cfg_load(const char *path, struct cfg_doc **out, struct gonio_err *err);
 void cfg_free(struct cfg_doc *doc);
 

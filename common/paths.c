@@ -68,7 +68,23 @@ int gonio_write_file_atomic(const char *path, const void *data, size_t len,
         unlink(tmp);
         return gonio_err_set(err, e, "%s: cannot rename into place: %s", path, strerror(e));
     }
-    return 0;
+    return gonio_fsync_parent(path, err);
+}
+
+int gonio_fsync_parent(const char *path, struct gonio_err *err)
+{
+    char dir[4096];
+    const char *slash = strrchr(path, '/');
+    if (snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - path) : 1,
+                 slash ? (slash == path ? "/" : path) : ".") >= (int)sizeof dir)
+        return gonio_err_set(err, ENAMETOOLONG, "%s: path too long", path);
+    int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0)
+        return gonio_err_set(err, errno, "%s: cannot open directory: %s", dir, strerror(errno));
+    int rc = fsync(fd) == 0 ? 0 : gonio_err_set(err, errno, "%s: cannot sync: %s", dir,
+                                                strerror(errno));
+    close(fd);
+    return rc;
 }
 
 int gonio_mkdir_p(const char *path, struct gonio_err *err)

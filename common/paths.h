@@ -20,10 +20,14 @@ const char *gonio_config_dir(void);
 int gonio_ref_is_file(const char *ref);
 
 /* Write len bytes to path atomically: a temporary file beside it, fsync,
- * then rename, so a reader never sees half a file and a failure leaves no
- * file behind. */
+ * rename, then fsync of the directory, so a reader never sees half a file,
+ * a failure leaves no file behind, and the new name survives a power cut. */
 int gonio_write_file_atomic(const char *path, const void *data, size_t len,
                             struct gonio_err *err);
+
+/* fsync the directory holding path: what makes a file's creation or a
+ * rename into it durable. */
+int gonio_fsync_parent(const char *path, struct gonio_err *err);
 
 /* Create a directory and its parents (mode 0755); existing ones are fine. */
 int gonio_mkdir_p(const char *path, struct gonio_err *err);

@@ -25,10 +25,16 @@
 
 /* What a capture reads, resolved and validated before anything is written. */
 struct capture_inputs {
+    int sim;                /* the engine runs the in-process simulated rig */
     struct sim_scene scene;
+    int has_scene;
     struct plan_rig rig;
     struct plan *plan;
-    brdf_material *material;
+    brdf_material *material; /* what the in-process rig measures; NULL otherwise */
+    brdf_material *truth_own; /* a named reference (cfg->truth), opened here */
+    const brdf_material *truth; /* the truth errors' reference, NULL: none */
+    char material_name[512]; /* what was measured, as a label; "" when unknown */
+    char truth_name[512];
     const struct fit_model_kind *model; /* the final fit's (fit/models.h) */
 };
 
@@ -36,16 +42,60 @@ static void inputs_free(struct capture_inputs *in)
 {
     plan_free(in->plan);
     brdf_material_free(in->material);
+    brdf_material_free(in->truth_own);
 }
 
-static int resolve_inputs(const struct capture_config *cfg, struct capture_inputs *in,
-                          struct gonio_err *err)
+/* "default" names the material actually used. */
+static const char *material_spec(const char *spec)
+{
+    return strcmp(spec, "default") ? spec : brdf_material_default_spec();
+}
+
+/* The material the in-process rig measures, or the label of a host's; and
+ * the reference of the truth errors: the named one, else the simulated
+ * rig's own material, else none (a host's rig measures what it measures). */
+static int resolve_materials(const struct capture_config *cfg, struct capture_inputs *in,
+                             struct gonio_err *err)
+{
+    if (in->sim) {
+        const char *spec = material_spec(cfg->material ? cfg->material : in->scene.material);
+        if (!(in->material = brdf_material_open(spec, err)))
+            return -abs(err ? err->code : GONIO_ENOTFOUND);
+        in->truth = in->material;
+        snprintf(in->material_name, sizeof in->material_name, "%s",
+                 brdf_material_name(in->material));
+    } else if (cfg->material) {
+        snprintf(in->material_name, sizeof in->material_name, "%s",
+                 material_spec(cfg->material));
+    }
+    if (cfg->truth) {
+        if (!(in->truth_own = brdf_material_open(material_spec(cfg->truth), err)))
+            return -abs(err ? err->code : GONIO_ENOTFOUND);
+        in->truth = in->truth_own;
+    }
+    if (in->truth)
+        snprintf(in->truth_name, sizeof in->truth_name, "%s", brdf_material_name(in->truth));
+    return 0;
+}
+
+static int resolve_inputs(const struct capture_config *cfg, const struct capture_hooks *hooks,
+                          struct capture_inputs *in, struct gonio_err *err)
 {
     memset(in, 0, sizeof *in);
-    int rc = sim_scene_load(cfg->scene, &in->scene, err);
-    if (rc < 0)
-        return rc;
-    if ((rc = plan_rig_load(cfg->rig ? cfg->rig : in->scene.rig, &in->rig, err)) < 0)
+    in->sim = !hooks->open_devices;
+    int rc;
+    if (cfg->scene) {
+        if ((rc = sim_scene_load(cfg->scene, &in->scene, err)) < 0)
+            return rc;
+        in->has_scene = 1;
+    } else if (in->sim) {
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "the simulated rig needs a scene (--scene NAME|FILE)");
+    }
+    const char *rig = cfg->rig ? cfg->rig : in->has_scene ? in->scene.rig : NULL;
+    if (!rig)
+        return gonio_err_set(err, GONIO_EUSAGE, "no rig profile: name one (--rig NAME|FILE)");
+    if ((rc = plan_rig_load(rig, &in->rig, err)) < 0)
         return rc;
     if ((rc = plan_load(cfg->plan, &in->rig, &in->plan, err)) < 0)
         return rc;
@@ -66,15 +116,9 @@ static int resolve_inputs(const struct capture_config *cfg, struct capture_input
         inputs_free(in);
         return -GONIO_EUSAGE;
     }
-    const char *spec = cfg->material ? cfg->material : in->scene.material;
-    if (!strcmp(spec, "default")) /* name the material actually used */
-        spec = brdf_material_default_spec();
-    in->material = brdf_material_open(spec, err);
-    if (!in->material) {
+    if ((rc = resolve_materials(cfg, in, err)) < 0)
         inputs_free(in);
-        return -abs(err ? err->code : GONIO_ENOTFOUND);
-    }
-    return 0;
+    return rc;
 }
 
 static void devices_close(struct capture_devices *d)
@@ -116,11 +160,43 @@ static void phase(const struct capture_hooks *hooks, enum capture_phase ph, int 
         hooks->on_phase(hooks->user, ph, point);
 }
 
+/* The rig time a capture reports. A resumed run continues from the last
+ * journalled sample (base) by what the rig clock measured since its devices
+ * opened (t0), on every driver; clock that ran while the host held the
+ * capture paused is kept apart (paused), not counted as rig time. */
+struct rig_clock {
+    drv_clock *clock;
+    double base, t0, last, paused;
+};
+
+static void rig_clock_start(struct rig_clock *rc, drv_clock *clock, double base)
+{
+    rc->clock = clock;
+    rc->base = base;
+    rc->t0 = rc->last = drv_clock_now(clock);
+    rc->paused = 0;
+}
+
+static double rig_clock_now(struct rig_clock *rc)
+{
+    rc->last = drv_clock_now(rc->clock);
+    return rc->base + (rc->last - rc->t0) - rc->paused;
+}
+
+/* The host held the capture paused since the last reading. */
+static void rig_clock_paused(struct rig_clock *rc)
+{
+    double now = drv_clock_now(rc->clock);
+    rc->paused += now - rc->last;
+    rc->last = now;
+}
+
 /* Move the axes together, settle, integrate, and record where the axes
  * actually were: the sample is what the rig measured, not what was asked. */
-static int measure_point(struct capture_devices *d, const struct capture_hooks *hooks,
-                         const struct plan_rig *rig, const struct plan_point *pt, int index,
-                         struct journal_sample *s, struct gonio_err *err)
+static int measure_point(struct capture_devices *d, struct rig_clock *clk,
+                         const struct capture_hooks *hooks, const struct plan_rig *rig,
+                         const struct plan_point *pt, int index, struct journal_sample *s,
+                         struct gonio_err *err)
 {
     int rc;
     if ((rc = drv_axis_start_move(d->sample, pt->ax.s, err)) < 0 ||
@@ -152,8 +228,22 @@ static int measure_point(struct capture_devices *d, const struct capture_hooks *
     memcpy(s->rgb, r.rgb, sizeof s->rgb);
     s->integration_s = r.integration_s;
     s->flags = (r.flags & DRV_READING_SATURATED) ? JOURNAL_FLAG_SATURATED : 0;
-    s->rig_time_s = drv_clock_now(d->clock);
+    s->rig_time_s = rig_clock_now(clk);
     return 0;
+}
+
+/* What the axes' mechanics cost (re-commands, alarms, re-homes), summed. */
+static void add_axis_stats(const struct capture_devices *d, struct drv_axis_stats *sum)
+{
+    const drv_axis *axes[3] = {d->sample, d->arm, d->azimuth};
+    for (int i = 0; i < 3; i++) {
+        struct drv_axis_stats st;
+        drv_axis_stats(axes[i], &st);
+        sum->moves += st.moves;
+        sum->recommands += st.recommands;
+        sum->alarms_recovered += st.alarms_recovered;
+        sum->rehomes += st.rehomes;
+    }
 }
 
 static void stop_axes(struct capture_devices *d)
@@ -164,30 +254,83 @@ static void stop_axes(struct capture_devices *d)
         drv_axis_stop(d->azimuth, NULL);
 }
 
-/* Feed one journalled sample to the streaming fit (NULL: stop: all). A
- * sample ends a level when the next point in progressive order belongs to
- * another one. Returns 1 once the stop rule has decided. */
-static int stream_feed(fit_stream *fs, const struct plan *plan, const struct journal_sample *js,
-                       struct gonio_err *err)
+/* The capture's streaming fit: the stop rule of stop: converge, or with
+ * progress_fit the rounds behind a host's progress figures. */
+struct stream {
+    fit_stream *fs;   /* NULL: no streaming fit */
+    int progress;     /* rounds at 16, 32, 64... samples only */
+};
+
+#define PROGRESS_FIRST 16 /* samples before the first progress round */
+
+/* The in-sample errors of the latest round over the samples so far, for
+ * the host. */
+static void report_fit(const struct capture_hooks *hooks, const fit_stream *fs,
+                       const struct journal_sample *js, size_t n)
 {
-    if (!fs)
+    const struct brdf_abc *p = fit_stream_params(fs);
+    struct brdf_pair *pairs = malloc(n * sizeof *pairs);
+    double *meas = malloc(n * 3 * sizeof *meas), *pred = malloc(n * 3 * sizeof *pred);
+    if (p && pairs && meas && pred) {
+        for (size_t i = 0; i < n; i++) {
+            journal_sample_pair(&js[i], &pairs[i]);
+            memcpy(meas + 3 * i, js[i].rgb, sizeof js[i].rgb);
+            brdf_abc_eval(p, &pairs[i], pred + 3 * i);
+        }
+        struct brdf_errors e;
+        brdf_errors_compute(pairs, meas, pred, n, &e);
+        hooks->on_fit(hooks->user, &e, n);
+    }
+    free(pairs);
+    free(meas);
+    free(pred);
+}
+
+/* Feed the journalled sample js[n - 1] to the streaming fit. A round is
+ * forced (and announced as the FIT phase) where a progressive level ends,
+ * or, for progress, where the count reaches 16, 32, 64... Returns 1 once
+ * the stop rule has decided. */
+static int stream_feed(const struct stream *st, const struct plan *plan,
+                       const struct capture_hooks *hooks, const struct journal_sample *js,
+                       size_t n, struct gonio_err *err)
+{
+    if (!st->fs)
         return 0;
+    const struct journal_sample *last = &js[n - 1];
     struct fit_sample s;
-    journal_fit_samples(js, 1, &s);
-    const struct plan_point *pt = plan_point(plan, (size_t)js->point),
-                            *next = plan_point(plan, (size_t)js->point + 1);
-    int level_end = plan_current_order(plan) == PLAN_ORDER_PROGRESSIVE &&
-                    (!next || next->level != pt->level);
-    return fit_stream_add(fs, &s, level_end, err);
+    journal_fit_samples(last, 1, &s);
+    int force;
+    if (st->progress) {
+        force = n >= PROGRESS_FIRST && (n & (n - 1)) == 0;
+    } else {
+        const struct plan_point *pt = plan_point(plan, (size_t)last->point),
+                                *next = plan_point(plan, (size_t)last->point + 1);
+        force = plan_current_order(plan) == PLAN_ORDER_PROGRESSIVE &&
+                (!next || next->level != pt->level);
+    }
+    struct fit_stream_status before, after;
+    fit_stream_status(st->fs, &before);
+    if (force)
+        phase(hooks, CAPTURE_PHASE_FIT, (int)n);
+    int rc = fit_stream_add(st->fs, &s, force, err);
+    if (force)
+        phase(hooks, CAPTURE_PHASE_BETWEEN, (int)n);
+    fit_stream_status(st->fs, &after);
+    if (rc >= 0 && after.rounds > before.rounds && hooks->on_fit)
+        report_fit(hooks, st->fs, js, n);
+    return rc;
 }
 
 /* Measure every point the journal does not hold yet, in plan order. Sets
  * *aborted when the host asked to stop, *converged when the streaming fit
- * decided that further points would not change the model. */
+ * decided that further points would not change the model, *paused_s to the
+ * rig clock the host held the capture paused. */
 static int acquire(const struct capture_config *cfg, const struct capture_inputs *in,
                    const struct capture_hooks *hooks, journal *j,
                    struct journal_sample **samples, size_t *n, int *aborted,
-                   fit_stream *fs, int *converged, struct gonio_err *err)
+                   const struct stream *fs, int *converged, double *paused_s,
+                   struct drv_axis_stats *mech,
+                   struct gonio_err *err)
 {
     size_t count = plan_count(in->plan);
     unsigned char *done = calloc(count, 1);
@@ -215,7 +358,7 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
     /* A resumed capture replays its journal: the same samples give the
      * same rounds, so a capture that had converged stays converged. */
     for (size_t i = 0; i < *n && !*converged; i++) {
-        int rc = stream_feed(fs, in->plan, &all[i], err);
+        int rc = stream_feed(fs, in->plan, hooks, all, i + 1, err);
         if (rc < 0) {
             free(done);
             return rc;
@@ -229,33 +372,40 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
 
     struct capture_devices dev;
     sim_rig *sim = NULL;
+    double base = *n > 0 ? all[*n - 1].rig_time_s : 0;
     int rc;
-    if (hooks->open_devices) {
+    if (!in->sim) {
         rc = hooks->open_devices(hooks->user, &in->rig, &dev, err);
     } else {
         sim = sim_rig_new_scene(&in->rig, in->material, &in->scene, cfg->out_dir, err);
         rc = sim ? devices_open_sim(sim, &dev, err) : -abs(err ? err->code : ENOMEM);
-        /* A resumed capture continues the rig clock where the journal ends. */
-        if (rc == 0 && *n > 0)
-            sim_rig_advance(sim, all[*n - 1].rig_time_s);
+        /* The simulated rig's own clock continues too: its effects (drift)
+         * run on it. */
+        if (rc == 0 && base > 0)
+            sim_rig_advance(sim, base);
     }
     if (rc < 0) {
         sim_rig_free(sim);
         free(done);
         return rc;
     }
+    struct rig_clock clk;
+    rig_clock_start(&clk, dev.clock, base);
 
     for (size_t k = 0; k < count && rc == 0; k++) {
         if (done[k])
             continue;
-        if (hooks->control && hooks->control(hooks->user) == CAPTURE_ABORT) {
+        enum capture_control c = hooks->control ? hooks->control(hooks->user) : CAPTURE_GO;
+        if (c == CAPTURE_ABORT) {
             stop_axes(&dev);
             *aborted = 1;
             break;
         }
+        if (c == CAPTURE_PAUSED)
+            rig_clock_paused(&clk);
         struct journal_sample s;
         const struct plan_point *pt = plan_point(in->plan, k);
-        rc = measure_point(&dev, hooks, &in->rig, pt, (int)k, &s, err);
+        rc = measure_point(&dev, &clk, hooks, &in->rig, pt, (int)k, &s, err);
         if (rc < 0) {
             stop_axes(&dev); /* a failed point leaves no axis moving */
             if (err) { /* name the point the operator will find in plan.json */
@@ -272,9 +422,10 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
         }
         if (rc == 0) {
             all[(*n)++] = s;
-            if (hooks->on_sample)
+            /* The fit round first: the host's sample event carries it. */
+            rc = stream_feed(fs, in->plan, hooks, all, *n, err);
+            if (rc >= 0 && hooks->on_sample)
                 hooks->on_sample(hooks->user, &s, *n, count);
-            rc = stream_feed(fs, in->plan, &s, err);
             if (rc > 0) {
                 *converged = 1;
                 rc = 0;
@@ -282,6 +433,8 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
             }
         }
     }
+    *paused_s = clk.paused;
+    add_axis_stats(&dev, mech);
     if (hooks->close_devices)
         hooks->close_devices(hooks->user, &dev);
     else
@@ -328,10 +481,11 @@ static int fit_abc_capture(const struct fit_sample *fs, size_t n, const struct b
     if (use_prior)
         fit_abc_prior_warning(&info, n - info.dropped, out->warning, sizeof out->warning);
     out->converged = info.converged;
+    out->status = info.status;
 
     /* The keys gonio fit's abc and abc-prior files carry, and where the
      * start came from (a warm start makes the file differ from gonio fit's). */
-    struct fit_model_file *mf = fit_abc_fitted_file(&out->params, opt.seed, info.cost);
+    struct fit_model_file *mf = fit_abc_fitted_file(&out->params, opt.seed, &info);
     if (mf && ((warm && fit_model_file_set(mf, "warm_start", "the capture's streaming fit")) ||
                (use_prior && fit_abc_prior_file_keys(mf, &prior, &info)))) {
         fit_model_file_free(mf);
@@ -367,6 +521,7 @@ static int fit_registry_capture(const struct fit_sample *fs, size_t n, const cha
         return rc;
     }
     out->converged = rep.converged;
+    out->status = rep.status;
     return 0;
 }
 
@@ -421,6 +576,33 @@ static int assess_truth(const brdf_material *truth, const brdf_material *model,
     return rc;
 }
 
+/* The streaming fit a capture runs: its plan's stop rule (or --stop)
+ * converge, or rounds for a host's progress figures; none otherwise. */
+static int stream_new(const struct capture_config *cfg, const struct plan *plan,
+                      struct stream *st, struct gonio_err *err)
+{
+    memset(st, 0, sizeof *st);
+    struct plan_stop stop = *plan_stop(plan);
+    if (cfg->stop && strcmp(cfg->stop, "all") && strcmp(cfg->stop, "converge"))
+        return gonio_err_set(err, GONIO_EUSAGE, "--stop '%s': use all or converge", cfg->stop);
+    if (cfg->stop)
+        stop.kind = strcmp(cfg->stop, "all") ? PLAN_STOP_CONVERGE : PLAN_STOP_ALL;
+    struct fit_stream_options so = fit_stream_default_options();
+    if (stop.kind == PLAN_STOP_CONVERGE) {
+        so.tol = stop.tol;
+        so.rounds = stop.rounds;
+        so.every = stop.every;
+        so.min_points = stop.min_points;
+    } else if (cfg->progress_fit && !cfg->measure_only) {
+        st->progress = 1;
+        so.converge = 0;
+        so.every = 0; /* only the rounds stream_feed forces */
+    } else {
+        return 0;
+    }
+    return fit_stream_new(&so, &st->fs, err);
+}
+
 int capture_run(const struct capture_config *cfg, const struct capture_hooks *hooks,
                 struct capture_summary *out, struct gonio_err *err)
 {
@@ -429,39 +611,36 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
         hooks = &no_hooks;
     memset(out, 0, sizeof *out);
     struct capture_inputs in;
-    int rc = resolve_inputs(cfg, &in, err);
+    int rc = resolve_inputs(cfg, hooks, &in, err);
     if (rc < 0)
         return rc;
     snprintf(out->plan, sizeof out->plan, "%s", plan_name(in.plan));
-    snprintf(out->material, sizeof out->material, "%s", brdf_material_name(in.material));
+    snprintf(out->material, sizeof out->material, "%s", in.material_name);
+    snprintf(out->truth, sizeof out->truth, "%s", in.truth_name);
     snprintf(out->model, sizeof out->model, "%s", cfg->model);
 
     struct journal_sample *samples = NULL;
     size_t n = 0;
-    int aborted = 0, converged = 0;
+    int aborted = 0, converged = 0, lock_fd = -1;
     journal *j = NULL;
-    fit_stream *fs = NULL;
     brdf_material *fitted = NULL; /* the final fit, as a material */
-    struct plan_stop stop = *plan_stop(in.plan);
-    if (cfg->stop && strcmp(cfg->stop, "all") && strcmp(cfg->stop, "converge")) {
+    struct stream fs;
+    if ((rc = stream_new(cfg, in.plan, &fs, err)) < 0) {
         inputs_free(&in);
-        return gonio_err_set(err, GONIO_EUSAGE, "--stop '%s': use all or converge", cfg->stop);
+        return rc;
     }
-    if (cfg->stop)
-        stop.kind = strcmp(cfg->stop, "all") ? PLAN_STOP_CONVERGE : PLAN_STOP_ALL;
-    if (stop.kind == PLAN_STOP_CONVERGE) {
-        struct fit_stream_options so = fit_stream_default_options();
-        so.tol = stop.tol;
-        so.rounds = stop.rounds;
-        so.every = stop.every;
-        so.min_points = stop.min_points;
-        if ((rc = fit_stream_new(&so, &fs, err)) < 0) {
-            inputs_free(&in);
-            return rc;
-        }
-    }
-    rc = capture_files_prepare(cfg->out_dir, in.plan, &in.rig, &in.scene,
-                               brdf_material_name(in.material), err);
+    const char *detector = cfg->detector ? cfg->detector
+                           : !in.has_scene ? "unknown"
+                           : in.scene.detector == SIM_DETECTOR_RGB ? "rgb" : "spectral";
+    struct capture_setup setup = {
+        .plan = in.plan,
+        .rig = &in.rig,
+        .scene = in.has_scene ? &in.scene : NULL,
+        .material = in.material_name[0] ? in.material_name : NULL,
+        .driver = cfg->driver ? cfg->driver : "sim",
+        .detector = detector,
+    };
+    rc = capture_files_prepare(cfg->out_dir, &setup, &lock_fd, err);
     if (rc == 0) {
         char path[4096];
         snprintf(path, sizeof path, "%s/samples.csv", cfg->out_dir);
@@ -471,7 +650,8 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
             journal_set_lazy(j);
     }
     if (rc == 0) {
-        rc = acquire(cfg, &in, hooks, j, &samples, &n, &aborted, fs, &converged, err);
+        rc = acquire(cfg, &in, hooks, j, &samples, &n, &aborted, &fs, &converged,
+                     &out->paused_s, &out->mech, err);
         journal_close(j);
     }
     if (rc == 0) {
@@ -484,22 +664,31 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
         snprintf(out->stop_reason, sizeof out->stop_reason, "%s",
                  aborted ? "aborted" : converged ? "converged" : "complete");
     }
-    if (rc == 0 && !aborted && !cfg->measure_only)
+    int fit = rc == 0 && !aborted && !cfg->measure_only;
+    if (fit)
         phase(hooks, CAPTURE_PHASE_FIT, -1);
-    if (rc == 0 && !aborted && !cfg->measure_only)
-        rc = fit_samples(samples, n, fs ? fit_stream_params(fs) : NULL, in.model, cfg->out_dir,
-                         brdf_material_name(in.material), out, &fitted, err);
+    /* The final fit starts from the stop rule's last round; progress
+     * rounds do not steer it, so a capture fits the same with or without
+     * them. abc-prior leaves what was measured out of its prior. */
+    if (fit)
+        rc = fit_samples(samples, n, fs.fs && !fs.progress ? fit_stream_params(fs.fs) : NULL,
+                         in.model, cfg->out_dir,
+                         in.material_name[0] ? in.material_name
+                         : in.truth_name[0] ? in.truth_name
+                                            : NULL,
+                         out, &fitted, err);
     if (rc == 0 && converged)
         out->converged = 1; /* the stop rule decided: the capture converged */
-    if (rc == 0 && !aborted && !cfg->measure_only)
-        rc = assess_truth(in.material, fitted, cfg->assess_nodes, out, err);
-    if (rc == 0 && !aborted && !cfg->measure_only)
+    if (rc == 0 && fit && in.truth)
+        rc = assess_truth(in.truth, fitted, cfg->assess_nodes, out, err);
+    if (rc == 0 && fit)
         rc = capture_files_results(cfg->out_dir, out, err);
     if (rc == 0 && !aborted)
         phase(hooks, CAPTURE_PHASE_BETWEEN, -1);
+    capture_files_unlock(lock_fd);
     brdf_material_free(fitted);
     free(samples);
-    fit_stream_free(fs);
+    fit_stream_free(fs.fs);
     inputs_free(&in);
     return rc;
 }

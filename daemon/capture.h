@@ -1,10 +1,14 @@
 /* The capture engine: runs a plan on a rig, journals every sample, fits the
  * model and writes the capture directory (DESIGN.md sections 7 and 8).
  *
- * The same engine serves `gonio capture --offline` (in-process simulated
- * rig) and goniod. Everything a capture reads (scene, rig profile, plan,
- * material) is validated before anything is written, so bad input leaves
- * no directory behind. */
+ * The engine takes devices: a host hands them over (open_devices: goniod's
+ * Modbus rig), or the engine builds the in-process simulated rig from a
+ * scene (`gonio capture --offline`, goniod's sim driver, the study). Only
+ * that simulated rig needs a scene, and only there does the engine know
+ * what it measured; elsewhere errors against a material are computed when
+ * the request names a reference (truth). Everything a capture reads is
+ * validated before anything is written, so bad input leaves no directory
+ * behind. */
 #ifndef GONIO_DAEMON_CAPTURE_H
 #define GONIO_DAEMON_CAPTURE_H
 
@@ -15,6 +19,7 @@
 #include "brdf/metrics.h"
 #include "common/err.h"
 #include "daemon/journal.h"
+#include "drivers/drivers.h"
 #include "planner/rig.h"
 
 struct drv_axis;
@@ -23,9 +28,21 @@ struct drv_clock;
 
 struct capture_config {
     const char *plan;     /* name (ds2) or path */
-    const char *scene;    /* name or path */
-    const char *material; /* overrides the scene's material, or NULL */
-    const char *rig;      /* overrides the scene's rig profile, or NULL */
+    /* The simulator's scene, name or path: required for the in-process rig;
+     * with a host's devices only recorded in setup.json when given. */
+    const char *scene;
+    /* The in-process rig: overrides the scene's material. A host's devices:
+     * only a label in setup.json and results.json (NULL: unknown). */
+    const char *material;
+    const char *rig;      /* overrides the scene's rig profile; required without a scene */
+    /* The reference for the in-plane and full-domain errors (a material
+     * spec), labelled with it in results.json. NULL: the in-process rig's
+     * own material; with a host's devices, no such errors. */
+    const char *truth;
+    /* What setup.json records of the devices: the driver kind ("sim" when
+     * NULL) and the detector (NULL: the scene's, "rgb" or "spectral"). */
+    const char *driver;
+    const char *detector;
     const char *model;    /* any RGB model of the registry (fit/models.h); the
                              streaming fit of --stop converge is ABC whatever it is */
     const char *out_dir;  /* the capture directory */
@@ -43,13 +60,21 @@ struct capture_config {
      * assess_nodes; the tests under valgrind). results.json gives the
      * count either way. */
     size_t assess_nodes;
+    /* Run the streaming fit with stop: all too, for on_fit (goniod's
+     * progress figures): a round when the sample count reaches 16, 32,
+     * 64... (the cost of them all stays below twice the final fit's). */
+    int progress_fit;
 };
 
 struct capture_summary {
-    char plan[128], material[512], model[32];
+    char plan[128], model[32];
+    char material[512]; /* what was measured, "" when unknown (hardware without a label) */
+    char truth[512];    /* the reference of err_inplane/err_full, "" without one */
     size_t samples;
     size_t saturated; /* samples the detector saturated (fitted at their clipped value) */
     double rig_time_s, move_s, settle_s, integration_s;
+    /* Rig clock that ran while this run was paused: not in rig_time_s. */
+    double paused_s;
     double fit_time_s;
     int converged;
     int has_params;         /* abc, abc-prior: params and sd hold the ABC fit */
@@ -57,10 +82,12 @@ struct capture_summary {
     char model_file[64];    /* the final fit's model file in the directory (NAME.model,
                                the name and format gonio fit writes), else "" */
     struct brdf_errors err_plan, err_inplane, err_full;
-    int has_truth; /* inplane/full errors computed against the known material */
+    int has_truth; /* inplane/full errors computed against truth */
     char stop_reason[32]; /* "complete", "converged" (stop rule), "aborted" */
     struct fit_uncertainty sd; /* parameter sds of an ABC final fit (fit/fit.h) */
     char warning[256];         /* abc-prior: "too few samples" warning, or "" */
+    struct drv_axis_stats mech; /* this run's axis mechanics, all axes (drivers.h) */
+    struct fit_status status;  /* what the final fit can know (fit/fit_status.h) */
 };
 
 /* The devices a capture runs on. */
@@ -70,13 +97,16 @@ struct capture_devices {
     struct drv_clock *clock;
 };
 
-enum capture_control { CAPTURE_GO = 0, CAPTURE_ABORT = 1 };
+/* CAPTURE_PAUSED: go on, after the host held the capture paused; the rig
+ * clock that ran meanwhile is paused time, not rig time. */
+enum capture_control { CAPTURE_GO = 0, CAPTURE_ABORT = 1, CAPTURE_PAUSED = 2 };
 
 /* What the engine is doing, for hosts that report it (goniod's phase log,
  * which the crash torture reads to know where each kill landed). MOVE
  * starts once the axes are commanded, ACQUIRE covers settle and
- * integration, JOURNAL the record's write and fdatasync, FIT the final fit
- * and its assessment; BETWEEN follows each of them. */
+ * integration, JOURNAL the record's write and fdatasync, FIT a streaming
+ * fit round the engine forces (point: the sample count) and the final fit
+ * and its assessment (point -1); BETWEEN follows each of them. */
 enum capture_phase {
     CAPTURE_PHASE_BETWEEN,
     CAPTURE_PHASE_MOVE,
@@ -91,18 +121,23 @@ const char *capture_phase_name(enum capture_phase phase);
 /* How a host (gonio, goniod) takes part in a capture. Every member may be
  * NULL. */
 struct capture_hooks {
-    /* Open the rig's devices; NULL: the in-process simulated rig reading the
-     * capture's material. */
+    /* Open the rig's devices; NULL: the in-process simulated rig of the
+     * capture's scene, reading its material. */
     int (*open_devices)(void *user, const struct plan_rig *rig, struct capture_devices *dev,
                         struct gonio_err *err);
     void (*close_devices)(void *user, struct capture_devices *dev);
     /* Called once the inputs are resolved and the directory is ready. */
     void (*on_start)(void *user, const char *plan, size_t total, size_t already_done);
-    /* Called after each sample is journalled. */
+    /* Called after each sample is journalled (and after the streaming fit
+     * round it set off, so that the host's figures include it). */
     void (*on_sample)(void *user, const struct journal_sample *s, size_t done, size_t total);
     /* Asked at every point boundary; a host pauses a capture by blocking
-     * here, and aborts it by returning CAPTURE_ABORT. */
+     * here (then returning CAPTURE_PAUSED), and aborts it by returning
+     * CAPTURE_ABORT. */
     enum capture_control (*control)(void *user);
+    /* Called after each round of the streaming fit (stop: converge, or
+     * progress_fit) with its in-sample errors over the samples so far. */
+    void (*on_fit)(void *user, const struct brdf_errors *e, size_t samples);
     /* Called as the engine enters a phase (point: the plan index, -1 for
      * the final fit). The host may take its time here: the crash torture
      * widens phases this way. */
@@ -111,8 +146,10 @@ struct capture_hooks {
 };
 
 /* Run a capture: resolve and validate the inputs, prepare the directory
- * (or resume it), measure the points the journal lacks, fit and write
- * results.json. An aborted capture keeps its samples, stops the axes and
+ * (or resume it: the same plan, scene, material, rig and detector only,
+ * else -GONIO_EUSAGE naming the difference), holding its lock until the
+ * end (another writer: EBUSY, nothing written), measure the points the
+ * journal lacks, fit and write results.json. An aborted capture keeps its samples, stops the axes and
  * returns 0 with stop_reason "aborted" (no fit, no results.json). Returns
  * a negative code with err filled on failure (see gonio_exit_status). */
 int capture_run(const struct capture_config *cfg, const struct capture_hooks *hooks,

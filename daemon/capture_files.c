@@ -1,11 +1,13 @@
 #include "daemon/capture_files.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <jansson.h>
 
@@ -61,66 +63,163 @@ static json_t *axis_json(const struct plan_axis *ax)
                      ax->min, "max", ax->max);
 }
 
-static json_t *setup_json(const struct plan_rig *rig, const struct sim_scene *scene,
-                          const char *material)
+static json_t *setup_json(const struct capture_setup *su)
 {
-    return json_pack("{s:{s:s,s:s,s:s,s:s,s:I,s:i},s:s,s:{s:s,s:{s:o,s:o,s:o},s:b,s:f,s:f,"
-                     "s:f,s:f,s:f}}",
-                     "scene", "name", scene->name, "path", scene->path, "material",
-                     scene->material, "detector",
-                     scene->detector == SIM_DETECTOR_RGB ? "rgb" : "spectral", "seed",
-                     (json_int_t)scene->seed, "effects", scene->n_effects, "material",
-                     material, "rig", "name", rig->name, "axes", "sample",
-                     axis_json(&rig->sample), "arm", axis_json(&rig->arm), "azimuth",
-                     axis_json(&rig->azimuth), "out_of_plane", rig->out_of_plane, "blind_deg",
-                     rig->blind_deg, "settle_s", rig->settle_s, "integration_s",
-                     rig->integration_s, "auto_min_s", rig->auto_min_s, "auto_max_s",
-                     rig->auto_max_s);
+    const struct plan_rig *rig = su->rig;
+    json_t *root = json_pack("{s:s,s:s,s:{s:s,s:{s:o,s:o,s:o},s:b,s:f,s:f,s:f,s:f,s:f}}",
+                             "driver", su->driver, "detector", su->detector, "rig", "name",
+                             rig->name, "axes", "sample", axis_json(&rig->sample), "arm",
+                             axis_json(&rig->arm), "azimuth", axis_json(&rig->azimuth),
+                             "out_of_plane", rig->out_of_plane, "blind_deg", rig->blind_deg,
+                             "settle_s", rig->settle_s, "integration_s", rig->integration_s,
+                             "auto_min_s", rig->auto_min_s, "auto_max_s", rig->auto_max_s);
+    const struct sim_scene *sc = su->scene;
+    if (root && sc)
+        json_object_set_new(root, "scene",
+                            json_pack("{s:s,s:s,s:s,s:s,s:I,s:i}", "name", sc->name, "path",
+                                      sc->path, "material", sc->material, "detector",
+                                      sc->detector == SIM_DETECTOR_RGB ? "rgb" : "spectral",
+                                      "seed", (json_int_t)sc->seed, "effects", sc->n_effects));
+    if (root && su->material)
+        json_object_set_new(root, "material", json_string(su->material));
+    return root;
 }
 
-int capture_files_prepare(const char *dir, const struct plan *plan, const struct plan_rig *rig,
-                          const struct sim_scene *scene, const char *material,
+/* How setup.json names a value: a string, or an object's name. */
+static const char *setup_label(json_t *v)
+{
+    return json_is_string(v) ? json_string_value(v)
+                             : json_string_value(json_object_get(v, "name"));
+}
+
+/* A scene is the same wherever its file was named from. */
+static int same_value(json_t *a, json_t *b)
+{
+    if (!json_is_object(a) || !json_is_object(b))
+        return json_equal(a, b);
+    json_t *ca = json_deep_copy(a), *cb = json_deep_copy(b);
+    json_object_del(ca, "path");
+    json_object_del(cb, "path");
+    int same = json_equal(ca, cb);
+    json_decref(ca);
+    json_decref(cb);
+    return same;
+}
+
+/* A resume continues the capture setup.json describes: the same scene,
+ * material, rig and detector (older setup.json files keep the detector in
+ * the scene), else one line naming the first difference. */
+static int check_same_setup(const char *dir, json_t *was, json_t *now, struct gonio_err *err)
+{
+    static const char *const keys[] = {"scene", "material", "rig", "detector"};
+    for (size_t i = 0; i < sizeof keys / sizeof *keys; i++) {
+        json_t *a = json_object_get(was, keys[i]), *b = json_object_get(now, keys[i]);
+        if (!a && !strcmp(keys[i], "detector"))
+            a = json_object_get(json_object_get(was, "scene"), "detector");
+        if ((!a && !b) || (a && b && same_value(a, b)))
+            continue;
+        const char *la = setup_label(a), *lb = setup_label(b);
+        if (la && lb && !strcmp(la, lb))
+            return gonio_err_set(err, GONIO_EUSAGE,
+                                 "%s: setup.json has %s '%s' with other settings than this "
+                                 "capture's; use a new directory",
+                                 dir, keys[i], la);
+        char has[600], asks[600];
+        snprintf(has, sizeof has, a ? "%s '%s'" : "no %s", keys[i], la ? la : "?");
+        snprintf(asks, sizeof asks, b ? "asks for '%s'" : "names none", lb ? lb : "?");
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "%s: setup.json has %s, this capture %s; use a new directory", dir,
+                             has, asks);
+    }
+    return 0;
+}
+
+/* One writer per capture directory: a POSIX lock on DIR/lock, which the
+ * kernel drops with its holder (a killed goniod frees the directory). */
+static int lock_dir(const char *dir, int *lock_fd, struct gonio_err *err)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/lock", dir);
+    int fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0)
+        return gonio_err_set(err, errno, "%s: cannot open: %s", path, strerror(errno));
+    struct flock fl = {.l_type = F_WRLCK, .l_whence = SEEK_SET};
+    if (fcntl(fd, F_SETLK, &fl) == 0) {
+        *lock_fd = fd;
+        return 0;
+    }
+    int e = errno;
+    struct flock who = {.l_type = F_WRLCK, .l_whence = SEEK_SET};
+    long pid = fcntl(fd, F_GETLK, &who) == 0 && who.l_type != F_UNLCK ? (long)who.l_pid : 0;
+    close(fd);
+    if (e == EACCES || e == EAGAIN)
+        return gonio_err_set(err, EBUSY, "%s: capture directory is in use by pid %ld", dir, pid);
+    return gonio_err_set(err, e, "%s: cannot lock: %s", path, strerror(e));
+}
+
+void capture_files_unlock(int lock_fd)
+{
+    if (lock_fd >= 0)
+        close(lock_fd); /* closing drops the lock */
+}
+
+/* The checks and writes of capture_files_prepare, under the lock. */
+static int prepare_locked(const char *dir, const char *text, json_t *setup,
                           struct gonio_err *err)
 {
-    struct plan_estimate est;
-    plan_estimate(plan, rig, &est);
-    char *text = plan_json_text(plan, &est);
-    if (!text)
-        return gonio_err_set(err, ENOMEM, "out of memory");
-
     char path[4096];
     snprintf(path, sizeof path, "%s/plan.json", dir);
     char *existing = slurp(path);
-    int rc = 0;
     if (existing) {
-        if (strcmp(existing, text) != 0)
-            rc = gonio_err_set(err, GONIO_EUSAGE,
-                               "%s: holds a capture of another plan or order (plan.json "
-                               "differs); choose a new --out directory",
-                               dir);
+        int differs = strcmp(existing, text) != 0;
         free(existing);
-        free(text);
+        if (differs)
+            return gonio_err_set(err, GONIO_EUSAGE,
+                                 "%s: holds a capture of another plan or order (plan.json "
+                                 "differs); choose a new --out directory",
+                                 dir);
+        snprintf(path, sizeof path, "%s/setup.json", dir);
+        json_t *was = json_load_file(path, 0, NULL);
+        if (!was) /* cut off between plan.json and setup.json: write it now */
+            return write_json(dir, "setup.json", json_incref(setup), err);
+        int rc = check_same_setup(dir, was, setup, err);
+        json_decref(was);
         return rc; /* resuming: the directory is already set up */
     }
     snprintf(path, sizeof path, "%s/samples.csv", dir);
     struct stat st;
-    if (stat(path, &st) == 0) {
-        free(text);
+    if (stat(path, &st) == 0)
         return gonio_err_set(err, GONIO_EUSAGE,
                              "%s: has samples.csv but no plan.json; not a gonio capture to "
                              "resume, choose a new --out directory",
                              dir);
-    }
-    if ((rc = gonio_mkdir_p(dir, err)) < 0) {
-        free(text);
-        return rc;
-    }
     snprintf(path, sizeof path, "%s/plan.json", dir);
-    rc = gonio_write_file_atomic(path, text, strlen(text), err);
+    int rc = gonio_write_file_atomic(path, text, strlen(text), err);
+    if (rc == 0)
+        rc = write_json(dir, "setup.json", json_incref(setup), err);
+    return rc;
+}
+
+int capture_files_prepare(const char *dir, const struct capture_setup *su, int *lock_fd,
+                          struct gonio_err *err)
+{
+    *lock_fd = -1;
+    struct plan_estimate est;
+    plan_estimate(su->plan, su->rig, &est);
+    char *text = plan_json_text(su->plan, &est);
+    json_t *setup = setup_json(su);
+    int rc = text && setup ? gonio_mkdir_p(dir, err) : gonio_err_set(err, ENOMEM, "out of memory");
+    if (rc == 0)
+        rc = lock_dir(dir, lock_fd, err);
+    if (rc == 0)
+        rc = prepare_locked(dir, text, setup, err);
+    if (rc < 0) {
+        capture_files_unlock(*lock_fd);
+        *lock_fd = -1;
+    }
     free(text);
-    if (rc < 0)
-        return rc;
-    return write_json(dir, "setup.json", setup_json(rig, scene, material), err);
+    json_decref(setup);
+    return rc;
 }
 
 static json_t *errors_json(const struct brdf_errors *e)
@@ -142,6 +241,11 @@ static json_t *num_or_null(double v)
     return isfinite(v) ? json_real(v) : json_null();
 }
 
+static json_t *str_or_null(const char *v)
+{
+    return v[0] ? json_string(v) : json_null();
+}
+
 static json_t *uncertainty_json(const struct fit_uncertainty *u, const char *warning)
 {
     json_t *o = json_object();
@@ -158,6 +262,25 @@ static json_t *uncertainty_json(const struct fit_uncertainty *u, const char *war
     json_object_set_new(o, "sd_pred_log", num_or_null(u->pred_log));
     if (warning && warning[0])
         json_object_set_new(o, "warning", json_string(warning));
+    return o;
+}
+
+/* The final fit's status and the figures behind it (fit/fit_status.h,
+ * docs/fitting.md "Fit status"); null for a figure not computed. */
+static json_t *status_json(const struct fit_status *st)
+{
+    char findings[96];
+    fit_status_findings(st, findings, sizeof findings);
+    json_t *o = json_object();
+    json_object_set_new(o, "status", json_string(fit_status_name(fit_status_code(st))));
+    json_object_set_new(o, "findings", json_string(findings));
+    json_object_set_new(o, "geometries", json_integer((json_int_t)st->geometries));
+    json_object_set_new(o, "params", st->params >= 0 ? json_integer(st->params) : json_null());
+    json_object_set_new(o, "rank", st->rank >= 0 ? json_integer(st->rank) : json_null());
+    json_object_set_new(o, "condition", num_or_null(st->cond));
+    json_object_set_new(o, "at_bound", json_string(st->at_bound));
+    json_object_set_new(o, "rms_log_insample", num_or_null(st->insample));
+    json_object_set_new(o, "rms_log_heldout", num_or_null(st->heldout));
     return o;
 }
 
@@ -179,20 +302,33 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
                                      "A without the 1/pi of the published MERL fits "
                                      "(docs/fitting.md)")
                          : json_null();
-    json_t *root = json_pack("{s:s,s:s,s:s,s:I,s:f,s:{s:f,s:f,s:f},s:f,s:b,s:o,s:o}", "plan",
-                             s->plan, "material", s->material, "model", s->model, "samples",
+    json_t *root = json_pack("{s:s,s:o,s:s,s:I,s:f,s:{s:f,s:f,s:f},s:f,s:b,s:o,s:o}", "plan",
+                             s->plan, "material", str_or_null(s->material), "model", s->model,
+                             "samples",
                              (json_int_t)s->samples, "rig_time_s", s->rig_time_s, "rig_time",
                              "move_s", s->move_s, "settle_s", s->settle_s, "integration_s",
                              s->integration_s, "fit_time_s", s->fit_time_s, "converged",
                              s->converged, "params", params, "errors", errors);
+    if (root) { /* the reference of the inplane and full errors, null without one */
+        json_object_set_new(root, "truth", str_or_null(s->truth));
+        json_object_set_new(root, "paused_s", json_real(s->paused_s));
+    }
     if (root)
         json_object_set_new(root, "model_file", s->model_file[0] ? json_string(s->model_file)
                                                                   : json_null());
     if (root)
         json_object_set_new(root, "saturated", json_integer((json_int_t)s->saturated));
+    if (root) /* what the axes' mechanics cost this run (drivers/drivers.h) */
+        json_object_set_new(root, "mechanics",
+                            json_pack("{s:I,s:I,s:I,s:I}", "moves", (json_int_t)s->mech.moves,
+                                      "recommands", (json_int_t)s->mech.recommands,
+                                      "alarms_recovered", (json_int_t)s->mech.alarms_recovered,
+                                      "rehomes", (json_int_t)s->mech.rehomes));
     if (root) /* parameter sds from the fit's Jacobian, natural units (fit/fit.h) */
         json_object_set_new(root, "uncertainty", s->has_params
                                                      ? uncertainty_json(&s->sd, s->warning)
                                                      : json_null());
+    if (root)
+        json_object_set_new(root, "fit_status", status_json(&s->status));
     return write_json(dir, "results.json", root, err);
 }

@@ -1,7 +1,8 @@
 /* The files of a capture directory (DESIGN.md section 7, docs/formats.md):
- * plan.json (the resolved plan in execution order), setup.json (scene, rig
- * profile and material as resolved), samples.csv (the journal) and
- * results.json. Every file but the journal is written atomically. */
+ * plan.json (the resolved plan in execution order), setup.json (what is
+ * known of the rig: driver, detector, rig profile, and scene and material
+ * when given), samples.csv (the journal) and results.json. Every file but
+ * the journal is written atomically. */
 #ifndef GONIO_DAEMON_CAPTURE_FILES_H
 #define GONIO_DAEMON_CAPTURE_FILES_H
 
@@ -9,11 +10,26 @@
 #include "planner/planner.h"
 #include "sim/scene.h"
 
-/* Create dir (or accept it for a resume: its plan.json must be this plan's,
- * byte for byte) and write plan.json and setup.json. */
-int capture_files_prepare(const char *dir, const struct plan *plan, const struct plan_rig *rig,
-                          const struct sim_scene *scene, const char *material,
+/* What setup.json records; scene and material may be NULL (not given). */
+struct capture_setup {
+    const struct plan *plan;
+    const struct plan_rig *rig;
+    const struct sim_scene *scene;
+    const char *material;
+    const char *driver, *detector;
+};
+
+/* Create dir (or accept it for a resume), take its lock (*lock_fd, for
+ * capture_files_unlock) and write plan.json and setup.json. A resume must
+ * be of the same capture: its plan.json this plan's byte for byte, its
+ * setup.json the same scene, material, rig and detector; otherwise, or
+ * when another process holds the directory, an error names what differs
+ * (or the pid) and nothing is written. */
+int capture_files_prepare(const char *dir, const struct capture_setup *setup, int *lock_fd,
                           struct gonio_err *err);
+
+/* Release the directory's lock. */
+void capture_files_unlock(int lock_fd);
 
 /* Write results.json from a finished capture. */
 int capture_files_results(const char *dir, const struct capture_summary *s,

@@ -102,6 +102,7 @@ void control_free(control *c)
 {
     if (!c)
         return;
+    control_refusals_flush(c);
     for (size_t i = 0; i < c->n_clients; i++)
         control_client_free(c->clients[i]);
     free(c->clients);

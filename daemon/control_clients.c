@@ -203,6 +203,58 @@ void control_client_free(struct control_client *cl)
     free(cl);
 }
 
+/* With the socket opened to everyone by mistake, a stranger connecting in a
+ * loop was measured to write ~95,000 refusal lines in 5 s. The first
+ * REFUSED_LOGGED refusals of a REFUSED_WINDOW_S window are logged in full;
+ * the others are counted, and the count is logged in one line when the
+ * window ends (control_tick) or goniod stops. */
+#define REFUSED_WINDOW_S 10.0
+#define REFUSED_LOGGED 5
+
+static void refusals_log_count(control *c, double t)
+{
+    if (c->refused_unlogged)
+        fprintf(stderr, "goniod: ... and %lu more refused in the last %.0f s\n",
+                c->refused_unlogged, t - c->refused_since);
+    c->refused_logged = c->refused_unlogged = 0;
+}
+
+void control_refusals_flush(control *c)
+{
+    refusals_log_count(c, gonio_monotonic_s());
+}
+
+/* End the window when it is over; returns the seconds left in it while
+ * refusals wait to be counted in the log (else -1). */
+static double refusals_window(control *c, double t)
+{
+    if (c->refused_logged && t - c->refused_since >= REFUSED_WINDOW_S)
+        refusals_log_count(c, t);
+    return c->refused_unlogged ? c->refused_since + REFUSED_WINDOW_S - t : -1;
+}
+
+/* Log the refusal of client fd (prc and pc from peer_cred_get), or count it. */
+static void log_refusal(control *c, int fd, int prc, const struct peer_cred *pc)
+{
+    double t = gonio_monotonic_s();
+    refusals_window(c, t);
+    if (!c->refused_logged)
+        c->refused_since = t;
+    if (c->refused_logged == REFUSED_LOGGED) {
+        c->refused_unlogged++;
+        return;
+    }
+    c->refused_logged++;
+    if (prc < 0)
+        fprintf(stderr, "goniod: refused client %d: no peer credentials: %s\n", fd,
+                strerror(-prc));
+    else
+        fprintf(stderr,
+                "goniod: refused client %d: pid %ld uid %ld gid %ld is not root, not goniod's "
+                "user and not in group %ld\n",
+                fd, (long)pc->pid, (long)pc->uid, (long)pc->gid, (long)c->allowed_gid);
+}
+
 void control_accept_clients(control *c)
 {
     for (;;) {
@@ -232,14 +284,7 @@ void control_accept_clients(control *c)
         struct peer_cred pc;
         int prc = peer_cred_get(fd, &pc);
         if (prc < 0 || !peer_allowed(&pc, c->self_uid, c->allowed_gid)) {
-            if (prc < 0)
-                fprintf(stderr, "goniod: refused client %d: no peer credentials: %s\n", fd,
-                        strerror(-prc));
-            else
-                fprintf(stderr,
-                        "goniod: refused client %d: pid %ld uid %ld gid %ld is not root, not "
-                        "goniod's user and not in group %ld\n",
-                        fd, (long)pc.pid, (long)pc.uid, (long)pc.gid, (long)c->allowed_gid);
+            log_refusal(c, fd, prc, &pc);
             control_send_error(cl, "not-authorized", NULL,
                                "not allowed: the control socket serves root, goniod's user and "
                                "the members of group %ld",
@@ -278,6 +323,9 @@ void control_reap(control *c)
 int control_tick(control *c)
 {
     double t = gonio_monotonic_s(), next = c->cfg->idle_timeout_s;
+    double window = refusals_window(c, t);
+    if (window >= 0 && window < next)
+        next = window;
     for (size_t i = 0; i < c->n_clients; i++) {
         struct control_client *cl = c->clients[i];
         if (cl->watching || cl->closing || cl->dead)

@@ -37,7 +37,8 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
     const char *plan = jstr(req, "plan"), *scene = jstr(req, "scene"),
                *rig = jstr(req, "rig"), *material = jstr(req, "material"),
                *model = jstr(req, "model"), *order = jstr(req, "order"),
-               *stop = jstr(req, "stop"), *name = jstr(req, "name");
+               *stop = jstr(req, "stop"), *name = jstr(req, "name"),
+               *truth = jstr(req, "truth");
     *code = "bad-value";
     if (!plan)
         return gonio_err_set(err, GONIO_EUSAGE, "capture: 'plan' is required");
@@ -55,9 +56,9 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
     if (scene) {
         if ((rc = control_resolve_ref(c, "scene", scene, r.scene, sizeof r.scene, err)) < 0)
             return rc;
-    } else {
+    } else if (c->cfg->driver == GONIOD_DRIVER_SIM) {
         snprintf(r.scene, sizeof r.scene, "%s", c->cfg->scene);
-    }
+    } /* hardware measures what it measures: no scene unless named */
     if (rig) {
         if ((rc = control_resolve_ref(c, "rig", rig, r.rig, sizeof r.rig, err)) < 0)
             return rc;
@@ -66,6 +67,8 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
     }
     if (material &&
         (rc = control_resolve_material(c, material, r.material, sizeof r.material, err)) < 0)
+        return rc;
+    if (truth && (rc = control_resolve_material(c, truth, r.truth, sizeof r.truth, err)) < 0)
         return rc;
     snprintf(r.model, sizeof r.model, "%s", model ? model : "abc");
     snprintf(r.order, sizeof r.order, "%s", order ? order : "");

@@ -161,9 +161,10 @@ static void request_path(const struct worker_request *r, char *out, size_t size)
 
 int control_save_request(const struct worker_request *r, struct gonio_err *err)
 {
-    json_t *d = json_pack("{s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s}", "id", r->id, "plan",
+    json_t *d = json_pack("{s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s}", "id", r->id, "plan",
                           r->plan, "scene", r->scene, "rig", r->rig, "material", r->material,
-                          "model", r->model, "order", r->order, "stop", r->stop);
+                          "truth", r->truth, "model", r->model, "order", r->order, "stop",
+                          r->stop);
     char *text = d ? control_json_text(d) : NULL;
     if (!text)
         return gonio_err_set(err, ENOMEM, "out of memory");
@@ -184,21 +185,25 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
         return gonio_err_set(err, GONIO_ENOTFOUND,
                              "capture '%s' has no readable %s (%s): not a goniod capture",
                              r->id, request_file, je.text);
-    const char *plan, *scene, *rig, *material, *model, *order, *stop;
-    if (json_unpack(d, "{s:s, s:s, s:s, s:s, s:s, s:s, s:s}", "plan", &plan, "scene", &scene,
-                    "rig", &rig, "material", &material, "model", &model, "order", &order,
-                    "stop", &stop) < 0) {
+    const char *plan, *scene, *rig, *material, *truth = "", *model, *order, *stop;
+    /* truth: absent from the records of older goniods */
+    if (json_unpack(d, "{s:s, s:s, s:s, s:s, s?:s, s:s, s:s, s:s}", "plan", &plan, "scene",
+                    &scene, "rig", &rig, "material", &material, "truth", &truth, "model", &model,
+                    "order", &order, "stop", &stop) < 0) {
         json_decref(d);
         return gonio_err_set(err, GONIO_EBADDATA, "%s: lacks a field goniod writes", path);
     }
     /* goniod wrote these checked, but the record is a file: its paths are
      * held to the capture root again before anything is opened. */
     const char *merl = !strncmp(material, "merl:", 5) ? material + 5 : NULL;
+    const char *truth_merl = !strncmp(truth, "merl:", 5) ? truth + 5 : NULL;
     int why = PATH_OK;
     if ((strchr(plan, '/') && (why = inside_root(c, plan, r->plan, sizeof r->plan)) < 0) ||
         (strchr(scene, '/') && (why = inside_root(c, scene, r->scene, sizeof r->scene)) < 0) ||
         (strchr(rig, '/') && (why = inside_root(c, rig, r->rig, sizeof r->rig)) < 0) ||
-        (merl && (why = inside_root(c, merl, r->material + 5, sizeof r->material - 5)) < 0)) {
+        (merl && (why = inside_root(c, merl, r->material + 5, sizeof r->material - 5)) < 0) ||
+        (truth_merl &&
+         (why = inside_root(c, truth_merl, r->truth + 5, sizeof r->truth - 5)) < 0)) {
         json_decref(d);
         return gonio_err_set(err, GONIO_EBADDATA,
                              "%s: a file it names is missing or lies outside the capture root",
@@ -214,6 +219,10 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
         memcpy(r->material, "merl:", 5);
     else
         snprintf(r->material, sizeof r->material, "%s", material);
+    if (truth_merl)
+        memcpy(r->truth, "merl:", 5);
+    else
+        snprintf(r->truth, sizeof r->truth, "%s", truth);
     snprintf(r->model, sizeof r->model, "%s", model);
     snprintf(r->order, sizeof r->order, "%s", order);
     snprintf(r->stop, sizeof r->stop, "%s", stop);

@@ -52,6 +52,10 @@ struct control {
      * that subscribe mid-capture; NULL when idle. */
     char *start_doc, *descriptor_doc;
     unsigned long long seq; /* event sequence number within a capture */
+    /* Refused clients in the current log window (control_clients.c): since
+     * when, how many logged in full, how many only counted. */
+    double refused_since;
+    unsigned long refused_logged, refused_unlogged;
 };
 
 /* ---- control_clients.c ------------------------------------------------ */
@@ -83,6 +87,8 @@ void control_send_error(struct control_client *cl, const char *code, json_t *id,
                         const char *fmt, ...) __attribute__((format(printf, 4, 5)));
 /* Queue one line to every watching client. */
 void control_broadcast(control *c, const char *text);
+/* Log the count of refused clients not yet logged, if any (at shutdown). */
+void control_refusals_flush(control *c);
 /* Close and free the dead clients, keeping the others in order. */
 void control_reap(control *c);
 void control_client_free(struct control_client *cl);

@@ -10,16 +10,21 @@
 #include "daemon/control_private.h"
 #include "planner/rig.h"
 
-static json_t *start_doc(const struct worker_msg *m)
+static json_t *string_or_null(const char *v)
+{
+    return v[0] ? json_string(v) : json_null();
+}
+
+static json_t *start_doc(const struct worker_msg_start *m)
 {
     json_t *s = json_object();
     json_object_set_new(s, "class", json_string("start"));
     json_object_set_new(s, "capture_id", json_string(m->req.id));
     json_object_set_new(s, "dir", json_string(m->req.dir));
     json_object_set_new(s, "plan", json_string(m->plan_name));
-    json_object_set_new(s, "scene", json_string(m->req.scene));
-    json_object_set_new(s, "material", m->req.material[0] ? json_string(m->req.material)
-                                                          : json_null());
+    json_object_set_new(s, "scene", string_or_null(m->req.scene));
+    json_object_set_new(s, "material", string_or_null(m->req.material));
+    json_object_set_new(s, "truth", string_or_null(m->req.truth));
     json_object_set_new(s, "rig", json_string(m->req.rig));
     json_object_set_new(s, "model", json_string(m->req.model));
     json_object_set_new(s, "order", m->req.order[0] ? json_string(m->req.order) : json_null());
@@ -31,7 +36,7 @@ static json_t *start_doc(const struct worker_msg *m)
     return s;
 }
 
-static json_t *sample_doc(const control *c, const struct worker_msg *m)
+static json_t *sample_doc(const control *c, const struct worker_msg_sample *m)
 {
     const struct journal_sample *s = &m->sample;
     json_t *d = json_object();
@@ -66,7 +71,7 @@ static json_t *axis_doc(const struct plan_axis *a)
                      control_json_number(a->max));
 }
 
-static json_t *descriptor_doc(const control *c, const struct worker_msg *m)
+static json_t *descriptor_doc(const control *c, const struct worker_msg_start *m)
 {
     const struct goniod_config *cfg = c->cfg;
     json_t *drv = json_object();
@@ -121,13 +126,13 @@ static json_t *errors_doc(const struct brdf_errors *e)
                      control_json_number(e->rel_rmse), "pairs", (json_int_t)e->n_used);
 }
 
-static json_t *stop_doc(const struct worker_msg *m)
+static json_t *stop_doc(const struct worker_msg_stop *m)
 {
     const struct capture_summary *s = &m->summary;
     json_t *d = json_object();
     json_object_set_new(d, "class", json_string("stop"));
-    json_object_set_new(d, "capture_id", json_string(m->req.id));
-    json_object_set_new(d, "dir", json_string(m->req.dir));
+    json_object_set_new(d, "capture_id", json_string(m->id));
+    json_object_set_new(d, "dir", json_string(m->dir));
     int aborted = !strcmp(m->reason, "aborted") || !strcmp(m->reason, "shutdown");
     json_object_set_new(d, "exit_status",
                         json_string(m->rc < 0 ? "fail" : aborted ? "abort" : "success"));
@@ -147,12 +152,14 @@ static json_t *stop_doc(const struct worker_msg *m)
     }
     json_object_set_new(d, "samples", json_integer((json_int_t)s->samples));
     json_object_set_new(d, "rig_time_s", control_json_number(s->rig_time_s));
+    json_object_set_new(d, "paused_s", control_json_number(s->paused_s));
     if (!aborted) {
         const struct brdf_abc *p = &s->params;
         json_t *r = json_object();
         json_object_set_new(r, "plan", json_string(s->plan));
-        json_t *mat = json_string(s->material);
+        json_t *mat = string_or_null(s->material), *truth = string_or_null(s->truth);
         json_object_set_new(r, "material", mat ? mat : json_null());
+        json_object_set_new(r, "truth", truth ? truth : json_null());
         json_object_set_new(r, "model", json_string(s->model));
         json_object_set_new(r, "converged", json_boolean(s->converged));
         json_object_set_new(r, "fit_time_s", control_json_number(s->fit_time_s));
@@ -184,30 +191,32 @@ void control_dispatch(control *c, struct worker_msg *msgs)
         next = m->next;
         json_t *doc = NULL;
         if (m->kind == WORKER_MSG_START) {
+            const struct worker_msg_start *ms = (const struct worker_msg_start *)m;
             c->seq = 0;
             free(c->start_doc);
             free(c->descriptor_doc);
-            c->start_doc = control_json_text(start_doc(m));
-            c->descriptor_doc = control_json_text(descriptor_doc(c, m));
+            c->start_doc = control_json_text(start_doc(ms));
+            c->descriptor_doc = control_json_text(descriptor_doc(c, ms));
             if (c->start_doc)
                 control_broadcast(c, c->start_doc);
             if (c->descriptor_doc)
                 control_broadcast(c, c->descriptor_doc);
         } else if (m->kind == WORKER_MSG_SAMPLE) {
             c->seq++;
-            doc = sample_doc(c, m);
+            doc = sample_doc(c, (const struct worker_msg_sample *)m);
         } else {
-            if (m->rc < 0)
-                fprintf(stderr, "goniod: capture %s failed: %s\n", m->req.id, m->err.msg);
+            const struct worker_msg_stop *ms = (const struct worker_msg_stop *)m;
+            if (ms->rc < 0)
+                fprintf(stderr, "goniod: capture %s failed: %s\n", ms->id, ms->err.msg);
             else
-                fprintf(stderr, "goniod: capture %s stopped: %s, %zu samples\n", m->req.id,
-                        m->reason, m->summary.samples);
-            if (m->has_comm)
+                fprintf(stderr, "goniod: capture %s stopped: %s, %zu samples\n", ms->id,
+                        ms->reason, ms->summary.samples);
+            if (ms->has_comm)
                 fprintf(stderr, "goniod: capture %s: bus %ld requests, %ld retries (%ld "
-                        "timeouts, %ld bad replies), %ld exceptions, %ld failed\n", m->req.id,
-                        m->comm.requests, m->comm.retries, m->comm.timeouts,
-                        m->comm.bad_replies, m->comm.exceptions, m->comm.failed);
-            doc = stop_doc(m);
+                        "timeouts, %ld bad replies), %ld exceptions, %ld failed\n", ms->id,
+                        ms->comm.requests, ms->comm.retries, ms->comm.timeouts,
+                        ms->comm.bad_replies, ms->comm.exceptions, ms->comm.failed);
+            doc = stop_doc(ms);
             free(c->start_doc);
             free(c->descriptor_doc);
             c->start_doc = c->descriptor_doc = NULL;

@@ -65,7 +65,12 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *
     }
     if (!bus)
         return -(err && err->code ? err->code : GONIO_EDEVICE);
-    struct drv_modbus_axis_opts opts = {.steps_per_deg = cfg->steps_per_deg};
+    /* The rig profile's mechanics (docs/plans.md): band, backlash, tries. */
+    struct drv_modbus_axis_opts opts = {.steps_per_deg = cfg->steps_per_deg,
+                                        .in_position_deg = rig->mech.in_position_deg,
+                                        .backlash_deg = rig->mech.backlash_deg,
+                                        .approach = rig->mech.approach,
+                                        .move_retries = rig->mech.move_retries};
     dev->sample = drv_axis_new_modbus(bus, cfg->slaves.sample, &rig->sample, &opts, "sample",
                                       err);
     if (dev->sample)

@@ -10,6 +10,7 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include "common/paths.h"
 #include "fit/fit.h"
 
 #define HEADER "point,theta_i,theta_r,phi_i,theta_o,phi_o,s,a,r,g,b,integration_s,rig_time_s,flags,crc32\n"
@@ -19,11 +20,14 @@
 struct journal {
     int fd;
     off_t end; /* length of the valid records: a failed append is cut back to it */
+#ifdef GONIO_TEST_HOOKS
     double tear_s; /* crash torture only: pause between the halves of a record */
+#endif
     int lazy;  /* journal_set_lazy: sync at close only */
     char path[4096];
 };
 
+#ifdef GONIO_TEST_HOOKS
 /* GONIO_JOURNAL_TEAR_S (crash torture, journal.h): seconds, 0..10. */
 static double tear_from_env(void)
 {
@@ -50,6 +54,12 @@ static ssize_t write_record(const journal *j, const char *line, size_t len)
     ssize_t w2 = write(j->fd, line + half, len - half);
     return w2 < 0 ? w2 : w + w2;
 }
+#else
+static ssize_t write_record(const journal *j, const char *line, size_t len)
+{
+    return write(j->fd, line, len);
+}
+#endif
 
 static unsigned long line_crc(const char *text, size_t len)
 {
@@ -213,7 +223,9 @@ journal *journal_open(const char *path, struct journal_sample **samples, size_t 
         return NULL;
     }
     snprintf(j->path, sizeof j->path, "%s", path);
+#ifdef GONIO_TEST_HOOKS
     j->tear_s = tear_from_env();
+#endif
     j->fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (j->fd < 0) {
         gonio_err_set(err, errno, "%s: cannot open journal: %s", path, strerror(errno));
@@ -226,9 +238,11 @@ journal *journal_open(const char *path, struct journal_sample **samples, size_t 
         return NULL;
     }
     int failed = ftruncate(j->fd, valid) != 0 || lseek(j->fd, 0, SEEK_END) < 0;
+    /* A new journal: its header, then its name in the directory, durable
+     * before the first sample is. */
     if (!failed && valid == 0)
         failed = write(j->fd, HEADER, strlen(HEADER)) != (ssize_t)strlen(HEADER) ||
-                 fsync(j->fd) != 0;
+                 fsync(j->fd) != 0 || gonio_fsync_parent(path, NULL) < 0;
     j->end = valid > 0 ? valid : (off_t)strlen(HEADER);
     if (failed) {
         gonio_err_set(err, errno, "%s: cannot prepare journal: %s", path, strerror(errno));

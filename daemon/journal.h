@@ -53,10 +53,10 @@ journal *journal_open(const char *path, struct journal_sample **samples, size_t 
  * is simply measured again and fdatasync per sample would dominate the cost. */
 void journal_set_lazy(journal *j);
 
-/* Append one record and make it durable before returning (unless lazy). With
- * GONIO_JOURNAL_TEAR_S=SECONDS in the environment (the crash torture,
- * docs/torture.md) the record goes out in two write()s with that pause
- * between them, so a kill can tear it; never set it in production. */
+/* Append one record and make it durable before returning (unless lazy). In
+ * the test build (GONIO_TEST_HOOKS, goniod-test), GONIO_JOURNAL_TEAR_S=SECONDS
+ * in the environment (the crash torture, docs/torture.md) sends the record
+ * out in two write()s with that pause between them, so a kill can tear it. */
 int journal_append(journal *j, const struct journal_sample *s, struct gonio_err *err);
 
 /* Close; a lazy journal is fdatasync'd first. */

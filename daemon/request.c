@@ -13,7 +13,8 @@ struct arg_spec {
 static const struct arg_spec capture_args[] = {
     {"plan", ARG_STRING},  {"scene", ARG_STRING}, {"material", ARG_STRING},
     {"rig", ARG_STRING},   {"model", ARG_STRING}, {"order", ARG_STRING},
-    {"stop", ARG_STRING},  {"name", ARG_STRING},  {NULL, ARG_STRING},
+    {"stop", ARG_STRING},  {"name", ARG_STRING},  {"truth", ARG_STRING},
+    {NULL, ARG_STRING},
 };
 static const struct arg_spec resume_args[] = {{"capture_id", ARG_STRING}, {NULL, ARG_STRING}};
 static const struct arg_spec no_args[] = {{NULL, ARG_STRING}};

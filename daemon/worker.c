@@ -12,9 +12,6 @@
 
 #include "brdf/metrics.h"
 #include "daemon/devices.h"
-#include "fit/fit.h"
-
-#define FIRST_FIT 16 /* samples before the first progressive fit */
 
 struct worker {
     const struct goniod_config *cfg;
@@ -45,17 +42,15 @@ struct worker {
         double log, rmse;
         size_t n;
     } done_fit;
-    /* The progressive fit (capture thread only, but for the results above). */
-    struct fit_sample *fs;
-    size_t fs_n, fs_cap, next_fit;
-    struct brdf_abc params;
-    int have_params;
+#ifdef GONIO_TEST_HOOKS
     /* Crash torture (docs/torture.md): GONIOD_PHASE_LOG names a file that
      * gets a line per engine phase, GONIOD_PHASE_HOLD pauses in phases. */
     int phase_fd;
     double hold_s[CAPTURE_PHASE_FIT + 1];
+#endif
 };
 
+#ifdef GONIO_TEST_HOOKS
 /* The phase log and holds from the environment; none without it. A bad
  * GONIOD_PHASE_HOLD item is ignored: it is a test aid, not configuration. */
 static void phase_debug_init(worker *w)
@@ -96,71 +91,20 @@ static void hook_on_phase(void *user, enum capture_phase phase, int point)
             ;
     }
 }
+#endif
 
-/* Fit the samples so far (warm-started from the previous fit) and publish
- * the in-sample errors. A failed fit just leaves the last figures. */
-static void progressive_fit_run(worker *w)
+/* A round of the engine's streaming fit: the figures status and the
+ * events show. */
+static void hook_on_fit(void *user, const struct brdf_errors *e, size_t samples)
 {
-    size_t n = w->fs_n;
-    struct fit_options opt = fit_default_options();
-    if (w->have_params)
-        opt.warm_start = &w->params;
-    struct brdf_abc p;
-    struct fit_info info;
-    if (fit_abc(w->fs, n, &opt, &p, &info, NULL) < 0)
-        return;
-    w->params = p;
-    w->have_params = 1;
-    struct brdf_pair *pairs = malloc(n * sizeof *pairs);
-    double *truth = malloc(n * 3 * sizeof *truth), *pred = malloc(n * 3 * sizeof *pred);
-    if (pairs && truth && pred) {
-        for (size_t i = 0; i < n; i++) {
-            pairs[i] = w->fs[i].g;
-            memcpy(truth + 3 * i, w->fs[i].rgb, sizeof w->fs[i].rgb);
-            brdf_abc_eval(&p, &pairs[i], pred + 3 * i);
-        }
-        struct brdf_errors e;
-        brdf_errors_compute(pairs, truth, pred, n, &e);
-        pthread_mutex_lock(&w->mu);
-        w->has_fit = 1;
-        snprintf(w->fit_id, sizeof w->fit_id, "%s", w->req.id);
-        w->fit_log = e.log;
-        w->fit_rmse = e.rel_rmse;
-        w->fit_n = n;
-        pthread_mutex_unlock(&w->mu);
-    }
-    free(pairs);
-    free(truth);
-    free(pred);
-}
-
-static void progressive_fit(worker *w)
-{
-    /* The phase log tells this fit from the engine's final one (-1) by
-     * its sample count. */
-    hook_on_phase(w, CAPTURE_PHASE_FIT, (int)w->fs_n);
-    progressive_fit_run(w);
-    hook_on_phase(w, CAPTURE_PHASE_BETWEEN, -1);
-}
-
-/* Add a sample to the progressive fit; refit when the count doubles. */
-static void progressive_add(worker *w, const struct journal_sample *s, int may_fit)
-{
-    if (w->fs_n == w->fs_cap) {
-        size_t cap = w->fs_cap ? 2 * w->fs_cap : 256;
-        struct fit_sample *p = realloc(w->fs, cap * sizeof *p);
-        if (!p)
-            return; /* progress display only: the journal has the sample */
-        w->fs = p;
-        w->fs_cap = cap;
-    }
-    journal_fit_samples(s, 1, &w->fs[w->fs_n]);
-    w->fs_n++;
-    if (may_fit && w->fs_n >= w->next_fit) {
-        progressive_fit(w);
-        while (w->next_fit <= w->fs_n)
-            w->next_fit *= 2;
-    }
+    worker *w = user;
+    pthread_mutex_lock(&w->mu);
+    w->has_fit = 1;
+    snprintf(w->fit_id, sizeof w->fit_id, "%s", w->req.id);
+    w->fit_log = e->log;
+    w->fit_rmse = e->rel_rmse;
+    w->fit_n = samples;
+    pthread_mutex_unlock(&w->mu);
 }
 
 static void push(worker *w, struct worker_msg *m)
@@ -182,62 +126,46 @@ static void push(worker *w, struct worker_msg *m)
 static void hook_on_start(void *user, const char *plan, size_t total, size_t already)
 {
     worker *w = user;
-    struct worker_msg *m = calloc(1, sizeof *m);
     pthread_mutex_lock(&w->mu);
     w->total = total;
     w->done = already;
     pthread_mutex_unlock(&w->mu);
-    /* A resumed capture's fit starts from the samples already journalled. */
-    w->fs_n = 0;
-    w->next_fit = FIRST_FIT;
-    w->have_params = 0;
-    if (already > 0) {
-        char path[2304];
-        snprintf(path, sizeof path, "%s/samples.csv", w->req.dir);
-        struct journal_sample *js = NULL;
-        size_t n = 0;
-        if (journal_read(path, &js, &n, NULL) == 0) {
-            for (size_t i = 0; i < n; i++)
-                progressive_add(w, &js[i], i + 1 == n);
-        }
-        free(js);
-    }
+    struct worker_msg_start *m = calloc(1, sizeof *m);
     if (!m)
         return;
-    m->kind = WORKER_MSG_START;
+    m->base.kind = WORKER_MSG_START;
     m->req = w->req;
     snprintf(m->plan_name, sizeof m->plan_name, "%s", plan);
     m->total = total;
     m->already_done = already;
-    push(w, m);
+    push(w, &m->base);
 }
 
 static void hook_on_sample(void *user, const struct journal_sample *s, size_t done,
                            size_t total)
 {
     worker *w = user;
-    progressive_add(w, s, 1);
     pthread_mutex_lock(&w->mu);
     w->done = done;
     w->total = total;
     w->rig_time_s = s->rig_time_s;
     double fit_log = w->has_fit && !strcmp(w->fit_id, w->req.id) ? w->fit_log : NAN;
     pthread_mutex_unlock(&w->mu);
-    struct worker_msg *m = malloc(sizeof *m);
+    struct worker_msg_sample *m = calloc(1, sizeof *m);
     if (!m)
         return; /* a lost progress event; the journal has the sample */
-    memset(m, 0, offsetof(struct worker_msg, req));
-    m->kind = WORKER_MSG_SAMPLE;
+    m->base.kind = WORKER_MSG_SAMPLE;
     m->sample = *s;
     m->done = done;
     m->total = total;
     m->fit_log_error = fit_log;
-    push(w, m);
+    push(w, &m->base);
 }
 
 /* At every point boundary: pace the simulator in wall time if asked (so a
  * simulated capture lasts long enough to be watched, paused or killed), and
- * block while paused. An abort ends both waits at once. */
+ * block while paused, telling the engine so (its rig clock ran meanwhile).
+ * An abort ends both waits at once. */
 static enum capture_control hook_control(void *user)
 {
     worker *w = user;
@@ -251,9 +179,12 @@ static enum capture_control hook_control(void *user)
         while (!w->abort && pthread_cond_timedwait(&w->cv, &w->mu, &until) != ETIMEDOUT) {
         }
     }
-    while (w->paused && !w->abort)
+    int held = 0;
+    while (w->paused && !w->abort) {
+        held = 1;
         pthread_cond_wait(&w->cv, &w->mu);
-    enum capture_control c = w->abort ? CAPTURE_ABORT : CAPTURE_GO;
+    }
+    enum capture_control c = w->abort ? CAPTURE_ABORT : held ? CAPTURE_PAUSED : CAPTURE_GO;
     pthread_mutex_unlock(&w->mu);
     return c;
 }
@@ -277,33 +208,43 @@ static void hook_close(void *user, struct capture_devices *dev)
 static void *run(void *arg)
 {
     worker *w = arg;
-    struct worker_msg *m = calloc(1, sizeof *m);
+    struct worker_msg_stop *m = calloc(1, sizeof *m);
     struct capture_summary sum;
     struct gonio_err err = {0};
+    int sim = w->cfg->driver == GONIOD_DRIVER_SIM;
     struct capture_config cc = {
         .plan = w->req.plan,
-        .scene = w->req.scene,
+        .scene = w->req.scene[0] ? w->req.scene : NULL,
         .material = w->req.material[0] ? w->req.material : NULL,
         .rig = w->req.rig[0] ? w->req.rig : NULL,
+        .truth = w->req.truth[0] ? w->req.truth : NULL,
+        .driver = goniod_driver_name(w->cfg->driver),
+        .detector = sim                                          ? NULL
+                    : w->cfg->detector == GONIOD_DETECTOR_USB ? "usb-spectrometer"
+                                                               : "modbus",
         .model = w->req.model,
         .out_dir = w->req.dir,
         .order = w->req.order[0] ? w->req.order : NULL,
         .stop = w->req.stop[0] ? w->req.stop : NULL,
         .quiet = 1,
         .assess_nodes = (size_t)w->cfg->assess_nodes,
+        .progress_fit = 1,
     };
     struct capture_hooks hooks = {
         .on_start = hook_on_start,
         .on_sample = hook_on_sample,
         .control = hook_control,
+        .on_fit = hook_on_fit,
+#ifdef GONIO_TEST_HOOKS
         .on_phase = hook_on_phase,
+#endif
         .user = w,
     };
     /* The simulator runs inside the engine (it reads the capture's own
      * material and continues the rig clock on a resume); hardware goes
      * through the configured drivers. */
     w->has_comm = 0;
-    if (w->cfg->driver != GONIOD_DRIVER_SIM) {
+    if (!sim) {
         hooks.open_devices = hook_open;
         hooks.close_devices = hook_close;
     }
@@ -325,7 +266,7 @@ static void *run(void *arg)
         w->fit_log = w->done_fit.log = sum.err_plan.log;
         w->fit_rmse = w->done_fit.rmse = sum.err_plan.rel_rmse;
         w->fit_n = w->done_fit.n = sum.samples;
-    } else { /* the stopped capture's progressive fit goes with it */
+    } else { /* the stopped capture's streaming fit goes with it */
         w->has_fit = w->done_fit.has;
         snprintf(w->fit_id, sizeof w->fit_id, "%s", w->done_fit.id);
         w->fit_log = w->done_fit.log;
@@ -336,15 +277,16 @@ static void *run(void *arg)
     w->paused = 0;
     pthread_mutex_unlock(&w->mu);
     if (m) {
-        m->kind = WORKER_MSG_STOP;
-        m->req = w->req;
+        m->base.kind = WORKER_MSG_STOP;
+        snprintf(m->id, sizeof m->id, "%s", w->req.id);
+        snprintf(m->dir, sizeof m->dir, "%s", w->req.dir);
         m->rc = rc;
         snprintf(m->reason, sizeof m->reason, "%s", reason);
         m->err = err;
         m->summary = sum;
         m->has_comm = w->has_comm;
         m->comm = w->comm;
-        push(w, m);
+        push(w, &m->base);
     }
     return NULL;
 }
@@ -366,7 +308,9 @@ worker *worker_new(const struct goniod_config *cfg, struct gonio_err *err)
     w->pipe_rd = fds[0];
     w->pipe_wr = fds[1];
     w->cfg = cfg;
+#ifdef GONIO_TEST_HOOKS
     phase_debug_init(w);
+#endif
     pthread_condattr_t ca;
     pthread_condattr_init(&ca);
     pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
@@ -402,9 +346,10 @@ void worker_free(worker *w)
         next = m->next;
         free(m);
     }
-    free(w->fs);
+#ifdef GONIO_TEST_HOOKS
     if (w->phase_fd >= 0)
         close(w->phase_fd);
+#endif
     close(w->pipe_rd);
     close(w->pipe_wr);
     pthread_cond_destroy(&w->cv);

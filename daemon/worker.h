@@ -1,9 +1,9 @@
 /* The capture worker: one thread that runs capture_run (daemon/capture.h)
  * for goniod, so the poll loop never waits on a device.
  *
- * It also refits the model whenever the sample count doubles (16, 32, ...),
- * so a watcher sees the current fit error; the doubling keeps the cost of
- * all these fits below twice that of the final one.
+ * The fit error a watcher sees while a capture runs is the engine's own
+ * streaming fit (capture_config.progress_fit, the on_fit hook): one fit
+ * path, over the samples the engine already holds.
  *
  * The worker reports to the loop through a queue of messages and a wake-up
  * pipe the loop polls; the loop steers the worker (pause, resume, abort)
@@ -24,7 +24,10 @@
 struct worker_request {
     char id[128];
     char dir[2048];
-    char plan[1024], scene[1024], rig[1024], material[1024], model[32], order[32];
+    /* scene: the simulator's, "" on hardware when the request names none;
+     * material: "" for the scene's (sim) or unknown (hardware); truth: the
+     * reference of the truth errors, "" for none (docs/protocol.md). */
+    char plan[1024], scene[1024], rig[1024], material[1024], truth[1024], model[32], order[32];
     char stop[16]; /* "all", "converge" or "" (the plan's rule) */
     int resume; /* the directory exists: continue from its journal */
 };
@@ -36,7 +39,7 @@ struct worker_status {
     char id[128];
     size_t done, total;
     double rig_time_s;
-    /* The latest fit error known: the running capture's progressive fit
+    /* The latest fit error known: the running capture's streaming fit
      * once it has one, else the last finished capture's fit. */
     int has_fit;
     char fit_id[128];
@@ -46,20 +49,32 @@ struct worker_status {
 
 enum worker_msg_kind { WORKER_MSG_START, WORKER_MSG_SAMPLE, WORKER_MSG_STOP };
 
+/* The queue's link: every message begins with it, and its kind says which
+ * of the structs below it is. */
 struct worker_msg {
     enum worker_msg_kind kind;
     struct worker_msg *next;
-    struct worker_request req;   /* START and STOP */
-    /* START */
+};
+
+struct worker_msg_start {
+    struct worker_msg base;
+    struct worker_request req;
     char plan_name[128];
     size_t total, already_done;
-    /* SAMPLE */
+};
+
+struct worker_msg_sample {
+    struct worker_msg base;
     struct journal_sample sample;
-    size_t done;
-    double fit_log_error; /* the progressive fit's in-sample error, NAN before one */
-    /* STOP */
+    size_t done, total;
+    double fit_log_error; /* the streaming fit's in-sample error, NAN before a round */
+};
+
+struct worker_msg_stop {
+    struct worker_msg base;
+    char id[128], dir[2048];
     int rc;                      /* capture_run's result */
-    char reason[32];             /* complete, aborted, shutdown, error */
+    char reason[32];             /* complete, converged, aborted, shutdown, error */
     struct gonio_err err;
     struct capture_summary summary;
     int has_comm; /* the capture ran on a bus: its exchange counts */

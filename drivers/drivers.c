@@ -4,6 +4,7 @@
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 drv_axis *drv_axis_alloc(const struct drv_axis_ops *ops, void *priv, const char *name)
 {
@@ -45,6 +46,13 @@ int drv_axis_home(drv_axis *ax, struct gonio_err *err)
 int drv_axis_stop(drv_axis *ax, struct gonio_err *err)
 {
     return ax->ops->stop(ax->priv, err);
+}
+
+void drv_axis_stats(const drv_axis *ax, struct drv_axis_stats *out)
+{
+    memset(out, 0, sizeof *out);
+    if (ax && ax->ops->stats)
+        ax->ops->stats(ax->priv, out);
 }
 
 const char *drv_axis_name(const drv_axis *ax)

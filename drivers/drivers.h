@@ -21,6 +21,16 @@ int drv_axis_position(drv_axis *ax, double *deg, struct gonio_err *err);
 int drv_axis_home(drv_axis *ax, struct gonio_err *err);
 int drv_axis_stop(drv_axis *ax, struct gonio_err *err);
 const char *drv_axis_name(const drv_axis *ax);
+
+/* What the axis's mechanics cost so far: moves sent to the drive (legs,
+ * re-commands included), re-commands of a drive that came to rest outside
+ * the in-position band, drive alarms reset and the move retried, and
+ * re-homings an alarm called for. All zero for a backend that does not
+ * recover (the in-process simulator). */
+struct drv_axis_stats {
+    long moves, recommands, alarms_recovered, rehomes;
+};
+void drv_axis_stats(const drv_axis *ax, struct drv_axis_stats *out);
 void drv_axis_free(drv_axis *ax);
 
 #define DRV_READING_SATURATED 0x1u

@@ -12,6 +12,7 @@ struct drv_axis_ops {
     int (*position)(void *priv, double *deg, struct gonio_err *err);
     int (*home)(void *priv, struct gonio_err *err);
     int (*stop)(void *priv, struct gonio_err *err);
+    void (*stats)(const void *priv, struct drv_axis_stats *out); /* NULL: all zero */
     void (*free_priv)(void *priv);
 };
 

@@ -8,12 +8,19 @@
 struct sim_axis_priv {
     sim_rig *rig;
     enum sim_axis_id id;
+    long moves; /* the only mechanics cost here: no re-commands, no recovery */
 };
 
 static int sim_start_move(void *priv, double target_deg, struct gonio_err *err)
 {
     struct sim_axis_priv *p = priv;
+    p->moves++;
     return sim_rig_start_move(p->rig, p->id, target_deg, err);
+}
+
+static void sim_stats(const void *priv, struct drv_axis_stats *out)
+{
+    out->moves = ((const struct sim_axis_priv *)priv)->moves;
 }
 
 static int sim_wait(void *priv, struct gonio_err *err)
@@ -52,6 +59,7 @@ static const struct drv_axis_ops sim_axis_ops = {
     .position = sim_position,
     .home = sim_home,
     .stop = sim_stop,
+    .stats = sim_stats,
     .free_priv = free,
 };
 
@@ -124,13 +132,14 @@ static const struct drv_axis_ops sim_axis_faulty_ops = {
     .position = faulty_position,
     .home = faulty_home,
     .stop = faulty_stop,
+    .stats = sim_stats,
     .free_priv = free,
 };
 
 drv_axis *drv_axis_new_sim(sim_rig *rig, enum sim_axis_id axis)
 {
     static const char *names[SIM_N_AXES] = {"sample", "arm", "azimuth"};
-    struct sim_axis_priv *p = malloc(sizeof *p);
+    struct sim_axis_priv *p = calloc(1, sizeof *p);
     if (!p)
         return NULL;
     p->rig = rig;

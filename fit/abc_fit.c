@@ -316,7 +316,9 @@ static int local_solve(const struct abc_problem *pb, const double theta0[ABC_NPA
     return 0;
 }
 
-static int sample_usable(const struct fit_sample *s)
+/* Finite, above the horizon, and 1 + f cos > 0 for the values divided by
+ * scale (the log loss's domain, on the data the fit sees). */
+static int sample_usable(const struct fit_sample *s, double scale)
 {
     const struct brdf_pair *g = &s->g;
     for (int k = 0; k < 3; k++)
@@ -325,7 +327,7 @@ static int sample_usable(const struct fit_sample *s)
     if (!(g->wi[2] > 0) || !(g->wo[2] > 0))
         return 0;
     for (int c = 0; c < 3; c++)
-        if (!isfinite(s->rgb[c]) || !(1.0 + s->rgb[c] * g->wi[2] > 0))
+        if (!isfinite(s->rgb[c]) || !(1.0 + s->rgb[c] / scale * g->wi[2] > 0))
             return 0;
     return 1;
 }
@@ -369,60 +371,6 @@ static double predictive_sd(const double th[ABC_NPAR], double c[ABC_NPAR][ABC_NP
     return sum / (double)(3 * n);
 }
 
-/* A square root of J^T J at theta: rows K (nk x 9, row-major) with
- * K^T K = J^T J, and cn[j] > 0 exactly when J's column j is not zero (its
- * largest |entry|). The
- * data rows of channel c have non-zeros only in columns c, 3 + c, 6, 7, 8
- * (an n x 5 block J_c, abc_problem_jblock), so K stacks the R of each
- * block's QR (J^T J = sum_c R_c^T R_c; below 5 samples the block itself)
- * and the prior rows. QR is backward stable, so the pivoted QR of K
- * decides the rank as J's own would, for a fraction of the work (J's
- * 3n x 9 pivoted QR and its scalar evaluation were a tenth of a DS1 fit).
- * Returns nk (>= 9), 0 on no memory. */
-static size_t jacobian_root(const struct abc_problem *pb, const double th[ABC_NPAR], double *K,
-                            double cn[ABC_NPAR])
-{
-    static const int col[5] = {0, 3, 6, 7, 8}; /* + c for the first two */
-    size_t n = pb->n, rows = n >= 5 ? 5 : n, nk = 0;
-    struct abc_cache c;
-    gsl_matrix *Jc = gsl_matrix_alloc(n, 5);
-    gsl_vector *tau = gsl_vector_alloc(5);
-    int ok = Jc && tau && abc_cache_init(&c, pb) == 0;
-    if (ok) {
-        abc_problem_resid(pb, th, NULL, &c);
-        for (int j = 0; j < ABC_NPAR; j++)
-            cn[j] = 0.0;
-        for (int ch = 0; ch < 3 && ok; ch++) {
-            abc_problem_jblock(pb, th, &c, ch, Jc->data);
-            for (size_t k = 0; k < n; k++) /* cn only tells zero columns apart */
-                for (size_t j = 0; j < 5; j++) {
-                    int at = col[j] + (j < 2 ? ch : 0);
-                    double a = fabs(Jc->data[5 * k + j]);
-                    if (a > cn[at])
-                        cn[at] = a;
-                }
-            if (n >= 5 && gsl_linalg_QR_decomp(Jc, tau) != GSL_SUCCESS) {
-                ok = 0;
-                break;
-            }
-            for (size_t i = 0; i < rows; i++, nk++) {
-                double *out = K + nk * ABC_NPAR;
-                for (int j = 0; j < ABC_NPAR; j++)
-                    out[j] = 0.0;
-                for (size_t j = n >= 5 ? i : 0; j < 5; j++) /* R: the upper triangle */
-                    out[col[j] + (j < 2 ? ch : 0)] = gsl_matrix_get(Jc, i, j);
-            }
-        }
-        abc_cache_free(&c);
-    }
-    if (ok && pb->prior) /* the prior rows: W */
-        for (int i = 0; i < ABC_NPAR; i++, nk++)
-            memcpy(K + nk * ABC_NPAR, pb->prior->W + i * ABC_NPAR, ABC_NPAR * sizeof *K);
-    gsl_matrix_free(Jc);
-    gsl_vector_free(tau);
-    return ok ? nk : 0;
-}
-
 /* Parameter standard deviations at theta: covariance s2 (J^T J)^-1 from
  * GSL, mapped to natural units. A parameter whose column of J is zero
  * (clamped, or without influence) is undetermined: INFINITY. */
@@ -436,7 +384,7 @@ static void uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR],
         return;
     double K[(15 + ABC_NPAR) * ABC_NPAR], cn[ABC_NPAR];
     gsl_matrix *cov = gsl_matrix_alloc(ABC_NPAR, ABC_NPAR);
-    size_t nk = cov ? jacobian_root(pb, th, K, cn) : 0;
+    size_t nk = cov ? abc_jacobian_root(pb, th, K, cn) : 0;
     if (nk < ABC_NPAR)
         goto done;
     gsl_matrix_view Kv = gsl_matrix_view_array(K, nk, ABC_NPAR);
@@ -575,6 +523,62 @@ static size_t drop_duplicates(const struct fit_sample *s, size_t *idx, size_t nv
     return m;
 }
 
+/* RMS log residual of the data rows at theta (the prior's rows and the
+ * fit's loss aside): residuals comparable across losses and models. */
+static double rms_log(const struct abc_problem *pb, const double th[ABC_NPAR])
+{
+    struct abc_problem v = *pb;
+    v.loss = FIT_LOSS_LOG;
+    v.prior = NULL;
+    return pb->n ? sqrt(2.0 * abc_problem_cost(&v, th) / (3.0 * (double)pb->n)) : NAN;
+}
+
+/* Folds of the held-out residual: each sample is held out once, by a fit
+ * of the others started from the fit of all. */
+#define ABC_FOLDS 5
+
+/* The RMS log residual of samples held out, ABC_FOLDS folds (sample k in
+ * fold k mod ABC_FOLDS) of the first n of idx, each fold predicted by a fit
+ * of the rest resumed from theta. NAN when a fold's rest is too small to
+ * fit. */
+static double heldout_rms(const struct fit_sample *s, const size_t *idx, size_t n,
+                          const struct fit_options *opt, const struct abc_prior_term *prior,
+                          const double theta[ABC_NPAR])
+{
+    size_t folds = n < ABC_FOLDS ? n : ABC_FOLDS, need = prior ? 1 : 3;
+    if (!folds || n - (n + folds - 1) / folds < need)
+        return NAN;
+    size_t *train = malloc(n * sizeof *train), *test = malloc(n * sizeof *test);
+    double sum = 0;
+    size_t tested = 0;
+    for (size_t f = 0; train && test && f < folds; f++) {
+        size_t nt = 0, nh = 0;
+        for (size_t k = 0; k < n; k++) {
+            if (k % folds == f)
+                test[nh++] = idx[k];
+            else
+                train[nt++] = idx[k];
+        }
+        struct abc_problem tp = {0}, hp = {0};
+        struct solve_result r;
+        if (abc_problem_init(&tp, s, train, nt) == 0 && abc_problem_set_loss(&tp, opt->loss) == 0 &&
+            abc_problem_set_lower(&tp, opt->lower_bound, train) == 0 &&
+            abc_problem_init(&hp, s, test, nh) == 0 &&
+            abc_problem_set_lower(&hp, opt->lower_bound, test) == 0) {
+            tp.prior = prior;
+            if (local_solve(&tp, theta, opt, ABC_COARSE_FTOL, NULL, &r) == 0) {
+                sum += 2.0 * abc_problem_cost(&hp, r.theta);
+                tested += 3 * nh;
+            }
+        }
+        abc_problem_free(&tp);
+        abc_problem_free(&hp);
+    }
+    free(train);
+    free(test);
+    return tested ? sqrt(sum / (double)tested) : NAN;
+}
+
 static int gsl_handler_off_done;
 
 int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options *opt,
@@ -611,11 +615,21 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
     size_t *idx = malloc((n ? n : 1) * sizeof *idx);
     if (!idx)
         return gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", n);
+    /* The data's scale, from the finite samples above the horizon (any
+     * value is finite divided by infinity), is divided out of the data
+     * before anything else looks at them: multiplied back into kd and A at
+     * the end (fit_data_scale); a warm start moves with it. A prior stays:
+     * the data it meets are in 1/sr again. */
     size_t nv = 0;
     for (size_t i = 0; i < n; i++)
-        if (sample_usable(&samples[i]))
+        if (sample_usable(&samples[i], INFINITY))
             idx[nv++] = i;
-    nv = drop_duplicates(samples, idx, nv);
+    double scale = fit_data_scale(samples, idx, nv);
+    size_t kept = 0;
+    for (size_t k = 0; k < nv; k++)
+        if (sample_usable(&samples[idx[k]], scale))
+            idx[kept++] = idx[k];
+    nv = drop_duplicates(samples, idx, kept);
     if (nv < (prior ? 1u : 3u)) {
         free(idx);
         return gonio_err_set(err, GONIO_EFIT,
@@ -623,6 +637,29 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
                              "geometry, lie below the horizon, have 1 + f cos <= 0 or repeat one); need at "
                              "least 3 for 9 parameters",
                              nv, n);
+    }
+
+    struct fit_sample *scaled = NULL;
+    struct brdf_abc warm_scaled;
+    if (scale != 1.0) {
+        if (!(scaled = malloc(n * sizeof *scaled))) {
+            free(idx);
+            return gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", n);
+        }
+        for (size_t k = 0; k < nv; k++) {
+            scaled[idx[k]] = samples[idx[k]];
+            for (int c = 0; c < 3; c++)
+                scaled[idx[k]].rgb[c] /= scale;
+        }
+        samples = scaled;
+        if (opt.warm_start) {
+            warm_scaled = *opt.warm_start;
+            for (int c = 0; c < 3; c++) {
+                warm_scaled.kd[c] /= scale;
+                warm_scaled.A[c] /= scale;
+            }
+            opt.warm_start = &warm_scaled;
+        }
     }
 
     /* Large inputs: the starts are searched and solved on a seeded subset. */
@@ -647,7 +684,8 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
     int ran = 0;
 
     if (abc_problem_init(&local, samples, idx, n_local) < 0 ||
-        abc_problem_set_loss(&local, opt.loss) < 0) {
+        abc_problem_set_loss(&local, opt.loss) < 0 ||
+        abc_problem_set_lower(&local, opt.lower_bound, idx) < 0) {
         rc = gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", n_local);
         goto done;
     }
@@ -657,12 +695,28 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
         nstarts = 1;
     } else {
         const struct abc_problem *gp = &local;
-        if (n_grid < n_local) {
-            if (abc_problem_init(&grid, samples, idx, n_grid) < 0) {
+        /* The start search scores exact values: lower bounds (clipped
+         * peaks) would point it at a lobe as low as the clip. It runs on
+         * the other samples when at least 3 are left. */
+        size_t ng = n_grid, *gidx = opt.lower_bound ? malloc(n_grid * sizeof *gidx) : NULL;
+        if (gidx) { /* (without memory: all samples) */
+            ng = 0;
+            for (size_t k = 0; k < n_grid; k++)
+                if (!opt.lower_bound[idx[k]])
+                    gidx[ng++] = idx[k];
+            if (ng < 3)
+                ng = n_grid;
+        }
+        if (ng < n_local) {
+            int ok = abc_problem_init(&grid, samples, ng < n_grid ? gidx : idx, ng) == 0;
+            free(gidx);
+            if (!ok) {
                 rc = gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory");
                 goto done;
             }
             gp = &grid;
+        } else {
+            free(gidx);
         }
         nstarts = opt.global == FIT_GLOBAL_DE ? abc_de_starts(gp, opt.seed, opt.n_starts, starts)
                                               : abc_grid_starts(gp, opt.n_starts, starts);
@@ -703,7 +757,8 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
     }
     if (n_local < nv && isfinite(best.cost)) {
         if (abc_problem_init(&full, samples, idx, nv) < 0 ||
-            abc_problem_set_loss(&full, opt.loss) < 0) {
+            abc_problem_set_loss(&full, opt.loss) < 0 ||
+            abc_problem_set_lower(&full, opt.lower_bound, idx) < 0) {
             rc = gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", nv);
             goto done;
         }
@@ -723,6 +778,10 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
         goto done;
     }
     abc_theta_to_params(best.theta, out);
+    for (int c = 0; c < 3; c++) {
+        out->kd[c] *= scale;
+        out->A[c] *= scale;
+    }
     if (info) {
         info->starts = ran + (n_local < nv ? 1 : 0);
         info->iterations = best.iterations;
@@ -738,6 +797,16 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
         if (prior) /* the prior's noise level, or the misfit when it is larger */
             s2 = isfinite(s2) && s2 > prior_sigma * prior_sigma ? s2 : prior_sigma * prior_sigma;
         uncertainty(fp, best.theta, s2, &info->sd);
+        info->scale = scale;
+        struct fit_status *st = &info->status;
+        *st = fit_status_init();
+        st->geometries = fit_status_geometries(samples, idx, nv);
+        abc_status_figures(fp, best.theta, st);
+        st->insample = rms_log(fp, best.theta);
+        st->heldout = heldout_rms(samples, idx, n_local, &opt, prior, best.theta);
+        if (!best.converged)
+            st->findings |= 1u << FIT_STATUS_NOT_CONVERGED;
+        fit_status_decide(st);
     }
 
 done:
@@ -745,5 +814,6 @@ done:
     abc_problem_free(&local);
     abc_problem_free(&grid);
     free(idx);
+    free(scaled);
     return rc;
 }

@@ -22,11 +22,13 @@ struct fit_model_file *fit_abc_model_file(const struct brdf_abc *p)
 }
 
 struct fit_model_file *fit_abc_fitted_file(const struct brdf_abc *p, unsigned long long seed,
-                                           double cost)
+                                           const struct fit_info *info)
 {
     struct fit_model_file *f = fit_abc_model_file(p);
     if (f && (fit_model_file_set(f, "seed", "%llu", seed) ||
-              fit_model_file_set(f, "cost", "%.6g", cost))) {
+              fit_model_file_set(f, "cost", "%.6g", info->cost) ||
+              fit_model_file_set(f, "scale", "%.17g", info->scale) ||
+              fit_status_file_keys(f, &info->status))) {
         fit_model_file_free(f);
         return NULL;
     }
@@ -75,16 +77,18 @@ int fit_abc_model_fit(const struct fit_data *data, const struct fit_model_option
         return gonio_err_set(err, GONIO_EUSAGE, "abc: needs RGB samples");
     struct fit_options fo = fit_default_options();
     fo.seed = (unsigned)o.seed;
+    fo.lower_bound = data->rgb_lower;
     struct brdf_abc p;
     struct fit_info info;
     int rc = fit_abc(data->rgb, data->n_rgb, &fo, &p, &info, err);
     if (rc)
         return rc;
-    struct fit_model_file *f = fit_abc_fitted_file(&p, o.seed, info.cost);
+    struct fit_model_file *f = fit_abc_fitted_file(&p, o.seed, &info);
     if (!f)
         return gonio_err_set(err, ENOMEM, "abc: out of memory");
     if (rep) {
         rep->converged = info.converged;
+        rep->status = info.status;
         snprintf(rep->note, sizeof rep->note, "%d starts, %d iterations, %s; %zu samples dropped",
                  info.starts, info.iterations, info.reason ? info.reason : "-", info.dropped);
     }

@@ -16,11 +16,11 @@ int fit_abc_model_fit(const struct fit_data *data, const struct fit_model_option
 /* A model file holding these parameters (NULL: out of memory). */
 struct fit_model_file *fit_abc_model_file(const struct brdf_abc *p);
 
-/* The same for the result of a fit: also the seed it ran with and its final
- * cost, the keys every abc file written by a fit carries (NULL: out of
- * memory). */
+/* The same for the result of a fit: also the seed it ran with, its final
+ * cost, the data's scale and the fit's status (fit_status_file_keys), the
+ * keys every abc file written by a fit carries (NULL: out of memory). */
 struct fit_model_file *fit_abc_fitted_file(const struct brdf_abc *p, unsigned long long seed,
-                                           double cost);
+                                           const struct fit_info *info);
 
 /* The parameters of an abc model file, checked (finite, kd, A, B, C >= 0,
  * eta >= 1); errors name path. */

@@ -149,11 +149,12 @@ int fit_abc_prior_model_fit(const struct fit_data *data, const struct fit_model_
         return rc;
     struct fit_options fo = fit_default_options();
     fo.seed = (unsigned)o.seed;
+    fo.lower_bound = data->rgb_lower;
     struct brdf_abc p;
     struct fit_info info;
     if ((rc = fit_abc_map(data->rgb, data->n_rgb, &fo, &prior, &p, &info, err)) < 0)
         return rc;
-    struct fit_model_file *f = fit_abc_fitted_file(&p, o.seed, info.cost);
+    struct fit_model_file *f = fit_abc_fitted_file(&p, o.seed, &info);
     if (f && fit_abc_prior_file_keys(f, &prior, &info)) {
         fit_model_file_free(f);
         f = NULL;
@@ -164,6 +165,7 @@ int fit_abc_prior_model_fit(const struct fit_data *data, const struct fit_model_
         char warn[200];
         int w = fit_abc_prior_warning(&info, data->n_rgb - info.dropped, warn, sizeof warn);
         rep->converged = info.converged;
+        rep->status = info.status;
         snprintf(rep->note, sizeof rep->note,
                  "%d starts, %d iterations; prior of %zu materials%s%s; sd log B %.2f, "
                  "predicted in-plane sd %.3f%s%s",

@@ -11,6 +11,14 @@
 #include <string.h>
 
 #define ABC_PI 3.14159265358979323846
+/* GCC's ivdep (see its loops); clang knows no such pragma and warns, an
+ * error under -Werror (make fuzz), and its assume_safety fails as an error
+ * in the sanitized fuzz build: nothing there, speed is not its point. */
+#ifdef __clang__
+#define ABC_IVDEP
+#else
+#define ABC_IVDEP _Pragma("GCC ivdep")
+#endif
 
 /* The distinct values of v[n] into *u, in order of first appearance, and
  * each sample's index into idx; returns the count, 0 on no memory. An
@@ -106,7 +114,20 @@ void abc_problem_free(struct abc_problem *pb)
     free(pb->xi);
     free(pb->vi);
     free(pb->s);
+    free(pb->lower);
     memset(pb, 0, sizeof *pb);
+}
+
+int abc_problem_set_lower(struct abc_problem *pb, const unsigned char *flags, const size_t *idx)
+{
+    for (size_t k = 0; flags && k < pb->n; k++) {
+        if (!flags[idx ? idx[k] : k])
+            continue;
+        if (!pb->lower && !(pb->lower = calloc(pb->n, 1)))
+            return -1;
+        pb->lower[k] = 1;
+    }
+    return 0;
 }
 
 int abc_problem_set_loss(struct abc_problem *pb, enum fit_loss loss)
@@ -223,12 +244,15 @@ void abc_problem_eval(const struct abc_problem *pb, const double th[ABC_NPAR], d
             double fhat = kd[c] / ABC_PI + A[c] * S;
             size_t row = 3 * k + (size_t)c;
             int lin = pb->loss != FIT_LOSS_LOG;
+            double rv = lin ? (fhat - pb->f[row]) * pb->s[row] : log1p(fhat * ci) - pb->y[row];
+            /* a lower bound the model is above: no residual, no slope */
+            int met = pb->lower && pb->lower[k] && rv > 0;
             if (r)
-                r[row] = lin ? (fhat - pb->f[row]) * pb->s[row] : log1p(fhat * ci) - pb->y[row];
+                r[row] = met ? 0.0 : rv;
             if (!J)
                 continue;
             /* w = dr/dfhat: d log(1 + fhat cos) = cos / (1 + fhat cos) d fhat */
-            double w = lin ? pb->s[row] : ci / (1.0 + fhat * ci);
+            double w = met ? 0.0 : lin ? pb->s[row] : ci / (1.0 + fhat * ci);
             double *jr = J + row * ABC_NPAR;
             memset(jr, 0, ABC_NPAR * sizeof *jr);
             jr[c] = w * dkd[c] / ABC_PI;
@@ -337,7 +361,7 @@ static void resid_log_pass(const struct abc_problem *pb, const struct abc_nat *p
     double *restrict w0 = c->w, *restrict w1 = c->w + n, *restrict w2 = c->w + 2 * n;
     /* ivdep: the arrays do not overlap (GCC gives up on the alias checks of
      * this many arrays, and restrict on locals is not used) */
-#pragma GCC ivdep
+    ABC_IVDEP
     for (size_t k = 0; k < n; k++) {
         int ix = (int)xi[k], iv = (int)vi[k];
         double F = fres[iv], dF = fres[nuv + iv], D = lobe[ix], dDB = lobe[nux + ix],
@@ -348,7 +372,7 @@ static void resid_log_pass(const struct abc_problem *pb, const struct abc_nat *p
         s2[k] = gF * (dDC * dCt - dDB * dBt); /* dS/dtheta7 */
         s3[k] = gt * D * dF * det;            /* dS/dtheta8 */
     }
-#pragma GCC ivdep
+    ABC_IVDEP
     for (size_t k = 0; k < n; k++) {
         double S = s0[k], ci = cos_i[k];
         /* log(1 + fhat cos) - log(1 + f cos) as one log (abc_vlog, after):
@@ -397,6 +421,11 @@ double abc_problem_resid(const struct abc_problem *pb, const double th[ABC_NPAR]
             }
         }
     }
+    if (pb->lower) /* lower bounds the model is above: no residual, no slope */
+        for (size_t ch = 0; ch < 3; ch++)
+            for (size_t k = 0; k < n; k++)
+                if (pb->lower[k] && out[ch * n + k] > 0)
+                    out[ch * n + k] = c->w[ch * n + k] = 0.0;
     for (size_t row = 0; row < 3 * n; row++)
         ss += out[row] * out[row];
     if (pb->prior) {

@@ -75,6 +75,10 @@ struct abc_problem {
     size_t nux, nuv;
     double *ux, *uvh;
     unsigned *xi, *vi;
+    /* lower[k] 1: sample k's values are lower bounds (fit_options.lower_bound):
+     * its residuals count only while negative (the model below the value).
+     * NULL when no sample is (abc_problem_set_lower). */
+    unsigned char *lower;
     enum fit_loss loss; /* FIT_LOSS_LOG after init; abc_problem_set_loss changes it */
     double *s;      /* linear losses: r = (fhat - f) s, 3n (NULL for the log loss) */
     const struct abc_prior_term *prior; /* NULL: no prior rows */
@@ -89,6 +93,10 @@ struct abc_problem {
 int abc_problem_init(struct abc_problem *pb, const struct fit_sample *s, const size_t *idx,
                      size_t n);
 void abc_problem_free(struct abc_problem *pb);
+
+/* Mark the samples whose values are lower bounds: flags[idx[k]] (idx as
+ * given to abc_problem_init; flags NULL: none). Returns 0, -1 on no memory. */
+int abc_problem_set_lower(struct abc_problem *pb, const unsigned char *flags, const size_t *idx);
 
 /* Switch the data residuals to another loss (fit/fit.h enum fit_loss).
  * Returns 0, or -1 for an unknown loss or no memory. */
@@ -167,6 +175,22 @@ double abc_linear_score(const struct abc_problem *pb, double B, double C, double
  * solve for kd and A inside, a seeded search over (log B, log C, eta)
  * instead of the grid. Same contract as abc_grid_starts. */
 int abc_de_starts(const struct abc_problem *pb, unsigned seed, int max_starts, double *starts);
+
+/* A square root of J^T J at theta (abc_status.c): rows K (nk x 9,
+ * row-major; room for 15 + ABC_NPAR rows) with K^T K = J^T J (the prior's
+ * rows included when pb->prior), and cn[j] > 0 exactly when J's column j is
+ * not zero. Returns nk, 0 on no memory. */
+size_t abc_jacobian_root(const struct abc_problem *pb, const double th[ABC_NPAR], double *K,
+                         double cn[ABC_NPAR]);
+
+struct fit_status;
+/* The status figures of a fit at theta (fit/fit_status.h): the parameters
+ * on a bound (at_bound; kd or A at their lower clamp are absent terms,
+ * neither free nor named), params (the free ones), and the rank and
+ * condition number of the data rows of J on the free columns scaled to
+ * unit length. Findings are left to fit_status_decide. */
+void abc_status_figures(const struct abc_problem *pb, const double th[ABC_NPAR],
+                        struct fit_status *st);
 
 /* fit_abc with an optional prior (NULL: fit_abc itself). prior_sigma is the
  * noise level the prior rows assume, used for the posterior covariance. */

@@ -11,6 +11,7 @@
 #include "brdf/abc.h"
 #include "brdf/angles.h"
 #include "common/err.h"
+#include "fit/fit_status.h"
 
 /* One measured sample: the geometry and the RGB BRDF (1/sr). */
 struct fit_sample {
@@ -39,6 +40,13 @@ struct fit_options {
     double ftol;       /* stop when the cost fell less than this, relative, in 8 steps */
     const struct brdf_abc *warm_start; /* NULL: global start; else refine from here */
     enum fit_global global; /* start search when warm_start is NULL */
+    /* NULL, or one flag per sample given (in their order): 1 when the
+     * detector saturated on that reading, so each of its values is a lower
+     * bound of the BRDF (the clipped channel's, and the others' too: their
+     * true value is at least what was read). Fitted one-sided, as censored
+     * data: no residual while the model is above the value
+     * (docs/fitting.md "Saturated readings"). */
+    const unsigned char *lower_bound;
 };
 
 struct fit_options fit_default_options(void);
@@ -67,7 +75,24 @@ struct fit_info {
                             horizon (cos theta_i or cos theta_o <= 0), 1 + f cos <= 0, or an
                             exact duplicate (same directions and value) of an earlier one */
     struct fit_uncertainty sd; /* parameter standard deviations (see above) */
+    double scale;        /* the data were divided by it before the fit (fit_data_scale);
+                            cost is in those units */
+    struct fit_status status; /* what the fit can know (fit/fit_status.h) */
 };
+
+/* Scale normalisation. The log loss log(1 + f cos theta_i) has a scale of
+ * its own (the 1, in 1/sr), so a fit of data multiplied by k is not the
+ * fit of the data: counts for 1/sr change the lobe's shape. Fits divide
+ * the data by the power of 10^FIT_SCALE_STEP_LOG10 nearest to their median
+ * |f cos theta_i| / 10^-1.5, and multiply the fitted amplitudes back:
+ * calibrated data (median 3e-5 to 30 1/sr) are fitted as they are, and
+ * data off by a factor 10^(6 k) (a detector reporting counts, a table in
+ * other units) give the same shape and scaled amplitudes. Within a factor
+ * 10^3 the shape still depends on the scale (docs/fitting.md "Scale").
+ * Returns the factor (1 for no finite non-zero value) for samples s[idx[k]],
+ * k < n (idx NULL: s[0..n)). */
+#define FIT_SCALE_STEP_LOG10 6.0
+double fit_data_scale(const struct fit_sample *s, const size_t *idx, size_t n);
 
 /* Fit the 9-parameter ABC model to n samples. Positivity and eta > 1 hold by
  * construction; on success out holds finite parameters. Unusable samples are

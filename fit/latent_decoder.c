@@ -432,6 +432,7 @@ void latent_decoder_eval(const latent_decoder *d, const double *z, const struct 
 struct latent_mat {
     latent_decoder *d;
     double z[LATENT_MAX_NZ];
+    double scale;
 };
 
 static void latent_mat_eval(const void *priv, const struct brdf_pair *pairs, size_t n,
@@ -439,6 +440,9 @@ static void latent_mat_eval(const void *priv, const struct brdf_pair *pairs, siz
 {
     const struct latent_mat *lm = priv;
     latent_decoder_eval(lm->d, lm->z, pairs, n, rgb);
+    if (lm->scale != 1.0)
+        for (size_t k = 0; k < 3 * n; k++)
+            rgb[k] *= lm->scale;
 }
 
 static void latent_mat_free(void *priv)
@@ -457,6 +461,12 @@ static const struct brdf_material_ops latent_ops = {
 
 brdf_material *latent_material(const latent_decoder *d, const double *z, const char *name)
 {
+    return latent_material_scaled(d, z, 1.0, name);
+}
+
+brdf_material *latent_material_scaled(const latent_decoder *d, const double *z, double scale,
+                                      const char *name)
+{
     struct latent_mat *lm = calloc(1, sizeof *lm);
     if (!lm)
         return NULL;
@@ -470,5 +480,6 @@ brdf_material *latent_material(const latent_decoder *d, const double *z, const c
     lm->d->train = d->train;
     lm->d->crc = d->crc;
     memcpy(lm->z, z, (size_t)d->nz * sizeof *z);
+    lm->scale = scale;
     return brdf_material_new(&latent_ops, lm, name ? name : "latent");
 }

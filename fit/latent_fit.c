@@ -66,15 +66,43 @@ static double data_loss(const latent_decoder *d, const double *z, size_t n, cons
     return latent_net_backprop(d, z, n, x, c, t, 0.0, NULL, NULL) / (3.0 * (double)n);
 }
 
+/* RMS of the log residuals log(1 + fhat c) - t over n samples and the
+ * channels: the figure every model's status compares (fit/fit_status.h). */
+static double rms_log(const latent_decoder *d, const double *z, size_t n, const double *x,
+                      const double *c, const double *t)
+{
+    enum { BLOCK = 256 };
+    double o[3 * BLOCK], s = 0;
+    for (size_t i = 0; i < n; i += BLOCK) {
+        size_t nb = n - i < BLOCK ? n - i : BLOCK;
+        latent_net_forward(d, z, nb, x + LATENT_NIN * i, o);
+        for (size_t k = 0; k < 3 * nb; k++) {
+            double f = expm1(o[k]);
+            double r = log1p((f > 0 ? f : 0.0) * c[i + k / 3]) - t[3 * i + k];
+            s += r * r;
+        }
+    }
+    return n ? sqrt(s / (3.0 * (double)n)) : NAN;
+}
+
+/* Adam on z from z; returns the best objective and leaves its z in z.
+ * *gain: the share of the objective's whole fall that came in the last
+ * tenth of the steps (still falling: not converged). */
 static double adam_z(const latent_decoder *d, double *z, size_t n, const double *x,
                      const double *c, const double *t, const struct fit_prior *p,
-                     const struct latent_fit_options *o)
+                     const struct latent_fit_options *o, double *gain)
 {
+    int late = o->max_iter - (o->max_iter + 9) / 10;
+    double f_late = INFINITY, f_first = INFINITY;
     const int nz = d->nz;
     double m1[LATENT_MAX_NZ] = {0}, m2[LATENT_MAX_NZ] = {0}, g[LATENT_MAX_NZ];
     double best[LATENT_MAX_NZ], best_f = INFINITY;
     for (int it = 0; it < o->max_iter; it++) {
+        if (it == late)
+            f_late = best_f;
         double f = objective(d, z, n, x, c, t, p, g);
+        if (it == 0)
+            f_first = f;
         if (f < best_f) {
             best_f = f;
             memcpy(best, z, (size_t)nz * sizeof *z);
@@ -94,7 +122,46 @@ static double adam_z(const latent_decoder *d, double *z, size_t n, const double 
         memcpy(best, z, (size_t)nz * sizeof *z);
     }
     memcpy(z, best, (size_t)nz * sizeof *z);
+    if (gain)
+        *gain = isfinite(f_late) && f_first > best_f ? (f_late - best_f) / (f_first - best_f)
+                                                     : 0.0;
     return best_f;
+}
+
+/* Every HOLDOUT_EVERY-th sample is held out for the held-out residual. */
+#define HOLDOUT_EVERY 5
+
+/* The held-out RMS log residual: z refitted from z0 without every
+ * HOLDOUT_EVERY-th sample, judged on those. The encodings are reordered
+ * (the kept samples first) in copies. NAN below 2 HOLDOUT_EVERY samples. */
+static double heldout_rms(const latent_decoder *d, const double *z0, size_t n, const double *x,
+                          const double *c, const double *t, const struct fit_prior *p,
+                          const struct latent_fit_options *o)
+{
+    if (n < 2 * HOLDOUT_EVERY)
+        return NAN;
+    double *x2 = malloc(n * LATENT_NIN * sizeof *x2), *c2 = malloc(n * sizeof *c2),
+           *t2 = malloc(n * 3 * sizeof *t2);
+    double r = NAN;
+    if (x2 && c2 && t2) {
+        size_t nk = n - n / HOLDOUT_EVERY, a = 0, b = nk;
+        for (size_t k = 0; k < n; k++) {
+            size_t at = (k + 1) % HOLDOUT_EVERY ? a++ : b++;
+            memcpy(x2 + LATENT_NIN * at, x + LATENT_NIN * k, LATENT_NIN * sizeof *x);
+            c2[at] = c[k];
+            memcpy(t2 + 3 * at, t + 3 * k, 3 * sizeof *t);
+        }
+        double z[LATENT_MAX_NZ];
+        memcpy(z, z0, (size_t)d->nz * sizeof *z);
+        struct fit_prior pk = *p;
+        pk.w = p->w * (double)n / (double)nk; /* the weight Bayes gives nk samples */
+        adam_z(d, z, nk, x2, c2, t2, &pk, o, NULL);
+        r = rms_log(d, z, n - nk, x2 + LATENT_NIN * nk, c2 + nk, t2 + 3 * nk);
+    }
+    free(x2);
+    free(c2);
+    free(t2);
+    return r;
 }
 
 int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t n,
@@ -116,10 +183,23 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
         int ok = isfinite(ci) && isfinite(co) && ci > 0 && co > 0 && isfinite(s->g.theta_h) &&
                  isfinite(s->g.theta_d) && isfinite(s->g.phi_d);
         for (int ch = 0; ch < 3 && ok; ch++)
-            ok = isfinite(s->rgb[ch]) && 1 + s->rgb[ch] * ci > 0;
+            ok = isfinite(s->rgb[ch]);
         if (ok)
             idx[used++] = i;
     }
+    /* The data's scale divided out (fit/fit.h fit_data_scale) before the
+     * log's domain is checked: the decoder knows materials in 1/sr. */
+    double scale = used ? fit_data_scale(samples, idx, used) : 1.0;
+    size_t kept = 0;
+    for (size_t k = 0; k < used; k++) {
+        const struct fit_sample *s = &samples[idx[k]];
+        int ok = 1;
+        for (int ch = 0; ch < 3 && ok; ch++)
+            ok = 1 + s->rgb[ch] / scale * s->g.wi[2] > 0;
+        if (ok)
+            idx[kept++] = idx[k];
+    }
+    used = kept;
     size_t dropped = n - used;
     if (used < 3) {
         free(idx);
@@ -157,7 +237,7 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
         latent_encode(&s->g, x + LATENT_NIN * k);
         c[k] = s->g.wi[2];
         for (int ch = 0; ch < 3; ch++)
-            t[3 * k + ch] = log1p(s->rgb[ch] * c[k]);
+            t[3 * k + ch] = log1p(s->rgb[ch] / scale * c[k]);
     }
     /* Priors. The data term is a mean over 3 used residuals, so Laplace noise
      * of scale b puts the prior's -log density at b / (3 used): decisive for
@@ -197,16 +277,18 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
                 break;
             }
     }
-    double zbest[LATENT_MAX_NZ], fbest = INFINITY, start_loss = NAN;
+    double zbest[LATENT_MAX_NZ], fbest = INFINITY, start_loss = NAN, gain = 0;
     for (int k = 0; k < ns; k++) {
         double zk[LATENT_MAX_NZ];
         size_t m = best_i[k];
         memcpy(zk, m < d->n_materials ? d->latents + m * (size_t)nz : d->mean,
                (size_t)nz * sizeof *zk);
         double s0 = data_loss(d, zk, used, x, c, t);
-        double f = adam_z(d, zk, used, x, c, t, &pr, &o);
+        double gk;
+        double f = adam_z(d, zk, used, x, c, t, &pr, &o, &gk);
         if (f < fbest) {
             fbest = f;
+            gain = gk;
             start_loss = s0;
             memcpy(zbest, zk, (size_t)nz * sizeof *zk);
         }
@@ -221,6 +303,17 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
         info->dropped = dropped;
         info->prior_weight = pr.w;
         info->bandwidth = pr.h;
+        info->scale = scale;
+        info->gain = gain;
+        struct fit_status *st = &info->status;
+        *st = fit_status_init();
+        st->geometries = fit_status_geometries(samples, idx, used);
+        st->params = nz;
+        st->insample = rms_log(d, zbest, used, x, c, t);
+        st->heldout = heldout_rms(d, zbest, used, x, c, t, &pr, &o);
+        if (gain > LATENT_FIT_GAIN_TOL)
+            st->findings |= 1u << FIT_STATUS_NOT_CONVERGED;
+        fit_status_decide(st);
     }
     free(idx);
     free(x);

@@ -2,6 +2,7 @@
  * committed decoder; a model file names its decoder and the decoder's CRC,
  * so that a model is never evaluated with weights it was not fitted for. */
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -45,6 +46,8 @@ int fit_latent_model_fit(const struct fit_data *data, const struct fit_model_opt
     rc = rc ? rc : fit_model_file_set(f, "nz", "%d", d->nz);
     rc = rc ? rc : fit_model_file_set(f, "loss", "%.6g", info.loss);
     rc = rc ? rc : fit_model_file_set(f, "seed", "%llu", (unsigned long long)o.seed);
+    rc = rc ? rc : fit_model_file_set(f, "scale", "%.17g", info.scale);
+    rc = rc ? rc : fit_status_file_keys(f, &info.status);
     rc = rc ? rc
             : fit_model_file_set(f, "prior",
                                  "kernel density of %zu training latents, bandwidth %.4g, "
@@ -58,12 +61,14 @@ int fit_latent_model_fit(const struct fit_data *data, const struct fit_model_opt
         return gonio_err_set(err, ENOMEM, "latent: out of memory");
     }
     if (rep) {
-        rep->converged = 1;
+        rep->converged = !(info.status.findings & (1u << FIT_STATUS_NOT_CONVERGED));
+        rep->status = info.status;
         snprintf(rep->note, sizeof rep->note,
                  "latent: %d starts x %d Adam steps on %zu samples (%zu dropped), mean |log "
-                 "residual| %.4f, population prior weight %.2g",
+                 "residual| %.4f, population prior weight %.2g, %.2g of the objective's fall "
+                 "in the last tenth of the steps",
                  info.starts, info.iterations, info.used, info.dropped, info.loss,
-                 info.prior_weight);
+                 info.prior_weight, info.gain);
     }
     *out = f;
     return 0;
@@ -100,6 +105,17 @@ brdf_material *fit_latent_model_open(const struct fit_model_file *f, const char 
         gonio_err_set(err, GONIO_EBADDATA, "%s: decoder_crc '%s' is not hexadecimal", path, ck);
         return NULL;
     }
+    /* files written before the scale normalisation have no scale: 1 */
+    double scale = 1.0;
+    if (fit_model_file_get(f, "scale")) {
+        if (fit_model_file_get_double(f, "scale", path, &scale, err) < 0)
+            return NULL;
+        if (!(scale > 0) || !isfinite(scale)) {
+            gonio_err_set(err, GONIO_EBADDATA, "%s: scale %g is not a positive number", path,
+                          scale);
+            return NULL;
+        }
+    }
     latent_decoder *d = latent_decoder_load(dpath, err);
     if (!d)
         return NULL;
@@ -113,7 +129,7 @@ brdf_material *fit_latent_model_open(const struct fit_model_file *f, const char 
         gonio_err_set(err, GONIO_EBADDATA, "%s: %zu latent values, the decoder needs %d", path,
                       f->n_data, d->nz);
     } else {
-        m = latent_material(d, f->data, name ? name : "latent");
+        m = latent_material_scaled(d, f->data, scale, name ? name : "latent");
         if (!m)
             gonio_err_set(err, ENOMEM, "%s: out of memory", path);
     }

@@ -246,10 +246,6 @@ int latent_train(const char *const *materials, size_t n, const struct latent_tra
                              "latent_train: steps %ld, samples_per_step %d, threads %d: each "
                              "must be >= 1 (threads <= 64)",
                              o.steps, o.samples_per_step, o.threads);
-    const char *shared = gonio_shared_dir();
-    if (!shared)
-        return gonio_err_set(err, GONIO_ENOTFOUND,
-                             "shared data folder not found (set GONIO_SHARED)");
     for (size_t m = 0; m < n; m++) {
         if (is_heldout(materials[m]))
             return gonio_err_set(err, GONIO_EUSAGE,
@@ -259,6 +255,12 @@ int latent_train(const char *const *materials, size_t n, const struct latent_tra
             return gonio_err_set(err, GONIO_EUSAGE, "latent_train: bad material name '%s'",
                                  materials[m]);
     }
+    /* After the names: a wrong request is refused as such with or without
+     * the data. */
+    const char *shared = gonio_shared_dir();
+    if (!shared)
+        return gonio_err_set(err, GONIO_ENOTFOUND,
+                             "shared data folder not found (set GONIO_SHARED)");
     latent_decoder *d = latent_decoder_alloc(o.nz, o.layers, o.width, n);
     if (!d)
         return gonio_err_set(err, GONIO_EUSAGE,

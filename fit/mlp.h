@@ -109,12 +109,14 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
 
 /* Train the RGB network (fresh, shape as above) on the usable in-plane
  * samples: out-of-plane pairs, pairs below the horizon and non-finite
- * values are left out and counted in *left_out (may be NULL). max_epochs
- * 0: the default budget. On success net is allocated (fit_mlp_free). */
+ * values are left out and counted in *left_out (may be NULL); *geometries
+ * (may be NULL) receives the distinct (theta_i, theta_r) of those used.
+ * max_epochs 0: the default budget. On success net is allocated
+ * (fit_mlp_free). */
 int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t seed,
                               int max_epochs, int quiet, struct fit_mlp *net,
                               struct fit_mlp_train_report *rep, size_t *left_out,
-                              struct gonio_err *err);
+                              size_t *geometries, struct gonio_err *err);
 
 /* Materials. The RGB network is defined on the incidence plane only: a pair
  * in the plane (brdf_pair_to_inplane) is evaluated at its in-plane angles,

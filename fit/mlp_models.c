@@ -42,8 +42,49 @@ int fit_mlp_inplane_angles(const struct brdf_pair *p, double *ti, double *tr)
     return brdf_pair_to_inplane(&q, ti, tr);
 }
 
+/* Distinct (theta_i, theta_r) among m training rows u (stride values a
+ * row), a reciprocal twin (twin[i] < i) not counted again. */
+static size_t row_geometries(const double *u, size_t stride, const size_t *twin, size_t m)
+{
+    double(*p)[2] = malloc((m ? m : 1) * sizeof *p);
+    if (!p)
+        return 0;
+    size_t k = 0;
+    for (size_t i = 0; i < m; i++)
+        if (twin[i] == SIZE_MAX || twin[i] > i) {
+            p[k][0] = u[stride * i];
+            p[k][1] = u[stride * i + 1];
+            k++;
+        }
+    size_t g = fit_status_distinct_pairs(p, k);
+    free(p);
+    return g;
+}
+
+/* Held-out rows below which a network's held-out residual is a guess. */
+#define MLP_MIN_HELDOUT 10
+
+/* A network's status: its weights outnumber any capture, so what checks it
+ * is its held-out rows: with fewer than MLP_MIN_HELDOUT (DS4's 6 samples
+ * give 12 rows with their reciprocals, 2 held out) it is underdetermined;
+ * their RMS log error is the held-out residual; an epoch limit is not
+ * convergence. */
+static struct fit_status mlp_status(const struct fit_mlp_train_report *r, size_t geometries)
+{
+    struct fit_status st = fit_status_init();
+    st.geometries = geometries;
+    st.insample = sqrt(r->train_loss);
+    st.heldout = r->n_val ? sqrt(r->val_loss) : NAN;
+    if (!r->early_stopped)
+        st.findings |= 1u << FIT_STATUS_NOT_CONVERGED;
+    if (r->n_val < MLP_MIN_HELDOUT)
+        st.findings |= 1u << FIT_STATUS_UNDERDETERMINED;
+    fit_status_decide(&st);
+    return st;
+}
+
 static void set_train_keys(struct fit_model_file *f, const struct fit_model_options *opt,
-                           const struct fit_mlp_train_report *r)
+                           const struct fit_mlp_train_report *r, const struct fit_status *st)
 {
     fit_model_file_set(f, "seed", "%llu", (unsigned long long)opt->seed);
     fit_model_file_set(f, "epochs", "%d", r->epochs);
@@ -52,14 +93,16 @@ static void set_train_keys(struct fit_model_file *f, const struct fit_model_opti
     fit_model_file_set(f, "rows_heldout", "%zu", r->n_val);
     fit_model_file_set(f, "loss_train", "%.6g", r->train_loss);
     fit_model_file_set(f, "loss_heldout", "%.6g", r->val_loss);
+    fit_status_file_keys(f, st);
 }
 
 static void fill_report(struct fit_model_report *rep, const struct fit_mlp_train_report *r,
-                        size_t left_out)
+                        const struct fit_status *st, size_t left_out)
 {
     if (!rep)
         return;
-    rep->converged = 1;
+    rep->converged = r->early_stopped;
+    rep->status = *st;
     snprintf(rep->note, sizeof rep->note,
              "%d epochs (%s), weights of epoch %d; loss %.3g -> %.3g train, %.3g held-out "
              "(%zu/%zu rows)%s",
@@ -72,7 +115,7 @@ static void fill_report(struct fit_model_report *rep, const struct fit_mlp_train
 int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t seed,
                               int max_epochs, int quiet, struct fit_mlp *net,
                               struct fit_mlp_train_report *rep, size_t *left_out,
-                              struct gonio_err *err)
+                              size_t *geometries, struct gonio_err *err)
 {
     /* Two rows a sample: itself and its reciprocal. */
     size_t cap = 2 * (n ? n : 1);
@@ -118,6 +161,8 @@ int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t see
     }
     if (left_out)
         *left_out = n - used;
+    if (geometries)
+        *geometries = row_geometries(u, 2, twin, m);
     int rc;
     if (used < 4) {
         rc = gonio_err_set(err, GONIO_EFIT, "mlp: %zu usable in-plane samples (need 4)", used);
@@ -150,9 +195,9 @@ int fit_mlp_rgb_fit(const struct fit_data *data, const struct fit_model_options 
         return gonio_err_set(err, GONIO_EUSAGE, "mlp: needs RGB samples");
     struct fit_mlp net;
     struct fit_mlp_train_report r;
-    size_t left_out;
+    size_t left_out, geometries;
     int rc = fit_mlp_rgb_train_samples(data->rgb, data->n_rgb, o.seed, o.max_epochs, o.quiet,
-                                       &net, &r, &left_out, err);
+                                       &net, &r, &left_out, &geometries, err);
     if (rc)
         return rc;
     struct fit_model_file *f = fit_model_file_new("mlp", RGB_VERSION);
@@ -164,8 +209,9 @@ int fit_mlp_rgb_fit(const struct fit_data *data, const struct fit_model_options 
         fit_model_file_free(f);
         return gonio_err_set(err, ENOMEM, "mlp: out of memory");
     }
-    set_train_keys(f, &o, &r);
-    fill_report(rep, &r, left_out);
+    struct fit_status st = mlp_status(&r, geometries);
+    set_train_keys(f, &o, &r, &st);
+    fill_report(rep, &r, &st, left_out);
     *out = f;
     return 0;
 }
@@ -222,6 +268,7 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
         m++;
     }
     int rc = 0;
+    size_t geometries = row_geometries(u, 3, twin, m);
     struct fit_mlp net = {0};
     struct fit_mlp_train_report r;
     if (used < 4)
@@ -255,8 +302,9 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
         fit_model_file_free(mf);
         return rc;
     }
-    set_train_keys(mf, &o, &r);
-    fill_report(rep, &r, n - used);
+    struct fit_status st = mlp_status(&r, geometries);
+    set_train_keys(mf, &o, &r, &st);
+    fill_report(rep, &r, &st, n - used);
     *out = mf;
     return 0;
 }

@@ -33,6 +33,10 @@ struct fit_spectral_sample {
 struct fit_data {
     const struct fit_sample *rgb;
     size_t n_rgb;
+    const unsigned char *rgb_lower; /* NULL, or n_rgb flags: 1 for a saturated reading, a
+                                       lower bound (fit_options.lower_bound); the ABC
+                                       fits take it one-sided, the networks and the
+                                       latent fit at its value */
     const struct fit_spectral_sample *spectral;
     size_t n_spectral;
     const char *material; /* the captured material (nbrdf:NAME) when known, else NULL */
@@ -48,8 +52,9 @@ struct fit_model_options fit_model_default_options(void);
 
 /* What a fit reports besides its model file. */
 struct fit_model_report {
-    int converged;    /* 1 when the fit met its stopping rule normally */
+    int converged;    /* 1 when the fit met its stopping rule, not a limit */
     char note[512];   /* one line for people: iterations/epochs, stop reason */
+    struct fit_status status; /* what the fit can know (fit/fit_status.h) */
 };
 
 struct fit_model_kind {

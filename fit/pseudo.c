@@ -44,17 +44,23 @@ int fit_abc_pseudo_fit(const struct fit_data *data, const struct fit_model_optio
     struct fit_mlp net;
     struct fit_mlp_train_report tr;
     int rc = fit_mlp_rgb_train_samples(data->rgb, data->n_rgb, o.seed, o.max_epochs, o.quiet,
-                                       &net, &tr, NULL, err);
+                                       &net, &tr, NULL, NULL, err);
     if (rc)
         return rc;
     struct brdf_pair *grid = NULL;
     int ng = fit_pseudo_grid(&grid);
     struct fit_sample *dense = ng > 0 ? malloc(((size_t)ng + data->n_rgb) * sizeof *dense) : NULL;
-    if (!dense) {
+    /* the measured lower bounds stay lower bounds; the network's values are values */
+    unsigned char *lower = data->rgb_lower ? calloc((size_t)ng + data->n_rgb, 1) : NULL;
+    if (!dense || (data->rgb_lower && !lower)) {
         fit_mlp_free(&net);
         free(grid);
+        free(dense);
+        free(lower);
         return gonio_err_set(err, ENOMEM, "abc-pseudo: out of memory");
     }
+    if (lower)
+        memcpy(lower, data->rgb_lower, data->n_rgb);
     /* Measured samples first, then the network's values at the grid. */
     memcpy(dense, data->rgb, data->n_rgb * sizeof *dense);
     size_t n = data->n_rgb;
@@ -73,23 +79,33 @@ int fit_abc_pseudo_fit(const struct fit_data *data, const struct fit_model_optio
     free(grid);
     struct fit_options fo = fit_default_options();
     fo.seed = (unsigned)o.seed;
+    fo.lower_bound = lower;
     struct brdf_abc p;
     struct fit_info info;
     rc = fit_abc(dense, n, &fo, &p, &info, err);
     free(dense);
+    free(lower);
     if (rc)
         return rc;
-    struct fit_model_file *f = fit_abc_model_file(&p);
+    /* What the data can determine is set by the measured geometries, not by
+     * the network's values between them; and the fit has converged only if
+     * both stages did. */
+    size_t g = fit_status_geometries(data->rgb, NULL, data->n_rgb);
+    if (g != (size_t)-1)
+        info.status.geometries = g;
+    if (!tr.early_stopped)
+        info.status.findings |= 1u << FIT_STATUS_NOT_CONVERGED;
+    fit_status_decide(&info.status);
+    struct fit_model_file *f = fit_abc_fitted_file(&p, o.seed, &info);
     if (!f)
         return gonio_err_set(err, ENOMEM, "abc-pseudo: out of memory");
     fit_model_file_set(f, "source", "abc-pseudo");
-    fit_model_file_set(f, "seed", "%llu", (unsigned long long)o.seed);
     fit_model_file_set(f, "samples_measured", "%zu", data->n_rgb);
     fit_model_file_set(f, "samples_pseudo", "%d", ng);
     fit_model_file_set(f, "mlp_loss_heldout", "%.6g", tr.val_loss);
-    fit_model_file_set(f, "cost", "%.6g", info.cost);
     if (rep) {
-        rep->converged = info.converged;
+        rep->converged = info.converged && tr.early_stopped;
+        rep->status = info.status;
         snprintf(rep->note, sizeof rep->note,
                  "MLP %d epochs (held-out loss %.3g); ABC on %zu measured + %d pseudo samples: "
                  "%d iterations, %s", tr.epochs, tr.val_loss, data->n_rgb, ng, info.iterations,

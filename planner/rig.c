@@ -20,6 +20,8 @@ void plan_rig_default(struct plan_rig *rig)
     rig->integration_s = 0.05;
     rig->auto_min_s = 0.001;
     rig->auto_max_s = 2;
+    rig->mech = (struct plan_mechanics){.in_position_deg = 0.1, .approach = 1,
+                                        .move_retries = 3};
 }
 
 int plan_resolve_path(const char *path_or_name, const char *sub, char *out, size_t size)
@@ -51,13 +53,39 @@ static int load_axis(const struct cfg_doc *d, const struct cfg_node *axes, const
     return 1;
 }
 
+/* The optional mechanics section (defaults: plan_rig_default). */
+static int load_mechanics(const struct cfg_doc *d, const struct cfg_node *root,
+                          struct plan_mechanics *m, struct gonio_err *err)
+{
+    static const char *const keys[] = {"in_position_deg", "backlash_deg", "approach",
+                                       "move_retries", NULL};
+    static const char *const sides[] = {"positive", "negative", NULL};
+    const struct cfg_node *map;
+    int side = m->approach > 0 ? 0 : 1;
+    long retries = m->move_retries;
+    int rc = cfg_map(d, root, "mechanics", CFG_OPTIONAL, &map, err);
+    if (rc <= 0)
+        return rc;
+    if ((rc = cfg_check_keys(d, map, "mechanics", keys, err)) < 0 ||
+        (rc = cfg_double(d, map, "in_position_deg", CFG_OPTIONAL, 0.001, 5,
+                         &m->in_position_deg, err)) < 0 ||
+        (rc = cfg_double(d, map, "backlash_deg", CFG_OPTIONAL, 0, 10, &m->backlash_deg,
+                         err)) < 0 ||
+        (rc = cfg_enum(d, map, "approach", CFG_OPTIONAL, sides, &side, err)) < 0 ||
+        (rc = cfg_int(d, map, "move_retries", CFG_OPTIONAL, 0, 20, &retries, err)) < 0)
+        return rc;
+    m->approach = side == 0 ? 1 : -1;
+    m->move_retries = (int)retries;
+    return 0;
+}
+
 int plan_rig_load(const char *path_or_name, struct plan_rig *rig, struct gonio_err *err)
 {
     /* driver/drivers/detector belong to the drivers and the simulator, which
      * check them; the planner only reads motion and timing. */
     static const char *const top_keys[] = {"name", "description", "out_of_plane", "blind_deg",
                                            "settle_s", "integration", "axes", "driver",
-                                           "drivers", "detector", NULL};
+                                           "drivers", "detector", "mechanics", NULL};
     static const char *const int_keys[] = {"fixed_s", "auto_min_s", "auto_max_s", NULL};
     static const char *const axis_keys[] = {"sample", "arm", "azimuth", NULL};
     char path[4096];
@@ -88,7 +116,8 @@ int plan_rig_load(const char *path_or_name, struct plan_rig *rig, struct gonio_e
         (rc = cfg_check_keys(d, axes, "axes", axis_keys, err)) < 0 ||
         (rc = load_axis(d, axes, "sample", 180, &rig->sample, err)) < 0 ||
         (rc = load_axis(d, axes, "arm", 360, &rig->arm, err)) < 0 ||
-        (rc = has_az = load_axis(d, axes, "azimuth", 360, &rig->azimuth, err)) < 0)
+        (rc = has_az = load_axis(d, axes, "azimuth", 360, &rig->azimuth, err)) < 0 ||
+        (rc = load_mechanics(d, root, &rig->mech, err)) < 0)
         goto out;
     if (!cfg_get(d, axes, "sample") || !cfg_get(d, axes, "arm")) {
         rc = cfg_error(d, axes, cfg_get(d, axes, "sample") ? "arm" : "sample", err,

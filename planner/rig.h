@@ -14,6 +14,19 @@ struct plan_axis {
     double min, max;
 };
 
+/* How the rig's drives come to rest (mechanics), for the drivers: a move is
+ * done when the drive rests within in_position_deg of the target; one
+ * resting outside is re-commanded up to move_retries times, approaching
+ * from the reference side (approach: +1 from below, -1 from above) through
+ * a point backlash_deg beyond the target when the rig has backlash. The
+ * planner does not use these (the plan's estimate assumes no re-commands). */
+struct plan_mechanics {
+    double in_position_deg;
+    double backlash_deg; /* 0: direct approach from either side */
+    int approach;        /* +1 positive (from below), -1 negative */
+    int move_retries;
+};
+
 struct plan_rig {
     char name[64];
     struct plan_axis sample;  /* s = theta_i */
@@ -24,6 +37,7 @@ struct plan_rig {
     double settle_s;         /* wait after each move */
     double integration_s;    /* fixed integration (no noise in the scene) */
     double auto_min_s, auto_max_s; /* auto-exposure bounds */
+    struct plan_mechanics mech;
 };
 
 /* The design's default profile (DESIGN.md section 9), without a file. */

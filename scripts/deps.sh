@@ -12,6 +12,8 @@ valgrind"
 # report/: plots to PNG (librsvg, cairo) with a font for their text; chromium
 # opens the study report headless in a test (docs/report.md)
 PACKAGES="$PACKAGES librsvg2-dev libcairo2-dev fonts-dejavu-core chromium"
+# make fuzz (libFuzzer), which CI runs for a few seconds a target (.ci/run)
+PACKAGES="$PACKAGES clang"
 
 missing=""
 for p in $PACKAGES; do

@@ -74,6 +74,8 @@ done
     echo "for (34,144 in-plane nodes of 923,870), not comparable with the other rows. time = wall"
     echo "time of \`gonio fit\` including the truth evaluation."
     echo "Models run:$models."
+    echo "The DS4 rows' in-plane log errors are held by tests/unit/fit/test_ds4_bounds.c (each"
+    echo "figure plus 10 %): regenerate them there when a change moves them on purpose."
     echo
     echo "| material | plan | model | in-plane log | in-plane rel | full log | full rel | time s |"
     echo "|---|---|---|---|---|---|---|---|"

@@ -28,14 +28,16 @@ static void usage(FILE *out)
 {
     fprintf(out,
             "usage: gonio-sim [--scene NAME|FILE] [--material SPEC] [--rig NAME|FILE]\n"
-            "                 [--time-scale K] [--steps-per-deg N] [--link PATH]\n"
+            "                 [--time-scale K] [--steps-per-deg N] [--in-pos-deg D]\n"
+            "                 [--link PATH]\n"
             "                 [--tcp 127.0.0.1:PORT] [--trace] [--check]\n"
             "                 [--stall SLAVE:DEG] [--overload SLAVE:DEG] [--delay SLAVE:MS]\n"
             "                 [--stats FILE] [--baud N] [--tcp-latency MS]\n"
             "  Serves the rig's Modbus bus (docs/protocol-modbus.md) as RTU on a new\n"
             "  pseudo-terminal, whose path is the first line on stdout, and with --tcp\n"
             "  also as Modbus TCP (second line: 'tcp HOST:PORT'; PORT 0 picks one).\n"
-            "  Simulated time runs K times faster than wall time (default 1).\n"
+            "  Simulated time runs K times faster than wall time (default 1). The drives\n"
+            "  report IN-POS within D deg of their target (default 0.05).\n"
             "  --check prints the resolved setup and exits. --stall and --overload put an\n"
             "  obstacle on an axis: moves across it halt there, still moving (stall) or\n"
             "  with alarm 0x30 (overload). --delay makes a slave answer MS ms late.\n"
@@ -69,11 +71,14 @@ int main(int argc, char **argv)
         {"check", no_argument, NULL, 'c'},            {"help", no_argument, NULL, 'h'},
         {"stall", required_argument, NULL, 'S'},      {"overload", required_argument, NULL, 'O'},
         {"delay", required_argument, NULL, 'D'},     {"stats", required_argument, NULL, 'X'},
+        {"in-pos-deg", required_argument, NULL, 'i'},
         {NULL, 0, NULL, 0},
     };
     const char *scene_name = "ideal", *material_spec = NULL, *rig_name = NULL, *link = NULL,
                *tcp = NULL, *stats = NULL;
-    struct msim_cfg cfg = {.time_scale = 1.0, .steps_per_deg = 100.0};
+    /* IN-POS band: the AZ's initial 1.8 deg at the motor (docs/gonio-sim.md)
+     * through the 36:1 reduction that 100 steps/deg at 1000 steps/rev means. */
+    struct msim_cfg cfg = {.time_scale = 1.0, .steps_per_deg = 100.0, .in_pos_deg = 0.05};
     int check = 0, c, n_jams = 0;
     struct {
         enum msim_jam_kind kind;
@@ -91,6 +96,10 @@ int main(int argc, char **argv)
             break;
         case 'n':
             if (parse_positive("--steps-per-deg", optarg, &cfg.steps_per_deg) < 0)
+                return 2;
+            break;
+        case 'i':
+            if (parse_positive("--in-pos-deg", optarg, &cfg.in_pos_deg) < 0)
                 return 2;
             break;
         case 'l': link = optarg; break;
@@ -161,10 +170,10 @@ int main(int argc, char **argv)
         return 2;
     }
     if (check) {
-        printf("scene %s (%s)\nmaterial %s\nrig %s%s\ntime scale %g\nsteps per degree %g\n",
-               scene.name, scene.path, brdf_material_name(material), rig.name,
-               rig.out_of_plane ? " (out of plane: azimuth slave 4)" : "", cfg.time_scale,
-               cfg.steps_per_deg);
+        printf("scene %s (%s)\nmaterial %s\nrig %s%s\ntime scale %g\nsteps per degree %g\n"
+               "IN-POS band %g deg\n", scene.name, scene.path, brdf_material_name(material),
+               rig.name, rig.out_of_plane ? " (out of plane: azimuth slave 4)" : "",
+               cfg.time_scale, cfg.steps_per_deg, cfg.in_pos_deg);
         const struct plan_axis *ax[3] = {&rig.sample, &rig.arm, &rig.azimuth};
         static const char *names[3] = {"sample (slave 1)", "arm (slave 2)", "azimuth (slave 4)"};
         for (int i = 0; i < (rig.out_of_plane ? 3 : 2); i++)

@@ -240,11 +240,18 @@ static void axis_refresh(msim *m, struct msim_axis *ax)
         st |= ST_ALM_A;
     if (moving)
         st |= ST_MOVE;
-    if (!moving && fabs(pos - ax->target_deg) < 0.5 / m->cfg.steps_per_deg)
+    /* IN-POS: the operation has ended and the encoder rests within the
+     * positioning completion band of the target, both in the drive's steps
+     * (a half-step band at least: the drive cannot do better than its
+     * step). Not in alarm. */
+    double spd = m->cfg.steps_per_deg;
+    long steps = lround(pos * spd);
+    double band = fmax(m->cfg.in_pos_deg, 0.5 / spd);
+    if (!moving && !ax->alarm && fabs((double)steps - ax->target_deg * spd) <= band * spd + 1e-6)
         st |= ST_IN_POS;
     put32(r, AX_STATUS, st);
     put32(r, AX_ALARM, (uint32_t)ax->alarm);
-    put32(r, AX_FEEDBACK, (uint32_t)(int32_t)lround(pos * m->cfg.steps_per_deg));
+    put32(r, AX_FEEDBACK, (uint32_t)(int32_t)steps);
 }
 
 static void note_range(double v, double *lo, double *hi)

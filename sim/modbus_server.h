@@ -27,6 +27,11 @@ struct msim_cfg {
     double tcp_latency_s;
     double time_scale;    /* simulated seconds per wall second, > 0 */
     double steps_per_deg; /* drive steps per degree, > 0 */
+    /* The drives' positioning completion band, load degrees: IN-POS turns
+     * on when an operation has ended with the motor this close to its
+     * target (the AZ's "IN-POS positioning completion signal range";
+     * docs/protocol-modbus.md). 0: half a step. */
+    double in_pos_deg;
     int trace;            /* one stderr line per request */
 };
 

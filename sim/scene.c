@@ -196,6 +196,14 @@ static int parse_params(const struct cfg_doc *doc, const struct cfg_node *item,
         if (fx->drop + fx->corrupt + fx->late == 0)
             return cfg_error(doc, item, "drop", err,
                              "comm_faults needs a drop, corrupt or late rate above 0");
+        /* One draw per exchange decides among the three (sim/effects.c): past
+         * a sum of 1 the later rates would silently be less than written. */
+        if (fx->drop + fx->corrupt + fx->late > 1)
+            return cfg_error(doc, item, "drop", err,
+                             "drop + corrupt + late is %g + %g + %g = %g, more than 1 (they "
+                             "are shares of the same exchanges)",
+                             fx->drop, fx->corrupt, fx->late,
+                             fx->drop + fx->corrupt + fx->late);
         break;
     default:
         break;

@@ -116,6 +116,7 @@ struct row_fit {
     const char *model, *status;
     double wall_s, cpu_s;
     int converged;
+    struct fit_status fit; /* the fit's status (fit/fit_status.h) */
     struct brdf_errors plan, inplane, full;
     char note[600];
 };
@@ -150,6 +151,7 @@ static json_t *row_json(const struct row_capture *c, const struct row_fit *f)
     json_object_set_new(o, "fit_wall_s", num(f->wall_s));
     json_object_set_new(o, "fit_cpu_s", num(f->cpu_s));
     json_object_set_new(o, "fit_converged", json_integer(f->converged));
+    study_row_status(o, ok ? &f->fit : NULL);
     json_object_set_new(o, "plan_log", num(ok ? f->plan.log : NAN));
     json_object_set_new(o, "plan_rel_rmse", num(ok ? f->plan.rel_rmse : NAN));
     json_object_set_new(o, "plan_n", ok ? json_integer((json_int_t)f->plan.n_used) : json_null());
@@ -216,6 +218,7 @@ static int fit_one(const struct study_spec *s, size_t mi, const char *jobdir,
         return 0;
     }
     f->converged = rep.converged;
+    f->fit = rep.status;
     snprintf(f->note, sizeof f->note, "%s", rep.note);
     clean_note(f->note);
     char path[4300], spec[4400];

@@ -22,7 +22,12 @@ const struct study_col study_cols[] = {
     {"rig_time_s", STUDY_COL_REAL},    {"move_s", STUDY_COL_REAL},
     {"settle_s", STUDY_COL_REAL},      {"integration_s", STUDY_COL_REAL},
     {"fit_wall_s", STUDY_COL_TIME},    {"fit_cpu_s", STUDY_COL_TIME},
-    {"fit_converged", STUDY_COL_INT},  {"plan_log", STUDY_COL_REAL},
+    {"fit_converged", STUDY_COL_INT},  {"fit_status", STUDY_COL_STR},
+    {"fit_findings", STUDY_COL_STR},   {"fit_geometries", STUDY_COL_INT},
+    {"fit_params", STUDY_COL_INT},     {"fit_rank", STUDY_COL_INT},
+    {"fit_condition", STUDY_COL_REAL}, {"fit_at_bound", STUDY_COL_STR},
+    {"fit_rms_log_insample", STUDY_COL_REAL}, {"fit_rms_log_heldout", STUDY_COL_REAL},
+    {"plan_log", STUDY_COL_REAL},
     {"plan_rel_rmse", STUDY_COL_REAL}, {"plan_n", STUDY_COL_INT},
     {"inplane_log", STUDY_COL_REAL},   {"inplane_rel_rmse", STUDY_COL_REAL},
     {"inplane_n", STUDY_COL_INT},      {"full_log", STUDY_COL_REAL},
@@ -31,6 +36,30 @@ const struct study_col study_cols[] = {
     {"samples_file", STUDY_COL_STR},   {"note", STUDY_COL_STR},
 };
 const size_t study_n_cols = sizeof study_cols / sizeof study_cols[0];
+
+static json_t *real_or_null(double v)
+{
+    return isfinite(v) ? json_real(v) : json_null();
+}
+
+void study_row_status(json_t *row, const struct fit_status *st)
+{
+    char findings[96] = "";
+    if (st)
+        fit_status_findings(st, findings, sizeof findings);
+    json_object_set_new(row, "fit_status",
+                        st ? json_string(fit_status_name(fit_status_code(st))) : json_null());
+    json_object_set_new(row, "fit_findings", st ? json_string(findings) : json_null());
+    json_object_set_new(row, "fit_geometries",
+                        st ? json_integer((json_int_t)st->geometries) : json_null());
+    json_object_set_new(row, "fit_params",
+                        st && st->params >= 0 ? json_integer(st->params) : json_null());
+    json_object_set_new(row, "fit_rank", st && st->rank >= 0 ? json_integer(st->rank) : json_null());
+    json_object_set_new(row, "fit_condition", real_or_null(st ? st->cond : NAN));
+    json_object_set_new(row, "fit_at_bound", st ? json_string(st->at_bound) : json_null());
+    json_object_set_new(row, "fit_rms_log_insample", real_or_null(st ? st->insample : NAN));
+    json_object_set_new(row, "fit_rms_log_heldout", real_or_null(st ? st->heldout : NAN));
+}
 
 static json_t *items_json(const struct study_item *it, size_t n, int with_spec)
 {

@@ -7,6 +7,7 @@
 
 #include <jansson.h>
 
+#include "fit/fit_status.h"
 #include "study/study.h"
 
 #define STUDY_FORMAT "gonio-study-1"
@@ -36,6 +37,10 @@ struct study_col {
 };
 extern const struct study_col study_cols[];
 extern const size_t study_n_cols;
+
+/* The fit_status ... fit_rms_log_heldout columns of a row object from a
+ * fit's status (fit/fit_status.h); st NULL (the fit failed): empty. */
+void study_row_status(json_t *row, const struct fit_status *st);
 
 /* study.json's content (without shard when shard is 0: for comparisons). */
 json_t *study_spec_json(const struct study_spec *s, int with_shard);

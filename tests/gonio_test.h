@@ -38,14 +38,53 @@
         }                                                                               \
     } while (0)
 
-/* The shared data folder, or skip the calling test with a visible message. */
+/* Skips that show. cmocka's skip() only marks the test, and the group still
+ * exits 0, which ctest reports as Passed though nothing ran. Here skip()
+ * counts, and cmocka_run_group_tests returns 77 (ctest's SKIP_RETURN_CODE,
+ * set for every test in cmake/GonioTest.cmake) when a test skipped and none
+ * failed: a partly skipped group is not a pass either. The "SKIPPED: why"
+ * lines are what scripts/ctest-skips.sh lists after make check. */
+static int gonio_test_n_skipped;
+
+#undef skip
+#define skip() (gonio_test_n_skipped++, _skip(__FILE__, __LINE__))
+
+/* Skip the calling test, printing "SKIPPED: " and the reason (printf). */
+#define gonio_test_skip(...)                      \
+    do {                                          \
+        fprintf(stderr, "SKIPPED: " __VA_ARGS__); \
+        fputc('\n', stderr);                      \
+        skip();                                   \
+    } while (0)
+
+static inline int gonio_test_exit(int failed)
+{
+    if (failed || !gonio_test_n_skipped)
+        return failed;
+    fprintf(stderr, "%d test(s) skipped, none failed: exit 77 (reported as skipped)\n",
+            gonio_test_n_skipped);
+    return 77;
+}
+
+#undef cmocka_run_group_tests
+#define cmocka_run_group_tests(group, setup, teardown)                                       \
+    gonio_test_exit(_cmocka_run_group_tests(#group, group, sizeof(group) / sizeof((group)[0]), \
+                                            setup, teardown))
+
+/* The shared data folder, or skip the calling test with a visible message.
+ * With GONIO_REQUIRE_SHARED set (CI, which has the data: .ci/run) a missing
+ * folder fails the test instead, so that no data test is skipped unseen. */
 static inline const char *gonio_test_shared_or_skip(void)
 {
     const char *dir = gonio_shared_dir();
     if (!dir) {
-        fprintf(stderr, "SKIPPED: shared data folder not found (set GONIO_SHARED or put "
-                        "../shared beside the repository)\n");
-        skip();
+        const char *req = getenv("GONIO_REQUIRE_SHARED");
+        if (req && *req && strcmp(req, "0") != 0) {
+            print_error("shared data folder not found, and GONIO_REQUIRE_SHARED is set\n");
+            fail();
+        }
+        gonio_test_skip("shared data folder not found (set GONIO_SHARED or put ../shared "
+                        "beside the repository)");
     }
     return dir;
 }

@@ -25,6 +25,9 @@ BIN = os.environ.get("GONIO_BIN", "build/bin")
 TESTS_BIN = os.environ.get("GONIO_TESTS_BIN", "build/tests")
 SOURCE = os.environ.get("GONIO_SOURCE", os.path.join(os.path.dirname(__file__), "..", ".."))
 GONIOD = os.path.join(BIN, "goniod")
+# The test variant: goniod with the crash torture's hooks compiled in
+# (GONIOD_PHASE_LOG, GONIOD_PHASE_HOLD, GONIO_JOURNAL_TEAR_S; docs/torture.md).
+GONIOD_TEST = os.path.join(BIN, "goniod-test")
 GONIO = os.path.join(BIN, "gonio")
 JOURNAL_POINTS = os.path.join(TESTS_BIN, "journal_points")
 MAX_LINE = 65536  # docs/protocol.md
@@ -163,10 +166,11 @@ class Conn:
 
 class Daemon:
     def __init__(self, folder, pace_s=0.0, extra_socket="", env=None, scene="ideal",
-                 driver=None, command=None):
+                 driver=None, command=None, binary=GONIOD):
         # command: what runs goniod (a wrapper taking goniod's arguments,
         # itself responsible for GONIO_WRAP); default goniod under wrap().
         self.command = command
+        self.binary = binary
         self.folder = folder
         self.sock = os.path.join(folder, "s.sock")
         self.root = os.path.join(folder, "cap")
@@ -191,7 +195,7 @@ class Daemon:
     def start(self):
         logf = open(self.log, "a")
         argv = (self.command + ["--config", self.config] if self.command else
-                wrap([GONIOD, "--config", self.config], self.folder))
+                wrap([self.binary, "--config", self.config], self.folder))
         self.proc = subprocess.Popen(argv, stdout=logf, stderr=logf, env=self.env)
         logf.close()
         deadline = time.time() + START_S
@@ -647,7 +651,7 @@ class CaptureTests(DaemonTest):
         self.assertEqual([e["point"] for e in events], pts)
         self.assertEqual([e["done"] for e in events], list(range(1, total + 1)))
         self.assertEqual([e["seq"] for e in events], list(range(1, total + 1)))
-        # The progressive fit: first at 16 samples, refitted at 32.
+        # The engine's streaming fit (stop: all): first at 16 samples, refitted at 32.
         self.assertTrue(all("fit_log_error" not in e for e in events[:15]))
         fits = [e["fit_log_error"] for e in events[15:]]
         self.assertTrue(all(0 <= f < 1 for f in fits), fits)
@@ -680,7 +684,7 @@ class CaptureTests(DaemonTest):
         c.request("capture", plan="ds3", name="pz")
         time.sleep(0.2)
         self.assertEqual(c.request("pause")["class"], "OK")
-        # The point in progress (and a progressive fit) may still finish:
+        # The point in progress (and a streaming fit round) may still finish:
         # wait until the count holds, then it must keep holding.
         st1 = c.request("status")
         deadline = time.time() + START_S
@@ -728,6 +732,53 @@ class CaptureTests(DaemonTest):
         self.assertTrue(docs[0]["resume"])
         self.assertEqual(docs[-1]["reason"], "complete")
         self.check_complete("ab")
+
+    def test_offline_capture_into_goniods_directory_is_refused(self):
+        # goniod holds the capture directory while the capture runs (here
+        # paused): an offline capture into it writes nothing.
+        c = self.d.connect()
+        c.request("watch")
+        c.request("capture", plan="ds3", name="held")
+        while c.read()["class"] != "event":
+            pass
+        self.assertEqual(c.request("pause")["class"], "OK")
+        capdir = os.path.join(self.d.root, "held")
+        journal = os.path.join(capdir, "samples.csv")
+        # the point in progress is journalled first: wait until the count holds
+        done, deadline = -1, time.time() + START_S
+        while time.time() < deadline:
+            time.sleep(0.3)
+            now = c.request("status")["points_done"]
+            if now == done:
+                break
+            done = now
+        before = open(journal, "rb").read()
+        r = subprocess.run([GONIO, "capture", "--offline", "--scene", "ideal", "--plan", "ds3",
+                            "--out", capdir, "--quiet"], capture_output=True, text=True,
+                           timeout=30)
+        self.assertEqual(r.returncode, 1, r.stderr)
+        self.assertIn("%s: capture directory is in use by pid %d" % (capdir, self.d.proc.pid),
+                      r.stderr)
+        self.assertEqual(open(journal, "rb").read(), before)
+        self.assertFalse(os.path.exists(os.path.join(capdir, "results.json")))
+        self.assertEqual(c.request("resume")["class"], "OK")
+        self.assertEqual(c.until_stop("held")[-1]["reason"], "complete")
+        self.check_complete("held")
+
+    def test_shipped_goniod_reads_no_test_hooks(self):
+        # The crash torture's hooks exist in goniod-test only (docs/torture.md).
+        folder = os.path.join(self.folder, "h")
+        os.makedirs(folder)
+        log = os.path.join(folder, "phases.log")
+        d = Daemon(folder, env={"GONIOD_PHASE_LOG": log, "GONIO_JOURNAL_TEAR_S": "0.01"}).start()
+        try:
+            c = d.connect()
+            c.request("watch")
+            c.request("capture", plan="ds3", name="h")
+            self.assertEqual(c.until_stop("h")[-1]["reason"], "complete")
+        finally:
+            d.stop()
+        self.assertFalse(os.path.exists(log))
 
     def test_second_capture_refused(self):
         c = self.d.connect()
@@ -978,8 +1029,8 @@ class ClientTests(DaemonTest):
         self.assertEqual(self.d.gonio("abort").returncode, 0)
         # idle once the abort is taken, which waits for a fit under way (on
         # a loaded machine the capture may have measured every point and be
-        # in its final fit); a line with the progressive fit's error may
-        # follow when the capture got to FIRST_FIT samples before the abort
+        # in its final fit); a line with the streaming fit's error may
+        # follow when the capture got to 16 samples before the abort
         deadline = time.monotonic() + 60
         while True:
             first = self.d.gonio("status").stdout.split("\n")[0]
@@ -1010,17 +1061,19 @@ def read_samples(path):
     return {int(r[0]): [float(r[8]), float(r[9]), float(r[10])] for r in rows}
 
 
-class ModbusTests(unittest.TestCase):
-    """goniod on the Modbus drivers against gonio-sim (RTU on its pty, and
-    TCP), compared with the in-process simulator."""
+class ModbusRig(unittest.TestCase):
+    """A gonio-sim process (scene ideal, time scale SIM_SCALE) serving RTU on
+    its pty and TCP, for goniod on the Modbus drivers."""
     SIM = os.path.join(BIN, "gonio-sim")
+    SIM_SCALE = 1000
 
     def setUp(self):
         if not os.path.exists(self.SIM):
             self.skipTest("gonio-sim not built")
         self.folder = tmpdir()
         out = open(os.path.join(self.folder, "sim.out"), "w")
-        self.sim = subprocess.Popen(wrap([self.SIM, "--scene", "ideal", "--time-scale", "1000",
+        self.sim = subprocess.Popen(wrap([self.SIM, "--scene", "ideal", "--time-scale",
+                                          "%g" % self.SIM_SCALE,
                                           "--link", os.path.join(self.folder, "tty"), "--tcp",
                                           "127.0.0.1:0"], self.folder), stdout=out,
                                     stderr=open(os.path.join(self.folder, "sim.err"), "w"))
@@ -1057,6 +1110,16 @@ class ModbusTests(unittest.TestCase):
                            timeout=30)
         self.assertEqual(r.returncode, 0, r.stderr)
         return read_samples(os.path.join(out, "samples.csv"))
+
+    def tcp_driver(self, time_scale):
+        return ("  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n  time_scale: %g\n"
+                "  timeout_s: %g\n  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
+                % (self.port, time_scale, 0.5 * SLOW))
+
+
+class ModbusTests(ModbusRig):
+    """goniod on the Modbus drivers against gonio-sim (RTU on its pty, and
+    TCP), compared with the in-process simulator."""
 
     def capture(self, driver, name):
         self.d = Daemon(self.folder, driver=driver).start()
@@ -1108,6 +1171,122 @@ class ModbusTests(unittest.TestCase):
         self.assertEqual(stop["exit_status"], "fail")
         self.assertTrue(stop["message"])
         self.assertEqual(c.request("status")["state"], "idle")
+
+
+def rig_times(capdir):
+    """samples.csv's rig_time_s column, in journal order."""
+    with open(os.path.join(capdir, "samples.csv")) as f:
+        return [float(l.split(",")[12]) for l in f.read().splitlines()[1:]]
+
+
+def load_json(path):
+    with open(path) as f:
+        return json.load(f)
+
+
+class ModbusClockTests(ModbusRig):
+    """The rig clock over Modbus: gonio-sim's clock runs on wall time (x
+    SIM_SCALE), so it keeps running while goniod is dead or the capture is
+    paused; neither may count as rig time. And what goniod cannot know on
+    hardware (the material) gives no truth errors unless the request names
+    a reference."""
+    SIM_SCALE = 10
+
+    def run_capture(self, c, name, **args):
+        c.request("watch")
+        r = c.request("capture", plan="ds3", name=name, **args)
+        self.assertEqual(r["class"], "OK", r)
+        return c.until_stop(name)[-1]
+
+    def test_rig_clock_across_kill9_pause_and_truth(self):
+        self.d = Daemon(self.folder, driver=self.tcp_driver(self.SIM_SCALE)).start()
+        c = self.d.connect()
+        stop = self.run_capture(c, "whole")
+        self.assertEqual(stop["exit_status"], "success", stop)
+        whole_dir = os.path.join(self.d.root, "whole")
+        whole = load_json(os.path.join(whole_dir, "results.json"))
+        # No reference named: no truth errors, nothing claimed about the material.
+        self.assertEqual(sorted(whole["errors"]), ["plan"])
+        self.assertIsNone(whole["truth"])
+        self.assertIsNone(whole["material"])
+        self.assertNotIn("err_full", stop["results"])
+        setup = load_json(os.path.join(whole_dir, "setup.json"))
+        self.assertEqual((setup["driver"], setup["detector"]), ("modbus-tcp", "modbus"))
+        self.assertNotIn("scene", setup)
+        r = subprocess.run([GONIO, "results", whole_dir], capture_output=True, text=True)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn(" - ", r.stdout.splitlines()[1])
+
+        # kill -9 mid-capture; gonio-sim's clock runs on while goniod is down.
+        c.request("capture", plan="ds3", name="cut")
+        while True:
+            d = c.read()
+            if d["class"] == "event" and d["done"] >= 20:
+                break
+        self.d.kill9()
+        time.sleep(1.0)
+        self.d.start()
+        c = self.d.connect()
+        c.request("watch")
+        self.assertEqual(c.request("resume", capture_id="cut")["class"], "OK")
+        self.assertEqual(c.until_stop("cut")[-1]["exit_status"], "success")
+        cut = load_json(os.path.join(self.d.root, "cut", "results.json"))
+
+        # Each capture starts where the last one left the axes: compare the
+        # rig time from the first sample on. Allowed: one point's time on
+        # this rig, bus and journal included, plus half of what they cost
+        # over the whole capture (how much that cost may vary between two
+        # captures on a loaded machine).
+        times = rig_times(whole_dir)
+        one_point = max(b - a for a, b in zip(times, times[1:]))
+        overhead = whole["rig_time_s"] - load_json(
+            os.path.join(self.offline_dir(), "results.json"))["rig_time_s"]
+        allowed = one_point + 0.5 * max(overhead, 0.0)
+
+        def span(name, results):
+            return results["rig_time_s"] - rig_times(os.path.join(self.d.root, name))[0]
+        sys.stderr.write("rig time after the first point: uninterrupted %.2f s, kill -9 and "
+                         "resume %.2f s; one point %.2f s, bus and host %.2f s\n"
+                         % (span("whole", whole), span("cut", cut), one_point, overhead))
+        self.assertLessEqual(abs(span("cut", cut) - span("whole", whole)), allowed)
+        self.assertEqual(rig_times(os.path.join(self.d.root, "cut")),
+                         sorted(rig_times(os.path.join(self.d.root, "cut"))))
+
+        # A pause of 1.5 s wall is 15 s of gonio-sim's clock: paused, not rig time
+        # (the point in progress when it came is finished first).
+        c.request("capture", plan="ds3", name="pz", truth="default")
+        while c.read()["class"] != "event":
+            pass
+        self.assertEqual(c.request("pause")["class"], "OK")
+        time.sleep(1.5)
+        self.assertEqual(c.request("resume")["class"], "OK")
+        stop = c.until_stop("pz")[-1]
+        pz = load_json(os.path.join(self.d.root, "pz", "results.json"))
+        sys.stderr.write("paused 1.5 s wall: rig time after the first point %.2f s, "
+                         "paused_s %.2f s\n" % (span("pz", pz), pz["paused_s"]))
+        self.assertGreaterEqual(pz["paused_s"], 1.5 * self.SIM_SCALE - one_point)
+        self.assertAlmostEqual(stop["paused_s"], pz["paused_s"], places=6)
+        self.assertLessEqual(abs(span("pz", pz) - span("whole", whole)), allowed)
+        # A named reference: truth errors, labelled with it.
+        self.assertEqual(pz["truth"], "builtin:nylon")
+        self.assertIn("full", pz["errors"])
+        self.assertEqual(stop["results"]["truth"], "builtin:nylon")
+
+    def offline_dir(self):
+        self.offline()
+        return os.path.join(self.folder, "offline")
+
+    def test_time_scale_mismatch_is_refused(self):
+        # gonio-sim at x10, goniod told x1: every wait would be 10x off.
+        self.d = Daemon(self.folder, driver=self.tcp_driver(1)).start()
+        c = self.d.connect()
+        stop = self.run_capture(c, "mismatch")
+        self.assertEqual(stop["exit_status"], "fail")
+        self.assertIn("time_scale is 1", stop["message"])
+        self.assertRegex(stop["message"], r"runs at (9\.\d+|10(\.\d+)?) x wall time")
+        self.assertEqual(journal_points(os.path.join(self.d.root, "mismatch", "samples.csv"))
+                         if os.path.exists(os.path.join(self.d.root, "mismatch", "samples.csv"))
+                         else [], [])
 
 
 class NotifyTests(unittest.TestCase):

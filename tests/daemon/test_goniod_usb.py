@@ -74,6 +74,7 @@ class UsbCaptureTests(unittest.TestCase):
     """A 4-point capture: axes on gonio-sim, every reading from the replayed
     USB2000+ (the recording answers each spectrum request the same way)."""
     SIM = g.ModbusTests.SIM
+    SIM_SCALE = g.ModbusTests.SIM_SCALE
     setUp = g.ModbusTests.setUp
     stop_sim = g.ModbusTests.stop_sim
 

@@ -9,10 +9,12 @@ uses.
 import grp
 import json
 import os
+import re
 import shutil
 import socket
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 import unittest
@@ -88,16 +90,23 @@ class AccessTests(DaemonTest):
             sys.stderr.write("(not root or no group dialout: socket group not checked)\n")
         self.assertEqual(self.d.connect().request("status")["class"], "STATUS")
 
-    def test_peer_credentials(self):
+    def restart_reachable(self):
+        """Restart with the socket (group dialout) in a fresh folder anyone
+        may pass: the test's own folder may sit below a 0700 one (a checkout
+        under /root or in mktemp -d) that nobody cannot pass."""
         if os.geteuid() != 0:
             self.skipTest("needs root to connect as other users (SKIPPED: peer credentials)")
-        names = [g.gr_name for g in grp.getgrall()]
-        if "dialout" not in names:
+        if "dialout" not in [g.gr_name for g in grp.getgrall()]:
             self.skipTest("no group dialout to allow (SKIPPED: peer credentials)")
+        folder = tempfile.mkdtemp(prefix="gds", dir="/tmp")
+        self.addCleanup(shutil.rmtree, folder, True)
+        os.chmod(folder, 0o755)
+        self.restart(os.path.join(folder, "s.sock"), "  group: dialout\n")
+
+    def test_peer_credentials(self):
+        self.restart_reachable()
         allowed = grp.getgrnam("dialout").gr_gid
         uid, gid = nobody_ids()
-        self.restart("s.sock", "  group: dialout\n")
-        os.chmod(self.folder, 0o755)  # mkdtemp's 0700 would stop everyone
         # Prints the first line, asks for status, prints every further line
         # up to the end of the stream, then EOF.
         probe = ("print(f.readline().decode().strip())\n"
@@ -133,6 +142,35 @@ class AccessTests(DaemonTest):
         self.assertIn("uid %d" % uid, log)
         # The daemon's own user (root here) is still served.
         self.assertEqual(self.d.connect().request("status")["class"], "STATUS")
+
+    def test_refusals_logged_with_a_count(self):
+        # A stranger connecting in a loop to a socket opened to everyone by
+        # mistake: each connection refused, the first few logged in full,
+        # the rest counted in one line per 10 s window (and at shutdown),
+        # not one line each (~95,000 lines in 5 s before).
+        self.restart_reachable()
+        os.chmod(self.d.sock, 0o666)
+        uid, gid = nobody_ids()
+        n = 300
+        loop = ("refused = [f.readline()]\n"
+                "for _ in range(%d):\n"
+                "    s = socket.socket(socket.AF_UNIX)\n"
+                "    s.settimeout(20)\n"
+                "    s.connect(%r)\n"
+                "    refused.append(s.makefile('rb').readline())\n"
+                "    s.close()\n"
+                "print(sum(b'not-authorized' in r for r in refused))\n" % (n - 1, self.d.sock))
+        t0 = time.time()
+        self.assertEqual(connect_as(self.d.sock, uid, gid, [], loop), [str(n)])
+        windows = (time.time() - t0) // 10 + 1
+        self.d.stop()
+        log = open(self.d.log).read()
+        logged = log.count("refused client")
+        counted = [int(k) for k in re.findall(r"\.\.\. and (\d+) more refused in the last "
+                                              r"\d+ s\n", log)]
+        self.assertEqual(logged + sum(counted), n, log)
+        self.assertLessEqual(logged, 5 * windows, log)
+        self.assertLessEqual(len(counted), windows, log)
 
 
 # ---------------------------------------------------------------------------

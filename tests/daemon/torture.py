@@ -2,8 +2,9 @@
 """Crash torture: SIGKILL goniod in chosen phases of a capture, restart it,
 `gonio resume`, and at the end hold every capture against the truth.
 
-The kills are aimed, not only timed: goniod writes a line per engine phase
-to GONIOD_PHASE_LOG (daemon/worker.c) and pauses in phases named by
+The kills are aimed, not only timed: goniod-test (goniod built with the
+test hooks, GONIO_TEST_HOOKS) writes a line per engine phase to
+GONIOD_PHASE_LOG (daemon/worker.c) and pauses in phases named by
 GONIOD_PHASE_HOLD; the journal writes each record in two halves with
 GONIO_JOURNAL_TEAR_S between them (daemon/journal.c). The torture waits
 for the phase it aims at, kills inside the pause, and then reads the phase
@@ -12,8 +13,9 @@ wrote). Targets rotate through
 
   move     the axes are commanded, goniod waits for them to arrive
   journal  between the two halves of a record's write (a torn record)
-  fit        goniod's progressive fit (at 16, 32, 64... samples and when a
-             resumed capture starts)
+  fit        the engine's streaming fit rounds behind goniod's progress
+             figures (at 16, 32, 64... samples, also while a resumed
+             capture replays its journal)
   final-fit  the engine's final fit, its assessment and results.json
 
 After each kill it checks that the journal, read by daemon/journal.h, holds
@@ -40,8 +42,8 @@ import unittest
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import test_goniod as tg  # noqa: E402  (Daemon, Conn, journal_points)
 
-# Aimed at in turn; "fit" alternates between goniod's progressive fit
-# (logged with its sample count) and the engine's final fit (logged -1).
+# Aimed at in turn; "fit" alternates between the streaming fit's rounds
+# (logged with their sample count) and the engine's final fit (logged -1).
 PHASES = ("move", "journal", "fit", "move", "journal", "final-fit")
 KINDS = ("move", "journal", "fit", "final-fit")
 HOLD_S = 0.04
@@ -163,7 +165,7 @@ class Torture:
         env = {"GONIOD_PHASE_LOG": self.phase_log,
                "GONIOD_PHASE_HOLD": "move=%g,fit=%g" % (HOLD_S, HOLD_S),
                "GONIO_JOURNAL_TEAR_S": "%g" % HOLD_S}
-        self.d = tg.Daemon(folder, pace_s=0.0, env=env)
+        self.d = tg.Daemon(folder, pace_s=0.0, env=env, binary=tg.GONIOD_TEST)
         self.landed = {p: 0 for p in KINDS}
         self.landed_other = {}
         self.torn_seen = 0

@@ -54,6 +54,16 @@ static void write_table(const char *path, int32_t n0, int32_t n1, int32_t n2, si
     fclose(f);
 }
 
+/* Overwrite value number index (after the header) of the table at path. */
+static void set_value(const char *path, size_t index, double v)
+{
+    FILE *f = fopen(path, "r+b");
+    assert_non_null(f);
+    assert_int_equal(fseek(f, 12 + 8 * (long)index, SEEK_SET), 0);
+    assert_int_equal(fwrite(&v, 8, 1, f), 1);
+    fclose(f);
+}
+
 static void expect_refused(const char *path, const char *what)
 {
     struct gonio_err err = {0};
@@ -93,11 +103,29 @@ static void test_damaged_files_refused(void **state)
     write_table(path, 90, 90, 180, full, 1.0, 17, INFINITY);
     expect_refused(path, "infinite");
 
+    /* Every cell unmeasured: refused. Then one cell measured in two of its
+     * three channels (still refused), then in all three (loaded). */
+    snprintf(path, sizeof path, "%s/unmeasured.binary", tmpdir);
+    write_table(path, 90, 90, 180, full, -1.0, SIZE_MAX, 0);
+    expect_refused(path, "no valid cell");
+    write_table(path, 90, 90, 180, full, -1.0, SIZE_MAX, 0);
+    const size_t cell = 12345;
+    set_value(path, cell, 0.5);
+    set_value(path, BRDF_MERL_CELLS + cell, 0.5);
+    expect_refused(path, "no valid cell");
+    write_table(path, 90, 90, 180, full, -1.0, SIZE_MAX, 0);
+    for (int c = 0; c < 3; c++)
+        set_value(path, (size_t)c * BRDF_MERL_CELLS + cell, 0.5);
+    struct gonio_err err = {0};
+    brdf_material *m = brdf_merl_open(path, NULL, &err);
+    assert_non_null(m);
+    brdf_material_free(m);
+    remove(path);
+
     snprintf(path, sizeof path, "%s/tiny.binary", tmpdir);
     write_table(path, 90, 90, 180, 0, 0, SIZE_MAX, 0);
     expect_refused(path, "truncated");
 
-    struct gonio_err err = {0};
     snprintf(path, sizeof path, "%s/absent.binary", tmpdir);
     assert_null(brdf_merl_open(path, NULL, &err));
     assert_int_equal(err.code, GONIO_ENOTFOUND);

@@ -202,6 +202,54 @@ static void test_load_errors(void **state)
     assert_non_null(strstr(err.msg, missing));
 }
 
+/* Write n copies of unit to dir/name and return the path (static buffer). */
+static const char *write_repeated(const char *name, const char *unit, size_t n)
+{
+    static char path[4200];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    for (size_t i = 0; i < n; i++)
+        fputs(unit, f);
+    fclose(f);
+    return path;
+}
+
+/* Hostile files are refused with one error naming the file and the limit:
+ * 40,000 nested flow sequences (3 s of libyaml's quadratic scanning before
+ * the limit), block mappings one level too deep, and 2 MB of list items
+ * (well-formed, so only the size refuses it). Nesting at the limit loads. */
+static void test_limits(void **state)
+{
+    (void)state;
+    struct cfg_doc *d = (struct cfg_doc *)1;
+    struct gonio_err err = {0};
+    const char *path = write_repeated("deep.yaml", "[", 40000);
+    assert_int_equal(cfg_load(path, &d, &err), -GONIO_EBADCONFIG);
+    assert_null(d);
+    assert_non_null(strstr(err.msg, path));
+    assert_non_null(strstr(err.msg, ":1:65: nested deeper than 64 levels"));
+
+    char text[4096] = "";
+    for (int i = 0; i < 64; i++)
+        snprintf(text + strlen(text), sizeof text - strlen(text), "%*sk:\n", i, "");
+    path = write_yaml("block64.yaml", text);
+    assert_int_equal(cfg_load(path, &d, &err), 0);
+    cfg_free(d);
+    snprintf(text + strlen(text), sizeof text - strlen(text), "%*sk: 1\n", 64, "");
+    path = write_yaml("block65.yaml", text);
+    assert_int_equal(cfg_load(path, &d, &err), -GONIO_EBADCONFIG);
+    assert_non_null(strstr(err.msg, ":65:65: nested deeper than 64 levels"));
+
+    path = write_repeated("big.yaml", "- 1\n", 2000000 / 4);
+    assert_int_equal(cfg_load(path, &d, &err), -GONIO_EBADCONFIG);
+    assert_null(d);
+    char want[4400];
+    snprintf(want, sizeof want, "%s: larger than 1048576 bytes, the limit for a YAML file",
+             path);
+    assert_string_equal(err.msg, want);
+}
+
 static void test_sequences(void **state)
 {
     (void)state;
@@ -236,6 +284,7 @@ int main(void)
         cmocka_unit_test(test_good_values),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_load_errors),
+        cmocka_unit_test(test_limits),
         cmocka_unit_test(test_sequences),
     };
     return cmocka_run_group_tests(tests, setup, teardown);

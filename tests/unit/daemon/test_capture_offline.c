@@ -1,12 +1,18 @@
 /* The offline capture engine on the embedded default material: samples are
  * the material's values at the measured axes, the rig clock matches the
- * planner's estimate, a torn journal resumes with every point once, and bad
- * input writes nothing. Runs without the shared data. */
+ * planner's estimate, a torn journal resumes with every point once, a
+ * resume of another scene, material or rig is refused, a directory another
+ * process writes is refused, and bad input writes nothing. Runs without the
+ * shared data. */
+#include <fcntl.h>
+#include <signal.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "brdf/material.h"
+#include "common/paths.h"
 #include "daemon/capture.h"
 #include "daemon/journal.h"
 #include "planner/planner.h"
@@ -198,6 +204,134 @@ static void test_other_capture_in_directory_is_refused(void **state)
     check_samples(out, 52); /* the DS3 capture is untouched */
 }
 
+/* A whole file, for byte-for-byte comparisons (NUL-terminated; free it). */
+static char *slurp(const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    char *buf = malloc(1 << 20);
+    *len = fread(buf, 1, (1 << 20) - 1, f);
+    buf[*len] = '\0';
+    fclose(f);
+    return buf;
+}
+
+static void write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+/* Resume `out` (the DS3 capture of scene ideal) with cfg: refused as bad
+ * input, the message naming want, the journal and setup.json unchanged. */
+static void check_refused(const char *out, const struct capture_config *cfg, const char *want)
+{
+    char path[512], setup[512];
+    snprintf(path, sizeof path, "%s/samples.csv", out);
+    snprintf(setup, sizeof setup, "%s/setup.json", out);
+    size_t len, len2, slen, slen2;
+    char *before = slurp(path, &len), *sbefore = slurp(setup, &slen);
+    struct capture_summary s;
+    struct gonio_err err = {0};
+    int rc = capture_run_offline(cfg, &s, &err);
+    assert_int_equal(rc, -GONIO_EUSAGE);
+    assert_int_equal(gonio_exit_status(rc), 2);
+    if (!strstr(err.msg, want))
+        fail_msg("message '%s' lacks '%s'", err.msg, want);
+    char *after = slurp(path, &len2), *safter = slurp(setup, &slen2);
+    assert_int_equal(len, len2);
+    assert_memory_equal(before, after, len);
+    assert_int_equal(slen, slen2);
+    assert_memory_equal(sbefore, safter, slen);
+    free(before);
+    free(after);
+    free(sbefore);
+    free(safter);
+}
+
+static void test_resume_of_another_setup_is_refused(void **state)
+{
+    (void)state;
+    char out[300], scene[300], rig[300], msg[600];
+    snprintf(out, sizeof out, "%s/full", dir); /* the DS3 capture of scene ideal */
+    struct capture_config cfg = config(out);
+
+    snprintf(scene, sizeof scene, "%s/other.yaml", dir);
+    write_text(scene, "name: other\nmaterial: default\nrig: default\n");
+    cfg.scene = scene;
+    snprintf(msg, sizeof msg, "%s: setup.json has scene 'ideal', this capture asks for 'other'; "
+             "use a new directory", out);
+    check_refused(out, &cfg, msg);
+
+    cfg = config(out);
+    cfg.material = "builtin:red-plastic";
+    check_refused(out, &cfg, "setup.json has material 'builtin:nylon', this capture asks for "
+                  "'builtin:red-plastic'");
+
+    /* The same profile under another name is another rig. */
+    char rigs[600];
+    snprintf(rigs, sizeof rigs, "%s/rigs/default.yaml", gonio_config_dir());
+    char *text = slurp(rigs, &(size_t){0});
+    char *name = strstr(text, "\nname: default\n");
+    assert_non_null(name);
+    snprintf(rig, sizeof rig, "%s/rig.yaml", dir);
+    FILE *f = fopen(rig, "w");
+    fprintf(f, "%.*s\nname: other\n%s", (int)(name - text), text, name + strlen("\nname: default\n"));
+    fclose(f);
+    free(text);
+    cfg = config(out);
+    cfg.rig = rig;
+    check_refused(out, &cfg, "setup.json has rig 'default', this capture asks for 'other'");
+}
+
+/* While another process holds the directory, a capture is refused with
+ * that process's pid and writes nothing. */
+static void test_directory_in_use_is_refused(void **state)
+{
+    (void)state;
+    char out[300], path[400];
+    snprintf(out, sizeof out, "%s/held", dir);
+    assert_int_equal(mkdir(out, 0755), 0);
+    snprintf(path, sizeof path, "%s/lock", out);
+    int ready[2];
+    assert_int_equal(pipe(ready), 0);
+    pid_t child = fork();
+    assert_true(child >= 0);
+    if (child == 0) {
+        int fd = open(path, O_RDWR | O_CREAT, 0644);
+        struct flock fl = {.l_type = F_WRLCK, .l_whence = SEEK_SET};
+        char ok = fd >= 0 && fcntl(fd, F_SETLK, &fl) == 0 ? 'y' : 'n';
+        if (write(ready[1], &ok, 1) != 1)
+            _exit(1);
+        pause();
+        _exit(0);
+    }
+    char ok = 0;
+    assert_int_equal(read(ready[0], &ok, 1), 1);
+    assert_int_equal(ok, 'y');
+    struct capture_config cfg = config(out);
+    struct capture_summary s;
+    struct gonio_err err = {0};
+    int rc = capture_run_offline(&cfg, &s, &err);
+    kill(child, SIGKILL);
+    waitpid(child, NULL, 0);
+    close(ready[0]);
+    close(ready[1]);
+    assert_true(rc < 0);
+    char want[400];
+    snprintf(want, sizeof want, "%s: capture directory is in use by pid %ld", out, (long)child);
+    assert_string_equal(err.msg, want);
+    snprintf(path, sizeof path, "%s/plan.json", out);
+    assert_false(exists(path));
+    snprintf(path, sizeof path, "%s/samples.csv", out);
+    assert_false(exists(path));
+    /* The holder gone, the directory is free again. */
+    assert_int_equal(capture_run_offline(&cfg, &s, &err), 0);
+    check_samples(out, 52);
+}
+
 static enum capture_control abort_after_ten(void *user)
 {
     size_t *calls = user;
@@ -235,6 +369,8 @@ int main(void)
         cmocka_unit_test(test_bad_scene_writes_nothing),
         cmocka_unit_test(test_unknown_material_and_plan_write_nothing),
         cmocka_unit_test(test_other_capture_in_directory_is_refused),
+        cmocka_unit_test(test_resume_of_another_setup_is_refused),
+        cmocka_unit_test(test_directory_in_use_is_refused),
         cmocka_unit_test(test_abort_keeps_data_and_resumes),
     };
     return cmocka_run_group_tests(tests, setup, teardown);

@@ -79,8 +79,7 @@ static void test_other_user(void **state)
 {
     (void)state;
     if (geteuid() != 0) {
-        fprintf(stderr, "SKIPPED test_other_user: needs root to become another user\n");
-        skip();
+        gonio_test_skip("test_other_user: needs root to become another user");
     }
     int status;
     /* A listening socket, and a child that connects as 65534. */

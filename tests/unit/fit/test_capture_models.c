@@ -4,7 +4,8 @@
  * and meets the DS4 target; abc on the same samples of a shiny material
  * does not, so the option changes the fit. abc and abc-prior captures
  * write their parameters as gonio fit's abc model file too (abc-prior with
- * the captured material left out of its prior). Unknown and
+ * the captured material left out of its prior). results.json carries the
+ * final fit's status (fit_status). Unknown and
  * spectral names are refused before anything is written, and a failed
  * final fit keeps the samples. */
 #include "tests/gonio_test.h"
@@ -169,6 +170,13 @@ static void test_latent_capture_ds4(void **state)
     assert_true(json_is_null(json_object_get(root, "uncertainty")));
     double full = jerr(root, "full", "log"), plan = jerr(root, "plan", "log");
     assert_true(full <= 0.12); /* the DS4 target (docs/results-latent.md) */
+    /* six geometries for twelve latents: the status says the prior chose */
+    json_t *st = json_object_get(root, "fit_status");
+    assert_string_equal(json_string_value(json_object_get(st, "status")), "underdetermined");
+    assert_int_equal(json_integer_value(json_object_get(st, "geometries")), 6);
+    assert_int_equal(json_integer_value(json_object_get(st, "params")), 12);
+    assert_true(json_is_null(json_object_get(st, "rank")));
+    assert_int_equal(fit_status_code(&s.status), FIT_STATUS_UNDERDETERMINED);
     json_decref(root);
 
     /* The model file opens through the material interface, and it is the

@@ -224,6 +224,10 @@ static void test_spectral_csv(void **state)
         print_error("%s", errtext);
     assert_int_equal(rc, 0);
     assert_non_null(strstr(out, "samples    180"));
+    /* 30 epochs end at the epoch limit: never "converged" beside it */
+    assert_non_null(strstr(out, "s, not-converged\n"));
+    assert_null(strstr(out, "s, converged"));
+    assert_non_null(strstr(out, "(epoch limit)"));
     free(out);
     free(errtext);
     /* A malformed line: exit 2, the message names file and line. */
@@ -299,6 +303,7 @@ static void test_bad_input(void **state)
         {{"fit", missing, "--model", "abc", NULL}, 4},
         {{"fit", cap, "--model", "abc", "--seed", "x"}, 6},
         {{"fit", cap, "--model", "mlp", "--epochs", "0"}, 6},
+        {{"fit", cap, "--model", "abc", "--saturated", "dropped"}, 6},
     };
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
         char *out, *errtext;

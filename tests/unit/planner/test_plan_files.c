@@ -189,6 +189,16 @@ static void test_bad_rig(void **state)
          "must exceed min"},
         {"  elevation: {speed: 15, accel: 30, min: -170, max: 170}\n", 7, 3,
          "key 'elevation'", "unknown key"},
+        {"  arm: {speed: 15, accel: 30, min: -170, max: 170}\nmechanics: {in_position_deg: 0}\n",
+         8, 30, "key 'in_position_deg'", "out of range"},
+        {"  arm: {speed: 15, accel: 30, min: -170, max: 170}\nmechanics: {backlash_deg: -1}\n",
+         8, 27, "key 'backlash_deg'", "out of range"},
+        {"  arm: {speed: 15, accel: 30, min: -170, max: 170}\nmechanics: {approach: up}\n", 8,
+         23, "key 'approach'", "allowed positive, negative"},
+        {"  arm: {speed: 15, accel: 30, min: -170, max: 170}\nmechanics: {move_retries: 21}\n",
+         8, 27, "key 'move_retries'", "out of range"},
+        {"  arm: {speed: 15, accel: 30, min: -170, max: 170}\nmechanics: {retries: 2}\n", 8, 13,
+         "key 'retries'", "unknown key"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         char text[1024];
@@ -232,6 +242,28 @@ static void test_default_rig(void **state)
     assert_close(rig.arm.min, -170, 0);
     assert_true(rig.out_of_plane);
     assert_true(rig.azimuth.speed > 0 && rig.azimuth.accel > 0);
+    /* the mechanics the drivers use (docs/plans.md) */
+    assert_close(rig.mech.in_position_deg, 0.1, 0);
+    assert_close(rig.mech.backlash_deg, 0.05, 0);
+    assert_int_equal(rig.mech.approach, 1);
+    assert_int_equal(rig.mech.move_retries, 5);
+    /* a profile without them gets the defaults; approach negative is -1 */
+    const char *path = write_yaml("rig.yaml", "out_of_plane: false\nblind_deg: 5\nsettle_s: 0\n"
+                                  "integration: {fixed_s: 0.05, auto_min_s: 0.001, "
+                                  "auto_max_s: 2}\naxes:\n"
+                                  "  sample: {speed: 20, accel: 40, min: -90, max: 90}\n"
+                                  "  arm: {speed: 15, accel: 30, min: -170, max: 170}\n");
+    assert_int_equal(plan_rig_load(path, &rig, &err), 0);
+    assert_close(rig.mech.in_position_deg, 0.1, 0);
+    assert_close(rig.mech.backlash_deg, 0, 0);
+    assert_int_equal(rig.mech.move_retries, 3);
+    FILE *f = fopen(path, "a");
+    assert_non_null(f);
+    fputs("mechanics: {approach: negative, in_position_deg: 0.02}\n", f);
+    fclose(f);
+    assert_int_equal(plan_rig_load(path, &rig, &err), 0);
+    assert_int_equal(rig.mech.approach, -1);
+    assert_close(rig.mech.in_position_deg, 0.02, 0);
 }
 
 static void test_declared_fields(void **state)

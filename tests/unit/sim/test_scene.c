@@ -135,6 +135,8 @@ static void test_bad_effects_refused_at_their_position(void **state)
     CASE("  - {name: stall, at_moves: [2.5]}\n", 3, 30, "at_moves", "not an integer");
     CASE("  - {name: comm_faults, drop: 0.9}\n", 3, 31, "drop", "0.9");
     CASE("  - {name: comm_faults, timeout_s: 1}\n", 3, 5, "drop", "above 0");
+    CASE("  - {name: comm_faults, drop: 0.5, corrupt: 0.5, late: 0.5}\n", 3, 5, "drop",
+         "drop + corrupt + late is 0.5 + 0.5 + 0.5 = 1.5, more than 1");
     CASE("  - dark\n", 3, 5, "rate_e_per_s", "needs parameters");
     CASE("  - shot_noise\n  - shot_noise\n", 4, 5, "name", "named twice (first at line 3)");
     CASE("  - {name: lamp_drift, sigma: \"0.1\"}\n", 3, 31, "sigma", "");

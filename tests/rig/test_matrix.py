@@ -1,0 +1,145 @@
+"""The rig matrix: goniod over Modbus RTU (gonio-sim's pty) and Modbus TCP
+against gonio-sim on the scenes ideal, lab and bad-day, plan DS3.
+
+Every capture completes with every planned point exactly once; bad-day's
+arm stall (alarm 0x10 on its 30th move command) is recovered, and
+results.json counts as many recovered alarms as gonio-sim raised; the
+ideal capture's samples equal the in-process `gonio capture --offline`
+capture's: the angles bit for bit, the RGB bit for bit at the bus's
+precision (binary32, docs/protocol-modbus.md).
+
+Under make check-valgrind (GONIO_WRAP) goniod and gonio-sim run on memcheck;
+the matrix then runs its diagonal only (ideal over RTU, lab over TCP,
+bad-day over RTU), which still takes every scene and transport through
+memcheck (docs/testing-memory.md)."""
+import json
+import os
+import shutil
+import signal
+import struct
+import subprocess
+import sys
+import time
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "daemon"))
+import test_goniod as tg  # noqa: E402  (Daemon, wrap, valgrind checks)
+
+SCALE = 1000
+PLAN = "ds3"
+POINTS = 52
+SCENES = ("ideal", "lab", "bad-day")
+TRANSPORTS = ("rtu", "tcp")
+CASES = ([("ideal", "rtu"), ("lab", "tcp"), ("bad-day", "rtu")] if tg.VALGRIND else
+         [(s, t) for s in SCENES for t in TRANSPORTS])
+
+
+def read_rows(path):
+    """samples.csv rows by point, as the text fields (exact values)."""
+    with open(path) as f:
+        lines = f.read().splitlines()
+    header = lines[0].split(",")
+    points = [int(l.split(",", 1)[0]) for l in lines[1:]]
+    rows = {int(l.split(",", 1)[0]): dict(zip(header, l.split(","))) for l in lines[1:]}
+    return points, rows
+
+
+class Sim:
+    """gonio-sim on a scene, RTU on its pty and TCP on loopback."""
+
+    def __init__(self, folder, scene):
+        self.folder = folder
+        self.stats = os.path.join(folder, "sim-stats.json")
+        out = os.path.join(folder, "sim.out")
+        self.proc = subprocess.Popen(
+            tg.wrap([os.path.join(tg.BIN, "gonio-sim"), "--scene", scene, "--time-scale",
+                     str(SCALE), "--tcp", "127.0.0.1:0", "--stats", self.stats], folder),
+            stdout=open(out, "w"), stderr=open(os.path.join(folder, "sim.err"), "w"))
+        deadline = time.time() + tg.START_S
+        text = ""
+        while time.time() < deadline and "tcp" not in text:
+            time.sleep(0.05)
+            text = open(out).read()
+        lines = text.splitlines()
+        assert len(lines) == 2, text
+        self.pty = lines[0]
+        self.port = int(lines[1].rsplit(":", 1)[1])
+
+    def driver(self, transport):
+        where = ("  kind: modbus-rtu\n  device: %s\n  baud: 115200\n" % self.pty
+                 if transport == "rtu" else
+                 "  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n" % self.port)
+        return where + ("  time_scale: %d\n  timeout_s: %g\n  slaves: {sample: 1, arm: 2, "
+                        "detector: 3, azimuth: 4}\n" % (SCALE, 0.1 * tg.SLOW))
+
+    def stop(self):
+        """SIGTERM; gonio-sim's stats (it writes them at exit)."""
+        self.proc.send_signal(signal.SIGTERM)
+        assert self.proc.wait(timeout=2 * tg.START_S) == 0
+        with open(self.stats) as f:
+            return json.load(f)
+
+
+def capture(folder, scene, transport):
+    """One goniod capture of DS3; (stop document, capture dir, gonio-sim stats)."""
+    sim = Sim(folder, scene)
+    d = None
+    try:
+        d = tg.Daemon(folder, driver=sim.driver(transport)).start()
+        c = d.connect()
+        c.request("watch")
+        reply = c.request("capture", plan=PLAN, name="m")
+        assert reply["class"] == "OK", reply
+        stop = c.until_stop("m")[-1]
+    finally:
+        if d:
+            d.stop()
+        stats = sim.stop()
+    tg.assert_valgrind_clean(folder)
+    return stop, os.path.join(d.root, "m"), stats
+
+
+def offline_ideal(folder):
+    out = os.path.join(folder, "offline")
+    r = subprocess.run([os.path.join(tg.BIN, "gonio"), "capture", "--offline", "--scene", "ideal",
+                        "--plan", PLAN, "--out", out, "--quiet"], capture_output=True, text=True,
+                       timeout=4 * tg.START_S)
+    assert r.returncode == 0, r.stderr
+    return read_rows(os.path.join(out, "samples.csv"))[1]
+
+
+def binary32(text):
+    return struct.unpack("f", struct.pack("f", float(text)))[0]
+
+
+@pytest.mark.parametrize("scene,transport", CASES)
+def test_capture(scene, transport):
+    folder = tg.tmpdir()
+    try:
+        stop, capdir, sim_stats = capture(folder, scene, transport)
+        assert stop["reason"] == "complete", stop
+        points, rows = read_rows(os.path.join(capdir, "samples.csv"))
+        assert sorted(points) == list(range(POINTS))  # none lost, none twice
+        with open(os.path.join(capdir, "results.json")) as f:
+            mech = json.load(f)["mechanics"]
+        raised = sum(ax["alarms"] for ax in sim_stats["axes"].values())
+        assert mech["alarms_recovered"] == raised
+        sent = sum(ax["moves"] + ax["refused"] for ax in sim_stats["axes"].values())
+        assert mech["moves"] <= sent  # a retried command may reach the drive twice
+        if scene == "bad-day":
+            assert raised >= 1  # the arm's stall on its 30th move command
+            assert sim_stats["axes"]["arm"]["alarms"] >= 1
+        if scene == "ideal":
+            assert mech["recommands"] == 0 and raised == 0
+            want = offline_ideal(folder)
+            for p in range(POINTS):
+                for key in ("theta_i", "theta_r", "phi_o", "s", "a"):
+                    assert rows[p][key] == want[p][key], (p, key, rows[p], want[p])
+                for key in ("r", "g", "b"):
+                    assert float(rows[p][key]) == binary32(want[p][key]), (p, key)
+        sys.stderr.write("matrix %s/%s: %d requests, mechanics %s\n" % (
+            scene, transport, stop["comm"]["requests"], json.dumps(mech)))
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)

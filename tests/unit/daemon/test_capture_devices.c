@@ -1,0 +1,270 @@
+/* The engine on a host's devices, as goniod's Modbus rig hands them over:
+ * no scene is loaded and no truth errors are written unless the request
+ * names a reference (then labelled with it); the rig clock continues across
+ * a resume although the host's clock restarts with every opening (as the
+ * Modbus clock counts from its creation), and clock that ran while the host
+ * held the capture paused is reported apart. The host builds its devices
+ * over an in-process simulated rig the engine knows nothing of, kept (with
+ * its axes where they are) from one opening to the next as gonio-sim is, so
+ * the figures are exact. Runs without the shared data. */
+#include <string.h>
+#include <sys/stat.h>
+
+#include <jansson.h>
+
+#include "brdf/material.h"
+#include "daemon/capture.h"
+#include "drivers/drivers_private.h"
+#include "drivers/drv_sim.h"
+#include "sim/sim.h"
+#include "tests/gonio_test.h"
+
+static char dir[256];
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(dir, sizeof dir, "/tmp/gonio-capdev-XXXXXX");
+    return mkdtemp(dir) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[300];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    return system(cmd);
+}
+
+/* A host whose rig is a simulated one of the embedded default material,
+ * created at the first opening and kept until host_done. control: abort at
+ * the abort_at-th point boundary; at the pause_at-th, let pause_s of rig
+ * clock run and report the pause. */
+struct host {
+    brdf_material *material;
+    struct plan_rig rig; /* the sim keeps a pointer: the host's own copy */
+    sim_rig *sim;
+    size_t calls, abort_at, pause_at;
+    double pause_s;
+};
+
+/* The host's rig clock: the simulated time since the devices opened. */
+struct opened_clock {
+    sim_rig *sim;
+    double t0;
+};
+
+static double opened_now(void *priv)
+{
+    struct opened_clock *c = priv;
+    return sim_rig_now(c->sim) - c->t0;
+}
+
+static int opened_sleep(void *priv, double seconds)
+{
+    struct opened_clock *c = priv;
+    if (seconds > 0)
+        sim_rig_advance(c->sim, seconds);
+    return 0;
+}
+
+static const struct drv_clock_ops opened_clock_ops = {
+    .name = "test-opened",
+    .now = opened_now,
+    .sleep = opened_sleep,
+    .free_priv = free,
+};
+
+static int open_devices(void *user, const struct plan_rig *rig, struct capture_devices *d,
+                        struct gonio_err *err)
+{
+    struct host *h = user;
+    if (!h->sim) {
+        h->rig = *rig;
+        if (!(h->sim = sim_rig_new(&h->rig, h->material, err)))
+            return -GONIO_EDEVICE;
+    }
+    struct opened_clock *c = malloc(sizeof *c);
+    assert_non_null(c);
+    *c = (struct opened_clock){h->sim, sim_rig_now(h->sim)};
+    memset(d, 0, sizeof *d);
+    d->sample = drv_axis_new_sim(h->sim, SIM_AXIS_SAMPLE);
+    d->arm = drv_axis_new_sim(h->sim, SIM_AXIS_ARM);
+    d->azimuth = drv_axis_new_sim(h->sim, SIM_AXIS_AZIMUTH);
+    d->detector = drv_detector_new_sim(h->sim);
+    d->clock = drv_clock_alloc(&opened_clock_ops, c);
+    return 0;
+}
+
+static void close_devices(void *user, struct capture_devices *d)
+{
+    (void)user;
+    drv_axis_free(d->sample);
+    drv_axis_free(d->arm);
+    drv_axis_free(d->azimuth);
+    drv_detector_free(d->detector);
+    drv_clock_free(d->clock);
+}
+
+/* The rig of the next capture starts afresh. */
+static void host_done(struct host *h)
+{
+    sim_rig_free(h->sim);
+    h->sim = NULL;
+}
+
+static enum capture_control control(void *user)
+{
+    struct host *h = user;
+    h->calls++;
+    if (h->abort_at && h->calls == h->abort_at)
+        return CAPTURE_ABORT;
+    if (h->pause_at && h->calls == h->pause_at) {
+        sim_rig_advance(h->sim, h->pause_s); /* the rig's clock runs on */
+        return CAPTURE_PAUSED;
+    }
+    return CAPTURE_GO;
+}
+
+static int run(const char *name, const char *truth, struct host *h, struct capture_summary *s,
+               struct gonio_err *err)
+{
+    char out[300];
+    snprintf(out, sizeof out, "%s/%s", dir, name);
+    struct capture_config cfg = {.plan = "ds3", .rig = "default", .truth = truth,
+                                 .driver = "modbus-tcp", .detector = "modbus", .model = "abc",
+                                 .out_dir = out, .quiet = 1,
+                                 .assess_nodes = gonio_test_assess_nodes()};
+    struct capture_hooks hooks = {.open_devices = open_devices, .close_devices = close_devices,
+                                  .control = control, .user = h};
+    h->calls = 0;
+    return capture_run(&cfg, &hooks, s, err);
+}
+
+static json_t *load(const char *name, const char *file)
+{
+    char path[400];
+    snprintf(path, sizeof path, "%s/%s/%s", dir, name, file);
+    json_t *j = json_load_file(path, 0, NULL);
+    assert_non_null(j);
+    return j;
+}
+
+static struct host new_host(void)
+{
+    struct gonio_err err;
+    struct host h = {.material = brdf_material_open("default", &err)};
+    assert_non_null(h.material);
+    return h;
+}
+
+static void test_no_reference_no_truth_errors(void **state)
+{
+    (void)state;
+    struct host h = new_host();
+    struct capture_summary s;
+    struct gonio_err err = {0};
+    assert_int_equal(run("hw", NULL, &h, &s, &err), 0);
+    host_done(&h);
+    assert_int_equal(s.samples, 52);
+    assert_false(s.has_truth);
+    assert_string_equal(s.material, "");
+    json_t *r = load("hw", "results.json");
+    json_t *errors = json_object_get(r, "errors");
+    assert_non_null(json_object_get(errors, "plan"));
+    assert_null(json_object_get(errors, "inplane"));
+    assert_null(json_object_get(errors, "full"));
+    assert_true(json_is_null(json_object_get(r, "truth")));
+    assert_true(json_is_null(json_object_get(r, "material")));
+    json_decref(r);
+    /* What is known of the rig, and no scene or material nobody gave. */
+    json_t *su = load("hw", "setup.json");
+    assert_string_equal(json_string_value(json_object_get(su, "driver")), "modbus-tcp");
+    assert_string_equal(json_string_value(json_object_get(su, "detector")), "modbus");
+    assert_null(json_object_get(su, "scene"));
+    assert_null(json_object_get(su, "material"));
+    json_decref(su);
+    brdf_material_free(h.material);
+}
+
+static void test_named_reference_labels_truth_errors(void **state)
+{
+    (void)state;
+    struct host h = new_host();
+    struct capture_summary s;
+    struct gonio_err err = {0};
+    assert_int_equal(run("hw-truth", "default", &h, &s, &err), 0);
+    host_done(&h);
+    assert_true(s.has_truth);
+    /* the host's rig measures the default material: a small error against it */
+    assert_true(s.err_full.log > 0 && s.err_full.log < 0.1);
+    json_t *r = load("hw-truth", "results.json");
+    assert_string_equal(json_string_value(json_object_get(r, "truth")),
+                        brdf_material_default_spec());
+    assert_non_null(json_object_get(json_object_get(r, "errors"), "full"));
+    json_decref(r);
+    brdf_material_free(h.material);
+}
+
+/* The largest rig time between two consecutive samples: one point's time. */
+static double max_point_time(const char *name)
+{
+    char path[400];
+    snprintf(path, sizeof path, "%s/%s/samples.csv", dir, name);
+    struct journal_sample *js;
+    size_t n;
+    assert_int_equal(journal_read(path, &js, &n, NULL), 0);
+    double worst = n ? js[0].rig_time_s : 0;
+    for (size_t i = 1; i < n; i++)
+        if (js[i].rig_time_s - js[i - 1].rig_time_s > worst)
+            worst = js[i].rig_time_s - js[i - 1].rig_time_s;
+    free(js);
+    return worst;
+}
+
+static void test_rig_clock_continues_and_pause_is_apart(void **state)
+{
+    (void)state;
+    struct host h = new_host();
+    struct capture_summary whole, part, paused;
+    struct gonio_err err = {0};
+    assert_int_equal(run("whole", NULL, &h, &whole, &err), 0);
+    host_done(&h);
+    assert_true(whole.rig_time_s > 0);
+    assert_true(whole.paused_s == 0);
+
+    /* Interrupted after 20 points, resumed on a clock that starts at 0. */
+    h.abort_at = 21;
+    assert_int_equal(run("part", NULL, &h, &part, &err), 0);
+    assert_string_equal(part.stop_reason, "aborted");
+    h.abort_at = 0;
+    assert_int_equal(run("part", NULL, &h, &part, &err), 0);
+    assert_int_equal(part.samples, 52);
+    host_done(&h);
+    double one_point = max_point_time("whole");
+    fprintf(stderr, "# rig time uninterrupted %.3f s, interrupted and resumed %.3f s "
+            "(one point: at most %.3f s)\n", whole.rig_time_s, part.rig_time_s, one_point);
+    assert_true(fabs(part.rig_time_s - whole.rig_time_s) <= one_point);
+
+    /* 100 s of rig clock while paused: reported apart, not rig time. */
+    h.pause_at = 10;
+    h.pause_s = 100;
+    assert_int_equal(run("paused", NULL, &h, &paused, &err), 0);
+    host_done(&h);
+    assert_close(paused.paused_s, 100, 1e-9);
+    assert_close(paused.rig_time_s, whole.rig_time_s, 1e-9);
+    json_t *r = load("paused", "results.json");
+    assert_close(json_real_value(json_object_get(r, "paused_s")), 100, 1e-9);
+    json_decref(r);
+    brdf_material_free(h.material);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_no_reference_no_truth_errors),
+        cmocka_unit_test(test_named_reference_labels_truth_errors),
+        cmocka_unit_test(test_rig_clock_continues_and_pause_is_apart),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
