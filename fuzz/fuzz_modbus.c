@@ -159,7 +159,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             drv_axis_stop(ax, &err);
             break;
         case 5:
-            drv_axis_modbus_alarm_reset(ax, &err);
+            drv_axis_alarm_reset(ax, &err);
             break;
         case 6:
             if (clk)
