@@ -15,7 +15,7 @@
  * and the axes read status and position with requests of different sizes,
  * so one that slips through fails the size check instead. An exception
  * answer, a stalled move, or a drive alarm or a miss of the in-position
- * band that the axis's tries could not recover (drv_axis_new_modbus) fails
+ * band that the axis's tries could not recover (drivers.h) fails
  * with -GONIO_EDEVICE; the message names the device, the register and the
  * problem, e.g. "axis arm (slave 2): drive alarm 0x30 (overload)". */
 #ifndef GONIO_DRIVERS_DRV_MODBUS_H
@@ -72,19 +72,13 @@ struct drv_modbus_stats {
 void drv_modbus_bus_stats(const drv_modbus_bus *bus, struct drv_modbus_stats *out);
 
 /* Axis options beyond the rig profile: the drive's steps and the rig's
- * mechanics (planner/rig.h struct plan_mechanics, docs/plans.md). */
+ * mechanics (planner/rig.h struct plan_mechanics, docs/plans.md), as
+ * drivers.h's struct drv_axis_mechanics takes them. */
 struct drv_modbus_axis_opts {
-    double steps_per_deg; /* drive steps per degree; 0: 100 */
-    /* A move is done when the drive reports IN-POS or rests within this of
-     * the target. 0: half a step. */
-    double in_position_deg;
-    /* Backlash: every target is approached from the reference side
-     * (approach +1: from below, -1: from above), through a point
-     * backlash_deg beyond it when the axis would arrive from the other
-     * side. 0: direct moves. */
-    double backlash_deg;
-    int approach; /* 0: +1 */
-    /* Re-commands and alarm recoveries before a move fails. */
+    double steps_per_deg;   /* drive steps per degree; 0: 100 */
+    double in_position_deg; /* 0: half a step */
+    double backlash_deg;    /* 0: direct moves */
+    int approach;           /* -1: from above; 0, +1: from below */
     int move_retries;
 };
 
