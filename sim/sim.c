@@ -94,6 +94,11 @@ void sim_rig_free(sim_rig *rig)
     free(rig);
 }
 
+const struct plan_rig *sim_rig_profile(const sim_rig *rig)
+{
+    return rig->profile;
+}
+
 double sim_rig_now(const sim_rig *rig)
 {
     return rig->now;

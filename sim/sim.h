@@ -34,6 +34,9 @@ sim_rig *sim_rig_new_scene(const struct plan_rig *profile, const brdf_material *
                            const struct sim_scene *scene, const char *out_dir,
                            struct gonio_err *err);
 
+/* The rig profile the rig runs (its axes and mechanics). */
+const struct plan_rig *sim_rig_profile(const sim_rig *rig);
+
 /* Simulated time, seconds since the rig was created. */
 double sim_rig_now(const sim_rig *rig);
 void sim_rig_advance(sim_rig *rig, double seconds);
