@@ -804,13 +804,21 @@ class CaptureTests(DaemonTest):
         self.assertEqual(r["code"], "bad-value")
         r = c.request("capture")
         self.assertEqual(r["code"], "bad-value")
-        # An unknown plan is found by the engine: the stop document says so.
-        r = c.request("capture", plan="no-such-plan", name="np")
-        self.assertEqual(r["class"], "OK")
-        stop = c.until_stop("np")[-1]
-        self.assertEqual(stop["exit_status"], "fail")
-        self.assertIn("no-such-plan", stop["message"])
-        self.assertEqual(c.request("status")["state"], "idle")
+        # Everything the engine reads is checked before the reply, by the
+        # engine's own resolution: an ERROR naming the value, and nothing
+        # created (no directory, no request.json).
+        for field, value in (("plan", "no-such-plan"), ("scene", "no-such-scene"),
+                             ("rig", "no-such-rig"), ("material", "nbrdf:no-such-material"),
+                             ("truth", "builtin:no-such-truth"), ("stop", "sometimes")):
+            args = {"plan": "ds3", "name": "np"}
+            args[field] = value
+            r = c.request("capture", **args)
+            self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-value"), (field, r))
+            self.assertIn(value, r["message"], field)
+            self.assertFalse(os.path.exists(os.path.join(self.d.root, "np")), field)
+        # No capture ran: status has none to show.
+        st = c.request("status")
+        self.assertEqual((st["state"], st["capture"]), ("idle", None))
 
     def test_capture_models(self):
         """Any RGB model of the registry is a capture's final fit; every
@@ -978,17 +986,90 @@ class ClientTests(DaemonTest):
         self.assertEqual(r.returncode, 0, r.stderr)
         lines = r.stdout.splitlines()
         total = plan_total(os.path.join(self.d.root, "cw"))
-        # Not a terminal: one plain progress line per sample.
-        progress = [l for l in lines if re.match(r"cw: \d+/%d points, rig time" % total, l)]
-        self.assertEqual(len(progress), total)
+        with open(os.path.join(self.d.root, "cw", "plan.json")) as f:
+            estimate = json.load(f)["estimate"]["total_s"]  # ideal: fixed integration
+        est = "%d:%02d" % divmod(round(estimate), 60)
+        self.assertIn("capture cw: plan ds3, %d points, estimated rig time %s" % (total, est),
+                      lines)
+        # Progress on stderr, not a terminal: plain lines, the first and one
+        # a tenth; the first already has an ETA, from the plan's estimate.
+        progress = [l for l in r.stderr.splitlines()
+                    if re.match(r"cw: \d+/%d points, rig time" % total, l)]
+        self.assertLessEqual(len(progress), 11)
+        self.assertRegex(progress[0], r"of ~%s estimated, ETA \d+:\d\d" % est)
         self.assertIn("%d/%d points" % (total, total), progress[-1])
-        self.assertIn("ETA 0 s", progress[-1])
+        self.assertIn("ETA 0:00", progress[-1])
+        self.assertFalse(any(re.match(r"cw: \d+/", l) for l in lines))  # not on stdout
         self.assertTrue(any("stopped: complete" in l for l in lines))
         r = self.d.gonio("status", "--json")
         st = json.loads(r.stdout)
         self.assertEqual(st["fit_error"]["capture_id"], "cw")
+        self.assertEqual((st["capture"]["capture_id"], st["capture"]["state"]), ("cw", "complete"))
+        self.assertEqual(st["capture"]["points_done"], total)
+        self.assertAlmostEqual(st["capture"]["estimate_s"], estimate, delta=1e-6)
         r = self.d.gonio("status")
         self.assertIn("fit (cw, %d samples): log error" % total, r.stdout)
+        self.assertIn("capture cw: complete, %d/%d points" % (total, total), r.stdout)
+        # --quiet: the results without the progress.
+        r = self.d.gonio("capture", "--plan", "ds4", "--name", "cq", "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertEqual(r.stderr, "")
+        self.assertIn("stopped: complete", r.stdout)
+
+    def test_bad_request_creates_nothing(self):
+        """gonio capture --plan nosuch used to print 'started', exit 0 and
+        leave a directory holding request.json; goniod now checks first."""
+        for args, value in ((("--plan", "nosuch"), "nosuch"),
+                            (("--plan", "ds3", "--scene", "nosuch-scene"), "nosuch-scene"),
+                            (("--plan", "ds3", "--order", "sideways"), "sideways")):
+            r = self.d.gonio("capture", "--name", "bad", *args)
+            self.assertEqual(r.returncode, 2, (args, r.stdout, r.stderr))
+            self.assertIn(value, r.stderr)
+            self.assertNotIn("started", r.stdout)
+            self.assertFalse(os.path.exists(os.path.join(self.d.root, "bad")), args)
+        self.assertEqual(self.d.gonio("status").stdout, "goniod idle\n")
+
+    def test_status_names_a_failed_capture(self):
+        """A capture that fails once started: status says so, with why."""
+        r = self.d.gonio("capture", "--plan", "ds4", "--name", "fl", "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        journal = os.path.join(self.d.root, "fl", "samples.csv")
+        with open(journal) as f:
+            lines = f.readlines()
+        lines[2] = lines[2].replace(",", ";", 1)  # a bad record that is not the last
+        with open(journal, "w") as f:
+            f.writelines(lines)
+        self.assertEqual(self.d.gonio("resume", "fl").returncode, 0)
+        deadline = time.monotonic() + 2 * START_S
+        while True:
+            st = json.loads(self.d.gonio("status", "--json").stdout)
+            if st["capture"]["state"] != "running" or time.monotonic() > deadline:
+                break
+            time.sleep(0.05)
+        self.assertEqual((st["state"], st["capture"]["capture_id"], st["capture"]["state"]),
+                         ("idle", "fl", "failed"))
+        self.assertIn("samples.csv", st["capture"]["message"])
+        out = self.d.gonio("status").stdout
+        self.assertIn("capture fl: failed", out)
+        self.assertIn(st["capture"]["message"], out)
+
+    def test_watch_shows_pause_and_resume(self):
+        env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
+        w = subprocess.Popen([GONIO, "capture", "--plan", "ds3", "--name", "pw", "--wait"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        deadline = time.monotonic() + 2 * START_S
+        while not (json.loads(self.d.gonio("status", "--json").stdout)["capture"] or
+                   {}).get("points_total"):
+            self.assertLess(time.monotonic(), deadline)
+            time.sleep(0.02)
+        self.assertEqual(self.d.gonio("pause").returncode, 0)
+        out = self.d.gonio("status").stdout
+        self.assertIn("capture pw: paused", out)
+        self.assertRegex(out, r"of ~\d+:\d\d estimated, ETA \d+:\d\d")
+        self.assertEqual(self.d.gonio("resume").returncode, 0)
+        stdout, stderr = w.communicate(timeout=2 * START_S)
+        self.assertEqual(w.returncode, 0, stderr)
+        self.assertIn("capture pw paused\ncapture pw resumed\n", stderr)
 
     def test_capture_model(self):
         r = self.d.gonio("capture", "--plan", "ds4", "--model", "nonsense")
@@ -1009,7 +1090,7 @@ class ClientTests(DaemonTest):
         self.assertEqual(r.returncode, 1)
         self.assertIn("nothing-here", r.stderr)
         r = self.d.gonio("capture", "--plan", "/etc/passwd")
-        self.assertEqual(r.returncode, 1)
+        self.assertEqual(r.returncode, 2)
         self.assertIn("capture root", r.stderr)
         self.assertEqual(self.d.gonio("capture").returncode, 2)
         self.assertEqual(self.d.gonio("capture", "--plan", "ds3", "--stop", "x").returncode, 2)
