@@ -10,8 +10,10 @@ Run from ctest (the environment names the binaries), or by hand:
 import glob
 import json
 import os
+import pty
 import random
 import re
+import select
 import shutil
 import signal
 import socket
@@ -1427,6 +1429,115 @@ class NotifyTests(unittest.TestCase):
             self.assertFalse(any("WATCHDOG=1" in g for g in got), got)
         finally:
             shutil.rmtree(folder, ignore_errors=True)
+
+# ---------------------------------------------------------------------------
+
+def run_on_pty(argv, env, interrupt_at=None, interrupt_after_s=None, timeout=120):
+    """Run argv with a pseudo-terminal as its stdin, stdout and stderr (what
+    an operator's terminal is). Send SIGINT once the output matches the
+    regex interrupt_at, or interrupt_after_s seconds after the start.
+    Returns (exit status, everything written to the terminal)."""
+    pid, fd = pty.fork()
+    if pid == 0:
+        try:
+            os.execve(argv[0], argv, env)
+        finally:
+            os._exit(127)
+    out, sent = b"", False
+    start = time.monotonic()
+    while True:
+        if not sent and interrupt_after_s is not None and \
+                time.monotonic() - start >= interrupt_after_s:
+            os.kill(pid, signal.SIGINT)
+            sent = True
+        ready, _, _ = select.select([fd], [], [], 0.05)
+        if ready:
+            try:
+                chunk = os.read(fd, 65536)
+            except OSError:  # EIO: the child closed the terminal
+                chunk = b""
+            if not chunk:
+                break
+            out += chunk
+            if not sent and interrupt_at and re.search(interrupt_at, out.decode(errors="replace")):
+                os.kill(pid, signal.SIGINT)
+                sent = True
+        if time.monotonic() - start > timeout:
+            os.kill(pid, signal.SIGKILL)
+            raise AssertionError("timed out: %r" % out[-2000:])
+    os.close(fd)
+    _, status = os.waitpid(pid, 0)
+    return os.waitstatus_to_exitcode(status), out.decode(errors="replace")
+
+
+class OfflineTests(unittest.TestCase):
+    """gonio capture --offline on a terminal: the bar, the interrupt, the
+    resume. Through a pty: the display is what the terminal shows."""
+
+    def setUp(self):
+        self.folder = tmpdir()
+        self.env = dict(os.environ)
+
+    def tearDown(self):
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def capture(self, out, plan="ds3", scene="lab"):
+        return [GONIO, "capture", "--offline", "--scene", scene, "--plan", plan, "--out", out]
+
+    def leftovers(self, path):
+        return [f for f in os.listdir(path) if ".tmp." in f] if os.path.isdir(path) else []
+
+    def test_bar_on_a_terminal(self):
+        out = os.path.join(self.folder, "bar")
+        rc, text = run_on_pty(self.capture(out), self.env)
+        self.assertEqual(rc, 0, text)
+        with open(os.path.join(out, "plan.json")) as f:
+            total = len(json.load(f)["pairs"])
+        # One line redrawn in place (carriage returns), the first with the
+        # estimate and an ETA before a point is measured, the last complete.
+        bars = re.findall(r"\rcapture \[[#.]+\] (\d+)/(\d+)([^\r\n]*)", text)
+        self.assertEqual(bars[0][:2], ("0", str(total)), text[:300])
+        self.assertRegex(bars[0][2], r"rig 0:00 of ~\d+:\d\d estimated  ETA \d+:\d\d")
+        self.assertEqual(bars[-1][:2], (str(total), str(total)))
+        self.assertIn("ETA 0:00", bars[-1][2])
+        self.assertIn("fit ", bars[-1][2])  # the live fit error, once there is a round
+        self.assertNotIn("capture: ", text)  # no plain lines on a terminal
+        # --quiet: no bar.
+        rc, text = run_on_pty(self.capture(os.path.join(self.folder, "q"), "ds4") + ["--quiet"],
+                              self.env)
+        self.assertEqual(rc, 0, text)
+        self.assertNotIn("[", text)
+
+    def test_interrupt_ends_cleanly_and_resumes(self):
+        out = os.path.join(self.folder, "int")
+        argv = self.capture(out, "inplane-full", "ideal")
+        rc, text = run_on_pty(argv, self.env, interrupt_at=r"\] [1-9]\d*/\d+")
+        self.assertEqual(rc, 130, text[-500:])
+        m = re.search(r"SIGINT: stopped after (\d+) of (\d+) points, all in (\S+)/samples.csv; "
+                      r"run the same command again to resume", text)
+        self.assertTrue(m, text[-500:])
+        done, total = int(m.group(1)), int(m.group(2))
+        self.assertEqual(journal_points(os.path.join(out, "samples.csv")), list(range(done)))
+        self.assertLess(done, total)
+        self.assertEqual(self.leftovers(out), [])
+        self.assertFalse(os.path.exists(os.path.join(out, "results.json")))
+        # The rerun says it resumes, and measures only what is missing.
+        r = subprocess.run(argv, capture_output=True, text=True,
+                           env=self.env, timeout=600)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("resuming: %d of %d points in the journal" % (done, total), r.stderr)
+        self.assertEqual(sorted(journal_points(os.path.join(out, "samples.csv"))),
+                         list(range(total)))
+
+    def test_interrupt_while_planning_leaves_nothing(self):
+        """SIGINT while the plan is ordered (inplane-full: seconds): no
+        directory, no plan.json.tmp.PID."""
+        out = os.path.join(self.folder, "plan")
+        rc, text = run_on_pty(self.capture(out, "inplane-full", "ideal"), self.env,
+                              interrupt_after_s=0.3)
+        self.assertEqual(rc, 130, text)
+        self.assertIn("SIGINT before the first point; nothing written", text)
+        self.assertFalse(os.path.exists(out), os.listdir(out) if os.path.exists(out) else "")
 
 
 if __name__ == "__main__":
