@@ -16,7 +16,10 @@ void interrupt_catch(void)
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_signal;
     sigemptyset(&sa.sa_mask);
-    sa.sa_flags = SA_RESTART; /* a write under way completes: no torn file */
+    /* No SA_RESTART: a parent waiting for its workers (gonio study) wakes
+     * up to pass the signal on. The journal and result files are regular
+     * files, whose writes a signal does not cut short. */
+    sa.sa_flags = 0;
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
 }
