@@ -58,7 +58,7 @@ static int write_report(const char *dir)
     struct gonio_err err = {0};
     struct render_scene sc;
     if (render_scene_load("default", &sc, &err) < 0 ||
-        render_study_write(dir, NULL, &sc, STUDY_RENDER_SIZE, 0, NULL, &err) < 0)
+        render_study_write(dir, NULL, &sc, STUDY_RENDER_SIZE, 0, NULL, NULL, &err) < 0)
         fprintf(stderr, "gonio study: renderings left out: %s\n", err.msg);
     memset(&err, 0, sizeof err);
     if (report_write_page(dir, &(struct report_page_opts){.plots_dir = plots, .quiet = 1},

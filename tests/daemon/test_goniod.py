@@ -1550,6 +1550,23 @@ class OfflineTests(unittest.TestCase):
         self.assertEqual((r.returncode, r.stdout), (2, ""))
         self.assertIn("nosuch", r.stderr)
 
+    def test_study_and_its_renders_on_a_terminal(self):
+        """gonio study and gonio render --study show the same bar."""
+        out = os.path.join(self.folder, "study")
+        rc, text = run_on_pty([GONIO, "study", "--materials", "default", "--plans", "ds4,ds3",
+                               "--models", "abc", "--scenes", "ideal", "--jobs", "1",
+                               "--out", out], self.env)
+        self.assertEqual(rc, 0, text[-500:])
+        bars = re.findall(r"\rstudy \[[#.]+\] (\d+)/2([^\r\n]*)", text)
+        self.assertEqual([b[0] for b in bars], ["0", "1", "2"], text[-500:])
+        self.assertRegex(bars[1][1], r"ETA \d+:\d\d")
+        rc, text = run_on_pty([GONIO, "render", "--study", out, "--size", "16"], self.env)
+        self.assertEqual(rc, 0, text[-500:])
+        bars = re.findall(r"\rrender \[[#.]+\] (\d+)/(\d+)", text)
+        self.assertEqual(bars[0][0], "0", text)
+        self.assertEqual(bars[-1][0], bars[-1][1])
+        self.assertNotIn("render: ", text)  # the per-image lines are gonio render's own
+
     def test_interrupt_while_planning_leaves_nothing(self):
         """SIGINT while the plan is ordered (inplane-full: seconds): no
         directory, no plan.json.tmp.PID."""
