@@ -397,8 +397,6 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
         }
         done[p] = 1;
     }
-    if (hooks->on_start)
-        hooks->on_start(hooks->user, plan_name(in->plan), count, *n);
     size_t already = *n;
     struct eta eta = {.run_base_s = *n > 0 ? all[*n - 1].rig_time_s : 0};
     for (size_t k = 0; k < count; k++)

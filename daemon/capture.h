@@ -138,8 +138,6 @@ struct capture_hooks {
     int (*open_devices)(void *user, const struct plan_rig *rig, struct capture_devices *dev,
                         struct gonio_err *err);
     void (*close_devices)(void *user, struct capture_devices *dev);
-    /* Called once the inputs are resolved and the directory is ready. */
-    void (*on_start)(void *user, const char *plan, size_t total, size_t already_done);
     /* Called after each sample is journalled (and after the streaming fit
      * round it set off, so that the host's figures include it). */
     void (*on_sample)(void *user, const struct journal_sample *s, size_t done, size_t total);
@@ -155,8 +153,9 @@ struct capture_hooks {
      * the final fit). The host may take its time here: the crash torture
      * widens phases this way. */
     void (*on_phase)(void *user, enum capture_phase phase, int point);
-    /* Called as the run starts (right after on_start) and after each
-     * sample (before on_sample): what a progress display shows. */
+    /* Called once the inputs are resolved and the directory is ready (the
+     * run's start: done = already_done) and after each sample (before
+     * on_sample): what a progress display shows. */
     void (*on_progress)(void *user, const struct capture_progress *p);
     void *user;
 };
