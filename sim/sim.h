@@ -17,6 +17,12 @@
 
 enum sim_axis_id { SIM_AXIS_SAMPLE, SIM_AXIS_ARM, SIM_AXIS_AZIMUTH, SIM_N_AXES };
 
+/* The pair the optics see with the axes at s, a, az (the planner's mapping
+ * inverted), and the cosine of the source's incidence on the sample
+ * (floored: a grazing source still lights a little, and the exposure stays
+ * finite). */
+void sim_axes_optics(double s, double a, double az, struct brdf_pair *p, double *cos_i);
+
 typedef struct sim_rig sim_rig;
 
 /* The rig keeps pointers to profile and material: both must outlive it.
