@@ -1,10 +1,14 @@
 /* gonio capture --offline: a capture against the in-process simulated rig,
  * with the same engine goniod runs. */
 #include <getopt.h>
+#include <math.h>
+#include <signal.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "cli/commands.h"
+#include "cli/interrupt.h"
+#include "cli/progress.h"
 #include "daemon/capture.h"
 
 static void usage(FILE *out)
@@ -24,7 +28,36 @@ static void usage(FILE *out)
             "  abc); every model also writes DIR/NAME.model (gonio fit's model file).\n"
             "  --stop converge ends the capture once the streaming ABC fit has converged\n"
             "  (the plan's stop tolerances, or the defaults of docs/fitting.md); --stop all\n"
-            "  measures every point whatever the plan says.\n");
+            "  measures every point whatever the plan says.\n"
+            "  Progress goes to stderr (a bar on a terminal) unless --quiet. SIGINT or\n"
+            "  SIGTERM ends the capture after the point in progress: the journal is kept,\n"
+            "  the same command resumes it, the exit status is 130.\n");
+}
+
+/* The offline capture's display and its interrupt. */
+struct offline {
+    struct progress bar;
+    size_t done, total;
+};
+
+static void on_progress(void *user, const struct capture_progress *p)
+{
+    struct offline *o = user;
+    if (p->done == p->already_done && p->already_done > 0 && o->total == 0)
+        progress_note(&o->bar, "resuming: %zu of %zu points in the journal", p->already_done,
+                      p->total);
+    o->done = p->done;
+    o->total = p->total;
+    progress_show(&o->bar, &(struct progress_state){
+                               .done = p->done, .total = p->total, .unit = "points",
+                               .rig_time_s = p->rig_time_s, .estimate_s = p->estimate_s,
+                               .eta_s = p->eta_s, .fit_error = p->fit_log_error});
+}
+
+static enum capture_control on_control(void *user)
+{
+    (void)user;
+    return interrupt_signal() ? CAPTURE_ABORT : CAPTURE_GO;
 }
 
 static void print_errors(const char *domain, const struct brdf_errors *e)
@@ -76,10 +109,27 @@ int cmd_capture(int argc, char **argv)
     }
     struct capture_summary s;
     struct gonio_err err = {0};
-    int rc = capture_run_offline(&cfg, &s, &err);
+    struct offline o = {.total = 0};
+    progress_init(&o.bar, "capture", cfg.quiet);
+    struct capture_hooks hooks = {.on_progress = on_progress, .control = on_control, .user = &o};
+    cfg.progress_fit = !cfg.quiet; /* the live fit error on the bar */
+    interrupt_catch();
+    int rc = capture_run(&cfg, &hooks, &s, &err);
+    progress_end(&o.bar);
     if (rc < 0) {
         fprintf(stderr, "gonio capture: %s\n", err.msg[0] ? err.msg : gonio_strerror(rc));
         return gonio_exit_status(rc);
+    }
+    if (!strcmp(s.stop_reason, "aborted")) {
+        const char *sig = interrupt_signal() == SIGTERM ? "SIGTERM" : "SIGINT";
+        if (o.total == 0)
+            fprintf(stderr, "gonio capture: %s before the first point; nothing written\n", sig);
+        else
+            fprintf(stderr,
+                    "gonio capture: %s: stopped after %zu of %zu points, all in %s/samples.csv;"
+                    " run the same command again to resume\n",
+                    sig, o.done, o.total, cfg.out_dir);
+        return INTERRUPT_EXIT;
     }
     printf("capture %s: plan %s, material %s, model %s\n", cfg.out_dir, s.plan, s.material,
            s.model);

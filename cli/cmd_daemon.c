@@ -15,6 +15,7 @@
 #include <jansson.h>
 
 #include "cli/commands.h"
+#include "cli/progress.h"
 #include "fit/models.h"
 
 #define GONIO_SOCKET_DEFAULT "/run/goniod/goniod.sock"
@@ -135,29 +136,23 @@ static json_t *conn_request(struct conn *c, json_t *req)
     }
 }
 
-/* Print a daemon error as given; 1 if d is an error (or missing). */
+/* Print a daemon error as given. 0 if d is no error; 2 if goniod refused
+ * what was asked as bad input (bad-value: an unknown plan, a name outside
+ * the capture root...), 1 for any other error or a missing reply. */
 static int reply_failed(json_t *d)
 {
     if (!d)
         return 1;
     const char *cls = json_string_value(json_object_get(d, "class"));
     if (cls && !strcmp(cls, "ERROR")) {
+        const char *code = json_string_value(json_object_get(d, "code"));
         fprintf(stderr, "gonio: goniod: %s\n", json_string_value(json_object_get(d, "message")));
-        return 1;
+        return code && !strcmp(code, "bad-value") ? 2 : 1;
     }
     return 0;
 }
 
 /* ---- watching -------------------------------------------------------- */
-
-struct progress {
-    int tty;
-    char id[128];
-    double t0;        /* rig time at the first event seen */
-    size_t d0;        /* points done at the first event seen */
-    int have_first;
-    size_t last_len;  /* length of the bar line drawn */
-};
 
 static double jreal(json_t *d, const char *key)
 {
@@ -165,50 +160,37 @@ static double jreal(json_t *d, const char *key)
     return json_is_number(v) ? json_number_value(v) : NAN;
 }
 
-static void show_event(struct progress *p, json_t *d)
+static size_t jsize(json_t *d, const char *key)
 {
-    size_t done = (size_t)json_integer_value(json_object_get(d, "done"));
-    size_t total = (size_t)json_integer_value(json_object_get(d, "total"));
-    double t = jreal(d, "rig_time_s");
-    if (!p->have_first) {
-        p->have_first = 1;
-        p->t0 = t;
-        p->d0 = done;
-    }
-    /* ETA in rig time: the rig time per point so far, times the points left. */
-    double eta = NAN;
-    if (done > p->d0 && total >= done)
-        eta = (t - p->t0) / (double)(done - p->d0) * (double)(total - done);
-    char eta_s[32] = "--";
-    if (isfinite(eta))
-        snprintf(eta_s, sizeof eta_s, "%.0f s", eta);
-    double fe = jreal(d, "fit_log_error"); /* present once the daemon has fitted */
-    char fit[48] = "";
-    if (isfinite(fe))
-        snprintf(fit, sizeof fit, ", fit error %.4f", fe);
-    if (!p->tty) {
-        printf("%s: %zu/%zu points, rig time %.1f s, ETA %s (rig time)%s\n", p->id, done,
-               total, t, eta_s, fit);
-        fflush(stdout);
-        return;
-    }
-    int width = 30, fill = total ? (int)((double)width * (double)done / (double)total) : 0;
-    char bar[64];
-    for (int i = 0; i < width; i++)
-        bar[i] = i < fill ? '#' : '.';
-    bar[width] = '\0';
-    char line[256];
-    int n = snprintf(line, sizeof line, "[%s] %zu/%zu  rig %.0f s  ETA %s%s", bar, done, total, t,
-                     eta_s, fit);
-    printf("\r%s%*s", line, p->last_len > (size_t)n ? (int)(p->last_len - (size_t)n) : 0, "");
-    p->last_len = (size_t)n;
+    return (size_t)json_integer_value(json_object_get(d, key));
+}
+
+/* A capture's start: what it is, its estimate, whether it resumes. */
+static void show_start(struct progress *p, json_t *d)
+{
+    char est[32] = "?";
+    double e = jreal(d, "estimate_s");
+    if (isfinite(e))
+        progress_hms(e, est, sizeof est);
+    printf("capture %s: plan %s, %zu points, estimated rig time %s\n", p->label,
+           json_string_value(json_object_get(d, "plan")), jsize(d, "total"), est);
     fflush(stdout);
+    if (jsize(d, "already_done"))
+        progress_note(p, "resuming: %zu of %zu points in the journal", jsize(d, "already_done"),
+                      jsize(d, "total"));
+}
+
+static void show_event(struct progress *p, json_t *d, double estimate_s)
+{
+    progress_show(p, &(struct progress_state){
+                         .done = jsize(d, "done"), .total = jsize(d, "total"), .unit = "points",
+                         .rig_time_s = jreal(d, "rig_time_s"), .estimate_s = estimate_s,
+                         .eta_s = jreal(d, "eta_s"), .fit_error = jreal(d, "fit_log_error")});
 }
 
 static void show_stop(struct progress *p, json_t *d)
 {
-    if (p->tty && p->last_len)
-        printf("\n");
+    progress_end(p);
     const char *reason = json_string_value(json_object_get(d, "reason"));
     const char *msg = json_string_value(json_object_get(d, "message"));
     json_t *res = json_object_get(d, "results");
@@ -237,17 +219,20 @@ static void show_stop(struct progress *p, json_t *d)
 }
 
 /* Follow the stream until the stop document of capture `id` (any capture
- * when id is NULL). Returns 0 for a complete capture, 1 otherwise. */
-static int follow(struct conn *c, const char *id)
+ * when id is NULL), its progress on stderr (cli/progress.h), what it gave
+ * on stdout. Returns 0 for a complete capture, 1 otherwise. */
+static int follow(struct conn *c, const char *id, int quiet)
 {
-    struct progress p = {.tty = isatty(STDOUT_FILENO)};
+    char cur[128] = "";
+    double estimate_s = NAN;
+    struct progress p;
+    progress_init(&p, cur, quiet);
     if (id)
-        snprintf(p.id, sizeof p.id, "%s", id);
+        snprintf(cur, sizeof cur, "%s", id);
     for (;;) {
         json_t *d = conn_read(c);
         if (!d) {
-            if (p.tty && p.last_len)
-                printf("\n");
+            progress_end(&p);
             fprintf(stderr, "gonio: goniod closed the connection\n");
             return 1;
         }
@@ -256,15 +241,16 @@ static int follow(struct conn *c, const char *id)
         int mine = !id || (cid && !strcmp(cid, id));
         if (!cls) {
         } else if (!strcmp(cls, "start") && mine) {
-            snprintf(p.id, sizeof p.id, "%s", cid ? cid : "?");
-            p.have_first = 0;
-            printf("capture %s: plan %s, %lld points (%lld already done)\n", p.id,
-                   json_string_value(json_object_get(d, "plan")),
-                   (long long)json_integer_value(json_object_get(d, "total")),
-                   (long long)json_integer_value(json_object_get(d, "already_done")));
-            fflush(stdout);
-        } else if (!strcmp(cls, "event") && p.id[0]) {
-            show_event(&p, d);
+            snprintf(cur, sizeof cur, "%s", cid ? cid : "?");
+            progress_init(&p, cur, quiet);
+            estimate_s = jreal(d, "estimate_s");
+            show_start(&p, d);
+        } else if (!strcmp(cls, "event") && cur[0]) {
+            show_event(&p, d, estimate_s);
+        } else if (!strcmp(cls, "state") && mine && cur[0]) {
+            const char *state = json_string_value(json_object_get(d, "state"));
+            progress_note(&p, "capture %s %s", cur,
+                          state && !strcmp(state, "paused") ? "paused" : "resumed");
         } else if (!strcmp(cls, "stop") && mine) {
             show_stop(&p, d);
             const char *status = json_string_value(json_object_get(d, "exit_status"));
@@ -272,6 +258,7 @@ static int follow(struct conn *c, const char *id)
             json_decref(d);
             return rc;
         } else if (!strcmp(cls, "ERROR")) {
+            progress_end(&p);
             reply_failed(d);
             json_decref(d);
             return 1;
@@ -281,6 +268,34 @@ static int follow(struct conn *c, const char *id)
 }
 
 /* ---- commands -------------------------------------------------------- */
+
+/* status's line on the current or last capture: state, progress, rig time
+ * against the estimate, ETA, and why it failed. */
+static void show_capture(json_t *cap)
+{
+    if (!json_is_object(cap))
+        return;
+    const char *state = json_string_value(json_object_get(cap, "state"));
+    char rig[32], est[64] = "", eta[48] = "";
+    progress_hms(jreal(cap, "rig_time_s"), rig, sizeof rig);
+    double e = jreal(cap, "estimate_s"), left = jreal(cap, "eta_s");
+    if (isfinite(e)) {
+        char t[24];
+        progress_hms(e, t, sizeof t);
+        snprintf(est, sizeof est, " of ~%s estimated", t);
+    }
+    if (isfinite(left) && state && (!strcmp(state, "running") || !strcmp(state, "paused"))) {
+        char t[24];
+        progress_hms(left, t, sizeof t);
+        snprintf(eta, sizeof eta, ", ETA %s", t);
+    }
+    printf("capture %s: %s, %zu/%zu points, rig time %s%s%s\n",
+           json_string_value(json_object_get(cap, "capture_id")), state ? state : "?",
+           jsize(cap, "points_done"), jsize(cap, "points_total"), rig, est, eta);
+    const char *msg = json_string_value(json_object_get(cap, "message"));
+    if (msg)
+        printf("  %s\n", msg);
+}
 
 /* Options every daemon command takes. */
 #define SOCKET_OPTS {"socket", required_argument, NULL, 'S'}, {"help", no_argument, NULL, 'h'}
@@ -335,6 +350,7 @@ static int simple(int argc, char **argv, const char *cmd, const char *usage_args
                        (long long)json_integer_value(json_object_get(rep, "points_total")),
                        jreal(rep, "rig_time_s"));
             printf("\n");
+            show_capture(json_object_get(rep, "capture"));
             json_t *fe = json_object_get(rep, "fit_error");
             if (json_is_object(fe))
                 printf("fit (%s, %lld samples): log error %.4f, relative RMSE %.4f\n",
@@ -384,17 +400,21 @@ int cmd_shutdown(int argc, char **argv)
 
 int cmd_watch(int argc, char **argv)
 {
-    static const struct option opts[] = {SOCKET_OPTS, {NULL, 0, NULL, 0}};
+    static const struct option opts[] = {SOCKET_OPTS, {"quiet", no_argument, NULL, 'q'},
+                                         {NULL, 0, NULL, 0}};
     const char *sock = NULL;
-    int ch;
+    int ch, quiet = 0;
     optind = 1;
     while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (ch) {
         case 'S': sock = optarg; break;
-        case 'h': printf("usage: gonio watch [--socket PATH]\n  follow the running (or next) "
-                         "capture until it stops\n");
+        case 'q': quiet = 1; break;
+        case 'h': printf("usage: gonio watch [--quiet] [--socket PATH]\n  follow the running (or "
+                         "next) capture until it stops: its progress on stderr (a bar on a\n"
+                         "  terminal, pause and resume), its results on stdout; --quiet: the "
+                         "results only\n");
                   return 0;
-        default: fprintf(stderr, "usage: gonio watch [--socket PATH]\n"); return 2;
+        default: fprintf(stderr, "usage: gonio watch [--quiet] [--socket PATH]\n"); return 2;
         }
     }
     if (optind != argc) {
@@ -408,7 +428,7 @@ int cmd_watch(int argc, char **argv)
     int rc = reply_failed(rep);
     json_decref(rep);
     if (!rc)
-        rc = follow(&c, NULL);
+        rc = follow(&c, NULL, quiet);
     conn_close(&c);
     return rc;
 }
@@ -419,14 +439,16 @@ static void capture_usage(FILE *out)
             "usage: gonio capture --plan NAME|FILE [--scene NAME|FILE] [--material SPEC]\n"
             "                     [--rig NAME|FILE] [--model NAME] [--order ORDER]\n"
             "                     [--stop all|converge] [--truth SPEC] [--name ID] [--wait]\n"
-            "                     [--socket PATH]\n"
+            "                     [--quiet] [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). Files are relative to goniod's capture\n"
             "  root. --model: the final fit's model, any RGB model of 'gonio fit --help'\n"
             "  (default abc). --truth SPEC: the reference material of the in-plane and\n"
             "  full-domain errors (on hardware there are none without it; on the simulator\n"
             "  the default is the material it measures). --wait follows the capture to its\n"
-            "  end: exit 0 when it completes.\n"
+            "  end, its progress on stderr (--quiet: none): exit 0 when it completes.\n"
+            "  goniod checks the request before it starts anything: a bad plan, scene,\n"
+            "  rig, material, model, order, stop or truth exits 2 and creates nothing.\n"
             "  The socket is --socket, else $GONIO_SOCKET, else " GONIO_SOCKET_DEFAULT ".\n");
 }
 
@@ -439,13 +461,13 @@ int cmd_capture_daemon(int argc, char **argv)
         {"model", required_argument, NULL, 'M'}, {"order", required_argument, NULL, 'o'},
         {"stop", required_argument, NULL, 'x'},  {"name", required_argument, NULL, 'n'},
         {"truth", required_argument, NULL, 't'}, {"wait", no_argument, NULL, 'w'},
-        {NULL, 0, NULL, 0},
+        {"quiet", no_argument, NULL, 'q'},       {NULL, 0, NULL, 0},
     };
     static const char *const keys[] = {"plan", "scene", "material", "rig",
                                        "model", "order", "stop", "name", "truth"};
     static const char letters[] = "psmrMoxnt";
     const char *vals[9] = {0}, *sock = NULL;
-    int wait = 0, ch;
+    int wait = 0, quiet = 0, ch;
     optind = 1;
     while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         const char *at = ch ? strchr(letters, ch) : NULL;
@@ -456,6 +478,7 @@ int cmd_capture_daemon(int argc, char **argv)
         switch (ch) {
         case 'S': sock = optarg; break;
         case 'w': wait = 1; break;
+        case 'q': quiet = 1; break;
         case 'h': capture_usage(stdout); return 0;
         default: capture_usage(stderr); return 2;
         }
@@ -499,7 +522,7 @@ int cmd_capture_daemon(int argc, char **argv)
         printf("capture %s started in %s\n", id, json_string_value(json_object_get(rep, "dir")));
         fflush(stdout);
         if (wait)
-            rc = follow(&c, id);
+            rc = follow(&c, id, quiet);
     }
     json_decref(rep);
     conn_close(&c);

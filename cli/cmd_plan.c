@@ -12,15 +12,19 @@
 
 #include "cli/commands.h"
 #include "common/err.h"
+#include "daemon/capture.h"
 #include "planner/planner.h"
+#include "sim/scene.h"
 
 static void plan_usage(FILE *out)
 {
-    fprintf(out, "usage: gonio plan NAME|FILE.yaml [--rig NAME|FILE] "
-                 "[--order travel|progressive|as-written|greedy] [--json]\n"
+    fprintf(out, "usage: gonio plan NAME|FILE.yaml [--rig NAME|FILE] [--scene NAME|FILE]\n"
+                 "                  [--order travel|progressive|as-written|greedy] [--json]\n"
                  "Dry run: pairs in execution order, axis positions, time estimate.\n"
-                 "NAME resolves to <config>/plans/NAME.yaml; the rig defaults to "
-                 "<config>/rigs/default.yaml.\n");
+                 "NAME resolves to <config>/plans/NAME.yaml; the rig defaults to the scene's,\n"
+                 "else <config>/rigs/default.yaml. --scene: the estimate counts the\n"
+                 "integration the scene's detector will choose for its material (a noisy\n"
+                 "scene auto-exposes: longer where the material is dark), as a capture's ETA.\n");
 }
 
 static int report_failure(const struct gonio_err *err, int rc)
@@ -98,7 +102,7 @@ static void print_human(const struct plan *plan, const struct plan_rig *rig,
 
 int cmd_plan(int argc, char **argv)
 {
-    const char *plan_arg = NULL, *rig_arg = "default";
+    const char *plan_arg = NULL, *rig_arg = NULL, *scene_arg = NULL;
     int order = -1, json = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
@@ -106,13 +110,16 @@ int cmd_plan(int argc, char **argv)
             return 0;
         } else if (!strcmp(argv[i], "--json")) {
             json = 1;
-        } else if (!strcmp(argv[i], "--rig") || !strcmp(argv[i], "--order")) {
+        } else if (!strcmp(argv[i], "--rig") || !strcmp(argv[i], "--order") ||
+                   !strcmp(argv[i], "--scene")) {
             if (i + 1 >= argc) {
                 fprintf(stderr, "gonio: plan: %s needs a value\n", argv[i]);
                 return 2;
             }
             if (!strcmp(argv[i], "--rig")) {
                 rig_arg = argv[++i];
+            } else if (!strcmp(argv[i], "--scene")) {
+                scene_arg = argv[++i];
             } else if ((order = plan_order_parse(argv[++i])) < 0) {
                 fprintf(stderr,
                         "gonio: plan: --order '%s': unknown (allowed travel, progressive, "
@@ -137,8 +144,14 @@ int cmd_plan(int argc, char **argv)
         return 2;
     }
     struct gonio_err err = {0};
+    struct sim_scene scene;
+    int rc = scene_arg ? sim_scene_load(scene_arg, &scene, &err) : 0;
+    if (rc < 0)
+        return report_failure(&err, rc);
+    if (!rig_arg)
+        rig_arg = scene_arg ? scene.rig : "default";
     struct plan_rig rig;
-    int rc = plan_rig_load(rig_arg, &rig, &err);
+    rc = plan_rig_load(rig_arg, &rig, &err);
     if (rc < 0)
         return report_failure(&err, rc);
     struct plan *plan;
@@ -150,8 +163,17 @@ int cmd_plan(int argc, char **argv)
         fprintf(stderr, "gonio: plan: %s\n", gonio_strerror(rc));
         return 1;
     }
+    /* With a scene, the estimate a capture of it makes (daemon/capture.h). */
     struct plan_estimate est;
-    plan_estimate(plan, &rig, &est);
+    struct capture_config cc = {.plan = plan_arg, .scene = scene_arg, .rig = rig_arg,
+                                .model = "abc",
+                                .order = order >= 0 ? plan_order_name(order) : NULL};
+    if (scene_arg && (rc = capture_check(&cc, NULL, &est, &err)) < 0) {
+        plan_free(plan);
+        return report_failure(&err, rc);
+    }
+    if (!scene_arg)
+        plan_estimate(plan, &rig, &est);
     rc = 0;
     if (json)
         rc = print_json(plan, &rig, &est);

@@ -2,12 +2,15 @@
  * written as linear OpenEXR and sRGB PNG (docs/render.md). Everything is
  * checked (scene, every material) before the output directory is made. */
 #include <getopt.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "brdf/material.h"
 #include "cli/commands.h"
+#include "cli/progress.h"
+#include "common/clock.h"
 #include "fit/model_file.h"
 #include "render/output.h"
 #include "render/render.h"
@@ -35,15 +38,39 @@ static void usage(FILE *out)
             RENDER_MIN_SIZE, RENDER_MAX_SIZE);
 }
 
-/* --study DIR: one grid per material of the study's results (render/study.h). */
+/* The renders' progress: images done, and the wall time still to go at
+ * the pace of those done. */
+struct study_bar {
+    struct progress bar;
+    double t0;
+};
+
+static void study_progress(void *user, int done, int total)
+{
+    struct study_bar *b = user;
+    double t = gonio_monotonic_s() - b->t0;
+    progress_show(&b->bar, &(struct progress_state){
+                               .done = (size_t)done, .total = (size_t)total, .unit = "images",
+                               .rig_time_s = NAN, .estimate_s = NAN,
+                               .eta_s = done > 0 ? t / done * (total - done) : NAN,
+                               .fit_error = NAN});
+}
+
+/* --study DIR: one grid per material of the study's results (render/study.h),
+ * with gonio's progress display. */
 static int render_study(const char *dir, const char *study_scene, const struct render_scene *sc,
                         int size, int columns, int quiet)
 {
     struct gonio_err err = {0};
-    if (render_study_write(dir, study_scene, sc, size, columns, quiet ? NULL : stderr, &err) < 0) {
+    struct study_bar b = {.t0 = gonio_monotonic_s()};
+    progress_init(&b.bar, "render", quiet);
+    int rc = render_study_write(dir, study_scene, sc, size, columns, study_progress, &b, &err);
+    progress_end(&b.bar);
+    if (rc < 0) {
         fprintf(stderr, "gonio render: %s\n", err.msg);
         return gonio_exit_status(err.code);
     }
+    printf("wrote %s/renders/: a grid per material\n", dir);
     return 0;
 }
 

@@ -2,16 +2,20 @@
  * gather the rows; gonio study merge: join shard folders (docs/study.md). */
 #include <errno.h>
 #include <getopt.h>
+#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include "cli/commands.h"
+#include "cli/interrupt.h"
+#include "cli/progress.h"
 #include "common/clock.h"
 #include "render/scene.h"
 #include "render/study.h"
@@ -54,7 +58,7 @@ static int write_report(const char *dir)
     struct gonio_err err = {0};
     struct render_scene sc;
     if (render_scene_load("default", &sc, &err) < 0 ||
-        render_study_write(dir, NULL, &sc, STUDY_RENDER_SIZE, 0, NULL, &err) < 0)
+        render_study_write(dir, NULL, &sc, STUDY_RENDER_SIZE, 0, NULL, NULL, &err) < 0)
         fprintf(stderr, "gonio study: renderings left out: %s\n", err.msg);
     memset(&err, 0, sizeof err);
     if (report_write_page(dir, &(struct report_page_opts){.plots_dir = plots, .quiet = 1},
@@ -124,7 +128,9 @@ static void child_run(const struct study_spec *s, const struct study_job *job, c
     if (getppid() == 1)
         _exit(1);
     struct gonio_err err = {0};
-    int rc = study_job_run(s, job, dir, &err);
+    int rc = study_job_run(s, job, dir, interrupt_signal, &err);
+    if (rc == -EINTR)
+        _exit(INTERRUPT_EXIT); /* the parent says what to do */
     if (rc < 0) {
         fprintf(stderr, "gonio study: %s\n", err.msg);
         fflush(stderr);
@@ -151,9 +157,21 @@ static int by_weight(const void *a, const void *b)
     return x->job.index < y->job.index ? -1 : x->job.index > y->job.index;
 }
 
+/* Pass a signal only the parent got (SIGTERM from a service manager) on
+ * to the workers, once: each ends its job at the next point boundary. */
+static void pass_on_interrupt(const struct running *run, int n_workers, int *passed)
+{
+    if (!interrupt_signal() || *passed)
+        return;
+    *passed = 1;
+    for (int w = 0; w < n_workers; w++)
+        if (run[w].pid > 0)
+            kill(run[w].pid, SIGTERM);
+}
+
 static int run_jobs(const struct study_spec *s, const char *dir, int n_workers)
 {
-    size_t total = 0, finished = 0, n = 0;
+    size_t total = 0, finished = 0, started = 0, n = 0;
     struct pending *p = malloc((study_job_count(s) + 1) * sizeof *p);
     if (!p) {
         fprintf(stderr, "gonio study: out of memory\n");
@@ -169,6 +187,10 @@ static int run_jobs(const struct study_spec *s, const char *dir, int n_workers)
             continue;
         }
         p[n].weight = study_job_weight(s, &p[n].job);
+        char journal[4200];
+        struct stat st;
+        snprintf(journal, sizeof journal, "%s/jobs/%s/samples.csv", dir, p[n].job.id);
+        started += stat(journal, &st) == 0; /* an interrupted job: its capture resumes */
         n++;
     }
     qsort(p, n, sizeof *p, by_weight);
@@ -179,6 +201,16 @@ static int run_jobs(const struct study_spec *s, const char *dir, int n_workers)
             "study: %zu jobs (%zu rows) in shard %d/%d: %zu finished, %zu to run on %d "
             "workers\n",
             total, total * s->n_models, s->shard_i, s->shard_n, finished, n, n_workers);
+    if (finished || started)
+        fprintf(stderr, "study: resuming: %zu of %zu jobs done, %zu started (their journals are "
+                        "resumed) in %s\n",
+                finished, total, started, dir);
+    struct progress bar;
+    progress_init(&bar, "study", 0);
+    progress_show(&bar, &(struct progress_state){.done = finished, .total = total,
+                                                 .unit = "jobs", .rig_time_s = NAN,
+                                                 .estimate_s = NAN, .eta_s = NAN,
+                                                 .fit_error = NAN});
     struct running *run = calloc((size_t)n_workers, sizeof *run);
     if (!run) {
         free(p);
@@ -186,10 +218,10 @@ static int run_jobs(const struct study_spec *s, const char *dir, int n_workers)
         return 1;
     }
     double t_start = gonio_monotonic_s();
-    size_t next = 0, done = 0, failed = 0;
-    int active = 0;
+    size_t next = 0, done = 0, failed = 0, stopped = 0;
+    int active = 0, passed = 0;
     while (done < n) {
-        while (active < n_workers && next < n) {
+        while (active < n_workers && next < n && !interrupt_signal()) {
             fflush(stdout);
             fflush(stderr);
             pid_t pid = fork();
@@ -207,12 +239,14 @@ static int run_jobs(const struct study_spec *s, const char *dir, int n_workers)
             active++;
             next++;
         }
-        if (active == 0) { /* fork failed with nothing running */
-            failed += n - done;
+        if (active == 0) { /* fork failed, or interrupted, with nothing running */
+            if (!interrupt_signal())
+                failed += n - done;
             break;
         }
         int status;
         pid_t pid = wait(&status);
+        pass_on_interrupt(run, n_workers, &passed);
         if (pid < 0) {
             if (errno == EINTR)
                 continue;
@@ -224,23 +258,40 @@ static int run_jobs(const struct study_spec *s, const char *dir, int n_workers)
                 continue;
             const struct pending *q = &p[run[w].job];
             int ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+            run[w].pid = 0;
+            active--;
+            if (WIFEXITED(status) && WEXITSTATUS(status) == INTERRUPT_EXIT) {
+                stopped++; /* its journal is kept: the rerun resumes it */
+                continue;
+            }
             done++;
             failed += !ok;
             weight_done += q->weight;
-            double t = gonio_monotonic_s(), elapsed = t - t_start;
-            double left = weight_done > 0 ? elapsed * (weight_all - weight_done) / weight_done : 0;
-            fprintf(stderr, "study: [%zu/%zu] %s %s in %.1f s, elapsed %.0f s, about %.0f s left\n",
-                    finished + done, total, q->job.id,
-                    ok ? "done"
-                    : WIFSIGNALED(status) ? "killed"
-                                          : "FAILED",
-                    t - run[w].t0, elapsed, left);
-            run[w].pid = 0;
-            active--;
+            double elapsed = gonio_monotonic_s() - t_start;
+            if (!ok)
+                progress_note(&bar, "study: %s %s after %.1f s", q->job.id,
+                              WIFSIGNALED(status) ? "killed" : "FAILED",
+                              gonio_monotonic_s() - run[w].t0);
+            /* Wall time: the jobs' relative weights, scaled by the time
+             * the finished ones took. */
+            progress_show(&bar, &(struct progress_state){
+                                    .done = finished + done, .total = total, .unit = "jobs",
+                                    .rig_time_s = NAN, .estimate_s = NAN,
+                                    .eta_s = elapsed * (weight_all - weight_done) / weight_done,
+                                    .fit_error = NAN});
         }
     }
+    progress_end(&bar);
     free(run);
     free(p);
+    if (interrupt_signal()) {
+        fprintf(stderr,
+                "study: %s: %zu of %zu jobs done, %zu stopped at a point with their journals "
+                "kept; run the same command again to resume\n",
+                interrupt_signal() == SIGTERM ? "SIGTERM" : "SIGINT", finished + done, total,
+                stopped);
+        return INTERRUPT_EXIT;
+    }
     return failed ? 1 : 0;
 }
 
@@ -330,7 +381,12 @@ int cmd_study(int argc, char **argv)
         return gonio_exit_status(err.code);
     }
     double t0 = gonio_monotonic_s();
+    interrupt_catch();
     int status = run_jobs(s, out, (int)n_workers);
+    if (status == INTERRUPT_EXIT) {
+        free(s);
+        return status;
+    }
     size_t missing = 0;
     if ((rc = study_results_write(s, out, &missing, &err)) < 0) {
         fprintf(stderr, "gonio study: %s\n", err.msg);

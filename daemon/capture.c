@@ -20,6 +20,7 @@
 #include "fit/models.h"
 #include "fit/stream.h"
 #include "planner/planner.h"
+#include "sim/estimate.h"
 #include "sim/scene.h"
 #include "sim/sim.h"
 
@@ -36,10 +37,16 @@ struct capture_inputs {
     char material_name[512]; /* what was measured, as a label; "" when unknown */
     char truth_name[512];
     const struct fit_model_kind *model; /* the final fit's (fit/models.h) */
+    /* The rig time the capture will take, and each point's share: on the
+     * simulated rig with the integration its detector will choose
+     * (sim/estimate.h), elsewhere with the rig's fixed integration. */
+    struct plan_estimate est;
+    double *point_s;
 };
 
 static void inputs_free(struct capture_inputs *in)
 {
+    free(in->point_s);
     plan_free(in->plan);
     brdf_material_free(in->material);
     brdf_material_free(in->truth_own);
@@ -75,6 +82,18 @@ static int resolve_materials(const struct capture_config *cfg, struct capture_in
     }
     if (in->truth)
         snprintf(in->truth_name, sizeof in->truth_name, "%s", brdf_material_name(in->truth));
+    return 0;
+}
+
+static int estimate(struct capture_inputs *in, struct gonio_err *err)
+{
+    size_t n = plan_count(in->plan);
+    if (!(in->point_s = malloc((n ? n : 1) * sizeof *in->point_s)))
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    if (in->sim)
+        return sim_estimate_plan(&in->scene, in->material, in->plan, &in->rig, in->point_s,
+                                 &in->est, err);
+    plan_estimate_points(in->plan, &in->rig, NULL, NULL, in->point_s, &in->est);
     return 0;
 }
 
@@ -116,7 +135,13 @@ static int resolve_inputs(const struct capture_config *cfg, const struct capture
         inputs_free(in);
         return -GONIO_EUSAGE;
     }
-    if ((rc = resolve_materials(cfg, in, err)) < 0)
+    if (cfg->stop && strcmp(cfg->stop, "all") && strcmp(cfg->stop, "converge")) {
+        inputs_free(in);
+        return gonio_err_set(err, GONIO_EUSAGE, "--stop '%s': use all or converge", cfg->stop);
+    }
+    if ((rc = resolve_materials(cfg, in, err)) == 0)
+        rc = estimate(in, err);
+    if (rc < 0)
         inputs_free(in);
     return rc;
 }
@@ -259,16 +284,17 @@ static void stop_axes(struct capture_devices *d)
 struct stream {
     fit_stream *fs;   /* NULL: no streaming fit */
     int progress;     /* rounds at 16, 32, 64... samples only */
+    double log_error; /* the latest round's in-sample log error, NAN before one */
 };
 
 #define PROGRESS_FIRST 16 /* samples before the first progress round */
 
 /* The in-sample errors of the latest round over the samples so far, for
  * the host. */
-static void report_fit(const struct capture_hooks *hooks, const fit_stream *fs,
+static void report_fit(const struct capture_hooks *hooks, struct stream *st,
                        const struct journal_sample *js, size_t n)
 {
-    const struct brdf_abc *p = fit_stream_params(fs);
+    const struct brdf_abc *p = fit_stream_params(st->fs);
     struct brdf_pair *pairs = malloc(n * sizeof *pairs);
     double *meas = malloc(n * 3 * sizeof *meas), *pred = malloc(n * 3 * sizeof *pred);
     if (p && pairs && meas && pred) {
@@ -279,7 +305,9 @@ static void report_fit(const struct capture_hooks *hooks, const fit_stream *fs,
         }
         struct brdf_errors e;
         brdf_errors_compute(pairs, meas, pred, n, &e);
-        hooks->on_fit(hooks->user, &e, n);
+        st->log_error = e.log;
+        if (hooks->on_fit)
+            hooks->on_fit(hooks->user, &e, n);
     }
     free(pairs);
     free(meas);
@@ -290,7 +318,7 @@ static void report_fit(const struct capture_hooks *hooks, const fit_stream *fs,
  * forced (and announced as the FIT phase) where a progressive level ends,
  * or, for progress, where the count reaches 16, 32, 64... Returns 1 once
  * the stop rule has decided. */
-static int stream_feed(const struct stream *st, const struct plan *plan,
+static int stream_feed(struct stream *st, const struct plan *plan,
                        const struct capture_hooks *hooks, const struct journal_sample *js,
                        size_t n, struct gonio_err *err)
 {
@@ -316,9 +344,40 @@ static int stream_feed(const struct stream *st, const struct plan *plan,
     if (force)
         phase(hooks, CAPTURE_PHASE_BETWEEN, (int)n);
     fit_stream_status(st->fs, &after);
-    if (rc >= 0 && after.rounds > before.rounds && hooks->on_fit)
-        report_fit(hooks, st->fs, js, n);
+    if (rc >= 0 && after.rounds > before.rounds && (hooks->on_fit || hooks->on_progress))
+        report_fit(hooks, st, js, n);
     return rc;
+}
+
+/* The ETA a host shows: the estimate of the points still to measure,
+ * scaled by how this run's measured points compared with their estimate
+ * (not at all before the first), so the first figure is the plan's
+ * estimate and later ones learn the day's pace. */
+struct eta {
+    double left_s;     /* estimate of the points not measured yet */
+    double run_est_s;  /* estimate of the points this run measured */
+    double run_base_s; /* rig time when this run started */
+};
+
+static void progress(const struct capture_hooks *hooks, const struct capture_inputs *in,
+                     const struct eta *eta, const struct stream *st, size_t done,
+                     size_t already, double rig_time_s)
+{
+    if (!hooks->on_progress)
+        return;
+    double run = rig_time_s - eta->run_base_s;
+    double scale = eta->run_est_s > 0 && run > 0 ? run / eta->run_est_s : 1;
+    struct capture_progress p = {
+        .plan = plan_name(in->plan),
+        .done = done,
+        .total = plan_count(in->plan),
+        .already_done = already,
+        .rig_time_s = rig_time_s,
+        .estimate_s = in->est.total_s,
+        .eta_s = eta->left_s * scale,
+        .fit_log_error = st->log_error,
+    };
+    hooks->on_progress(hooks->user, &p);
 }
 
 /* Measure every point the journal does not hold yet, in plan order. Sets
@@ -328,7 +387,7 @@ static int stream_feed(const struct stream *st, const struct plan *plan,
 static int acquire(const struct capture_config *cfg, const struct capture_inputs *in,
                    const struct capture_hooks *hooks, journal *j,
                    struct journal_sample **samples, size_t *n, int *aborted,
-                   const struct stream *fs, int *converged, double *paused_s,
+                   struct stream *fs, int *converged, double *paused_s,
                    struct drv_axis_stats *mech,
                    struct gonio_err *err)
 {
@@ -353,8 +412,12 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
         }
         done[p] = 1;
     }
-    if (hooks->on_start)
-        hooks->on_start(hooks->user, plan_name(in->plan), count, *n);
+    size_t already = *n;
+    struct eta eta = {.run_base_s = *n > 0 ? all[*n - 1].rig_time_s : 0};
+    for (size_t k = 0; k < count; k++)
+        if (!done[k])
+            eta.left_s += in->point_s[k];
+    progress(hooks, in, &eta, fs, *n, already, eta.run_base_s);
     /* A resumed capture replays its journal: the same samples give the
      * same rounds, so a capture that had converged stays converged. */
     for (size_t i = 0; i < *n && !*converged; i++) {
@@ -424,6 +487,10 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
             all[(*n)++] = s;
             /* The fit round first: the host's sample event carries it. */
             rc = stream_feed(fs, in->plan, hooks, all, *n, err);
+            eta.left_s -= in->point_s[k];
+            eta.run_est_s += in->point_s[k];
+            if (rc >= 0)
+                progress(hooks, in, &eta, fs, *n, already, s.rig_time_s);
             if (rc >= 0 && hooks->on_sample)
                 hooks->on_sample(hooks->user, &s, *n, count);
             if (rc > 0) {
@@ -582,9 +649,8 @@ static int stream_new(const struct capture_config *cfg, const struct plan *plan,
                       struct stream *st, struct gonio_err *err)
 {
     memset(st, 0, sizeof *st);
+    st->log_error = NAN;
     struct plan_stop stop = *plan_stop(plan);
-    if (cfg->stop && strcmp(cfg->stop, "all") && strcmp(cfg->stop, "converge"))
-        return gonio_err_set(err, GONIO_EUSAGE, "--stop '%s': use all or converge", cfg->stop);
     if (cfg->stop)
         stop.kind = strcmp(cfg->stop, "all") ? PLAN_STOP_CONVERGE : PLAN_STOP_ALL;
     struct fit_stream_options so = fit_stream_default_options();
@@ -628,6 +694,14 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
     if ((rc = stream_new(cfg, in.plan, &fs, err)) < 0) {
         inputs_free(&in);
         return rc;
+    }
+    /* Stopped before anything is written (an interrupt while planning):
+     * an aborted capture with no files, not a half-made directory. */
+    if (hooks->control && hooks->control(hooks->user) == CAPTURE_ABORT) {
+        snprintf(out->stop_reason, sizeof out->stop_reason, "aborted");
+        fit_stream_free(fs.fs);
+        inputs_free(&in);
+        return 0;
     }
     const char *detector = cfg->detector ? cfg->detector
                            : !in.has_scene ? "unknown"
@@ -693,17 +767,22 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
     return rc;
 }
 
-static void progress_line(void *user, const struct journal_sample *s, size_t done, size_t total)
+int capture_check(const struct capture_config *cfg, const struct capture_hooks *hooks,
+                  struct plan_estimate *est, struct gonio_err *err)
 {
-    (void)user;
-    if (done % (total / 10 + 1) == 0 || done == total)
-        fprintf(stderr, "capture: %zu/%zu points, rig time %.1f s\n", done, total,
-                s->rig_time_s);
+    static const struct capture_hooks no_hooks;
+    struct capture_inputs in;
+    int rc = resolve_inputs(cfg, hooks ? hooks : &no_hooks, &in, err);
+    if (rc < 0)
+        return rc;
+    if (est)
+        *est = in.est;
+    inputs_free(&in);
+    return 0;
 }
 
 int capture_run_offline(const struct capture_config *cfg, struct capture_summary *out,
                         struct gonio_err *err)
 {
-    struct capture_hooks hooks = {.on_sample = cfg->quiet ? NULL : progress_line};
-    return capture_run(cfg, &hooks, out, err);
+    return capture_run(cfg, NULL, out, err);
 }

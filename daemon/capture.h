@@ -20,6 +20,7 @@
 #include "common/err.h"
 #include "daemon/journal.h"
 #include "drivers/drivers.h"
+#include "planner/planner.h"
 #include "planner/rig.h"
 
 struct drv_axis;
@@ -48,7 +49,7 @@ struct capture_config {
     const char *out_dir;  /* the capture directory */
     const char *order;    /* overrides the plan's ordering, or NULL */
     const char *stop;     /* "all" or "converge": overrides the plan's stop rule, or NULL */
-    int quiet;            /* no progress lines on stderr */
+    int quiet;            /* the host shows no progress (gonio capture --quiet) */
     /* gonio study: measure and journal only (no fit, no truth errors, no
      * results.json: the study fits its models itself), and journal without
      * fdatasync per sample (journal_set_lazy). */
@@ -118,6 +119,20 @@ enum capture_phase {
 /* "between", "move", "acquire", "journal", "fit". */
 const char *capture_phase_name(enum capture_phase phase);
 
+/* Where a capture stands, for a host's progress display (on_progress). */
+struct capture_progress {
+    const char *plan;
+    size_t done, total;  /* samples journalled (all runs), planned points */
+    size_t already_done; /* journalled by earlier runs: this run resumed */
+    double rig_time_s;   /* the rig clock so far, all runs, paused time excluded */
+    /* The whole plan's rig time as estimated before the first move (on the
+     * simulated rig with the integration its detector will choose,
+     * sim/estimate.h), and the rig time still to go: the estimate of the
+     * points left, scaled by how this run's points compared with theirs. */
+    double estimate_s, eta_s;
+    double fit_log_error; /* the latest streaming fit round's, NAN before one */
+};
+
 /* How a host (gonio, goniod) takes part in a capture. Every member may be
  * NULL. */
 struct capture_hooks {
@@ -126,14 +141,13 @@ struct capture_hooks {
     int (*open_devices)(void *user, const struct plan_rig *rig, struct capture_devices *dev,
                         struct gonio_err *err);
     void (*close_devices)(void *user, struct capture_devices *dev);
-    /* Called once the inputs are resolved and the directory is ready. */
-    void (*on_start)(void *user, const char *plan, size_t total, size_t already_done);
     /* Called after each sample is journalled (and after the streaming fit
      * round it set off, so that the host's figures include it). */
     void (*on_sample)(void *user, const struct journal_sample *s, size_t done, size_t total);
-    /* Asked at every point boundary; a host pauses a capture by blocking
-     * here (then returning CAPTURE_PAUSED), and aborts it by returning
-     * CAPTURE_ABORT. */
+    /* Asked once before anything is written (CAPTURE_ABORT there: an
+     * aborted capture and no files) and at every point boundary; a host
+     * pauses a capture by blocking here (then returning CAPTURE_PAUSED),
+     * and aborts it by returning CAPTURE_ABORT. */
     enum capture_control (*control)(void *user);
     /* Called after each round of the streaming fit (stop: converge, or
      * progress_fit) with its in-sample errors over the samples so far. */
@@ -142,6 +156,10 @@ struct capture_hooks {
      * the final fit). The host may take its time here: the crash torture
      * widens phases this way. */
     void (*on_phase)(void *user, enum capture_phase phase, int point);
+    /* Called once the inputs are resolved and the directory is ready (the
+     * run's start: done = already_done) and after each sample (before
+     * on_sample): what a progress display shows. */
+    void (*on_progress)(void *user, const struct capture_progress *p);
     void *user;
 };
 
@@ -155,8 +173,15 @@ struct capture_hooks {
 int capture_run(const struct capture_config *cfg, const struct capture_hooks *hooks,
                 struct capture_summary *out, struct gonio_err *err);
 
-/* capture_run on the in-process simulated rig, with progress lines on
- * stderr unless cfg->quiet. */
+/* Resolve and validate what capture_run would (plan, scene, rig, order,
+ * model, stop, material, truth; hooks as capture_run's, NULL for the
+ * in-process rig) and write nothing: how goniod refuses a bad request
+ * before it answers. est (may be NULL) receives the capture's rig-time
+ * estimate. Returns 0 or capture_run's error. */
+int capture_check(const struct capture_config *cfg, const struct capture_hooks *hooks,
+                  struct plan_estimate *est, struct gonio_err *err);
+
+/* capture_run on the in-process simulated rig, with no hooks. */
 int capture_run_offline(const struct capture_config *cfg, struct capture_summary *out,
                         struct gonio_err *err);
 

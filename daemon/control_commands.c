@@ -11,7 +11,6 @@
 #include "common/paths.h"
 #include "daemon/control_private.h"
 #include "daemon/request.h"
-#include "fit/models.h"
 
 enum need { NEED_ANY, NEED_IDLE, NEED_ACTIVE };
 
@@ -42,14 +41,6 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
     *code = "bad-value";
     if (!plan)
         return gonio_err_set(err, GONIO_EUSAGE, "capture: 'plan' is required");
-    if (stop && strcmp(stop, "all") && strcmp(stop, "converge"))
-        return gonio_err_set(err, GONIO_EUSAGE, "stop '%s': use all or converge", stop);
-    if (order && strcmp(order, "travel") && strcmp(order, "progressive") &&
-        strcmp(order, "as-written") && strcmp(order, "greedy"))
-        return gonio_err_set(err, GONIO_EUSAGE,
-                             "order '%s': use travel, progressive, as-written or greedy", order);
-    if (model && !fit_model_find_rgb(model, "model", err)) /* names the RGB models */
-        return -GONIO_EUSAGE;
     int rc;
     if ((rc = control_resolve_ref(c, "plan", plan, r.plan, sizeof r.plan, err)) < 0)
         return rc;
@@ -102,6 +93,10 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
         }
     }
     snprintf(r.dir, sizeof r.dir, "%s/%s", c->cfg->capture_root, r.id);
+    /* Everything the engine will read, resolved as it will resolve it,
+     * before the OK: a bad request creates nothing. */
+    if ((rc = worker_check(c->w, &r, err)) < 0)
+        return rc;
     if ((rc = gonio_mkdir_p(c->cfg->capture_root, err)) < 0) {
         *code = "io";
         return rc;
@@ -125,6 +120,21 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
     return 0;
 }
 
+/* The current capture, else the last one: null before any. */
+static json_t *capture_doc(const struct worker_status *st)
+{
+    if (!st->has_capture)
+        return json_null();
+    return json_pack("{s:s, s:s, s:o, s:I, s:I, s:o, s:o, s:o}", "capture_id", st->cap_id,
+                     "state", st->cap_state, "message",
+                     st->cap_message[0] ? json_string(st->cap_message) : json_null(),
+                     "points_done", (json_int_t)st->cap_done, "points_total",
+                     (json_int_t)st->cap_total, "rig_time_s",
+                     control_json_number(st->cap_rig_time_s), "estimate_s",
+                     control_json_number(st->cap_estimate_s), "eta_s",
+                     control_json_number(st->cap_eta_s));
+}
+
 static json_t *status_doc(control *c)
 {
     struct worker_status st;
@@ -146,6 +156,7 @@ static json_t *status_doc(control *c)
                                       "samples", (json_int_t)st.fit_samples));
     else
         json_object_set_new(d, "fit_error", json_null());
+    json_object_set_new(d, "capture", capture_doc(&st));
     return d;
 }
 
@@ -173,7 +184,10 @@ static int cmd_pause(control *c, struct control_client *cl, json_t *req, json_t 
 {
     (void)cl, (void)req, (void)reply;
     *code = "not-running";
-    return worker_pause(c->w, err);
+    int rc = worker_pause(c->w, err);
+    if (rc == 0)
+        control_broadcast_state(c);
+    return rc;
 }
 
 static int cmd_resume(control *c, struct control_client *cl, json_t *req, json_t *reply,
@@ -186,7 +200,10 @@ static int cmd_resume(control *c, struct control_client *cl, json_t *req, json_t
     if (!id || (st.state != WORKER_IDLE && !strcmp(id, st.id))) {
         /* Resume the paused capture. */
         *code = "not-paused";
-        return worker_continue(c->w, err);
+        int rc = worker_continue(c->w, err);
+        if (rc == 0)
+            control_broadcast_state(c);
+        return rc;
     }
     *code = "bad-value";
     if (!control_valid_id(id))

@@ -93,6 +93,12 @@ void control_refusals_flush(control *c);
 void control_reap(control *c);
 void control_client_free(struct control_client *cl);
 
+/* ---- control_stream.c ------------------------------------------------- */
+
+/* Tell watchers the capture is now paused or running again (after pause
+ * and resume): {"class":"state","capture_id":...,"state":"paused"}. */
+void control_broadcast_state(control *c);
+
 /* ---- control_commands.c ----------------------------------------------- */
 
 /* Run one request line (without its newline) and queue the reply. */

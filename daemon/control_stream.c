@@ -32,6 +32,7 @@ static json_t *start_doc(const struct worker_msg_start *m)
     json_object_set_new(s, "resume", json_boolean(m->req.resume));
     json_object_set_new(s, "total", json_integer((json_int_t)m->total));
     json_object_set_new(s, "already_done", json_integer((json_int_t)m->already_done));
+    json_object_set_new(s, "estimate_s", control_json_number(m->estimate_s));
     json_object_set_new(s, "time", json_integer((json_int_t)time(NULL)));
     return s;
 }
@@ -59,6 +60,7 @@ static json_t *sample_doc(const control *c, const struct worker_msg_sample *m)
     json_object_set_new(d, "integration_s", control_json_number(s->integration_s));
     json_object_set_new(d, "rig_time_s", control_json_number(s->rig_time_s));
     json_object_set_new(d, "saturated", json_boolean(s->flags & JOURNAL_FLAG_SATURATED));
+    json_object_set_new(d, "eta_s", control_json_number(m->eta_s));
     if (isfinite(m->fit_log_error))
         json_object_set_new(d, "fit_log_error", json_real(m->fit_log_error));
     return d;
@@ -183,6 +185,20 @@ static json_t *stop_doc(const struct worker_msg_stop *m)
         json_object_set_new(d, "results", r);
     }
     return d;
+}
+
+void control_broadcast_state(control *c)
+{
+    struct worker_status st;
+    worker_get_status(c->w, &st);
+    if (st.state == WORKER_IDLE)
+        return;
+    char *text = control_json_text(
+        json_pack("{s:s, s:s, s:s}", "class", "state", "capture_id", st.id, "state",
+                  st.state == WORKER_PAUSED ? "paused" : "running"));
+    if (text)
+        control_broadcast(c, text);
+    free(text);
 }
 
 void control_dispatch(control *c, struct worker_msg *msgs)

@@ -25,7 +25,12 @@ struct worker {
     char abort_reason[32];
     struct worker_request req;
     size_t done, total;
-    double rig_time_s;
+    double rig_time_s, estimate_s, eta_s;
+    int announced; /* this run's start message is queued */
+    /* The last capture's end: "" while none has ended since the current
+     * one started (worker_status). */
+    int has_capture;
+    char end_state[16], end_message[GONIO_ERR_MSG_MAX];
     struct worker_msg *head, *tail;
     void *bus; /* the Modbus bus while a capture holds it */
     int has_comm; /* the last capture's bus counts, taken as it closed */
@@ -107,6 +112,33 @@ static void hook_on_fit(void *user, const struct brdf_errors *e, size_t samples)
     pthread_mutex_unlock(&w->mu);
 }
 
+static void push(worker *w, struct worker_msg *m);
+
+/* Where the capture stands, for status and the events: its ETA. The first
+ * call of a run announces it (the start document carries the estimate). */
+static void hook_on_progress(void *user, const struct capture_progress *p)
+{
+    worker *w = user;
+    pthread_mutex_lock(&w->mu);
+    w->done = p->done;
+    w->total = p->total;
+    w->estimate_s = p->estimate_s;
+    w->eta_s = p->eta_s;
+    int announce = !w->announced;
+    w->announced = 1;
+    pthread_mutex_unlock(&w->mu);
+    struct worker_msg_start *m = announce ? calloc(1, sizeof *m) : NULL;
+    if (!m)
+        return;
+    m->base.kind = WORKER_MSG_START;
+    m->req = w->req;
+    snprintf(m->plan_name, sizeof m->plan_name, "%s", p->plan);
+    m->total = p->total;
+    m->already_done = p->already_done;
+    m->estimate_s = p->estimate_s;
+    push(w, &m->base);
+}
+
 static void push(worker *w, struct worker_msg *m)
 {
     m->next = NULL;
@@ -123,24 +155,6 @@ static void push(worker *w, struct worker_msg *m)
     (void)n;
 }
 
-static void hook_on_start(void *user, const char *plan, size_t total, size_t already)
-{
-    worker *w = user;
-    pthread_mutex_lock(&w->mu);
-    w->total = total;
-    w->done = already;
-    pthread_mutex_unlock(&w->mu);
-    struct worker_msg_start *m = calloc(1, sizeof *m);
-    if (!m)
-        return;
-    m->base.kind = WORKER_MSG_START;
-    m->req = w->req;
-    snprintf(m->plan_name, sizeof m->plan_name, "%s", plan);
-    m->total = total;
-    m->already_done = already;
-    push(w, &m->base);
-}
-
 static void hook_on_sample(void *user, const struct journal_sample *s, size_t done,
                            size_t total)
 {
@@ -150,6 +164,7 @@ static void hook_on_sample(void *user, const struct journal_sample *s, size_t do
     w->total = total;
     w->rig_time_s = s->rig_time_s;
     double fit_log = w->has_fit && !strcmp(w->fit_id, w->req.id) ? w->fit_log : NAN;
+    double eta = w->eta_s;
     pthread_mutex_unlock(&w->mu);
     struct worker_msg_sample *m = calloc(1, sizeof *m);
     if (!m)
@@ -159,6 +174,7 @@ static void hook_on_sample(void *user, const struct journal_sample *s, size_t do
     m->done = done;
     m->total = total;
     m->fit_log_error = fit_log;
+    m->eta_s = eta;
     push(w, &m->base);
 }
 
@@ -205,46 +221,65 @@ static void hook_close(void *user, struct capture_devices *dev)
     w->bus = NULL;
 }
 
+/* The engine's configuration of a request, the same for the check before
+ * the reply and for the run. */
+static struct capture_config request_config(const worker *w, const struct worker_request *r)
+{
+    int sim = w->cfg->driver == GONIOD_DRIVER_SIM;
+    return (struct capture_config){
+        .plan = r->plan,
+        .scene = r->scene[0] ? r->scene : NULL,
+        .material = r->material[0] ? r->material : NULL,
+        .rig = r->rig[0] ? r->rig : NULL,
+        .truth = r->truth[0] ? r->truth : NULL,
+        .driver = goniod_driver_name(w->cfg->driver),
+        .detector = sim                                          ? NULL
+                    : w->cfg->detector == GONIOD_DETECTOR_USB ? "usb-spectrometer"
+                                                               : "modbus",
+        .model = r->model,
+        .out_dir = r->dir,
+        .order = r->order[0] ? r->order : NULL,
+        .stop = r->stop[0] ? r->stop : NULL,
+        .quiet = 1,
+        .assess_nodes = (size_t)w->cfg->assess_nodes,
+        .progress_fit = 1,
+    };
+}
+
+/* The simulator runs inside the engine (it reads the capture's own
+ * material and continues the rig clock on a resume); hardware goes
+ * through the configured drivers. */
+static int sim_driver(const worker *w)
+{
+    return w->cfg->driver == GONIOD_DRIVER_SIM;
+}
+
+int worker_check(const worker *w, const struct worker_request *req, struct gonio_err *err)
+{
+    struct capture_config cc = request_config(w, req);
+    struct capture_hooks hooks = {.open_devices = sim_driver(w) ? NULL : hook_open};
+    return capture_check(&cc, &hooks, NULL, err);
+}
+
 static void *run(void *arg)
 {
     worker *w = arg;
     struct worker_msg_stop *m = calloc(1, sizeof *m);
     struct capture_summary sum;
     struct gonio_err err = {0};
-    int sim = w->cfg->driver == GONIOD_DRIVER_SIM;
-    struct capture_config cc = {
-        .plan = w->req.plan,
-        .scene = w->req.scene[0] ? w->req.scene : NULL,
-        .material = w->req.material[0] ? w->req.material : NULL,
-        .rig = w->req.rig[0] ? w->req.rig : NULL,
-        .truth = w->req.truth[0] ? w->req.truth : NULL,
-        .driver = goniod_driver_name(w->cfg->driver),
-        .detector = sim                                          ? NULL
-                    : w->cfg->detector == GONIOD_DETECTOR_USB ? "usb-spectrometer"
-                                                               : "modbus",
-        .model = w->req.model,
-        .out_dir = w->req.dir,
-        .order = w->req.order[0] ? w->req.order : NULL,
-        .stop = w->req.stop[0] ? w->req.stop : NULL,
-        .quiet = 1,
-        .assess_nodes = (size_t)w->cfg->assess_nodes,
-        .progress_fit = 1,
-    };
+    struct capture_config cc = request_config(w, &w->req);
     struct capture_hooks hooks = {
-        .on_start = hook_on_start,
         .on_sample = hook_on_sample,
         .control = hook_control,
         .on_fit = hook_on_fit,
+        .on_progress = hook_on_progress,
 #ifdef GONIO_TEST_HOOKS
         .on_phase = hook_on_phase,
 #endif
         .user = w,
     };
-    /* The simulator runs inside the engine (it reads the capture's own
-     * material and continues the rig clock on a resume); hardware goes
-     * through the configured drivers. */
     w->has_comm = 0;
-    if (!sim) {
+    if (!sim_driver(w)) {
         hooks.open_devices = hook_open;
         hooks.close_devices = hook_close;
     }
@@ -273,6 +308,11 @@ static void *run(void *arg)
         w->fit_rmse = w->done_fit.rmse;
         w->fit_n = w->done_fit.n;
     }
+    snprintf(w->end_state, sizeof w->end_state, "%s",
+             rc < 0 ? "failed" : aborted ? "aborted" : "complete");
+    snprintf(w->end_message, sizeof w->end_message, "%s", rc < 0 ? err.msg : "");
+    if (rc == 0 && !aborted)
+        w->eta_s = 0;
     w->running = 0;
     w->paused = 0;
     pthread_mutex_unlock(&w->mu);
@@ -380,6 +420,10 @@ int worker_start(worker *w, const struct worker_request *req, struct gonio_err *
     w->abort_reason[0] = '\0';
     w->done = w->total = 0;
     w->rig_time_s = 0;
+    w->estimate_s = w->eta_s = NAN;
+    w->has_capture = 1;
+    w->announced = 0;
+    w->end_state[0] = w->end_message[0] = '\0';
     pthread_mutex_unlock(&w->mu);
     int rc = pthread_create(&w->thread, NULL, run, w);
     if (rc != 0) {
@@ -440,6 +484,17 @@ void worker_get_status(worker *w, struct worker_status *st)
         st->done = w->done;
         st->total = w->total;
         st->rig_time_s = w->rig_time_s;
+    }
+    if ((st->has_capture = w->has_capture)) {
+        snprintf(st->cap_id, sizeof st->cap_id, "%s", w->req.id);
+        snprintf(st->cap_state, sizeof st->cap_state, "%s",
+                 w->running ? (w->paused ? "paused" : "running") : w->end_state);
+        snprintf(st->cap_message, sizeof st->cap_message, "%s", w->end_message);
+        st->cap_done = w->done;
+        st->cap_total = w->total;
+        st->cap_rig_time_s = w->rig_time_s;
+        st->cap_estimate_s = w->estimate_s;
+        st->cap_eta_s = w->eta_s;
     }
     st->has_fit = w->has_fit;
     snprintf(st->fit_id, sizeof st->fit_id, "%s", w->fit_id);

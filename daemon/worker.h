@@ -39,6 +39,14 @@ struct worker_status {
     char id[128];
     size_t done, total;
     double rig_time_s;
+    /* The current capture, else the last one (has_capture 0 before any):
+     * its id, "running", "paused", "complete", "failed" or "aborted", why
+     * it failed, its progress, the plan's rig-time estimate and the rig
+     * time still to go (capture_progress). */
+    int has_capture;
+    char cap_id[128], cap_state[16], cap_message[GONIO_ERR_MSG_MAX];
+    size_t cap_done, cap_total;
+    double cap_rig_time_s, cap_estimate_s, cap_eta_s;
     /* The latest fit error known: the running capture's streaming fit
      * once it has one, else the last finished capture's fit. */
     int has_fit;
@@ -61,6 +69,7 @@ struct worker_msg_start {
     struct worker_request req;
     char plan_name[128];
     size_t total, already_done;
+    double estimate_s; /* the plan's rig-time estimate (capture_progress) */
 };
 
 struct worker_msg_sample {
@@ -68,6 +77,7 @@ struct worker_msg_sample {
     struct journal_sample sample;
     size_t done, total;
     double fit_log_error; /* the streaming fit's in-sample error, NAN before a round */
+    double eta_s;         /* rig time still to go (capture_progress) */
 };
 
 struct worker_msg_stop {
@@ -91,6 +101,10 @@ void worker_free(worker *w);
 
 /* The read end of the wake-up pipe: readable when messages are queued. */
 int worker_wake_fd(const worker *w);
+
+/* Check a request as the capture would (capture_check) without writing
+ * anything; err names the field and value of what is wrong. */
+int worker_check(const worker *w, const struct worker_request *req, struct gonio_err *err);
 
 /* Start a capture; refused (GONIO_EUSAGE, err naming the capture that runs)
  * while one runs. */

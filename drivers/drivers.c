@@ -1,73 +1,11 @@
-/* The generic layer: dispatch to the backend's ops table. */
+/* The generic layer of detectors and clocks: dispatch to the backend's ops
+ * table (axes: axis_mechanics.c). */
 #include "drivers/drivers_private.h"
 
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-drv_axis *drv_axis_alloc(const struct drv_axis_ops *ops, void *priv, const char *name)
-{
-    drv_axis *ax = calloc(1, sizeof *ax);
-    if (!ax) {
-        if (ops->free_priv)
-            ops->free_priv(priv);
-        return NULL;
-    }
-    ax->ops = ops;
-    ax->priv = priv;
-    snprintf(ax->name, sizeof ax->name, "%s", name);
-    return ax;
-}
-
-int drv_axis_start_move(drv_axis *ax, double target_deg, struct gonio_err *err)
-{
-    return ax->ops->start_move(ax->priv, target_deg, err);
-}
-
-int drv_axis_wait(drv_axis *ax, struct gonio_err *err)
-{
-    return ax->ops->wait(ax->priv, err);
-}
-
-int drv_axis_position(drv_axis *ax, double *deg, struct gonio_err *err)
-{
-    return ax->ops->position(ax->priv, deg, err);
-}
-
-int drv_axis_home(drv_axis *ax, struct gonio_err *err)
-{
-    if (!ax->ops->home)
-        return gonio_err_set(err, ENOTSUP, "axis %s: homing not supported by %s", ax->name,
-                             ax->ops->name);
-    return ax->ops->home(ax->priv, err);
-}
-
-int drv_axis_stop(drv_axis *ax, struct gonio_err *err)
-{
-    return ax->ops->stop(ax->priv, err);
-}
-
-void drv_axis_stats(const drv_axis *ax, struct drv_axis_stats *out)
-{
-    memset(out, 0, sizeof *out);
-    if (ax && ax->ops->stats)
-        ax->ops->stats(ax->priv, out);
-}
-
-const char *drv_axis_name(const drv_axis *ax)
-{
-    return ax->name;
-}
-
-void drv_axis_free(drv_axis *ax)
-{
-    if (!ax)
-        return;
-    if (ax->ops->free_priv)
-        ax->ops->free_priv(ax->priv);
-    free(ax);
-}
 
 drv_detector *drv_detector_alloc(const struct drv_detector_ops *ops, void *priv)
 {

@@ -3,7 +3,10 @@
  * Only the constructors depend on the backend; the capture engine uses the
  * generic calls. An axis moves to absolute positions in degrees; several
  * axes started one after the other move together, and waiting for each
- * returns once all are in position. A detector integrates for a given time
+ * returns once all are in position. How a drive comes to rest (the
+ * mechanics below) is decided here, the same for every backend
+ * (drivers/axis_mechanics.c); a backend only moves, reports rest, feedback
+ * and alarms, resets, homes and stops. A detector integrates for a given time
  * and returns an RGB reading. The rig clock is the time the rig itself
  * experiences: wall time on hardware, simulated time on a simulator. */
 #ifndef GONIO_DRIVERS_DRIVERS_H
@@ -15,18 +18,51 @@ typedef struct drv_axis drv_axis;
 typedef struct drv_detector drv_detector;
 typedef struct drv_clock drv_clock;
 
+/* How an axis's drive comes to rest: its soft limits and the rig
+ * profile's mechanics (planner/rig.h struct plan_mechanics, docs/plans.md).
+ *
+ * A move to a target beyond the limits is refused before anything is sent
+ * (-GONIO_EUNREACHABLE). A move is done when the drive reports IN-POS or
+ * rests within in_position_deg of the target; a move to where the axis
+ * already rests inside the band sends nothing. With backlash_deg, every
+ * target is approached from the reference side (approach +1: from below,
+ * -1: from above) through a point backlash_deg beyond it when the axis
+ * would arrive from the other side. A drive resting outside the band is
+ * re-commanded: it backs off to the reference side (by the backlash, at
+ * least twice the band) and comes again. A drive alarm is reset (ALM-RST)
+ * and the move retried the same way: 0x10 (excessive position deviation)
+ * and 0x30 (overload) leave the position valid; 0x28 (sensor error) puts it
+ * in doubt, so the axis is re-homed first; 0x66, 0x70 and unknown codes are
+ * not retried (the drive refused the command, or the cause is unknown).
+ * Re-commands and alarm recoveries both draw on move_retries. Running out
+ * of tries, or a stop (drv_axis_stop), fails with -GONIO_EDEVICE, saying
+ * overshoot or short, by how much, and what was tried, e.g. "axis arm
+ * (slave 2): stopped at -6.13 deg, 0.13 deg short of -6 deg after 4 tries
+ * (re-commanded 3 times)". drv_axis_position answers from the feedback
+ * read when the last move ended while the axis rests: the drivers are the
+ * drives' only master. */
+struct drv_axis_mechanics {
+    double min_deg, max_deg; /* soft limits */
+    double in_position_deg;  /* > 0 */
+    double backlash_deg;     /* 0: direct moves */
+    int approach;            /* -1: from above; otherwise from below */
+    int move_retries;
+};
+
 int drv_axis_start_move(drv_axis *ax, double target_deg, struct gonio_err *err);
 int drv_axis_wait(drv_axis *ax, struct gonio_err *err);
 int drv_axis_position(drv_axis *ax, double *deg, struct gonio_err *err);
 int drv_axis_home(drv_axis *ax, struct gonio_err *err);
 int drv_axis_stop(drv_axis *ax, struct gonio_err *err);
+/* Reset a drive alarm (ALM-RST): 0 when it cleared, else -GONIO_EDEVICE
+ * naming the code the drive still shows. */
+int drv_axis_alarm_reset(drv_axis *ax, struct gonio_err *err);
 const char *drv_axis_name(const drv_axis *ax);
 
 /* What the axis's mechanics cost so far: moves sent to the drive (legs,
  * re-commands included), re-commands of a drive that came to rest outside
  * the in-position band, drive alarms reset and the move retried, and
- * re-homings an alarm called for. All zero for a backend that does not
- * recover (the in-process simulator). */
+ * re-homings an alarm called for. */
 struct drv_axis_stats {
     long moves, recommands, alarms_recovered, rehomes;
 };

@@ -5,21 +5,29 @@
 
 #include "drivers/drivers.h"
 
+/* An axis backend's primitives: the generic layer (axis_mechanics.c)
+ * decides what to do with them. Every one is required but resolve and
+ * free_priv. */
 struct drv_axis_ops {
     const char *name;
-    int (*start_move)(void *priv, double target_deg, struct gonio_err *err);
-    int (*wait)(void *priv, struct gonio_err *err);
-    int (*position)(void *priv, double *deg, struct gonio_err *err);
-    int (*home)(void *priv, struct gonio_err *err);
+    /* Send one absolute move (a leg) from where the axis rests to a target
+     * within the limits, and return once the drive has it. */
+    int (*start_leg)(void *priv, double from_deg, double target_deg, struct gonio_err *err);
+    /* Wait until the drive rests or is in alarm, and say which: IN-POS as
+     * the drive reports it (0 for a drive that does not), the alarm code
+     * (0 none). Fails only when the drive cannot be heard or makes no
+     * progress without raising an alarm. */
+    int (*wait_rest)(void *priv, int *in_pos, unsigned *alarm, struct gonio_err *err);
+    /* The encoder's position, degrees. */
+    int (*feedback)(void *priv, double *deg, struct gonio_err *err);
+    /* ALM-RST; *alarm: the code the drive still shows after it (0: cleared). */
+    int (*reset_alarm)(void *priv, unsigned *alarm, struct gonio_err *err);
+    /* Home from from_deg to 0 and wait; *alarm as wait_rest's. */
+    int (*home)(void *priv, double from_deg, unsigned *alarm, struct gonio_err *err);
     int (*stop)(void *priv, struct gonio_err *err);
-    void (*stats)(const void *priv, struct drv_axis_stats *out); /* NULL: all zero */
+    /* Where the drive goes when told deg (its nearest step); NULL: exactly there. */
+    double (*resolve)(const void *priv, double deg);
     void (*free_priv)(void *priv);
-};
-
-struct drv_axis {
-    const struct drv_axis_ops *ops;
-    void *priv;
-    char name[32];
 };
 
 struct drv_detector_ops {
@@ -46,7 +54,11 @@ struct drv_clock {
     void *priv;
 };
 
-drv_axis *drv_axis_alloc(const struct drv_axis_ops *ops, void *priv, const char *name);
+/* An axis of the backend ops with state priv (freed with free_priv, also
+ * when the allocation fails: NULL). name ("arm") is the axis's, who names
+ * it in messages ("axis arm (slave 2)"); mech is copied. */
+drv_axis *drv_axis_alloc(const struct drv_axis_ops *ops, void *priv, const char *name,
+                         const char *who, const struct drv_axis_mechanics *mech);
 drv_detector *drv_detector_alloc(const struct drv_detector_ops *ops, void *priv);
 drv_clock *drv_clock_alloc(const struct drv_clock_ops *ops, void *priv);
 

@@ -22,7 +22,7 @@
  * and the axes read status and position with requests of different sizes,
  * so one that slips through fails the size check instead. An exception
  * answer, a stalled move, or a drive alarm or a miss of the in-position
- * band that the axis's tries could not recover (drv_axis_new_modbus) fails
+ * band that the axis's tries could not recover (drivers.h) fails
  * with -GONIO_EDEVICE; the message names the device, the register and the
  * problem, e.g. "axis arm (slave 2): drive alarm 0x30 (overload)". */
 #ifndef GONIO_DRIVERS_DRV_MODBUS_H
@@ -80,49 +80,30 @@ struct drv_modbus_stats {
 void drv_modbus_bus_stats(const drv_modbus_bus *bus, struct drv_modbus_stats *out);
 
 /* Axis options beyond the rig profile: the drive's steps and the rig's
- * mechanics (planner/rig.h struct plan_mechanics, docs/plans.md). */
+ * mechanics (planner/rig.h struct plan_mechanics, docs/plans.md), as
+ * drivers.h's struct drv_axis_mechanics takes them. */
 struct drv_modbus_axis_opts {
-    double steps_per_deg; /* drive steps per degree; 0: 100 */
-    /* A move is done when the drive reports IN-POS or rests within this of
-     * the target. 0: half a step. */
-    double in_position_deg;
-    /* Backlash: every target is approached from the reference side
-     * (approach +1: from below, -1: from above), through a point
-     * backlash_deg beyond it when the axis would arrive from the other
-     * side. 0: direct moves. */
-    double backlash_deg;
-    int approach; /* 0: +1 */
-    /* Re-commands and alarm recoveries before a move fails. */
+    double steps_per_deg;   /* drive steps per degree; 0: 100 */
+    double in_position_deg; /* 0: half a step */
+    double backlash_deg;    /* 0: direct moves */
+    int approach;           /* -1: from above; 0, +1: from below */
     int move_retries;
 };
 
-/* An axis drive at slave id `slave`. Moves use the profile's speed and
- * acceleration (converted to steps) and are refused before sending beyond
- * its min/max (-GONIO_EUNREACHABLE). opts may be NULL (defaults: no
- * retries). name ("sample", "arm", "azimuth") appears in messages. The
- * profile is copied.
+/* An axis drive at slave id `slave`, with the mechanics of drivers.h
+ * (struct drv_axis_mechanics: the profile's min/max and opts). Moves use
+ * the profile's speed and acceleration converted to steps, and go to whole
+ * steps. opts may be NULL (defaults: no backlash, no retries). name
+ * ("sample", "arm", "azimuth") appears in messages. The profile is copied.
  *
- * drv_axis_wait sleeps until the move's expected end, then polls the
- * drive (status, then the encoder's feedback position once it rests). A
- * drive resting outside the band is re-commanded: it backs off to the
- * reference side (by the backlash, at least twice the band) and comes
- * again. A drive alarm is reset (ALM-RST) and the move retried the same
- * way; alarm 0x28 (sensor error) re-homes the axis first, since the
- * position it reports cannot be trusted; 0x66 and 0x70 are not retried
- * (the command itself is refused). Both draw on move_retries. A stall (no
- * progress for 0.5 s of rig time), a stop (drv_axis_stop) or running out
- * of tries fails with -GONIO_EDEVICE, saying overshoot or short, by how
- * much, and what was tried. A move to where the axis already rests inside
- * the band sends nothing. drv_axis_position answers from the feedback read
- * at the end of the last move while the axis rests (this driver is the
- * bus's only master), else reads it. drv_axis_home raises ZHOME and waits
- * for HOME-END. */
+ * Waiting on a move sleeps until the leg's expected end, then polls the
+ * drive's status (the alarm code in the same read) and reads the encoder's
+ * feedback once it rests; a leg with no progress for 0.5 s of rig time
+ * and no alarm is a stall. drv_axis_home raises ZHOME and waits for
+ * HOME-END. */
 drv_axis *drv_axis_new_modbus(drv_modbus_bus *bus, int slave, const struct plan_axis *profile,
                               const struct drv_modbus_axis_opts *opts, const char *name,
                               struct gonio_err *err);
-
-/* Reset a drive alarm (ALM-RST edge); 0 when the alarm cleared. */
-int drv_axis_modbus_alarm_reset(drv_axis *ax, struct gonio_err *err);
 
 /* The detector at slave id `slave`. */
 drv_detector *drv_detector_new_modbus(drv_modbus_bus *bus, int slave, struct gonio_err *err);

@@ -1,5 +1,6 @@
 #include "drivers/drv_sim.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -8,28 +9,29 @@
 struct sim_axis_priv {
     sim_rig *rig;
     enum sim_axis_id id;
-    long moves; /* the only mechanics cost here: no re-commands, no recovery */
 };
 
-static int sim_start_move(void *priv, double target_deg, struct gonio_err *err)
+/* The primitives on the simulated drive; the mechanics (band, approach,
+ * re-commands, alarm recovery) are the generic layer's, as on Modbus. */
+static int sim_start_leg(void *priv, double from_deg, double target_deg, struct gonio_err *err)
 {
+    (void)from_deg;
     struct sim_axis_priv *p = priv;
-    p->moves++;
     return sim_rig_start_move(p->rig, p->id, target_deg, err);
 }
 
-static void sim_stats(const void *priv, struct drv_axis_stats *out)
+/* The simulated drive reports no IN-POS: the band decides. */
+static int sim_wait_rest(void *priv, int *in_pos, unsigned *alarm, struct gonio_err *err)
 {
-    out->moves = ((const struct sim_axis_priv *)priv)->moves;
-}
-
-static int sim_wait(void *priv, struct gonio_err *err)
-{
+    (void)err;
     struct sim_axis_priv *p = priv;
-    return sim_rig_wait(p->rig, p->id, err); /* fails naming the alarm of a stall */
+    sim_rig_wait(p->rig, p->id, NULL); /* its alarm is read below */
+    *in_pos = 0;
+    *alarm = (unsigned)sim_rig_alarm(p->rig, p->id);
+    return 0;
 }
 
-static int sim_position(void *priv, double *deg, struct gonio_err *err)
+static int sim_feedback(void *priv, double *deg, struct gonio_err *err)
 {
     (void)err;
     struct sim_axis_priv *p = priv;
@@ -37,11 +39,20 @@ static int sim_position(void *priv, double *deg, struct gonio_err *err)
     return 0;
 }
 
-static int sim_home(void *priv, struct gonio_err *err)
+static int sim_reset_alarm(void *priv, unsigned *still, struct gonio_err *err)
 {
+    (void)err;
     struct sim_axis_priv *p = priv;
-    int rc = sim_rig_start_move(p->rig, p->id, 0.0, err);
-    return rc < 0 ? rc : sim_wait(priv, err);
+    sim_rig_reset_alarm(p->rig, p->id);
+    *still = (unsigned)sim_rig_alarm(p->rig, p->id);
+    return 0;
+}
+
+static int sim_home(void *priv, double from_deg, unsigned *alarm, struct gonio_err *err)
+{
+    int in_pos;
+    int rc = sim_start_leg(priv, from_deg, 0.0, err);
+    return rc < 0 ? rc : sim_wait_rest(priv, &in_pos, alarm, err);
 }
 
 static int sim_stop(void *priv, struct gonio_err *err)
@@ -54,12 +65,12 @@ static int sim_stop(void *priv, struct gonio_err *err)
 
 static const struct drv_axis_ops sim_axis_ops = {
     .name = "sim",
-    .start_move = sim_start_move,
-    .wait = sim_wait,
-    .position = sim_position,
+    .start_leg = sim_start_leg,
+    .wait_rest = sim_wait_rest,
+    .feedback = sim_feedback,
+    .reset_alarm = sim_reset_alarm,
     .home = sim_home,
     .stop = sim_stop,
-    .stats = sim_stats,
     .free_priv = free,
 };
 
@@ -90,32 +101,40 @@ static const char *axis_device(const struct sim_axis_priv *p)
     return names[p->id];
 }
 
-static int faulty_start_move(void *priv, double target_deg, struct gonio_err *err)
+static int faulty_start_leg(void *priv, double from_deg, double target_deg,
+                            struct gonio_err *err)
 {
     struct sim_axis_priv *p = priv;
     int rc = exchange(p->rig, axis_device(p), "start move", err);
-    return rc < 0 ? rc : sim_start_move(priv, target_deg, err);
+    return rc < 0 ? rc : sim_start_leg(priv, from_deg, target_deg, err);
 }
 
-static int faulty_wait(void *priv, struct gonio_err *err)
+static int faulty_wait_rest(void *priv, int *in_pos, unsigned *alarm, struct gonio_err *err)
 {
     struct sim_axis_priv *p = priv;
     int rc = exchange(p->rig, axis_device(p), "status", err);
-    return rc < 0 ? rc : sim_wait(priv, err);
+    return rc < 0 ? rc : sim_wait_rest(priv, in_pos, alarm, err);
 }
 
-static int faulty_position(void *priv, double *deg, struct gonio_err *err)
+static int faulty_feedback(void *priv, double *deg, struct gonio_err *err)
 {
     struct sim_axis_priv *p = priv;
     int rc = exchange(p->rig, axis_device(p), "position", err);
-    return rc < 0 ? rc : sim_position(priv, deg, err);
+    return rc < 0 ? rc : sim_feedback(priv, deg, err);
 }
 
-static int faulty_home(void *priv, struct gonio_err *err)
+static int faulty_reset_alarm(void *priv, unsigned *still, struct gonio_err *err)
+{
+    struct sim_axis_priv *p = priv;
+    int rc = exchange(p->rig, axis_device(p), "alarm reset", err);
+    return rc < 0 ? rc : sim_reset_alarm(priv, still, err);
+}
+
+static int faulty_home(void *priv, double from_deg, unsigned *alarm, struct gonio_err *err)
 {
     struct sim_axis_priv *p = priv;
     int rc = exchange(p->rig, axis_device(p), "home", err);
-    return rc < 0 ? rc : sim_home(priv, err);
+    return rc < 0 ? rc : sim_home(priv, from_deg, alarm, err);
 }
 
 static int faulty_stop(void *priv, struct gonio_err *err)
@@ -127,18 +146,26 @@ static int faulty_stop(void *priv, struct gonio_err *err)
 
 static const struct drv_axis_ops sim_axis_faulty_ops = {
     .name = "sim",
-    .start_move = faulty_start_move,
-    .wait = faulty_wait,
-    .position = faulty_position,
+    .start_leg = faulty_start_leg,
+    .wait_rest = faulty_wait_rest,
+    .feedback = faulty_feedback,
+    .reset_alarm = faulty_reset_alarm,
     .home = faulty_home,
     .stop = faulty_stop,
-    .stats = sim_stats,
     .free_priv = free,
 };
 
 drv_axis *drv_axis_new_sim(sim_rig *rig, enum sim_axis_id axis)
 {
     static const char *names[SIM_N_AXES] = {"sample", "arm", "azimuth"};
+    const struct plan_rig *prof = sim_rig_profile(rig);
+    const struct plan_axis *lim[SIM_N_AXES] = {&prof->sample, &prof->arm, &prof->azimuth};
+    const struct drv_axis_mechanics mech = {
+        .min_deg = lim[axis]->min, .max_deg = lim[axis]->max,
+        .in_position_deg = prof->mech.in_position_deg, .backlash_deg = prof->mech.backlash_deg,
+        .approach = prof->mech.approach, .move_retries = prof->mech.move_retries};
+    char who[32];
+    snprintf(who, sizeof who, "axis %s", names[axis]);
     struct sim_axis_priv *p = calloc(1, sizeof *p);
     if (!p)
         return NULL;
@@ -146,9 +173,8 @@ drv_axis *drv_axis_new_sim(sim_rig *rig, enum sim_axis_id axis)
     p->id = axis;
     /* the fault layer only where the scene has faults: no cost otherwise */
     return drv_axis_alloc(sim_rig_faults(rig) ? &sim_axis_faulty_ops : &sim_axis_ops, p,
-                          names[axis]);
+                          names[axis], who, &mech);
 }
-
 static int sim_acquire(void *priv, double integration_s, struct drv_reading *out,
                        struct gonio_err *err)
 {

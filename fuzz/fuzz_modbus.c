@@ -5,7 +5,8 @@
  * register values, any failures, in any order, on a virtual clock (so
  * timeouts and stall detection run without sleeping).
  *
- * Input: byte 0 picks the time scale and backlash, then a script of
+ * Input: byte 0 picks the time scale, backlash, clock, tries (the axis
+ * mechanics' re-commands and alarm recoveries) and approach, then a script of
  * operations (one byte each, with an argument byte); each bus transaction
  * takes one byte (0xFF: the transaction fails) and, for a read, two bytes
  * a register. When the input runs out every transaction fails.
@@ -116,7 +117,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     the_bus = &bus;
     struct plan_axis prof = {.speed = 20, .accel = 40, .min = bus.min_deg, .max = bus.max_deg};
     struct drv_modbus_axis_opts opts = {.steps_per_deg = bus.steps_per_deg,
-                                        .backlash_deg = (data[0] & 4) ? 0.5 : 0.0};
+                                        .backlash_deg = (data[0] & 4) ? 0.5 : 0.0,
+                                        .move_retries = (data[0] & 16) ? 3 : 0,
+                                        .approach = (data[0] & 32) ? -1 : 1};
     struct gonio_err err = {0};
     drv_axis *ax = drv_axis_new_modbus(&bus, MB_SLAVE_SAMPLE, &prof, &opts, "fuzz", &err);
     drv_detector *det = drv_detector_new_modbus(&bus, MB_SLAVE_DETECTOR, &err);
@@ -149,7 +152,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             drv_axis_stop(ax, &err);
             break;
         case 5:
-            drv_axis_modbus_alarm_reset(ax, &err);
+            drv_axis_alarm_reset(ax, &err);
             break;
         case 6:
             if (clk)

@@ -24,5 +24,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FUZZ_CHECK(!rig.out_of_plane || axis_ok(&rig.azimuth));
     FUZZ_CHECK(rig.blind_deg >= 0 && rig.settle_s >= 0 && rig.integration_s >= 0);
     FUZZ_CHECK(isfinite(rig.blind_deg) && isfinite(rig.settle_s) && isfinite(rig.integration_s));
+    /* ... and by the axis mechanics (drivers/drivers.h). */
+    const struct plan_mechanics *m = &rig.mech;
+    FUZZ_CHECK(m->in_position_deg > 0 && isfinite(m->in_position_deg));
+    FUZZ_CHECK(m->backlash_deg >= 0 && isfinite(m->backlash_deg));
+    FUZZ_CHECK((m->approach == 1 || m->approach == -1) && m->move_retries >= 0);
     return 0;
 }

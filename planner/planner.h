@@ -91,6 +91,17 @@ int plan_order(struct plan *plan, enum plan_order_mode mode, const struct plan_r
 void plan_estimate(const struct plan *plan, const struct plan_rig *rig,
                    struct plan_estimate *est);
 
+/* The integration a detector will choose at a point (an auto-exposing
+ * detector integrates longer where the material is dark: sim/meter.h). */
+typedef double (*plan_integration_fn)(void *user, const struct plan_point *pt);
+
+/* plan_estimate with each point's integration from integration (NULL: the
+ * rig's fixed one); point_s (plan_count entries, or NULL) receives each
+ * point's share: the move to it, settle and integration. */
+void plan_estimate_points(const struct plan *plan, const struct plan_rig *rig,
+                          plan_integration_fn integration, void *user, double *point_s,
+                          struct plan_estimate *est);
+
 /* A lower bound on the move time of any order from home: up to 2000
  * points the Held-Karp 1-tree bound (subgradient ascent on node penalties,
  * about 0.6 s for DS1), else the weight of a minimum spanning tree over home

@@ -143,7 +143,8 @@ void render_study_free(struct render_study_material *m, int n)
 }
 
 int render_study_write(const char *dir, const char *scene, const struct render_scene *sc,
-                       int size, int columns, FILE *progress, struct gonio_err *err)
+                       int size, int columns, void (*progress)(void *user, int done, int total),
+                       void *user, struct gonio_err *err)
 {
     struct render_study_material *mats;
     int n;
@@ -170,15 +171,16 @@ int render_study_write(const char *dir, const char *scene, const struct render_s
             items[k] = (struct render_item){spec, c < 0 ? "truth" : mats[i].cells[c].label,
                                             opened[k]};
         }
+    if (rc == 0 && progress)
+        progress(user, 0, total);
     for (int i = 0, k = 0; rc == 0 && i < n; k += 1 + mats[i].n, i++) {
         char out[4400];
         snprintf(out, sizeof out, "%s/renders/%s", dir, mats[i].name);
         int cols = columns ? columns : (1 + mats[i].n < 6 ? 1 + mats[i].n : 6);
-        struct render_set_options o = {size, 1, cols, progress};
+        struct render_set_options o = {size, 1, cols, NULL};
         rc = render_write_set(out, sc, items + k, 1 + mats[i].n, &o, err);
         if (rc == 0 && progress)
-            fprintf(progress, "wrote %s/grid.png: truth and %d model%s\n", out, mats[i].n,
-                    mats[i].n == 1 ? "" : "s");
+            progress(user, k + 1 + mats[i].n, total);
     }
     for (int k = 0; opened && k < total; k++)
         brdf_material_free(opened[k]);

@@ -36,9 +36,11 @@ struct render_scene;
 
 /* Read DIR/results.json as above and write each material's images and grid
  * to DIR/renders/MATERIAL/ (render_write_set; `columns` 0: up to 6 a row),
- * with a line per image and per grid on `progress` (NULL: none). Every material is opened before
+ * calling progress (may be NULL) with the images done and their total as it
+ * starts and after each material's grid. Every material is opened before
  * anything is written. Returns 0 or a negative code with err filled. */
 int render_study_write(const char *dir, const char *scene, const struct render_scene *sc,
-                       int size, int columns, FILE *progress, struct gonio_err *err);
+                       int size, int columns, void (*progress)(void *user, int done, int total),
+                       void *user, struct gonio_err *err);
 
 #endif

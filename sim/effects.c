@@ -325,6 +325,13 @@ void sim_effects_light(sim_effects *fx, struct sim_signal *s)
         fx->light[i].fn(fx->light[i].st, s);
 }
 
+void sim_effects_light_mean(const sim_effects *fx, struct sim_signal *s)
+{
+    for (int i = 0; i < fx->n_light; i++)
+        if (fx->light[i].fn == fx_stray_light)
+            fx_stray_light(fx->light[i].st, s);
+}
+
 void sim_effects_sensor(sim_effects *fx, struct sim_signal *s)
 {
     for (int i = 0; i < fx->n_sensor; i++)

@@ -67,6 +67,11 @@ int sim_effects_noisy(const sim_effects *fx);
 void sim_effects_light(sim_effects *fx, struct sim_signal *s);
 void sim_effects_sensor(sim_effects *fx, struct sim_signal *s);
 
+/* The light stage's expected effect, without a random draw or a state
+ * change: the stray-light floor (a lamp's drift averages out). What an
+ * estimate of the exposure before the capture can know (sim/estimate.h). */
+void sim_effects_light_mean(const sim_effects *fx, struct sim_signal *s);
+
 /* Apply the move effects: m->motor_target starts as m->target. */
 void sim_effects_move(sim_effects *fx, struct sim_move *m);
 

@@ -95,17 +95,37 @@ void sim_detector_free(sim_detector *d)
     free(d);
 }
 
+/* The material's exact values at p: the bands of a spectral detector (into
+ * d->values), else RGB (into rgb). Returns the channel count. */
+static int signal_at(sim_detector *d, const struct brdf_pair *p, double rgb[3], double **v)
+{
+    *v = d->n_bands ? d->values : rgb;
+    if (d->n_bands)
+        brdf_spectral_eval(d->spectral, p, d->bands, (size_t)d->n_bands, *v);
+    else
+        brdf_material_eval(d->material, p, 1, *v);
+    return d->n_bands ? d->n_bands : 3;
+}
+
+double sim_detector_meter(sim_detector *d, const struct brdf_pair *p, double cos_i)
+{
+    if (!d->fx || !d->exposure.automatic)
+        return d->exposure.fixed_s;
+    double rgb[3], *v;
+    int n = signal_at(d, p, rgb, &v);
+    struct sim_signal s = {.v = v, .n = n, .cos_i = cos_i,
+                           .responsivity = d->exposure.responsivity};
+    sim_effects_light_mean(d->fx, &s);
+    return sim_exposure_choose(&d->exposure, v, n, cos_i);
+}
+
 int sim_detector_read(sim_detector *d, const struct brdf_pair *p, double cos_i, double now_s,
                       double requested_s, double theta_i, double theta_r,
                       struct sim_reading *out, struct gonio_err *err)
 {
     memset(out, 0, sizeof *out);
-    double *v = d->n_bands ? d->values : out->rgb;
-    int n = d->n_bands ? d->n_bands : 3;
-    if (d->n_bands)
-        brdf_spectral_eval(d->spectral, p, d->bands, (size_t)n, v);
-    else
-        brdf_material_eval(d->material, p, 1, v);
+    double *v;
+    int n = signal_at(d, p, out->rgb, &v);
     struct sim_signal s = {.v = v,
                            .n = n,
                            .cos_i = cos_i,

@@ -42,4 +42,10 @@ int sim_detector_read(sim_detector *d, const struct brdf_pair *p, double cos_i, 
                       double requested_s, double theta_i, double theta_r,
                       struct sim_reading *out, struct gonio_err *err);
 
+/* The integration the detector will choose at p, from the material's
+ * noise-free signal through the light effects' expected values: the
+ * auto-exposure of a noisy scene, else the rig's fixed integration. No
+ * reading is made (nothing changes, spectra.csv gets nothing). */
+double sim_detector_meter(sim_detector *d, const struct brdf_pair *p, double cos_i);
+
 #endif

@@ -94,6 +94,11 @@ void sim_rig_free(sim_rig *rig)
     free(rig);
 }
 
+const struct plan_rig *sim_rig_profile(const sim_rig *rig)
+{
+    return rig->profile;
+}
+
 double sim_rig_now(const sim_rig *rig)
 {
     return rig->now;
@@ -234,19 +239,12 @@ void sim_rig_stop(sim_rig *rig, enum sim_axis_id id)
     ax->commanded = here;
 }
 
-/* The pair the optics see: the load positions (motor plus backlash slack)
- * with the planner's three-axis mapping inverted, and the cosine of the
- * source's incidence on the sample (floored: a grazing source still lights
- * a little, and the exposure stays finite). */
-static void sim_rig_optics(const sim_rig *rig, struct brdf_pair *pp, double *cos_i)
+void sim_axes_optics(double s, double a, double az, struct brdf_pair *pp, double *cos_i)
 {
     /* The planner's three-axis mapping inverted: theta_i = s, theta_o =
      * a - s, and the azimuth axis turns the detector's plane, az = 0 being
      * the plane of incidence (phi_o - phi_i = 180). In-plane this is the
      * design's wo = (-sin theta_r, 0, cos theta_r) with theta_r = a - s. */
-    double s = sim_rig_position(rig, SIM_AXIS_SAMPLE) + rig->axis[SIM_AXIS_SAMPLE].hidden;
-    double a = sim_rig_position(rig, SIM_AXIS_ARM) + rig->axis[SIM_AXIS_ARM].hidden;
-    double az = sim_rig_position(rig, SIM_AXIS_AZIMUTH) + rig->axis[SIM_AXIS_AZIMUTH].hidden;
     struct brdf_pair p;
     if (az == 0.0) /* exactly in plane: no sin(180 deg) rounding in wo.y */
         brdf_pair_inplane(s, a - s, &p);
@@ -255,6 +253,15 @@ static void sim_rig_optics(const sim_rig *rig, struct brdf_pair *pp, double *cos
     *pp = p;
     double c = cos(s * BRDF_DEG);
     *cos_i = c > 1e-3 ? c : 1e-3;
+}
+
+/* The pair the optics see: the load positions (motor plus backlash slack). */
+static void sim_rig_optics(const sim_rig *rig, struct brdf_pair *pp, double *cos_i)
+{
+    double s = sim_rig_position(rig, SIM_AXIS_SAMPLE) + rig->axis[SIM_AXIS_SAMPLE].hidden;
+    double a = sim_rig_position(rig, SIM_AXIS_ARM) + rig->axis[SIM_AXIS_ARM].hidden;
+    double az = sim_rig_position(rig, SIM_AXIS_AZIMUTH) + rig->axis[SIM_AXIS_AZIMUTH].hidden;
+    sim_axes_optics(s, a, az, pp, cos_i);
 }
 
 int sim_rig_sample(const sim_rig *rig, double rgb[3])

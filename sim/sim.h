@@ -17,6 +17,12 @@
 
 enum sim_axis_id { SIM_AXIS_SAMPLE, SIM_AXIS_ARM, SIM_AXIS_AZIMUTH, SIM_N_AXES };
 
+/* The pair the optics see with the axes at s, a, az (the planner's mapping
+ * inverted), and the cosine of the source's incidence on the sample
+ * (floored: a grazing source still lights a little, and the exposure stays
+ * finite). */
+void sim_axes_optics(double s, double a, double az, struct brdf_pair *p, double *cos_i);
+
 typedef struct sim_rig sim_rig;
 
 /* The rig keeps pointers to profile and material: both must outlive it.
@@ -33,6 +39,9 @@ void sim_rig_free(sim_rig *rig);
 sim_rig *sim_rig_new_scene(const struct plan_rig *profile, const brdf_material *material,
                            const struct sim_scene *scene, const char *out_dir,
                            struct gonio_err *err);
+
+/* The rig profile the rig runs (its axes and mechanics). */
+const struct plan_rig *sim_rig_profile(const sim_rig *rig);
 
 /* Simulated time, seconds since the rig was created. */
 double sim_rig_now(const sim_rig *rig);

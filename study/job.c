@@ -272,8 +272,19 @@ static int lock_job(const char *jobdir, const char *id, int *fd, struct gonio_er
     return 0;
 }
 
+/* The host's stop request, as the capture engine asks for it. */
+struct stop_check {
+    int (*stop)(void);
+};
+
+static enum capture_control stop_control(void *user)
+{
+    const struct stop_check *sc = user;
+    return sc->stop() ? CAPTURE_ABORT : CAPTURE_GO;
+}
+
 int study_job_run(const struct study_spec *s, const struct study_job *job, const char *dir,
-                  struct gonio_err *err)
+                  int (*stop)(void), struct gonio_err *err)
 {
     const struct study_plan *plan = study_plan_find(s->plans[job->plan].name);
     const struct study_item *mat = &s->materials[job->material], *scene = &s->scenes[job->scene];
@@ -303,7 +314,11 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
     struct truth_values t = {0};
     int written = 0;
     char path[4200];
-    rc = capture_run_offline(&cfg, &sum, err);
+    struct stop_check sc = {stop};
+    struct capture_hooks hooks = {.control = stop ? stop_control : NULL, .user = &sc};
+    rc = capture_run(&cfg, &hooks, &sum, err);
+    if (rc == 0 && !strcmp(sum.stop_reason, "aborted"))
+        rc = gonio_err_set(err, EINTR, "interrupted; its journal is kept for the rerun");
     if (rc == 0) {
         snprintf(path, sizeof path, "%s/samples.csv", jobdir);
         rc = journal_read(path, &js, &n, err);

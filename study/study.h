@@ -67,10 +67,12 @@ size_t study_job_rows_done(const struct study_spec *s, const struct study_job *j
 
 /* Run one job into dir/jobs/ID: capture (or resume the capture), then fit
  * and assess every model whose row file is missing. Takes a lock on the job
- * folder, so two processes never run the same job. Returns the number of
- * rows written, or a negative code with err filled. */
+ * folder, so two processes never run the same job. stop (may be NULL) is
+ * asked at every point boundary of the capture: nonzero ends the job there,
+ * its journal whole for a rerun to resume, with -EINTR. Returns the number
+ * of rows written, or a negative code with err filled. */
 int study_job_run(const struct study_spec *s, const struct study_job *job, const char *dir,
-                  struct gonio_err *err);
+                  int (*stop)(void), struct gonio_err *err);
 
 /* dir/study.json: write it, or when it exists check that it holds the same
  * lists (GONIO_EUSAGE otherwise: rows of two studies would mix). */

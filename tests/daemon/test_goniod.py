@@ -10,8 +10,10 @@ Run from ctest (the environment names the binaries), or by hand:
 import glob
 import json
 import os
+import pty
 import random
 import re
+import select
 import shutil
 import signal
 import socket
@@ -804,13 +806,21 @@ class CaptureTests(DaemonTest):
         self.assertEqual(r["code"], "bad-value")
         r = c.request("capture")
         self.assertEqual(r["code"], "bad-value")
-        # An unknown plan is found by the engine: the stop document says so.
-        r = c.request("capture", plan="no-such-plan", name="np")
-        self.assertEqual(r["class"], "OK")
-        stop = c.until_stop("np")[-1]
-        self.assertEqual(stop["exit_status"], "fail")
-        self.assertIn("no-such-plan", stop["message"])
-        self.assertEqual(c.request("status")["state"], "idle")
+        # Everything the engine reads is checked before the reply, by the
+        # engine's own resolution: an ERROR naming the value, and nothing
+        # created (no directory, no request.json).
+        for field, value in (("plan", "no-such-plan"), ("scene", "no-such-scene"),
+                             ("rig", "no-such-rig"), ("material", "nbrdf:no-such-material"),
+                             ("truth", "builtin:no-such-truth"), ("stop", "sometimes")):
+            args = {"plan": "ds3", "name": "np"}
+            args[field] = value
+            r = c.request("capture", **args)
+            self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-value"), (field, r))
+            self.assertIn(value, r["message"], field)
+            self.assertFalse(os.path.exists(os.path.join(self.d.root, "np")), field)
+        # No capture ran: status has none to show.
+        st = c.request("status")
+        self.assertEqual((st["state"], st["capture"]), ("idle", None))
 
     def test_capture_models(self):
         """Any RGB model of the registry is a capture's final fit; every
@@ -978,17 +988,90 @@ class ClientTests(DaemonTest):
         self.assertEqual(r.returncode, 0, r.stderr)
         lines = r.stdout.splitlines()
         total = plan_total(os.path.join(self.d.root, "cw"))
-        # Not a terminal: one plain progress line per sample.
-        progress = [l for l in lines if re.match(r"cw: \d+/%d points, rig time" % total, l)]
-        self.assertEqual(len(progress), total)
+        with open(os.path.join(self.d.root, "cw", "plan.json")) as f:
+            estimate = json.load(f)["estimate"]["total_s"]  # ideal: fixed integration
+        est = "%d:%02d" % divmod(round(estimate), 60)
+        self.assertIn("capture cw: plan ds3, %d points, estimated rig time %s" % (total, est),
+                      lines)
+        # Progress on stderr, not a terminal: plain lines, the first and one
+        # a tenth; the first already has an ETA, from the plan's estimate.
+        progress = [l for l in r.stderr.splitlines()
+                    if re.match(r"cw: \d+/%d points, rig time" % total, l)]
+        self.assertLessEqual(len(progress), 11)
+        self.assertRegex(progress[0], r"of ~%s estimated, ETA \d+:\d\d" % est)
         self.assertIn("%d/%d points" % (total, total), progress[-1])
-        self.assertIn("ETA 0 s", progress[-1])
+        self.assertIn("ETA 0:00", progress[-1])
+        self.assertFalse(any(re.match(r"cw: \d+/", l) for l in lines))  # not on stdout
         self.assertTrue(any("stopped: complete" in l for l in lines))
         r = self.d.gonio("status", "--json")
         st = json.loads(r.stdout)
         self.assertEqual(st["fit_error"]["capture_id"], "cw")
+        self.assertEqual((st["capture"]["capture_id"], st["capture"]["state"]), ("cw", "complete"))
+        self.assertEqual(st["capture"]["points_done"], total)
+        self.assertAlmostEqual(st["capture"]["estimate_s"], estimate, delta=1e-6)
         r = self.d.gonio("status")
         self.assertIn("fit (cw, %d samples): log error" % total, r.stdout)
+        self.assertIn("capture cw: complete, %d/%d points" % (total, total), r.stdout)
+        # --quiet: the results without the progress.
+        r = self.d.gonio("capture", "--plan", "ds4", "--name", "cq", "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertEqual(r.stderr, "")
+        self.assertIn("stopped: complete", r.stdout)
+
+    def test_bad_request_creates_nothing(self):
+        """gonio capture --plan nosuch used to print 'started', exit 0 and
+        leave a directory holding request.json; goniod now checks first."""
+        for args, value in ((("--plan", "nosuch"), "nosuch"),
+                            (("--plan", "ds3", "--scene", "nosuch-scene"), "nosuch-scene"),
+                            (("--plan", "ds3", "--order", "sideways"), "sideways")):
+            r = self.d.gonio("capture", "--name", "bad", *args)
+            self.assertEqual(r.returncode, 2, (args, r.stdout, r.stderr))
+            self.assertIn(value, r.stderr)
+            self.assertNotIn("started", r.stdout)
+            self.assertFalse(os.path.exists(os.path.join(self.d.root, "bad")), args)
+        self.assertEqual(self.d.gonio("status").stdout, "goniod idle\n")
+
+    def test_status_names_a_failed_capture(self):
+        """A capture that fails once started: status says so, with why."""
+        r = self.d.gonio("capture", "--plan", "ds4", "--name", "fl", "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        journal = os.path.join(self.d.root, "fl", "samples.csv")
+        with open(journal) as f:
+            lines = f.readlines()
+        lines[2] = lines[2].replace(",", ";", 1)  # a bad record that is not the last
+        with open(journal, "w") as f:
+            f.writelines(lines)
+        self.assertEqual(self.d.gonio("resume", "fl").returncode, 0)
+        deadline = time.monotonic() + 2 * START_S
+        while True:
+            st = json.loads(self.d.gonio("status", "--json").stdout)
+            if st["capture"]["state"] != "running" or time.monotonic() > deadline:
+                break
+            time.sleep(0.05)
+        self.assertEqual((st["state"], st["capture"]["capture_id"], st["capture"]["state"]),
+                         ("idle", "fl", "failed"))
+        self.assertIn("samples.csv", st["capture"]["message"])
+        out = self.d.gonio("status").stdout
+        self.assertIn("capture fl: failed", out)
+        self.assertIn(st["capture"]["message"], out)
+
+    def test_watch_shows_pause_and_resume(self):
+        env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
+        w = subprocess.Popen([GONIO, "capture", "--plan", "ds3", "--name", "pw", "--wait"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        deadline = time.monotonic() + 2 * START_S
+        while not (json.loads(self.d.gonio("status", "--json").stdout)["capture"] or
+                   {}).get("points_total"):
+            self.assertLess(time.monotonic(), deadline)
+            time.sleep(0.02)
+        self.assertEqual(self.d.gonio("pause").returncode, 0)
+        out = self.d.gonio("status").stdout
+        self.assertIn("capture pw: paused", out)
+        self.assertRegex(out, r"of ~\d+:\d\d estimated, ETA \d+:\d\d")
+        self.assertEqual(self.d.gonio("resume").returncode, 0)
+        stdout, stderr = w.communicate(timeout=2 * START_S)
+        self.assertEqual(w.returncode, 0, stderr)
+        self.assertIn("capture pw paused\ncapture pw resumed\n", stderr)
 
     def test_capture_model(self):
         r = self.d.gonio("capture", "--plan", "ds4", "--model", "nonsense")
@@ -1009,7 +1092,7 @@ class ClientTests(DaemonTest):
         self.assertEqual(r.returncode, 1)
         self.assertIn("nothing-here", r.stderr)
         r = self.d.gonio("capture", "--plan", "/etc/passwd")
-        self.assertEqual(r.returncode, 1)
+        self.assertEqual(r.returncode, 2)
         self.assertIn("capture root", r.stderr)
         self.assertEqual(self.d.gonio("capture").returncode, 2)
         self.assertEqual(self.d.gonio("capture", "--plan", "ds3", "--stop", "x").returncode, 2)
@@ -1346,6 +1429,153 @@ class NotifyTests(unittest.TestCase):
             self.assertFalse(any("WATCHDOG=1" in g for g in got), got)
         finally:
             shutil.rmtree(folder, ignore_errors=True)
+
+# ---------------------------------------------------------------------------
+
+def run_on_pty(argv, env, interrupt_at=None, interrupt_after_s=None, timeout=120):
+    """Run argv with a pseudo-terminal as its stdin, stdout and stderr (what
+    an operator's terminal is). Send SIGINT once the output matches the
+    regex interrupt_at, or interrupt_after_s seconds after the start.
+    Returns (exit status, everything written to the terminal)."""
+    pid, fd = pty.fork()
+    if pid == 0:
+        try:
+            os.execve(argv[0], argv, env)
+        finally:
+            os._exit(127)
+    out, sent = b"", False
+    start = time.monotonic()
+    while True:
+        if not sent and interrupt_after_s is not None and \
+                time.monotonic() - start >= interrupt_after_s:
+            os.kill(pid, signal.SIGINT)
+            sent = True
+        ready, _, _ = select.select([fd], [], [], 0.05)
+        if ready:
+            try:
+                chunk = os.read(fd, 65536)
+            except OSError:  # EIO: the child closed the terminal
+                chunk = b""
+            if not chunk:
+                break
+            out += chunk
+            if not sent and interrupt_at and re.search(interrupt_at, out.decode(errors="replace")):
+                os.kill(pid, signal.SIGINT)
+                sent = True
+        if time.monotonic() - start > timeout:
+            os.kill(pid, signal.SIGKILL)
+            raise AssertionError("timed out: %r" % out[-2000:])
+    os.close(fd)
+    _, status = os.waitpid(pid, 0)
+    return os.waitstatus_to_exitcode(status), out.decode(errors="replace")
+
+
+class OfflineTests(unittest.TestCase):
+    """gonio capture --offline on a terminal: the bar, the interrupt, the
+    resume. Through a pty: the display is what the terminal shows."""
+
+    def setUp(self):
+        self.folder = tmpdir()
+        self.env = dict(os.environ)
+
+    def tearDown(self):
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def capture(self, out, plan="ds3", scene="lab"):
+        return [GONIO, "capture", "--offline", "--scene", scene, "--plan", plan, "--out", out]
+
+    def leftovers(self, path):
+        return [f for f in os.listdir(path) if ".tmp." in f] if os.path.isdir(path) else []
+
+    def test_bar_on_a_terminal(self):
+        out = os.path.join(self.folder, "bar")
+        rc, text = run_on_pty(self.capture(out), self.env)
+        self.assertEqual(rc, 0, text)
+        with open(os.path.join(out, "plan.json")) as f:
+            total = len(json.load(f)["pairs"])
+        # One line redrawn in place (carriage returns), the first with the
+        # estimate and an ETA before a point is measured, the last complete.
+        bars = re.findall(r"\rcapture \[[#.]+\] (\d+)/(\d+)([^\r\n]*)", text)
+        self.assertEqual(bars[0][:2], ("0", str(total)), text[:300])
+        self.assertRegex(bars[0][2], r"rig 0:00 of ~\d+:\d\d estimated  ETA \d+:\d\d")
+        self.assertEqual(bars[-1][:2], (str(total), str(total)))
+        self.assertIn("ETA 0:00", bars[-1][2])
+        self.assertIn("fit ", bars[-1][2])  # the live fit error, once there is a round
+        self.assertNotIn("capture: ", text)  # no plain lines on a terminal
+        # --quiet: no bar.
+        rc, text = run_on_pty(self.capture(os.path.join(self.folder, "q"), "ds4") + ["--quiet"],
+                              self.env)
+        self.assertEqual(rc, 0, text)
+        self.assertNotIn("[", text)
+
+    def test_interrupt_ends_cleanly_and_resumes(self):
+        out = os.path.join(self.folder, "int")
+        argv = self.capture(out, "inplane-full", "ideal")
+        rc, text = run_on_pty(argv, self.env, interrupt_at=r"\] [1-9]\d*/\d+")
+        self.assertEqual(rc, 130, text[-500:])
+        m = re.search(r"SIGINT: stopped after (\d+) of (\d+) points, all in (\S+)/samples.csv; "
+                      r"run the same command again to resume", text)
+        self.assertTrue(m, text[-500:])
+        done, total = int(m.group(1)), int(m.group(2))
+        self.assertEqual(journal_points(os.path.join(out, "samples.csv")), list(range(done)))
+        self.assertLess(done, total)
+        self.assertEqual(self.leftovers(out), [])
+        self.assertFalse(os.path.exists(os.path.join(out, "results.json")))
+        # The rerun says it resumes, and measures only what is missing.
+        r = subprocess.run(argv, capture_output=True, text=True,
+                           env=self.env, timeout=600)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("resuming: %d of %d points in the journal" % (done, total), r.stderr)
+        self.assertEqual(sorted(journal_points(os.path.join(out, "samples.csv"))),
+                         list(range(total)))
+
+    def test_plan_scene_estimate(self):
+        """gonio plan --scene counts the lab scene's auto-exposure: within
+        5 % of the capture's rig time, where the plan alone is 11 % short."""
+        def estimate(*args):
+            r = subprocess.run([GONIO, "plan", "ds4", "--json"] + list(args),
+                               capture_output=True, text=True, env=self.env, timeout=60)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            return json.loads(r.stdout)["estimate"]["total_s"]
+        out = os.path.join(self.folder, "est")
+        r = subprocess.run(self.capture(out, "ds4") + ["--quiet"], capture_output=True,
+                           text=True, env=self.env, timeout=120)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        with open(os.path.join(out, "results.json")) as f:
+            actual = json.load(f)["rig_time_s"]
+        self.assertLess(abs(estimate("--scene", "lab") - actual), 0.05 * actual)
+        self.assertGreater(abs(estimate() - actual), 0.05 * actual)
+        r = subprocess.run([GONIO, "plan", "ds4", "--scene", "nosuch"], capture_output=True,
+                           text=True, env=self.env, timeout=60)
+        self.assertEqual((r.returncode, r.stdout), (2, ""))
+        self.assertIn("nosuch", r.stderr)
+
+    def test_study_and_its_renders_on_a_terminal(self):
+        """gonio study and gonio render --study show the same bar."""
+        out = os.path.join(self.folder, "study")
+        rc, text = run_on_pty([GONIO, "study", "--materials", "default", "--plans", "ds4,ds3",
+                               "--models", "abc", "--scenes", "ideal", "--jobs", "1",
+                               "--out", out], self.env)
+        self.assertEqual(rc, 0, text[-500:])
+        bars = re.findall(r"\rstudy \[[#.]+\] (\d+)/2([^\r\n]*)", text)
+        self.assertEqual([b[0] for b in bars], ["0", "1", "2"], text[-500:])
+        self.assertRegex(bars[1][1], r"ETA \d+:\d\d")
+        rc, text = run_on_pty([GONIO, "render", "--study", out, "--size", "16"], self.env)
+        self.assertEqual(rc, 0, text[-500:])
+        bars = re.findall(r"\rrender \[[#.]+\] (\d+)/(\d+)", text)
+        self.assertEqual(bars[0][0], "0", text)
+        self.assertEqual(bars[-1][0], bars[-1][1])
+        self.assertNotIn("render: ", text)  # the per-image lines are gonio render's own
+
+    def test_interrupt_while_planning_leaves_nothing(self):
+        """SIGINT while the plan is ordered (inplane-full: seconds): no
+        directory, no plan.json.tmp.PID."""
+        out = os.path.join(self.folder, "plan")
+        rc, text = run_on_pty(self.capture(out, "inplane-full", "ideal"), self.env,
+                              interrupt_after_s=0.3)
+        self.assertEqual(rc, 130, text)
+        self.assertIn("SIGINT before the first point; nothing written", text)
+        self.assertFalse(os.path.exists(out), os.listdir(out) if os.path.exists(out) else "")
 
 
 if __name__ == "__main__":

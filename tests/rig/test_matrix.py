@@ -1,17 +1,22 @@
 """The rig matrix: goniod over Modbus RTU (gonio-sim's pty) and Modbus TCP
-against gonio-sim on the scenes ideal, lab and bad-day, plan DS3.
+against gonio-sim on the scenes ideal, lab and bad-day, plan DS3, beside the
+in-process rig (`gonio capture --offline`) on the same scene and plan.
 
 Every capture completes with every planned point exactly once; bad-day's
 arm stall (alarm 0x10 on its 30th move command) is recovered, and
-results.json counts as many recovered alarms as gonio-sim raised; the
-ideal capture's samples equal the in-process `gonio capture --offline`
-capture's: the angles bit for bit, the RGB bit for bit at the bus's
-precision (binary32, docs/protocol-modbus.md).
+results.json counts as many recovered alarms as gonio-sim raised, as the
+in-process rig does with its own stall; the ideal capture's samples equal
+the in-process capture's: the angles bit for bit, the RGB bit for bit at
+the bus's precision (binary32, docs/protocol-modbus.md); on lab, the fit
+errors of the in-process, RTU and TCP captures agree within 10 %: the
+plan-domain error, and the errors against the scene's material (goniod's
+request names it as `truth`).
 
 Under make check-valgrind (GONIO_WRAP) goniod and gonio-sim run on memcheck;
 the matrix then runs its diagonal only (ideal over RTU, lab over TCP,
 bad-day over RTU), which still takes every scene and transport through
-memcheck (docs/testing-memory.md)."""
+memcheck (docs/testing-memory.md); lab is then compared in-process against
+TCP only."""
 import json
 import os
 import shutil
@@ -34,6 +39,9 @@ SCENES = ("ideal", "lab", "bad-day")
 TRANSPORTS = ("rtu", "tcp")
 CASES = ([("ideal", "rtu"), ("lab", "tcp"), ("bad-day", "rtu")] if tg.VALGRIND else
          [(s, t) for s in SCENES for t in TRANSPORTS])
+# The scenes' material, named to goniod as the reference of the truth errors.
+TRUTH = "default"
+AGREE = 0.10  # lab: fit errors of the three captures agree within this, relative
 
 
 def read_rows(path):
@@ -90,7 +98,7 @@ def capture(folder, scene, transport):
         d = tg.Daemon(folder, driver=sim.driver(transport)).start()
         c = d.connect()
         c.request("watch")
-        reply = c.request("capture", plan=PLAN, name="m")
+        reply = c.request("capture", plan=PLAN, name="m", truth=TRUTH)
         assert reply["class"] == "OK", reply
         stop = c.until_stop("m")[-1]
     finally:
@@ -101,13 +109,39 @@ def capture(folder, scene, transport):
     return stop, os.path.join(d.root, "m"), stats
 
 
-def offline_ideal(folder):
-    out = os.path.join(folder, "offline")
-    r = subprocess.run([os.path.join(tg.BIN, "gonio"), "capture", "--offline", "--scene", "ideal",
+def offline(folder, scene):
+    """The in-process capture of DS3 on scene: its directory."""
+    out = os.path.join(folder, "offline-" + scene)
+    r = subprocess.run([os.path.join(tg.BIN, "gonio"), "capture", "--offline", "--scene", scene,
                         "--plan", PLAN, "--out", out, "--quiet"], capture_output=True, text=True,
                        timeout=4 * tg.START_S)
     assert r.returncode == 0, r.stderr
-    return read_rows(os.path.join(out, "samples.csv"))[1]
+    return out
+
+
+def results(capdir):
+    with open(os.path.join(capdir, "results.json")) as f:
+        return json.load(f)
+
+
+@pytest.fixture(scope="module")
+def runs():
+    """Captures by (scene, transport), transport "offline" for the in-process
+    rig, each run once for all the module's tests: (stop, capture dir,
+    gonio-sim stats), stop and stats None in-process."""
+    done, folders = {}, []
+
+    def run(scene, transport):
+        if (scene, transport) not in done:
+            folder = tg.tmpdir()
+            folders.append(folder)
+            done[scene, transport] = ((None, offline(folder, scene), None)
+                                      if transport == "offline" else
+                                      capture(folder, scene, transport))
+        return done[scene, transport]
+    yield run
+    for folder in folders:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def binary32(text):
@@ -115,31 +149,65 @@ def binary32(text):
 
 
 @pytest.mark.parametrize("scene,transport", CASES)
-def test_capture(scene, transport):
-    folder = tg.tmpdir()
-    try:
-        stop, capdir, sim_stats = capture(folder, scene, transport)
-        assert stop["reason"] == "complete", stop
-        points, rows = read_rows(os.path.join(capdir, "samples.csv"))
-        assert sorted(points) == list(range(POINTS))  # none lost, none twice
-        with open(os.path.join(capdir, "results.json")) as f:
-            mech = json.load(f)["mechanics"]
-        raised = sum(ax["alarms"] for ax in sim_stats["axes"].values())
-        assert mech["alarms_recovered"] == raised
-        sent = sum(ax["moves"] + ax["refused"] for ax in sim_stats["axes"].values())
-        assert mech["moves"] <= sent  # a retried command may reach the drive twice
-        if scene == "bad-day":
-            assert raised >= 1  # the arm's stall on its 30th move command
-            assert sim_stats["axes"]["arm"]["alarms"] >= 1
-        if scene == "ideal":
-            assert mech["recommands"] == 0 and raised == 0
-            want = offline_ideal(folder)
-            for p in range(POINTS):
-                for key in ("theta_i", "theta_r", "phi_o", "s", "a"):
-                    assert rows[p][key] == want[p][key], (p, key, rows[p], want[p])
-                for key in ("r", "g", "b"):
-                    assert float(rows[p][key]) == binary32(want[p][key]), (p, key)
-        sys.stderr.write("matrix %s/%s: %d requests, mechanics %s\n" % (
-            scene, transport, stop["comm"]["requests"], json.dumps(mech)))
-    finally:
-        shutil.rmtree(folder, ignore_errors=True)
+def test_capture(runs, scene, transport):
+    stop, capdir, sim_stats = runs(scene, transport)
+    assert stop["reason"] == "complete", stop
+    points, rows = read_rows(os.path.join(capdir, "samples.csv"))
+    assert sorted(points) == list(range(POINTS))  # none lost, none twice
+    mech = results(capdir)["mechanics"]
+    raised = sum(ax["alarms"] for ax in sim_stats["axes"].values())
+    assert mech["alarms_recovered"] == raised
+    sent = sum(ax["moves"] + ax["refused"] for ax in sim_stats["axes"].values())
+    assert mech["moves"] <= sent  # a retried command may reach the drive twice
+    if scene == "bad-day":
+        assert raised >= 1  # the arm's stall on its 30th move command
+        assert sim_stats["axes"]["arm"]["alarms"] >= 1
+    if scene != "bad-day":  # no faults: the drives got the in-process rig's commands
+        assert mech == results(runs(scene, "offline")[1])["mechanics"], mech
+    if scene == "ideal":
+        assert mech["recommands"] == 0 and raised == 0
+        want = read_rows(os.path.join(runs(scene, "offline")[1], "samples.csv"))[1]
+        for p in range(POINTS):
+            for key in ("theta_i", "theta_r", "phi_o", "s", "a"):
+                assert rows[p][key] == want[p][key], (p, key, rows[p], want[p])
+            for key in ("r", "g", "b"):
+                assert float(rows[p][key]) == binary32(want[p][key]), (p, key)
+    sys.stderr.write("matrix %s/%s: %d requests, mechanics %s\n" % (
+        scene, transport, stop["comm"]["requests"], json.dumps(mech)))
+
+
+@pytest.mark.parametrize("scene", SCENES)
+def test_in_process_completes(runs, scene):
+    """The in-process rig recovers what goniod's drivers recover: the same
+    mechanics (drivers/drivers.h), every point once, bad-day's stall counted."""
+    capdir = runs(scene, "offline")[1]
+    points = read_rows(os.path.join(capdir, "samples.csv"))[0]
+    assert sorted(points) == list(range(POINTS))
+    mech = results(capdir)["mechanics"]
+    assert mech["alarms_recovered"] == (1 if scene == "bad-day" else 0), mech
+    assert mech["rehomes"] == 0
+
+
+def test_lab_errors_agree(runs):
+    """On lab every point is captured in-process, over RTU and over TCP, and
+    the fits' errors agree within AGREE: the plan-domain error, and the
+    errors against the scene's material (in-process the rig's own, goniod
+    the request's truth)."""
+    ways = ["offline"] + [t for s, t in CASES if s == "lab"]
+    res = {}
+    for way in ways:
+        capdir = runs("lab", way)[1]
+        assert sorted(read_rows(os.path.join(capdir, "samples.csv"))[0]) == list(range(POINTS))
+        res[way] = results(capdir)
+    sys.stderr.write("lab errors (log, rel_rmse): %s\n" % "; ".join(
+        "%s plan %.4g %.4g inplane %.4g %.4g full %.4g %.4g" % (
+            (way,) + tuple(res[way]["errors"][d][k] for d in ("plan", "inplane", "full")
+                           for k in ("log", "rel_rmse")))
+        for way in ways))
+    base = res["offline"]
+    for way in ways[1:]:
+        assert res[way]["truth"] == base["truth"], (way, res[way]["truth"], base["truth"])
+        for domain in ("plan", "inplane", "full"):
+            for key in ("log", "rel_rmse"):
+                want, got = base["errors"][domain][key], res[way]["errors"][domain][key]
+                assert abs(got - want) <= AGREE * want, (way, domain, key, got, want)

@@ -150,3 +150,36 @@ def test_killed_run_resumes_without_redoing_rows(tmp):
     for f, data in before.items():
         assert open(f, "rb").read() == data, f + " was redone"
     assert len(rows(out)) == 6
+
+
+def test_interrupted_run_stops_cleanly_and_resumes(tmp):
+    """SIGINT (or SIGTERM) to gonio study: the job under way ends at a point
+    boundary with its journal whole, no temporary file is left, the command
+    says how to resume and exits 130; the rerun says it resumes and measures
+    only what the journal lacks."""
+    out = os.path.join(tmp, "out")
+    args = ["study", "--materials", "default", "--plans", "ds4,oop200k", "--models", "abc",
+            "--scenes", "lab", "--jobs", "1", "--out", out]
+    p = subprocess.Popen([BIN, *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                         text=True)
+    journal = os.path.join(out, "jobs", "default.lab.oop200k", "samples.csv")
+    deadline = time.time() + 240
+    while time.time() < deadline and p.poll() is None:
+        if os.path.exists(journal) and os.path.getsize(journal) > 4096:
+            break
+        time.sleep(0.01)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=240)
+    assert p.returncode == 130, err
+    assert "run the same command again to resume" in err
+    assert "1 stopped at a point with their journals kept" in err, err
+    left = [os.path.join(d, f) for d, _, fs in os.walk(out) for f in fs if ".tmp." in f]
+    assert left == []
+    with open(journal) as f:
+        measured = sum(1 for _ in f) - 1
+    assert 0 < measured < 190038
+    assert not os.path.exists(os.path.join(out, "jobs", "default.lab.oop200k", "abc.row.json"))
+    r = gonio(*args)
+    assert r.returncode == 0, r.stderr
+    assert "resuming: 0 of 2 jobs done, 1 started" in r.stderr, r.stderr
+    assert len(rows(out)) == 2

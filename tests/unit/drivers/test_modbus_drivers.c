@@ -219,7 +219,7 @@ static void test_soft_limits(void **state)
     /* In alarm, a valid move is ignored too. */
     assert_int_equal(drv_axis_start_move(w, 10, &err), 0);
     assert_int_equal(drv_axis_wait(w, &err), -GONIO_EDEVICE);
-    assert_int_equal(drv_axis_modbus_alarm_reset(w, &err), 0);
+    assert_int_equal(drv_axis_alarm_reset(w, &err), 0);
     move(w, 10);
     assert_close(position(w), 10, 1e-12);
     move(w, 0);

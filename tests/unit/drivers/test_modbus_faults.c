@@ -83,7 +83,7 @@ static void test_overload(void **state)
     assert_int_equal(drv_axis_wait(s, &err), -GONIO_EDEVICE);
     assert_non_null(strstr(err.msg, "axis sample (slave 1): drive alarm 0x30 (overload)"));
     assert_close(position(s), 25, 1e-12);
-    assert_int_equal(drv_axis_modbus_alarm_reset(s, &err), 0);
+    assert_int_equal(drv_axis_alarm_reset(s, &err), 0);
     assert_int_equal(drv_axis_start_move(s, 0, &err), 0);
     assert_int_equal(drv_axis_wait(s, &err), 0);
     assert_close(position(s), 0, 0);
@@ -138,7 +138,7 @@ static void test_capture_stops_on_alarm(void **state)
     assert_close(position(arm), a1, 0);
     drv_axis *s = drv_axis_new_modbus(bus, 1, &rig.sample, NULL, "sample", &err);
     assert_close(position(s), 25, 1e-12);
-    assert_int_equal(drv_axis_modbus_alarm_reset(s, &err), 0);
+    assert_int_equal(drv_axis_alarm_reset(s, &err), 0);
     drv_axis_free(s);
     drv_axis_free(arm);
     char cmd[160];

@@ -165,7 +165,7 @@ static void test_deviation_alarm(void **state)
     assert_int_equal(drv_axis_wait(once, &err), -GONIO_EDEVICE);
     assert_string_equal(err.msg, "axis arm (slave 2): drive alarm 0x10 (excessive position "
                                  "deviation)");
-    assert_int_equal(drv_axis_modbus_alarm_reset(once, &err), 0);
+    assert_int_equal(drv_axis_alarm_reset(once, &err), 0);
     drv_axis_free(once);
 
     drv_axis *arm = axis(2, &rig.arm, "arm", 0.05, 2);
