@@ -49,7 +49,7 @@ run() { # dir transport sim-args...: one capture; prints "requests points rig_s 
         sleep 0.05
         i=$((i + 1))
     done
-    "$bin/gonio" capture --plan ds3 --name bus --wait --socket "$d/s.sock" >"$d/capture.out" ||
+    "$bin/gonio" capture --plan ds3 --name bus --wait --socket "$d/s.sock" >"$d/capture.out" 2>&1 ||
         echo "bench_bus: $1: capture failed (see $d)" >&2
     kill "$daemon" "$sim" 2>/dev/null || true
     wait "$daemon" "$sim" || true
