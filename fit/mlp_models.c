@@ -244,13 +244,16 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
     double *u = malloc(2 * n * 3 * sizeof *u), *f = malloc(2 * n * sizeof *f),
            *c = malloc(2 * n * sizeof *c);
     size_t *twin = malloc(2 * n * sizeof *twin);
-    if (!u || !f || !c || !twin) {
+    unsigned char *lo = malloc(2 * n);
+    if (!u || !f || !c || !twin || !lo) {
         free(u);
         free(f);
         free(c);
         free(twin);
+        free(lo);
         return gonio_err_set(err, ENOMEM, "mlp-spectral: out of memory");
     }
+    int any_lower = 0;
     size_t m = 0, used = 0;
     for (size_t i = 0; i < n; i++) {
         const struct fit_spectral_sample *s = &data->spectral[i];
@@ -268,6 +271,8 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
         f[m] = s->value;
         c[m] = ci;
         twin[m] = SIZE_MAX;
+        lo[m] = s->saturated != 0;
+        any_lower |= lo[m];
         m++;
         double ti2 = tr >= 0 ? tr : -tr, tr2 = tr >= 0 ? ti : -ti;
         if (fabs(ti2 - ti) < 1e-9 && fabs(tr2 - tr) < 1e-9)
@@ -279,6 +284,7 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
         c[m] = cos(ti2 * BRDF_DEG);
         twin[m] = m - 1;
         twin[m - 1] = m;
+        lo[m] = lo[m - 1];
         m++;
     }
     int rc = 0;
@@ -295,12 +301,14 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
         to.max_epochs = o.max_epochs;
         to.quiet = o.quiet;
         to.twin = twin;
+        to.lower = any_lower ? lo : NULL;
         rc = fit_mlp_train(&net, u, f, c, m, &to, &r, err);
     }
     free(u);
     free(f);
     free(c);
     free(twin);
+    free(lo);
     struct fit_model_file *mf = NULL;
     if (!rc) {
         mf = fit_model_file_new("mlp-spectral", SPECTRAL_VERSION);

@@ -223,7 +223,10 @@ static void csv_field(FILE *f, json_t *v, enum study_col_type type)
     if (!v || json_is_null(v))
         return;
     switch (type) {
-    case STUDY_COL_STR: fputs(json_string_value(v) ? json_string_value(v) : "", f); break;
+    case STUDY_COL_STR: /* lists (fit_findings, fit_at_bound) are ';'-separated here */
+        for (const char *c = json_string_value(v) ? json_string_value(v) : ""; *c; c++)
+            fputc(*c == ',' ? ';' : *c, f);
+        break;
     case STUDY_COL_INT: fprintf(f, "%lld", (long long)json_integer_value(v)); break;
     case STUDY_COL_REAL: fprintf(f, "%.6g", json_number_value(v)); break;
     case STUDY_COL_TIME: fprintf(f, "%.3f", json_number_value(v)); break;

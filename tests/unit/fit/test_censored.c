@@ -9,10 +9,12 @@
  *    plane (a rig's settling) is in-plane for training, with theta_i and
  *    theta_o kept; farther out, or with no tolerance, it is not. */
 #include <string.h>
+#include <unistd.h>
 
 #include "brdf/angles.h"
 #include "fit/latent.h"
 #include "fit/mlp.h"
+#include "fit/models.h"
 #include "tests/gonio_test.h"
 
 #define CURVE_N 64
@@ -176,12 +178,42 @@ static void test_mlp_near_plane(void **state)
     assert_int_equal(fit_mlp_inplane_angles(&p, FIT_MLP_PLANE_TOL, &ti, &tr), -1);
 }
 
+/* spectra.csv's saturated column reaches the spectral samples; a flag
+ * other than 0 or 1 is an error naming the line. */
+static void test_spectral_saturated_column(void **state)
+{
+    (void)state;
+    char path[] = "/tmp/gonio-test-spectra-XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    FILE *fp = fdopen(fd, "w");
+    fputs("theta_i,theta_r,wavelength_nm,value,acquisition,integration_s,saturated\n"
+          "30,30,550,12.5,0,0.001,1\n"
+          "30,40,550,0.25,0,0.05,0\n",
+          fp);
+    fclose(fp);
+    struct fit_spectral_sample *s = NULL;
+    size_t n = 0;
+    struct gonio_err err = {0};
+    assert_int_equal(fit_spectral_samples_read(path, &s, &n, &err), 2);
+    assert_int_equal(s[0].saturated, 1);
+    assert_int_equal(s[1].saturated, 0);
+    free(s);
+    fp = fopen(path, "a");
+    fputs("30,50,550,0.1,0,0.05,2\n", fp);
+    fclose(fp);
+    assert_true(fit_spectral_samples_read(path, &s, &n, &err) < 0);
+    assert_non_null(strstr(err.msg, ":4: column saturated"));
+    unlink(path);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_mlp_censored),
         cmocka_unit_test(test_latent_censored),
         cmocka_unit_test(test_mlp_near_plane),
+        cmocka_unit_test(test_spectral_saturated_column),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
