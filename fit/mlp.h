@@ -152,7 +152,8 @@ int fit_mlp_inplane_angles(const struct brdf_pair *p, double tol, double *theta_
 
 /* Read a spectral samples CSV (docs/models.md): a header line naming the
  * columns theta_i,theta_r,wavelength_nm,value (in that order; further
- * columns ignored), then one sample a line. *out is malloc'd. Returns the
+ * columns ignored, but for spectra.csv's acquisition,integration_s,saturated,
+ * whose saturated flag marks a lower bound), then one sample a line. *out is malloc'd. Returns the
  * count or a negative code with err naming file:line. */
 int fit_spectral_samples_read(const char *path, struct fit_spectral_sample **out, size_t *n,
                               struct gonio_err *err);

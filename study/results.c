@@ -199,6 +199,8 @@ int study_dir_prepare(const struct study_spec *s, const char *dir, struct gonio_
         json_t *shard = json_object_get(theirs, "shard");
         int same_shard = json_equal(shard, json_object_get(mine, "shard"));
         json_object_del(theirs, "quick");
+        if (!json_object_get(theirs, "saturated")) /* from before the key: clipped */
+            json_object_set_new(theirs, "saturated", json_string("clipped"));
         json_object_del(theirs, "shard");
         json_object_del(theirs, "jobs");
         int same = json_equal(a, theirs);
