@@ -33,6 +33,7 @@ int cmd_export(int argc, char **argv)
         return 2;
     }
     const char *spec = NULL, *out = NULL;
+    argv[1] = argv[0]; /* getopt's messages name the program: "gonio export: ..." */
     optind = 1;
     int c;
     while ((c = getopt_long(argc - 1, argv + 1, "m:o:h", opts, NULL)) != -1) {
@@ -46,6 +47,13 @@ int cmd_export(int argc, char **argv)
     if (!spec || !out || optind != argc - 1) {
         fprintf(stderr, "gonio export merl: --material and -o are required\n");
         usage(stderr);
+        return 2;
+    }
+    /* The file is the MERL binary format whatever its name; a name that
+     * says otherwise (x.txt) would mislead whoever opens it next. */
+    size_t n = strlen(out);
+    if (n < 8 || strcmp(out + n - 7, ".binary") != 0) {
+        fprintf(stderr, "gonio export: -o '%s': a MERL table is written to FILE.binary\n", out);
         return 2;
     }
     struct gonio_err err = {0};
