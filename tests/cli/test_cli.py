@@ -139,12 +139,25 @@ def test_gonio_sim_says_what_it_serves_on_a_terminal():
                         "rig default, time scale 1); Ctrl-C stops" % lines[0]), lines
 
 
+def read_lines(fd, n, timeout=20):
+    """Up to n lines from fd, waiting at most timeout seconds (a program that
+    never writes them fails the test instead of hanging it)."""
+    data, deadline = b"", time.monotonic() + timeout
+    while data.count(b"\n") < n and time.monotonic() < deadline:
+        if select.select([fd], [], [], 0.5)[0]:
+            chunk = os.read(fd, 4096)
+            if not chunk:
+                break
+            data += chunk
+    return data.decode().splitlines(keepends=True) + [""] * n
+
+
 def test_gonio_sim_stdout_is_only_the_path():
     p = subprocess.Popen([SIM, "--tcp", "127.0.0.1:0"], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True)
+                         stderr=subprocess.PIPE)
     try:
-        first, second = p.stdout.readline(), p.stdout.readline()
-        announce = p.stderr.readline()
+        first, second = read_lines(p.stdout.fileno(), 2)[:2]
+        announce = read_lines(p.stderr.fileno(), 1)[0]
     finally:
         p.terminate()
         p.wait(timeout=20)
