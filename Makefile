@@ -3,7 +3,8 @@ BUILD ?= build
 ASAN_BUILD ?= build-asan
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps configure demo check check-asan check-valgrind bench clean fuzz fuzz-smoke docs-check
+.PHONY: all deps configure demo check check-asan check-valgrind bench clean fuzz fuzz-smoke \
+	docs-check install package
 
 all: configure
 	cmake --build $(BUILD) -j $(JOBS)
@@ -61,6 +62,17 @@ fuzz-smoke:
 # DOCS_CHECK=--update rewrites them).
 docs-check: all
 	sh scripts/docs_check.sh $(BUILD)/bin $(DOCS_CHECK)
+
+# The Debian daemon layout of cmake/GonioInstall.cmake (/usr/bin, /etc/gonio,
+# /usr/share/gonio, systemd, sysusers.d, tmpfiles.d, man pages); DESTDIR stages
+# it elsewhere (docs/install.md).
+DESTDIR ?=
+install: all
+	DESTDIR=$(DESTDIR) cmake --install $(BUILD)
+
+# gonio_VERSION_ARCH.deb in $(BUILD) (cmake/GonioPackage.cmake).
+package: all
+	cd $(BUILD) && cpack -G DEB
 
 bench: all
 	@sh scripts/bench.sh $(BUILD)/bin

@@ -10,6 +10,7 @@
 
 #include "brdf/material.h"
 #include "common/err.h"
+#include "common/version.h"
 #include "planner/rig.h"
 #include "sim/modbus_server.h"
 #include "sim/scene.h"
@@ -31,6 +32,7 @@ static void usage(FILE *out)
             "                 [--tcp 127.0.0.1:PORT] [--trace] [--check]\n"
             "                 [--stall SLAVE:DEG] [--overload SLAVE:DEG] [--delay SLAVE:MS]\n"
             "                 [--stats FILE]\n"
+            "       gonio-sim --version\n"
             "  Serves the rig's Modbus bus (docs/protocol-modbus.md) as RTU on a new\n"
             "  pseudo-terminal, whose path is the first line on stdout, and with --tcp\n"
             "  also as Modbus TCP (second line: 'tcp HOST:PORT'; PORT 0 picks one).\n"
@@ -40,7 +42,8 @@ static void usage(FILE *out)
             "  obstacle on an axis: moves across it halt there, still moving (stall) or\n"
             "  with alarm 0x30 (overload). --delay makes a slave answer MS ms late.\n"
             "  --stats writes, at exit, the exchanges, the faults injected and each axis's\n"
-            "  commanded and reached range as JSON.\n");
+            "  commanded and reached range as JSON.\n"
+            "  What is served is also announced on stderr.\n");
 }
 
 static int parse_positive(const char *opt, const char *s, double *out)
@@ -66,6 +69,7 @@ int main(int argc, char **argv)
         {"stall", required_argument, NULL, 'S'},      {"overload", required_argument, NULL, 'O'},
         {"delay", required_argument, NULL, 'D'},     {"stats", required_argument, NULL, 'X'},
         {"in-pos-deg", required_argument, NULL, 'i'},
+        {"version", no_argument, NULL, 'V'},
         {NULL, 0, NULL, 0},
     };
     const char *scene_name = "ideal", *material_spec = NULL, *rig_name = NULL, *link = NULL,
@@ -121,6 +125,7 @@ int main(int argc, char **argv)
             break;
         }
         case 'h': usage(stdout); return 0;
+        case 'V': gonio_print_version(stdout, "gonio-sim"); return 0;
         default: usage(stderr); return 2;
         }
     }
@@ -190,6 +195,14 @@ int main(int argc, char **argv)
         if (tcp)
             printf("tcp %.*s:%d\n", (int)(strrchr(tcp, ':') - tcp), tcp, port);
         fflush(stdout);
+        /* stdout is for programs (its first line is the path); a person who
+         * started it by hand learns on stderr what is served and how to stop. */
+        fprintf(stderr, "gonio-sim: Modbus RTU on %s", path);
+        if (tcp)
+            fprintf(stderr, " and Modbus TCP on %.*s:%d", (int)(strrchr(tcp, ':') - tcp), tcp,
+                    port);
+        fprintf(stderr, " (scene %s, material %s, rig %s, time scale %g); Ctrl-C stops\n",
+                scene.name, brdf_material_name(material), rig.name, cfg.time_scale);
         rc = msim_serve(m, &stop_flag, &err);
     }
     if (rc < 0 || !m)

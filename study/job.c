@@ -288,9 +288,10 @@ static enum capture_control stop_control(void *user)
 int study_job_run(const struct study_spec *s, const struct study_job *job, const char *dir,
                   int (*stop)(void), struct gonio_err *err)
 {
-    const struct study_plan *plan = study_plan_find(s->plans[job->plan].name);
+    struct study_plan plan_buf;
+    const struct study_plan *plan = &plan_buf;
     const struct study_item *mat = &s->materials[job->material], *scene = &s->scenes[job->scene];
-    if (!plan)
+    if (study_plan_of(&s->plans[job->plan], &plan_buf) < 0)
         return gonio_err_set(err, GONIO_EUSAGE, "unknown plan '%s'", s->plans[job->plan].name);
     char jobdir[4096];
     if (snprintf(jobdir, sizeof jobdir, "%s/jobs/%s", dir, job->id) >= (int)sizeof jobdir)

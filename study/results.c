@@ -167,7 +167,7 @@ int study_spec_read(const char *dir, struct study_spec *s, struct gonio_err *err
             rc = gonio_err_set(err, GONIO_EBADDATA, "%s: name '%s' is not valid", path, name);
     }
     for (size_t i = 0; rc == 0 && i < s->n_plans; i++)
-        if (!study_plan_find(s->plans[i].name))
+        if (study_plan_of(&s->plans[i], &(struct study_plan){0}) < 0)
             rc = gonio_err_set(err, GONIO_EBADDATA, "%s: unknown plan '%s'", path,
                                s->plans[i].name);
     json_t *shard = json_object_get(root, "shard");
