@@ -12,7 +12,8 @@
 static void usage(FILE *out)
 {
     fprintf(out, "usage: gonio export merl --material SPEC -o FILE.binary\n"
-                 "  SPEC: nbrdf:NAME, merl:FILE, abc:NAME, sgd:NAME, default or model:FILE\n");
+                 "  SPEC: nbrdf:NAME, merl:FILE, abc:NAME, sgd:NAME, builtin:NAME, spectral:NAME,\n"
+                 "        default or model:FILE\n");
 }
 
 int cmd_export(int argc, char **argv)
@@ -33,6 +34,7 @@ int cmd_export(int argc, char **argv)
         return 2;
     }
     const char *spec = NULL, *out = NULL;
+    argv[1] = argv[0]; /* getopt's messages name the program: "gonio export: ..." */
     optind = 1;
     int c;
     while ((c = getopt_long(argc - 1, argv + 1, "m:o:h", opts, NULL)) != -1) {
@@ -46,6 +48,13 @@ int cmd_export(int argc, char **argv)
     if (!spec || !out || optind != argc - 1) {
         fprintf(stderr, "gonio export merl: --material and -o are required\n");
         usage(stderr);
+        return 2;
+    }
+    /* The file is the MERL binary format whatever its name; a name that
+     * says otherwise (x.txt) would mislead whoever opens it next. */
+    size_t n = strlen(out);
+    if (n < 8 || strcmp(out + n - 7, ".binary") != 0) {
+        fprintf(stderr, "gonio export: -o '%s': a MERL table is written to FILE.binary\n", out);
         return 2;
     }
     struct gonio_err err = {0};

@@ -27,8 +27,8 @@ static void usage(FILE *out)
                  "           spectral CSV (theta_i,theta_r,wavelength_nm,value)\n"
                  "  -o: default SAMPLES_DIR/NAME.model\n"
                  "  --truth: also report errors against SPEC on the in-plane and full domains\n"
-                 "  --saturated: fit saturated readings at their clipped value (default) or,\n"
-                 "           in the ABC fits, as lower bounds (one-sided residuals)\n"
+                 "  --saturated: fit saturated readings as lower bounds (one-sided\n"
+                 "           residuals, the default) or at their clipped value\n"
                  "models:\n");
     for (size_t i = 0; fit_model_at(i); i++)
         fprintf(out, "  %-13s %s\n", fit_model_at(i)->name, fit_model_at(i)->summary);
@@ -132,7 +132,7 @@ int cmd_fit(int argc, char **argv)
     mo.quiet = 0; /* progress lines on stderr unless --quiet */
     optind = 1;
     int c;
-    int censored = 0;
+    int censored = 1;
     while ((c = getopt_long(argc, argv, "m:o:s:e:t:qh", opts, NULL)) != -1) {
         char *end;
         switch (c) {
@@ -243,12 +243,7 @@ int cmd_fit(int argc, char **argv)
         printf("%-10s %zu (%s)\n", "samples", n, samples_path);
         if (saturated)
             printf("%-10s %zu readings, lower bounds: %s\n", "saturated", saturated,
-                   !censored ? "fitted at their clipped values"
-                   : !strcmp(model, "abc") || !strcmp(model, "abc-prior")
-                       ? "fitted one-sided (censored)"
-                   : !strcmp(model, "abc-pseudo")
-                       ? "one-sided in the ABC fit, at their clipped values in the network"
-                       : "fitted at their clipped values (censoring is the ABC fits')");
+                   censored ? "fitted one-sided (censored)" : "fitted at their clipped values");
         char line[400];
         fit_status_line(&rep.status, line, sizeof line);
         printf("%-10s %.3f s, %s\n", "fit", fit_s, fit_status_name(fit_status_code(&rep.status)));

@@ -11,7 +11,9 @@
 #include <jansson.h>
 
 #include "cli/commands.h"
+#include "common/duration.h"
 #include "common/err.h"
+#include "common/paths.h"
 #include "daemon/capture.h"
 #include "planner/planner.h"
 #include "sim/scene.h"
@@ -19,32 +21,43 @@
 static void plan_usage(FILE *out)
 {
     fprintf(out, "usage: gonio plan NAME|FILE.yaml [--rig NAME|FILE] [--scene NAME|FILE]\n"
-                 "                  [--order travel|progressive|as-written|greedy] [--json]\n"
-                 "Dry run: pairs in execution order, axis positions, time estimate.\n"
+                 "                  [--order travel|progressive|as-written|greedy]\n"
+                 "                  [--summary | --json]\n"
+                 "Dry run: a summary (plan, rig, count, time estimate), then the pairs in\n"
+                 "execution order with their axis positions.\n"
+                 "  --summary  the summary only\n"
+                 "  --json     the plan document (DESIGN.md section 8) with its rig\n"
+                 "  --scene    the estimate counts the integration the scene's detector will\n"
+                 "             choose for its material (a noisy scene auto-exposes: longer\n"
+                 "             where the material is dark), as a capture's ETA\n"
                  "NAME resolves to <config>/plans/NAME.yaml; the rig defaults to the scene's,\n"
-                 "else <config>/rigs/default.yaml. --scene: the estimate counts the\n"
-                 "integration the scene's detector will choose for its material (a noisy\n"
-                 "scene auto-exposes: longer where the material is dark), as a capture's ETA.\n");
+                 "else <config>/rigs/default.yaml.\n");
 }
 
 static int report_failure(const struct gonio_err *err, int rc)
 {
-    fprintf(stderr, "gonio: %s\n", err->msg[0] ? err->msg : gonio_strerror(rc));
+    fprintf(stderr, "gonio plan: %s\n", err->msg[0] ? err->msg : gonio_strerror(rc));
     return gonio_exit_status(rc);
 }
 
-static void minsec(double s, char *buf, size_t size)
+/* How the rig is named to the operator: a file by its path (a copied
+ * profile keeps the name inside it, which would hide which file was read),
+ * a name by its name. */
+static const char *rig_label(const char *rig_arg, const struct plan_rig *rig)
 {
-    long whole = lround(s);
-    snprintf(buf, size, "%ld min %02ld s", whole / 60, whole % 60);
+    return gonio_ref_is_file(rig_arg) ? rig_arg : rig->name;
 }
 
-/* The design's document plus one key of gonio plan's own: the lower bound
- * on the move time of any order, inside "estimate" (null when the plan is
- * too large to bound). Capture directories keep plan_json_text as is. */
-static int print_json(const struct plan *plan, const struct plan_rig *rig,
+/* The design's document plus gonio plan's own keys: the rig (its name and
+ * the file read) and, inside "estimate", the lower bound on the move time
+ * of any order (null when the plan is too large to bound). Capture
+ * directories keep plan_json_text as is. */
+static int print_json(const struct plan *plan, const char *rig_arg, const struct plan_rig *rig,
                       const struct plan_estimate *est)
 {
+    char rig_file[4096];
+    if (plan_resolve_path(rig_arg, "rigs", rig_file, sizeof rig_file) < 0)
+        return -ENAMETOOLONG;
     char *text = plan_json_text(plan, est);
     json_t *root = text ? json_loads(text, 0, NULL) : NULL;
     free(text);
@@ -52,6 +65,8 @@ static int print_json(const struct plan *plan, const struct plan_rig *rig,
     double lb = plan_move_lower_bound(plan, rig);
     if (!estimate || json_object_set_new(estimate, "move_lower_bound_s",
                                          isnan(lb) ? json_null() : json_real(lb)) < 0 ||
+        json_object_set_new(root, "rig", json_pack("{s:s, s:s}", "name", rig->name, "file",
+                                                   rig_file)) < 0 ||
         !(text = json_dumps(root, JSON_REAL_PRECISION(10)))) {
         json_decref(root);
         return -ENOMEM;
@@ -62,12 +77,34 @@ static int print_json(const struct plan *plan, const struct plan_rig *rig,
     return 0;
 }
 
-static void print_human(const struct plan *plan, const struct plan_rig *rig,
-                        const struct plan_estimate *est)
+/* What the operator needs first: which plan on which rig, how many pairs
+ * and how long; the table follows (912 rows for DS1). */
+static void print_summary(const struct plan *plan, const char *rig_arg,
+                          const struct plan_rig *rig, const struct plan_estimate *est)
+{
+    printf("plan %s (%s), rig %s, order %s\n", plan_name(plan), plan_path(plan),
+           rig_label(rig_arg, rig), plan_order_name(plan_current_order(plan)));
+    printf("count: %zu pairs\n", plan_count(plan));
+    if (plan_dropped(plan))
+        printf("(%zu pairs left out: in the rig's %g deg blind zone)\n", plan_dropped(plan),
+               rig->blind_deg);
+    char t[4][48];
+    gonio_duration_words(est->total_s, t[0], sizeof t[0]);
+    gonio_duration_words(est->move_s, t[1], sizeof t[1]);
+    gonio_duration_words(est->settle_s, t[2], sizeof t[2]);
+    gonio_duration_words(est->integration_s, t[3], sizeof t[3]);
+    printf("estimate: total %s (%.1f s): move %s (%.1f s), settle %s (%.1f s), "
+           "integration %s (%.1f s)\n",
+           t[0], est->total_s, t[1], est->move_s, t[2], est->settle_s, t[3],
+           est->integration_s);
+    double lb = plan_move_lower_bound(plan, rig);
+    if (!isnan(lb))
+        printf("move time lower bound (any order): %.1f s\n", lb);
+}
+
+static void print_table(const struct plan *plan)
 {
     int oop = plan_is_out_of_plane(plan);
-    printf("plan %s (%s), rig %s, order %s\n", plan_name(plan), plan_path(plan), rig->name,
-           plan_order_name(plan_current_order(plan)));
     if (oop)
         printf("%5s %8s %8s %8s %8s %8s %8s %8s\n", "#", "theta_i", "phi_i", "theta_o",
                "phi_o", "s", "a", "az");
@@ -82,38 +119,24 @@ static void print_human(const struct plan *plan, const struct plan_rig *rig,
             printf("%5zu %8g %8g %8g %8g\n", i + 1, pt->theta_i, pt->theta_r, pt->ax.s,
                    pt->ax.a);
     }
-    char t[4][32];
-    minsec(est->total_s, t[0], sizeof t[0]);
-    minsec(est->move_s, t[1], sizeof t[1]);
-    minsec(est->settle_s, t[2], sizeof t[2]);
-    minsec(est->integration_s, t[3], sizeof t[3]);
-    printf("count: %zu pairs\n", plan_count(plan));
-    if (plan_dropped(plan))
-        printf("(%zu reference nodes left out: in the rig's %g deg blind zone)\n",
-               plan_dropped(plan), rig->blind_deg);
-    printf("estimate: total %s (%.1f s): move %s (%.1f s), settle %s (%.1f s), "
-           "integration %s (%.1f s)\n",
-           t[0], est->total_s, t[1], est->move_s, t[2], est->settle_s, t[3],
-           est->integration_s);
-    double lb = plan_move_lower_bound(plan, rig);
-    if (!isnan(lb))
-        printf("move time lower bound (any order): %.1f s\n", lb);
 }
 
 int cmd_plan(int argc, char **argv)
 {
     const char *plan_arg = NULL, *rig_arg = NULL, *scene_arg = NULL;
-    int order = -1, json = 0;
+    int order = -1, json = 0, summary = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
             plan_usage(stdout);
             return 0;
         } else if (!strcmp(argv[i], "--json")) {
             json = 1;
+        } else if (!strcmp(argv[i], "--summary")) {
+            summary = 1;
         } else if (!strcmp(argv[i], "--rig") || !strcmp(argv[i], "--order") ||
                    !strcmp(argv[i], "--scene")) {
             if (i + 1 >= argc) {
-                fprintf(stderr, "gonio: plan: %s needs a value\n", argv[i]);
+                fprintf(stderr, "gonio plan: %s needs a value\n", argv[i]);
                 return 2;
             }
             if (!strcmp(argv[i], "--rig")) {
@@ -122,24 +145,29 @@ int cmd_plan(int argc, char **argv)
                 scene_arg = argv[++i];
             } else if ((order = plan_order_parse(argv[++i])) < 0) {
                 fprintf(stderr,
-                        "gonio: plan: --order '%s': unknown (allowed travel, progressive, "
+                        "gonio plan: --order '%s': unknown (allowed travel, progressive, "
                         "as-written, greedy)\n",
                         argv[i]);
                 return 2;
             }
         } else if (argv[i][0] == '-') {
-            fprintf(stderr, "gonio: plan: unknown option '%s'\n", argv[i]);
+            fprintf(stderr, "gonio plan: unknown option '%s'\n", argv[i]);
             plan_usage(stderr);
             return 2;
         } else if (plan_arg) {
-            fprintf(stderr, "gonio: plan: one plan at a time ('%s' and '%s')\n", plan_arg,
+            fprintf(stderr, "gonio plan: one plan at a time ('%s' and '%s')\n", plan_arg,
                     argv[i]);
             return 2;
         } else {
             plan_arg = argv[i];
         }
     }
+    if (json && summary) {
+        fprintf(stderr, "gonio plan: --summary and --json exclude each other\n");
+        return 2;
+    }
     if (!plan_arg) {
+        fprintf(stderr, "gonio plan: a plan NAME or FILE is required\n");
         plan_usage(stderr);
         return 2;
     }
@@ -160,7 +188,7 @@ int cmd_plan(int argc, char **argv)
         return report_failure(&err, rc);
     if (order >= 0 && (rc = plan_order(plan, (enum plan_order_mode)order, &rig)) < 0) {
         plan_free(plan);
-        fprintf(stderr, "gonio: plan: %s\n", gonio_strerror(rc));
+        fprintf(stderr, "gonio plan: %s\n", gonio_strerror(rc));
         return 1;
     }
     /* With a scene, the estimate a capture of it makes (daemon/capture.h). */
@@ -175,13 +203,16 @@ int cmd_plan(int argc, char **argv)
     if (!scene_arg)
         plan_estimate(plan, &rig, &est);
     rc = 0;
-    if (json)
-        rc = print_json(plan, &rig, &est);
-    else
-        print_human(plan, &rig, &est);
+    if (json) {
+        rc = print_json(plan, rig_arg, &rig, &est);
+    } else {
+        print_summary(plan, rig_arg, &rig, &est);
+        if (!summary)
+            print_table(plan);
+    }
     plan_free(plan);
     if (rc < 0) {
-        fprintf(stderr, "gonio: plan: %s\n", gonio_strerror(rc));
+        fprintf(stderr, "gonio plan: %s\n", gonio_strerror(rc));
         return 1;
     }
     return 0;

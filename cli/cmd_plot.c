@@ -265,6 +265,7 @@ static int plot_study(int argc, char **argv, int bars)
 int cmd_plot(int argc, char **argv)
 {
     if (argc < 2) {
+        fprintf(stderr, "gonio plot: a figure is required (slices, pareto or bars)\n");
         usage(stderr);
         return 2;
     }
@@ -272,12 +273,17 @@ int cmd_plot(int argc, char **argv)
         usage(stdout);
         return 0;
     }
-    if (!strcmp(argv[1], "slices"))
+    /* The figure's options are parsed from argv + 1: its argv[0] is the
+     * program name getopt's messages start with. */
+    const char *figure = argv[1];
+    argv[1] = argv[0];
+    if (!strcmp(figure, "slices"))
         return plot_slices(argc - 1, argv + 1);
-    if (!strcmp(argv[1], "pareto"))
+    if (!strcmp(figure, "pareto"))
         return plot_study(argc - 1, argv + 1, 0);
-    if (!strcmp(argv[1], "bars"))
+    if (!strcmp(figure, "bars"))
         return plot_study(argc - 1, argv + 1, 1);
-    fprintf(stderr, "gonio plot: unknown figure '%s' (slices, pareto or bars)\n", argv[1]);
+    fprintf(stderr, "gonio plot: unknown figure '%s' (slices, pareto or bars)\n", figure);
+    usage(stderr);
     return 2;
 }

@@ -51,6 +51,12 @@ int cmd_report(int argc, char **argv)
         fprintf(stderr, "gonio report: --plots and --no-plots exclude each other\n");
         return 2;
     }
+    /* The page is HTML whatever the file is called; r.pdf would not open. */
+    size_t n = o.out_html ? strlen(o.out_html) : 0;
+    if (o.out_html && (n < 6 || strcmp(o.out_html + n - 5, ".html") != 0)) {
+        fprintf(stderr, "gonio report: --out '%s': the report is HTML, FILE.html\n", o.out_html);
+        return 2;
+    }
     const char *dir = argv[optind];
     char plots_buf[4200];
     if (!no_plots) {

@@ -1,146 +1,354 @@
-/* gonio results DIR...: one table row per capture directory, read from its
- * results.json (plan, samples, rig and fit time, errors by domain). A
- * capture of unknown material (hardware) shows "-" for it, and one without
- * a reference "-" for its in-plane and full-domain errors. */
+/* gonio results DIR...: one row per capture directory, read from its
+ * results.json (plan, material, model, samples, rig and fit time, fit
+ * status, errors by domain) and setup.json (the scene), as an aligned
+ * table, --json, --csv or a --format line. A value the capture did not
+ * record (no truth errors without a reference, no fit status from an older
+ * capture, no scene on a hardware rig) is "-" in the table, null in JSON
+ * and empty in CSV. */
+#include <getopt.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include <jansson.h>
 
 #include "cli/commands.h"
+#include "common/duration.h"
 
-static double number(json_t *root, const char *domain, const char *key)
+enum col_kind { COL_TEXT, COL_INT, COL_TIME, COL_REAL };
+
+/* One column: its --format placeholder, JSON key and CSV header (name), its
+ * table title, and how a number is shown in the table. */
+static const struct column {
+    const char *name, *title;
+    enum col_kind kind;
+} columns[] = {
+    {"dir", "directory", COL_TEXT},        {"plan", "plan", COL_TEXT},
+    {"scene", "scene", COL_TEXT},          {"material", "material", COL_TEXT},
+    {"model", "model", COL_TEXT},          {"samples", "samples", COL_INT},
+    {"rig", "rig time", COL_TIME},         {"fit", "fit s", COL_REAL},
+    {"status", "fit status", COL_TEXT},    {"truth", "truth", COL_TEXT},
+    {"plan_log", "plan log", COL_REAL},    {"plan_rel", "plan rRMSE", COL_REAL},
+    {"inplane_log", "in-plane log", COL_REAL}, {"inplane_rel", "in-plane rRMSE", COL_REAL},
+    {"full_log", "full log", COL_REAL},    {"full_rel", "full rRMSE", COL_REAL},
+};
+#define NCOL (sizeof columns / sizeof columns[0])
+/* The table leaves out the reference's name (a long spec, the material
+ * column's twin on a simulated rig) and the plan-domain errors; --json,
+ * --csv and --format have every column. */
+static int in_table(size_t c)
 {
-    json_t *v = json_object_get(json_object_get(json_object_get(root, "errors"), domain), key);
-    return json_is_number(v) ? json_number_value(v) : NAN;
+    return strcmp(columns[c].name, "truth") && strncmp(columns[c].name, "plan_", 5);
 }
 
-static int has_domain(json_t *root, const char *domain)
+static int column_find(const char *name, size_t len)
 {
-    return json_object_get(json_object_get(root, "errors"), domain) != NULL;
+    for (size_t c = 0; c < NCOL; c++)
+        if (strlen(columns[c].name) == len && !strncmp(columns[c].name, name, len))
+            return (int)c;
+    return -1;
 }
 
-/* --format: %plan %material %samples %rig %fit and %<domain>_log,
- * %<domain>_rel for domain plan, inplane, full; one line per directory. */
-static void print_format(const char *fmt, json_t *root)
+static json_t *error_value(json_t *results, const char *domain, const char *key)
 {
-    static const struct {
-        const char *name, *domain, *key;
-    } errs[] = {
-        {"plan_log", "plan", "log"},       {"plan_rel", "plan", "rel_rmse"},
-        {"inplane_log", "inplane", "log"}, {"inplane_rel", "inplane", "rel_rmse"},
-        {"full_log", "full", "log"},       {"full_rel", "full", "rel_rmse"},
-    };
+    json_t *v = json_object_get(json_object_get(json_object_get(results, "errors"), domain), key);
+    return json_is_number(v) ? json_incref(v) : json_null();
+}
+
+/* A string or null. */
+static json_t *text_value(json_t *v)
+{
+    return json_is_string(v) ? json_incref(v) : json_null();
+}
+
+/* The fit status (fit/fit_status.h) is an object with a "status"; older
+ * captures have none. */
+static json_t *status_value(json_t *results)
+{
+    json_t *st = json_object_get(results, "fit_status");
+    return text_value(json_is_object(st) ? json_object_get(st, "status") : st);
+}
+
+/* One capture's row as a JSON object in column order; NULL (and a message)
+ * when results.json is missing or lacks what every capture writes. */
+static json_t *row_read(const char *dir)
+{
+    char path[4096], setup_path[4096];
+    snprintf(path, sizeof path, "%s/results.json", dir);
+    snprintf(setup_path, sizeof setup_path, "%s/setup.json", dir);
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        fprintf(stderr, "gonio results: %s: no such file\n", path);
+        return NULL;
+    }
+    json_error_t jerr;
+    json_t *root = json_loadf(f, 0, &jerr);
+    fclose(f);
+    if (!root) {
+        fprintf(stderr, "gonio results: %s:%d:%d: %s\n", path, jerr.line, jerr.column,
+                jerr.text);
+        return NULL;
+    }
+    json_t *samples = json_object_get(root, "samples");
+    if (!json_is_string(json_object_get(root, "plan")) ||
+        !json_is_integer(samples) ||
+        !json_is_number(json_object_get(root, "rig_time_s")) ||
+        !json_is_number(json_object_get(root, "fit_time_s"))) {
+        fprintf(stderr, "gonio results: %s: missing plan, samples, rig_time_s or "
+                        "fit_time_s\n",
+                path);
+        json_decref(root);
+        return NULL;
+    }
+    json_t *setup = json_load_file(setup_path, 0, NULL); /* absent: no scene column */
+    json_t *scene = json_object_get(setup, "scene");
+    json_t *row = json_object();
+    json_object_set_new(row, "dir", json_string(dir));
+    json_object_set(row, "plan", json_object_get(root, "plan"));
+    json_object_set_new(row, "scene",
+                        text_value(json_is_object(scene) ? json_object_get(scene, "name") : scene));
+    /* null on hardware where the request named no material */
+    json_object_set_new(row, "material", text_value(json_object_get(root, "material")));
+    json_object_set_new(row, "model", text_value(json_object_get(root, "model")));
+    json_object_set(row, "samples", samples);
+    json_object_set(row, "rig", json_object_get(root, "rig_time_s"));
+    json_object_set(row, "fit", json_object_get(root, "fit_time_s"));
+    json_object_set_new(row, "status", status_value(root));
+    json_object_set_new(row, "truth", text_value(json_object_get(root, "truth")));
+    static const char *const domains[] = {"plan", "inplane", "full"};
+    for (size_t d = 0; d < 3; d++) {
+        char log_key[32], rel_key[32];
+        snprintf(log_key, sizeof log_key, "%s_log", domains[d]);
+        snprintf(rel_key, sizeof rel_key, "%s_rel", domains[d]);
+        json_object_set_new(row, log_key, error_value(root, domains[d], "log"));
+        json_object_set_new(row, rel_key, error_value(root, domains[d], "rel_rmse"));
+    }
+    json_decref(setup);
+    json_decref(root);
+    return row;
+}
+
+/* A cell as the table and --format show it: "-" when absent. */
+static void cell_text(json_t *row, size_t c, char *buf, size_t size)
+{
+    json_t *v = json_object_get(row, columns[c].name);
+    if (json_is_string(v))
+        snprintf(buf, size, "%s", json_string_value(v));
+    else if (json_is_integer(v) && columns[c].kind == COL_INT)
+        snprintf(buf, size, "%lld", (long long)json_integer_value(v));
+    else if (json_is_number(v) && columns[c].kind == COL_TIME)
+        gonio_duration_hms(json_number_value(v), buf, size);
+    else if (json_is_number(v))
+        snprintf(buf, size, "%.4f", json_number_value(v));
+    else
+        snprintf(buf, size, "-");
+}
+
+/* A cell as CSV holds it: numbers in full, text quoted when it must be. */
+static void csv_cell(json_t *v)
+{
+    if (json_is_string(v)) {
+        const char *s = json_string_value(v);
+        if (!strpbrk(s, ",\"\n")) {
+            fputs(s, stdout);
+            return;
+        }
+        putchar('"');
+        for (; *s; s++) {
+            if (*s == '"')
+                putchar('"');
+            putchar(*s);
+        }
+        putchar('"');
+    } else if (json_is_integer(v)) {
+        printf("%lld", (long long)json_integer_value(v));
+    } else if (json_is_number(v)) {
+        printf("%.10g", json_number_value(v));
+    }
+}
+
+static void print_table(json_t *rows)
+{
+    int width[NCOL];
+    char buf[4096];
+    for (size_t c = 0; c < NCOL; c++)
+        width[c] = (int)strlen(columns[c].title);
+    size_t i;
+    json_t *row;
+    json_array_foreach(rows, i, row) {
+        for (size_t c = 0; c < NCOL; c++) {
+            cell_text(row, c, buf, sizeof buf);
+            if ((int)strlen(buf) > width[c])
+                width[c] = (int)strlen(buf);
+        }
+    }
+    /* Text to the left, numbers to the right; two spaces between. */
+    for (int header = 1; header >= 0; header--) {
+        size_t n = header ? 1 : json_array_size(rows);
+        for (size_t r = 0; r < n; r++) {
+            const char *sep = "";
+            for (size_t c = 0; c < NCOL; c++) {
+                if (!in_table(c))
+                    continue;
+                if (header)
+                    snprintf(buf, sizeof buf, "%s", columns[c].title);
+                else
+                    cell_text(json_array_get(rows, r), c, buf, sizeof buf);
+                int left = columns[c].kind == COL_TEXT;
+                printf("%s%*s", sep, left ? -width[c] : width[c], buf);
+                sep = "  ";
+            }
+            putchar('\n');
+        }
+    }
+}
+
+static void print_csv(json_t *rows)
+{
+    for (size_t c = 0; c < NCOL; c++)
+        printf("%s%s", c ? "," : "", columns[c].name);
+    putchar('\n');
+    size_t i;
+    json_t *row;
+    json_array_foreach(rows, i, row) {
+        for (size_t c = 0; c < NCOL; c++) {
+            if (c)
+                putchar(',');
+            csv_cell(json_object_get(row, columns[c].name));
+        }
+        putchar('\n');
+    }
+}
+
+/* Every %name of fmt must be a column: checked before anything is read, so
+ * a typo is one error line, not rows with the typo printed in them. */
+static int format_check(const char *fmt)
+{
+    for (const char *p = strchr(fmt, '%'); p; p = strchr(p + 1, '%')) {
+        if (p[1] == '%') {
+            p++;
+            continue;
+        }
+        size_t len = strspn(p + 1, "abcdefghijklmnopqrstuvwxyz_");
+        if (column_find(p + 1, len) < 0) {
+            fprintf(stderr,
+                    "gonio results: --format: unknown placeholder '%%%.*s' (use %%%%, %%dir, "
+                    "%%plan, %%scene, %%material, %%model, %%samples, %%rig, %%fit, %%status, "
+                    "%%truth, %%<domain>_log, %%<domain>_rel for plan, inplane, full)\n",
+                    (int)(len ? len : strcspn(p + 1, " ")), p + 1);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* --format: one line per directory; %rig and %fit in seconds. */
+static void print_format(const char *fmt, json_t *row)
+{
+    char buf[4096];
     for (const char *p = fmt; *p; p++) {
         if (*p != '%') {
             putchar(*p);
             continue;
         }
+        if (p[1] == '%') {
+            putchar(*++p);
+            continue;
+        }
         size_t len = strspn(p + 1, "abcdefghijklmnopqrstuvwxyz_");
-        char name[32];
-        snprintf(name, sizeof name, "%.*s", (int)len, p + 1);
-        p += len;
-        if (!strcmp(name, "plan") || !strcmp(name, "material")) {
-            const char *v = json_string_value(json_object_get(root, name));
-            fputs(v ? v : "-", stdout);
-        } else if (!strcmp(name, "samples")) {
-            printf("%lld", (long long)json_integer_value(json_object_get(root, "samples")));
-        } else if (!strcmp(name, "rig") || !strcmp(name, "fit")) {
-            json_t *v = json_object_get(root, name[0] == 'r' ? "rig_time_s" : "fit_time_s");
+        size_t c = (size_t)column_find(p + 1, len);
+        json_t *v = json_object_get(row, columns[c].name);
+        if ((columns[c].kind == COL_TIME || columns[c].kind == COL_REAL) && json_is_number(v)) {
             printf("%.6g", json_number_value(v));
         } else {
-            size_t i = 0;
-            while (i < sizeof errs / sizeof errs[0] && strcmp(errs[i].name, name) != 0)
-                i++;
-            if (i == sizeof errs / sizeof errs[0])
-                printf("%%%s", name);
-            else if (has_domain(root, errs[i].domain))
-                printf("%.6g", number(root, errs[i].domain, errs[i].key));
-            else
-                putchar('-'); /* no reference: no such error */
+            cell_text(row, c, buf, sizeof buf);
+            fputs(buf, stdout);
         }
+        p += len;
     }
     putchar('\n');
 }
 
-static void header(void)
+static void usage(FILE *out)
 {
-    printf("%-28s %-6s %7s %10s %8s  %-17s %-17s\n", "material", "plan", "samples", "rig time",
-           "fit", "in-plane log/rRMSE", "full log/rRMSE");
-}
-
-static int row(const char *dir, const char *fmt)
-{
-    char path[4096];
-    snprintf(path, sizeof path, "%s/results.json", dir);
-    json_error_t jerr;
-    json_t *root = json_load_file(path, 0, &jerr);
-    if (!root) {
-        fprintf(stderr, "gonio results: %s:%d:%d: %s\n", path, jerr.line, jerr.column,
-                jerr.text);
-        return 2;
-    }
-    const char *material = json_string_value(json_object_get(root, "material"));
-    const char *plan = json_string_value(json_object_get(root, "plan"));
-    json_t *samples = json_object_get(root, "samples");
-    json_t *rig = json_object_get(root, "rig_time_s"), *fit = json_object_get(root, "fit_time_s");
-    if (!material && json_is_null(json_object_get(root, "material")))
-        material = "-"; /* hardware: what it measured is not known */
-    if (!material || !plan || !json_is_integer(samples) || !json_is_number(rig) ||
-        !json_is_number(fit)) {
-        fprintf(stderr, "gonio results: %s: missing plan, material, samples, rig_time_s or "
-                        "fit_time_s\n",
-                path);
-        json_decref(root);
-        return 2;
-    }
-    if (fmt) {
-        print_format(fmt, root);
-        json_decref(root);
-        return 0;
-    }
-    double rig_s = json_number_value(rig);
-    printf("%-28s %-6s %7lld %4.0f:%02.0f min %7.3fs  ", material, plan,
-           (long long)json_integer_value(samples), (double)(long)(rig_s / 60),
-           rig_s - 60 * (double)(long)(rig_s / 60), json_number_value(fit));
-    for (int d = 0; d < 2; d++) {
-        const char *domain = d ? "full" : "inplane";
-        if (has_domain(root, domain))
-            printf("%.4f / %-8.4f ", number(root, domain, "log"),
-                   number(root, domain, "rel_rmse"));
-        else
-            printf("%-17s ", "-");
-    }
-    printf("\n");
-    json_decref(root);
-    return 0;
+    fprintf(out,
+            "usage: gonio results [--json | --csv | --format FMT] CAPTURE_DIR...\n"
+            "One row per capture: directory, plan, scene, material, model, samples, rig time\n"
+            "(h:mm:ss), fit time (s), fit status, and the log error and relative RMSE on the\n"
+            "in-plane and full domains ('-' when the capture has no reference material).\n"
+            "  --json    an array of objects, one per capture (absent values null)\n"
+            "  --csv     a header and one line per capture (absent values empty)\n"
+            "  --format  one line per capture with %%dir %%plan %%scene %%material %%model\n"
+            "            %%samples %%rig %%fit (seconds) %%status %%truth and %%<domain>_log,\n"
+            "            %%<domain>_rel for the domains plan, inplane and full; %%%% is a %%\n");
 }
 
 int cmd_results(int argc, char **argv)
 {
+    static const struct option opts[] = {
+        {"format", required_argument, NULL, 'f'},
+        {"json", no_argument, NULL, 'j'},
+        {"csv", no_argument, NULL, 'c'},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0},
+    };
     const char *fmt = NULL;
-    int first = 1;
-    if (argc >= 3 && !strcmp(argv[1], "--format")) {
-        fmt = argv[2];
-        first = 3;
+    int mode = 0; /* 'j', 'c', 'f' or 0: the table */
+    optind = 1;
+    opterr = 0;
+    int ch;
+    while ((ch = getopt_long(argc, argv, "+h", opts, NULL)) != -1) {
+        switch (ch) {
+        case 'h': usage(stdout); return 0;
+        case 'f':
+        case 'j':
+        case 'c':
+            if (mode && mode != ch) {
+                fprintf(stderr, "gonio results: --json, --csv and --format exclude each other\n");
+                return 2;
+            }
+            mode = ch;
+            fmt = ch == 'f' ? optarg : fmt;
+            break;
+        default:
+            if (optopt == 'f')
+                fprintf(stderr, "gonio results: --format needs a value\n");
+            else
+                fprintf(stderr, "gonio results: unknown option '%s'\n", argv[optind - 1]);
+            usage(stderr);
+            return 2;
+        }
     }
-    if (argc <= first || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
-        fprintf(argc <= first ? stderr : stdout,
-                "usage: gonio results [--format FMT] CAPTURE_DIR...\n"
-                "One row per capture: samples, rig time, fit time, and the log error and\n"
-                "relative RMSE on the in-plane and full out-of-plane domains. FMT prints one\n"
-                "line per capture instead, with %%plan %%material %%samples %%rig %%fit and\n"
-                "%%<domain>_log, %%<domain>_rel for the domains plan, inplane and full.\n");
-        return argc <= first ? 2 : 0;
+    if (optind >= argc) {
+        fprintf(stderr, "gonio results: at least one capture directory is required\n");
+        usage(stderr);
+        return 2;
     }
-    if (!fmt)
-        header();
+    if (fmt && format_check(fmt) < 0)
+        return 2;
+    json_t *rows = json_array();
     int status = 0;
-    for (int i = first; i < argc; i++) {
-        int rc = row(argv[i], fmt);
-        if (rc > status)
-            status = rc;
+    for (int i = optind; i < argc; i++) {
+        json_t *row = row_read(argv[i]);
+        if (row)
+            json_array_append_new(rows, row);
+        else
+            status = 2;
     }
+    size_t i;
+    json_t *row;
+    if (mode == 'j') {
+        json_dumpf(rows, stdout, JSON_INDENT(1) | JSON_REAL_PRECISION(10));
+        putchar('\n');
+    } else if (mode == 'c') {
+        print_csv(rows);
+    } else if (mode == 'f') {
+        json_array_foreach(rows, i, row)
+            print_format(fmt, row);
+    } else if (json_array_size(rows)) {
+        print_table(rows);
+    }
+    json_decref(rows);
     return status;
 }

@@ -36,10 +36,13 @@ static void usage(FILE *out)
             "  row per combination in DIR/results.csv and DIR/results.json. LISTs are\n"
             "  comma-separated:\n"
             "    --materials  MERL names of ../shared (nylon,...), default, or specs (abc:NAME)\n"
-            "    --plans      ds1,ds2,ds3,ds4,progressive,inplane-full,oop200k\n"
+            "    --plans      ds1,ds2,ds3,ds4,progressive,inplane-full,oop200k, or plan files\n"
+            "                 (a path, or NAME.yaml: named by the file, as the file declares)\n"
             "    --models     abc,abc-prior,mlp,latent\n"
             "    --scenes     scene names or files (ideal,lab)\n"
             "  --quick: 3 materials, plans ds1,ds2,ds4,progressive, models abc,latent.\n"
+            "  --saturated censored|clipped: fit saturated readings as lower bounds (the\n"
+            "  default) or at their clipped values (docs/fitting.md).\n"
             "  --jobs N: worker processes (default: the number of cores). --shard I/N: run\n"
             "  only share I of N (merge the shares with gonio study merge). --list: print\n"
             "  the job ids and exit. Rerunning on DIR resumes: finished rows are kept.\n"
@@ -305,9 +308,11 @@ int cmd_study(int argc, char **argv)
         {"scenes", required_argument, NULL, 's'}, {"jobs", required_argument, NULL, 'j'},
         {"shard", required_argument, NULL, 'S'}, {"out", required_argument, NULL, 'o'},
         {"list", no_argument, NULL, 'l'},        {"help", no_argument, NULL, 'h'},
+        {"saturated", required_argument, NULL, 'T'},
         {NULL, 0, NULL, 0},
     };
-    const char *lists[4] = {NULL, NULL, NULL, NULL}, *shard = NULL, *out = NULL;
+    const char *lists[4] = {NULL, NULL, NULL, NULL}, *shard = NULL, *out = NULL,
+               *saturated = "censored";
     long n_workers = sysconf(_SC_NPROCESSORS_ONLN);
     int quick = 0, list = 0, c;
     optind = 1;
@@ -322,6 +327,7 @@ int cmd_study(int argc, char **argv)
         case 'S': shard = optarg; break;
         case 'o': out = optarg; break;
         case 'l': list = 1; break;
+        case 'T': saturated = optarg; break;
         case 'j':
             errno = 0;
             n_workers = strtol(optarg, &end, 10);
@@ -359,6 +365,10 @@ int cmd_study(int argc, char **argv)
             rc = study_spec_set(s, (enum study_list)i, lists[i], &err);
     if (rc == 0 && shard)
         rc = study_spec_set_shard(s, shard, &err);
+    if (rc == 0 && strcmp(saturated, "censored") && strcmp(saturated, "clipped"))
+        rc = gonio_err_set(&err, GONIO_EUSAGE, "--saturated '%s': use censored or clipped",
+                           saturated);
+    s->censored = !strcmp(saturated, "censored");
     if (rc < 0) {
         fprintf(stderr, "gonio study: %s\n", err.msg);
         free(s);

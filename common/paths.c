@@ -21,10 +21,41 @@ const char *gonio_shared_dir(void)
     return is_dir(dir) ? dir : NULL;
 }
 
+/* The configs an installed binary was installed with: GONIO_CONFIG_FROM_BIN
+ * from the executable's folder (/usr/bin/../../etc/gonio), when it exists.
+ * Found from /proc/self/exe rather than compiled in as an absolute path, so
+ * that a tree installed under DESTDIR or another prefix reads its own
+ * configs; the build tree has none there. Per thread: goniod's worker asks
+ * too. */
+static const char *installed_config_dir(void)
+{
+    static _Thread_local char dir[4096];
+    char exe[4096];
+    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (n <= 0)
+        return NULL;
+    exe[n] = '\0';
+    *strrchr(exe, '/') = '\0';
+    /* Each leading "../" takes a folder off, so messages name /etc/gonio,
+     * not /usr/bin/../../etc/gonio. */
+    const char *rel = GONIO_CONFIG_FROM_BIN;
+    char *slash;
+    while (!strncmp(rel, "../", 3) && (slash = strrchr(exe, '/'))) {
+        *slash = '\0';
+        rel += 3;
+    }
+    if (snprintf(dir, sizeof dir, "%s/%s", exe, rel) >= (int)sizeof dir)
+        return NULL;
+    return is_dir(dir) ? dir : NULL;
+}
+
 const char *gonio_config_dir(void)
 {
     const char *env = getenv("GONIO_CONFIG");
-    return env && *env ? env : GONIO_CONFIG_DEFAULT;
+    if (env && *env)
+        return env;
+    const char *installed = installed_config_dir();
+    return installed ? installed : GONIO_CONFIG_DEFAULT;
 }
 
 int gonio_ref_is_file(const char *ref)

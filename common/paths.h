@@ -10,7 +10,9 @@
  * tree. Returns NULL when the folder does not exist. */
 const char *gonio_shared_dir(void);
 
-/* The configs folder: $GONIO_CONFIG, else configs/ in the source tree. */
+/* The configs folder: $GONIO_CONFIG, else the configs an installed binary
+ * was installed with (/etc/gonio for /usr/bin/gonio; docs/install.md), else
+ * configs/ in the source tree. */
 const char *gonio_config_dir(void);
 
 /* Whether a plan, scene, rig or render reference names a file (it holds a

@@ -524,13 +524,16 @@ static void model_path(const char *dir, const char *name, struct capture_summary
  * streaming fit, with parameter sds and (abc-prior) the too-few-samples
  * warning; the parameters go into results.json and, as gonio fit's abc
  * kind, into DIR/NAME.model, read back so that the errors are the file's. */
-static int fit_abc_capture(const struct fit_sample *fs, size_t n, const struct brdf_abc *warm,
-                           const char *dir, const char *model, const char *material,
-                           struct capture_summary *out, brdf_material **fitted,
-                           struct gonio_err *err)
+static int fit_abc_capture(const struct fit_data *data, const struct brdf_abc *warm,
+                           const char *dir, const char *model, struct capture_summary *out,
+                           brdf_material **fitted, struct gonio_err *err)
 {
+    const struct fit_sample *fs = data->rgb;
+    size_t n = data->n_rgb;
+    const char *material = data->material;
     struct fit_options opt = fit_default_options();
     opt.warm_start = warm; /* the streaming fit's last parameters, when there is one */
+    opt.lower_bound = data->rgb_lower;
     struct fit_info info;
     double t0 = gonio_monotonic_s();
     /* abc-prior: MAP with the population prior, the material left out of it */
@@ -572,17 +575,15 @@ static int fit_abc_capture(const struct fit_sample *fs, size_t n, const struct b
 /* Any other registered RGB model: the fit `gonio fit` makes, its model
  * file written as DIR/NAME.model and read back, so that the errors below
  * are those of the file an operator renders or exports. */
-static int fit_registry_capture(const struct fit_sample *fs, size_t n, const char *dir,
-                                const struct fit_model_kind *kind, const char *material,
-                                struct capture_summary *out, brdf_material **fitted,
-                                struct gonio_err *err)
+static int fit_registry_capture(const struct fit_data *data, const char *dir,
+                                const struct fit_model_kind *kind, struct capture_summary *out,
+                                brdf_material **fitted, struct gonio_err *err)
 {
-    struct fit_data data = {.rgb = fs, .n_rgb = n, .material = material};
     struct fit_model_options mo = fit_model_default_options();
     struct fit_model_report rep = {0};
     char path[4200];
     model_path(dir, kind->name, out, path, sizeof path);
-    int rc = fit_model_run(kind, &data, &mo, path, &rep, &out->fit_time_s, fitted, err);
+    int rc = fit_model_run(kind, data, &mo, path, &rep, &out->fit_time_s, fitted, err);
     if (rc < 0) {
         out->model_file[0] = '\0';
         return rc;
@@ -593,20 +594,31 @@ static int fit_registry_capture(const struct fit_sample *fs, size_t n, const cha
 }
 
 /* The final fit of the journalled samples with the capture's model, and its
- * error on them (the plan domain). A failed fit names the model and leaves
- * the journal as it is. */
+ * error on them (the plan domain). Saturated readings are fitted as lower
+ * bounds (docs/fitting.md "Saturated readings"). A failed fit names the
+ * model and leaves the journal as it is. */
 static int fit_samples(const struct journal_sample *js, size_t n, const struct brdf_abc *warm,
                        const struct fit_model_kind *kind, const char *dir, const char *material,
                        struct capture_summary *out, brdf_material **fitted,
                        struct gonio_err *err)
 {
     struct fit_sample *fs = malloc((n ? n : 1) * sizeof *fs);
-    if (!fs)
+    unsigned char *lower = malloc(n ? n : 1);
+    if (!fs || !lower) {
+        free(fs);
+        free(lower);
         return gonio_err_set(err, ENOMEM, "out of memory");
+    }
     out->saturated = journal_fit_samples(js, n, fs);
+    for (size_t i = 0; i < n; i++)
+        lower[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
+    struct fit_data data = {.rgb = fs,
+                            .n_rgb = n,
+                            .rgb_lower = out->saturated ? lower : NULL,
+                            .material = material};
     int rc = !strcmp(kind->name, "abc") || !strcmp(kind->name, "abc-prior")
-                 ? fit_abc_capture(fs, n, warm, dir, kind->name, material, out, fitted, err)
-                 : fit_registry_capture(fs, n, dir, kind, material, out, fitted, err);
+                 ? fit_abc_capture(&data, warm, dir, kind->name, out, fitted, err)
+                 : fit_registry_capture(&data, dir, kind, out, fitted, err);
     if (rc < 0 && err) {
         char msg[GONIO_ERR_MSG_MAX];
         snprintf(msg, sizeof msg, "%s", err->msg);
@@ -617,6 +629,7 @@ static int fit_samples(const struct journal_sample *js, size_t n, const struct b
     if (rc == 0) /* Plan-domain error: the model against what was measured. */
         rc = fit_sample_errors(*fitted, fs, n, &out->err_plan, err);
     free(fs);
+    free(lower);
     return rc;
 }
 

@@ -1,6 +1,8 @@
 #include "daemon/config.h"
 
+#include <arpa/inet.h>
 #include <errno.h>
+#include <grp.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -197,6 +199,13 @@ static int load_modbus(const struct cfg_doc *d, const struct cfg_node *drv,
                               err)) < 0 ||
             (rc = cfg_int(d, drv, "port", CFG_OPTIONAL, 1, 65535, &v, err)) < 0)
             return rc;
+        /* libmodbus's modbus_new_tcp takes an IPv4 address and resolves no
+         * name: "localhost" would pass here and fail at the first capture. */
+        struct in_addr addr;
+        if (inet_pton(AF_INET, cfg->host, &addr) != 1)
+            return cfg_error(d, cfg_get(d, drv, "host"), "host", err,
+                             "not a numeric IPv4 address (value '%.40s'; libmodbus resolves no "
+                             "names: use e.g. 127.0.0.1)", cfg->host);
         cfg->port = (int)v;
         return 0;
     }
@@ -240,6 +249,12 @@ static int load_socket(const struct cfg_doc *d, const struct cfg_node *root,
                          err)) < 0 ||
         (rc = cfg_int(d, m, "burst", CFG_OPTIONAL, 1, 100000, &cfg->burst, err)) < 0)
         return rc;
+    /* Checked here, not only when the socket is made: --check passing a
+     * config that goniod then refuses to start with would be a lie. */
+    if (cfg->socket_group[0] && !getgrnam(cfg->socket_group))
+        return cfg_error(d, cfg_get(d, m, "group"), "group", err,
+                         "group '%.40s' does not exist (installed goniod creates 'gonio' "
+                         "with systemd-sysusers; or groupadd it)", cfg->socket_group);
     cfg->max_clients = (int)maxc;
     return 0;
 }

@@ -14,6 +14,7 @@
 #include <gsl/gsl_errno.h>
 
 #include "common/clock.h"
+#include "common/version.h"
 #include "daemon/config.h"
 #include "daemon/control.h"
 #include "daemon/notify.h"
@@ -33,8 +34,11 @@ static void on_signal(int sig)
 static void usage(FILE *out)
 {
     fprintf(out, "usage: goniod --config FILE [--check]\n"
-                 "  --check  validate FILE, print the resolved configuration and exit\n"
-                 "           (0 when valid, 2 with path:line:col: problem when not)\n"
+                 "       goniod --version\n"
+                 "  --config FILE  the daemon's configuration (goniod.yaml(5))\n"
+                 "  --check        validate FILE, print the resolved configuration and exit\n"
+                 "                 (0 when valid, 2 with path:line:col: problem when not)\n"
+                 "  --version      print the release and exit\n"
                  "Keys and the protocol: docs/goniod.md, docs/protocol.md.\n");
 }
 
@@ -70,8 +74,8 @@ static int serve(const struct goniod_config *cfg)
         worker_free(w);
         return 1;
     }
-    fprintf(stderr, "goniod: listening on %s (driver %s, captures in %s)\n", cfg->socket_path,
-            goniod_driver_name(cfg->driver), cfg->capture_root);
+    fprintf(stderr, "goniod: version %s, listening on %s (driver %s, captures in %s)\n",
+            gonio_version(), cfg->socket_path, goniod_driver_name(cfg->driver), cfg->capture_root);
     notify_send("READY=1\nSTATUS=idle\nMAINPID=%ld", (long)getpid());
 
     unsigned long long wd_usec = notify_watchdog_usec();
@@ -157,6 +161,7 @@ int main(int argc, char **argv)
         {"config", required_argument, NULL, 'c'},
         {"check", no_argument, NULL, 'k'},
         {"help", no_argument, NULL, 'h'},
+        {"version", no_argument, NULL, 'V'},
         {NULL, 0, NULL, 0},
     };
     const char *path = NULL;
@@ -166,6 +171,7 @@ int main(int argc, char **argv)
         case 'c': path = optarg; break;
         case 'k': check = 1; break;
         case 'h': usage(stdout); return 0;
+        case 'V': gonio_print_version(stdout, "goniod"); return 0;
         default: usage(stderr); return 2;
         }
     }

@@ -124,6 +124,8 @@ struct latent_fit_options {
     double bandwidth;     /* its kernel bandwidth; <= 0: the decoder's (leave-one-out
                              maximum likelihood over the training latents) */
     uint64_t seed;
+    const unsigned char *lower; /* NULL, or one flag per sample: 1 for a saturated
+                                   reading, fitted as a lower bound (censored) */
 };
 
 struct latent_fit_options latent_fit_default_options(void);

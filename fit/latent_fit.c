@@ -42,13 +42,13 @@ struct fit_prior {
 };
 
 static double objective(const latent_decoder *d, const double *z, size_t n, const double *x,
-                        const double *c, const double *t, const struct fit_prior *p,
-                        double *gz)
+                        const double *c, const double *t, const unsigned char *lw,
+                        const struct fit_prior *p, double *gz)
 {
     double scale = 1.0 / (3.0 * (double)n);
     if (gz)
         memset(gz, 0, (size_t)d->nz * sizeof *gz);
-    double l = latent_net_backprop(d, z, n, x, c, t, scale, NULL, gz) * scale;
+    double l = latent_net_backprop(d, z, n, x, c, t, lw, scale, NULL, gz) * scale;
     double r = 0;
     for (int k = 0; k < d->nz; k++) {
         r += z[k] * z[k];
@@ -61,15 +61,16 @@ static double objective(const latent_decoder *d, const double *z, size_t n, cons
 
 /* The mean |r| part only, for reporting. */
 static double data_loss(const latent_decoder *d, const double *z, size_t n, const double *x,
-                        const double *c, const double *t)
+                        const double *c, const double *t, const unsigned char *lw)
 {
-    return latent_net_backprop(d, z, n, x, c, t, 0.0, NULL, NULL) / (3.0 * (double)n);
+    return latent_net_backprop(d, z, n, x, c, t, lw, 0.0, NULL, NULL) / (3.0 * (double)n);
 }
 
 /* RMS of the log residuals log(1 + fhat c) - t over n samples and the
- * channels: the figure every model's status compares (fit/fit_status.h). */
+ * channels (none above a lower bound, lw): the figure every model's status
+ * compares (fit/fit_status.h). */
 static double rms_log(const latent_decoder *d, const double *z, size_t n, const double *x,
-                      const double *c, const double *t)
+                      const double *c, const double *t, const unsigned char *lw)
 {
     enum { BLOCK = 256 };
     double o[3 * BLOCK], s = 0;
@@ -79,6 +80,8 @@ static double rms_log(const latent_decoder *d, const double *z, size_t n, const 
         for (size_t k = 0; k < 3 * nb; k++) {
             double f = expm1(o[k]);
             double r = log1p((f > 0 ? f : 0.0) * c[i + k / 3]) - t[3 * i + k];
+            if (lw && lw[i + k / 3] && r > 0)
+                r = 0;
             s += r * r;
         }
     }
@@ -89,8 +92,9 @@ static double rms_log(const latent_decoder *d, const double *z, size_t n, const 
  * *gain: the share of the objective's whole fall that came in the last
  * tenth of the steps (still falling: not converged). */
 static double adam_z(const latent_decoder *d, double *z, size_t n, const double *x,
-                     const double *c, const double *t, const struct fit_prior *p,
-                     const struct latent_fit_options *o, double *gain)
+                     const double *c, const double *t, const unsigned char *lw,
+                     const struct fit_prior *p, const struct latent_fit_options *o,
+                     double *gain)
 {
     int late = o->max_iter - (o->max_iter + 9) / 10;
     double f_late = INFINITY, f_first = INFINITY;
@@ -100,7 +104,7 @@ static double adam_z(const latent_decoder *d, double *z, size_t n, const double 
     for (int it = 0; it < o->max_iter; it++) {
         if (it == late)
             f_late = best_f;
-        double f = objective(d, z, n, x, c, t, p, g);
+        double f = objective(d, z, n, x, c, t, lw, p, g);
         if (it == 0)
             f_first = f;
         if (f < best_f) {
@@ -116,7 +120,7 @@ static double adam_z(const latent_decoder *d, double *z, size_t n, const double 
             z[k] -= lr * (m1[k] / c1) / (sqrt(m2[k] / c2) + 1e-12);
         }
     }
-    double f = objective(d, z, n, x, c, t, p, NULL);
+    double f = objective(d, z, n, x, c, t, lw, p, NULL);
     if (f < best_f) {
         best_f = f;
         memcpy(best, z, (size_t)nz * sizeof *z);
@@ -135,29 +139,34 @@ static double adam_z(const latent_decoder *d, double *z, size_t n, const double 
  * HOLDOUT_EVERY-th sample, judged on those. The encodings are reordered
  * (the kept samples first) in copies. NAN below 2 HOLDOUT_EVERY samples. */
 static double heldout_rms(const latent_decoder *d, const double *z0, size_t n, const double *x,
-                          const double *c, const double *t, const struct fit_prior *p,
-                          const struct latent_fit_options *o)
+                          const double *c, const double *t, const unsigned char *lw,
+                          const struct fit_prior *p, const struct latent_fit_options *o)
 {
     if (n < 2 * HOLDOUT_EVERY)
         return NAN;
     double *x2 = malloc(n * LATENT_NIN * sizeof *x2), *c2 = malloc(n * sizeof *c2),
            *t2 = malloc(n * 3 * sizeof *t2);
+    unsigned char *l2 = lw ? malloc(n) : NULL;
     double r = NAN;
-    if (x2 && c2 && t2) {
+    if (x2 && c2 && t2 && (!lw || l2)) {
         size_t nk = n - n / HOLDOUT_EVERY, a = 0, b = nk;
         for (size_t k = 0; k < n; k++) {
             size_t at = (k + 1) % HOLDOUT_EVERY ? a++ : b++;
             memcpy(x2 + LATENT_NIN * at, x + LATENT_NIN * k, LATENT_NIN * sizeof *x);
             c2[at] = c[k];
             memcpy(t2 + 3 * at, t + 3 * k, 3 * sizeof *t);
+            if (l2)
+                l2[at] = lw[k];
         }
         double z[LATENT_MAX_NZ];
         memcpy(z, z0, (size_t)d->nz * sizeof *z);
         struct fit_prior pk = *p;
         pk.w = p->w * (double)n / (double)nk; /* the weight Bayes gives nk samples */
-        adam_z(d, z, nk, x2, c2, t2, &pk, o, NULL);
-        r = rms_log(d, z, n - nk, x2 + LATENT_NIN * nk, c2 + nk, t2 + 3 * nk);
+        adam_z(d, z, nk, x2, c2, t2, l2, &pk, o, NULL);
+        r = rms_log(d, z, n - nk, x2 + LATENT_NIN * nk, c2 + nk, t2 + 3 * nk,
+                    l2 ? l2 + nk : NULL);
     }
+    free(l2);
     free(x2);
     free(c2);
     free(t2);
@@ -225,11 +234,13 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
     }
     double *x = malloc(used * LATENT_NIN * sizeof *x), *c = malloc(used * sizeof *c),
            *t = malloc(used * 3 * sizeof *t);
-    if (!x || !c || !t) {
+    unsigned char *lw = o.lower ? malloc(used) : NULL;
+    if (!x || !c || !t || (o.lower && !lw)) {
         free(idx);
         free(x);
         free(c);
         free(t);
+        free(lw);
         return gonio_err_set(err, ENOMEM, "fit_latent: out of memory");
     }
     for (size_t k = 0; k < used; k++) {
@@ -238,6 +249,8 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
         c[k] = s->g.wi[2];
         for (int ch = 0; ch < 3; ch++)
             t[3 * k + ch] = log1p(s->rgb[ch] / scale * c[k]);
+        if (lw)
+            lw[k] = o.lower[idx[k]] != 0;
     }
     /* Priors. The data term is a mean over 3 used residuals, so Laplace noise
      * of scale b puts the prior's -log density at b / (3 used): decisive for
@@ -265,7 +278,7 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
     }
     for (size_t m = 0; m < ncand; m++) {
         const double *zc = m < d->n_materials ? d->latents + m * (size_t)nz : d->mean;
-        double sc = objective(d, zc, nscore, x, c, t, &pr, NULL);
+        double sc = objective(d, zc, nscore, x, c, t, lw, &pr, NULL);
         for (int k = 0; k < ns; k++)
             if (sc < best_s[k]) {
                 for (int q = ns - 1; q > k; q--) {
@@ -283,9 +296,9 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
         size_t m = best_i[k];
         memcpy(zk, m < d->n_materials ? d->latents + m * (size_t)nz : d->mean,
                (size_t)nz * sizeof *zk);
-        double s0 = data_loss(d, zk, used, x, c, t);
+        double s0 = data_loss(d, zk, used, x, c, t, lw);
         double gk;
-        double f = adam_z(d, zk, used, x, c, t, &pr, &o, &gk);
+        double f = adam_z(d, zk, used, x, c, t, lw, &pr, &o, &gk);
         if (f < fbest) {
             fbest = f;
             gain = gk;
@@ -295,7 +308,7 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
     }
     memcpy(z, zbest, (size_t)nz * sizeof *z);
     if (info) {
-        info->loss = data_loss(d, zbest, used, x, c, t);
+        info->loss = data_loss(d, zbest, used, x, c, t, lw);
         info->start_loss = start_loss;
         info->iterations = o.max_iter;
         info->starts = ns;
@@ -309,8 +322,8 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
         *st = fit_status_init();
         st->geometries = fit_status_geometries(samples, idx, used);
         st->params = nz;
-        st->insample = rms_log(d, zbest, used, x, c, t);
-        st->heldout = heldout_rms(d, zbest, used, x, c, t, &pr, &o);
+        st->insample = rms_log(d, zbest, used, x, c, t, lw);
+        st->heldout = heldout_rms(d, zbest, used, x, c, t, lw, &pr, &o);
         if (gain > LATENT_FIT_GAIN_TOL)
             st->findings |= 1u << FIT_STATUS_NOT_CONVERGED;
         fit_status_decide(st);
@@ -319,6 +332,7 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
     free(x);
     free(c);
     free(t);
+    free(lw);
     if (!isfinite(fbest))
         return gonio_err_set(err, GONIO_EFIT, "fit_latent: objective not finite");
     return 0;

@@ -30,6 +30,7 @@ int fit_latent_model_fit(const struct fit_data *data, const struct fit_model_opt
     }
     struct latent_fit_options lo = latent_fit_default_options();
     lo.seed = o.seed;
+    lo.lower = data->rgb_lower;
     if (o.max_epochs > 0)
         lo.max_iter = o.max_epochs;
     double z[LATENT_MAX_NZ];

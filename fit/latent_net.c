@@ -85,8 +85,8 @@ void latent_net_forward(const latent_decoder *d, const double *z, size_t n, cons
 }
 
 double latent_net_backprop(const latent_decoder *d, const double *z, size_t n, const double *x,
-                           const double *c, const double *t, double scale, double *gw,
-                           double *gz)
+                           const double *c, const double *t, const unsigned char *lower,
+                           double scale, double *gw, double *gz)
 {
     const int L = d->layers;
     const double *P = d->params;
@@ -113,6 +113,8 @@ double latent_net_backprop(const latent_decoder *d, const double *z, size_t n, c
             double eo = exp(o);
             double den = 1 + (eo - 1) * cs;
             double r = log(den) - t[LATENT_NOUT * s + k];
+            if (lower && lower[s] && r > 0)
+                r = 0; /* above a lower bound: censored */
             loss += fabs(r);
             double sg = r > 0 ? 1.0 : (r < 0 ? -1.0 : 0.0);
             dh[k] *= scale * sg * cs * eo / den;

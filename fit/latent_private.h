@@ -50,12 +50,14 @@ void latent_encode(const struct brdf_pair *p, double x[LATENT_NIN]);
 
 /* Forward and backward over n samples of one material with latent z:
  * x[n][6] encodings, c[n] = cos theta_i, t[n][3] = log(1 + f c) targets.
- * Returns the sum over samples and channels of |log(1 + fhat c) - t|.
+ * Returns the sum over samples and channels of |log(1 + fhat c) - t|,
+ * where lower (NULL, or n flags) marks the samples whose targets are lower
+ * bounds (saturated readings): no residual while fhat is above them.
  * When gw is not NULL, adds scale * d(sum)/d(weights) to gw[n_params];
  * when gz is not NULL, adds scale * d(sum)/dz to gz[nz]. */
 double latent_net_backprop(const latent_decoder *d, const double *z, size_t n, const double *x,
-                           const double *c, const double *t, double scale, double *gw,
-                           double *gz);
+                           const double *c, const double *t, const unsigned char *lower,
+                           double scale, double *gw, double *gz);
 
 /* The raw outputs o (log(1 + f), clipped) at n encodings, into o[3n]. */
 void latent_net_forward(const latent_decoder *d, const double *z, size_t n, const double *x,

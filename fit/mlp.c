@@ -99,13 +99,17 @@ void fit_mlp_forward(const struct fit_mlp *net, const double *u, size_t n, doubl
 }
 
 /* The loss of one value and its derivative in z: p = log(1 + expm1(z) c)
- * - t with t = log(1 + f c); loss p^2. */
-static double value_loss(double z, double c, double t, double *dz)
+ * - t with t = log(1 + f c); loss p^2. A target that is a lower bound (a
+ * saturated reading, lower 1) is censored: no loss and no slope while the
+ * output is above it. */
+static double value_loss(double z, double c, double t, int lower, double *dz)
 {
     double zc = z > Z_MAX ? Z_MAX : z < Z_MIN ? Z_MIN : z;
     double e = expm1(zc);
     double q = 1.0 + e * c;
     double p = log1p(e * c) - t;
+    if (lower && p > 0)
+        p = 0;
     if (dz)
         *dz = (z == zc) ? 2.0 * p * c * (e + 1.0) / q : 0.0;
     return p * p;
@@ -119,7 +123,7 @@ double fit_mlp_loss(const struct fit_mlp *net, const double *u, const double *f,
     for (size_t r = 0; r < n; r++) {
         fit_mlp_forward(net, u + r * (size_t)nin, 1, z);
         for (int k = 0; k < nout; k++)
-            sum += value_loss(z[k], c[r], log1p(f[r * (size_t)nout + (size_t)k] * c[r]), NULL);
+            sum += value_loss(z[k], c[r], log1p(f[r * (size_t)nout + (size_t)k] * c[r]), 0, NULL);
     }
     return n ? sum / ((double)n * nout) : NAN;
 }
@@ -164,6 +168,7 @@ struct work {
     double *grad, *m, *v, *best;
     double *wt;                         /* weights transposed, for the forward pass */
     double *X, *T, *C;                  /* normalised inputs, log targets, cosines */
+    const unsigned char *lower;         /* fit_mlp_train_options.lower */
     size_t *idx;
 };
 
@@ -288,7 +293,8 @@ static double batch_loss(const struct fit_mlp *net, struct work *w, const size_t
         for (size_t b = 0; b < m; b++)
             for (int k = 0; k < nout; k++)
                 sum += value_loss(z[b * (size_t)nout + (size_t)k], w->C[idx[s + b]],
-                                  w->T[idx[s + b] * (size_t)nout + (size_t)k], NULL);
+                                  w->T[idx[s + b] * (size_t)nout + (size_t)k],
+                                  w->lower && w->lower[idx[s + b]], NULL);
     }
     return sum;
 }
@@ -311,7 +317,7 @@ static double train_step(struct fit_mlp *net, struct work *w, const size_t *idx,
             double dz;
             size_t r = idx[b];
             loss += value_loss(z[b * (size_t)nout + (size_t)k], w->C[r],
-                               w->T[r * (size_t)nout + (size_t)k], &dz);
+                               w->T[r * (size_t)nout + (size_t)k], w->lower && w->lower[r], &dz);
             d[b * (size_t)nout + (size_t)k] = dz * inv;
         }
     /* Back through the layers; parameter offsets from the end. */
@@ -488,6 +494,7 @@ int fit_mlp_train(struct fit_mlp *net, const double *u, const double *f, const d
     oom |= !(w.T = malloc(n * (size_t)nout * sizeof(double)));
     oom |= !(w.C = malloc(n * sizeof(double)));
     oom |= !(w.idx = malloc(n * sizeof(size_t)));
+    w.lower = o.lower;
     if (oom) {
         work_free(&w);
         return gonio_err_set(err, ENOMEM, "mlp: out of memory for %zu rows", n);

@@ -58,6 +58,9 @@ struct fit_mlp_train_options {
     /* NULL, or twin[i] = the row that is the same measurement as row i seen
      * another way (SIZE_MAX: none); twins are held out together. */
     const size_t *twin;
+    /* NULL, or lower[i] 1 when row i's targets are lower bounds (a saturated
+     * reading): censored, no loss while the output is above them. */
+    const unsigned char *lower;
 };
 
 struct fit_mlp_train_options fit_mlp_default_train_options(void);
@@ -111,9 +114,11 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
  * samples: out-of-plane pairs, pairs below the horizon and non-finite
  * values are left out and counted in *left_out (may be NULL); *geometries
  * (may be NULL) receives the distinct (theta_i, theta_r) of those used.
- * max_epochs 0: the default budget. On success net is allocated
- * (fit_mlp_free). */
-int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t seed,
+ * max_epochs 0: the default budget. lower: NULL, or n flags, 1 for a
+ * saturated reading, trained as a lower bound (fit_data.rgb_lower). On
+ * success net is allocated (fit_mlp_free). */
+int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, const unsigned char *lower,
+                              uint64_t seed,
                               int max_epochs, int quiet, struct fit_mlp *net,
                               struct fit_mlp_train_report *rep, size_t *left_out,
                               size_t *geometries, struct gonio_err *err);
@@ -130,13 +135,25 @@ brdf_material *fit_mlp_spectral_open(const struct fit_model_file *f, const char 
 
 /* In-plane angles of a pair (degrees) when its two directions and the
  * normal are coplanar, turned about the normal into the x-z plane first
- * (isotropic materials); -1 for a pair out of its incidence plane. */
-int fit_mlp_inplane_angles(const struct brdf_pair *p, double *theta_i_deg,
+ * (isotropic materials); -1 for a pair out of its incidence plane. tol:
+ * the largest sine of the angle by which the direction nearer the normal
+ * may leave the plane of the other (0: coplanar to rounding); the pair is
+ * projected onto the plane, theta_i and theta_o kept. */
+int fit_mlp_inplane_angles(const struct brdf_pair *p, double tol, double *theta_i_deg,
                            double *theta_r_deg);
+
+/* The training tolerance: sin(0.05 deg). A rig settles a few hundredths of
+ * a degree from its target (the lab scene's jitter is 0.02 deg), which
+ * takes a commanded in-plane pair out of its plane; left out, the
+ * out-of-plane plans' in-plane samples shrank to the specular ridge
+ * (docs/fitting.md "Saturated readings"). Projecting changes an isotropic
+ * material's value by the second order of that angle. */
+#define FIT_MLP_PLANE_TOL 8.7266e-4
 
 /* Read a spectral samples CSV (docs/models.md): a header line naming the
  * columns theta_i,theta_r,wavelength_nm,value (in that order; further
- * columns ignored), then one sample a line. *out is malloc'd. Returns the
+ * columns ignored, but for spectra.csv's acquisition,integration_s,saturated,
+ * whose saturated flag marks a lower bound), then one sample a line. *out is malloc'd. Returns the
  * count or a negative code with err naming file:line. */
 int fit_spectral_samples_read(const char *path, struct fit_spectral_sample **out, size_t *n,
                               struct gonio_err *err);

@@ -18,25 +18,28 @@
 static const int rgb_widths[] = {2, 20, 20, 20, 20, 20, 3};
 static const int spectral_widths[] = {3, 10, 10, 10, 1};
 
-/* In-plane angles of a pair whose directions and the normal are coplanar:
- * an isotropic material's value there is its value in the incidence plane,
- * so the pair is first turned about the normal into the x-z plane. Returns
- * -1 for a pair out of its incidence plane. */
-int fit_mlp_inplane_angles(const struct brdf_pair *p, double *ti, double *tr)
+/* In-plane angles of a pair whose directions and the normal are coplanar
+ * to within tol (fit/mlp.h): an isotropic material's value there is its
+ * value in the incidence plane, so the pair is first turned about the
+ * normal into the x-z plane and its off-plane part dropped, keeping
+ * theta_i and theta_o. Returns -1 for a pair farther out of its plane. */
+int fit_mlp_inplane_angles(const struct brdf_pair *p, double tol, double *ti, double *tr)
 {
     const double *a = p->wi, *b = p->wo;
     double ra = hypot(a[0], a[1]), rb = hypot(b[0], b[1]);
-    /* Coplanar with the normal: the horizontal parts are parallel. */
-    if (fabs(a[0] * b[1] - a[1] * b[0]) > 1e-9 * (1.0 + ra * rb))
+    /* The sine of the out-of-plane angle of the direction nearer the
+     * normal, from the plane of the other and the normal. */
+    double big = ra > rb ? ra : rb;
+    if (fabs(a[0] * b[1] - a[1] * b[0]) > tol * big + 1e-9 * (1.0 + ra * rb))
         return -1;
     if (fabs(a[1]) <= 1e-9 && fabs(b[1]) <= 1e-9)
         return brdf_pair_to_inplane(p, ti, tr);
-    const double *ref = ra > 1e-12 ? a : b;
-    double r = ra > 1e-12 ? ra : rb;
-    double cs = ref[0] / r, sn = ref[1] / r;
-    double ai[3] = {cs * a[0] + sn * a[1], -sn * a[0] + cs * a[1], a[2]};
-    double bo[3] = {cs * b[0] + sn * b[1], -sn * b[0] + cs * b[1], b[2]};
-    ai[1] = bo[1] = 0; /* rounding only: the pair is coplanar */
+    const double *ref = ra >= rb ? a : b;
+    double cs = ref[0] / big, sn = ref[1] / big;
+    double ax = cs * a[0] + sn * a[1], bx = cs * b[0] + sn * b[1];
+    /* the horizontal parts' lengths kept, along +-x */
+    double ai[3] = {ax < 0 ? -ra : ra, 0, a[2]};
+    double bo[3] = {bx < 0 ? -rb : rb, 0, b[2]};
     struct brdf_pair q;
     brdf_pair_from_dirs(ai, bo, &q);
     return brdf_pair_to_inplane(&q, ti, tr);
@@ -112,7 +115,8 @@ static void fill_report(struct fit_model_report *rep, const struct fit_mlp_train
 }
 
 /* Train the RGB network on the usable in-plane samples. */
-int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t seed,
+int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, const unsigned char *lower,
+                              uint64_t seed,
                               int max_epochs, int quiet, struct fit_mlp *net,
                               struct fit_mlp_train_report *rep, size_t *left_out,
                               size_t *geometries, struct gonio_err *err)
@@ -122,17 +126,20 @@ int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t see
     double *u = malloc(cap * 2 * sizeof *u), *f = malloc(cap * 3 * sizeof *f),
            *c = malloc(cap * sizeof *c);
     size_t *twin = malloc(cap * sizeof *twin);
-    if (!u || !f || !c || !twin) {
+    unsigned char *lo = lower ? malloc(cap) : NULL;
+    if (!u || !f || !c || !twin || (lower && !lo)) {
         free(u);
         free(f);
         free(c);
         free(twin);
+        free(lo);
         return gonio_err_set(err, ENOMEM, "mlp: out of memory");
     }
     size_t m = 0, used = 0;
     for (size_t i = 0; i < n; i++) {
         double ti, tr;
-        if (fit_mlp_inplane_angles(&s[i].g, &ti, &tr) || !(s[i].g.wi[2] > 0) || !(s[i].g.wo[2] > 0))
+        if (fit_mlp_inplane_angles(&s[i].g, FIT_MLP_PLANE_TOL, &ti, &tr) ||
+            !(s[i].g.wi[2] > 0) || !(s[i].g.wo[2] > 0))
             continue;
         if (!isfinite(s[i].rgb[0]) || !isfinite(s[i].rgb[1]) || !isfinite(s[i].rgb[2]))
             continue;
@@ -142,6 +149,8 @@ int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t see
         memcpy(f + 3 * m, s[i].rgb, sizeof s[i].rgb);
         c[m] = s[i].g.wi[2];
         twin[m] = SIZE_MAX;
+        if (lo)
+            lo[m] = lower[i] != 0;
         m++;
         /* Helmholtz reciprocity: light and detector swapped is the same
          * value. In-plane, (ti, tr) swaps to (tr, ti) for tr >= 0 and to
@@ -157,6 +166,8 @@ int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t see
         c[m] = cos(ti2 * BRDF_DEG);
         twin[m] = m - 1;
         twin[m - 1] = m;
+        if (lo)
+            lo[m] = lo[m - 1];
         m++;
     }
     if (left_out)
@@ -174,6 +185,7 @@ int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t see
             o.max_epochs = max_epochs;
             o.quiet = quiet;
             o.twin = twin;
+            o.lower = lo;
             rc = fit_mlp_train(net, u, f, c, m, &o, rep, err);
             if (rc)
                 fit_mlp_free(net);
@@ -183,6 +195,7 @@ int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, uint64_t see
     free(f);
     free(c);
     free(twin);
+    free(lo);
     return rc;
 }
 
@@ -196,7 +209,8 @@ int fit_mlp_rgb_fit(const struct fit_data *data, const struct fit_model_options 
     struct fit_mlp net;
     struct fit_mlp_train_report r;
     size_t left_out, geometries;
-    int rc = fit_mlp_rgb_train_samples(data->rgb, data->n_rgb, o.seed, o.max_epochs, o.quiet,
+    int rc = fit_mlp_rgb_train_samples(data->rgb, data->n_rgb, data->rgb_lower, o.seed,
+                                       o.max_epochs, o.quiet,
                                        &net, &r, &left_out, &geometries, err);
     if (rc)
         return rc;
@@ -230,13 +244,16 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
     double *u = malloc(2 * n * 3 * sizeof *u), *f = malloc(2 * n * sizeof *f),
            *c = malloc(2 * n * sizeof *c);
     size_t *twin = malloc(2 * n * sizeof *twin);
-    if (!u || !f || !c || !twin) {
+    unsigned char *lo = malloc(2 * n);
+    if (!u || !f || !c || !twin || !lo) {
         free(u);
         free(f);
         free(c);
         free(twin);
+        free(lo);
         return gonio_err_set(err, ENOMEM, "mlp-spectral: out of memory");
     }
+    int any_lower = 0;
     size_t m = 0, used = 0;
     for (size_t i = 0; i < n; i++) {
         const struct fit_spectral_sample *s = &data->spectral[i];
@@ -254,6 +271,8 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
         f[m] = s->value;
         c[m] = ci;
         twin[m] = SIZE_MAX;
+        lo[m] = s->saturated != 0;
+        any_lower |= lo[m];
         m++;
         double ti2 = tr >= 0 ? tr : -tr, tr2 = tr >= 0 ? ti : -ti;
         if (fabs(ti2 - ti) < 1e-9 && fabs(tr2 - tr) < 1e-9)
@@ -265,6 +284,7 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
         c[m] = cos(ti2 * BRDF_DEG);
         twin[m] = m - 1;
         twin[m - 1] = m;
+        lo[m] = lo[m - 1];
         m++;
     }
     int rc = 0;
@@ -281,12 +301,14 @@ int fit_mlp_spectral_fit(const struct fit_data *data, const struct fit_model_opt
         to.max_epochs = o.max_epochs;
         to.quiet = o.quiet;
         to.twin = twin;
+        to.lower = any_lower ? lo : NULL;
         rc = fit_mlp_train(&net, u, f, c, m, &to, &r, err);
     }
     free(u);
     free(f);
     free(c);
     free(twin);
+    free(lo);
     struct fit_model_file *mf = NULL;
     if (!rc) {
         mf = fit_model_file_new("mlp-spectral", SPECTRAL_VERSION);
@@ -334,11 +356,11 @@ static void mlp_eval(const void *pv, const struct brdf_pair *pairs, size_t n, do
     const struct mlp_priv *p = pv;
     for (size_t i = 0; i < n; i++) {
         double ti, tr, *out = rgb + 3 * i;
-        if (fit_mlp_inplane_angles(&pairs[i], &ti, &tr) || !(pairs[i].wi[2] > 0) ||
+        if (fit_mlp_inplane_angles(&pairs[i], 0, &ti, &tr) || !(pairs[i].wi[2] > 0) ||
             !(pairs[i].wo[2] > 0)) {
             /* Out of plane: the network has no meaning there. Below the
              * horizon: the BRDF is 0 as for every other material. */
-            double v = fit_mlp_inplane_angles(&pairs[i], &ti, &tr) ? NAN : 0.0;
+            double v = fit_mlp_inplane_angles(&pairs[i], 0, &ti, &tr) ? NAN : 0.0;
             out[0] = out[1] = out[2] = v;
             continue;
         }

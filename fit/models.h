@@ -25,6 +25,8 @@ struct fit_model_file;
  * brdf/angles.h), wavelength and the BRDF value (1/sr) at that wavelength. */
 struct fit_spectral_sample {
     double theta_i, theta_r, wavelength_nm, value;
+    int saturated; /* 1: the reading saturated, value is a lower bound (trained
+                      one-sided, as fit_data.rgb_lower) */
 };
 
 /* What a fit sees. A model uses the part it needs (rgb or spectral) and
@@ -34,9 +36,8 @@ struct fit_data {
     const struct fit_sample *rgb;
     size_t n_rgb;
     const unsigned char *rgb_lower; /* NULL, or n_rgb flags: 1 for a saturated reading, a
-                                       lower bound (fit_options.lower_bound); the ABC
-                                       fits take it one-sided, the networks and the
-                                       latent fit at its value */
+                                       lower bound (fit_options.lower_bound): every
+                                       fit takes it one-sided (censored) */
     const struct fit_spectral_sample *spectral;
     size_t n_spectral;
     const char *material; /* the captured material (nbrdf:NAME) when known, else NULL */

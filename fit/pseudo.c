@@ -43,7 +43,8 @@ int fit_abc_pseudo_fit(const struct fit_data *data, const struct fit_model_optio
         return gonio_err_set(err, GONIO_EUSAGE, "abc-pseudo: needs RGB samples");
     struct fit_mlp net;
     struct fit_mlp_train_report tr;
-    int rc = fit_mlp_rgb_train_samples(data->rgb, data->n_rgb, o.seed, o.max_epochs, o.quiet,
+    int rc = fit_mlp_rgb_train_samples(data->rgb, data->n_rgb, data->rgb_lower, o.seed,
+                                       o.max_epochs, o.quiet,
                                        &net, &tr, NULL, NULL, err);
     if (rc)
         return rc;

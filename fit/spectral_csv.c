@@ -26,6 +26,9 @@ int fit_spectral_samples_read(const char *path, struct fit_spectral_sample **out
         return gonio_err_set(err, GONIO_EBADDATA,
                              "%s:1: header must start theta_i,theta_r,wavelength_nm,value", path);
     }
+    /* spectra.csv (docs/formats.md) names the saturated flag 7th */
+    static const char sat_cols[] = ",acquisition,integration_s,saturated";
+    int has_sat = !strncmp(line + 35, sat_cols, sizeof sat_cols - 1);
     size_t cap = 0, m = 0;
     struct fit_spectral_sample *s = NULL;
     int rc = 0;
@@ -54,6 +57,18 @@ int fit_spectral_samples_read(const char *path, struct fit_spectral_sample **out
                                "theta_i,theta_r,wavelength_nm,value", path, lineno);
             break;
         }
+        int sat = 0;
+        if (has_sat) { /* skip acquisition and integration_s, then 0 or 1 */
+            char *q = end;
+            for (int skip = 0; q && skip < 3; skip++)
+                q = strchr(q + (skip > 0), ',');
+            sat = q && (q[1] == '0' || q[1] == '1') && strchr(",\r\n", q[2]) ? q[1] - '0' : -1;
+            if (sat < 0) {
+                rc = gonio_err_set(err, GONIO_EBADDATA, "%s:%d: column saturated: expected 0 or 1",
+                                   path, lineno);
+                break;
+            }
+        }
         if (m == cap) {
             size_t nc = cap ? 2 * cap : 256;
             struct fit_spectral_sample *t = realloc(s, nc * sizeof *t);
@@ -64,7 +79,7 @@ int fit_spectral_samples_read(const char *path, struct fit_spectral_sample **out
             s = t;
             cap = nc;
         }
-        s[m++] = (struct fit_spectral_sample){v[0], v[1], v[2], v[3]};
+        s[m++] = (struct fit_spectral_sample){v[0], v[1], v[2], v[3], sat};
     }
     if (!rc && ferror(fp))
         rc = gonio_err_set(err, EIO, "%s: read error", path);

@@ -229,7 +229,17 @@ static int load_grid(const struct cfg_doc *d, const struct cfg_node *gn, double 
     rc = plan_grid_generate(&g, &p->pts);
     if (rc < 0)
         return gonio_err_set(err, -rc, "%s: out of memory", cfg_path(d));
-    p->n = (size_t)rc;
+    /* The grid's blind is the rule's own; a rig that sees less near the
+     * source (a 10 deg blind zone against the plans' 5) leaves out the pairs
+     * it cannot reach and counts them, as domain plans do, instead of
+     * refusing the whole plan (docs/plans.md, "Reachability"). */
+    p->n = 0;
+    for (int i = 0; i < rc; i++) {
+        if (fabs(p->pts[i].theta_i + p->pts[i].theta_r) < rig_blind - GRID_EPS)
+            p->dropped++;
+        else
+            p->pts[p->n++] = p->pts[i];
+    }
     int line, col;
     cfg_mark(gn, &line, &col);
     for (size_t i = 0; i < p->n; i++) {

@@ -13,7 +13,7 @@ struct plan {
     struct plan_stop stop;
     struct plan_point *pts; /* as written */
     size_t n;
-    size_t dropped; /* domain nodes in the rig's blind zone */
+    size_t dropped; /* grid pairs and domain nodes in the rig's blind zone */
     size_t *order; /* execution order: indices into pts */
 };
 

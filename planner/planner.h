@@ -119,8 +119,8 @@ int plan_is_out_of_plane(const struct plan *plan);
 enum plan_order_mode plan_declared_order(const struct plan *plan); /* the file's order */
 enum plan_order_mode plan_current_order(const struct plan *plan);
 const struct plan_stop *plan_stop(const struct plan *plan);
-/* Domain plans: reference nodes left out because they sit in the rig's
- * blind zone (retro-reflection); 0 for other plans. */
+/* Grid pairs and domain nodes left out because they sit in the rig's
+ * blind zone (retro-reflection); 0 for lists of pairs, which are refused. */
 size_t plan_dropped(const struct plan *plan);
 
 /* "travel", "progressive", "as-written", "greedy"; parse returns -1 when

@@ -441,13 +441,8 @@ static void section_slices(struct page *p)
         while (*s && np < REPORT_LIST_MAX) {
             size_t l = strcspn(s, ",");
             if (l && l < REPORT_NAME_MAX) {
-                snprintf(plans[np], REPORT_NAME_MAX, "%.*s", (int)l, s);
-                if (has_plan(r, plans[np]))
-                    np++;
-                else
-                    report_note(f, p->o->quiet, "slices: the study has no plan '%s'",
-                                plans[np]);
-            }
+                snprintf(plans[np++], REPORT_NAME_MAX, "%.*s", (int)l, s);
+            } /* every name is a plan of the study: check_slices */
             s += l + (s[l] == ',');
         }
     } else {
@@ -502,12 +497,34 @@ static void section_all_rows(struct page *p)
     fputs("</table>\n", f);
 }
 
+/* --slices names plans the operator asked for: one the study lacks is a
+ * usage error (exit 2, nothing written), not a note on a page written anyway. */
+static int check_slices(const struct report_results *r, const char *list, struct gonio_err *err)
+{
+    const char *s = list;
+    while (s && *s) {
+        size_t l = strcspn(s, ",");
+        char plan[REPORT_NAME_MAX];
+        if (!l || l >= sizeof plan)
+            return gonio_err_set(err, GONIO_EUSAGE, "--slices '%s': not a list of plans", list);
+        snprintf(plan, sizeof plan, "%.*s", (int)l, s);
+        if (!has_plan(r, plan))
+            return gonio_err_set(err, GONIO_EUSAGE, "--slices: the study has no plan '%s'", plan);
+        s += l + (s[l] == ',');
+    }
+    return 0;
+}
+
 int report_write_page(const char *dir, const struct report_page_opts *o, struct gonio_err *err)
 {
     struct report_results r;
     int rc = report_results_read(dir, &r, err);
     if (rc < 0)
         return rc;
+    if ((rc = check_slices(&r, o->slices_plans, err)) < 0) {
+        report_results_free(&r);
+        return rc;
+    }
     char out_buf[4200];
     const char *out = o->out_html;
     if (!out) {

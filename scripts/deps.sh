@@ -14,6 +14,9 @@ valgrind"
 PACKAGES="$PACKAGES librsvg2-dev libcairo2-dev fonts-dejavu-core chromium"
 # make fuzz (libFuzzer), which CI runs for a few seconds a target (.ci/run)
 PACKAGES="$PACKAGES clang"
+# the study's GNU parallel recipe runs in a test (docs/study.md); make package
+# builds the .deb with dpkg-deb under fakeroot (docs/install.md)
+PACKAGES="$PACKAGES parallel dpkg-dev fakeroot"
 
 missing=""
 for p in $PACKAGES; do

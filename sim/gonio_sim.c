@@ -10,6 +10,7 @@
 
 #include "brdf/material.h"
 #include "common/err.h"
+#include "common/version.h"
 #include "planner/rig.h"
 #include "sim/modbus_server.h"
 #include "sim/scene.h"
@@ -33,6 +34,7 @@ static void usage(FILE *out)
             "                 [--tcp 127.0.0.1:PORT] [--trace] [--check]\n"
             "                 [--stall SLAVE:DEG] [--overload SLAVE:DEG] [--delay SLAVE:MS]\n"
             "                 [--stats FILE] [--baud N] [--tcp-latency MS]\n"
+            "       gonio-sim --version\n"
             "  Serves the rig's Modbus bus (docs/protocol-modbus.md) as RTU on a new\n"
             "  pseudo-terminal, whose path is the first line on stdout, and with --tcp\n"
             "  also as Modbus TCP (second line: 'tcp HOST:PORT'; PORT 0 picks one).\n"
@@ -45,7 +47,8 @@ static void usage(FILE *out)
             "  commanded and reached range as JSON.\n"
             "  --baud makes each RTU exchange take its frames' time on a serial line at N\n"
             "  baud, --tcp-latency each TCP reply MS ms, both in rig time. SIGUSR1 closes\n"
-            "  every TCP connection (a network drop).\n");
+            "  every TCP connection (a network drop).\n"
+            "  What is served is also announced on stderr.\n");
 }
 
 static int parse_positive(const char *opt, const char *s, double *out)
@@ -72,6 +75,7 @@ int main(int argc, char **argv)
         {"stall", required_argument, NULL, 'S'},      {"overload", required_argument, NULL, 'O'},
         {"delay", required_argument, NULL, 'D'},     {"stats", required_argument, NULL, 'X'},
         {"in-pos-deg", required_argument, NULL, 'i'},
+        {"version", no_argument, NULL, 'V'},
         {NULL, 0, NULL, 0},
     };
     const char *scene_name = "ideal", *material_spec = NULL, *rig_name = NULL, *link = NULL,
@@ -143,6 +147,7 @@ int main(int argc, char **argv)
             break;
         }
         case 'h': usage(stdout); return 0;
+        case 'V': gonio_print_version(stdout, "gonio-sim"); return 0;
         default: usage(stderr); return 2;
         }
     }
@@ -217,6 +222,14 @@ int main(int argc, char **argv)
         if (tcp)
             printf("tcp %.*s:%d\n", (int)(strrchr(tcp, ':') - tcp), tcp, port);
         fflush(stdout);
+        /* stdout is for programs (its first line is the path); a person who
+         * started it by hand learns on stderr what is served and how to stop. */
+        fprintf(stderr, "gonio-sim: Modbus RTU on %s", path);
+        if (tcp)
+            fprintf(stderr, " and Modbus TCP on %.*s:%d", (int)(strrchr(tcp, ':') - tcp), tcp,
+                    port);
+        fprintf(stderr, " (scene %s, material %s, rig %s, time scale %g); Ctrl-C stops\n",
+                scene.name, brdf_material_name(material), rig.name, cfg.time_scale);
         rc = msim_serve(m, &stop_flag, &hangup_flag, &err);
     }
     if (rc < 0 || !m)

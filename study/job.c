@@ -192,8 +192,9 @@ static int write_json_atomic(const char *path, json_t *o, struct gonio_err *err)
  * refuses the samples is a row of its own (status fit-failed); only
  * failures of the machinery are errors. */
 static int fit_one(const struct study_spec *s, size_t mi, const char *jobdir,
-                   const struct fit_sample *samples, size_t n, const char *material_spec,
-                   const struct truth_values *t, struct row_fit *f, struct gonio_err *err)
+                   const struct fit_sample *samples, const unsigned char *lower, size_t n,
+                   const char *material_spec, const struct truth_values *t, struct row_fit *f,
+                   struct gonio_err *err)
 {
     const struct fit_model_kind *kind = fit_model_find(s->models[mi].name);
     memset(f, 0, sizeof *f);
@@ -202,7 +203,8 @@ static int fit_one(const struct study_spec *s, size_t mi, const char *jobdir,
     f->plan.log = f->inplane.log = f->full.log = NAN;
     if (!kind)
         return gonio_err_set(err, GONIO_EUSAGE, "unknown model '%s'", s->models[mi].name);
-    struct fit_data data = {.rgb = samples, .n_rgb = n, .material = material_spec};
+    struct fit_data data = {
+        .rgb = samples, .n_rgb = n, .rgb_lower = lower, .material = material_spec};
     struct fit_model_options mo = fit_model_default_options();
     struct fit_model_report rep = {0};
     struct fit_model_file *mf = NULL;
@@ -286,9 +288,10 @@ static enum capture_control stop_control(void *user)
 int study_job_run(const struct study_spec *s, const struct study_job *job, const char *dir,
                   int (*stop)(void), struct gonio_err *err)
 {
-    const struct study_plan *plan = study_plan_find(s->plans[job->plan].name);
+    struct study_plan plan_buf;
+    const struct study_plan *plan = &plan_buf;
     const struct study_item *mat = &s->materials[job->material], *scene = &s->scenes[job->scene];
-    if (!plan)
+    if (study_plan_of(&s->plans[job->plan], &plan_buf) < 0)
         return gonio_err_set(err, GONIO_EUSAGE, "unknown plan '%s'", s->plans[job->plan].name);
     char jobdir[4096];
     if (snprintf(jobdir, sizeof jobdir, "%s/jobs/%s", dir, job->id) >= (int)sizeof jobdir)
@@ -326,6 +329,12 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
     if (rc == 0 && !(samples = malloc((n ? n : 1) * sizeof *samples)))
         rc = gonio_err_set(err, ENOMEM, "out of memory");
     size_t saturated = rc == 0 ? journal_fit_samples(js, n, samples) : 0;
+    /* The saturated readings' flags, when the study fits them as lower bounds. */
+    unsigned char *lower = NULL;
+    if (rc == 0 && saturated && s->censored && !(lower = malloc(n)))
+        rc = gonio_err_set(err, ENOMEM, "out of memory");
+    for (size_t i = 0; lower && i < n; i++)
+        lower[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
     if (rc == 0 && !(truth = brdf_material_open(mat->spec, err)))
         rc = -abs(err && err->code ? err->code : GONIO_ENOTFOUND);
     if (rc == 0)
@@ -340,12 +349,13 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
         if (access(path, F_OK) == 0)
             continue; /* finished by an earlier run */
         struct row_fit f;
-        rc = fit_one(s, m, jobdir, samples, n, mat->spec, &t, &f, err);
+        rc = fit_one(s, m, jobdir, samples, lower, n, mat->spec, &t, &f, err);
         if (rc < 0)
             break;
-        if (saturated) { /* say what the fit took at a clipped value */
+        if (saturated) { /* say how the fit took the clipped values */
             char note[sizeof f.note];
-            snprintf(note, sizeof note, "%zu saturated samples; %.540s", saturated, f.note);
+            snprintf(note, sizeof note, "%zu saturated samples (%s); %.520s", saturated,
+                     lower ? "lower bounds" : "at their clipped values", f.note);
             memcpy(f.note, note, sizeof note);
         }
         json_t *row = row_json(&rc_info, &f);
@@ -362,6 +372,7 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
     truth_free(&t);
     brdf_material_free(truth);
     free(samples);
+    free(lower);
     free(js);
     close(lock_fd);
     return rc < 0 ? rc : written;

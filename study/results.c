@@ -79,6 +79,7 @@ json_t *study_spec_json(const struct study_spec *s, int with_shard)
     json_object_set_new(o, "scenes", items_json(s->scenes, s->n_scenes, 1));
     json_object_set_new(o, "plans", items_json(s->plans, s->n_plans, 0));
     json_object_set_new(o, "models", items_json(s->models, s->n_models, 0));
+    json_object_set_new(o, "saturated", json_string(s->censored ? "censored" : "clipped"));
     if (with_shard) {
         json_object_set_new(o, "quick", json_boolean(s->quick));
         json_object_set_new(o, "shard", json_pack("[i,i]", s->shard_i, s->shard_n));
@@ -166,11 +167,14 @@ int study_spec_read(const char *dir, struct study_spec *s, struct gonio_err *err
             rc = gonio_err_set(err, GONIO_EBADDATA, "%s: name '%s' is not valid", path, name);
     }
     for (size_t i = 0; rc == 0 && i < s->n_plans; i++)
-        if (!study_plan_find(s->plans[i].name))
+        if (study_plan_of(&s->plans[i], &(struct study_plan){0}) < 0)
             rc = gonio_err_set(err, GONIO_EBADDATA, "%s: unknown plan '%s'", path,
                                s->plans[i].name);
     json_t *shard = json_object_get(root, "shard");
     s->quick = json_is_true(json_object_get(root, "quick"));
+    /* studies from before the key fitted the clipped values */
+    const char *sat = json_string_value(json_object_get(root, "saturated"));
+    s->censored = sat && !strcmp(sat, "censored");
     s->shard_i = (int)json_integer_value(json_array_get(shard, 0));
     s->shard_n = (int)json_integer_value(json_array_get(shard, 1));
     if (rc == 0 && (s->shard_n < 1 || s->shard_i < 1 || s->shard_i > s->shard_n))
@@ -195,6 +199,8 @@ int study_dir_prepare(const struct study_spec *s, const char *dir, struct gonio_
         json_t *shard = json_object_get(theirs, "shard");
         int same_shard = json_equal(shard, json_object_get(mine, "shard"));
         json_object_del(theirs, "quick");
+        if (!json_object_get(theirs, "saturated")) /* from before the key: clipped */
+            json_object_set_new(theirs, "saturated", json_string("clipped"));
         json_object_del(theirs, "shard");
         json_object_del(theirs, "jobs");
         int same = json_equal(a, theirs);
@@ -219,7 +225,10 @@ static void csv_field(FILE *f, json_t *v, enum study_col_type type)
     if (!v || json_is_null(v))
         return;
     switch (type) {
-    case STUDY_COL_STR: fputs(json_string_value(v) ? json_string_value(v) : "", f); break;
+    case STUDY_COL_STR: /* lists (fit_findings, fit_at_bound) are ';'-separated here */
+        for (const char *c = json_string_value(v) ? json_string_value(v) : ""; *c; c++)
+            fputc(*c == ',' ? ';' : *c, f);
+        break;
     case STUDY_COL_INT: fprintf(f, "%lld", (long long)json_integer_value(v)); break;
     case STUDY_COL_REAL: fprintf(f, "%.6g", json_number_value(v)); break;
     case STUDY_COL_TIME: fprintf(f, "%.3f", json_number_value(v)); break;

@@ -1,4 +1,5 @@
 /* The study's lists, their checks, the job list and its shards. */
+#define _XOPEN_SOURCE 700 /* realpath */
 #include "study/study.h"
 
 #include <errno.h>
@@ -10,6 +11,7 @@
 #include "brdf/material.h"
 #include "common/paths.h"
 #include "fit/models.h"
+#include "planner/planner.h"
 #include "sim/scene.h"
 #include "study/study_private.h"
 
@@ -40,12 +42,19 @@ const char *const study_materials_full[STUDY_N_FULL_MATERIALS] = {
     "gold-metallic-paint", "white-diffuse-bball", "red-plastic", "alum-bronze", "pearl-paint",
 };
 
-const struct study_plan *study_plan_find(const char *name)
+int study_plan_of(const struct study_item *it, struct study_plan *out)
 {
     for (size_t i = 0; i < sizeof plans / sizeof plans[0]; i++)
-        if (!strcmp(plans[i].name, name))
-            return &plans[i];
-    return NULL;
+        if (!strcmp(plans[i].name, it->name) && !strcmp(it->spec, it->name)) {
+            *out = plans[i];
+            return 0;
+        }
+    /* A lab's own plan file: captured as the file declares (its order and
+     * stop rule), at the cost of a mid-size plan for scheduling. */
+    if (!gonio_ref_is_file(it->spec))
+        return -1;
+    *out = (struct study_plan){it->name, it->spec, NULL, NULL, 1.5};
+    return 0;
 }
 
 /* An id-safe name: the part after "kind:", its file name without the
@@ -112,13 +121,32 @@ static int item_check(enum study_list which, const char *token, struct study_ite
         item_name(token, it->name, sizeof it->name);
         break;
     }
-    case STUDY_PLANS:
-        if (!study_plan_find(token))
-            return gonio_err_set(err, GONIO_EUSAGE, "%s: unknown plan '%s' (use %s)", opt, token,
-                                 full_plans);
+    case STUDY_PLANS: {
+        struct study_plan sp;
         snprintf(it->spec, sizeof it->spec, "%s", token);
         snprintf(it->name, sizeof it->name, "%s", token);
+        if (gonio_ref_is_file(token)) {
+            /* Absolute, so shards and merges run from elsewhere agree. */
+            char *abs = realpath(token, NULL);
+            if (!abs)
+                return gonio_err_set(err, GONIO_EUSAGE, "%s: plan file '%s': %s", opt, token,
+                                     strerror(errno));
+            snprintf(it->spec, sizeof it->spec, "%s", abs);
+            free(abs);
+            item_name(token, it->name, sizeof it->name);
+            struct plan_rig rig;
+            struct plan *p;
+            plan_rig_default(&rig);
+            if (plan_load(it->spec, &rig, &p, &e) < 0)
+                return gonio_err_set(err, GONIO_EUSAGE, "%s: plan '%s': %s", opt, token, e.msg);
+            plan_free(p);
+        } else if (study_plan_of(it, &sp) < 0) {
+            return gonio_err_set(err, GONIO_EUSAGE,
+                                 "%s: unknown plan '%s' (use %s, or a plan file)", opt, token,
+                                 full_plans);
+        }
         break;
+    }
     case STUDY_MODELS: {
         int known = 0;
         for (size_t i = 0; i < sizeof models / sizeof models[0]; i++)
@@ -192,6 +220,7 @@ int study_spec_default(struct study_spec *s, int quick, struct gonio_err *err)
 {
     memset(s, 0, sizeof *s);
     s->quick = quick;
+    s->censored = 1;
     s->shard_i = s->shard_n = 1;
     char materials[1024] = "default";
     if (gonio_shared_dir()) {
@@ -255,8 +284,8 @@ int study_job_in_shard(const struct study_spec *s, size_t k)
 
 double study_job_weight(const struct study_spec *s, const struct study_job *job)
 {
-    const struct study_plan *p = study_plan_find(s->plans[job->plan].name);
-    return (p ? p->weight : 1.0) * (double)s->n_models;
+    struct study_plan p;
+    return (study_plan_of(&s->plans[job->plan], &p) == 0 ? p.weight : 1.0) * (double)s->n_models;
 }
 
 void study_row_path(const char *dir, const char *job_id, const char *model, char *out,

@@ -28,6 +28,8 @@ struct study_spec {
         plans[STUDY_MAX_ITEMS], models[STUDY_MAX_ITEMS];
     size_t n_materials, n_scenes, n_plans, n_models;
     int quick;
+    int censored; /* saturated readings fitted as lower bounds (fit_data.rgb_lower), the
+                     default; 0: at their clipped values (`--saturated clipped`) */
     int shard_i, shard_n; /* 1-based share of the job list: jobs k with k mod n == i - 1 */
 };
 

@@ -23,7 +23,9 @@ struct study_plan {
     double weight;     /* relative cost of a job, for scheduling */
 };
 
-const struct study_plan *study_plan_find(const char *name);
+/* The plan of a --plans entry: a built-in study plan by name, or a plan
+ * file (spec is its absolute path). Returns 0, or -1 for neither. */
+int study_plan_of(const struct study_item *it, struct study_plan *out);
 
 /* dir/jobs/JOB_ID/MODEL.row.json */
 void study_row_path(const char *dir, const char *job_id, const char *model, char *out,

@@ -46,7 +46,7 @@ class UsbConfigTests(unittest.TestCase):
         self.assertEqual(strip(r2.stdout), strip(r.stdout))
 
     def test_shipped_config(self):
-        path = os.path.join(g.SOURCE, "configs", "goniod", "modbus-rtu-usb-spectrometer.yaml")
+        path = g.shipped_config("modbus-rtu-usb-spectrometer.yaml", self.folder)
         r = g.run_wrapped([g.GONIOD, "--config", path, "--check"], self.folder)
         self.assertEqual(r.returncode, 0, r.stderr)
         self.assertIn("kind: usb-spectrometer", r.stdout)

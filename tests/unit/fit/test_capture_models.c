@@ -5,7 +5,8 @@
  * does not, so the option changes the fit. abc and abc-prior captures
  * write their parameters as gonio fit's abc model file too (abc-prior with
  * the captured material left out of its prior). results.json carries the
- * final fit's status (fit_status). Unknown and
+ * final fit's status (fit_status), and its final fit takes saturated
+ * readings as lower bounds. Unknown and
  * spectral names are refused before anything is written, and a failed
  * final fit keeps the samples. */
 #include "tests/gonio_test.h"
@@ -378,6 +379,80 @@ static void test_failed_fit_keeps_samples(void **state)
     assert_int_equal(stat(path, &st), 0); /* latent.model written now */
 }
 
+/* A capture's final fit takes the saturated readings as lower bounds: its
+ * model is the registry's fit of the journal with the saturated flags, and
+ * not the fit of the clipped values. A scene whose detector saturates on
+ * 10 of DS3's 52 readings of the embedded material. */
+static void test_saturated_capture_censored(void **state)
+{
+    (void)state;
+    char scene[300], cap[300], path[400];
+    snprintf(scene, sizeof scene, "%s/saturating.yaml", dir);
+    FILE *f = fopen(scene, "w");
+    assert_non_null(f);
+    fputs("name: saturating\nmaterial: default\nrig: default\n"
+          "detector: {kind: rgb, responsivity: 1.0e7, target_e: 30000}\nseed: 1\n"
+          "effects:\n  - {name: saturation, full_well_e: 100000}\n",
+          f);
+    fclose(f);
+    snprintf(cap, sizeof cap, "%s/saturated", dir);
+    struct capture_config cfg = {.plan = "ds3", .scene = scene, .model = "latent",
+                                 .out_dir = cap, .quiet = 1,
+                                 .assess_nodes = gonio_test_assess_nodes()};
+    struct capture_summary s;
+    struct gonio_err err = {0};
+    if (capture_run_offline(&cfg, &s, &err) < 0)
+        fail_msg("%s", err.msg);
+    assert_true(s.saturated >= 5);
+
+    snprintf(path, sizeof path, "%s/samples.csv", cap);
+    struct journal_sample *js = NULL;
+    size_t n = 0;
+    assert_true(journal_read(path, &js, &n, &err) >= 0);
+    struct fit_sample *fs = malloc(n * sizeof *fs);
+    unsigned char *lower = malloc(n);
+    struct brdf_pair *pairs = malloc(n * sizeof *pairs);
+    double *got = malloc(3 * n * sizeof *got), *want = malloc(3 * n * sizeof *want);
+    assert_int_equal(journal_fit_samples(js, n, fs), s.saturated);
+    for (size_t i = 0; i < n; i++) {
+        lower[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
+        pairs[i] = fs[i].g;
+    }
+    snprintf(path, sizeof path, "model:%s/latent.model", cap);
+    brdf_material *m = fit_material_open(path, &err);
+    assert_non_null(m);
+    brdf_material_eval(m, pairs, n, got);
+    brdf_material_free(m);
+    double off[2] = {0, 0};
+    for (int censored = 0; censored < 2; censored++) {
+        struct fit_data data = {.rgb = fs, .n_rgb = n, .rgb_lower = censored ? lower : NULL,
+                                .material = "builtin:nylon"};
+        struct fit_model_options mo = fit_model_default_options();
+        mo.quiet = 1;
+        struct fit_model_file *mf = NULL;
+        struct fit_model_report rep;
+        assert_int_equal(fit_model_find("latent")->fit(&data, &mo, &mf, &rep, &err), 0);
+        m = fit_model_find("latent")->open(mf, "refit", &err);
+        assert_non_null(m);
+        brdf_material_eval(m, pairs, n, want);
+        for (size_t k = 0; k < 3 * n; k++)
+            off[censored] = fmax(off[censored], fabs(got[k] - want[k]) / (fabs(want[k]) + 1e-12));
+        brdf_material_free(m);
+        fit_model_file_free(mf);
+    }
+    printf("%zu of %zu saturated: the capture's model against the fit with flags %.2e, "
+           "without %.2e (largest relative difference at a sample)\n",
+           s.saturated, n, off[1], off[0]);
+    assert_true(off[1] < 1e-9);
+    assert_true(off[0] > 1e-3);
+    free(js);
+    free(fs);
+    free(lower);
+    free(pairs);
+    free(got);
+    free(want);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -386,6 +461,7 @@ int main(void)
         cmocka_unit_test(test_abc_prior_capture_file),
         cmocka_unit_test(test_bad_names_refused),
         cmocka_unit_test(test_failed_fit_keeps_samples),
+        cmocka_unit_test(test_saturated_capture_censored),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

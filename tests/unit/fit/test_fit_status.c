@@ -253,7 +253,7 @@ static void test_spectral_limit(void **state)
     for (int ti = 0; ti <= 60; ti += 15)
         for (int tr = -60; tr <= 60; tr += 15)
             for (int nm = 400; nm <= 700; nm += 100)
-                sp[n++] = (struct fit_spectral_sample){ti, tr, nm, 0.1 + 0.001 * (nm - 400)};
+                sp[n++] = (struct fit_spectral_sample){ti, tr, nm, 0.1 + 0.001 * (nm - 400), 0};
     struct fit_data data = {.spectral = sp, .n_spectral = n};
     struct fit_model_report rep;
     struct fit_status st = fit_kind("mlp-spectral", &data, 20, &rep);

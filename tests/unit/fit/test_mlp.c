@@ -297,7 +297,7 @@ static void test_spectral_trainer(void **state)
     for (int ti = 0; ti <= 80; ti += 5)
         for (int tr = -80; tr <= 80; tr += 10)
             for (int nm = 400; nm <= 700; nm += 50)
-                s[n++] = (struct fit_spectral_sample){ti, tr, nm, smooth_spectral(ti, tr, nm)};
+                s[n++] = (struct fit_spectral_sample){ti, tr, nm, smooth_spectral(ti, tr, nm), 0};
     assert_true(n <= cap);
     struct fit_data data = {.spectral = s, .n_spectral = n};
     struct fit_model_options mo = fit_model_default_options();

@@ -101,7 +101,7 @@ static void test_bad_input(void **state)
     assert_int_equal(run(argv, 3, &out, &errtext), 2);
     assert_string_equal(out, "");
     char want[256];
-    snprintf(want, sizeof want, "gonio: %s:2:5: pair (theta_i 30, theta_r -28)", path);
+    snprintf(want, sizeof want, "gonio plan: %s:2:5: pair (theta_i 30, theta_r -28)", path);
     assert_int_equal(strncmp(errtext, want, strlen(want)), 0);
     /* one line */
     assert_non_null(strchr(errtext, '\n'));

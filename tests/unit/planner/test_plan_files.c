@@ -2,6 +2,7 @@
  * reason; bad YAML is refused with path:line:col; declared fields are kept. */
 #include "tests/gonio_test.h"
 
+#include <math.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -129,6 +130,47 @@ static void test_unreachable_refused(void **state)
     assert_close(pt->theta_o, 40, 0);
     assert_close(pt->phi_o, 90, 0);
     plan_free(p);
+}
+
+/* A rig that sees less near the source than the plans' grid rule (10 deg
+ * against blind: 5): the grid pairs in its blind zone are left out and
+ * counted, not a refusal of the whole plan; the rest is DS1 as written. */
+static void test_wider_blind_zone(void **state)
+{
+    (void)state;
+    const char *rig_path = write_yaml("blind10.yaml",
+                                      "name: blind10\nout_of_plane: false\nblind_deg: 10\n"
+                                      "settle_s: 0.3\n"
+                                      "integration: {fixed_s: 0.05, auto_min_s: 0.001, "
+                                      "auto_max_s: 2}\n"
+                                      "axes:\n"
+                                      "  sample: {speed: 20, accel: 40, min: -90, max: 90}\n"
+                                      "  arm: {speed: 15, accel: 30, min: -170, max: 170}\n");
+    struct plan_rig rig, def;
+    struct gonio_err err = {0};
+    assert_int_equal(plan_rig_load(rig_path, &rig, &err), 0);
+    plan_rig_default(&def);
+    for (int k = 0; k < 2; k++) {
+        const char *name = k ? "ds3" : "ds1";
+        struct plan *wide, *narrow;
+        assert_true(plan_load(name, &rig, &wide, &err) > 0);
+        assert_true(plan_load(name, &def, &narrow, &err) > 0);
+        assert_int_equal(plan_dropped(narrow), 0);
+        assert_true(plan_dropped(wide) > 0);
+        assert_int_equal(plan_count(wide) + plan_dropped(wide), plan_count(narrow));
+        size_t inside = 0;
+        for (size_t i = 0; i < plan_count(narrow); i++) {
+            const struct plan_point *pt = plan_point(narrow, i);
+            inside += fabs(pt->theta_i + pt->theta_r) < 10 - 1e-9;
+        }
+        assert_int_equal(plan_dropped(wide), inside);
+        for (size_t i = 0; i < plan_count(wide); i++) {
+            const struct plan_point *pt = plan_point(wide, i);
+            assert_true(fabs(pt->theta_i + pt->theta_r) >= 10 - 1e-9);
+        }
+        plan_free(wide);
+        plan_free(narrow);
+    }
 }
 
 static void test_bad_yaml(void **state)
@@ -305,6 +347,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_unreachable_refused),
+        cmocka_unit_test(test_wider_blind_zone),
         cmocka_unit_test(test_bad_yaml),
         cmocka_unit_test(test_bad_rig),
         cmocka_unit_test(test_default_rig),

@@ -1,11 +1,17 @@
 /* The study's lists, job list and shards (study/study.h): bad entries are
  * refused naming the option and value, shards are disjoint and cover the
- * job list, and job ids follow the documented order. */
+ * job list, and job ids follow the documented order; study.json keeps how
+ * saturated readings are fitted, and results.csv's lists have no commas. */
+#include <stdio.h>
 #include <string.h>
+#include <unistd.h>
+
+#include <jansson.h>
 
 #include "common/err.h"
 #include "tests/gonio_test.h"
 #include "study/study.h"
+#include "study/study_private.h"
 
 static struct study_spec *spec_new(void)
 {
@@ -105,6 +111,74 @@ static void test_job_ids_in_documented_order(void **state)
     free(s);
 }
 
+/* A study is resumed only with the same treatment of saturated readings; a
+ * study.json from before the key is a clipped study. */
+static void test_saturated_in_study_json(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/gonio-studyjsonXXXXXX", path[200];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/study.json", dir);
+    struct study_spec *s = spec_new();
+    struct gonio_err err = {0};
+    s->censored = 1;
+    assert_int_equal(study_dir_prepare(s, dir, &err), 0);
+    json_t *j = json_load_file(path, 0, NULL);
+    assert_non_null(j);
+    assert_string_equal(json_string_value(json_object_get(j, "saturated")), "censored");
+    s->censored = 0;
+    assert_true(study_dir_prepare(s, dir, &err) < 0);
+    /* the same file without the key */
+    json_object_del(j, "saturated");
+    assert_int_equal(json_dump_file(j, path, 0), 0);
+    json_decref(j);
+    assert_int_equal(study_dir_prepare(s, dir, &err), 0);
+    s->censored = 1;
+    assert_true(study_dir_prepare(s, dir, &err) < 0);
+    unlink(path);
+    rmdir(dir);
+    free(s);
+}
+
+/* A row with two findings and two parameters at a bound: results.csv has
+ * as many fields in that row as in its header. */
+static void test_csv_lists_without_commas(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/gonio-studycsvXXXXXX", path[4200], cmd[200];
+    assert_non_null(mkdtemp(dir));
+    struct study_spec *s = spec_new();
+    struct gonio_err err = {0};
+    assert_int_equal(study_dir_prepare(s, dir, &err), 0);
+    struct study_job job;
+    study_job_at(s, 0, &job);
+    snprintf(cmd, sizeof cmd, "mkdir -p %s/jobs/%.100s", dir, job.id);
+    assert_int_equal(system(cmd), 0);
+    study_row_path(dir, job.id, s->models[0].name, path, sizeof path);
+    json_t *row = json_pack("{s:s, s:s, s:s}", "row_id", "x", "fit_findings",
+                            "underdetermined,at-bound", "fit_at_bound", "A_r,B");
+    assert_int_equal(json_dump_file(row, path, 0), 0);
+    json_decref(row);
+    assert_int_equal(study_results_write(s, dir, NULL, &err), 0);
+    snprintf(path, sizeof path, "%s/results.csv", dir);
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    char line[8192];
+    int fields[2] = {1, 1};
+    for (int k = 0; k < 2; k++) {
+        assert_non_null(fgets(line, sizeof line, f));
+        for (char *c = line; *c; c++)
+            fields[k] += *c == ',';
+    }
+    fclose(f);
+    assert_int_equal(fields[1], fields[0]);
+    assert_non_null(strstr(line, "underdetermined;at-bound"));
+    assert_non_null(strstr(line, "A_r;B"));
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    assert_int_equal(system(cmd), 0);
+    free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -112,6 +186,8 @@ int main(void)
         cmocka_unit_test(test_shard_parsing),
         cmocka_unit_test(test_shards_partition_the_jobs),
         cmocka_unit_test(test_job_ids_in_documented_order),
+        cmocka_unit_test(test_saturated_in_study_json),
+        cmocka_unit_test(test_csv_lists_without_commas),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

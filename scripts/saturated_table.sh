@@ -1,0 +1,43 @@
+#!/bin/sh
+# docs/fitting.md "Saturated readings": lab-scene offline captures fitted
+# with their saturated readings at the clipped value and as lower bounds
+# (`gonio fit --saturated clipped|censored`), full-domain log error /
+# relative RMSE against the truth (in-plane for mlp, which has no value out
+# of plane) and the censored fit's status.
+# Usage: scripts/saturated_table.sh [MODEL...] (default abc latent; gonio
+# from PATH). Needs ../shared (the NBRDF truths): exits 77 without it.
+set -eu
+models=${*:-abc latent}
+shared=${GONIO_SHARED:-../shared}
+if [ ! -d "$shared/data/merl" ]; then
+    echo "docs-check: skip: no shared data folder ($shared)" >&2
+    exit 77
+fi
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+figures() { # domain file: "log / rel"
+    sed -n "s/^$1 *log \([^,]*\), rel_rmse \([^ ]*\) .*/\1 \2/p" "$2" |
+        awk '{ printf "%.4f / %.3g", $1, $2 }'
+}
+echo "| capture | saturated | model | clipped | censored | censored status |"
+echo "|---|---|---|---|---|---|"
+for material in brass specular-black-phenolic tungsten-carbide; do
+    for plan in ds1 ds3; do
+        dir="$tmp/$material-$plan"
+        gonio capture --offline --quiet --scene lab --material "nbrdf:$material" --plan "$plan" \
+            --out "$dir" >/dev/null
+        sat=$(awk -F, 'NR > 1 && $14 % 2 == 1 { n++ } END { print n + 0 }' "$dir/samples.csv")
+        for m in $models; do
+            domain=full
+            [ "$m" = mlp ] && domain=inplane
+            for s in clipped censored; do
+                gonio fit "$dir" --model "$m" --truth "nbrdf:$material" --saturated "$s" \
+                    --quiet -o "$dir/$m-$s.model" >"$dir/$m-$s.txt"
+            done
+            printf '| %s %s | %s | %s | %s | %s | %s |\n' "$material" "$plan" "$sat" "$m" \
+                "$(figures $domain "$dir/$m-clipped.txt")" \
+                "$(figures $domain "$dir/$m-censored.txt")" \
+                "$(sed -n 's/^status *\([a-z-]*\).*/\1/p' "$dir/$m-censored.txt")"
+        done
+    done
+done

@@ -1,0 +1,161 @@
+"""make install and make package (issue 14 item 7, docs/install.md): the
+installed gonio runs from outside the source tree with the source tree's
+configs hidden; the README's goniod command works against the installed
+config; the .deb holds the unit, sysusers.d and tmpfiles.d files and its
+postinst creates the gonio user and group."""
+import grp
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+
+import pytest
+
+BUILD = os.path.abspath(os.environ.get("GONIO_BUILD", "build"))
+SOURCE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
+
+
+def run(*args, env=None, cwd="/", timeout=600):
+    return subprocess.run(list(args), capture_output=True, text=True, env=env, cwd=cwd,
+                          timeout=timeout)
+
+
+def clean_env():
+    """No GONIO_* variable: the installed tree must find its own files."""
+    return {k: v for k, v in os.environ.items() if not k.startswith("GONIO_")}
+
+
+@pytest.fixture(scope="module")
+def dest():
+    with tempfile.TemporaryDirectory(prefix="cli_install_") as d:
+        env = dict(os.environ, DESTDIR=d)
+        r = run("cmake", "--install", BUILD, env=env, cwd=SOURCE)
+        assert r.returncode == 0, r.stderr
+        yield d
+
+
+def test_layout(dest):
+    for path in ("usr/bin/gonio", "usr/bin/goniod", "usr/bin/gonio-sim",
+                 "etc/gonio/goniod.yaml", "etc/gonio/plans/ds3.yaml", "etc/gonio/rigs/default.yaml",
+                 "etc/gonio/scenes/ideal.yaml", "etc/gonio/render/default.yaml",
+                 "etc/gonio/models/latent-decoder.gld",
+                 "usr/share/gonio/models/latent-decoder.gld",
+                 "usr/lib/systemd/system/goniod.service", "usr/lib/sysusers.d/gonio.conf",
+                 "usr/lib/tmpfiles.d/gonio.conf", "usr/share/man/man1/gonio.1",
+                 "usr/share/man/man8/goniod.8", "usr/share/man/man5/goniod.yaml.5",
+                 "usr/share/man/man1/gonio-sim.1", "usr/share/doc/gonio/goniod.md"):
+        assert os.path.exists(os.path.join(dest, path)), path
+    assert os.path.islink(os.path.join(dest, "etc/gonio/models"))
+    sysusers = open(os.path.join(dest, "usr/lib/sysusers.d/gonio.conf")).read()
+    assert re.search(r"(?m)^g gonio ", sysusers) and re.search(r"(?m)^u gonio ", sysusers)
+    tmpfiles = open(os.path.join(dest, "usr/lib/tmpfiles.d/gonio.conf")).read()
+    for folder in ("/run/goniod", "/var/lib/gonio", "/var/lib/gonio/captures"):
+        assert re.search(r"(?m)^d %s 0750 gonio gonio" % re.escape(folder), tmpfiles), folder
+    unit = open(os.path.join(dest, "usr/lib/systemd/system/goniod.service")).read()
+    assert "User=gonio\n" in unit and "ExecStart=/usr/bin/goniod --config /etc/gonio/goniod.yaml" in unit
+
+
+def installed_runs(dest, out):
+    """What the installed gonio does from /, with no GONIO_* variable."""
+    gonio = os.path.join(dest, "usr/bin/gonio")
+    env = clean_env()
+    plan = run(gonio, "plan", "ds3", "--summary", env=env)
+    cap = run(gonio, "capture", "--offline", "--scene", "ideal", "--plan", "ds4", "--model",
+              "latent", "--quiet", "--out", out, env=env)
+    return plan, cap
+
+
+def check_installed(dest, plan, cap, out):
+    assert plan.returncode == 0, plan.stderr
+    assert plan.stdout.splitlines()[0].startswith(
+        "plan ds3 (%s/etc/gonio/plans/ds3.yaml), rig default" % dest), plan.stdout
+    assert "count: 52 pairs" in plan.stdout
+    assert cap.returncode == 0, cap.stderr  # the latent decoder found in /usr/share/gonio
+    assert os.path.exists(os.path.join(out, "latent.model"))
+
+
+def test_installed_gonio_reads_installed_configs(dest):
+    out = os.path.join(dest, "cap1")
+    plan, cap = installed_runs(dest, out)
+    check_installed(dest, plan, cap, out)
+
+
+def test_installed_gonio_without_the_source_tree(dest):
+    """The same with the source tree's configs/ hidden by an empty tmpfs in
+    a private mount namespace: nothing may come from there."""
+    if os.geteuid() != 0 or not shutil.which("unshare"):
+        pytest.skip("needs root and unshare to hide the source tree's configs")
+    probe = run("unshare", "-m", "--propagation", "private", "true")
+    if probe.returncode != 0:
+        pytest.skip("no mount namespace here: " + probe.stderr.strip()[:100])
+    out = os.path.join(dest, "cap2")
+    configs = os.path.realpath(os.path.join(SOURCE, "configs"))
+    gonio = os.path.join(dest, "usr/bin/gonio")
+    script = ('mount -t tmpfs none "$1" && test -z "$(ls -A "$1")" && cd / && '
+              '"$2" plan ds3 --summary && '
+              '"$2" capture --offline --scene ideal --plan ds4 --model latent --quiet --out "$3"')
+    r = run("unshare", "-m", "--propagation", "private", "sh", "-c", script, "sh", configs,
+            gonio, out, env=clean_env())
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.splitlines()[0].startswith("plan ds3 (%s/etc/gonio/plans/ds3.yaml)" % dest)
+    assert os.path.exists(os.path.join(out, "latent.model"))
+
+
+def test_readme_goniod_command(dest, tmp_path):
+    """The README's goniod command, on the installed config. Without the
+    gonio group (made by the package's postinst) --check says so; with a
+    group that exists it passes."""
+    readme = open(os.path.join(SOURCE, "README.md")).read()
+    cmd = re.search(r"`(goniod --config (/etc/gonio/goniod\.yaml) \[--check\])`", readme)
+    assert cmd, "README names no installed goniod command"
+    config = dest + cmd.group(2)
+    goniod = os.path.join(dest, "usr/bin/goniod")
+    r = run(goniod, "--config", config, "--check", env=clean_env())
+    try:
+        grp.getgrnam("gonio")
+        assert r.returncode == 0, r.stderr
+    except KeyError:
+        assert r.returncode == 2
+        assert "group 'gonio' does not exist" in r.stderr
+    text = open(config).read()
+    mine = grp.getgrgid(os.getgid()).gr_name
+    copy = tmp_path / "goniod.yaml"
+    copy.write_text(text.replace("group: gonio", "group: " + mine))
+    r = run(goniod, "--config", str(copy), "--check", env=clean_env())
+    assert r.returncode == 0, r.stderr
+    assert "capture_root: /var/lib/gonio/captures" in r.stdout
+    assert "path: /run/goniod/goniod.sock" in r.stdout
+
+
+def test_package(tmp_path):
+    """make package's .deb: the files of a Debian daemon, and a postinst
+    that creates the gonio user and group (run into an empty DPKG_ROOT)."""
+    for tool in ("cpack", "dpkg-deb", "systemd-sysusers"):
+        if not shutil.which(tool):
+            pytest.skip(tool + " not installed")
+    r = run("cpack", "-G", "DEB", "--config", os.path.join(BUILD, "CPackConfig.cmake"),
+            "-B", str(tmp_path), cwd=BUILD)
+    assert r.returncode == 0, r.stdout + r.stderr
+    debs = list(tmp_path.glob("gonio_*.deb"))
+    assert len(debs) == 1, os.listdir(tmp_path)
+    listing = run("dpkg-deb", "-c", str(debs[0])).stdout
+    for path in ("./usr/lib/systemd/system/goniod.service", "./usr/lib/sysusers.d/gonio.conf",
+                 "./usr/lib/tmpfiles.d/gonio.conf", "./usr/bin/goniod", "./usr/bin/gonio",
+                 "./etc/gonio/goniod.yaml", "./usr/share/gonio/models/latent-decoder.gld",
+                 "./usr/share/man/man8/goniod.8"):
+        assert re.search(r" %s( |$)" % re.escape(path), listing, re.M), path
+    root = tmp_path / "root"
+    assert run("dpkg-deb", "-x", str(debs[0]), str(root)).returncode == 0
+    control = tmp_path / "control"
+    assert run("dpkg-deb", "-e", str(debs[0]), str(control)).returncode == 0
+    conffiles = (control / "conffiles").read_text().split()
+    assert "/etc/gonio/goniod.yaml" in conffiles and "/etc/gonio/plans/ds1.yaml" in conffiles
+    (root / "etc" / "passwd").write_text("")
+    (root / "etc" / "group").write_text("")
+    env = dict(os.environ, DPKG_ROOT=str(root))
+    r = run("sh", str(control / "postinst"), "configure", env=env)
+    assert r.returncode == 0, r.stderr
+    assert re.search(r"(?m)^gonio:x:\d+:", (root / "etc" / "group").read_text())
+    assert re.search(r"(?m)^gonio:x:\d+:\d+:.*:/var/lib/gonio:",
+                     (root / "etc" / "passwd").read_text())
