@@ -10,6 +10,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "modbus_map/modbus_map.h"
+
 struct drv_axis {
     const struct drv_axis_ops *ops;
     void *priv;
@@ -33,9 +35,11 @@ struct drv_axis {
     struct drv_axis_stats stats;
 };
 
-/* AZ alarm codes (docs/protocol-modbus.md); the in-process rig raises the same. */
-enum { ALM_DEVIATION = 0x10, ALM_SENSOR = 0x28, ALM_OVERLOAD = 0x30, ALM_OVERTRAVEL = 0x66,
-       ALM_DATA = 0x70 };
+/* AZ alarm codes (modbus_map/modbus_map.h, docs/protocol-modbus.md); the
+ * in-process rig raises the same. */
+enum { ALM_DEVIATION = MB_ALARM_DEVIATION, ALM_SENSOR = MB_ALARM_SENSOR,
+       ALM_OVERLOAD = MB_ALARM_OVERLOAD, ALM_OVERTRAVEL = MB_ALARM_OVERTRAVEL,
+       ALM_DATA = MB_ALARM_DATA };
 
 static const char *alarm_name(unsigned code)
 {

@@ -8,6 +8,13 @@
  * bus's only master: an axis remembers where a completed move left it and
  * the detector its last sequence number, to save round trips.
  *
+ * On TCP, a connection the peer closed or reset (a restarted device or
+ * gateway, a network drop) is re-opened, after a pause doubling from
+ * 0.05 s, and the request sent again; each reconnection is one of the
+ * request's attempts below. A write may thus reach a device twice: the
+ * drivers' writes are stored values, triggers that restart the same
+ * operation, or input edges, which bear it.
+ *
  * Errors: a request that gets no answer within the response timeout is
  * retried up to `retries` times, then fails with -ETIMEDOUT; after each
  * failed attempt the bus drains the line until it stays quiet for the
@@ -68,6 +75,7 @@ struct drv_modbus_stats {
     long bad_replies; /* a garbled, foreign or mismatched answer */
     long exceptions;  /* the device refused (not retried) */
     long failed;      /* requests that gave up after every attempt */
+    long reconnects;  /* TCP: connections re-opened after the peer dropped one */
 };
 void drv_modbus_bus_stats(const drv_modbus_bus *bus, struct drv_modbus_stats *out);
 

@@ -11,10 +11,12 @@
 #include "drivers/drv_modbus_private.h"
 #include "planner/motion.h"
 
-enum { R_DIRECT = 0x58, R_INPUT = 0x7C, R_STATUS = 0x7E, R_ALARM = 0x80, R_FEEDBACK = 0xCC };
-enum { IN_ZHOME = 1u << 4, IN_STOP = 1u << 5, IN_ALM_RST = 1u << 7 };
-enum { ST_HOME_END = 1u << 4, ST_READY = 1u << 5, ST_ALM_A = 1u << 7, ST_MOVE = 1u << 13,
-       ST_IN_POS = 1u << 14 };
+/* The register map (modbus_map/modbus_map.h) under this file's names. */
+enum { R_DIRECT = MB_AX_DATA_NO, R_INPUT = MB_AX_INPUT, R_STATUS = MB_AX_STATUS,
+       R_ALARM = MB_AX_ALARM, R_FEEDBACK = MB_AX_FEEDBACK };
+enum { IN_ZHOME = MB_IN_ZHOME, IN_STOP = MB_IN_STOP, IN_ALM_RST = MB_IN_ALM_RST };
+enum { ST_HOME_END = MB_ST_HOME_END, ST_READY = MB_ST_READY, ST_ALM_A = MB_ST_ALM_A,
+       ST_MOVE = MB_ST_MOVE, ST_IN_POS = MB_ST_IN_POS };
 
 /* The drive's state for its primitives: the mechanics are the generic
  * layer's (axis_mechanics.c). */

@@ -1,6 +1,7 @@
 /* A Modbus bus: one libmodbus context shared by the devices on it, with
  * bounded retries and a drain after every failed exchange, so that a reply
- * arriving late is not taken for the answer to the next request. */
+ * arriving late is not taken for the answer to the next request; a TCP
+ * connection the peer dropped is re-opened within the same retries. */
 #include <errno.h>
 #include <math.h>
 #include <modbus.h>
@@ -16,7 +17,7 @@ struct drv_modbus_bus {
     modbus_t *ctx;
     char where[300]; /* "/dev/pts/3" or "127.0.0.1:1502", for messages */
     double timeout_s, time_scale;
-    int retries, trace;
+    int retries, trace, tcp;
     struct drv_modbus_stats stats;
 };
 
@@ -105,7 +106,10 @@ drv_modbus_bus *drv_modbus_bus_new_tcp(const struct drv_modbus_bus_cfg *cfg,
     }
     char where[300];
     snprintf(where, sizeof where, "%s:%d", cfg->host, cfg->port);
-    return bus_finish(modbus_new_tcp(cfg->host, cfg->port), cfg, where, err);
+    drv_modbus_bus *bus = bus_finish(modbus_new_tcp(cfg->host, cfg->port), cfg, where, err);
+    if (bus)
+        bus->tcp = 1;
+    return bus;
 }
 
 void drv_modbus_bus_free(drv_modbus_bus *bus)
@@ -140,21 +144,6 @@ void drv_modbus_sleep(double seconds)
     ts.tv_nsec = (long)((seconds - (double)ts.tv_sec) * 1e9);
     while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
         ;
-}
-
-float drv_modbus_get_float(const uint16_t *r)
-{
-    uint32_t bits = drv_modbus_get32(r);
-    float f;
-    memcpy(&f, &bits, sizeof f);
-    return f;
-}
-
-void drv_modbus_put_float(uint16_t *r, float f)
-{
-    uint32_t bits;
-    memcpy(&bits, &f, sizeof bits);
-    drv_modbus_put32(r, bits);
 }
 
 static const char *exception_name(int code)
@@ -204,6 +193,29 @@ static void drain(drv_modbus_bus *bus)
     }
 }
 
+/* A TCP connection the peer closed or reset (a restarted device or
+ * gateway, a dropped network), or that a failed reconnection left closed:
+ * no retry on the same socket can succeed. */
+static int connection_lost(const drv_modbus_bus *bus, int e)
+{
+    return bus->tcp && (e == ECONNRESET || e == EPIPE || e == ENOTCONN || e == ECONNREFUSED ||
+                        e == ECONNABORTED || e == EBADF);
+}
+
+/* Re-open the TCP connection after a pause that doubles with each
+ * attempt of the request (0.05 s, 0.1 s, ... at most the response
+ * timeout), so a device that is coming back is not hammered. A failed
+ * connect leaves the context closed: the next attempt fails at once with
+ * EBADF and comes back here. */
+static void reconnect(drv_modbus_bus *bus, int attempt)
+{
+    modbus_close(bus->ctx);
+    drv_modbus_sleep(fmin(0.05 * (double)(1 << attempt), bus->timeout_s));
+    bus->stats.reconnects++;
+    if (modbus_connect(bus->ctx) < 0 && bus->trace)
+        fprintf(stderr, "modbus %s: reconnect failed: %s\n", bus->where, modbus_strerror(errno));
+}
+
 static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, uint16_t *regs,
                     const char *who, struct gonio_err *err)
 {
@@ -235,6 +247,10 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
                                  "%s (slave %d): %s register 0x%04x (%d): exception %d (%s)",
                                  who, slave, write ? "writing" : "reading", (unsigned)addr, n,
                                  e - MODBUS_ENOBASE, exception_name(e - MODBUS_ENOBASE));
+        }
+        if (connection_lost(bus, e)) {
+            reconnect(bus, attempt);
+            continue;
         }
         if (e == ETIMEDOUT)
             bus->stats.timeouts++;

@@ -12,7 +12,7 @@
 #include "drivers/drivers_private.h"
 #include "drivers/drv_modbus_private.h"
 
-enum { R_CLOCK = 0x0A };
+enum { R_CLOCK = MB_DET_CLOCK }; /* modbus_map/modbus_map.h */
 
 struct mb_clock {
     drv_modbus_bus *bus;

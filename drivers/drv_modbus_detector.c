@@ -9,8 +9,9 @@
 #include "drivers/drivers_private.h"
 #include "drivers/drv_modbus_private.h"
 
-enum { R_INTEGRATION = 0x00, R_CHANNELS = 0x10 };
-enum { ST_BUSY = 1u << 0, ST_READY = 1u << 1, ST_SATURATED = 1u << 2 };
+/* The register map (modbus_map/modbus_map.h) under this file's names. */
+enum { R_INTEGRATION = MB_DET_INTEGRATION, R_CHANNELS = MB_DET_CHANNELS };
+enum { ST_BUSY = MB_DET_BUSY, ST_READY = MB_DET_READY, ST_SATURATED = MB_DET_SATURATED };
 
 struct mb_detector {
     drv_modbus_bus *bus;

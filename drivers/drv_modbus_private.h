@@ -7,6 +7,7 @@
 
 #include "common/clock.h"
 #include "drivers/drv_modbus.h"
+#include "modbus_map/modbus_map.h"
 
 /* Read or write n holding registers at addr of slave, with the bus's
  * timeout and retries. who names the device in messages ("axis arm"). */
@@ -23,20 +24,26 @@ double drv_modbus_timeout(const drv_modbus_bus *bus);
 /* Sleep, wall seconds (time is read with gonio_monotonic_s, common/clock.h). */
 void drv_modbus_sleep(double seconds);
 
-/* 32-bit values as two registers, upper word first (the AZ convention);
- * floats are binary32 bit patterns packed the same way. */
+/* 32-bit values and floats: the register map's codec (upper word first),
+ * under the drivers' names. */
 static inline uint32_t drv_modbus_get32(const uint16_t *r)
 {
-    return ((uint32_t)r[0] << 16) | r[1];
+    return mb_get32(r);
 }
 
 static inline void drv_modbus_put32(uint16_t *r, uint32_t v)
 {
-    r[0] = (uint16_t)(v >> 16);
-    r[1] = (uint16_t)(v & 0xFFFFu);
+    mb_put32(r, v);
 }
 
-float drv_modbus_get_float(const uint16_t *r);
-void drv_modbus_put_float(uint16_t *r, float f);
+static inline float drv_modbus_get_float(const uint16_t *r)
+{
+    return mb_get_float(r);
+}
+
+static inline void drv_modbus_put_float(uint16_t *r, float f)
+{
+    mb_put_float(r, f);
+}
 
 #endif

@@ -16,7 +16,6 @@
  * position read back is finite. */
 #include <errno.h>
 #include <math.h>
-#include <string.h>
 
 #include "drivers/drv_modbus.h"
 #include "drivers/drv_modbus_private.h"
@@ -68,10 +67,11 @@ int drv_modbus_write(drv_modbus_bus *bus, int slave, int addr, int n, const uint
                      const char *who, struct gonio_err *err)
 {
     FUZZ_CHECK(n > 0 && n <= 123); /* a Modbus write holds at most 123 registers */
-    /* Direct-data operation of the axis (0x58): the target position is the
-     * third 32-bit value; it must be within the soft limits. */
-    if (slave == 1 && addr == 0x58 && n >= 6) {
-        double target = (double)(int32_t)drv_modbus_get32(regs + 4) / bus->steps_per_deg;
+    /* Direct-data operation of the axis: the target position must be
+     * within the soft limits. */
+    int at = MB_AX_POSITION - MB_AX_DATA_NO;
+    if (slave == MB_SLAVE_SAMPLE && addr == MB_AX_DATA_NO && n >= at + 2) {
+        double target = (double)(int32_t)mb_get32(regs + at) / bus->steps_per_deg;
         FUZZ_CHECK(target >= bus->min_deg - 1.0 / bus->steps_per_deg &&
                    target <= bus->max_deg + 1.0 / bus->steps_per_deg);
     }
@@ -90,30 +90,20 @@ double drv_modbus_timeout(const drv_modbus_bus *bus)
 
 static drv_modbus_bus *the_bus;
 
-double drv_modbus_wall(void)
+/* The drivers read the time with gonio_monotonic_s (common/clock.h). This
+ * definition takes the place of common/clock.c's at link time (an object
+ * file's symbol wins over an archive member's), so that their deadlines,
+ * pacing and stall detection run on the virtual clock, as their sleeps do;
+ * on the real clock every wait would only end by running out of input. */
+double gonio_monotonic_s(void)
 {
-    return the_bus->now;
+    return the_bus ? the_bus->now : 0.0;
 }
 
 void drv_modbus_sleep(double seconds)
 {
     if (seconds > 0)
         the_bus->now += seconds;
-}
-
-float drv_modbus_get_float(const uint16_t *r)
-{
-    uint32_t bits = drv_modbus_get32(r);
-    float f;
-    memcpy(&f, &bits, sizeof f);
-    return f;
-}
-
-void drv_modbus_put_float(uint16_t *r, float f)
-{
-    uint32_t bits;
-    memcpy(&bits, &f, sizeof bits);
-    drv_modbus_put32(r, bits);
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -131,10 +121,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                                         .move_retries = (data[0] & 16) ? 3 : 0,
                                         .approach = (data[0] & 32) ? -1 : 1};
     struct gonio_err err = {0};
-    drv_axis *ax = drv_axis_new_modbus(&bus, 1, &prof, &opts, "fuzz", &err);
-    drv_detector *det = drv_detector_new_modbus(&bus, 3, &err);
+    drv_axis *ax = drv_axis_new_modbus(&bus, MB_SLAVE_SAMPLE, &prof, &opts, "fuzz", &err);
+    drv_detector *det = drv_detector_new_modbus(&bus, MB_SLAVE_DETECTOR, &err);
     FUZZ_CHECK(ax && det);
-    drv_clock *clk = (data[0] & 8) ? drv_clock_new_modbus(&bus, 3, &err) : NULL;
+    drv_clock *clk = (data[0] & 8) ? drv_clock_new_modbus(&bus, MB_SLAVE_DETECTOR, &err) : NULL;
     uint8_t op, arg;
     while (next_byte(&bus, &op) == 0 && next_byte(&bus, &arg) == 0) {
         double deg;

@@ -102,3 +102,7 @@ echo "== 6. scene effects: ns per sample of the bare pipeline and of each effect
 echo
 echo "== 7. gonio render: sphere pixels per second (CPU time), direct light vs light + environment"
 "$bin/render_bench" 256
+
+echo
+echo "== 8. the bus: requests per point and rig time over the plan's estimate (RTU, TCP)"
+sh "$(dirname "$0")/bench_bus.sh" "$bin" "$out/bus"

@@ -15,12 +15,14 @@
 #include "sim/modbus_server.h"
 #include "sim/scene.h"
 
-static volatile sig_atomic_t stop_flag;
+static volatile sig_atomic_t stop_flag, hangup_flag;
 
 static void on_signal(int sig)
 {
-    (void)sig;
-    stop_flag = 1;
+    if (sig == SIGUSR1)
+        hangup_flag = 1;
+    else
+        stop_flag = 1;
 }
 
 static void usage(FILE *out)
@@ -31,7 +33,7 @@ static void usage(FILE *out)
             "                 [--link PATH]\n"
             "                 [--tcp 127.0.0.1:PORT] [--trace] [--check]\n"
             "                 [--stall SLAVE:DEG] [--overload SLAVE:DEG] [--delay SLAVE:MS]\n"
-            "                 [--stats FILE]\n"
+            "                 [--stats FILE] [--baud N] [--tcp-latency MS]\n"
             "       gonio-sim --version\n"
             "  Serves the rig's Modbus bus (docs/protocol-modbus.md) as RTU on a new\n"
             "  pseudo-terminal, whose path is the first line on stdout, and with --tcp\n"
@@ -43,6 +45,9 @@ static void usage(FILE *out)
             "  with alarm 0x30 (overload). --delay makes a slave answer MS ms late.\n"
             "  --stats writes, at exit, the exchanges, the faults injected and each axis's\n"
             "  commanded and reached range as JSON.\n"
+            "  --baud makes each RTU exchange take its frames' time on a serial line at N\n"
+            "  baud, --tcp-latency each TCP reply MS ms, both in rig time. SIGUSR1 closes\n"
+            "  every TCP connection (a network drop).\n"
             "  What is served is also announced on stderr.\n");
 }
 
@@ -61,6 +66,7 @@ static int parse_positive(const char *opt, const char *s, double *out)
 int main(int argc, char **argv)
 {
     static const struct option opts[] = {
+        {"baud", required_argument, NULL, 'b'},      {"tcp-latency", required_argument, NULL, 'L'},
         {"scene", required_argument, NULL, 's'},      {"material", required_argument, NULL, 'm'},
         {"rig", required_argument, NULL, 'r'},        {"time-scale", required_argument, NULL, 'k'},
         {"steps-per-deg", required_argument, NULL, 'n'}, {"link", required_argument, NULL, 'l'},
@@ -104,6 +110,22 @@ int main(int argc, char **argv)
         case 't': tcp = optarg; break;
         case 'T': cfg.trace = 1; break;
         case 'X': stats = optarg; break;
+        case 'b': {
+            double baud;
+            if (parse_positive("--baud", optarg, &baud) < 0)
+                return 2;
+            if (baud != floor(baud)) {
+                fprintf(stderr, "gonio-sim: --baud '%s': expected a whole number\n", optarg);
+                return 2;
+            }
+            cfg.baud = (long)baud;
+            break;
+        }
+        case 'L':
+            if (parse_positive("--tcp-latency", optarg, &cfg.tcp_latency_s) < 0)
+                return 2;
+            cfg.tcp_latency_s *= 1e-3;
+            break;
         case 'c': check = 1; break;
         case 'S':
         case 'D':
@@ -163,6 +185,10 @@ int main(int argc, char **argv)
             printf("axis %s: limits [%g, %g] deg, profile %g deg/s, %g deg/s^2\n", names[i],
                    ax[i]->min, ax[i]->max, ax[i]->speed, ax[i]->accel);
         printf("detector (slave 3): rgb\n");
+        if (cfg.baud > 0)
+            printf("RTU line %ld baud\n", cfg.baud);
+        if (cfg.tcp_latency_s > 0)
+            printf("TCP latency %g ms\n", cfg.tcp_latency_s * 1e3);
         brdf_material_free(material);
         return 0;
     }
@@ -171,6 +197,7 @@ int main(int argc, char **argv)
     sigemptyset(&sa.sa_mask);
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGUSR1, &sa, NULL);
     signal(SIGPIPE, SIG_IGN);
 
     msim *m = msim_new(&rig, material, &scene, &cfg, &err);
@@ -203,7 +230,7 @@ int main(int argc, char **argv)
                     port);
         fprintf(stderr, " (scene %s, material %s, rig %s, time scale %g); Ctrl-C stops\n",
                 scene.name, brdf_material_name(material), rig.name, cfg.time_scale);
-        rc = msim_serve(m, &stop_flag, &err);
+        rc = msim_serve(m, &stop_flag, &hangup_flag, &err);
     }
     if (rc < 0 || !m)
         fprintf(stderr, "gonio-sim: %s\n", err.msg);

@@ -19,27 +19,39 @@
 #include <unistd.h>
 
 #include "common/clock.h"
+#include "modbus_map/modbus_map.h"
 #include "sim/effects_detector.h"
 #include "sim/effects_faults.h"
 #include "sim/scene.h"
 #include "sim/sim.h"
 
-/* Register addresses (docs/protocol-modbus.md). */
+/* The register map (modbus_map/modbus_map.h) under this file's short
+ * names; the simulated detector has three channels. */
 enum {
-    AX_DATA_NO = 0x58, AX_OP_TYPE = 0x5A, AX_POSITION = 0x5C, AX_SPEED = 0x5E, AX_ACCEL = 0x60,
-    AX_DECEL = 0x62, AX_CURRENT = 0x64, AX_TRIGGER = 0x66, AX_INPUT = 0x7C, AX_STATUS = 0x7E,
-    AX_ALARM = 0x80, AX_FEEDBACK = 0xCC, AX_NREGS = 0xCE,
-    DET_INTEGRATION = 0x00, DET_TRIGGER = 0x02, DET_STATUS = 0x04, DET_COUNT = 0x06,
-    DET_SEQUENCE = 0x08, DET_CLOCK = 0x0A, DET_CHANNELS = 0x10, DET_NCHANNELS = 3,
+    AX_DATA_NO = MB_AX_DATA_NO, AX_OP_TYPE = MB_AX_OP_TYPE, AX_POSITION = MB_AX_POSITION,
+    AX_SPEED = MB_AX_SPEED, AX_ACCEL = MB_AX_ACCEL, AX_TRIGGER = MB_AX_TRIGGER,
+    AX_INPUT = MB_AX_INPUT, AX_STATUS = MB_AX_STATUS, AX_ALARM = MB_AX_ALARM,
+    AX_FEEDBACK = MB_AX_FEEDBACK, AX_NREGS = MB_AX_NREGS,
+    DET_INTEGRATION = MB_DET_INTEGRATION, DET_TRIGGER = MB_DET_TRIGGER,
+    DET_STATUS = MB_DET_STATUS, DET_COUNT = MB_DET_COUNT, DET_SEQUENCE = MB_DET_SEQUENCE,
+    DET_CLOCK = MB_DET_CLOCK, DET_CHANNELS = MB_DET_CHANNELS, DET_NCHANNELS = 3,
     DET_NREGS = DET_CHANNELS + 2 * DET_NCHANNELS,
 };
-enum { IN_ZHOME = 1u << 4, IN_STOP = 1u << 5, IN_ALM_RST = 1u << 7 };
-enum { ST_HOME_END = 1u << 4, ST_READY = 1u << 5, ST_ALM_A = 1u << 7, ST_MOVE = 1u << 13,
-       ST_IN_POS = 1u << 14 };
-enum { DST_BUSY = 1u << 0, DST_READY = 1u << 1, DST_SATURATED = 1u << 2 };
+enum { IN_ZHOME = MB_IN_ZHOME, IN_STOP = MB_IN_STOP, IN_ALM_RST = MB_IN_ALM_RST };
+enum { ST_HOME_END = MB_ST_HOME_END, ST_READY = MB_ST_READY, ST_ALM_A = MB_ST_ALM_A,
+       ST_MOVE = MB_ST_MOVE, ST_IN_POS = MB_ST_IN_POS };
+enum { DST_BUSY = MB_DET_BUSY, DST_READY = MB_DET_READY, DST_SATURATED = MB_DET_SATURATED };
+enum { MSIM_ALARM_OVERLOAD = MB_ALARM_OVERLOAD, MSIM_ALARM_DEVIATION = MB_ALARM_DEVIATION,
+       MSIM_ALARM_OVERTRAVEL = MB_ALARM_OVERTRAVEL, MSIM_ALARM_DATA = MB_ALARM_DATA };
 
 #define MAX_CLIENTS 8
 #define RTU_GAP_MS 10 /* silence that ends a frame of unknown length */
+/* The longest request a function's own length fields can describe: FC
+ * 0x10 with a byte count of 255 (header, address, quantity, count, data).
+ * Longer than the protocol's ADU limits, so that a write of too many
+ * registers still arrives whole and gets its exception 03. */
+#define RTU_MAX_FRAME (1 + 6 + 255 + 2)
+#define TCP_MAX_ADU (7 + 6 + 255)
 
 struct msim_axis {
     modbus_mapping_t *map;
@@ -82,33 +94,30 @@ struct msim {
     /* RTU: the pty master, a held-open slave (so the master never sees a
      * hang-up between clients) and a libmodbus context that writes replies. */
     int pty_master, pty_slave;
-    long exchanges; /* requests to a present slave, faulty or not */
+    /* Requests to a present slave, faulty or not: all, and per slave id. */
+    long exchanges, slave_exchanges[256];
     modbus_t *rtu;
-    uint8_t rtu_buf[MODBUS_RTU_MAX_ADU_LENGTH];
+    uint8_t rtu_buf[RTU_MAX_FRAME];
     int rtu_len;
-    /* TCP: listening socket and clients. */
+    /* TCP: listening socket and clients, each with the part of a frame
+     * received so far (frames are cut by the MBAP header's length). */
     modbus_t *tcp;
     int listen_fd;
-    int clients[MAX_CLIENTS];
+    struct tcp_client {
+        int fd, len;
+        uint8_t buf[TCP_MAX_ADU];
+    } clients[MAX_CLIENTS];
 };
 
+/* The map's codec at a register address of a device's table. */
 static uint32_t get32(const uint16_t *r, int addr)
 {
-    return ((uint32_t)r[addr] << 16) | r[addr + 1];
+    return mb_get32(r + addr);
 }
 
 static void put32(uint16_t *r, int addr, uint32_t v)
 {
-    r[addr] = (uint16_t)(v >> 16);
-    r[addr + 1] = (uint16_t)(v & 0xFFFF);
-}
-
-static void put_float(uint16_t *r, int addr, double v)
-{
-    float f = (float)v;
-    uint32_t bits;
-    memcpy(&bits, &f, sizeof bits);
-    put32(r, addr, bits);
+    mb_put32(r + addr, v);
 }
 
 msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
@@ -129,7 +138,7 @@ msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
     m->profile = profile;
     m->pty_master = m->pty_slave = m->listen_fd = -1;
     for (int i = 0; i < MAX_CLIENTS; i++)
-        m->clients[i] = -1;
+        m->clients[i].fd = -1;
     m->rig = sim_rig_new_scene(profile, material, scene, NULL, err);
     if (!m->rig) {
         free(m);
@@ -170,8 +179,8 @@ void msim_free(msim *m)
     if (m->tcp)
         modbus_free(m->tcp);
     for (int i = 0; i < MAX_CLIENTS; i++)
-        if (m->clients[i] >= 0)
-            close(m->clients[i]);
+        if (m->clients[i].fd >= 0)
+            close(m->clients[i].fd);
     if (m->listen_fd >= 0)
         close(m->listen_fd);
     if (m->pty_slave >= 0)
@@ -336,7 +345,7 @@ static void det_refresh(msim *m)
         d->ready = 1;
         d->sequence++;
         for (int k = 0; k < DET_NCHANNELS; k++)
-            put_float(r, DET_CHANNELS + 2 * k, d->pending[k]);
+            mb_put_float(r + DET_CHANNELS + 2 * k, (float)d->pending[k]);
         /* The integration register reads back what was actually used
          * (auto-exposure may have chosen another). */
         put32(r, DET_INTEGRATION, d->pending_us);
@@ -374,10 +383,10 @@ static void det_trigger(msim *m)
 int msim_jam(msim *m, int slave, enum msim_jam_kind kind, double deg, struct gonio_err *err)
 {
     struct msim_axis *ax = NULL;
-    if (slave == MSIM_SLAVE_SAMPLE || slave == MSIM_SLAVE_ARM ||
-        (slave == MSIM_SLAVE_AZIMUTH && m->n_axes > 2))
-        ax = &m->axis[slave == MSIM_SLAVE_SAMPLE ? SIM_AXIS_SAMPLE
-                      : slave == MSIM_SLAVE_ARM  ? SIM_AXIS_ARM
+    if (slave == MB_SLAVE_SAMPLE || slave == MB_SLAVE_ARM ||
+        (slave == MB_SLAVE_AZIMUTH && m->n_axes > 2))
+        ax = &m->axis[slave == MB_SLAVE_SAMPLE ? SIM_AXIS_SAMPLE
+                      : slave == MB_SLAVE_ARM  ? SIM_AXIS_ARM
                                                  : SIM_AXIS_AZIMUTH];
     if (!ax || !isfinite(deg) || deg < ax->prof->min || deg > ax->prof->max)
         return gonio_err_set(err, GONIO_EUSAGE, "jam: no axis at slave %d, or %g deg outside "
@@ -413,9 +422,11 @@ void msim_write_stats(const msim *m, FILE *out)
     if (f)
         sim_faults_counts(f, c);
     fprintf(out, "{\"exchanges\": %ld, \"faults\": {\"dropped\": %ld, \"corrupted\": %ld, "
-            "\"late\": %ld},\n \"axes\": {", m->exchanges, c[SIM_FAULT_DROP],
-            c[SIM_FAULT_CORRUPT], c[SIM_FAULT_LATE]);
+            "\"late\": %ld},\n \"detector\": {\"exchanges\": %ld},\n \"axes\": {",
+            m->exchanges, c[SIM_FAULT_DROP], c[SIM_FAULT_CORRUPT], c[SIM_FAULT_LATE],
+            m->slave_exchanges[MB_SLAVE_DETECTOR]);
     static const char *names[SIM_N_AXES] = {"sample", "arm", "azimuth"};
+    static const int slaves[SIM_N_AXES] = {MB_SLAVE_SAMPLE, MB_SLAVE_ARM, MB_SLAVE_AZIMUTH};
     for (int i = 0; i < m->n_axes; i++) {
         const struct msim_axis *ax = &m->axis[i];
         /* JSON has no infinity: an axis never commanded reports nulls. */
@@ -424,10 +435,10 @@ void msim_write_stats(const msim *m, FILE *out)
             snprintf(cmd, sizeof cmd, "%.17g, %.17g", ax->cmd_min, ax->cmd_max);
         if (ax->moves > 0)
             snprintf(pos, sizeof pos, "%.17g, %.17g", ax->pos_min, ax->pos_max);
-        fprintf(out, "%s\n  \"%s\": {\"moves\": %ld, \"refused\": %ld, \"limits\": [%.17g, %.17g], "
-                "\"commanded\": [%s], \"positions\": [%s], \"alarms\": %ld}", i ? "," : "",
-                names[i], ax->moves, ax->refused, ax->prof->min, ax->prof->max, cmd, pos,
-                ax->alarms);
+        fprintf(out, "%s\n  \"%s\": {\"exchanges\": %ld, \"moves\": %ld, \"refused\": %ld, "
+                "\"limits\": [%.17g, %.17g], \"commanded\": [%s], \"positions\": [%s], "
+                "\"alarms\": %ld}", i ? "," : "", names[i], m->slave_exchanges[slaves[i]], ax->moves,
+                ax->refused, ax->prof->min, ax->prof->max, cmd, pos, ax->alarms);
     }
     fprintf(out, "}}\n");
 }
@@ -468,53 +479,99 @@ static int overlaps(int addr, int n, int reg)
 static struct msim_axis *axis_of(msim *m, int slave)
 {
     switch (slave) {
-    case MSIM_SLAVE_SAMPLE: return &m->axis[SIM_AXIS_SAMPLE];
-    case MSIM_SLAVE_ARM: return &m->axis[SIM_AXIS_ARM];
-    case MSIM_SLAVE_AZIMUTH: return m->n_axes > 2 ? &m->axis[SIM_AXIS_AZIMUTH] : NULL;
+    case MB_SLAVE_SAMPLE: return &m->axis[SIM_AXIS_SAMPLE];
+    case MB_SLAVE_ARM: return &m->axis[SIM_AXIS_ARM];
+    case MB_SLAVE_AZIMUTH: return m->n_axes > 2 ? &m->axis[SIM_AXIS_AZIMUTH] : NULL;
     default: return NULL;
     }
 }
 
-/* A reply damaged on the line: an exception frame with a bad CRC (RTU), or
- * a header naming another transaction and protocol (TCP); either way the
- * master detects a bad answer. */
-static void send_garbled(msim *m, modbus_t *ctx, const uint8_t *req, int hdr)
+/* Sleep for wall seconds, whatever signal arrives meanwhile. */
+static void wait_wall(double s)
 {
-    uint8_t out[9];
-    int n;
-    if (hdr == 1) {
-        out[0] = req[0];
-        out[1] = (uint8_t)(req[1] | 0x80);
-        out[2] = 0x04;
-        uint16_t crc = (uint16_t)~crc16(out, 3);
-        out[3] = (uint8_t)(crc & 0xFF);
-        out[4] = (uint8_t)(crc >> 8);
-        n = 5;
-    } else {
-        out[0] = (uint8_t)~req[0];
-        out[1] = (uint8_t)~req[1];
-        out[2] = 0xFF; /* protocol id must be 0 */
-        out[3] = 0xFF;
-        out[4] = 0;
-        out[5] = 3;
-        out[6] = req[6];
-        out[7] = (uint8_t)(req[7] | 0x80);
-        out[8] = 0x04;
-        n = 9;
-    }
-    (void)m;
-    if (write(modbus_get_socket(ctx), out, (size_t)n) < 0)
-        return; /* the client went away: nothing to garble */
+    if (!(s > 0))
+        return;
+    struct timespec ts = {.tv_sec = (time_t)s, .tv_nsec = (long)((s - (double)(time_t)s) * 1e9)};
+    while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
+        ;
 }
 
-/* Answer one request: req is the whole ADU as libmodbus frames it (hdr
- * bytes of header ending with the unit id, then the PDU); len counts the
- * bytes the PDU may use. Requests to absent slaves get no answer. */
+/* Seconds a frame of n bytes holds an RTU line at baud, with the silence
+ * that must follow it (t3.5 of the Modbus serial line guide: 3.5
+ * characters, fixed at 1.75 ms above 19200 baud). RTU characters are 11
+ * bits whatever the parity: start, 8 data, parity or a second stop, stop. */
+static double rtu_frame_s(long baud, int n)
+{
+    double ch = 11.0 / (double)baud;
+    return n * ch + (baud > 19200 ? 1.75e-3 : 3.5 * ch);
+}
+
+/* What a frame carrying pdu_len bytes of PDU costs on the bus, in rig
+ * time, waited in wall time (time_scale times shorter), with the server
+ * held up meanwhile as a line is: its time on the RTU line (request and
+ * reply), or the TCP latency (replies only). */
+static void bus_wait(const msim *m, int hdr, int pdu_len, int reply)
+{
+    double s = hdr != 1                ? (reply ? m->cfg.tcp_latency_s : 0.0)
+               : m->cfg.baud > 0 ? rtu_frame_s(m->cfg.baud, 1 + pdu_len + 2)
+                                 : 0.0;
+    wait_wall(s / m->cfg.time_scale);
+}
+
+/* Send a PDU framed for the transport the request came on (hdr 1: RTU, 7:
+ * TCP), for the answers libmodbus cannot frame: an exception to any
+ * function code (modbus_reply_exception adds 0x80 to the code, so a
+ * request with code 0x80 came back with 0x00), and a reply damaged on the
+ * line (garbled): a bad CRC on RTU, a header naming another transaction
+ * and protocol on TCP; either way the master detects a bad answer. */
+static void send_pdu(modbus_t *ctx, const uint8_t *req, int hdr, const uint8_t *pdu, int n,
+                     int garbled)
+{
+    uint8_t out[16];
+    int len = 0;
+    if (hdr == 1) {
+        out[len++] = req[0];
+    } else {
+        uint8_t mask = garbled ? 0xFF : 0x00;
+        out[len++] = req[0] ^ mask;
+        out[len++] = req[1] ^ mask;
+        out[len++] = mask; /* protocol id: 0 is Modbus */
+        out[len++] = mask;
+        out[len++] = 0;
+        out[len++] = (uint8_t)(n + 1);
+        out[len++] = req[6];
+    }
+    memcpy(out + len, pdu, (size_t)n);
+    len += n;
+    if (hdr == 1) {
+        uint16_t crc = crc16(out, len);
+        if (garbled)
+            crc = (uint16_t)~crc;
+        out[len++] = (uint8_t)(crc & 0xFF);
+        out[len++] = (uint8_t)(crc >> 8);
+    }
+    if (write(modbus_get_socket(ctx), out, (size_t)len) < 0)
+        return; /* the client went away: nobody to answer */
+}
+
+/* The exception answer: the function code with its top bit set. */
+static void send_exception(const msim *m, modbus_t *ctx, const uint8_t *req, int hdr, int exc,
+                           int garbled)
+{
+    uint8_t pdu[2] = {(uint8_t)(req[hdr] | 0x80), (uint8_t)exc};
+    bus_wait(m, hdr, 2, 1);
+    send_pdu(ctx, req, hdr, pdu, 2, garbled);
+}
+
+/* Answer one request: req is the whole ADU (hdr bytes of header ending
+ * with the unit id, then the PDU, then an RTU frame's CRC); len counts the
+ * PDU's bytes. Requests to absent slaves get no answer. */
 static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int hdr, int len)
 {
     int slave = req[hdr - 1];
+    bus_wait(m, hdr, len, 0); /* the request is on the line, whoever it is for */
     struct msim_axis *ax = axis_of(m, slave);
-    int is_det = slave == MSIM_SLAVE_DETECTOR;
+    int is_det = slave == MB_SLAVE_DETECTOR;
     if (!ax && !is_det)
         return;
     const uint8_t *pdu = req + hdr;
@@ -537,7 +594,7 @@ static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int 
         n = len >= 5 ? (pdu[3] << 8) | pdu[4] : 0;
         write = 1;
         if (n < 1 || n > MODBUS_MAX_WRITE_REGISTERS || len < 6 || pdu[5] != 2 * n ||
-            len < 6 + 2 * n)
+            len != 6 + 2 * n)
             exc = MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
         break;
     default:
@@ -550,6 +607,7 @@ static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int 
                 addr < 0 ? 0 : addr, n, exc ? " -> exception " : "",
                 exc == 1 ? "01" : exc == 2 ? "02" : exc == 3 ? "03" : "");
     m->exchanges++;
+    m->slave_exchanges[slave]++;
     double late_s = m->delay_ms[slave] * 1e-3;
     sim_faults *faults = sim_rig_faults(m->rig);
     enum sim_fault fault = SIM_FAULT_NONE;
@@ -561,19 +619,14 @@ static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int 
     if (fault == SIM_FAULT_DROP) /* lost on the line: not executed, no answer */
         return;
     if (fault == SIM_FAULT_CORRUPT) { /* garbled on the line: not executed */
-        send_garbled(m, ctx, req, hdr);
+        send_exception(m, ctx, req, hdr, MODBUS_EXCEPTION_SLAVE_OR_SERVER_FAILURE, 1);
         return;
     }
     if (fault == SIM_FAULT_LATE)
         late_s += sim_faults_timeout(faults);
-    if (late_s > 0) {
-        struct timespec ts = {.tv_sec = (time_t)late_s,
-                              .tv_nsec = (long)((late_s - (double)(time_t)late_s) * 1e9)};
-        while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
-            ;
-    }
+    wait_wall(late_s);
     if (exc) {
-        modbus_reply_exception(ctx, req, (unsigned)exc);
+        send_exception(m, ctx, req, hdr, exc, 0);
         return;
     }
     sync_clock(m);
@@ -581,6 +634,9 @@ static void handle(msim *m, modbus_t *ctx, const uint8_t *req, int req_len, int 
         axis_refresh(m, ax);
     else
         det_refresh(m);
+    /* The registers are read as the request arrived; the reply then takes
+     * its time on the bus: 2 + 2n bytes of PDU for a read, 5 for a write. */
+    bus_wait(m, hdr, write ? 5 : 2 + 2 * n, 1);
     modbus_reply(ctx, req, req_len, ax ? ax->map : m->det.map);
     if (!write)
         return;
@@ -732,8 +788,6 @@ int msim_open_tcp(msim *m, const char *addr, int *port, struct gonio_err *err)
     m->tcp = modbus_new_tcp(host, (int)p);
     if (!m->tcp)
         return gonio_err_set(err, ENOMEM, "--tcp %s: %s", addr, modbus_strerror(errno));
-    /* A client that sends half a frame must not hold up the bus for long. */
-    modbus_set_byte_timeout(m->tcp, 0, 20000);
     m->listen_fd = modbus_tcp_listen(m->tcp, MAX_CLIENTS);
     if (m->listen_fd < 0)
         return gonio_err_set(err, errno, "--tcp %s: %s", addr, modbus_strerror(errno));
@@ -751,36 +805,72 @@ static void tcp_accept(msim *m)
     if (fd < 0)
         return;
     for (int i = 0; i < MAX_CLIENTS; i++)
-        if (m->clients[i] < 0) {
-            m->clients[i] = fd;
+        if (m->clients[i].fd < 0) {
+            m->clients[i].fd = fd;
+            m->clients[i].len = 0;
             return;
         }
     close(fd); /* full: refuse */
 }
 
+static void tcp_close(msim *m, int slot)
+{
+    close(m->clients[slot].fd);
+    m->clients[slot].fd = -1;
+}
+
+/* Read what a client sent and answer each complete frame. The MBAP
+ * header's length cuts the frames, as the Modbus TCP implementation guide
+ * has a server do, so a PDU whose own fields disagree with it (an FC 0x10
+ * byte count) gets its exception 03 and the stream stays in step. A frame
+ * whose protocol id is not 0 (Modbus) is discarded unanswered; a length no
+ * request can have loses the stream, and the connection is closed. */
 static void tcp_read(msim *m, int slot)
 {
-    uint8_t req[MODBUS_TCP_MAX_ADU_LENGTH];
-    modbus_set_socket(m->tcp, m->clients[slot]);
-    int rc = modbus_receive(m->tcp, req);
-    if (rc < 0) {
-        if (errno == EMBBADDATA || errno == EMBMDATA || errno == EMBBADCRC) {
-            modbus_flush(m->tcp);
-            return;
-        }
-        close(m->clients[slot]); /* the client went away, or sent garbage */
-        m->clients[slot] = -1;
+    struct tcp_client *c = &m->clients[slot];
+    ssize_t got = recv(c->fd, c->buf + c->len, sizeof c->buf - (size_t)c->len, MSG_DONTWAIT);
+    if (got < 0 && (errno == EAGAIN || errno == EINTR))
+        return;
+    if (got <= 0) { /* the client went away */
+        tcp_close(m, slot);
         return;
     }
-    if (rc >= 8)
-        handle(m, m->tcp, req, rc, 7, rc - 7);
+    c->len += (int)got;
+    while (c->len >= 7) {
+        int n = 6 + ((c->buf[4] << 8) | c->buf[5]); /* the whole frame */
+        if (n < 8 || n > TCP_MAX_ADU) {
+            if (m->cfg.trace)
+                fprintf(stderr, "gonio-sim: TCP frame length %d: connection closed\n", n - 6);
+            tcp_close(m, slot);
+            return;
+        }
+        if (c->len < n)
+            return;
+        if (c->buf[2] || c->buf[3]) {
+            if (m->cfg.trace)
+                fprintf(stderr, "gonio-sim: TCP frame of protocol %u discarded\n",
+                        (unsigned)((c->buf[2] << 8) | c->buf[3]));
+        } else {
+            modbus_set_socket(m->tcp, c->fd);
+            handle(m, m->tcp, c->buf, n, 7, n - 7);
+        }
+        memmove(c->buf, c->buf + n, (size_t)(c->len - n));
+        c->len -= n;
+    }
 }
 
 /* ---- The loop -------------------------------------------------------------- */
 
-int msim_serve(msim *m, volatile sig_atomic_t *stop, struct gonio_err *err)
+int msim_serve(msim *m, volatile sig_atomic_t *stop, volatile sig_atomic_t *hangup,
+               struct gonio_err *err)
 {
     while (!*stop) {
+        if (*hangup) {
+            *hangup = 0;
+            for (int i = 0; i < MAX_CLIENTS; i++)
+                if (m->clients[i].fd >= 0)
+                    tcp_close(m, i);
+        }
         struct pollfd pf[2 + MAX_CLIENTS];
         int slot[2 + MAX_CLIENTS];
         int n = 0;
@@ -789,8 +879,9 @@ int msim_serve(msim *m, volatile sig_atomic_t *stop, struct gonio_err *err)
         if (m->listen_fd >= 0)
             pf[n] = (struct pollfd){.fd = m->listen_fd, .events = POLLIN}, slot[n++] = -2;
         for (int i = 0; i < MAX_CLIENTS; i++)
-            if (m->clients[i] >= 0)
-                pf[n] = (struct pollfd){.fd = m->clients[i], .events = POLLIN}, slot[n++] = i;
+            if (m->clients[i].fd >= 0)
+                pf[n] = (struct pollfd){.fd = m->clients[i].fd, .events = POLLIN},
+                slot[n++] = i;
         int rc = poll(pf, (nfds_t)n, m->rtu_len > 0 ? RTU_GAP_MS : 200);
         if (rc < 0) {
             if (errno == EINTR)

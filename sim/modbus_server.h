@@ -2,7 +2,8 @@
  * map of docs/protocol-modbus.md, served as one bus with several slave ids
  * over Modbus RTU on a pseudo-terminal and/or Modbus TCP on loopback.
  *
- * The simulated clock follows wall time scaled by time_scale: every request
+ * Slave ids, registers and alarm codes: modbus_map/modbus_map.h. The
+ * simulated clock follows wall time scaled by time_scale: every request
  * first brings the rig to now, so motion, homing and integration advance
  * between requests exactly as they would on a real rig, only faster. */
 #ifndef GONIO_SIM_MODBUS_SERVER_H
@@ -16,15 +17,14 @@
 #include "common/err.h"
 #include "planner/rig.h"
 
-/* Slave ids of the rig's devices on its bus. */
-enum msim_slave { MSIM_SLAVE_SAMPLE = 1, MSIM_SLAVE_ARM = 2, MSIM_SLAVE_DETECTOR = 3,
-                  MSIM_SLAVE_AZIMUTH = 4 };
-
-/* Drive alarm codes (present-alarm register). */
-enum msim_alarm { MSIM_ALARM_OVERLOAD = 0x30, MSIM_ALARM_DEVIATION = 0x10,
-                  MSIM_ALARM_OVERTRAVEL = 0x66, MSIM_ALARM_DATA = 0x70 };
-
 struct msim_cfg {
+    /* Bus costs, in rig time (so each is waited time_scale times shorter
+     * in wall time; docs/gonio-sim.md "Line time"): an RTU exchange takes
+     * its frames' time on a serial line at baud (11 bits a character, and
+     * the inter-frame silence after each frame; 0: free), a TCP reply
+     * tcp_latency_s (0: none). */
+    long baud;
+    double tcp_latency_s;
     double time_scale;    /* simulated seconds per wall second, > 0 */
     double steps_per_deg; /* drive steps per degree, > 0 */
     /* The drives' positioning completion band, load degrees: IN-POS turns
@@ -70,15 +70,20 @@ int msim_open_pty(msim *m, const char *link, char *path, size_t size, struct gon
 int msim_open_tcp(msim *m, const char *addr, int *port, struct gonio_err *err);
 
 /* What the rig saw, as one JSON object: exchanges with present slaves,
- * the comm_faults injected by kind, and per axis the moves started, the
- * commands refused (beyond the limits: alarm 0x66), the rig profile's
- * limits, the range of commanded targets, the range of positions the axis
- * took, and the alarms raised. A fault soak holds the drivers to these. */
+ * the comm_faults injected by kind, the detector's exchanges, and per axis
+ * its exchanges, the moves started, the commands refused (beyond the
+ * limits: alarm 0x66), the rig profile's limits, the range of commanded
+ * targets, the range of positions the axis took, and the alarms raised. A
+ * fault soak holds the drivers to these; make bench reports the exchanges
+ * per device. */
 void msim_write_stats(const msim *m, FILE *out);
 
 /* Answer requests until *stop becomes non-zero (a signal handler sets it).
- * Malformed input is answered or ignored as a real slave would; only a
- * failure of the server's own descriptors ends it early. */
-int msim_serve(msim *m, volatile sig_atomic_t *stop, struct gonio_err *err);
+ * Whenever *hangup is non-zero the server closes every TCP connection (a
+ * network drop) and clears it. Malformed input is answered or ignored as a
+ * real slave would; only a failure of the server's own descriptors ends it
+ * early. */
+int msim_serve(msim *m, volatile sig_atomic_t *stop, volatile sig_atomic_t *hangup,
+               struct gonio_err *err);
 
 #endif

@@ -2,12 +2,12 @@
 100 steps/deg) on its pty and on TCP, and a Modbus RTU master written here
 from the specification (frames and CRC-16 by hand), independent of the C
 drivers and of libmodbus."""
+import contextlib
 import os
 import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 
 import pytest
@@ -114,25 +114,38 @@ def gonio_bin():
     return os.environ.get("GONIO_BIN", os.path.join(os.getcwd(), "bin"))
 
 
-@pytest.fixture(scope="module")
-def sim():
-    pytest.importorskip("serial")
-    exe = os.path.join(gonio_bin(), "gonio-sim")
-    logs = tempfile.mkdtemp(prefix="rig-sim")
+@contextlib.contextmanager
+def gonio_sim(*args):
+    """gonio-sim with args on its pty and on TCP (a free port), in a fresh
+    short folder: yields {"pty", "port", "proc", "folder"}. At the end the
+    process must exit 0 on SIGTERM (and, under make check-valgrind, leave a
+    clean memcheck report)."""
+    folder = tg.tmpdir()
+    proc = subprocess.Popen(tg.wrap([os.path.join(gonio_bin(), "gonio-sim"), *args, "--tcp",
+                                     "127.0.0.1:0"], folder), stdout=subprocess.PIPE, text=True)
     try:
-        proc = subprocess.Popen(tg.wrap([exe, "--time-scale", str(TIME_SCALE), "--tcp",
-                                         "127.0.0.1:0"], logs), stdout=subprocess.PIPE, text=True)
         pty = proc.stdout.readline().strip()
         tcp = proc.stdout.readline().strip()
         assert pty.startswith("/"), pty
         assert tcp.startswith("tcp 127.0.0.1:"), tcp
-        yield {"pty": pty, "port": int(tcp.rsplit(":", 1)[1]), "proc": proc}
+        yield {"pty": pty, "port": int(tcp.rsplit(":", 1)[1]), "proc": proc, "folder": folder}
         proc.send_signal(signal.SIGTERM)
         rc = proc.wait(timeout=2 * tg.START_S)
-        tg.assert_valgrind_clean(logs)
+        tg.assert_valgrind_clean(folder)
         assert rc == 0  # a clean exit on SIGTERM
     finally:
-        shutil.rmtree(logs, ignore_errors=True)
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        proc.stdout.close()
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def sim():
+    pytest.importorskip("serial")
+    with gonio_sim("--time-scale", str(TIME_SCALE)) as s:
+        yield s
 
 
 @pytest.fixture
@@ -140,3 +153,14 @@ def rtu(sim):
     m = RtuMaster(sim["pty"])
     yield m
     m.close()
+
+
+@pytest.fixture
+def tcp(sim):
+    """pymodbus's TCP client on gonio-sim: an independent Modbus TCP master."""
+    client = pytest.importorskip("pymodbus.client").ModbusTcpClient("127.0.0.1", port=sim["port"],
+                                                                    timeout=1)
+    assert client.connect()
+    yield client
+    client.close()
+

@@ -25,11 +25,19 @@ def test_check_prints_the_resolved_setup():
     assert "axis sample (slave 1): limits [-90, 90] deg" in out
     assert "axis arm (slave 2): limits [-170, 170] deg" in out
     assert "azimuth (slave 4)" in out
+    assert "RTU line" not in out and "TCP latency" not in out  # free unless asked
+
+
+def test_check_prints_the_line_costs():
+    r = run("--check", "--baud", "19200", "--tcp-latency", "2.5")
+    assert r.returncode == 0, r.stderr
+    assert "RTU line 19200 baud" in r.stdout and "TCP latency 2.5 ms" in r.stdout
 
 
 def test_bad_input_exits_2():
     for args in (["--time-scale", "0"], ["--steps-per-deg", "x"], ["--tcp", "localhost"],
                  ["--scene", "no-such-scene"], ["--stall", "9:10"], ["--overload", "1:500"],
+                 ["--baud", "0"], ["--baud", "9600.5"], ["--tcp-latency", "-1"],
                  ["--bogus"], ["extra"]):
         r = run(*args)
         assert r.returncode == 2, (args, r.returncode, r.stderr)

@@ -13,14 +13,6 @@ pymodbus_client = pytest.importorskip("pymodbus.client")
 SAMPLE, ARM, DETECTOR = 1, 2, 3
 
 
-@pytest.fixture
-def tcp(sim):
-    client = pymodbus_client.ModbusTcpClient("127.0.0.1", port=sim["port"], timeout=1)
-    assert client.connect()
-    yield client
-    client.close()
-
-
 def regs(client, slave, addr, count):
     rr = client.read_holding_registers(addr, count, slave=slave)
     assert not rr.isError(), rr

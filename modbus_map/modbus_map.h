@@ -1,0 +1,74 @@
+/* The rig's Modbus register map (docs/protocol-modbus.md): the one
+ * contract between the Modbus drivers (drivers/drv_modbus_*.c), gonio-sim's
+ * server (sim/modbus_server.c) and the drivers' fuzzer (fuzz/fuzz_modbus.c).
+ * Slave ids, register addresses, command and status bits, alarm codes, and
+ * the codec of 32-bit values and floats. Header-only and without
+ * dependencies, so that the drivers and the simulator share it without
+ * either depending on the other (docs/architecture.md). */
+#ifndef GONIO_MODBUS_MAP_H
+#define GONIO_MODBUS_MAP_H
+
+#include <stdint.h>
+#include <string.h>
+
+/* The rig's devices and their usual slave ids on its one bus. */
+enum mb_slave { MB_SLAVE_SAMPLE = 1, MB_SLAVE_ARM = 2, MB_SLAVE_DETECTOR = 3,
+                MB_SLAVE_AZIMUTH = 4 };
+
+/* Axis drives (AZ style). Every value is 32 bits: the first of its two
+ * registers. The direct-data block runs from MB_AX_DATA_NO to the trigger. */
+enum mb_axis_reg {
+    MB_AX_DATA_NO = 0x58, MB_AX_OP_TYPE = 0x5A, MB_AX_POSITION = 0x5C, MB_AX_SPEED = 0x5E,
+    MB_AX_ACCEL = 0x60, MB_AX_DECEL = 0x62, MB_AX_CURRENT = 0x64, MB_AX_TRIGGER = 0x66,
+    MB_AX_INPUT = 0x7C, MB_AX_STATUS = 0x7E, MB_AX_ALARM = 0x80, MB_AX_FEEDBACK = 0xCC,
+    MB_AX_NREGS = 0xCE, /* a drive maps registers 0 .. MB_AX_NREGS - 1 */
+};
+/* Input command bits (MB_AX_INPUT), acting on a 0 -> 1 edge. */
+enum { MB_IN_ZHOME = 1u << 4, MB_IN_STOP = 1u << 5, MB_IN_ALM_RST = 1u << 7 };
+/* Output status bits (MB_AX_STATUS). */
+enum { MB_ST_HOME_END = 1u << 4, MB_ST_READY = 1u << 5, MB_ST_ALM_A = 1u << 7,
+       MB_ST_MOVE = 1u << 13, MB_ST_IN_POS = 1u << 14 };
+/* Present-alarm codes (MB_AX_ALARM; 0: none), as the AZ manual numbers
+ * them: excessive position deviation, sensor error, overload, software
+ * overtravel, abnormal operation data. */
+enum mb_alarm { MB_ALARM_DEVIATION = 0x10, MB_ALARM_SENSOR = 0x28, MB_ALARM_OVERLOAD = 0x30,
+                MB_ALARM_OVERTRAVEL = 0x66, MB_ALARM_DATA = 0x70 };
+
+/* The detector. Channel k is the float at MB_DET_CHANNELS + 2k. */
+enum mb_det_reg {
+    MB_DET_INTEGRATION = 0x00, MB_DET_TRIGGER = 0x02, MB_DET_STATUS = 0x04, MB_DET_COUNT = 0x06,
+    MB_DET_SEQUENCE = 0x08, MB_DET_CLOCK = 0x0A, MB_DET_CHANNELS = 0x10,
+};
+/* Detector status bits (MB_DET_STATUS). */
+enum { MB_DET_BUSY = 1u << 0, MB_DET_READY = 1u << 1, MB_DET_SATURATED = 1u << 2 };
+
+/* 32-bit values as two registers, upper word first (the AZ convention). */
+static inline uint32_t mb_get32(const uint16_t *r)
+{
+    return ((uint32_t)r[0] << 16) | r[1];
+}
+
+static inline void mb_put32(uint16_t *r, uint32_t v)
+{
+    r[0] = (uint16_t)(v >> 16);
+    r[1] = (uint16_t)(v & 0xFFFFu);
+}
+
+/* Floats: IEEE-754 binary32 bit patterns packed as a 32-bit value (by
+ * hand: Debian's libmodbus 3.1.6 float helpers do not round-trip). */
+static inline float mb_get_float(const uint16_t *r)
+{
+    uint32_t bits = mb_get32(r);
+    float f;
+    memcpy(&f, &bits, sizeof f);
+    return f;
+}
+
+static inline void mb_put_float(uint16_t *r, float f)
+{
+    uint32_t bits;
+    memcpy(&bits, &f, sizeof bits);
+    mb_put32(r, bits);
+}
+
+#endif
