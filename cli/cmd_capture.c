@@ -5,7 +5,7 @@
 #include <string.h>
 
 #include "cli/commands.h"
-#include "daemon/capture.h"
+#include "capture/capture.h"
 
 static void usage(FILE *out)
 {

@@ -9,7 +9,7 @@
 
 #include "drivers/drivers_private.h"
 #include "drivers/drv_modbus_private.h"
-#include "planner/motion.h"
+#include "rig/motion.h"
 
 enum { R_DIRECT = 0x58, R_INPUT = 0x7C, R_STATUS = 0x7E, R_ALARM = 0x80, R_FEEDBACK = 0xCC };
 enum { IN_ZHOME = 1u << 4, IN_STOP = 1u << 5, IN_ALM_RST = 1u << 7 };

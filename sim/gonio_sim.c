@@ -10,7 +10,7 @@
 
 #include "brdf/material.h"
 #include "common/err.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 #include "sim/modbus_server.h"
 #include "sim/scene.h"
 

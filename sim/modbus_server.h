@@ -14,7 +14,7 @@
 
 #include "brdf/material.h"
 #include "common/err.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 
 /* Slave ids of the rig's devices on its bus. */
 enum msim_slave { MSIM_SLAVE_SAMPLE = 1, MSIM_SLAVE_ARM = 2, MSIM_SLAVE_DETECTOR = 3,

@@ -20,8 +20,9 @@
 #include <jansson.h>
 
 #include "common/paths.h"
-#include "daemon/capture.h"
-#include "daemon/journal.h"
+#include "capture/capture.h"
+#include "fit/journal_samples.h"
+#include "journal/journal.h"
 #include "fit/abc_model.h"
 #include "fit/abc_prior.h"
 #include "fit/model_file.h"
@@ -80,7 +81,7 @@ static size_t read_samples(const char *cap, struct fit_sample **out)
     assert_true(journal_read(path, &js, &n, &err) >= 0);
     *out = malloc((n ? n : 1) * sizeof **out);
     assert_non_null(*out);
-    journal_fit_samples(js, n, *out);
+    fit_journal_samples(js, n, *out);
     free(js);
     return n;
 }

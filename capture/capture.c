@@ -1,4 +1,4 @@
-#include "daemon/capture.h"
+#include "capture/capture.h"
 
 #include <errno.h>
 #include <math.h>
@@ -9,8 +9,9 @@
 #include "brdf/domain.h"
 #include "brdf/material.h"
 #include "common/clock.h"
-#include "daemon/capture_files.h"
-#include "daemon/journal.h"
+#include "capture/capture_files.h"
+#include "fit/journal_samples.h"
+#include "journal/journal.h"
 #include "drivers/drv_sim.h"
 #include "fit/abc_model.h"
 #include "fit/abc_prior.h"
@@ -298,7 +299,7 @@ static int stream_feed(const struct stream *st, const struct plan *plan,
         return 0;
     const struct journal_sample *last = &js[n - 1];
     struct fit_sample s;
-    journal_fit_samples(last, 1, &s);
+    fit_journal_samples(last, 1, &s);
     int force;
     if (st->progress) {
         force = n >= PROGRESS_FIRST && (n & (n - 1)) == 0;
@@ -536,7 +537,7 @@ static int fit_samples(const struct journal_sample *js, size_t n, const struct b
     struct fit_sample *fs = malloc((n ? n : 1) * sizeof *fs);
     if (!fs)
         return gonio_err_set(err, ENOMEM, "out of memory");
-    out->saturated = journal_fit_samples(js, n, fs);
+    out->saturated = fit_journal_samples(js, n, fs);
     int rc = !strcmp(kind->name, "abc") || !strcmp(kind->name, "abc-prior")
                  ? fit_abc_capture(fs, n, warm, dir, kind->name, material, out, fitted, err)
                  : fit_registry_capture(fs, n, dir, kind, material, out, fitted, err);
