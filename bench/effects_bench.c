@@ -15,7 +15,7 @@
 #include <time.h>
 
 #include "brdf/material.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 #include "sim/effects.h"
 #include "sim/scene.h"
 #include "sim/sim.h"

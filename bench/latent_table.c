@@ -26,7 +26,7 @@
 #include "brdf/metrics.h"
 #include "fit/latent.h"
 #include "planner/planner.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 #include "bench/bench_util.h"
 
 enum { NSET = 5 };

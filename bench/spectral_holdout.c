@@ -23,7 +23,7 @@
 #include "fit/mlp.h"
 #include "fit/models.h"
 #include "planner/planner.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 
 #define NB 31
 #define DEG (3.14159265358979323846 / 180.0)

@@ -18,7 +18,8 @@
 #include "brdf/domain.h"
 #include "brdf/material.h"
 #include "brdf/metrics.h"
-#include "daemon/journal.h"
+#include "fit/journal_samples.h"
+#include "journal/journal.h"
 #include "fit/stream.h"
 
 int main(int argc, char **argv)
@@ -56,7 +57,7 @@ int main(int argc, char **argv)
     int rounds = 0, calm_run = 0;
     for (size_t i = 0; i < n; i++) {
         struct fit_sample s;
-        journal_fit_samples(&js[i], 1, &s);
+        fit_journal_samples(&js[i], 1, &s);
         /* ends: theta_i rows (whole-row sub-levels of progressive order) */
         int end = getenv("REPLAY_ROWS") && i >= (size_t)atol(getenv("REPLAY_ROWS")) &&
                   (i + 1 == n || js[i + 1].theta_i != js[i].theta_i);

@@ -9,7 +9,7 @@
 #include "cli/commands.h"
 #include "cli/interrupt.h"
 #include "cli/progress.h"
-#include "daemon/capture.h"
+#include "capture/capture.h"
 
 static void usage(FILE *out)
 {

@@ -13,7 +13,8 @@
 #include "brdf/domain.h"
 #include "brdf/metrics.h"
 #include "cli/commands.h"
-#include "daemon/journal.h"
+#include "fit/journal_samples.h"
+#include "journal/journal.h"
 #include "fit/mlp.h"
 #include "fit/model_file.h"
 #include "fit/model_run.h"
@@ -52,7 +53,7 @@ static int read_rgb(const char *path, struct fit_sample **out, unsigned char **l
         free(lb);
         return gonio_err_set(err, GONIO_EBADDATA, "%s: out of memory", path);
     }
-    *saturated = journal_fit_samples(js, m, s);
+    *saturated = fit_journal_samples(js, m, s);
     for (size_t i = 0; i < m; i++)
         lb[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
     *lower = lb;

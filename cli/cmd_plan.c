@@ -14,7 +14,7 @@
 #include "common/duration.h"
 #include "common/err.h"
 #include "common/paths.h"
-#include "daemon/capture.h"
+#include "capture/capture.h"
 #include "planner/planner.h"
 #include "sim/scene.h"
 
@@ -191,7 +191,7 @@ int cmd_plan(int argc, char **argv)
         fprintf(stderr, "gonio plan: %s\n", gonio_strerror(rc));
         return 1;
     }
-    /* With a scene, the estimate a capture of it makes (daemon/capture.h). */
+    /* With a scene, the estimate a capture of it makes (capture/capture.h). */
     struct plan_estimate est;
     struct capture_config cc = {.plan = plan_arg, .scene = scene_arg, .rig = rig_arg,
                                 .model = "abc",

@@ -5,7 +5,7 @@
  * stderr is not a terminal (logs, pipes: a line at the start, each tenth
  * and the end); nothing with quiet. The ETA comes from the job (a
  * capture's is the plan's estimate from the first line, refined as it
- * runs: daemon/capture.h), so the first line already has one. */
+ * runs: capture/capture.h), so the first line already has one. */
 #ifndef GONIO_CLI_PROGRESS_H
 #define GONIO_CLI_PROGRESS_H
 

@@ -17,7 +17,7 @@ const char *gonio_config_dir(void);
 
 /* Whether a plan, scene, rig or render reference names a file (it holds a
  * '/' or ends in .yaml or .yml) rather than a name in the configs folder.
- * One rule, so that the loaders (planner/rig.h plan_resolve_path), goniod's
+ * One rule, so that the loaders (rig/rig.h plan_resolve_path), goniod's
  * config and goniod's requests agree on what a reference means. */
 int gonio_ref_is_file(const char *ref);
 

@@ -10,7 +10,7 @@
 
 #include "common/cfg.h"
 #include "common/paths.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 #include "sim/scene.h"
 
 static const char *const driver_names[] = {"sim", "modbus-rtu", "modbus-tcp", NULL};

@@ -8,7 +8,7 @@
 #include <time.h>
 
 #include "daemon/control_private.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 
 static json_t *string_or_null(const char *v)
 {

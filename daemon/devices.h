@@ -5,9 +5,9 @@
 #define GONIO_DAEMON_DEVICES_H
 
 #include "common/err.h"
-#include "daemon/capture.h"
+#include "capture/capture.h"
 #include "daemon/config.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 
 /* Open the bus and the devices on it; *bus receives the bus handle for
  * goniod_devices_close. The azimuth axis is opened when the configuration

@@ -1,4 +1,4 @@
-/* The capture worker: one thread that runs capture_run (daemon/capture.h)
+/* The capture worker: one thread that runs capture_run (capture/capture.h)
  * for goniod, so the poll loop never waits on a device.
  *
  * The fit error a watcher sees while a capture runs is the engine's own
@@ -15,10 +15,10 @@
 #include <stddef.h>
 
 #include "common/err.h"
-#include "daemon/capture.h"
+#include "capture/capture.h"
 #include "daemon/config.h"
 #include "daemon/devices.h"
-#include "daemon/journal.h"
+#include "journal/journal.h"
 
 /* What to capture. Names and paths are already checked and resolved. */
 struct worker_request {

@@ -30,7 +30,7 @@
 
 #include "common/err.h"
 #include "drivers/drivers.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 
 typedef struct drv_modbus_bus drv_modbus_bus;
 
@@ -80,7 +80,7 @@ struct drv_modbus_stats {
 void drv_modbus_bus_stats(const drv_modbus_bus *bus, struct drv_modbus_stats *out);
 
 /* Axis options beyond the rig profile: the drive's steps and the rig's
- * mechanics (planner/rig.h struct plan_mechanics, docs/plans.md), as
+ * mechanics (rig/rig.h struct plan_mechanics, docs/plans.md), as
  * drivers.h's struct drv_axis_mechanics takes them. */
 struct drv_modbus_axis_opts {
     double steps_per_deg;   /* drive steps per degree; 0: 100 */

@@ -9,7 +9,7 @@
 
 #include "drivers/drivers_private.h"
 #include "drivers/drv_modbus_private.h"
-#include "planner/motion.h"
+#include "rig/motion.h"
 
 /* The register map (modbus_map/modbus_map.h) under this file's names. */
 enum { R_DIRECT = MB_AX_DATA_NO, R_INPUT = MB_AX_INPUT, R_STATUS = MB_AX_STATUS,

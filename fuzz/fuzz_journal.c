@@ -1,9 +1,9 @@
-/* The capture journal, samples.csv (daemon/journal.h): read back on every
+/* The capture journal, samples.csv (journal/journal.h): read back on every
  * resume and by `gonio fit`, after power cuts and disk faults. */
 #include <stdlib.h>
 #include <string.h>
 
-#include "daemon/journal.h"
+#include "journal/journal.h"
 #include "fuzz/fuzz.h"
 
 /* Field by field: the structs' padding is not part of the record. */

@@ -1,8 +1,8 @@
-/* Rig profiles (planner/rig.h): YAML from the operator. */
+/* Rig profiles (rig/rig.h): YAML from the operator. */
 #include <math.h>
 
 #include "fuzz/fuzz.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 
 static int axis_ok(const struct plan_axis *a)
 {

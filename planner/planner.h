@@ -12,8 +12,8 @@
 #include <stddef.h>
 
 #include "common/err.h"
-#include "planner/motion.h"
-#include "planner/rig.h"
+#include "rig/motion.h"
+#include "rig/rig.h"
 
 enum plan_kind { PLAN_KIND_GRID, PLAN_KIND_PAIRS, PLAN_KIND_DOMAIN };
 

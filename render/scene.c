@@ -7,7 +7,7 @@
 #include <string.h>
 
 #include "common/cfg.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 
 #define RS_PI 3.14159265358979323846
 

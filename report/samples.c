@@ -7,7 +7,7 @@
 #include <sys/stat.h>
 
 #include "brdf/angles.h"
-#include "daemon/journal.h"
+#include "journal/journal.h"
 
 int report_samples_read(const char *path, struct report_sample **out, size_t *n,
                         size_t *n_out_of_plane, struct gonio_err *err)

@@ -12,7 +12,7 @@
 
 #include "brdf/material.h"
 #include "common/err.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 #include "sim/effects.h"
 #include "sim/scene.h"
 

@@ -10,7 +10,7 @@
 #ifndef GONIO_SIM_EXPOSURE_H
 #define GONIO_SIM_EXPOSURE_H
 
-#include "planner/rig.h"
+#include "rig/rig.h"
 #include "sim/scene.h"
 
 struct sim_exposure {

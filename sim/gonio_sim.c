@@ -11,7 +11,7 @@
 #include "brdf/material.h"
 #include "common/err.h"
 #include "common/version.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 #include "sim/modbus_server.h"
 #include "sim/scene.h"
 

@@ -15,7 +15,7 @@
 
 #include "brdf/material.h"
 #include "common/err.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 
 struct msim_cfg {
     /* Bus costs, in rig time (so each is waited time_scale times shorter

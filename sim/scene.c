@@ -8,7 +8,7 @@
 
 #include "brdf/spectral.h"
 #include "common/cfg.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 
 /* Default detector: a white diffuser (1/pi per sr) gives about 3.2e5 e-/s
  * at normal incidence, so with a 30000 e- auto-exposure target (a 100k e-

@@ -7,7 +7,7 @@
 #include <string.h>
 
 #include "brdf/angles.h"
-#include "planner/motion.h"
+#include "rig/motion.h"
 #include "sim/effects.h"
 #include "sim/effects_detector.h"
 

@@ -10,7 +10,7 @@
 
 #include "brdf/material.h"
 #include "common/err.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 #include "sim/effects_detector.h"
 #include "sim/effects_faults.h"
 #include "sim/scene.h"

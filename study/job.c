@@ -16,8 +16,9 @@
 #include "brdf/material.h"
 #include "brdf/metrics.h"
 #include "common/paths.h"
-#include "daemon/capture.h"
-#include "daemon/journal.h"
+#include "capture/capture.h"
+#include "fit/journal_samples.h"
+#include "journal/journal.h"
 #include "fit/model_file.h"
 #include "fit/model_run.h"
 #include "fit/models.h"
@@ -328,7 +329,7 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
     }
     if (rc == 0 && !(samples = malloc((n ? n : 1) * sizeof *samples)))
         rc = gonio_err_set(err, ENOMEM, "out of memory");
-    size_t saturated = rc == 0 ? journal_fit_samples(js, n, samples) : 0;
+    size_t saturated = rc == 0 ? fit_journal_samples(js, n, samples) : 0;
     /* The saturated readings' flags, when the study fits them as lower bounds. */
     unsigned char *lower = NULL;
     if (rc == 0 && saturated && s->censored && !(lower = malloc(n)))

@@ -1,10 +1,10 @@
 /* Test helper: print the point index of every record of a capture journal,
- * read with daemon/journal.h (CRCs checked, torn tail ignored), one a line.
+ * read with journal/journal.h (CRCs checked, torn tail ignored), one a line.
  * Exit 0, or 1 with the journal's error on stderr. */
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "daemon/journal.h"
+#include "journal/journal.h"
 
 int main(int argc, char **argv)
 {

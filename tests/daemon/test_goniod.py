@@ -99,7 +99,7 @@ def tmpdir():
 
 
 def journal_points(path):
-    """Point indices of a journal, read by daemon/journal.h."""
+    """Point indices of a journal, read by journal/journal.h."""
     out = subprocess.run([JOURNAL_POINTS, path], capture_output=True, text=True, check=True)
     return [int(x) for x in out.stdout.split()]
 

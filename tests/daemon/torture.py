@@ -6,7 +6,7 @@ The kills are aimed, not only timed: goniod-test (goniod built with the
 test hooks, GONIO_TEST_HOOKS) writes a line per engine phase to
 GONIOD_PHASE_LOG (daemon/worker.c) and pauses in phases named by
 GONIOD_PHASE_HOLD; the journal writes each record in two halves with
-GONIO_JOURNAL_TEAR_S between them (daemon/journal.c). The torture waits
+GONIO_JOURNAL_TEAR_S between them (journal/journal.c). The torture waits
 for the phase it aims at, kills inside the pause, and then reads the phase
 log to know where the kill really landed (the last line the dead daemon
 wrote). Targets rotate through
@@ -18,7 +18,7 @@ wrote). Targets rotate through
              capture replays its journal)
   final-fit  the engine's final fit, its assessment and results.json
 
-After each kill it checks that the journal, read by daemon/journal.h, holds
+After each kill it checks that the journal, read by journal/journal.h, holds
 no point twice and exactly the records that end in a newline (a torn tail
 is never accepted). When a capture completes, the next one starts, until
 the kills are spent. At the end every capture must hold each planned point
@@ -111,7 +111,7 @@ def whole_records(journal):
 
 def read_journal(path):
     """samples.csv rows as dicts of floats (the CSV itself; the point set is
-    checked through daemon/journal.h separately)."""
+    checked through journal/journal.h separately)."""
     with open(path) as f:
         rows = f.read().splitlines()
     head = rows[0].split(",")

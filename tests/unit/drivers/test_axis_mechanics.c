@@ -14,7 +14,7 @@
 
 #include "brdf/material.h"
 #include "drivers/drv_sim.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 #include "sim/scene.h"
 #include "tests/gonio_test.h"
 

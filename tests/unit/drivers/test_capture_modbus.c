@@ -20,7 +20,7 @@
 
 #include "brdf/angles.h"
 #include "brdf/material.h"
-#include "daemon/capture.h"
+#include "capture/capture.h"
 #include "drivers/drv_modbus.h"
 #include "planner/planner.h"
 #include "tests/gonio_test.h"

@@ -11,7 +11,7 @@
 #include "brdf/angles.h"
 #include "brdf/material.h"
 #include "drivers/drv_modbus.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 #include "tests/gonio_test.h"
 #include "tests/unit/drivers/sim_proc.h"
 

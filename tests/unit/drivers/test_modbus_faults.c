@@ -8,9 +8,9 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "daemon/capture.h"
+#include "capture/capture.h"
 #include "drivers/drv_modbus.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 #include "tests/gonio_test.h"
 #include "tests/unit/drivers/sim_proc.h"
 

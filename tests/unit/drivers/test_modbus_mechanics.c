@@ -12,7 +12,7 @@
 #include <string.h>
 
 #include "drivers/drv_modbus.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 #include "tests/gonio_test.h"
 #include "tests/unit/drivers/sim_proc.h"
 

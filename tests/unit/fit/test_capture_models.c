@@ -21,8 +21,9 @@
 #include <jansson.h>
 
 #include "common/paths.h"
-#include "daemon/capture.h"
-#include "daemon/journal.h"
+#include "capture/capture.h"
+#include "fit/journal_samples.h"
+#include "journal/journal.h"
 #include "fit/abc_model.h"
 #include "fit/abc_prior.h"
 #include "fit/model_file.h"
@@ -81,7 +82,7 @@ static size_t read_samples(const char *cap, struct fit_sample **out)
     assert_true(journal_read(path, &js, &n, &err) >= 0);
     *out = malloc((n ? n : 1) * sizeof **out);
     assert_non_null(*out);
-    journal_fit_samples(js, n, *out);
+    fit_journal_samples(js, n, *out);
     free(js);
     return n;
 }
@@ -413,7 +414,7 @@ static void test_saturated_capture_censored(void **state)
     unsigned char *lower = malloc(n);
     struct brdf_pair *pairs = malloc(n * sizeof *pairs);
     double *got = malloc(3 * n * sizeof *got), *want = malloc(3 * n * sizeof *want);
-    assert_int_equal(journal_fit_samples(js, n, fs), s.saturated);
+    assert_int_equal(fit_journal_samples(js, n, fs), s.saturated);
     for (size_t i = 0; i < n; i++) {
         lower[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
         pairs[i] = fs[i].g;

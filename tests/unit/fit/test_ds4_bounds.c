@@ -17,8 +17,9 @@
 
 #include "brdf/domain.h"
 #include "brdf/metrics.h"
-#include "daemon/capture.h"
-#include "daemon/journal.h"
+#include "capture/capture.h"
+#include "fit/journal_samples.h"
+#include "journal/journal.h"
 #include "fit/model_file.h"
 #include "fit/model_run.h"
 #include "fit/models.h"
@@ -70,7 +71,7 @@ static size_t capture_ds4(const char *spec, const char *out, struct fit_sample *
     assert_int_equal(journal_read(path, &js, &n, &err), 0);
     *s = malloc(n * sizeof **s);
     assert_non_null(*s);
-    journal_fit_samples(js, n, *s);
+    fit_journal_samples(js, n, *s);
     free(js);
     return n;
 }

@@ -10,8 +10,8 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "daemon/capture.h"
-#include "daemon/journal.h"
+#include "capture/capture.h"
+#include "journal/journal.h"
 #include "fit/fit.h"
 #include "fit/abc_model.h"
 #include "fit/model_file.h"

@@ -2,7 +2,7 @@
  * simulation of the velocity profile. */
 #include "tests/gonio_test.h"
 
-#include "planner/motion.h"
+#include "rig/motion.h"
 
 /* Step a rest-to-rest move through time: the profile is symmetric (brake
  * as hard as you accelerate), so the move lasts twice the time to cover the

@@ -6,7 +6,7 @@
 
 #include "brdf/material.h"
 #include "drivers/drv_sim.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 #include "sim/effects.h"
 #include "sim/exposure.h"
 #include "sim/sim.h"

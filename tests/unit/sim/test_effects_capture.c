@@ -17,8 +17,8 @@
 #include <unistd.h>
 
 #include "brdf/spectral.h"
-#include "daemon/capture.h"
-#include "daemon/journal.h"
+#include "capture/capture.h"
+#include "journal/journal.h"
 #include "planner/planner.h"
 #include "sim/scene.h"
 #include "tests/gonio_test.h"

@@ -13,7 +13,7 @@
 #include "brdf/domain.h"
 #include "brdf/material.h"
 #include "brdf/metrics.h"
-#include "daemon/journal.h"
+#include "journal/journal.h"
 #include "fit/model_file.h"
 #include "tests/gonio_test.h"
 

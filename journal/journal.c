@@ -1,4 +1,4 @@
-#include "daemon/journal.h"
+#include "journal/journal.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -11,7 +11,6 @@
 #include <zlib.h>
 
 #include "common/paths.h"
-#include "fit/fit.h"
 
 #define HEADER "point,theta_i,theta_r,phi_i,theta_o,phi_o,s,a,r,g,b,integration_s,rig_time_s,flags,crc32\n"
 #define LINE_MAX_LEN 1024
@@ -298,15 +297,4 @@ void journal_sample_pair(const struct journal_sample *s, struct brdf_pair *p)
         brdf_pair_inplane(s->theta_i, s->theta_r, p);
     else
         brdf_pair_spherical(s->theta_i, s->phi_i, s->theta_o, s->phi_o, p);
-}
-
-size_t journal_fit_samples(const struct journal_sample *js, size_t n, struct fit_sample *out)
-{
-    size_t saturated = 0;
-    for (size_t i = 0; i < n; i++) {
-        saturated += (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
-        journal_sample_pair(&js[i], &out[i].g);
-        memcpy(out[i].rgb, js[i].rgb, sizeof out[i].rgb);
-    }
-    return saturated;
 }

@@ -1,10 +1,10 @@
 /* Move times of the rig's axes. One function for everyone: the planner's
  * estimate, the capture engine and the simulator all use it, so a plan's
  * estimate equals the simulated rig clock. */
-#ifndef GONIO_PLANNER_MOTION_H
-#define GONIO_PLANNER_MOTION_H
+#ifndef GONIO_RIG_MOTION_H
+#define GONIO_RIG_MOTION_H
 
-#include "planner/rig.h"
+#include "rig/rig.h"
 
 /* Axis positions, degrees: sample s, arm a, azimuth az (0 when in-plane). */
 struct plan_axes {

@@ -1,4 +1,4 @@
-#include "planner/rig.h"
+#include "rig/rig.h"
 
 #include <errno.h>
 #include <stdio.h>

@@ -9,7 +9,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "daemon/journal.h"
+#include "journal/journal.h"
 #include "tests/gonio_test.h"
 
 #define RECORDS 4

@@ -1,4 +1,4 @@
-#include "daemon/capture_files.h"
+#include "capture/capture_files.h"
 
 #include <errno.h>
 #include <fcntl.h>

@@ -3,10 +3,10 @@
  * known of the rig: driver, detector, rig profile, and scene and material
  * when given), samples.csv (the journal) and results.json. Every file but
  * the journal is written atomically. */
-#ifndef GONIO_DAEMON_CAPTURE_FILES_H
-#define GONIO_DAEMON_CAPTURE_FILES_H
+#ifndef GONIO_CAPTURE_CAPTURE_FILES_H
+#define GONIO_CAPTURE_CAPTURE_FILES_H
 
-#include "daemon/capture.h"
+#include "capture/capture.h"
 #include "planner/planner.h"
 #include "sim/scene.h"
 

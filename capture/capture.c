@@ -1,4 +1,4 @@
-#include "daemon/capture.h"
+#include "capture/capture.h"
 
 #include <errno.h>
 #include <math.h>
@@ -9,8 +9,9 @@
 #include "brdf/domain.h"
 #include "brdf/material.h"
 #include "common/clock.h"
-#include "daemon/capture_files.h"
-#include "daemon/journal.h"
+#include "capture/capture_files.h"
+#include "fit/journal_samples.h"
+#include "journal/journal.h"
 #include "drivers/drv_sim.h"
 #include "fit/abc_model.h"
 #include "fit/abc_prior.h"
@@ -326,7 +327,7 @@ static int stream_feed(struct stream *st, const struct plan *plan,
         return 0;
     const struct journal_sample *last = &js[n - 1];
     struct fit_sample s;
-    journal_fit_samples(last, 1, &s);
+    fit_journal_samples(last, 1, &s);
     int force;
     if (st->progress) {
         force = n >= PROGRESS_FIRST && (n & (n - 1)) == 0;
@@ -609,7 +610,7 @@ static int fit_samples(const struct journal_sample *js, size_t n, const struct b
         free(lower);
         return gonio_err_set(err, ENOMEM, "out of memory");
     }
-    out->saturated = journal_fit_samples(js, n, fs);
+    out->saturated = fit_journal_samples(js, n, fs);
     for (size_t i = 0; i < n; i++)
         lower[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
     struct fit_data data = {.rgb = fs,

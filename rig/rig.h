@@ -3,8 +3,8 @@
  * zone). Loaded from configs/rigs/NAME.yaml (docs/plans.md lists the keys).
  * The capture engine and the simulator read the same profile, so the plan's
  * time estimate and the simulated clock agree. */
-#ifndef GONIO_PLANNER_RIG_H
-#define GONIO_PLANNER_RIG_H
+#ifndef GONIO_RIG_RIG_H
+#define GONIO_RIG_RIG_H
 
 #include "common/err.h"
 

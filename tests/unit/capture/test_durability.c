@@ -11,7 +11,7 @@
 #include <unistd.h>
 
 #include "common/paths.h"
-#include "daemon/journal.h"
+#include "journal/journal.h"
 #include "tests/gonio_test.h"
 
 static char dir[256];

@@ -13,7 +13,7 @@
 #include <jansson.h>
 
 #include "brdf/material.h"
-#include "daemon/capture.h"
+#include "capture/capture.h"
 #include "drivers/drivers_private.h"
 #include "drivers/drv_sim.h"
 #include "sim/sim.h"

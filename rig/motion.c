@@ -1,4 +1,4 @@
-#include "planner/motion.h"
+#include "rig/motion.h"
 
 #include <math.h>
 

@@ -17,8 +17,8 @@
 
 #include "brdf/material.h"
 #include "common/paths.h"
-#include "daemon/capture.h"
-#include "daemon/journal.h"
+#include "capture/capture.h"
+#include "journal/journal.h"
 #include "planner/planner.h"
 #include "tests/gonio_test.h"
 

@@ -5,7 +5,8 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "daemon/journal.h"
+#include "fit/journal_samples.h"
+#include "journal/journal.h"
 #include "fit/fit.h"
 #include "tests/gonio_test.h"
 
@@ -219,14 +220,14 @@ static void test_fit_samples_count_saturated(void **state)
     for (int i = 0; i < 7; i++)
         js[i] = make(i); /* odd points are flagged saturated */
     struct fit_sample fs[7];
-    assert_int_equal(journal_fit_samples(js, 7, fs), 3);
+    assert_int_equal(fit_journal_samples(js, 7, fs), 3);
     for (int k = 0; k < 7; k++) {
         struct brdf_pair want;
         journal_sample_pair(&js[k], &want);
         assert_memory_equal(&fs[k].g, &want, sizeof want);
         assert_memory_equal(fs[k].rgb, js[k].rgb, sizeof fs[k].rgb);
     }
-    assert_int_equal(journal_fit_samples(js, 1, fs), 0);
+    assert_int_equal(fit_journal_samples(js, 1, fs), 0);
 }
 
 int main(void)

@@ -11,8 +11,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "daemon/capture.h"
-#include "daemon/journal.h"
+#include "capture/capture.h"
+#include "journal/journal.h"
 #include "planner/planner.h"
 #include "tests/gonio_test.h"
 

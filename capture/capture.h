@@ -9,8 +9,8 @@
  * the request names a reference (truth). Everything a capture reads is
  * validated before anything is written, so bad input leaves no directory
  * behind. */
-#ifndef GONIO_DAEMON_CAPTURE_H
-#define GONIO_DAEMON_CAPTURE_H
+#ifndef GONIO_CAPTURE_CAPTURE_H
+#define GONIO_CAPTURE_CAPTURE_H
 
 #include <stddef.h>
 
@@ -18,10 +18,10 @@
 #include "fit/fit.h"
 #include "brdf/metrics.h"
 #include "common/err.h"
-#include "daemon/journal.h"
+#include "journal/journal.h"
 #include "drivers/drivers.h"
 #include "planner/planner.h"
-#include "planner/rig.h"
+#include "rig/rig.h"
 
 struct drv_axis;
 struct drv_detector;

@@ -6,8 +6,8 @@
  * accepts a record only when its CRC matches and its newline is there; a
  * torn last record (power cut mid-write) is cut off on open, a bad record
  * anywhere else is corruption and an error. */
-#ifndef GONIO_DAEMON_JOURNAL_H
-#define GONIO_DAEMON_JOURNAL_H
+#ifndef GONIO_JOURNAL_JOURNAL_H
+#define GONIO_JOURNAL_JOURNAL_H
 
 #include <stddef.h>
 
@@ -31,13 +31,6 @@ struct journal_sample {
  * phi_o = 0 or 180) from theta_i, theta_r exactly, others from the
  * spherical angles. */
 void journal_sample_pair(const struct journal_sample *s, struct brdf_pair *p);
-
-struct fit_sample;
-/* The samples as a fit takes them, in journal order (out has room for n);
- * returns how many are saturated. Those keep their clipped value: only a
- * lower bound of the BRDF, but leaving them out cost sparse plans their only
- * peak samples (docs/formats.md has the figures). */
-size_t journal_fit_samples(const struct journal_sample *js, size_t n, struct fit_sample *out);
 
 typedef struct journal journal;
 
