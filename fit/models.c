@@ -13,16 +13,16 @@
 static const struct fit_model_kind models[] = {
     {"abc", "abc", "ABC microfacet model, Levenberg-Marquardt (fit/fit.h)", 0, 0,
      fit_abc_model_fit, fit_abc_model_open},
-    {"abc-prior", "abc", "ABC with a population prior (MAP), for few samples (fit/abc_prior.h)", 0, 0,
-     fit_abc_prior_model_fit, NULL},
+    {"abc-prior", "abc", "ABC with a population prior (MAP), for few samples (fit/abc_prior.h)",
+     0, 0, fit_abc_prior_model_fit, NULL},
     {"abc-pseudo", "abc", "ABC fitted to the capture densified by the RGB MLP on DS1", 0, 0,
      fit_abc_pseudo_fit, NULL},
     {"mlp", "mlp", "RGB MLP on (theta_i, theta_r), in-plane only", 0, 1, fit_mlp_rgb_fit,
      fit_mlp_rgb_open},
     {"mlp-spectral", "mlp-spectral", "spectral MLP on (theta_i, theta_r, wavelength)", 1, 1,
      fit_mlp_spectral_fit, fit_mlp_spectral_open},
-    {"latent", "latent", "latent-code neural BRDF: frozen decoder, z fitted (docs/latent.md)", 0, 1,
-     fit_latent_model_fit, fit_latent_model_open},
+    {"latent", "latent", "latent-code neural BRDF: frozen decoder, z fitted (docs/latent.md)",
+     0, 1, fit_latent_model_fit, fit_latent_model_open},
 };
 
 #define N_MODELS (sizeof models / sizeof models[0])
