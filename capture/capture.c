@@ -596,8 +596,9 @@ static int fit_registry_capture(const struct fit_data *data, const char *dir,
 
 /* The final fit of the journalled samples with the capture's model, and its
  * error on them (the plan domain). Saturated readings are fitted as lower
- * bounds (docs/fitting.md "Saturated readings"). A failed fit names the
- * model and leaves the journal as it is. */
+ * bounds when the model censors them (fit_model_censors; docs/fitting.md
+ * "Saturated readings"). A failed fit names the model and leaves the
+ * journal as it is. */
 static int fit_samples(const struct journal_sample *js, size_t n, const struct brdf_abc *warm,
                        const struct fit_model_kind *kind, const char *dir, const char *material,
                        struct capture_summary *out, brdf_material **fitted,
@@ -615,7 +616,8 @@ static int fit_samples(const struct journal_sample *js, size_t n, const struct b
         lower[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
     struct fit_data data = {.rgb = fs,
                             .n_rgb = n,
-                            .rgb_lower = out->saturated ? lower : NULL,
+                            .rgb_lower = out->saturated && fit_model_censors(
+                                             kind, FIT_SATURATED_DEFAULT) ? lower : NULL,
                             .material = material};
     int rc = !strcmp(kind->name, "abc") || !strcmp(kind->name, "abc-prior")
                  ? fit_abc_capture(&data, warm, dir, kind->name, out, fitted, err)

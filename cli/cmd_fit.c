@@ -29,7 +29,8 @@ static void usage(FILE *out)
                  "  -o: default SAMPLES_DIR/NAME.model\n"
                  "  --truth: also report errors against SPEC on the in-plane and full domains\n"
                  "  --saturated: fit saturated readings as lower bounds (one-sided\n"
-                 "           residuals, the default) or at their clipped value\n"
+                 "           residuals) or at their clipped value; default: the model's\n"
+                 "           (clipped for abc, abc-prior, abc-pseudo, censored for the others)\n"
                  "models:\n");
     for (size_t i = 0; fit_model_at(i); i++)
         fprintf(out, "  %-13s %s\n", fit_model_at(i)->name, fit_model_at(i)->summary);
@@ -133,7 +134,7 @@ int cmd_fit(int argc, char **argv)
     mo.quiet = 0; /* progress lines on stderr unless --quiet */
     optind = 1;
     int c;
-    int censored = 1;
+    enum fit_saturated how = FIT_SATURATED_DEFAULT;
     while ((c = getopt_long(argc, argv, "m:o:s:e:t:qh", opts, NULL)) != -1) {
         char *end;
         switch (c) {
@@ -142,11 +143,10 @@ int cmd_fit(int argc, char **argv)
         case 't': truth_spec = optarg; break;
         case 'q': mo.quiet = 1; break;
         case 'S':
-            if (strcmp(optarg, "clipped") && strcmp(optarg, "censored")) {
+            if (fit_saturated_parse(optarg, &how) < 0) {
                 fprintf(stderr, "gonio fit: --saturated '%s': use clipped or censored\n", optarg);
                 return 2;
             }
-            censored = !strcmp(optarg, "censored");
             break;
         case 's':
             mo.seed = strtoull(optarg, &end, 10);
@@ -205,8 +205,11 @@ int cmd_fit(int argc, char **argv)
         fprintf(stderr, "gonio fit: %s\n", err.msg);
         return gonio_exit_status(err.code);
     }
+    int censored = fit_model_censors(kind, how);
     data.rgb = rgb;
     data.rgb_lower = censored ? lower : NULL;
+    for (size_t i = 0; !censored && i < data.n_spectral; i++)
+        spec[i].saturated = 0; /* spectra.csv's flags, as rgb_lower */
     data.spectral = spec;
     /* The captured material, so that abc-prior leaves it out of its prior:
      * --truth, else the capture's setup.json (simulated captures name it). */

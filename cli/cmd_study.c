@@ -41,8 +41,8 @@ static void usage(FILE *out)
             "    --models     abc,abc-prior,mlp,latent\n"
             "    --scenes     scene names or files (ideal,lab)\n"
             "  --quick: 3 materials, plans ds1,ds2,ds4,progressive, models abc,latent.\n"
-            "  --saturated censored|clipped: fit saturated readings as lower bounds (the\n"
-            "  default) or at their clipped values (docs/fitting.md).\n"
+            "  --saturated censored|clipped: fit saturated readings as lower bounds or at\n"
+            "  their clipped values; default: each model's (docs/fitting.md).\n"
             "  --jobs N: worker processes (default: the number of cores). --shard I/N: run\n"
             "  only share I of N (merge the shares with gonio study merge). --list: print\n"
             "  the job ids and exit. Rerunning on DIR resumes: finished rows are kept.\n"
@@ -312,7 +312,7 @@ int cmd_study(int argc, char **argv)
         {NULL, 0, NULL, 0},
     };
     const char *lists[4] = {NULL, NULL, NULL, NULL}, *shard = NULL, *out = NULL,
-               *saturated = "censored";
+               *saturated = "default";
     long n_workers = sysconf(_SC_NPROCESSORS_ONLN);
     int quick = 0, list = 0, c;
     optind = 1;
@@ -365,10 +365,9 @@ int cmd_study(int argc, char **argv)
             rc = study_spec_set(s, (enum study_list)i, lists[i], &err);
     if (rc == 0 && shard)
         rc = study_spec_set_shard(s, shard, &err);
-    if (rc == 0 && strcmp(saturated, "censored") && strcmp(saturated, "clipped"))
+    if (rc == 0 && fit_saturated_parse(saturated, &s->saturated) < 0)
         rc = gonio_err_set(&err, GONIO_EUSAGE, "--saturated '%s': use censored or clipped",
                            saturated);
-    s->censored = !strcmp(saturated, "censored");
     if (rc < 0) {
         fprintf(stderr, "gonio study: %s\n", err.msg);
         free(s);

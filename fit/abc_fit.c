@@ -533,6 +533,34 @@ static double rms_log(const struct abc_problem *pb, const double th[ABC_NPAR])
     return pb->n ? sqrt(2.0 * abc_problem_cost(&v, th) / (3.0 * (double)pb->n)) : NAN;
 }
 
+/* peak-unbounded (fit/fit_status.h): the largest of the n readings idx
+ * names is a lower bound, and the model p exceeds a lower bound by more
+ * than FIT_STATUS_PEAK_FACTOR. */
+static int peak_unbounded(const struct fit_sample *s, const size_t *idx, size_t n,
+                          const unsigned char *lower, const struct brdf_abc *p)
+{
+    size_t top = 0;
+    double largest = -INFINITY, ratio = 0;
+    for (size_t k = 0; lower && k < n; k++)
+        for (int c = 0; c < 3; c++)
+            if (s[idx[k]].rgb[c] > largest) {
+                largest = s[idx[k]].rgb[c];
+                top = idx[k];
+            }
+    if (!lower || !lower[top])
+        return 0;
+    for (size_t k = 0; k < n; k++) {
+        if (!lower[idx[k]])
+            continue;
+        double f[3];
+        brdf_abc_eval(p, &s[idx[k]].g, f);
+        for (int c = 0; c < 3; c++)
+            if (s[idx[k]].rgb[c] > 0)
+                ratio = fmax(ratio, f[c] / s[idx[k]].rgb[c]);
+    }
+    return ratio > FIT_STATUS_PEAK_FACTOR;
+}
+
 /* Folds of the held-out residual: each sample is held out once, by a fit
  * of the others started from the fit of all. */
 #define ABC_FOLDS 5
@@ -806,6 +834,8 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
         st->heldout = heldout_rms(samples, idx, n_local, &opt, prior, best.theta);
         if (!best.converged)
             st->findings |= 1u << FIT_STATUS_NOT_CONVERGED;
+        if (peak_unbounded(samples, idx, nv, opt.lower_bound, out))
+            st->findings |= 1u << FIT_STATUS_PEAK_UNBOUNDED;
         fit_status_decide(st);
     }
 

@@ -11,7 +11,8 @@
 #include "fit/model_file.h"
 
 static const char *const names[] = {"converged", "not-converged", "underdetermined",
-                                    "poor-fit",  "at-bound",      "ill-conditioned"};
+                                    "poor-fit",  "at-bound",      "ill-conditioned",
+                                    "peak-unbounded"};
 #define N_CODES (sizeof names / sizeof names[0])
 
 struct fit_status fit_status_init(void)

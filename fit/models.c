@@ -11,18 +11,18 @@
 #include "fit/pseudo.h"
 
 static const struct fit_model_kind models[] = {
-    {"abc", "abc", "ABC microfacet model, Levenberg-Marquardt (fit/fit.h)", 0,
+    {"abc", "abc", "ABC microfacet model, Levenberg-Marquardt (fit/fit.h)", 0, 0,
      fit_abc_model_fit, fit_abc_model_open},
-    {"abc-prior", "abc", "ABC with a population prior (MAP), for few samples (fit/abc_prior.h)", 0,
-     fit_abc_prior_model_fit, NULL},
-    {"abc-pseudo", "abc", "ABC fitted to the capture densified by the RGB MLP on DS1", 0,
+    {"abc-prior", "abc", "ABC with a population prior (MAP), for few samples (fit/abc_prior.h)",
+     0, 0, fit_abc_prior_model_fit, NULL},
+    {"abc-pseudo", "abc", "ABC fitted to the capture densified by the RGB MLP on DS1", 0, 0,
      fit_abc_pseudo_fit, NULL},
-    {"mlp", "mlp", "RGB MLP on (theta_i, theta_r), in-plane only", 0, fit_mlp_rgb_fit,
+    {"mlp", "mlp", "RGB MLP on (theta_i, theta_r), in-plane only", 0, 1, fit_mlp_rgb_fit,
      fit_mlp_rgb_open},
-    {"mlp-spectral", "mlp-spectral", "spectral MLP on (theta_i, theta_r, wavelength)", 1,
+    {"mlp-spectral", "mlp-spectral", "spectral MLP on (theta_i, theta_r, wavelength)", 1, 1,
      fit_mlp_spectral_fit, fit_mlp_spectral_open},
-    {"latent", "latent", "latent-code neural BRDF: frozen decoder, z fitted (docs/latent.md)", 0,
-     fit_latent_model_fit, fit_latent_model_open},
+    {"latent", "latent", "latent-code neural BRDF: frozen decoder, z fitted (docs/latent.md)",
+     0, 1, fit_latent_model_fit, fit_latent_model_open},
 };
 
 #define N_MODELS (sizeof models / sizeof models[0])
@@ -30,6 +30,29 @@ static const struct fit_model_kind models[] = {
 struct fit_model_options fit_model_default_options(void)
 {
     return (struct fit_model_options){.seed = 1, .max_epochs = 0, .quiet = 1};
+}
+
+static const char *const saturated_names[] = {"default", "clipped", "censored"};
+
+int fit_saturated_parse(const char *s, enum fit_saturated *out)
+{
+    for (size_t i = 0; i < sizeof saturated_names / sizeof *saturated_names; i++)
+        if (!strcmp(s, saturated_names[i])) {
+            *out = (enum fit_saturated)i;
+            return 0;
+        }
+    return -1;
+}
+
+const char *fit_saturated_name(enum fit_saturated how)
+{
+    return saturated_names[how];
+}
+
+int fit_model_censors(const struct fit_model_kind *kind, enum fit_saturated how)
+{
+    return how == FIT_SATURATED_DEFAULT ? kind->censors_saturated
+                                        : how == FIT_SATURATED_CENSORED;
 }
 
 const struct fit_model_kind *fit_model_find(const char *name)

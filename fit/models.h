@@ -37,7 +37,8 @@ struct fit_data {
     size_t n_rgb;
     const unsigned char *rgb_lower; /* NULL, or n_rgb flags: 1 for a saturated reading, a
                                        lower bound (fit_options.lower_bound): every
-                                       fit takes it one-sided (censored) */
+                                       fit takes it one-sided (censored). Callers pass
+                                       it when fit_model_censors says so. */
     const struct fit_spectral_sample *spectral;
     size_t n_spectral;
     const char *material; /* the captured material (nbrdf:NAME) when known, else NULL */
@@ -63,6 +64,13 @@ struct fit_model_kind {
     const char *file_kind; /* the kind written in the model file header */
     const char *summary;   /* one line for --help */
     int spectral;          /* 1: fits spectral samples, 0: RGB samples */
+    /* 1: saturated readings are fitted as lower bounds (censored) unless the
+     * caller says otherwise; 0: at their clipped values. The ABC family fits
+     * them clipped: a lower bound says nothing of how far above it the peak
+     * is, and its lobe, fitted to the shoulders, overshoots (docs/fitting.md
+     * "Saturated readings"). Read through fit_model_censors, so captures,
+     * the study and gonio fit take the same default. */
+    int censors_saturated;
     /* Fit the data; on success *out is a new model file (caller frees with
      * fit_model_file_free). Returns 0 or a negative code with err filled. */
     int (*fit)(const struct fit_data *data, const struct fit_model_options *opt,
@@ -73,6 +81,17 @@ struct fit_model_kind {
     brdf_material *(*open)(const struct fit_model_file *f, const char *name,
                            struct gonio_err *err);
 };
+
+/* How a fit takes saturated readings: the model's own default
+ * (censors_saturated) or one forced for every model (`--saturated`). */
+enum fit_saturated { FIT_SATURATED_DEFAULT, FIT_SATURATED_CLIPPED, FIT_SATURATED_CENSORED };
+
+/* "default", "clipped" or "censored" into *out; -1 for anything else. */
+int fit_saturated_parse(const char *s, enum fit_saturated *out);
+const char *fit_saturated_name(enum fit_saturated how);
+
+/* 1 when a fit of kind under how takes saturated readings as lower bounds. */
+int fit_model_censors(const struct fit_model_kind *kind, enum fit_saturated how);
 
 /* The row for a model name, or NULL. */
 const struct fit_model_kind *fit_model_find(const char *name);

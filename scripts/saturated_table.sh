@@ -3,7 +3,7 @@
 # with their saturated readings at the clipped value and as lower bounds
 # (`gonio fit --saturated clipped|censored`), full-domain log error /
 # relative RMSE against the truth (in-plane for mlp, which has no value out
-# of plane) and the censored fit's status.
+# of plane) and the censored fit's findings (fit/fit_status.h).
 # Usage: scripts/saturated_table.sh [MODEL...] (default abc latent; gonio
 # from PATH). Needs ../shared (the NBRDF truths): exits 77 without it.
 set -eu
@@ -19,7 +19,7 @@ figures() { # domain file: "log / rel"
     sed -n "s/^$1 *log \([^,]*\), rel_rmse \([^ ]*\) .*/\1 \2/p" "$2" |
         awk '{ printf "%.4f / %.3g", $1, $2 }'
 }
-echo "| capture | saturated | model | clipped | censored | censored status |"
+echo "| capture | saturated | model | clipped | censored | censored findings |"
 echo "|---|---|---|---|---|---|"
 for material in brass specular-black-phenolic tungsten-carbide; do
     for plan in ds1 ds3; do
@@ -37,7 +37,7 @@ for material in brass specular-black-phenolic tungsten-carbide; do
             printf '| %s %s | %s | %s | %s | %s | %s |\n' "$material" "$plan" "$sat" "$m" \
                 "$(figures $domain "$dir/$m-clipped.txt")" \
                 "$(figures $domain "$dir/$m-censored.txt")" \
-                "$(sed -n 's/^status *\([a-z-]*\).*/\1/p' "$dir/$m-censored.txt")"
+                "$(sed -n 's/^status *\([a-z,-]*\).*/\1/p' "$dir/$m-censored.txt")"
         done
     done
 done

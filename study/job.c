@@ -204,8 +204,11 @@ static int fit_one(const struct study_spec *s, size_t mi, const char *jobdir,
     f->plan.log = f->inplane.log = f->full.log = NAN;
     if (!kind)
         return gonio_err_set(err, GONIO_EUSAGE, "unknown model '%s'", s->models[mi].name);
-    struct fit_data data = {
-        .rgb = samples, .n_rgb = n, .rgb_lower = lower, .material = material_spec};
+    int censored = lower && fit_model_censors(kind, s->saturated);
+    struct fit_data data = {.rgb = samples,
+                            .n_rgb = n,
+                            .rgb_lower = censored ? lower : NULL,
+                            .material = material_spec};
     struct fit_model_options mo = fit_model_default_options();
     struct fit_model_report rep = {0};
     struct fit_model_file *mf = NULL;
@@ -330,9 +333,9 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
     if (rc == 0 && !(samples = malloc((n ? n : 1) * sizeof *samples)))
         rc = gonio_err_set(err, ENOMEM, "out of memory");
     size_t saturated = rc == 0 ? fit_journal_samples(js, n, samples) : 0;
-    /* The saturated readings' flags, when the study fits them as lower bounds. */
+    /* The saturated readings' flags, for the models that fit them as lower bounds. */
     unsigned char *lower = NULL;
-    if (rc == 0 && saturated && s->censored && !(lower = malloc(n)))
+    if (rc == 0 && saturated && !(lower = malloc(n)))
         rc = gonio_err_set(err, ENOMEM, "out of memory");
     for (size_t i = 0; lower && i < n; i++)
         lower[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
@@ -356,7 +359,10 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
         if (saturated) { /* say how the fit took the clipped values */
             char note[sizeof f.note];
             snprintf(note, sizeof note, "%zu saturated samples (%s); %.520s", saturated,
-                     lower ? "lower bounds" : "at their clipped values", f.note);
+                     fit_model_censors(fit_model_find(f.model), s->saturated)
+                         ? "lower bounds"
+                         : "at their clipped values",
+                     f.note);
             memcpy(f.note, note, sizeof note);
         }
         json_t *row = row_json(&rc_info, &f);

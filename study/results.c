@@ -79,7 +79,7 @@ json_t *study_spec_json(const struct study_spec *s, int with_shard)
     json_object_set_new(o, "scenes", items_json(s->scenes, s->n_scenes, 1));
     json_object_set_new(o, "plans", items_json(s->plans, s->n_plans, 0));
     json_object_set_new(o, "models", items_json(s->models, s->n_models, 0));
-    json_object_set_new(o, "saturated", json_string(s->censored ? "censored" : "clipped"));
+    json_object_set_new(o, "saturated", json_string(fit_saturated_name(s->saturated)));
     if (with_shard) {
         json_object_set_new(o, "quick", json_boolean(s->quick));
         json_object_set_new(o, "shard", json_pack("[i,i]", s->shard_i, s->shard_n));
@@ -173,8 +173,13 @@ int study_spec_read(const char *dir, struct study_spec *s, struct gonio_err *err
     json_t *shard = json_object_get(root, "shard");
     s->quick = json_is_true(json_object_get(root, "quick"));
     /* studies from before the key fitted the clipped values */
-    const char *sat = json_string_value(json_object_get(root, "saturated"));
-    s->censored = sat && !strcmp(sat, "censored");
+    json_t *sat = json_object_get(root, "saturated");
+    s->saturated = FIT_SATURATED_CLIPPED;
+    if (rc == 0 && sat &&
+        (!json_is_string(sat) || fit_saturated_parse(json_string_value(sat), &s->saturated) < 0))
+        rc = gonio_err_set(err, GONIO_EBADDATA,
+                           "%s: key 'saturated': '%s', expected default, clipped or censored",
+                           path, json_is_string(sat) ? json_string_value(sat) : "(not a string)");
     s->shard_i = (int)json_integer_value(json_array_get(shard, 0));
     s->shard_n = (int)json_integer_value(json_array_get(shard, 1));
     if (rc == 0 && (s->shard_n < 1 || s->shard_i < 1 || s->shard_i > s->shard_n))

@@ -220,7 +220,7 @@ int study_spec_default(struct study_spec *s, int quick, struct gonio_err *err)
 {
     memset(s, 0, sizeof *s);
     s->quick = quick;
-    s->censored = 1;
+    s->saturated = FIT_SATURATED_DEFAULT;
     s->shard_i = s->shard_n = 1;
     char materials[1024] = "default";
     if (gonio_shared_dir()) {

@@ -13,6 +13,7 @@
 #include <stddef.h>
 
 #include "common/err.h"
+#include "fit/models.h"
 
 #define STUDY_MAX_ITEMS 128
 #define STUDY_NAME_MAX 64
@@ -28,8 +29,8 @@ struct study_spec {
         plans[STUDY_MAX_ITEMS], models[STUDY_MAX_ITEMS];
     size_t n_materials, n_scenes, n_plans, n_models;
     int quick;
-    int censored; /* saturated readings fitted as lower bounds (fit_data.rgb_lower), the
-                     default; 0: at their clipped values (`--saturated clipped`) */
+    enum fit_saturated saturated; /* how the fits take saturated readings: each model's
+                                     default (fit_model_censors), or `--saturated` */
     int shard_i, shard_n; /* 1-based share of the job list: jobs k with k mod n == i - 1 */
 };
 

@@ -5,8 +5,9 @@
  * does not, so the option changes the fit. abc and abc-prior captures
  * write their parameters as gonio fit's abc model file too (abc-prior with
  * the captured material left out of its prior). results.json carries the
- * final fit's status (fit_status), and its final fit takes saturated
- * readings as lower bounds. Unknown and
+ * final fit's status (fit_status); its final fit and gonio fit take saturated
+ * readings as the model says (latent censored, abc clipped), gonio fit's
+ * --saturated overrides it. Unknown and
  * spectral names are refused before anything is written, and a failed
  * final fit keeps the samples. */
 #include "tests/gonio_test.h"
@@ -29,6 +30,8 @@
 #include "fit/model_file.h"
 #include "fit/model_run.h"
 #include "fit/models.h"
+
+#include "cli/cmd_fit.c"
 
 static char dir[] = "/tmp/gonio-capmodelsXXXXXX";
 
@@ -380,14 +383,13 @@ static void test_failed_fit_keeps_samples(void **state)
     assert_int_equal(stat(path, &st), 0); /* latent.model written now */
 }
 
-/* A capture's final fit takes the saturated readings as lower bounds: its
- * model is the registry's fit of the journal with the saturated flags, and
- * not the fit of the clipped values. A scene whose detector saturates on
- * 10 of DS3's 52 readings of the embedded material. */
-static void test_saturated_capture_censored(void **state)
+/* A scene whose detector saturates on 10 of DS3's 52 readings of the
+ * embedded material, written once into dir. */
+static const char *saturating_scene(void)
 {
-    (void)state;
-    char scene[300], cap[300], path[400];
+    static char scene[300];
+    if (scene[0])
+        return scene;
     snprintf(scene, sizeof scene, "%s/saturating.yaml", dir);
     FILE *f = fopen(scene, "w");
     assert_non_null(f);
@@ -396,8 +398,34 @@ static void test_saturated_capture_censored(void **state)
           "effects:\n  - {name: saturation, full_well_e: 100000}\n",
           f);
     fclose(f);
-    snprintf(cap, sizeof cap, "%s/saturated", dir);
-    struct capture_config cfg = {.plan = "ds3", .scene = scene, .model = "latent",
+    return scene;
+}
+
+/* The registry's fit of model to a capture's journal, with the saturated
+ * flags (censored 1) or without them. */
+static struct fit_model_file *refit(const char *model, const struct fit_sample *fs,
+                                    const unsigned char *lower, size_t n, int censored)
+{
+    struct fit_data data = {.rgb = fs, .n_rgb = n, .rgb_lower = censored ? lower : NULL,
+                            .material = "builtin:nylon"};
+    struct fit_model_options mo = fit_model_default_options();
+    struct fit_model_file *mf = NULL;
+    struct fit_model_report rep;
+    struct gonio_err err = {0};
+    if (fit_model_find(model)->fit(&data, &mo, &mf, &rep, &err) < 0)
+        fail_msg("%s: %s", model, err.msg);
+    return mf;
+}
+
+/* A DS3 capture with model on the saturating scene into DIR/saturated-MODEL;
+ * off[c] is the largest relative difference, at a sample, between the
+ * capture's model and the registry's fit of its journal with (c = 1) or
+ * without (c = 0) the saturated flags. */
+static void saturated_capture(const char *model, char *cap, size_t cap_len, double off[2])
+{
+    char path[400];
+    snprintf(cap, cap_len, "%s/saturated-%s", dir, model);
+    struct capture_config cfg = {.plan = "ds3", .scene = saturating_scene(), .model = model,
                                  .out_dir = cap, .quiet = 1,
                                  .assess_nodes = gonio_test_assess_nodes()};
     struct capture_summary s;
@@ -419,39 +447,103 @@ static void test_saturated_capture_censored(void **state)
         lower[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
         pairs[i] = fs[i].g;
     }
-    snprintf(path, sizeof path, "model:%s/latent.model", cap);
+    snprintf(path, sizeof path, "model:%s/%s.model", cap, model);
     brdf_material *m = fit_material_open(path, &err);
     assert_non_null(m);
     brdf_material_eval(m, pairs, n, got);
     brdf_material_free(m);
-    double off[2] = {0, 0};
     for (int censored = 0; censored < 2; censored++) {
-        struct fit_data data = {.rgb = fs, .n_rgb = n, .rgb_lower = censored ? lower : NULL,
-                                .material = "builtin:nylon"};
-        struct fit_model_options mo = fit_model_default_options();
-        mo.quiet = 1;
-        struct fit_model_file *mf = NULL;
-        struct fit_model_report rep;
-        assert_int_equal(fit_model_find("latent")->fit(&data, &mo, &mf, &rep, &err), 0);
-        m = fit_model_find("latent")->open(mf, "refit", &err);
+        struct fit_model_file *mf = refit(model, fs, lower, n, censored);
+        m = fit_model_for_kind(mf->kind)->open(mf, "refit", &err);
         assert_non_null(m);
         brdf_material_eval(m, pairs, n, want);
+        off[censored] = 0;
         for (size_t k = 0; k < 3 * n; k++)
             off[censored] = fmax(off[censored], fabs(got[k] - want[k]) / (fabs(want[k]) + 1e-12));
         brdf_material_free(m);
         fit_model_file_free(mf);
     }
-    printf("%zu of %zu saturated: the capture's model against the fit with flags %.2e, "
+    printf("%s: %zu of %zu saturated: the capture's model against the fit with flags %.2e, "
            "without %.2e (largest relative difference at a sample)\n",
-           s.saturated, n, off[1], off[0]);
-    assert_true(off[1] < 1e-9);
-    assert_true(off[0] > 1e-3);
+           model, s.saturated, n, off[1], off[0]);
     free(js);
     free(fs);
     free(lower);
     free(pairs);
     free(got);
     free(want);
+}
+
+/* A latent capture's final fit takes the saturated readings as lower bounds
+ * (the model's default, fit_model_censors): its model is the registry's fit
+ * of the journal with the saturated flags, not the fit of the clipped values. */
+static void test_saturated_capture_latent_censored(void **state)
+{
+    (void)state;
+    char cap[300];
+    double off[2];
+    saturated_capture("latent", cap, sizeof cap, off);
+    assert_true(off[1] < 1e-9);
+    assert_true(off[0] > 1e-3);
+}
+
+/* The file gonio fit writes for CAP with these extra arguments. */
+static struct fit_model_file *gonio_fit(const char *cap, const char *model, const char *sat)
+{
+    char out[400], m[64], opt[64];
+    snprintf(out, sizeof out, "%s/fit-%s.model", cap, sat ? sat : "default");
+    snprintf(m, sizeof m, "%s", model);
+    snprintf(opt, sizeof opt, "--saturated=%s", sat ? sat : "default");
+    char *argv[] = {"fit", (char *)cap, "--model", m, "-o", out, "--quiet", opt, NULL};
+    assert_int_equal(cmd_fit(sat ? 8 : 7, argv), 0);
+    struct gonio_err err = {0};
+    struct fit_model_file *f = fit_model_file_read(out, &err);
+    assert_non_null(f);
+    return f;
+}
+
+/* An ABC capture fits the saturated readings at their clipped values (its
+ * model's default): its model is the registry's fit without the flags, not
+ * the fit with them.
+ * gonio fit on the same journal: abc's default is the fit without the
+ * flags, --saturated censored the fit with them, bit for bit; latent's
+ * default the fit with them. */
+static void test_saturated_abc_clipped(void **state)
+{
+    (void)state;
+    char cap[300];
+    double off[2];
+    saturated_capture("abc", cap, sizeof cap, off);
+    assert_true(off[0] < 1e-9);
+    assert_true(off[1] > 1e-3);
+
+    struct fit_sample *fs = NULL;
+    size_t n = read_samples(cap, &fs);
+    char path[400];
+    snprintf(path, sizeof path, "%s/samples.csv", cap);
+    struct journal_sample *js = NULL;
+    assert_true(journal_read(path, &js, &n, NULL) >= 0);
+    unsigned char *lower = malloc(n);
+    for (size_t i = 0; i < n; i++)
+        lower[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
+    const struct {
+        const char *model, *sat;
+        int censored;
+    } cases[] = {{"abc", NULL, 0}, {"abc", "censored", 1}, {"abc", "clipped", 0},
+                 {"latent", NULL, 1}, {"latent", "clipped", 0}};
+    for (size_t k = 0; k < sizeof cases / sizeof *cases; k++) {
+        struct fit_model_file *got = gonio_fit(cap, cases[k].model, cases[k].sat);
+        struct fit_model_file *want = refit(cases[k].model, fs, lower, n, cases[k].censored);
+        printf("gonio fit --model %s --saturated %s: the fit %s the flags\n", cases[k].model,
+               cases[k].sat ? cases[k].sat : "(default)", cases[k].censored ? "with" : "without");
+        assert_int_equal((int)got->n_data, (int)want->n_data);
+        assert_memory_equal(got->data, want->data, want->n_data * sizeof *want->data);
+        fit_model_file_free(got);
+        fit_model_file_free(want);
+    }
+    free(js);
+    free(fs);
+    free(lower);
 }
 
 int main(void)
@@ -462,7 +554,8 @@ int main(void)
         cmocka_unit_test(test_abc_prior_capture_file),
         cmocka_unit_test(test_bad_names_refused),
         cmocka_unit_test(test_failed_fit_keeps_samples),
-        cmocka_unit_test(test_saturated_capture_censored),
+        cmocka_unit_test(test_saturated_capture_latent_censored),
+        cmocka_unit_test(test_saturated_abc_clipped),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

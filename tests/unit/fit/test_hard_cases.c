@@ -588,7 +588,25 @@ static void test_clipped_censored(void **state)
     /* the status's residuals (abc_problem_eval's path) are one-sided too:
      * the truth is above its clipped values, so nothing is left */
     assert_true(info.status.insample < 1e-9);
-    assert_int_equal(fit_status_code(&info.status), FIT_STATUS_CONVERGED);
+    /* and the peak, more than 10 times its clip, is the shoulders'
+     * extrapolation, right here because the data are the model's own: no
+     * reading bounds it, and the status says so */
+    assert_int_equal(info.status.findings, 1u << FIT_STATUS_PEAK_UNBOUNDED);
+
+    /* A bound 100 times below the model away from the peak, the peak read:
+     * nothing unbounded. */
+    synth(&noisy_truth, g, n, s);
+    size_t low = 0;
+    for (size_t k = 0; k < n; k++) {
+        lower[k] = 0;
+        low = s[k].rgb[0] < s[low].rgb[0] ? k : low;
+    }
+    lower[low] = 1;
+    for (int c = 0; c < 3; c++)
+        s[low].rgb[c] /= 100;
+    assert_int_equal(fit_abc(s, n, &o, &p, &info, NULL), 0);
+    assert_true(param_rel(&p, &noisy_truth) <= 1e-6);
+    assert_int_equal(info.status.findings, 0);
 }
 
 /* Noise at three SNRs: the fit's in-sample RMS residual is the noise's,

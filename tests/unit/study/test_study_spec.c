@@ -111,8 +111,9 @@ static void test_job_ids_in_documented_order(void **state)
     free(s);
 }
 
-/* A study is resumed only with the same treatment of saturated readings; a
- * study.json from before the key is a clipped study. */
+/* A study is resumed only with the same treatment of saturated readings
+ * (each model's default unless one is forced); a study.json from before the
+ * key is a clipped study, one with another value is refused by name. */
 static void test_saturated_in_study_json(void **state)
 {
     (void)state;
@@ -121,20 +122,32 @@ static void test_saturated_in_study_json(void **state)
     snprintf(path, sizeof path, "%s/study.json", dir);
     struct study_spec *s = spec_new();
     struct gonio_err err = {0};
-    s->censored = 1;
+    assert_int_equal(s->saturated, FIT_SATURATED_DEFAULT);
     assert_int_equal(study_dir_prepare(s, dir, &err), 0);
     json_t *j = json_load_file(path, 0, NULL);
     assert_non_null(j);
-    assert_string_equal(json_string_value(json_object_get(j, "saturated")), "censored");
-    s->censored = 0;
+    assert_string_equal(json_string_value(json_object_get(j, "saturated")), "default");
+    s->saturated = FIT_SATURATED_CENSORED;
     assert_true(study_dir_prepare(s, dir, &err) < 0);
+    struct study_spec *back = spec_new();
+    assert_int_equal(study_spec_read(dir, back, &err), 0);
+    assert_int_equal(back->saturated, FIT_SATURATED_DEFAULT);
+    s->saturated = FIT_SATURATED_CLIPPED;
     /* the same file without the key */
     json_object_del(j, "saturated");
     assert_int_equal(json_dump_file(j, path, 0), 0);
-    json_decref(j);
     assert_int_equal(study_dir_prepare(s, dir, &err), 0);
-    s->censored = 1;
+    assert_int_equal(study_spec_read(dir, back, &err), 0);
+    assert_int_equal(back->saturated, FIT_SATURATED_CLIPPED);
+    s->saturated = FIT_SATURATED_DEFAULT;
     assert_true(study_dir_prepare(s, dir, &err) < 0);
+    json_object_set_new(j, "saturated", json_string("sometimes"));
+    assert_int_equal(json_dump_file(j, path, 0), 0);
+    assert_true(study_spec_read(dir, back, &err) < 0);
+    printf("%s\n", err.msg);
+    assert_non_null(strstr(err.msg, "key 'saturated': 'sometimes'"));
+    json_decref(j);
+    free(back);
     unlink(path);
     rmdir(dir);
     free(s);
