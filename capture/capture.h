@@ -72,7 +72,7 @@ struct capture_summary {
     char material[512]; /* what was measured, "" when unknown (hardware without a label) */
     char truth[512];    /* the reference of err_inplane/err_full, "" without one */
     size_t samples;
-    size_t saturated; /* samples the detector saturated (fitted at their clipped value) */
+    size_t saturated; /* samples the detector saturated (fitted as fit_model_censors says) */
     double rig_time_s, move_s, settle_s, integration_s;
     /* Rig clock that ran while this run was paused: not in rig_time_s. */
     double paused_s;

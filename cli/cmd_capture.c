@@ -10,6 +10,7 @@
 #include "cli/interrupt.h"
 #include "cli/progress.h"
 #include "capture/capture.h"
+#include "fit/models.h"
 
 static void usage(FILE *out)
 {
@@ -142,9 +143,12 @@ int cmd_capture(int argc, char **argv)
     char status[400];
     fit_status_line(&s.status, status, sizeof status);
     printf("  fit status: %s\n", status);
+    const struct fit_model_kind *kind = fit_model_find(s.model);
     if (s.saturated)
-        printf("  %zu saturated readings, fitted at their clipped values (lower bounds)\n",
-               s.saturated);
+        printf("  %zu saturated readings, fitted %s\n", s.saturated,
+               kind && fit_model_censors(kind, FIT_SATURATED_DEFAULT)
+                   ? "as lower bounds (censored)"
+                   : "at their clipped values (lower bounds of the truth)");
     if (!strcmp(s.stop_reason, "converged"))
         printf("  stopped on convergence after %zu samples\n", s.samples);
     if (s.model_file[0])
