@@ -346,6 +346,21 @@ class CheckTests(unittest.TestCase):
         self.assertFalse(os.path.exists(os.path.join(self.folder, "caps")),
                          "--check must not create anything")
 
+    def test_config_named_relative_to_the_working_directory(self):
+        """--config c.yaml or sub/c.yaml: the paths still come back absolute,
+        from the config's folder (they used to print as 'caps' and
+        'sub/caps', relative to whatever folder goniod was started in)."""
+        sub = os.path.join(self.folder, "sub")
+        os.mkdir(sub)
+        with open(os.path.join(sub, "c.yaml"), "w") as f:
+            f.write(self.GOOD)
+        for cwd, name in ((sub, "c.yaml"), (self.folder, "sub/c.yaml")):
+            r = run_wrapped([GONIOD, "--config", name, "--check"], self.folder, cwd=cwd)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            real = os.path.realpath(sub)  # getcwd's spelling
+            self.assertIn("capture_root: %s/caps\n" % real, r.stdout)
+            self.assertIn("path: %s/run/g.sock\n" % real, r.stdout)
+
     def test_rig_and_scene_files_beside_the_config(self):
         for sub, name in (("rigs", "default.yaml"), ("scenes", "ideal.yaml")):
             shutil.copy(os.path.join(SOURCE, "configs", sub, name),
