@@ -1020,7 +1020,11 @@ class ClientTests(DaemonTest):
     def test_capture_wait_and_status(self):
         r = self.d.gonio("status")
         self.assertEqual(r.returncode, 0)
-        self.assertEqual(r.stdout, "goniod idle\n")
+        # The running goniod's release, as its --version prints it.
+        version = subprocess.run([GONIOD, "--version"], capture_output=True, text=True,
+                                 timeout=30).stdout
+        self.assertRegex(version, r"^goniod \d+\.\d+\.\d+\n$")
+        self.assertEqual(r.stdout, "goniod idle\n" + version)
         r = self.d.gonio("capture", "--plan", "ds3", "--name", "cw", "--wait")
         self.assertEqual(r.returncode, 0, r.stderr)
         lines = r.stdout.splitlines()
@@ -1042,6 +1046,7 @@ class ClientTests(DaemonTest):
         self.assertTrue(any("stopped: complete" in l for l in lines))
         r = self.d.gonio("status", "--json")
         st = json.loads(r.stdout)
+        self.assertEqual("goniod %s\n" % st["release"], version)
         self.assertEqual(st["fit_error"]["capture_id"], "cw")
         self.assertEqual((st["capture"]["capture_id"], st["capture"]["state"]), ("cw", "complete"))
         self.assertEqual(st["capture"]["points_done"], total)
@@ -1066,7 +1071,7 @@ class ClientTests(DaemonTest):
             self.assertIn(value, r.stderr)
             self.assertNotIn("started", r.stdout)
             self.assertFalse(os.path.exists(os.path.join(self.d.root, "bad")), args)
-        self.assertEqual(self.d.gonio("status").stdout, "goniod idle\n")
+        self.assertEqual(self.d.gonio("status").stdout.splitlines()[0], "goniod idle")
 
     def test_status_names_a_failed_capture(self):
         """A capture that fails once started: status says so, with why."""
