@@ -1609,6 +1609,45 @@ class OfflineTests(unittest.TestCase):
         self.assertEqual(bars[-1][0], bars[-1][1])
         self.assertNotIn("render: ", text)  # the per-image lines are gonio render's own
 
+    def test_study_quiet(self):
+        """gonio study --quiet: no bar, the study still done."""
+        out = os.path.join(self.folder, "quiet")
+        rc, text = run_on_pty([GONIO, "study", "--materials", "default", "--plans", "ds4",
+                               "--models", "abc", "--scenes", "ideal", "--jobs", "1", "--quiet",
+                               "--out", out], self.env)
+        self.assertEqual(rc, 0, text[-500:])
+        self.assertNotIn("study [", text)
+        self.assertNotRegex(text, r"study: \d+/\d+ jobs")
+        with open(os.path.join(out, "results.csv")) as f:
+            self.assertEqual(len(f.read().splitlines()), 2)  # header and the one row
+
+    def test_train_decoder_on_a_terminal(self):
+        """gonio train-decoder draws latent training on the one display (it
+        used to print its own lines from inside fit/); stdout and the file do
+        not depend on it."""
+        tiny = ["--epochs", "40", "--nz", "4", "--width", "16", "--samples", "16"]
+        out = os.path.join(self.folder, "bar.gld")
+        rc, text = run_on_pty([GONIO, "train-decoder", "-o", out] + tiny, self.env)
+        self.assertEqual(rc, 0, text[-500:])
+        bars = re.findall(r"\rtrain-decoder \[[#.]+\] (\d+)/40([^\r\n]*)", text)
+        self.assertEqual(bars[0][0], "0", text)
+        self.assertEqual(bars[-1][0], "40", text)
+        self.assertRegex(bars[-1][1], r"ETA 0:00  fit \d+\.\d{4}$")
+        self.assertNotIn("step ", text)
+        quiet = os.path.join(self.folder, "quiet.gld")
+        rc, text = run_on_pty([GONIO, "train-decoder", "-o", quiet, "--quiet"] + tiny, self.env)
+        self.assertEqual(rc, 0, text)
+        self.assertNotIn("[", text)
+        self.assertRegex(text, r"^wrote \S+quiet.gld \(90 training materials.*crc [0-9a-f]{8}\)")
+        with open(out, "rb") as a, open(quiet, "rb") as b:
+            self.assertEqual(a.read(), b.read())
+        # Not a terminal: plain lines on stderr, stdout only the result.
+        r = subprocess.run([GONIO, "train-decoder", "-o", quiet] + tiny, capture_output=True,
+                           text=True, env=self.env, timeout=120)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertEqual(r.stdout.splitlines(), [text.strip()])
+        self.assertIn("train-decoder: 40/40 epochs", r.stderr)
+
     def test_interrupt_while_planning_leaves_nothing(self):
         """SIGINT while the plan is ordered (inplane-full: seconds): no
         directory, no plan.json.tmp.PID."""
