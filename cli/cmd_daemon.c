@@ -357,6 +357,12 @@ static int simple(int argc, char **argv, const char *cmd, const char *usage_args
                        json_string_value(json_object_get(fe, "capture_id")),
                        (long long)json_integer_value(json_object_get(fe, "samples")),
                        jreal(fe, "log_error"), jreal(fe, "rel_rmse"));
+            /* the daemon's release, as goniod --version prints it: the
+             * one that answers may differ from this gonio's (an older one
+             * does not say) */
+            const char *release = json_string_value(json_object_get(rep, "release"));
+            if (release)
+                printf("goniod %s\n", release);
         }
     } else if (!rc) {
         const char *id = json_string_value(json_object_get(rep, "capture_id"));
@@ -371,7 +377,7 @@ int cmd_status(int argc, char **argv)
 {
     return simple(argc, argv, "status", "[--json] ",
                   "state (idle, running, paused), capture id, points done, rig time, last "
-                  "fit error");
+                  "fit error, goniod's release");
 }
 
 int cmd_pause(int argc, char **argv)

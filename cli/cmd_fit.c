@@ -25,7 +25,8 @@ static void usage(FILE *out)
     fprintf(out, "usage: gonio fit SAMPLES --model NAME [-o MODEL_FILE] [--seed N] [--epochs N]\n"
                  "                 [--truth SPEC] [--saturated clipped|censored] [--quiet]\n"
                  "  SAMPLES: a capture directory or its samples.csv; for mlp-spectral a\n"
-                 "           spectral CSV (theta_i,theta_r,wavelength_nm,value)\n"
+                 "           capture directory (its spectra.csv) or a spectral CSV\n"
+                 "           (theta_i,theta_r,wavelength_nm,value)\n"
                  "  -o: default SAMPLES_DIR/NAME.model\n"
                  "  --truth: also report errors against SPEC on the in-plane and full domains\n"
                  "  --saturated: fit saturated readings as lower bounds (one-sided\n"
@@ -176,13 +177,15 @@ int cmd_fit(int argc, char **argv)
         fprintf(stderr, "gonio fit: unknown model '%s' (see gonio fit --help)\n", model);
         return 2;
     }
-    /* SAMPLES: a directory means its samples.csv. */
+    /* SAMPLES: a directory means its samples.csv, for a spectral model its
+     * spectra.csv (a spectral capture writes both). */
     const char *arg = argv[optind];
     char samples_path[4096], dir[4096], out_buf[4200];
     struct stat st;
     int is_dir = stat(arg, &st) == 0 && S_ISDIR(st.st_mode);
     if (is_dir) {
-        snprintf(samples_path, sizeof samples_path, "%s/samples.csv", arg);
+        snprintf(samples_path, sizeof samples_path, "%s/%s", arg,
+                 kind->spectral ? "spectra.csv" : "samples.csv");
         snprintf(dir, sizeof dir, "%s", arg);
     } else {
         snprintf(samples_path, sizeof samples_path, "%s", arg);

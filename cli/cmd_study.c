@@ -30,7 +30,8 @@ static void usage(FILE *out)
 {
     fprintf(out,
             "usage: gonio study [--quick] [--materials LIST] [--plans LIST] [--models LIST]\n"
-            "                   [--scenes LIST] [--jobs N] [--shard I/N] [--list] --out DIR\n"
+            "                   [--scenes LIST] [--jobs N] [--shard I/N] [--list] [--quiet]\n"
+            "                   --out DIR\n"
             "       gonio study merge DIR... --out DIR\n"
             "  Every material x scene x plan x model on the in-process simulated rig; one\n"
             "  row per combination in DIR/results.csv and DIR/results.json. LISTs are\n"
@@ -46,6 +47,7 @@ static void usage(FILE *out)
             "  --jobs N: worker processes (default: the number of cores). --shard I/N: run\n"
             "  only share I of N (merge the shares with gonio study merge). --list: print\n"
             "  the job ids and exit. Rerunning on DIR resumes: finished rows are kept.\n"
+            "  --quiet: no progress display (the summary lines and errors stay).\n"
             "  A complete study (or merge) also writes DIR/renders/, DIR/plots/ and\n"
             "  DIR/report.html (gonio render --study, gonio report; docs/report.md).\n");
 }
@@ -172,7 +174,7 @@ static void pass_on_interrupt(const struct running *run, int n_workers, int *pas
             kill(run[w].pid, SIGTERM);
 }
 
-static int run_jobs(const struct study_spec *s, const char *dir, int n_workers)
+static int run_jobs(const struct study_spec *s, const char *dir, int n_workers, int quiet)
 {
     size_t total = 0, finished = 0, started = 0, n = 0;
     struct pending *p = malloc((study_job_count(s) + 1) * sizeof *p);
@@ -209,7 +211,7 @@ static int run_jobs(const struct study_spec *s, const char *dir, int n_workers)
                         "resumed) in %s\n",
                 finished, total, started, dir);
     struct progress bar;
-    progress_init(&bar, "study", 0);
+    progress_init(&bar, "study", quiet);
     progress_show(&bar, &(struct progress_state){.done = finished, .total = total,
                                                  .unit = "jobs", .rig_time_s = NAN,
                                                  .estimate_s = NAN, .eta_s = NAN,
@@ -308,13 +310,13 @@ int cmd_study(int argc, char **argv)
         {"scenes", required_argument, NULL, 's'}, {"jobs", required_argument, NULL, 'j'},
         {"shard", required_argument, NULL, 'S'}, {"out", required_argument, NULL, 'o'},
         {"list", no_argument, NULL, 'l'},        {"help", no_argument, NULL, 'h'},
-        {"saturated", required_argument, NULL, 'T'},
+        {"saturated", required_argument, NULL, 'T'}, {"quiet", no_argument, NULL, 'Q'},
         {NULL, 0, NULL, 0},
     };
     const char *lists[4] = {NULL, NULL, NULL, NULL}, *shard = NULL, *out = NULL,
                *saturated = "default";
     long n_workers = sysconf(_SC_NPROCESSORS_ONLN);
-    int quick = 0, list = 0, c;
+    int quick = 0, list = 0, quiet = 0, c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         char *end;
@@ -327,6 +329,7 @@ int cmd_study(int argc, char **argv)
         case 'S': shard = optarg; break;
         case 'o': out = optarg; break;
         case 'l': list = 1; break;
+        case 'Q': quiet = 1; break;
         case 'T': saturated = optarg; break;
         case 'j':
             errno = 0;
@@ -391,7 +394,7 @@ int cmd_study(int argc, char **argv)
     }
     double t0 = gonio_monotonic_s();
     interrupt_catch();
-    int status = run_jobs(s, out, (int)n_workers);
+    int status = run_jobs(s, out, (int)n_workers, quiet);
     if (status == INTERRUPT_EXIT) {
         free(s);
         return status;

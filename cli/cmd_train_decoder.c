@@ -4,11 +4,14 @@
  * and epochs give a bit-identical file on the same machine. */
 #include <errno.h>
 #include <getopt.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "cli/commands.h"
+#include "cli/progress.h"
+#include "common/clock.h"
 #include "fit/latent.h"
 
 static void usage(FILE *out)
@@ -23,11 +26,32 @@ static void usage(FILE *out)
             "  --threads N  worker threads; the result does not depend on it (default %d)\n"
             "  --z-noise SD latent noise during training (default 0)\n"
             "  --inplane F  fraction of training pairs in the incidence plane (default 0)\n"
+            "  --quiet      no progress display (on stderr: a bar on a terminal)\n"
             "  --nz N --layers N --width N --samples N\n"
             "               latent size, hidden layers and units, pairs per material and\n"
             "               step (defaults %d, %d, %d, %d)\n",
             (unsigned long long)d.seed, d.steps, d.threads, d.nz, d.layers, d.width,
             d.samples_per_step);
+}
+
+struct training {
+    struct progress bar;
+    double t0; /* wall clock at the start, for the ETA */
+};
+
+/* latent_train's progress on the one display: epochs done, the ETA from
+ * the wall time the done ones took, the running loss as the fit error.
+ * On stderr only, so that stdout stays reproducible. */
+static void show_progress(void *ctx, long done, long steps, double loss)
+{
+    struct training *t = ctx;
+    double elapsed = gonio_monotonic_s() - t->t0;
+    progress_show(&t->bar, &(struct progress_state){
+                               .done = (size_t)done, .total = (size_t)steps, .unit = "epochs",
+                               .rig_time_s = NAN, .estimate_s = NAN,
+                               .eta_s = done ? elapsed * (double)(steps - done) / (double)done
+                                             : NAN,
+                               .fit_error = loss});
 }
 
 static int parse_num(const char *opt, const char *s, unsigned long long max,
@@ -57,6 +81,7 @@ int cmd_train_decoder(int argc, char **argv)
         {NULL, 0, NULL, 0},
     };
     struct latent_train_options o = latent_train_default_options();
+    int quiet = 0;
     char out[4096];
     if (latent_decoder_default_path(out, sizeof out) < 0) {
         fprintf(stderr, "gonio train-decoder: config folder path too long\n");
@@ -121,7 +146,7 @@ int cmd_train_decoder(int argc, char **argv)
             }
             break;
         }
-        case 'q': o.quiet = 1; break;
+        case 'q': quiet = 1; break;
         case 'h': usage(stdout); return 0;
         default: usage(stderr); return 2;
         }
@@ -138,8 +163,14 @@ int cmd_train_decoder(int argc, char **argv)
         fprintf(stderr, "gonio train-decoder: %s\n", err.msg);
         return gonio_exit_status(err.code);
     }
+    struct training t = {.t0 = gonio_monotonic_s()};
+    progress_init(&t.bar, "train-decoder", quiet);
+    show_progress(&t, 0, o.steps, NAN);
+    o.on_progress = show_progress;
+    o.progress_ctx = &t;
     latent_decoder *d = NULL;
     int rc = latent_train((const char *const *)names, n, &o, &d, &err);
+    progress_end(&t.bar);
     latent_names_free(names, n);
     if (rc == 0)
         rc = latent_decoder_save(d, out, &err);

@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "common/cfg.h"
 #include "common/paths.h"
@@ -35,21 +36,28 @@ static int copy_string(const struct cfg_doc *d, const struct cfg_node *map, cons
     return 1;
 }
 
-/* A path value: relative paths are taken from the config file's folder, so
- * a config works whatever the daemon's working directory. */
+/* A path value: relative paths are taken from the config file's folder,
+ * made absolute (a config named relative to the working directory is read
+ * from there), so that a config works whatever the daemon's working
+ * directory and --check prints the paths the daemon opens. */
 static int copy_path(const struct cfg_doc *d, const struct cfg_node *map, const char *key,
                      enum cfg_need need, char *out, size_t size, struct gonio_err *err)
 {
-    char raw[1024];
+    char raw[1024], cwd[PATH_MAX] = "";
     int rc = copy_string(d, map, key, need, raw, sizeof raw, err);
     if (rc <= 0)
         return rc;
     const char *cfgpath = cfg_path(d), *slash = strrchr(cfgpath, '/');
+    if (raw[0] != '/' && cfgpath[0] != '/' && !getcwd(cwd, sizeof cwd))
+        return cfg_error(d, cfg_get(d, map, key), key, err,
+                         "cannot resolve '%.40s': working directory: %s", raw, strerror(errno));
+    int dir_len = slash ? (int)(slash - cfgpath) : 0;
     int n;
-    if (raw[0] == '/' || !slash)
+    if (raw[0] == '/')
         n = snprintf(out, size, "%s", raw);
     else
-        n = snprintf(out, size, "%.*s/%s", (int)(slash - cfgpath), cfgpath, raw);
+        n = snprintf(out, size, "%s%s%.*s/%s", cwd, cwd[0] && dir_len ? "/" : "", dir_len,
+                     cfgpath, raw);
     if (n < 0 || (size_t)n >= size)
         return cfg_error(d, cfg_get(d, map, key), key, err,
                          "path too long once resolved (at most %zu characters)", size - 1);

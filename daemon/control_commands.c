@@ -9,6 +9,7 @@
 #include <time.h>
 
 #include "common/paths.h"
+#include "common/version.h"
 #include "daemon/control_private.h"
 #include "daemon/request.h"
 
@@ -143,6 +144,7 @@ static json_t *status_doc(control *c)
     json_t *d = json_object();
     json_object_set_new(d, "class", json_string("STATUS"));
     json_object_set_new(d, "state", json_string(names[st.state]));
+    json_object_set_new(d, "release", json_string(gonio_version()));
     json_object_set_new(d, "capture_id", st.state == WORKER_IDLE ? json_null()
                                                                  : json_string(st.id));
     json_object_set_new(d, "points_done", json_integer((json_int_t)st.done));

@@ -49,7 +49,11 @@ struct latent_train_options {
     double inplane;       /* fraction of training pairs drawn in the incidence plane */
     uint64_t seed;        /* initial weights, latents and every sample */
     int threads;          /* worker threads (results do not depend on it) */
-    int quiet;            /* no progress on stderr */
+    /* Progress, called every twentieth of the steps and at the last with
+     * the steps done and the running loss; the caller shows it (gonio
+     * train-decoder: cli/progress.h). NULL: none. */
+    void (*on_progress)(void *ctx, long done, long steps, double loss);
+    void *progress_ctx;
 };
 
 struct latent_train_options latent_train_default_options(void);

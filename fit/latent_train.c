@@ -39,7 +39,6 @@ struct latent_train_options latent_train_default_options(void)
         .inplane = 0,
         .seed = 1,
         .threads = 2,
-        .quiet = 0,
     };
 }
 
@@ -349,9 +348,8 @@ int latent_train(const char *const *materials, size_t n, const struct latent_tra
         adam(d->latents, gzr, z1, z2, nl, schedule(o.lr_z, step, o.steps), step + 1);
         loss *= ctx.scale;
         run_loss = step == 0 ? loss : 0.98 * run_loss + 0.02 * loss;
-        if (!o.quiet && ((step + 1) % report_every == 0 || step + 1 == o.steps))
-            fprintf(stderr, "train-decoder: step %ld/%ld  loss %.5f\n", step + 1, o.steps,
-                    run_loss);
+        if (o.on_progress && ((step + 1) % report_every == 0 || step + 1 == o.steps))
+            o.on_progress(o.progress_ctx, step + 1, o.steps, run_loss);
         if (!isfinite(loss)) {
             rc = gonio_err_set(err, GONIO_EFIT, "latent_train: loss not finite at step %ld",
                                step + 1);

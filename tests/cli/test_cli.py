@@ -414,6 +414,22 @@ def test_study_takes_a_plan_file(tmp):
     assert bad.returncode == 2 and "no.yaml" in bad.stderr
 
 
+def test_fit_mlp_spectral_reads_a_spectral_captures_spectra(tmp):
+    """gonio fit DIR --model mlp-spectral takes DIR/spectra.csv (it used to
+    read DIR/samples.csv, the RGB journal, and refuse its header)."""
+    cap = os.path.join(tmp, "spec")
+    r = gonio("capture", "--offline", "--scene", "spectral-cyan", "--plan", "ds4", "--out", cap,
+              "--quiet")
+    assert r.returncode == 0, r.stderr
+    with open(os.path.join(cap, "spectra.csv")) as f:
+        rows = len(f.read().splitlines()) - 1
+    r = gonio("fit", cap, "--model", "mlp-spectral", "--epochs", "50", "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert re.search(r"(?m)^samples +%d \(%s/spectra.csv\)" % (rows, re.escape(cap)), r.stdout), \
+        r.stdout
+    assert os.path.exists(os.path.join(cap, "mlp-spectral.model"))
+
+
 # --- goniod --check: what would fail at start is refused up front -----------
 
 GOOD = ("rig: default\ndriver:\n  kind: sim\n  scene: ideal\n"

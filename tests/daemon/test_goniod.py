@@ -346,6 +346,21 @@ class CheckTests(unittest.TestCase):
         self.assertFalse(os.path.exists(os.path.join(self.folder, "caps")),
                          "--check must not create anything")
 
+    def test_config_named_relative_to_the_working_directory(self):
+        """--config c.yaml or sub/c.yaml: the paths still come back absolute,
+        from the config's folder (they used to print as 'caps' and
+        'sub/caps', relative to whatever folder goniod was started in)."""
+        sub = os.path.join(self.folder, "sub")
+        os.mkdir(sub)
+        with open(os.path.join(sub, "c.yaml"), "w") as f:
+            f.write(self.GOOD)
+        for cwd, name in ((sub, "c.yaml"), (self.folder, "sub/c.yaml")):
+            r = run_wrapped([GONIOD, "--config", name, "--check"], self.folder, cwd=cwd)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            real = os.path.realpath(sub)  # getcwd's spelling
+            self.assertIn("capture_root: %s/caps\n" % real, r.stdout)
+            self.assertIn("path: %s/run/g.sock\n" % real, r.stdout)
+
     def test_rig_and_scene_files_beside_the_config(self):
         for sub, name in (("rigs", "default.yaml"), ("scenes", "ideal.yaml")):
             shutil.copy(os.path.join(SOURCE, "configs", sub, name),
@@ -1005,7 +1020,11 @@ class ClientTests(DaemonTest):
     def test_capture_wait_and_status(self):
         r = self.d.gonio("status")
         self.assertEqual(r.returncode, 0)
-        self.assertEqual(r.stdout, "goniod idle\n")
+        # The running goniod's release, as its --version prints it.
+        version = subprocess.run([GONIOD, "--version"], capture_output=True, text=True,
+                                 timeout=30).stdout
+        self.assertRegex(version, r"^goniod \d+\.\d+\.\d+\n$")
+        self.assertEqual(r.stdout, "goniod idle\n" + version)
         r = self.d.gonio("capture", "--plan", "ds3", "--name", "cw", "--wait")
         self.assertEqual(r.returncode, 0, r.stderr)
         lines = r.stdout.splitlines()
@@ -1027,6 +1046,7 @@ class ClientTests(DaemonTest):
         self.assertTrue(any("stopped: complete" in l for l in lines))
         r = self.d.gonio("status", "--json")
         st = json.loads(r.stdout)
+        self.assertEqual("goniod %s\n" % st["release"], version)
         self.assertEqual(st["fit_error"]["capture_id"], "cw")
         self.assertEqual((st["capture"]["capture_id"], st["capture"]["state"]), ("cw", "complete"))
         self.assertEqual(st["capture"]["points_done"], total)
@@ -1051,7 +1071,7 @@ class ClientTests(DaemonTest):
             self.assertIn(value, r.stderr)
             self.assertNotIn("started", r.stdout)
             self.assertFalse(os.path.exists(os.path.join(self.d.root, "bad")), args)
-        self.assertEqual(self.d.gonio("status").stdout, "goniod idle\n")
+        self.assertEqual(self.d.gonio("status").stdout.splitlines()[0], "goniod idle")
 
     def test_status_names_a_failed_capture(self):
         """A capture that fails once started: status says so, with why."""
@@ -1588,6 +1608,45 @@ class OfflineTests(unittest.TestCase):
         self.assertEqual(bars[0][0], "0", text)
         self.assertEqual(bars[-1][0], bars[-1][1])
         self.assertNotIn("render: ", text)  # the per-image lines are gonio render's own
+
+    def test_study_quiet(self):
+        """gonio study --quiet: no bar, the study still done."""
+        out = os.path.join(self.folder, "quiet")
+        rc, text = run_on_pty([GONIO, "study", "--materials", "default", "--plans", "ds4",
+                               "--models", "abc", "--scenes", "ideal", "--jobs", "1", "--quiet",
+                               "--out", out], self.env)
+        self.assertEqual(rc, 0, text[-500:])
+        self.assertNotIn("study [", text)
+        self.assertNotRegex(text, r"study: \d+/\d+ jobs")
+        with open(os.path.join(out, "results.csv")) as f:
+            self.assertEqual(len(f.read().splitlines()), 2)  # header and the one row
+
+    def test_train_decoder_on_a_terminal(self):
+        """gonio train-decoder draws latent training on the one display (it
+        used to print its own lines from inside fit/); stdout and the file do
+        not depend on it."""
+        tiny = ["--epochs", "40", "--nz", "4", "--width", "16", "--samples", "16"]
+        out = os.path.join(self.folder, "bar.gld")
+        rc, text = run_on_pty([GONIO, "train-decoder", "-o", out] + tiny, self.env)
+        self.assertEqual(rc, 0, text[-500:])
+        bars = re.findall(r"\rtrain-decoder \[[#.]+\] (\d+)/40([^\r\n]*)", text)
+        self.assertEqual(bars[0][0], "0", text)
+        self.assertEqual(bars[-1][0], "40", text)
+        self.assertRegex(bars[-1][1], r"ETA 0:00  fit \d+\.\d{4}$")
+        self.assertNotIn("step ", text)
+        quiet = os.path.join(self.folder, "quiet.gld")
+        rc, text = run_on_pty([GONIO, "train-decoder", "-o", quiet, "--quiet"] + tiny, self.env)
+        self.assertEqual(rc, 0, text)
+        self.assertNotIn("[", text)
+        self.assertRegex(text, r"^wrote \S+quiet.gld \(90 training materials.*crc [0-9a-f]{8}\)")
+        with open(out, "rb") as a, open(quiet, "rb") as b:
+            self.assertEqual(a.read(), b.read())
+        # Not a terminal: plain lines on stderr, stdout only the result.
+        r = subprocess.run([GONIO, "train-decoder", "-o", quiet] + tiny, capture_output=True,
+                           text=True, env=self.env, timeout=120)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertEqual(r.stdout.splitlines(), [text.strip()])
+        self.assertIn("train-decoder: 40/40 epochs", r.stderr)
 
     def test_interrupt_while_planning_leaves_nothing(self):
         """SIGINT while the plan is ordered (inplane-full: seconds): no

@@ -61,7 +61,6 @@ static latent_decoder *train_tiny(uint64_t seed, int threads)
     o.samples_per_step = 16;
     o.seed = seed;
     o.threads = threads;
-    o.quiet = 1;
     latent_decoder *d = NULL;
     struct gonio_err err = {0};
     int rc = latent_train(tiny_set, 3, &o, &d, &err);
