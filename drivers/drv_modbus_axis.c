@@ -43,9 +43,11 @@ static int read_status(struct mb_axis *a, uint32_t *st, uint32_t *alarm,
 {
     uint16_t r[4];
     int rc = drv_modbus_read(a->bus, a->slave, R_STATUS, 4, r, a->who, err);
+    if (rc < 0) /* a failed read leaves r as it was: report nothing from it */
+        return rc;
     *st = drv_modbus_get32(r);
     *alarm = drv_modbus_get32(r + 2);
-    return rc;
+    return 0;
 }
 
 static int mb_feedback(void *priv, double *deg, struct gonio_err *err)
