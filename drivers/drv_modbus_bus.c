@@ -19,6 +19,12 @@ struct drv_modbus_bus {
     double timeout_s, time_scale;
     int retries, trace, tcp;
     struct drv_modbus_stats stats;
+    struct { /* drv_modbus_note_clock */
+        int slave;
+        uint32_t ms;
+        double wall;
+        long requests; /* stats.requests when noted */
+    } clock;
 };
 
 void drv_modbus_bus_stats(const drv_modbus_bus *bus, struct drv_modbus_stats *out)
@@ -134,6 +140,23 @@ double drv_modbus_time_scale(const drv_modbus_bus *bus)
 double drv_modbus_timeout(const drv_modbus_bus *bus)
 {
     return bus->timeout_s;
+}
+
+void drv_modbus_note_clock(drv_modbus_bus *bus, int slave, uint32_t ms, double wall)
+{
+    bus->clock.slave = slave;
+    bus->clock.ms = ms;
+    bus->clock.wall = wall;
+    bus->clock.requests = bus->stats.requests;
+}
+
+int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, double *wall)
+{
+    if (bus->clock.slave != slave || bus->clock.requests != bus->stats.requests)
+        return 0;
+    *ms = bus->clock.ms;
+    *wall = bus->clock.wall;
+    return 1;
 }
 
 void drv_modbus_sleep(double seconds)

@@ -71,12 +71,20 @@ static int check_rate(struct mb_clock *c, struct gonio_err *err)
     return rc;
 }
 
+/* The rig time now: the detector's reading of the clock when it is the
+ * bus's latest exchange (nothing happened on the rig since that the
+ * register would show otherwise), carried forward from when its request
+ * was sent (at most that request's frame time over: never flattering);
+ * else a read of the register. */
 static double mb_now(void *priv)
 {
     struct mb_clock *c = priv;
-    double wall = gonio_monotonic_s();
+    double wall = gonio_monotonic_s(), seen;
     uint32_t ms;
-    if (c->simulated && read_ms(c, &ms, NULL) == 0) {
+    if (c->simulated && drv_modbus_last_clock(c->bus, c->slave, &ms, &seen)) {
+        c->last = (uint32_t)(ms - c->ms0) * 1e-3 + (wall - seen) * drv_modbus_time_scale(c->bus);
+        c->last_wall = wall;
+    } else if (c->simulated && read_ms(c, &ms, NULL) == 0) {
         c->last = (uint32_t)(ms - c->ms0) * 1e-3; /* unsigned: survives a wrap */
         c->last_wall = wall;
     } else if (c->simulated) { /* the bus failed: extrapolate */

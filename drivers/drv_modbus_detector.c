@@ -1,6 +1,7 @@
 /* The detector slave (docs/protocol-modbus.md): write the integration
- * time and the trigger, wait out the integration, poll until READY with a
- * sequence number the trigger did not start from, read the channels. */
+ * time and the trigger, wait out the integration, read until READY with a
+ * sequence number the trigger did not start from: the read that sees it
+ * holds the channels and the rig clock too. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -10,7 +11,9 @@
 #include "drivers/drv_modbus_private.h"
 
 /* The register map (modbus_map/modbus_map.h) under this file's names. */
-enum { R_INTEGRATION = MB_DET_INTEGRATION, R_CHANNELS = MB_DET_CHANNELS };
+enum { R_INTEGRATION = MB_DET_INTEGRATION, R_STATUS = MB_DET_STATUS, R_COUNT = MB_DET_COUNT,
+       R_SEQUENCE = MB_DET_SEQUENCE, R_CLOCK = MB_DET_CLOCK, R_CHANNELS = MB_DET_CHANNELS,
+       R_NREGS = MB_DET_CHANNELS + 6 };
 enum { ST_BUSY = MB_DET_BUSY, ST_READY = MB_DET_READY, ST_SATURATED = MB_DET_SATURATED };
 
 struct mb_detector {
@@ -21,19 +24,32 @@ struct mb_detector {
     uint32_t seq;
 };
 
-/* Integration, trigger, status, channel count and sequence: registers
- * 0x00-0x09 in one read. The integration reads back what the detector
- * used (an auto-exposing detector may choose its own). */
-static int read_state(struct mb_detector *d, uint32_t *st, uint32_t *count, uint32_t *seq,
-                      uint32_t *used_us, struct gonio_err *err)
+/* Integration, trigger, status, channel count, sequence, rig clock and
+ * the RGB channels: registers 0x00-0x11 in one read, 18 registers, a size
+ * no other request of the bus has (drv_modbus_axis.c: a late answer then
+ * fails the size check). The integration reads back what the detector
+ * used (an auto-exposing detector may choose its own); the clock is noted
+ * on the bus, so that the rig clock need not read it again. */
+struct det_state {
+    uint32_t st, count, seq, used_us;
+    double rgb[3];
+};
+
+static int read_state(struct mb_detector *d, struct det_state *s, struct gonio_err *err)
 {
-    uint16_t r[10];
-    int rc = drv_modbus_read(d->bus, d->slave, R_INTEGRATION, 10, r, d->who, err);
-    *used_us = drv_modbus_get32(r);
-    *st = drv_modbus_get32(r + 4);
-    *count = drv_modbus_get32(r + 6);
-    *seq = drv_modbus_get32(r + 8);
-    return rc;
+    uint16_t r[R_NREGS];
+    double wall = gonio_monotonic_s();
+    int rc = drv_modbus_read(d->bus, d->slave, R_INTEGRATION, R_NREGS, r, d->who, err);
+    if (rc < 0)
+        return rc;
+    s->used_us = drv_modbus_get32(r);
+    s->st = drv_modbus_get32(r + R_STATUS);
+    s->count = drv_modbus_get32(r + R_COUNT);
+    s->seq = drv_modbus_get32(r + R_SEQUENCE);
+    for (int k = 0; k < 3; k++)
+        s->rgb[k] = drv_modbus_get_float(r + R_CHANNELS + 2 * k);
+    drv_modbus_note_clock(d->bus, d->slave, drv_modbus_get32(r + R_CLOCK), wall);
+    return 0;
 }
 
 static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
@@ -43,41 +59,43 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
     double us = nearbyint(integration_s * 1e6);
     if (!(us >= 0) || us > 4294967295.0)
         return gonio_err_set(err, EINVAL, "%s: integration time %g s", d->who, integration_s);
-    uint32_t st = 0, count = 3, seq0 = d->seq, seq, used_us = 0;
-    int rc = d->seq_known ? 0 : read_state(d, &st, &count, &seq0, &used_us, err);
+    struct det_state s = {.count = 3, .seq = d->seq};
+    int rc = d->seq_known ? 0 : read_state(d, &s, err);
     if (rc < 0)
         return rc;
+    uint32_t seq0 = s.seq;
     d->seq_known = 0;
-    if (count < 3 || count > 64)
+    if (s.count < 3 || s.count > 64)
         return gonio_err_set(err, GONIO_EDEVICE, "%s (slave %d): %u channels, expected RGB (3)",
-                             d->who, d->slave, count);
+                             d->who, d->slave, s.count);
     uint16_t w[4];
     drv_modbus_put32(w, (uint32_t)us);
     drv_modbus_put32(w + 2, 1);
     double scale = drv_modbus_time_scale(d->bus);
-    double t0 = gonio_monotonic_s();
     if ((rc = drv_modbus_write(d->bus, d->slave, R_INTEGRATION, 4, w, d->who, err)) < 0)
         return rc;
+    /* The integration started no later than the trigger's answer: the
+     * first read, sent then plus the integration, normally sees READY (on
+     * a slow line, timed from before the write it would come early by the
+     * write's frame time and read "busy" once more). */
+    double t0 = gonio_monotonic_s();
     double deadline = t0 + (1.5 * integration_s + 2.0) / scale + 0.5 + 4 * drv_modbus_timeout(d->bus);
     double poll = fmin(fmax(0.01 / scale, 0.0002), 0.01);
     drv_modbus_sleep(t0 + integration_s / scale - gonio_monotonic_s());
     for (;;) {
-        if ((rc = read_state(d, &st, &count, &seq, &used_us, err)) < 0)
+        if ((rc = read_state(d, &s, err)) < 0)
             return rc;
-        if ((st & ST_READY) && !(st & ST_BUSY) && seq != seq0)
+        if ((s.st & ST_READY) && !(s.st & ST_BUSY) && s.seq != seq0)
             break;
         if (gonio_monotonic_s() > deadline)
             return gonio_err_set(err, GONIO_EDEVICE,
                                  "%s (slave %d): no fresh reading %.3g s after the trigger "
                                  "(status 0x%x, sequence %u)", d->who, d->slave,
-                                 gonio_monotonic_s() - t0, st, seq);
+                                 gonio_monotonic_s() - t0, s.st, s.seq);
         drv_modbus_sleep(poll);
     }
-    uint16_t r[6];
-    if ((rc = drv_modbus_read(d->bus, d->slave, R_CHANNELS, 6, r, d->who, err)) < 0)
-        return rc;
     for (int k = 0; k < 3; k++) {
-        out->rgb[k] = drv_modbus_get_float(r + 2 * k);
+        out->rgb[k] = s.rgb[k];
         /* A NaN or infinite reading would be journalled and fitted as a
          * sample: it is a device fault. */
         if (!isfinite(out->rgb[k]))
@@ -85,9 +103,9 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
                                  d->who, d->slave, "RGB"[k], out->rgb[k]);
     }
     d->seq_known = 1;
-    d->seq = seq;
-    out->integration_s = used_us * 1e-6;
-    out->flags = (st & ST_SATURATED) ? DRV_READING_SATURATED : 0;
+    d->seq = s.seq;
+    out->integration_s = s.used_us * 1e-6;
+    out->flags = (s.st & ST_SATURATED) ? DRV_READING_SATURATED : 0;
     return 0;
 }
 

@@ -27,6 +27,11 @@ struct drv_modbus_bus {
     double now, scale, timeout;
     double steps_per_deg;
     double min_deg, max_deg; /* soft limits of the axis on slave 1 */
+    long exchanges;           /* as the real bus's request count */
+    int clock_slave;          /* drv_modbus_note_clock, as the real bus keeps it */
+    uint32_t clock_ms;
+    double clock_wall;
+    long clock_exchanges;
 };
 
 static int next_byte(drv_modbus_bus *bus, uint8_t *b)
@@ -40,6 +45,7 @@ static int next_byte(drv_modbus_bus *bus, uint8_t *b)
 static int transaction(drv_modbus_bus *bus, const char *who, struct gonio_err *err)
 {
     uint8_t b;
+    bus->exchanges++;
     bus->now += 0.001; /* a round trip takes time on the virtual clock */
     if (next_byte(bus, &b) < 0 || b == 0xFF)
         return gonio_err_set(err, ETIMEDOUT, "%s: no answer (fuzz)", who);
@@ -86,6 +92,23 @@ double drv_modbus_time_scale(const drv_modbus_bus *bus)
 double drv_modbus_timeout(const drv_modbus_bus *bus)
 {
     return bus->timeout;
+}
+
+void drv_modbus_note_clock(drv_modbus_bus *bus, int slave, uint32_t ms, double wall)
+{
+    bus->clock_slave = slave;
+    bus->clock_ms = ms;
+    bus->clock_wall = wall;
+    bus->clock_exchanges = bus->exchanges;
+}
+
+int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, double *wall)
+{
+    if (bus->clock_slave != slave || bus->clock_exchanges != bus->exchanges)
+        return 0;
+    *ms = bus->clock_ms;
+    *wall = bus->clock_wall;
+    return 1;
 }
 
 static drv_modbus_bus *the_bus;

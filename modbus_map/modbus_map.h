@@ -34,10 +34,13 @@ enum { MB_ST_HOME_END = 1u << 4, MB_ST_READY = 1u << 5, MB_ST_ALM_A = 1u << 7,
 enum mb_alarm { MB_ALARM_DEVIATION = 0x10, MB_ALARM_SENSOR = 0x28, MB_ALARM_OVERLOAD = 0x30,
                 MB_ALARM_OVERTRAVEL = 0x66, MB_ALARM_DATA = 0x70 };
 
-/* The detector. Channel k is the float at MB_DET_CHANNELS + 2k. */
+/* The detector (our own map). Channel k is the float at MB_DET_CHANNELS +
+ * 2k. The channels follow the clock without a gap, so that one read of
+ * 0x00 .. the last channel answers integration used, status, sequence,
+ * clock and the reading at once. */
 enum mb_det_reg {
     MB_DET_INTEGRATION = 0x00, MB_DET_TRIGGER = 0x02, MB_DET_STATUS = 0x04, MB_DET_COUNT = 0x06,
-    MB_DET_SEQUENCE = 0x08, MB_DET_CLOCK = 0x0A, MB_DET_CHANNELS = 0x10,
+    MB_DET_SEQUENCE = 0x08, MB_DET_CLOCK = 0x0A, MB_DET_CHANNELS = 0x0C,
 };
 /* Detector status bits (MB_DET_STATUS). */
 enum { MB_DET_BUSY = 1u << 0, MB_DET_READY = 1u << 1, MB_DET_SATURATED = 1u << 2 };

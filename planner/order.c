@@ -494,7 +494,7 @@ void plan_estimate_points(const struct plan *plan, const struct plan_rig *rig,
     est->move_s = est->integration_s = 0;
     for (size_t i = 0; i < plan->n; i++) {
         const struct plan_point *pt = plan_point(plan, i);
-        double move = plan_move_time(rig, &at, &pt->ax);
+        double move = plan_move_time_backlash(rig, &at, &pt->ax);
         double t = integration ? integration(user, pt) : rig->integration_s;
         est->move_s += move;
         est->integration_s += t;

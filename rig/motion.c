@@ -13,17 +13,46 @@ double plan_axis_time(double dist_deg, double speed, double accel)
     return d / speed + speed / accel;
 }
 
-double plan_move_time(const struct plan_rig *rig, const struct plan_axes *from,
-                      const struct plan_axes *to)
+/* One axis from one rest to the next. With backlash (mech != NULL), a
+ * move arriving from the side opposite the approach goes first to a point
+ * backlash_deg beyond the target (within the limits), then to the target,
+ * as the drivers move it (drivers/axis_mechanics.c, send_approach). */
+static double axis_move_time(const struct plan_axis *ax, const struct plan_mechanics *mech,
+                             double from, double to)
 {
-    double t = plan_axis_time(to->s - from->s, rig->sample.speed, rig->sample.accel);
-    double ta = plan_axis_time(to->a - from->a, rig->arm.speed, rig->arm.accel);
+    if (mech && mech->backlash_deg > 0) {
+        double dir = mech->approach < 0 ? -1.0 : 1.0;
+        double via = fmin(fmax(to - dir * mech->backlash_deg, ax->min), ax->max);
+        if (dir * (to - from) < 0 && via != to)
+            return plan_axis_time(via - from, ax->speed, ax->accel) +
+                   plan_axis_time(to - via, ax->speed, ax->accel);
+    }
+    return plan_axis_time(to - from, ax->speed, ax->accel);
+}
+
+static double move_time(const struct plan_rig *rig, const struct plan_mechanics *mech,
+                        const struct plan_axes *from, const struct plan_axes *to)
+{
+    double t = axis_move_time(&rig->sample, mech, from->s, to->s);
+    double ta = axis_move_time(&rig->arm, mech, from->a, to->a);
     if (ta > t)
         t = ta;
     if (rig->out_of_plane) {
-        double tz = plan_axis_time(to->az - from->az, rig->azimuth.speed, rig->azimuth.accel);
+        double tz = axis_move_time(&rig->azimuth, mech, from->az, to->az);
         if (tz > t)
             t = tz;
     }
     return t;
+}
+
+double plan_move_time(const struct plan_rig *rig, const struct plan_axes *from,
+                      const struct plan_axes *to)
+{
+    return move_time(rig, NULL, from, to);
+}
+
+double plan_move_time_backlash(const struct plan_rig *rig, const struct plan_axes *from,
+                               const struct plan_axes *to)
+{
+    return move_time(rig, &rig->mech, from, to);
 }

@@ -17,8 +17,16 @@ struct plan_axes {
 double plan_axis_time(double dist_deg, double speed, double accel);
 
 /* Time of a move between two positions: all axes start together, so the
- * move lasts as long as the slowest axis. */
+ * move lasts as long as the slowest axis. The same either way: the
+ * planner's ordering (tours, bounds) assumes a symmetric cost. */
 double plan_move_time(const struct plan_rig *rig, const struct plan_axes *from,
                       const struct plan_axes *to);
+
+/* The move as the drivers make it on the rig's mechanics: an axis with
+ * backlash arriving against its approach direction takes the leg beyond
+ * the target and the approach leg back (rig.h, struct plan_mechanics).
+ * What the plan's estimate counts. */
+double plan_move_time_backlash(const struct plan_rig *rig, const struct plan_axes *from,
+                               const struct plan_axes *to);
 
 #endif

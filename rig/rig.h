@@ -19,7 +19,8 @@ struct plan_axis {
  * resting outside is re-commanded up to move_retries times, approaching
  * from the reference side (approach: +1 from below, -1 from above) through
  * a point backlash_deg beyond the target when the rig has backlash. The
- * planner does not use these (the plan's estimate assumes no re-commands). */
+ * plan's estimate counts the approach legs (plan_move_time_backlash), not
+ * re-commands. */
 struct plan_mechanics {
     double in_position_deg;
     double backlash_deg; /* 0: direct approach from either side */

@@ -454,8 +454,7 @@ static const struct reg_range axis_ranges[] = {
     {AX_DATA_NO, AX_TRIGGER + 1, 1}, {AX_INPUT, AX_INPUT + 1, 1},
     {AX_STATUS, AX_ALARM + 1, 0},     {AX_FEEDBACK, AX_FEEDBACK + 1, 0}, {-1, -1, 0}};
 static const struct reg_range det_ranges[] = {
-    {DET_INTEGRATION, DET_TRIGGER + 1, 1}, {DET_STATUS, DET_CLOCK + 1, 0},
-    {DET_CHANNELS, DET_NREGS - 1, 0},      {-1, -1, 0}};
+    {DET_INTEGRATION, DET_TRIGGER + 1, 1}, {DET_STATUS, DET_NREGS - 1, 0}, {-1, -1, 0}};
 
 /* 0 when every register of [addr, addr + n) is mapped (and writable when
  * asked), else the Modbus exception code. */

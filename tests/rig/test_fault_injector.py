@@ -298,7 +298,7 @@ def stall(req, reply):
 @pytest.mark.parametrize("kind,needle", [(alarm, "0x30"), (stall, "stall")],
                          ids=["alarm", "stall"])
 def test_persistent_fault_fails_point(rig, kind, needle):
-    stop, inj, d = capture(rig, "p", after(300, kind))
+    stop, inj, d = capture(rig, "p", after(200, kind))
     assert inj.injected > 0
     assert stop["exit_status"] == "fail", stop
     assert needle in stop["message"], stop

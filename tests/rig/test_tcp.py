@@ -51,8 +51,8 @@ def test_float_packing(tcp, rtu):
     time.sleep(0.01)
     while not rtu.read32(DETECTOR, 0x04) & 0x2:
         time.sleep(0.001)
-    raw_rtu = rtu.read(DETECTOR, 0x10, 6)
-    raw_tcp = regs(tcp, DETECTOR, 0x10, 6)
+    raw_rtu = rtu.read(DETECTOR, 0x0C, 6)
+    raw_tcp = regs(tcp, DETECTOR, 0x0C, 6)
     assert raw_rtu == raw_tcp
     dec = BinaryPayloadDecoder.fromRegisters(raw_tcp, byteorder=Endian.Big, wordorder=Endian.Big)
     by_pymodbus = [dec.decode_32bit_float() for _ in range(3)]

@@ -95,33 +95,17 @@ static void test_capture_matches_material_and_estimate(void **state)
     check_samples(out, 52);
 
     /* The simulated clock runs the same motion as the planner's estimate,
-     * on a rig without backlash: the drivers then take no approach legs,
-     * which the estimate does not count (drivers/drivers.h). */
-    char direct[300], out2[300];
-    snprintf(direct, sizeof direct, "%s/direct.yaml", dir);
-    snprintf(out2, sizeof out2, "%s/direct", dir);
-    FILE *f = fopen(direct, "w");
-    assert_non_null(f);
-    fputs("name: direct\nout_of_plane: true\nblind_deg: 5\nsettle_s: 0.3\n"
-          "integration: {fixed_s: 0.05, auto_min_s: 0.001, auto_max_s: 2}\naxes:\n"
-          "  sample: {speed: 20, accel: 40, min: -90, max: 90}\n"
-          "  arm: {speed: 15, accel: 30, min: -170, max: 170}\n"
-          "  azimuth: {speed: 30, accel: 60, min: -180, max: 180}\n"
-          "mechanics: {backlash_deg: 0}\n", f);
-    fclose(f);
-    struct capture_config cfg2 = config(out2);
-    cfg2.rig = direct;
-    struct capture_summary s2;
-    if (capture_run_offline(&cfg2, &s2, &err) < 0)
-        fail_msg("%s", err.msg);
+     * backlash approach legs included: the default rig has backlash, and
+     * DS3 moves its axes both ways. */
     struct plan_rig rig;
     struct plan *plan;
-    assert_int_equal(plan_rig_load(direct, &rig, &err), 0);
+    assert_int_equal(plan_rig_load("default", &rig, &err), 0);
+    assert_true(rig.mech.backlash_deg > 0);
     assert_int_equal(plan_load("ds3", &rig, &plan, &err), 52);
     struct plan_estimate est;
     plan_estimate(plan, &rig, &est);
-    assert_rel_close(s2.rig_time_s, est.total_s, 1e-9);
-    assert_rel_close(s2.move_s, est.move_s, 1e-9);
+    assert_rel_close(s.rig_time_s, est.total_s, 1e-9);
+    assert_rel_close(s.move_s, est.move_s, 1e-9);
     plan_free(plan);
 
     /* The fit is of the true material: errors are finite and small. */

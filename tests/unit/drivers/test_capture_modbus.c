@@ -62,10 +62,16 @@ static int open_devices(void *user, const struct plan_rig *rig, struct capture_d
     if (!h->bus)
         return -GONIO_EDEVICE;
     memset(dev, 0, sizeof *dev);
-    dev->sample = drv_axis_new_modbus(h->bus, 1, &rig->sample, NULL, "sample", err);
-    dev->arm = drv_axis_new_modbus(h->bus, 2, &rig->arm, NULL, "arm", err);
+    /* The rig profile's mechanics, as goniod builds them (daemon/devices.c):
+     * the backlash approach legs are in the estimate too. */
+    struct drv_modbus_axis_opts opts = {.in_position_deg = rig->mech.in_position_deg,
+                                        .backlash_deg = rig->mech.backlash_deg,
+                                        .approach = rig->mech.approach,
+                                        .move_retries = rig->mech.move_retries};
+    dev->sample = drv_axis_new_modbus(h->bus, 1, &rig->sample, &opts, "sample", err);
+    dev->arm = drv_axis_new_modbus(h->bus, 2, &rig->arm, &opts, "arm", err);
     if (rig->out_of_plane)
-        dev->azimuth = drv_axis_new_modbus(h->bus, 4, &rig->azimuth, NULL, "azimuth", err);
+        dev->azimuth = drv_axis_new_modbus(h->bus, 4, &rig->azimuth, &opts, "azimuth", err);
     dev->detector = drv_detector_new_modbus(h->bus, 3, err);
     dev->clock = drv_clock_new_modbus(h->bus, 3, err);
     if (!dev->sample || !dev->arm || (rig->out_of_plane && !dev->azimuth) || !dev->detector ||

@@ -286,6 +286,43 @@ static void test_clock(void **state)
     drv_clock_free(c);
 }
 
+static long requests(const drv_modbus_bus *bus)
+{
+    struct drv_modbus_stats st;
+    drv_modbus_bus_stats(bus, &st);
+    return st.requests;
+}
+
+/* The detector's reading carries the rig clock: right after it, the clock
+ * reads nothing and carries that reading forward in rig time; once
+ * anything else was said on the bus, it reads the register again. */
+static void test_clock_from_detector(void **state)
+{
+    (void)state;
+    struct gonio_err err = {0};
+    drv_clock *c = drv_clock_new_modbus(rtu, 3, &err);
+    drv_detector *d = drv_detector_new_modbus(rtu, 3, &err);
+    drv_axis *s = axis(rtu, 1, &rig.sample, "sample");
+    assert_non_null(c);
+    assert_non_null(d);
+    struct drv_reading r;
+    assert_int_equal(drv_detector_acquire(d, 0.05, &r, &err), 0);
+    long n = requests(rtu);
+    double t0 = drv_clock_now(c);
+    assert_int_equal(drv_clock_sleep(c, 5.0), 0); /* 0.1 s of wall time */
+    double t1 = drv_clock_now(c);
+    assert_int_equal(requests(rtu), n);
+    assert_true(t1 - t0 >= 4.99);
+    position(s); /* another exchange: the detector's clock reading is old news */
+    n = requests(rtu);
+    double t2 = drv_clock_now(c);
+    assert_int_equal(requests(rtu), n + 1);
+    assert_true(t2 >= t1);
+    drv_axis_free(s);
+    drv_detector_free(d);
+    drv_clock_free(c);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -294,6 +331,7 @@ int main(void)
         cmocka_unit_test(test_detector_rtu), cmocka_unit_test(test_detector_tcp),
         cmocka_unit_test(test_soft_limits),  cmocka_unit_test(test_absent_slave),
         cmocka_unit_test(test_backlash),     cmocka_unit_test(test_clock),
+        cmocka_unit_test(test_clock_from_detector),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }
