@@ -47,6 +47,7 @@ struct fit_options fit_default_options(void)
         .ftol = 1e-5,
         .warm_start = NULL,
         .global = FIT_GLOBAL_GRID,
+        .heldout = 1,
     };
     return o;
 }
@@ -831,7 +832,8 @@ int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_opt
         st->geometries = fit_status_geometries(samples, idx, nv);
         abc_status_figures(fp, best.theta, st);
         st->insample = rms_log(fp, best.theta);
-        st->heldout = heldout_rms(samples, idx, n_local, &opt, prior, best.theta);
+        st->heldout = opt.heldout ? heldout_rms(samples, idx, n_local, &opt, prior, best.theta)
+                                  : NAN;
         if (!best.converged)
             st->findings |= 1u << FIT_STATUS_NOT_CONVERGED;
         if (peak_unbounded(samples, idx, nv, opt.lower_bound, out))

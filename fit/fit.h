@@ -47,6 +47,11 @@ struct fit_options {
      * data: no residual while the model is above the value
      * (docs/fitting.md "Saturated readings"). */
     const unsigned char *lower_bound;
+    /* 1 (default): the fit status's held-out residual (fit_info.status),
+     * five coarse refits; 0 leaves it NaN, for fits whose status nobody
+     * reads (the streaming fit's rounds, which hold out samples their own
+     * way). */
+    int heldout;
 };
 
 struct fit_options fit_default_options(void);

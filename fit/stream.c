@@ -98,6 +98,7 @@ static void round_run(fit_stream *s)
 {
     struct fit_options fo = s->opt.fit;
     fo.warm_start = s->have_params ? &s->params : NULL;
+    fo.heldout = 0; /* a round's status is not read: its hold-out is below */
     struct brdf_abc next, cold;
     struct fit_info info, cold_info;
     size_t fitted_before = s->st.fitted;
