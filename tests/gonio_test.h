@@ -89,6 +89,21 @@ static inline const char *gonio_test_shared_or_skip(void)
     return dir;
 }
 
+/* A test group's scratch folder: made fresh in setup as
+ * /tmp/gonio-TAG-XXXXXX, removed with everything in it in teardown. */
+static inline int gonio_test_dir_make(char *dir, size_t size, const char *tag)
+{
+    snprintf(dir, size, "/tmp/gonio-%s-XXXXXX", tag);
+    return mkdtemp(dir) ? 0 : -1;
+}
+
+static inline int gonio_test_dir_remove(const char *dir)
+{
+    char cmd[300];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    return system(cmd);
+}
+
 /* Nonzero when the test should run at its small size: under valgrind
  * (make check-valgrind; memcheck costs some 50x in CPU) or with
  * GONIO_TEST_SMALL=1 (to run the small size natively or under ASan).

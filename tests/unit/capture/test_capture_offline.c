@@ -27,16 +27,13 @@ static char dir[256];
 static int setup(void **state)
 {
     (void)state;
-    snprintf(dir, sizeof dir, "/tmp/gonio-capture-XXXXXX");
-    return mkdtemp(dir) ? 0 : -1;
+    return gonio_test_dir_make(dir, sizeof dir, "capture");
 }
 
 static int teardown(void **state)
 {
     (void)state;
-    char cmd[300];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd);
+    return gonio_test_dir_remove(dir);
 }
 
 static int exists(const char *path)

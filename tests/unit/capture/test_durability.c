@@ -35,16 +35,13 @@ int fsync(int fd)
 static int setup(void **state)
 {
     (void)state;
-    snprintf(dir, sizeof dir, "/tmp/gonio-durable-XXXXXX");
-    return mkdtemp(dir) ? 0 : -1;
+    return gonio_test_dir_make(dir, sizeof dir, "durable");
 }
 
 static int teardown(void **state)
 {
     (void)state;
-    char cmd[300];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd);
+    return gonio_test_dir_remove(dir);
 }
 
 static void test_atomic_write_syncs_the_directory_after_the_rename(void **state)
