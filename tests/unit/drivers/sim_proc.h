@@ -13,6 +13,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "drivers/drv_modbus.h"
+#include "tests/gonio_test.h"
+
 struct sim_proc {
     pid_t pid;
     char pty[300];
@@ -81,6 +84,23 @@ static inline void sim_proc_nap(long ms)
 }
 
 /* SIGTERM, and the exit status (0: a clean exit). */
+/* A Modbus RTU bus on the simulator's pty at its time scale, with the
+ * default timeout stretched as the tests' time factor says; NULL with a
+ * message on stderr. */
+static inline drv_modbus_bus *sim_proc_rtu(const struct sim_proc *p, double time_scale)
+{
+    struct drv_modbus_bus_cfg cfg;
+    drv_modbus_bus_cfg_default(&cfg);
+    cfg.device = p->pty;
+    cfg.time_scale = time_scale;
+    cfg.timeout_s *= gonio_test_time_factor();
+    struct gonio_err err = {0};
+    drv_modbus_bus *bus = drv_modbus_bus_new_rtu(&cfg, &err);
+    if (!bus)
+        fprintf(stderr, "%s\n", err.msg);
+    return bus;
+}
+
 static inline int sim_proc_stop(struct sim_proc *p)
 {
     int status = -1;

@@ -43,14 +43,7 @@ static int group_setup(void **state)
     struct gonio_err err = {0};
     if (sim_proc_start(&sim, args) < 0 || plan_rig_load("default", &rig, &err) < 0)
         return -1;
-    struct drv_modbus_bus_cfg cfg;
-    drv_modbus_bus_cfg_default(&cfg);
-    cfg.device = sim.pty;
-    cfg.time_scale = 50;
-    cfg.timeout_s *= gonio_test_time_factor();
-    bus = drv_modbus_bus_new_rtu(&cfg, &err);
-    if (!bus)
-        fprintf(stderr, "%s\n", err.msg);
+    bus = sim_proc_rtu(&sim, 50);
     return bus ? 0 : -1;
 }
 
