@@ -12,11 +12,17 @@
 
 #include "planner/plan_private.h"
 
-/* Beyond this many points the O(n^2) improvement passes are skipped and
- * travel order is the serpentine sweep alone (dense domain plans). */
-#define LOCAL_SEARCH_MAX 4000
-/* Up to this many points, larger plans get a windowed local search: moves
- * only between sequence positions at most WINDOW apart, a few rounds. */
+/* Up to this many points the local search runs to a local optimum over the
+ * whole sequence. Each pass is O(n^2) and passes run into the hundreds
+ * (3909 points took 28 s), so larger plans search within a window of
+ * sequence positions: a wide one up to QUADRATIC_MAX, a narrow one for
+ * dense domain plans up to WINDOWED_MAX. */
+#define LOCAL_SEARCH_MAX 1000
+/* Up to this many points the single O(n^2) steps run: the greedy start
+ * and the progressive levels' farthest-point order. */
+#define QUADRATIC_MAX 4000
+#define WINDOW_WIDE 150
+#define WIDE_ROUNDS 20
 #define WINDOWED_MAX 20000
 #define WINDOW 60
 #define WINDOWED_ROUNDS 8
@@ -155,15 +161,22 @@ static int or_opt(const struct tour *t, size_t *seq, long m, long window)
 }
 
 /* Full 2-opt and Or-opt to a local optimum; beyond LOCAL_SEARCH_MAX
- * points, where that is O(n^2) per pass, the same moves within a window
- * of sequence positions: the start is a sweep, so spatial neighbours are
- * mostly near in sequence. */
+ * points the same moves within a window of sequence positions, a bounded
+ * number of rounds: the starts are a sweep or greedy, so spatial neighbours
+ * are mostly near in sequence. */
 static void local_search(const struct tour *t, size_t *seq, size_t m)
 {
     if (m < 3 || m > WINDOWED_MAX)
         return;
-    long window = m > LOCAL_SEARCH_MAX ? WINDOW : 0;
-    int rounds = window ? WINDOWED_ROUNDS : 200;
+    long window = 0;
+    int rounds = 200;
+    if (m > QUADRATIC_MAX) {
+        window = WINDOW;
+        rounds = WINDOWED_ROUNDS;
+    } else if (m > LOCAL_SEARCH_MAX) {
+        window = WINDOW_WIDE;
+        rounds = WIDE_ROUNDS;
+    }
     for (int round = 0; round < rounds; round++) {
         int a = two_opt(t, seq, (long)m, window);
         int b = or_opt(t, seq, (long)m, window);
@@ -264,7 +277,7 @@ static int travel(const struct tour *t, size_t *seq, size_t m)
     for (int start = 0; start < 3; start++) {
         /* large plans: greedy is O(n^2), and the written order of a domain
          * is kept as it is (still a candidate, so travel is never worse) */
-        if (start == 2 && m > LOCAL_SEARCH_MAX)
+        if (start == 2 && m > QUADRATIC_MAX)
             continue;
         memcpy(work, orig, m * sizeof *work);
         if (start == 1) {
@@ -273,7 +286,7 @@ static int travel(const struct tour *t, size_t *seq, size_t m)
         } else if (start == 2) {
             greedy(t, work, m);
         }
-        if (start != 0 || m <= LOCAL_SEARCH_MAX)
+        if (start != 0 || m <= QUADRATIC_MAX)
             local_search(t, work, m);
         double c = path_cost(t, work, m);
         if (c < best_c) {
@@ -416,10 +429,10 @@ static int progressive(const struct tour *t, size_t *seq, size_t n)
         if (level[i] > max_level)
             max_level = level[i];
     }
-    if (max_level == 0 && n > 6 && n <= LOCAL_SEARCH_MAX && farthest_levels(t->pts, n, level) < 0) {
+    if (max_level == 0 && n > 6 && n <= QUADRATIC_MAX && farthest_levels(t->pts, n, level) < 0) {
         free(level);
         return -ENOMEM;
-    } else if (max_level > 0 && n <= LOCAL_SEARCH_MAX) {
+    } else if (max_level > 0 && n <= QUADRATIC_MAX) {
         size_t m = 0;
         for (size_t i = 0; i < n; i++)
             if (level[i] == max_level)
