@@ -27,9 +27,9 @@ struct mb_axis {
     struct plan_axis prof;
     double spd;
     char who[48]; /* "axis arm" */
-    /* The leg under way: its target, when the drive started it at the
-     * latest (wall) and how long it needs for it (rig seconds): when to
-     * look at the drive. */
+    /* The leg under way: its target, when the drive likely started it
+     * (wall) and how long it needs for it (rig seconds): when to look at
+     * the drive. */
     double leg_target, leg_start, leg_time;
     /* When the drive last said it rests, at the latest (wall; 0: never). */
     double rest_wall;
@@ -86,6 +86,16 @@ static double mb_resolve(const void *priv, double deg)
     return to_steps(deg, a->spd) / a->spd;
 }
 
+/* The drive likely started the leg when it acted on the last write, a
+ * frame's silence before it answered (drv_modbus_gap_s): the status read
+ * is timed from there. */
+static void leg_started(struct mb_axis *a)
+{
+    double lo, hi;
+    drv_modbus_acted(a->bus, &lo, &hi);
+    a->leg_start = fmax(lo, hi - drv_modbus_gap_s(a->bus));
+}
+
 /* Write the direct-data block with the trigger in one transaction: the
  * drive stores the block, then acts on the trigger. Only the position
  * changes from leg to leg: once the drive holds the rest of the block, a
@@ -118,8 +128,7 @@ static int mb_start_leg(void *priv, double from, double to, struct gonio_err *er
                               err);
     a->block = rc == 0;
     a->staged = a->next = 0;
-    double lo;
-    drv_modbus_acted(a->bus, &lo, &a->leg_start);
+    leg_started(a);
     return rc;
 }
 
@@ -134,11 +143,13 @@ static void mb_next_leg(void *priv, double to)
 
 /* Store the next leg's position while the drive has this one to run for
  * longer than the write takes twice over (the position registers are
- * data: the drive acts on them only with the trigger). */
+ * data: the drive acts on them only with the trigger). Only where the line
+ * charges the frames' time: elsewhere the full write costs no more. */
 static int stage_next(struct mb_axis *a, double due, struct gonio_err *err)
 {
-    double write_s = 2 * drv_modbus_request_s(a->bus, 1, 2) + 0.001;
-    if (!a->next || !a->block || due - gonio_monotonic_s() < 2 * write_s)
+    double line = drv_modbus_request_s(a->bus, 1, 2);
+    if (!a->next || !a->block || !(line > 0) ||
+        due - gonio_monotonic_s() < 2 * (2 * line + 0.001))
         return 0;
     uint16_t r[2];
     drv_modbus_put32(r, (uint32_t)a->next_pos);
@@ -167,7 +178,8 @@ static int wait_status(struct mb_axis *a, uint32_t *st, uint32_t *alarm, struct 
     int rc = stage_next(a, due, err);
     if (rc < 0)
         return rc;
-    drv_modbus_sleep(due - drv_modbus_request_s(a->bus, 0, 4) - gonio_monotonic_s());
+    drv_modbus_sleep(due - drv_modbus_request_s(a->bus, 0, 4) - drv_modbus_gap_s(a->bus) -
+                     gonio_monotonic_s());
     for (;;) {
         if ((rc = read_status(a, st, alarm, err)) < 0)
             return rc;
@@ -249,8 +261,7 @@ static int mb_home(void *priv, double here, unsigned *alarm, struct gonio_err *e
     a->leg_time = plan_axis_time(fabs(here), a->prof.speed, a->prof.accel);
     a->block = a->staged = 0;
     int rc = pulse_input(a, IN_ZHOME, err);
-    double lo;
-    drv_modbus_acted(a->bus, &lo, &a->leg_start);
+    leg_started(a);
     uint32_t st = 0, code = 0;
     if (rc == 0)
         rc = wait_status(a, &st, &code, err);

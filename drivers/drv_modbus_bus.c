@@ -19,11 +19,12 @@ struct drv_modbus_bus {
     double timeout_s, time_scale;
     int retries, trace, tcp;
     struct drv_modbus_stats stats;
-    /* The line (drv_modbus_acted): wall seconds a character takes on it (0
-     * on TCP, and from the first exchange faster than its frames could
-     * travel at that rate: a line that charges no such time); the last
-     * answered exchange's send and answer times and its frames' characters. */
-    double char_s;
+    /* The line (drv_modbus_acted): wall seconds a character takes on it
+     * and the silence that ends a frame (drv_modbus_gap_s); both 0 on TCP,
+     * and from the first exchange faster than its frames could travel at
+     * that rate (a line that charges no such time); the last answered
+     * exchange's send and answer times and its frames' characters. */
+    double char_s, gap_s;
     struct {
         double sent, answered;
         int req_chars, reply_chars;
@@ -54,7 +55,8 @@ void drv_modbus_bus_cfg_default(struct drv_modbus_bus_cfg *cfg)
 }
 
 static drv_modbus_bus *bus_finish(modbus_t *ctx, const struct drv_modbus_bus_cfg *cfg,
-                                  const char *where, double char_s, struct gonio_err *err)
+                                  const char *where, double char_s, double gap_s,
+                                  struct gonio_err *err)
 {
     if (!ctx) {
         gonio_err_set(err, EINVAL, "modbus %s: %s", where, modbus_strerror(errno));
@@ -91,6 +93,7 @@ static drv_modbus_bus *bus_finish(modbus_t *ctx, const struct drv_modbus_bus_cfg
     bus->retries = cfg->retries > 0 ? cfg->retries : 0;
     bus->trace = cfg->trace;
     bus->char_s = char_s / scale; /* a simulator's line is as much faster in wall time */
+    bus->gap_s = gap_s / scale;
     return bus;
 }
 
@@ -109,9 +112,12 @@ drv_modbus_bus *drv_modbus_bus_new_rtu(const struct drv_modbus_bus_cfg *cfg,
     int baud = cfg->baud > 0 ? cfg->baud : 115200, data = cfg->data_bits > 0 ? cfg->data_bits : 8,
         stop = cfg->stop_bits > 0 ? cfg->stop_bits : 1;
     modbus_t *ctx = modbus_new_rtu(cfg->device, baud, parity, data, stop);
-    /* A character: start bit, data, parity, stop bits. */
+    /* A character: start bit, data, parity, stop bits. The silence that
+     * ends a frame, t3.5 of the Modbus serial line guide: 3.5 characters
+     * (of 11 bits), 1.75 ms above 19200 baud. */
     double char_s = (1 + data + (parity != 'N') + stop) / (double)baud;
-    return bus_finish(ctx, cfg, cfg->device, char_s, err);
+    double gap_s = baud > 19200 ? 1.75e-3 : 3.5 * 11.0 / baud;
+    return bus_finish(ctx, cfg, cfg->device, char_s, gap_s, err);
 }
 
 drv_modbus_bus *drv_modbus_bus_new_tcp(const struct drv_modbus_bus_cfg *cfg,
@@ -124,7 +130,8 @@ drv_modbus_bus *drv_modbus_bus_new_tcp(const struct drv_modbus_bus_cfg *cfg,
     }
     char where[300];
     snprintf(where, sizeof where, "%s:%d", cfg->host, cfg->port);
-    drv_modbus_bus *bus = bus_finish(modbus_new_tcp(cfg->host, cfg->port), cfg, where, 0, err);
+    drv_modbus_bus *bus = bus_finish(modbus_new_tcp(cfg->host, cfg->port), cfg, where, 0, 0,
+                                     err);
     if (bus)
         bus->tcp = 1;
     return bus;
@@ -194,6 +201,11 @@ void drv_modbus_acted(const drv_modbus_bus *bus, double *lo, double *hi)
     *hi = bus->last.answered - bus->last.reply_chars * bus->char_s;
 }
 
+double drv_modbus_gap_s(const drv_modbus_bus *bus)
+{
+    return bus->gap_s;
+}
+
 /* An exchange answered sooner than its frames can travel at the line's
  * rate took no line time (a pseudo-terminal, a simulator that emulates
  * none): the frames' times bound nothing on it, from now on. */
@@ -204,7 +216,7 @@ static void note_exchange(drv_modbus_bus *bus, int write, int n, double sent, do
     bus->last.req_chars = request_chars(write, n);
     bus->last.reply_chars = reply_chars(write, n);
     if (answered - sent < (bus->last.req_chars + bus->last.reply_chars) * bus->char_s)
-        bus->char_s = 0;
+        bus->char_s = bus->gap_s = 0;
 }
 
 void drv_modbus_sleep(double seconds)

@@ -84,15 +84,17 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
              : drv_modbus_write(d->bus, d->slave, R_INTEGRATION, 4, w, d->who, err);
     if (rc < 0)
         return rc;
-    /* The integration started no later than the detector took the trigger
-     * (drv_modbus_acted): the first read, sent to reach the detector the
-     * integration after that, normally sees READY. */
-    double t0 = gonio_monotonic_s(), lo, started;
-    drv_modbus_acted(d->bus, &lo, &started);
+    /* The integration started when the detector took the trigger, likely
+     * a frame's silence before it answered (drv_modbus_gap_s): the first
+     * read, sent to reach the detector the integration after that,
+     * normally sees READY. */
+    double t0 = gonio_monotonic_s(), lo, hi, gap = drv_modbus_gap_s(d->bus);
+    drv_modbus_acted(d->bus, &lo, &hi);
+    double started = fmax(lo, hi - gap);
     double deadline = t0 + (1.5 * integration_s + 2.0) / scale + 0.5 + 4 * drv_modbus_timeout(d->bus);
     double poll = fmin(fmax(0.01 / scale, 0.0002), 0.01);
     drv_modbus_sleep(started + integration_s / scale - drv_modbus_request_s(d->bus, 0, R_NREGS) -
-                     gonio_monotonic_s());
+                     gap - gonio_monotonic_s());
     for (;;) {
         if ((rc = read_state(d, &s, err)) < 0)
             return rc;

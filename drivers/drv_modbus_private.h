@@ -30,6 +30,12 @@ void drv_modbus_acted(const drv_modbus_bus *bus, double *lo, double *hi);
  * on the line before its device can act on it, as drv_modbus_acted counts
  * it (0 where frames bound nothing). */
 double drv_modbus_request_s(const drv_modbus_bus *bus, int write, int n);
+/* The silence that ends a frame on the line (t3.5), wall seconds; 0 where
+ * frames bound nothing. A device that waits for it before acting on a
+ * request, and leaves it before answering, acts that much after
+ * drv_modbus_acted's lo and before its hi: what the drivers expect when
+ * they time their polls, never what they count on. */
+double drv_modbus_gap_s(const drv_modbus_bus *bus);
 
 /* Simulated seconds per wall second on this bus (1 on hardware). */
 double drv_modbus_time_scale(const drv_modbus_bus *bus);

@@ -101,6 +101,12 @@ double drv_modbus_request_s(const drv_modbus_bus *bus, int write, int n)
     return 0;
 }
 
+double drv_modbus_gap_s(const drv_modbus_bus *bus)
+{
+    (void)bus;
+    return 0;
+}
+
 double drv_modbus_time_scale(const drv_modbus_bus *bus)
 {
     return bus->scale;
