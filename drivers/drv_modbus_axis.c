@@ -13,8 +13,8 @@
 
 /* The register map (modbus_map/modbus_map.h) under this file's names. */
 enum { R_DIRECT = MB_AX_DATA_NO, R_POSITION = MB_AX_POSITION, R_TRIGGER = MB_AX_TRIGGER,
-       R_INPUT = MB_AX_INPUT,
-       R_STATUS = MB_AX_STATUS, R_ALARM = MB_AX_ALARM, R_FEEDBACK = MB_AX_FEEDBACK };
+       R_INPUT = MB_AX_INPUT, R_STATUS = MB_AX_STATUS, R_ALARM = MB_AX_ALARM,
+       R_FEEDBACK = MB_AX_FEEDBACK };
 enum { IN_ZHOME = MB_IN_ZHOME, IN_STOP = MB_IN_STOP, IN_ALM_RST = MB_IN_ALM_RST };
 enum { ST_HOME_END = MB_ST_HOME_END, ST_READY = MB_ST_READY, ST_ALM_A = MB_ST_ALM_A,
        ST_MOVE = MB_ST_MOVE, ST_IN_POS = MB_ST_IN_POS };
@@ -102,8 +102,7 @@ static void leg_started(struct mb_axis *a)
  * leg writes from the position to the trigger (12 registers, not 16), and
  * a leg whose position is staged already (mb_next_leg) the trigger alone
  * (its lower register, FC 0x06: the upper one reads 0). The leg's clock
- * starts when the drive acted on the write at the latest
- * (drv_modbus_acted). */
+ * starts when the drive likely took the write (leg_started). */
 static int mb_start_leg(void *priv, double from, double to, struct gonio_err *err)
 {
     struct mb_axis *a = priv;
