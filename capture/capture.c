@@ -218,39 +218,49 @@ static void rig_clock_paused(struct rig_clock *rc)
 }
 
 /* Move the axes together, settle, integrate, and record where the axes
- * actually were: the sample is what the rig measured, not what was asked. */
+ * actually were: the sample is what the rig measured, not what was asked.
+ * The settle runs from when the last axis came to rest, as its drive said
+ * (drv_axis_rested); the encoders are read while it runs, so that their
+ * reads add nothing to the point's time where the bus is slow. */
 static int measure_point(struct capture_devices *d, struct rig_clock *clk,
                          const struct capture_hooks *hooks, const struct plan_rig *rig,
                          const struct plan_point *pt, int index, struct journal_sample *s,
                          struct gonio_err *err)
 {
-    int rc;
-    if ((rc = drv_axis_start_move(d->sample, pt->ax.s, err)) < 0 ||
-        (rc = drv_axis_start_move(d->arm, pt->ax.a, err)) < 0 ||
-        (d->azimuth && (rc = drv_axis_start_move(d->azimuth, pt->ax.az, err)) < 0))
-        return rc;
+    drv_axis *axes[3] = {d->sample, d->arm, d->azimuth};
+    const double to[3] = {pt->ax.s, pt->ax.a, pt->ax.az};
+    double at[3] = {0, 0, 0}, rested = INFINITY;
+    int n = d->azimuth ? 3 : 2, rc;
+    for (int i = 0; i < n; i++)
+        if ((rc = drv_axis_start_move(axes[i], to[i], err)) < 0)
+            return rc;
     phase(hooks, CAPTURE_PHASE_MOVE, index);
-    if ((rc = drv_axis_wait(d->sample, err)) < 0 || (rc = drv_axis_wait(d->arm, err)) < 0 ||
-        (d->azimuth && (rc = drv_axis_wait(d->azimuth, err)) < 0))
-        return rc;
+    for (int i = 0; i < n; i++)
+        if ((rc = drv_axis_wait(axes[i], err)) < 0)
+            return rc;
     phase(hooks, CAPTURE_PHASE_ACQUIRE, index);
-    if ((rc = drv_clock_sleep(d->clock, rig->settle_s)) < 0)
+    for (int i = 0; i < n; i++)
+        if ((rc = drv_axis_position(axes[i], &at[i], err)) < 0)
+            return rc;
+    for (int i = 0; i < n; i++)
+        rested = fmin(rested, drv_axis_rested(axes[i]));
+    /* The integration starts no sooner than the detector's lag after the
+     * call: the settle is over by then. */
+    double left = rig->settle_s - rested - drv_detector_lag(d->detector);
+    if (left > 0 && (rc = drv_clock_sleep(d->clock, left)) < 0)
         return gonio_err_set(err, -rc, "settle: %s", gonio_strerror(rc));
     struct drv_reading r;
     if ((rc = drv_detector_acquire(d->detector, rig->integration_s, &r, err)) < 0)
         return rc;
     memset(s, 0, sizeof *s);
     s->point = index;
-    double az = 0;
-    if ((rc = drv_axis_position(d->sample, &s->s, err)) < 0 ||
-        (rc = drv_axis_position(d->arm, &s->a, err)) < 0 ||
-        (d->azimuth && (rc = drv_axis_position(d->azimuth, &az, err)) < 0))
-        return rc;
+    s->s = at[0];
+    s->a = at[1];
     /* Angles from the axes, with the planner's mapping (sim.c explains). */
     brdf_axes_to_inplane(s->s, s->a, &s->theta_i, &s->theta_r);
     s->theta_o = fabs(s->theta_r);
     s->phi_i = 0.0;
-    s->phi_o = fmod(az + (s->theta_r >= 0 ? 180.0 : 0.0) + 360.0, 360.0);
+    s->phi_o = fmod(at[2] + (s->theta_r >= 0 ? 180.0 : 0.0) + 360.0, 360.0);
     memcpy(s->rgb, r.rgb, sizeof s->rgb);
     s->integration_s = r.integration_s;
     s->flags = (r.flags & DRV_READING_SATURATED) ? JOURNAL_FLAG_SATURATED : 0;

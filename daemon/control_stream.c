@@ -142,11 +142,12 @@ static json_t *stop_doc(const struct worker_msg_stop *m)
     if (m->has_comm) /* the bus's exchanges: what the retries absorbed */
         json_object_set_new(
             d, "comm",
-            json_pack("{s:I,s:I,s:I,s:I,s:I,s:I}", "requests", (json_int_t)m->comm.requests,
+            json_pack("{s:I,s:I,s:I,s:I,s:I,s:I,s:I}", "requests", (json_int_t)m->comm.requests,
                       "retries", (json_int_t)m->comm.retries, "timeouts",
                       (json_int_t)m->comm.timeouts, "bad_replies",
                       (json_int_t)m->comm.bad_replies, "exceptions",
-                      (json_int_t)m->comm.exceptions, "failed", (json_int_t)m->comm.failed));
+                      (json_int_t)m->comm.exceptions, "failed", (json_int_t)m->comm.failed,
+                      "reconnects", (json_int_t)m->comm.reconnects));
     if (m->rc < 0) {
         json_t *msg = json_string(m->err.msg);
         json_object_set_new(d, "message", msg ? msg : json_string("(not UTF-8)"));
@@ -229,9 +230,10 @@ void control_dispatch(control *c, struct worker_msg *msgs)
                         ms->reason, ms->summary.samples);
             if (ms->has_comm)
                 fprintf(stderr, "goniod: capture %s: bus %ld requests, %ld retries (%ld "
-                        "timeouts, %ld bad replies), %ld exceptions, %ld failed\n", ms->id,
-                        ms->comm.requests, ms->comm.retries, ms->comm.timeouts,
-                        ms->comm.bad_replies, ms->comm.exceptions, ms->comm.failed);
+                        "timeouts, %ld bad replies), %ld exceptions, %ld failed, %ld "
+                        "reconnects\n", ms->id, ms->comm.requests, ms->comm.retries,
+                        ms->comm.timeouts, ms->comm.bad_replies, ms->comm.exceptions,
+                        ms->comm.failed, ms->comm.reconnects);
             doc = stop_doc(ms);
             free(c->start_doc);
             free(c->descriptor_doc);

@@ -101,8 +101,9 @@ void goniod_devices_stats(const void *bus, struct goniod_comm_stats *out)
         return;
     struct drv_modbus_stats st;
     drv_modbus_bus_stats(bus, &st);
-    *out = (struct goniod_comm_stats){st.requests, st.retries,    st.timeouts,
-                                      st.bad_replies, st.exceptions, st.failed};
+    *out = (struct goniod_comm_stats){st.requests,    st.retries,    st.timeouts,
+                                      st.bad_replies, st.exceptions, st.failed,
+                                      st.reconnects};
 }
 
 void goniod_devices_close(struct capture_devices *dev, void *bus)

@@ -16,9 +16,10 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *
                         struct capture_devices *dev, void **bus, struct gonio_err *err);
 
 /* The bus's exchange counts so far (drivers/drv_modbus.h), for the stop
- * document and the log; all zero without a bus. */
+ * document and the log; all zero without a bus. reconnects: Modbus TCP
+ * connections re-opened after the device or network dropped one. */
 struct goniod_comm_stats {
-    long requests, retries, timeouts, bad_replies, exceptions, failed;
+    long requests, retries, timeouts, bad_replies, exceptions, failed, reconnects;
 };
 void goniod_devices_stats(const void *bus, struct goniod_comm_stats *out);
 

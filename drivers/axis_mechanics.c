@@ -28,9 +28,12 @@ struct drv_axis {
     int moving, final_pending, stopped;
     int tries, recommands, resets, rehomes;
     unsigned last_alarm;
-    /* Where the axis rests, from the feedback when the last move or homing
-     * ended: nothing moves it meanwhile (the drivers are the only master). */
-    int rest_known;
+    /* The last move or homing ended with the axis at rest (at_rest), and
+     * where, from the feedback (rest_known): nothing moves it meanwhile
+     * (the drivers are the only master). A move the drive reported IN-POS
+     * for is done without the feedback, which drv_axis_position reads
+     * when asked: while the axes settle, not before the settle starts. */
+    int at_rest, rest_known;
     double rest_deg;
     struct drv_axis_stats stats;
 };
@@ -162,7 +165,7 @@ static double resolve(const drv_axis *ax, double deg)
 
 static int send_leg(drv_axis *ax, double from, double to, struct gonio_err *err)
 {
-    ax->rest_known = 0;
+    ax->at_rest = ax->rest_known = 0;
     ax->leg_from = from;
     ax->leg_target = resolve(ax, to);
     ax->stats.moves++;
@@ -183,7 +186,10 @@ static int send_approach(drv_axis *ax, double here, int fresh, struct gonio_err 
         double via = fmin(fmax(ax->target - m->approach * back, m->min_deg), m->max_deg);
         if (resolve(ax, via) != resolve(ax, ax->target)) {
             ax->final_pending = 1;
-            return send_leg(ax, here, via, err);
+            int rc = send_leg(ax, here, via, err);
+            if (rc == 0 && ax->ops->next_leg)
+                ax->ops->next_leg(ax->priv, ax->target);
+            return rc;
         }
     }
     return send_leg(ax, here, ax->target, err);
@@ -198,13 +204,13 @@ int drv_axis_start_move(drv_axis *ax, double target_deg, struct gonio_err *err)
     ax->target = target_deg;
     ax->tries = ax->recommands = ax->resets = ax->rehomes = 0;
     ax->stopped = ax->final_pending = ax->moving = 0;
-    /* Already resting there: nothing to send, nothing to wait for. */
-    if (ax->rest_known && in_band(ax, ax->rest_deg))
-        return 0;
-    double here = ax->rest_deg;
-    int rc = ax->rest_known ? 0 : ax->ops->feedback(ax->priv, &here, err);
+    double here;
+    int rc = drv_axis_position(ax, &here, err);
     if (rc < 0)
         return rc;
+    /* Already resting there: nothing to send, nothing to wait for. */
+    if (ax->at_rest && in_band(ax, here))
+        return 0;
     ax->moving = 1;
     return send_approach(ax, here, 0, err);
 }
@@ -213,7 +219,7 @@ int drv_axis_start_move(drv_axis *ax, double target_deg, struct gonio_err *err)
 static int reset_alarm(drv_axis *ax, struct gonio_err *err)
 {
     unsigned still = 0;
-    ax->rest_known = 0;
+    ax->at_rest = ax->rest_known = 0;
     int rc = ax->ops->reset_alarm(ax->priv, &still, err);
     return rc == 0 && still ? alarm_error(ax, still, err) : rc;
 }
@@ -233,7 +239,7 @@ static int home_from(drv_axis *ax, double here, struct gonio_err *err)
     int rc = ax->ops->home(ax->priv, here, &alarm, err);
     if (rc == 0 && alarm)
         rc = alarm_error(ax, alarm, err);
-    ax->rest_known = rc == 0;
+    ax->at_rest = ax->rest_known = rc == 0;
     ax->rest_deg = 0;
     return rc;
 }
@@ -265,9 +271,9 @@ static int recover_alarm(drv_axis *ax, unsigned code, struct gonio_err *err)
     return rc < 0 ? rc : send_approach(ax, here, 1, err);
 }
 
-/* Until the move is done: the drive reports IN-POS, or rests inside the
- * band. A drive resting outside is re-commanded, one in alarm recovered,
- * while tries are left. */
+/* Until the move is done: the drive reports IN-POS (the feedback can
+ * wait: drv_axis_position), or rests inside the band. A drive resting
+ * outside is re-commanded, one in alarm recovered, while tries are left. */
 static int come_to_rest(drv_axis *ax, struct gonio_err *err)
 {
     for (;;) {
@@ -290,10 +296,14 @@ static int come_to_rest(drv_axis *ax, struct gonio_err *err)
                 return rc;
             continue;
         }
+        if (in_pos) {
+            ax->at_rest = 1;
+            return 0;
+        }
         if ((rc = ax->ops->feedback(ax->priv, &pos, err)) < 0)
             return rc;
-        if (in_pos || in_band(ax, pos)) {
-            ax->rest_known = 1;
+        if (in_band(ax, pos)) {
+            ax->at_rest = ax->rest_known = 1;
             ax->rest_deg = pos;
             return 0;
         }
@@ -322,7 +332,17 @@ int drv_axis_position(drv_axis *ax, double *deg, struct gonio_err *err)
         *deg = ax->rest_deg;
         return 0;
     }
-    return ax->ops->feedback(ax->priv, deg, err);
+    int rc = ax->ops->feedback(ax->priv, deg, err);
+    if (rc == 0 && ax->at_rest) {
+        ax->rest_known = 1;
+        ax->rest_deg = *deg;
+    }
+    return rc;
+}
+
+double drv_axis_rested(const drv_axis *ax)
+{
+    return ax->at_rest ? ax->ops->rested(ax->priv) : 0;
 }
 
 int drv_axis_home(drv_axis *ax, struct gonio_err *err)
@@ -337,7 +357,7 @@ int drv_axis_home(drv_axis *ax, struct gonio_err *err)
 int drv_axis_stop(drv_axis *ax, struct gonio_err *err)
 {
     ax->final_pending = 0;
-    ax->rest_known = 0;
+    ax->at_rest = ax->rest_known = 0;
     ax->stopped = 1;
     return ax->ops->stop(ax->priv, err);
 }

@@ -26,6 +26,11 @@ int drv_detector_acquire(drv_detector *d, double integration_s, struct drv_readi
     return d->ops->acquire(d->priv, integration_s, out, err);
 }
 
+double drv_detector_lag(const drv_detector *d)
+{
+    return d->ops->lag ? d->ops->lag(d->priv) : 0;
+}
+
 void drv_detector_free(drv_detector *d)
 {
     if (!d)

@@ -39,8 +39,10 @@ typedef struct drv_clock drv_clock;
  * overshoot or short, by how much, and what was tried, e.g. "axis arm
  * (slave 2): stopped at -6.13 deg, 0.13 deg short of -6 deg after 4 tries
  * (re-commanded 3 times)". drv_axis_position answers from the feedback
- * read when the last move ended while the axis rests: the drivers are the
- * drives' only master. */
+ * read once the last move ended, while the axis rests: the drivers are
+ * the drives' only master. A move the drive reported IN-POS for is done
+ * without reading the feedback: the first drv_axis_position reads it, so a
+ * caller can do so while the axes settle. */
 struct drv_axis_mechanics {
     double min_deg, max_deg; /* soft limits */
     double in_position_deg;  /* > 0 */
@@ -52,6 +54,10 @@ struct drv_axis_mechanics {
 int drv_axis_start_move(drv_axis *ax, double target_deg, struct gonio_err *err);
 int drv_axis_wait(drv_axis *ax, struct gonio_err *err);
 int drv_axis_position(drv_axis *ax, double *deg, struct gonio_err *err);
+/* Rig seconds the axis has rested since its last move or homing ended,
+ * as the drive said it: at least that long, never more (a settle timed
+ * from it runs whole). 0 while a move is under way or after one failed. */
+double drv_axis_rested(const drv_axis *ax);
 int drv_axis_home(drv_axis *ax, struct gonio_err *err);
 int drv_axis_stop(drv_axis *ax, struct gonio_err *err);
 /* Reset a drive alarm (ALM-RST): 0 when it cleared, else -GONIO_EDEVICE
@@ -79,6 +85,11 @@ struct drv_reading {
 
 int drv_detector_acquire(drv_detector *d, double integration_s, struct drv_reading *out,
                          struct gonio_err *err);
+/* Rig seconds that surely pass between a call of drv_detector_acquire and
+ * the start of its integration (the trigger's time on a slow line; 0 where
+ * nothing bounds it): a caller that must not integrate before a moment
+ * may call this much earlier. */
+double drv_detector_lag(const drv_detector *d);
 void drv_detector_free(drv_detector *d);
 
 double drv_clock_now(drv_clock *c);

@@ -6,18 +6,25 @@
 #include "drivers/drivers.h"
 
 /* An axis backend's primitives: the generic layer (axis_mechanics.c)
- * decides what to do with them. Every one is required but resolve and
- * free_priv. */
+ * decides what to do with them. Every one is required but next_leg,
+ * resolve and free_priv. */
 struct drv_axis_ops {
     const char *name;
     /* Send one absolute move (a leg) from where the axis rests to a target
      * within the limits, and return once the drive has it. */
     int (*start_leg)(void *priv, double from_deg, double target_deg, struct gonio_err *err);
+    /* Optional: the leg after the one just sent goes to target_deg (once
+     * this one has come to rest), so that the backend may store it on the
+     * drive meanwhile and start it at less cost. */
+    void (*next_leg)(void *priv, double target_deg);
     /* Wait until the drive rests or is in alarm, and say which: IN-POS as
      * the drive reports it (0 for a drive that does not), the alarm code
      * (0 none). Fails only when the drive cannot be heard or makes no
      * progress without raising an alarm. */
     int (*wait_rest)(void *priv, int *in_pos, unsigned *alarm, struct gonio_err *err);
+    /* Rig seconds since the drive came to rest, after a wait_rest or home
+     * that found it resting: at least that long (never more). */
+    double (*rested)(const void *priv);
     /* The encoder's position, degrees. */
     int (*feedback)(void *priv, double *deg, struct gonio_err *err);
     /* ALM-RST; *alarm: the code the drive still shows after it (0: cleared). */
@@ -34,6 +41,8 @@ struct drv_detector_ops {
     const char *name;
     int (*acquire)(void *priv, double integration_s, struct drv_reading *out,
                    struct gonio_err *err);
+    /* Optional (NULL: 0): drv_detector_lag's figure. */
+    double (*lag)(const void *priv);
     void (*free_priv)(void *priv);
 };
 

@@ -97,10 +97,12 @@ struct drv_modbus_axis_opts {
  * ("sample", "arm", "azimuth") appears in messages. The profile is copied.
  *
  * Waiting on a move sleeps until the leg's expected end, then polls the
- * drive's status (the alarm code in the same read) and reads the encoder's
- * feedback once it rests; a leg with no progress for 0.5 s of rig time
- * and no alarm is a stall. drv_axis_home raises ZHOME and waits for
- * HOME-END. */
+ * drive's status (the alarm code in the same read); the encoder's feedback
+ * is read at once only for a drive resting without IN-POS, else when the
+ * position is asked for (drivers.h). The rest is dated by the status read
+ * (drv_axis_rested). A leg with no progress for 0.5 s of rig time and no
+ * alarm is a stall. drv_axis_home raises ZHOME and waits for HOME-END.
+ * docs/protocol-modbus.md, "Bus cost per move", says what each costs. */
 drv_axis *drv_axis_new_modbus(drv_modbus_bus *bus, int slave, const struct plan_axis *profile,
                               const struct drv_modbus_axis_opts *opts, const char *name,
                               struct gonio_err *err);

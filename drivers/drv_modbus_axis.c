@@ -12,8 +12,9 @@
 #include "rig/motion.h"
 
 /* The register map (modbus_map/modbus_map.h) under this file's names. */
-enum { R_DIRECT = MB_AX_DATA_NO, R_INPUT = MB_AX_INPUT, R_STATUS = MB_AX_STATUS,
-       R_ALARM = MB_AX_ALARM, R_FEEDBACK = MB_AX_FEEDBACK };
+enum { R_DIRECT = MB_AX_DATA_NO, R_POSITION = MB_AX_POSITION, R_TRIGGER = MB_AX_TRIGGER,
+       R_INPUT = MB_AX_INPUT, R_STATUS = MB_AX_STATUS, R_ALARM = MB_AX_ALARM,
+       R_FEEDBACK = MB_AX_FEEDBACK };
 enum { IN_ZHOME = MB_IN_ZHOME, IN_STOP = MB_IN_STOP, IN_ALM_RST = MB_IN_ALM_RST };
 enum { ST_HOME_END = MB_ST_HOME_END, ST_READY = MB_ST_READY, ST_ALM_A = MB_ST_ALM_A,
        ST_MOVE = MB_ST_MOVE, ST_IN_POS = MB_ST_IN_POS };
@@ -26,9 +27,21 @@ struct mb_axis {
     struct plan_axis prof;
     double spd;
     char who[48]; /* "axis arm" */
-    /* The leg under way: its target, when it was sent (wall) and how long
-     * the drive needs for it (rig seconds): when to look at the drive. */
+    /* The leg under way: its target, when the drive likely started it
+     * (wall) and how long it needs for it (rig seconds): when to look at
+     * the drive. */
     double leg_target, leg_start, leg_time;
+    /* When the drive last said it rests, at the latest (wall; 0: never). */
+    double rest_wall;
+    /* What the drive holds of the direct-data block as we wrote it: all
+     * but the position (block), and a position stored for the next leg
+     * while the one under way runs (staged). Cleared by anything that may
+     * have left the drive otherwise. */
+    int block, staged;
+    int32_t staged_pos;
+    /* The leg after the one under way (mb_next_leg): to stage. */
+    int next;
+    int32_t next_pos;
 };
 
 /* Status and alarm code in one read of four registers (0x7E-0x81). Four,
@@ -73,9 +86,23 @@ static double mb_resolve(const void *priv, double deg)
     return to_steps(deg, a->spd) / a->spd;
 }
 
+/* The drive likely started the leg when it acted on the last write, a
+ * frame's silence before it answered (drv_modbus_gap_s): the status read
+ * is timed from there. */
+static void leg_started(struct mb_axis *a)
+{
+    double lo, hi;
+    drv_modbus_acted(a->bus, &lo, &hi);
+    a->leg_start = fmax(lo, hi - drv_modbus_gap_s(a->bus));
+}
+
 /* Write the direct-data block with the trigger in one transaction: the
- * drive stores the block, then acts on the trigger. The leg's clock
- * starts once the drive has answered: it started no later. */
+ * drive stores the block, then acts on the trigger. Only the position
+ * changes from leg to leg: once the drive holds the rest of the block, a
+ * leg writes from the position to the trigger (12 registers, not 16), and
+ * a leg whose position is staged already (mb_next_leg) the trigger alone
+ * (its lower register, FC 0x06: the upper one reads 0). The leg's clock
+ * starts when the drive likely took the write (leg_started). */
 static int mb_start_leg(void *priv, double from, double to, struct gonio_err *err)
 {
     struct mb_axis *a = priv;
@@ -92,15 +119,53 @@ static int mb_start_leg(void *priv, double from, double to, struct gonio_err *er
         drv_modbus_put32(r + 2 * i, v[i]);
     a->leg_target = pos / a->spd;
     a->leg_time = plan_axis_time(fabs(a->leg_target - from), speed / a->spd, accel / a->spd);
-    int rc = drv_modbus_write(a->bus, a->slave, R_DIRECT, 16, r, a->who, err);
-    a->leg_start = gonio_monotonic_s();
+    int rc, head = a->block ? R_POSITION - R_DIRECT : 0;
+    if (a->block && a->staged && a->staged_pos == pos)
+        rc = drv_modbus_write(a->bus, a->slave, R_TRIGGER + 1, 1, r + 15, a->who, err);
+    else
+        rc = drv_modbus_write(a->bus, a->slave, R_DIRECT + head, 16 - head, r + head, a->who,
+                              err);
+    a->block = rc == 0;
+    a->staged = a->next = 0;
+    leg_started(a);
+    return rc;
+}
+
+/* The leg after this one goes to `to`: stored on the drive while this one
+ * runs (wait_status), its start then costs a trigger. */
+static void mb_next_leg(void *priv, double to)
+{
+    struct mb_axis *a = priv;
+    a->next = 1;
+    a->next_pos = to_steps(to, a->spd);
+}
+
+/* Store the next leg's position while the drive has this one to run for
+ * longer than the write takes twice over (the position registers are
+ * data: the drive acts on them only with the trigger). Only where the line
+ * charges the frames' time: elsewhere the full write costs no more. */
+static int stage_next(struct mb_axis *a, double due, struct gonio_err *err)
+{
+    double line = drv_modbus_request_s(a->bus, 1, 2);
+    if (!a->next || !a->block || !(line > 0) ||
+        due - gonio_monotonic_s() < 2 * (2 * line + 0.001))
+        return 0;
+    uint16_t r[2];
+    drv_modbus_put32(r, (uint32_t)a->next_pos);
+    int rc = drv_modbus_write(a->bus, a->slave, R_POSITION, 2, r, a->who, err);
+    a->staged = rc == 0;
+    a->staged_pos = a->next_pos;
+    a->next = 0;
     return rc;
 }
 
 /* Poll the status until the drive rests (MOVE off) or is in alarm,
- * sleeping first until the leg's expected end on the bus's time scale, so
- * a move normally costs one status read. A leg overdue by 0.25 s of rig
- * time is watched for progress on the encoder. */
+ * sending the first read so that it reaches the drive at the leg's
+ * expected end on the bus's time scale, so a move normally costs one
+ * status read. The read that sees the drive rest dates the rest (at the
+ * latest when the drive took its registers: the settle counts from
+ * there). A leg overdue by 0.25 s of rig time is watched for progress on
+ * the encoder. */
 static int wait_status(struct mb_axis *a, uint32_t *st, uint32_t *alarm, struct gonio_err *err)
 {
     double scale = drv_modbus_time_scale(a->bus);
@@ -109,13 +174,21 @@ static int wait_status(struct mb_axis *a, uint32_t *st, uint32_t *alarm, struct 
                       4 * drv_modbus_timeout(a->bus);
     double poll = fmin(fmax(0.01 / scale, 0.0002), 0.01);
     double last_pos = NAN, last_change = gonio_monotonic_s();
-    drv_modbus_sleep(due - gonio_monotonic_s());
+    int rc = stage_next(a, due, err);
+    if (rc < 0)
+        return rc;
+    drv_modbus_sleep(due - drv_modbus_request_s(a->bus, 0, 4) - drv_modbus_gap_s(a->bus) -
+                     gonio_monotonic_s());
     for (;;) {
-        int rc = read_status(a, st, alarm, err);
-        if (rc < 0)
+        if ((rc = read_status(a, st, alarm, err)) < 0)
             return rc;
-        if ((*st & ST_ALM_A) || !(*st & ST_MOVE))
+        if (*st & ST_ALM_A)
             return 0;
+        if (!(*st & ST_MOVE)) {
+            double lo;
+            drv_modbus_acted(a->bus, &lo, &a->rest_wall);
+            return 0;
+        }
         double now = gonio_monotonic_s(), pos = NAN;
         if ((now - due) * scale > 0.25) {
             if ((rc = mb_feedback(a, &pos, err)) < 0)
@@ -136,6 +209,14 @@ static int wait_status(struct mb_axis *a, uint32_t *st, uint32_t *alarm, struct 
                                  (now - a->leg_start) * scale, a->leg_time);
         drv_modbus_sleep(poll);
     }
+}
+
+/* Rig seconds since the drive last said it rests (the generic layer asks
+ * only while it does). */
+static double mb_rested(const void *priv)
+{
+    const struct mb_axis *a = priv;
+    return (gonio_monotonic_s() - a->rest_wall) * drv_modbus_time_scale(a->bus);
 }
 
 static int mb_wait_rest(void *priv, int *in_pos, unsigned *alarm, struct gonio_err *err)
@@ -163,6 +244,7 @@ static int mb_reset_alarm(void *priv, unsigned *still, struct gonio_err *err)
 {
     struct mb_axis *a = priv;
     uint32_t st = 0, code = 0;
+    a->block = a->staged = 0; /* whatever the alarm did, the next leg writes it all */
     int rc = pulse_input(a, IN_ALM_RST, err);
     if (rc == 0)
         rc = read_status(a, &st, &code, err);
@@ -176,8 +258,9 @@ static int mb_home(void *priv, double here, unsigned *alarm, struct gonio_err *e
     struct mb_axis *a = priv;
     a->leg_target = 0;
     a->leg_time = plan_axis_time(fabs(here), a->prof.speed, a->prof.accel);
+    a->block = a->staged = 0;
     int rc = pulse_input(a, IN_ZHOME, err);
-    a->leg_start = gonio_monotonic_s();
+    leg_started(a);
     uint32_t st = 0, code = 0;
     if (rc == 0)
         rc = wait_status(a, &st, &code, err);
@@ -190,13 +273,17 @@ static int mb_home(void *priv, double here, unsigned *alarm, struct gonio_err *e
 
 static int mb_stop(void *priv, struct gonio_err *err)
 {
-    return pulse_input(priv, IN_STOP, err);
+    struct mb_axis *a = priv;
+    a->block = a->staged = 0;
+    return pulse_input(a, IN_STOP, err);
 }
 
 static const struct drv_axis_ops mb_axis_ops = {
     .name = "modbus",
     .start_leg = mb_start_leg,
+    .next_leg = mb_next_leg,
     .wait_rest = mb_wait_rest,
+    .rested = mb_rested,
     .feedback = mb_feedback,
     .reset_alarm = mb_reset_alarm,
     .home = mb_home,

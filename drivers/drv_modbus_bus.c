@@ -19,6 +19,16 @@ struct drv_modbus_bus {
     double timeout_s, time_scale;
     int retries, trace, tcp;
     struct drv_modbus_stats stats;
+    /* The line (drv_modbus_acted): wall seconds a character takes on it
+     * and the silence that ends a frame (drv_modbus_gap_s); both 0 on TCP,
+     * and from the first exchange faster than its frames could travel at
+     * that rate (a line that charges no such time); the last answered
+     * exchange's send and answer times and its frames' characters. */
+    double char_s, gap_s;
+    struct {
+        double sent, answered;
+        int req_chars, reply_chars;
+    } last;
     struct { /* drv_modbus_note_clock */
         int slave;
         uint32_t ms;
@@ -45,7 +55,8 @@ void drv_modbus_bus_cfg_default(struct drv_modbus_bus_cfg *cfg)
 }
 
 static drv_modbus_bus *bus_finish(modbus_t *ctx, const struct drv_modbus_bus_cfg *cfg,
-                                  const char *where, struct gonio_err *err)
+                                  const char *where, double char_s, double gap_s,
+                                  struct gonio_err *err)
 {
     if (!ctx) {
         gonio_err_set(err, EINVAL, "modbus %s: %s", where, modbus_strerror(errno));
@@ -81,6 +92,8 @@ static drv_modbus_bus *bus_finish(modbus_t *ctx, const struct drv_modbus_bus_cfg
     bus->time_scale = scale;
     bus->retries = cfg->retries > 0 ? cfg->retries : 0;
     bus->trace = cfg->trace;
+    bus->char_s = char_s / scale; /* a simulator's line is as much faster in wall time */
+    bus->gap_s = gap_s / scale;
     return bus;
 }
 
@@ -96,10 +109,15 @@ drv_modbus_bus *drv_modbus_bus_new_rtu(const struct drv_modbus_bus_cfg *cfg,
         gonio_err_set(err, EINVAL, "modbus %s: parity '%c': use N, E or O", cfg->device, parity);
         return NULL;
     }
-    modbus_t *ctx = modbus_new_rtu(cfg->device, cfg->baud > 0 ? cfg->baud : 115200, parity,
-                                   cfg->data_bits > 0 ? cfg->data_bits : 8,
-                                   cfg->stop_bits > 0 ? cfg->stop_bits : 1);
-    return bus_finish(ctx, cfg, cfg->device, err);
+    int baud = cfg->baud > 0 ? cfg->baud : 115200, data = cfg->data_bits > 0 ? cfg->data_bits : 8,
+        stop = cfg->stop_bits > 0 ? cfg->stop_bits : 1;
+    modbus_t *ctx = modbus_new_rtu(cfg->device, baud, parity, data, stop);
+    /* A character: start bit, data, parity, stop bits. The silence that
+     * ends a frame, t3.5 of the Modbus serial line guide: 3.5 characters
+     * (of 11 bits), 1.75 ms above 19200 baud. */
+    double char_s = (1 + data + (parity != 'N') + stop) / (double)baud;
+    double gap_s = baud > 19200 ? 1.75e-3 : 3.5 * 11.0 / baud;
+    return bus_finish(ctx, cfg, cfg->device, char_s, gap_s, err);
 }
 
 drv_modbus_bus *drv_modbus_bus_new_tcp(const struct drv_modbus_bus_cfg *cfg,
@@ -112,7 +130,8 @@ drv_modbus_bus *drv_modbus_bus_new_tcp(const struct drv_modbus_bus_cfg *cfg,
     }
     char where[300];
     snprintf(where, sizeof where, "%s:%d", cfg->host, cfg->port);
-    drv_modbus_bus *bus = bus_finish(modbus_new_tcp(cfg->host, cfg->port), cfg, where, err);
+    drv_modbus_bus *bus = bus_finish(modbus_new_tcp(cfg->host, cfg->port), cfg, where, 0, 0,
+                                     err);
     if (bus)
         bus->tcp = 1;
     return bus;
@@ -157,6 +176,47 @@ int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, do
     *ms = bus->clock.ms;
     *wall = bus->clock.wall;
     return 1;
+}
+
+/* Characters of an RTU frame (address, PDU, CRC): a request of n
+ * registers and its answer. */
+static int request_chars(int write, int n)
+{
+    return !write ? 8 : n == 1 ? 8 : 9 + 2 * n;
+}
+
+static int reply_chars(int write, int n)
+{
+    return write ? 8 : 5 + 2 * n;
+}
+
+double drv_modbus_request_s(const drv_modbus_bus *bus, int write, int n)
+{
+    return request_chars(write, n) * bus->char_s;
+}
+
+void drv_modbus_acted(const drv_modbus_bus *bus, double *lo, double *hi)
+{
+    *lo = bus->last.sent + bus->last.req_chars * bus->char_s;
+    *hi = bus->last.answered - bus->last.reply_chars * bus->char_s;
+}
+
+double drv_modbus_gap_s(const drv_modbus_bus *bus)
+{
+    return bus->gap_s;
+}
+
+/* An exchange answered sooner than its frames can travel at the line's
+ * rate took no line time (a pseudo-terminal, a simulator that emulates
+ * none): the frames' times bound nothing on it, from now on. */
+static void note_exchange(drv_modbus_bus *bus, int write, int n, double sent, double answered)
+{
+    bus->last.sent = sent;
+    bus->last.answered = answered;
+    bus->last.req_chars = request_chars(write, n);
+    bus->last.reply_chars = reply_chars(write, n);
+    if (answered - sent < (bus->last.req_chars + bus->last.reply_chars) * bus->char_s)
+        bus->char_s = bus->gap_s = 0;
 }
 
 void drv_modbus_sleep(double seconds)
@@ -247,7 +307,7 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
     for (int attempt = 0; attempt <= bus->retries; attempt++) {
         if (attempt > 0)
             bus->stats.retries++;
-        double t0 = bus->trace ? gonio_monotonic_s() : 0;
+        double t0 = gonio_monotonic_s();
         int rc = modbus_set_slave(bus->ctx, slave);
         if (rc == 0) {
             if (write && n == 1)
@@ -258,11 +318,13 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
                 rc = modbus_read_registers(bus->ctx, addr, n, regs);
         }
         e = errno;
+        double t1 = gonio_monotonic_s();
         if (bus->trace)
-            trace(bus, slave, write, addr, n, regs, rc == n ? 0 : -1, e,
-                  1e3 * (gonio_monotonic_s() - t0));
-        if (rc == n)
+            trace(bus, slave, write, addr, n, regs, rc == n ? 0 : -1, e, 1e3 * (t1 - t0));
+        if (rc == n) {
+            note_exchange(bus, write, n, t0, t1);
             return 0;
+        }
         /* An exception is the device's considered answer: no retry. */
         if (e > MODBUS_ENOBASE && e < EMBBADCRC) {
             bus->stats.exceptions++;

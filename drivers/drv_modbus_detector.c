@@ -1,7 +1,8 @@
 /* The detector slave (docs/protocol-modbus.md): write the integration
- * time and the trigger, wait out the integration, read until READY with a
- * sequence number the trigger did not start from: the read that sees it
- * holds the channels and the rig clock too. */
+ * time (when the detector does not hold it already) and the trigger, wait
+ * out the integration, read until READY with a sequence number the
+ * trigger did not start from: the read that sees it holds the channels and
+ * the rig clock too. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -11,17 +12,19 @@
 #include "drivers/drv_modbus_private.h"
 
 /* The register map (modbus_map/modbus_map.h) under this file's names. */
-enum { R_INTEGRATION = MB_DET_INTEGRATION, R_STATUS = MB_DET_STATUS, R_COUNT = MB_DET_COUNT,
-       R_SEQUENCE = MB_DET_SEQUENCE, R_CLOCK = MB_DET_CLOCK, R_CHANNELS = MB_DET_CHANNELS,
-       R_NREGS = MB_DET_CHANNELS + 6 };
+enum { R_INTEGRATION = MB_DET_INTEGRATION, R_TRIGGER = MB_DET_TRIGGER, R_STATUS = MB_DET_STATUS,
+       R_COUNT = MB_DET_COUNT, R_SEQUENCE = MB_DET_SEQUENCE, R_CLOCK = MB_DET_CLOCK,
+       R_CHANNELS = MB_DET_CHANNELS, R_NREGS = MB_DET_CHANNELS + 6 };
 enum { ST_BUSY = MB_DET_BUSY, ST_READY = MB_DET_READY, ST_SATURATED = MB_DET_SATURATED };
 
 struct mb_detector {
     drv_modbus_bus *bus;
     int slave;
     char who[32];
-    int seq_known; /* the sequence after our last reading: no read before the next */
-    uint32_t seq;
+    /* After our last reading, no read before the next: its sequence, and
+     * the integration register as it read back. */
+    int seq_known;
+    uint32_t seq, used_us;
 };
 
 /* Integration, trigger, status, channel count, sequence, rig clock and
@@ -38,10 +41,11 @@ struct det_state {
 static int read_state(struct mb_detector *d, struct det_state *s, struct gonio_err *err)
 {
     uint16_t r[R_NREGS];
-    double wall = gonio_monotonic_s();
     int rc = drv_modbus_read(d->bus, d->slave, R_INTEGRATION, R_NREGS, r, d->who, err);
     if (rc < 0)
         return rc;
+    double wall, hi; /* the clock as the detector took it: no earlier than wall */
+    drv_modbus_acted(d->bus, &wall, &hi);
     s->used_us = drv_modbus_get32(r);
     s->st = drv_modbus_get32(r + R_STATUS);
     s->count = drv_modbus_get32(r + R_COUNT);
@@ -59,7 +63,7 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
     double us = nearbyint(integration_s * 1e6);
     if (!(us >= 0) || us > 4294967295.0)
         return gonio_err_set(err, EINVAL, "%s: integration time %g s", d->who, integration_s);
-    struct det_state s = {.count = 3, .seq = d->seq};
+    struct det_state s = {.count = 3, .seq = d->seq, .used_us = d->used_us};
     int rc = d->seq_known ? 0 : read_state(d, &s, err);
     if (rc < 0)
         return rc;
@@ -68,20 +72,29 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
     if (s.count < 3 || s.count > 64)
         return gonio_err_set(err, GONIO_EDEVICE, "%s (slave %d): %u channels, expected RGB (3)",
                              d->who, d->slave, s.count);
+    /* The integration register holds what the last integration used: when
+     * that is the time wanted, the trigger alone (its lower register, one
+     * FC 0x06 write: the upper one reads 0) starts the next. */
     uint16_t w[4];
     drv_modbus_put32(w, (uint32_t)us);
     drv_modbus_put32(w + 2, 1);
     double scale = drv_modbus_time_scale(d->bus);
-    if ((rc = drv_modbus_write(d->bus, d->slave, R_INTEGRATION, 4, w, d->who, err)) < 0)
+    rc = s.used_us == (uint32_t)us
+             ? drv_modbus_write(d->bus, d->slave, R_TRIGGER + 1, 1, w + 3, d->who, err)
+             : drv_modbus_write(d->bus, d->slave, R_INTEGRATION, 4, w, d->who, err);
+    if (rc < 0)
         return rc;
-    /* The integration started no later than the trigger's answer: the
-     * first read, sent then plus the integration, normally sees READY (on
-     * a slow line, timed from before the write it would come early by the
-     * write's frame time and read "busy" once more). */
-    double t0 = gonio_monotonic_s();
+    /* The integration started when the detector took the trigger, likely
+     * a frame's silence before it answered (drv_modbus_gap_s): the first
+     * read, sent to reach the detector the integration after that,
+     * normally sees READY. */
+    double t0 = gonio_monotonic_s(), lo, hi, gap = drv_modbus_gap_s(d->bus);
+    drv_modbus_acted(d->bus, &lo, &hi);
+    double started = fmax(lo, hi - gap);
     double deadline = t0 + (1.5 * integration_s + 2.0) / scale + 0.5 + 4 * drv_modbus_timeout(d->bus);
     double poll = fmin(fmax(0.01 / scale, 0.0002), 0.01);
-    drv_modbus_sleep(t0 + integration_s / scale - gonio_monotonic_s());
+    drv_modbus_sleep(started + integration_s / scale - drv_modbus_request_s(d->bus, 0, R_NREGS) -
+                     gap - gonio_monotonic_s());
     for (;;) {
         if ((rc = read_state(d, &s, err)) < 0)
             return rc;
@@ -104,14 +117,24 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
     }
     d->seq_known = 1;
     d->seq = s.seq;
+    d->used_us = s.used_us;
     out->integration_s = s.used_us * 1e-6;
     out->flags = (s.st & ST_SATURATED) ? DRV_READING_SATURATED : 0;
     return 0;
 }
 
+/* The trigger's shortest write (FC 0x06) reaches the detector no sooner
+ * than its frame takes on the line. */
+static double mb_lag(const void *priv)
+{
+    const struct mb_detector *d = priv;
+    return drv_modbus_request_s(d->bus, 1, 1) * drv_modbus_time_scale(d->bus);
+}
+
 static const struct drv_detector_ops mb_detector_ops = {
     .name = "modbus",
     .acquire = mb_acquire,
+    .lag = mb_lag,
     .free_priv = free,
 };
 

@@ -16,6 +16,27 @@ int drv_modbus_read(drv_modbus_bus *bus, int slave, int addr, int n, uint16_t *o
 int drv_modbus_write(drv_modbus_bus *bus, int slave, int addr, int n, const uint16_t *regs,
                      const char *who, struct gonio_err *err);
 
+/* When the device acted on the bus's last answered request (took the
+ * registers it read, carried out the write), wall seconds
+ * (gonio_monotonic_s): no earlier than *lo, no later than *hi. On a
+ * serial line every frame takes at least its characters' time at the
+ * baud: the request had to arrive whole (lo: sent plus its time) and the
+ * answer to travel (hi: answered less its time). On TCP, and on a line
+ * that once answered sooner than its frames could travel (a
+ * pseudo-terminal, a simulator charging no line time), the frames bound
+ * nothing: the send and answer times themselves. */
+void drv_modbus_acted(const drv_modbus_bus *bus, double *lo, double *hi);
+/* The least wall time a request (a read or write of n registers) takes
+ * on the line before its device can act on it, as drv_modbus_acted counts
+ * it (0 where frames bound nothing). */
+double drv_modbus_request_s(const drv_modbus_bus *bus, int write, int n);
+/* The silence that ends a frame on the line (t3.5), wall seconds; 0 where
+ * frames bound nothing. A device that waits for it before acting on a
+ * request, and leaves it before answering, acts that much after
+ * drv_modbus_acted's lo and before its hi: what the drivers expect when
+ * they time their polls, never what they count on. */
+double drv_modbus_gap_s(const drv_modbus_bus *bus);
+
 /* Simulated seconds per wall second on this bus (1 on hardware). */
 double drv_modbus_time_scale(const drv_modbus_bus *bus);
 /* The response timeout, wall seconds. */

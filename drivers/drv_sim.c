@@ -9,6 +9,7 @@
 struct sim_axis_priv {
     sim_rig *rig;
     enum sim_axis_id id;
+    double rest_at; /* rig time the last wait found the drive resting */
 };
 
 /* The primitives on the simulated drive; the mechanics (band, approach,
@@ -26,9 +27,16 @@ static int sim_wait_rest(void *priv, int *in_pos, unsigned *alarm, struct gonio_
     (void)err;
     struct sim_axis_priv *p = priv;
     sim_rig_wait(p->rig, p->id, NULL); /* its alarm is read below */
+    p->rest_at = sim_rig_now(p->rig);
     *in_pos = 0;
     *alarm = (unsigned)sim_rig_alarm(p->rig, p->id);
     return 0;
+}
+
+static double sim_rested(const void *priv)
+{
+    const struct sim_axis_priv *p = priv;
+    return sim_rig_now(p->rig) - p->rest_at;
 }
 
 static int sim_feedback(void *priv, double *deg, struct gonio_err *err)
@@ -67,6 +75,7 @@ static const struct drv_axis_ops sim_axis_ops = {
     .name = "sim",
     .start_leg = sim_start_leg,
     .wait_rest = sim_wait_rest,
+    .rested = sim_rested,
     .feedback = sim_feedback,
     .reset_alarm = sim_reset_alarm,
     .home = sim_home,
@@ -148,6 +157,7 @@ static const struct drv_axis_ops sim_axis_faulty_ops = {
     .name = "sim",
     .start_leg = faulty_start_leg,
     .wait_rest = faulty_wait_rest,
+    .rested = sim_rested,
     .feedback = faulty_feedback,
     .reset_alarm = faulty_reset_alarm,
     .home = faulty_home,

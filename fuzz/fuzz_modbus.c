@@ -32,6 +32,7 @@ struct drv_modbus_bus {
     uint32_t clock_ms;
     double clock_wall;
     long clock_exchanges;
+    double sent, answered; /* the last transaction (drv_modbus_acted) */
 };
 
 static int next_byte(drv_modbus_bus *bus, uint8_t *b)
@@ -46,7 +47,9 @@ static int transaction(drv_modbus_bus *bus, const char *who, struct gonio_err *e
 {
     uint8_t b;
     bus->exchanges++;
+    bus->sent = bus->now;
     bus->now += 0.001; /* a round trip takes time on the virtual clock */
+    bus->answered = bus->now;
     if (next_byte(bus, &b) < 0 || b == 0xFF)
         return gonio_err_set(err, ETIMEDOUT, "%s: no answer (fuzz)", who);
     return 0;
@@ -74,14 +77,34 @@ int drv_modbus_write(drv_modbus_bus *bus, int slave, int addr, int n, const uint
 {
     FUZZ_CHECK(n > 0 && n <= 123); /* a Modbus write holds at most 123 registers */
     /* Direct-data operation of the axis: the target position must be
-     * within the soft limits. */
-    int at = MB_AX_POSITION - MB_AX_DATA_NO;
-    if (slave == MB_SLAVE_SAMPLE && addr == MB_AX_DATA_NO && n >= at + 2) {
+     * within the soft limits, whichever write of the block carries it. */
+    int at = MB_AX_POSITION - addr;
+    if (slave == MB_SLAVE_SAMPLE && at >= 0 && n >= at + 2) {
         double target = (double)(int32_t)mb_get32(regs + at) / bus->steps_per_deg;
         FUZZ_CHECK(target >= bus->min_deg - 1.0 / bus->steps_per_deg &&
                    target <= bus->max_deg + 1.0 / bus->steps_per_deg);
     }
     return transaction(bus, who, err);
+}
+
+/* A virtual line that bounds nothing: the device acted between the send
+ * and the answer. */
+void drv_modbus_acted(const drv_modbus_bus *bus, double *lo, double *hi)
+{
+    *lo = bus->sent;
+    *hi = bus->answered;
+}
+
+double drv_modbus_request_s(const drv_modbus_bus *bus, int write, int n)
+{
+    (void)bus, (void)write, (void)n;
+    return 0;
+}
+
+double drv_modbus_gap_s(const drv_modbus_bus *bus)
+{
+    (void)bus;
+    return 0;
 }
 
 double drv_modbus_time_scale(const drv_modbus_bus *bus)

@@ -243,10 +243,12 @@ def clean(rig, reference):
 
 
 # Each fault on a different exchange: the arm's move command (a write whose
-# repetition restarts the same move), status and position reads. The arm
-# moves at every DS3 point; the sample, whose target repeats, only at 9 (a
-# move to where an axis rests sends nothing), too few for a 10th status read.
-TRANSIENT = [(drop, (2, 0x10, 0x58)), (garbage, (2, 0x03, STATUS)),
+# repetition restarts the same move; after the first leg it writes the block
+# from the position, 0x5C, the drive holding the rest), status and position
+# reads. The arm moves at every DS3 point; the sample, whose target repeats,
+# only at 9 (a move to where an axis rests sends nothing), too few for a 10th
+# status read.
+TRANSIENT = [(drop, (2, 0x10, 0x5C)), (garbage, (2, 0x03, STATUS)),
              (bad_crc, (2, 0x03, 0xCC)), (late, (2, 0x03, STATUS))]
 
 

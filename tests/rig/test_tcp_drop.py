@@ -2,7 +2,7 @@
 TCP connection on SIGUSR1 (as a restarted gateway or a network drop
 would), twice during a DS3 capture; the drivers re-open the connection
 within the request's retries and the capture completes with every point
-exactly once."""
+exactly once; the stop document counts the re-opened connections."""
 import os
 import signal
 
@@ -45,6 +45,9 @@ def test_capture_survives_tcp_drops():
             assert stop["reason"] == "complete", stop
             assert stop["samples"] == 52
             assert stop["comm"]["failed"] == 0 and stop["comm"]["retries"] >= 2, stop["comm"]
+            # Each drop is noticed by the next request, which re-opens the
+            # connection at least once.
+            assert stop["comm"]["reconnects"] >= 2, stop["comm"]
             assert journal_rows(os.path.join(d.root, "drop", "samples.csv")) == list(range(52))
         finally:
             d.stop()
