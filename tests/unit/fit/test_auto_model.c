@@ -31,6 +31,7 @@ static size_t grid(struct fit_sample *s, size_t cap)
     return n;
 }
 
+/* The material at the samples' pairs. */
 static void eval_material(const char *spec, struct fit_sample *s, size_t n)
 {
     struct gonio_err err = {0};
@@ -40,6 +41,19 @@ static void eval_material(const char *spec, struct fit_sample *s, size_t n)
     for (size_t i = 0; i < n; i++)
         brdf_material_eval(m, &s[i].g, 1, s[i].rgb);
     brdf_material_free(m);
+}
+
+/* The grid's samples of a material, cross-validated. */
+static void cross_validate(const char *spec, const struct fit_model_options *opt,
+                           struct fit_auto_cv *cv)
+{
+    struct fit_sample s[400];
+    size_t n = grid(s, 400);
+    eval_material(spec, s, n);
+    struct fit_data data = {.rgb = s, .n_rgb = n};
+    struct gonio_err err = {0};
+    if (fit_auto_cross_validate(&data, opt, cv, &err) < 0)
+        fail_msg("%s", err.msg);
 }
 
 /* Latent's Adam steps: its default (300), or 60 at the small size, where
@@ -74,16 +88,10 @@ static void assert_choice_is_minimum(const struct fit_auto_cv *cv)
 static void test_conductor_goes_to_abc(void **state)
 {
     (void)state;
-    struct fit_sample s[400];
-    size_t n = grid(s, 400);
-    eval_material("analytic:ggx-gold", s, n);
-    struct fit_data data = {.rgb = s, .n_rgb = n};
     struct fit_model_options opt = fit_model_default_options();
     opt.max_epochs = small_epochs();
     struct fit_auto_cv cv;
-    struct gonio_err err = {0};
-    if (fit_auto_cross_validate(&data, &opt, &cv, &err) < 0)
-        fail_msg("%s", err.msg);
+    cross_validate("analytic:ggx-gold", &opt, &cv);
     assert_choice_is_minimum(&cv);
     size_t abc = find(&cv, "abc"), latent = find(&cv, "latent");
     /* measured: abc 0.013, latent 0.078 on DS1 (docs/results-auto.md) */
@@ -93,6 +101,11 @@ static void test_conductor_goes_to_abc(void **state)
     assert_string_not_equal(cv.model[cv.chosen], "latent");
 
     /* through the registry: the chosen model's own file, with the figures */
+    struct fit_sample s[400];
+    size_t n = grid(s, 400);
+    eval_material("analytic:ggx-gold", s, n);
+    struct fit_data data = {.rgb = s, .n_rgb = n};
+    struct gonio_err err = {0};
     const struct fit_model_kind *kind = fit_model_find_rgb("auto", "model", &err);
     assert_non_null(kind);
     struct fit_model_file *f = NULL;
@@ -138,22 +151,17 @@ static void test_decoder_material_goes_to_latent(void **state)
 static void test_deterministic_for_a_seed(void **state)
 {
     (void)state;
-    struct fit_sample s[400];
-    size_t n = grid(s, 400);
-    eval_material("analytic:layered-paint", s, n);
-    struct fit_data data = {.rgb = s, .n_rgb = n};
     struct fit_model_options opt = fit_model_default_options();
     opt.max_epochs = small_epochs();
     opt.seed = 3;
     struct fit_auto_cv a, b, c;
-    struct gonio_err err = {0};
-    assert_int_equal(fit_auto_cross_validate(&data, &opt, &a, &err), 0);
-    assert_int_equal(fit_auto_cross_validate(&data, &opt, &b, &err), 0);
+    cross_validate("analytic:layered-paint", &opt, &a);
+    cross_validate("analytic:layered-paint", &opt, &b);
     assert_memory_equal(a.cv, b.cv, sizeof a.cv);
     assert_int_equal(a.chosen, b.chosen);
     /* and the seed is what draws the folds: another one, other figures */
     opt.seed = 4;
-    assert_int_equal(fit_auto_cross_validate(&data, &opt, &c, &err), 0);
+    cross_validate("analytic:layered-paint", &opt, &c);
     assert_true(memcmp(a.cv, c.cv, sizeof a.cv) != 0);
 }
 
