@@ -97,7 +97,7 @@ static size_t assign_folds(const struct fit_sample *s, size_t n, uint64_t seed, 
 /* Add the held-out log errors of m at the samples of fold k. */
 static int score(const brdf_material *m, const struct fit_sample *s,
                  const unsigned char *lower, const int *fold, int k, size_t n, double *sum,
-                 size_t *count)
+                 double *sum2, size_t *count)
 {
     size_t nk = 0;
     for (size_t i = 0; i < n; i++)
@@ -127,6 +127,7 @@ static int score(const brdf_material *m, const struct fit_sample *s,
             if (lower && lower[i] && isfinite(p) && p >= y)
                 d = 0; /* above a lower bound: consistent with it */
             *sum += d;
+            *sum2 += d * d;
             (*count)++;
         }
         j++;
@@ -165,7 +166,7 @@ int fit_auto_cross_validate(const struct fit_data *data, const struct fit_model_
     int *fold = malloc(n * sizeof *fold);
     struct fit_sample *train = malloc(n * sizeof *train);
     unsigned char *tlower = malloc(n);
-    double sum[N_CANDIDATES] = {0};
+    double sum[N_CANDIDATES] = {0}, sum2[N_CANDIDATES] = {0};
     size_t count[N_CANDIDATES] = {0};
     int rc = 0;
     if (!fold || !train || !tlower) {
@@ -213,7 +214,8 @@ int fit_auto_cross_validate(const struct fit_data *data, const struct fit_model_
                          e.msg[0] ? e.msg : "failed");
                 continue;
             }
-            rc = score(m, data->rgb, data->rgb_lower, fold, k, n, &sum[c], &count[c]);
+            rc = score(m, data->rgb, data->rgb_lower, fold, k, n, &sum[c], &sum2[c],
+                       &count[c]);
             brdf_material_free(m);
             if (rc < 0) {
                 rc = gonio_err_set(err, ENOMEM, "auto: out of memory");
@@ -224,13 +226,14 @@ int fit_auto_cross_validate(const struct fit_data *data, const struct fit_model_
     int any = 0;
     for (size_t c = 0; c < N_CANDIDATES; c++) {
         out->cv[c] = out->failed[c][0] || !count[c] ? INFINITY : sum[c] / (double)count[c];
+        out->cv_rms[c] = out->failed[c][0] || !count[c] ? INFINITY
+                                                        : sqrt(sum2[c] / (double)count[c]);
         if (!out->failed[c][0] && !count[c])
             snprintf(out->failed[c], sizeof out->failed[c], "no held-out value to score");
         if (!out->failed[c][0] && (!any || out->cv[c] < out->cv[out->chosen])) {
             out->chosen = c;
             any = 1;
         }
-        out->scored = count[c] > out->scored ? count[c] : out->scored;
     }
     if (!any) {
         char line[512];
@@ -278,9 +281,15 @@ int fit_auto_model_fit(const struct fit_data *data, const struct fit_model_optio
     struct fit_model_report r = {0};
     if ((rc = kind->fit(&d, &o, out, &r, err)) < 0)
         return rc;
+    /* The chosen model's held-out figure is its cross-validation: K folds
+     * of every sample, a better estimate than the candidate's own refit. */
+    r.status.heldout = cv.cv_rms[cv.chosen];
+    r.status.findings &= ~(1u << FIT_STATUS_POOR_FIT);
+    fit_status_decide(&r.status);
     char line[400];
     fit_auto_line(&cv, o.seed, line, sizeof line);
-    rc = fit_model_file_set(*out, "auto", "%s", line);
+    rc = fit_status_file_keys(*out, &r.status);
+    rc = rc ? rc : fit_model_file_set(*out, "auto", "%s", line);
     for (size_t c = 0; rc == 0 && c < cv.n; c++) {
         char key[FIT_MODEL_KEY_MAX];
         snprintf(key, sizeof key, "auto_cv_%s", cv.model[c]);

@@ -15,7 +15,10 @@
  *
  * The file written is the chosen model's own (kind abc or latent), so
  * reading it needs nothing new; it carries the choice as keys `auto` (the
- * line of the report note) and `auto_cv_NAME` per candidate.
+ * line of the report note) and `auto_cv_NAME` per candidate. The report's
+ * fit status is the chosen model's with its held-out figure replaced by the
+ * RMS of its cross-validation residuals (poor-fit decided on that), in the
+ * report and in the file's status keys.
  *
  * Saturated readings: each candidate takes them as its own registry row
  * says (fit_model_censors with the default): abc and abc-prior clipped,
@@ -40,10 +43,10 @@ struct fit_auto_cv {
     size_t n;                  /* candidates */
     const char *model[FIT_AUTO_MAX_CANDIDATES];
     double cv[FIT_AUTO_MAX_CANDIDATES];  /* CV log error; INFINITY: the candidate failed */
+    double cv_rms[FIT_AUTO_MAX_CANDIDATES]; /* RMS of the same held-out residuals */
     char failed[FIT_AUTO_MAX_CANDIDATES][160]; /* why, or "" */
     size_t chosen;             /* index of the lowest cv */
     size_t geometries;         /* distinct geometries (groups) */
-    size_t scored;             /* held-out values scored (samples x channels) */
 };
 
 /* The cross-validation alone (what fit_auto_model_fit decides with).

@@ -1,7 +1,7 @@
 /* --model auto (fit/auto_model.h): the choice follows the cross-validated
  * figures both ways (an analytic gold conductor, which the latent decoder
  * cannot follow, goes to the ABC family; the decoder's own material goes
- * to latent), the chosen model's file and note carry the figures, the
+ * to latent), the chosen model's file, note and status carry the figures, the
  * folds are deterministic for a seed, and too few distinct geometries
  * (reciprocal twins counted once) are refused clearly. */
 #include <string.h>
@@ -120,6 +120,10 @@ static void test_conductor_goes_to_abc(void **state)
     char want[32];
     snprintf(want, sizeof want, "%.6g", cv.cv[latent]);
     assert_string_equal(fit_model_file_get(f, "auto_cv_latent"), want);
+    /* the status's held-out figure: the chosen model's CV, in report and file */
+    assert_close(rep.status.heldout, cv.cv_rms[cv.chosen], 0);
+    snprintf(want, sizeof want, "%.6g", cv.cv_rms[cv.chosen]);
+    assert_string_equal(fit_model_file_get(f, "rms_log_heldout"), want);
     fit_model_file_free(f);
 }
 
