@@ -19,8 +19,8 @@
 static size_t grid(struct fit_sample *s, size_t cap)
 {
     size_t n = 0;
-    int step = gonio_test_small() ? 16 : 8;
-    for (int ti = 0; ti <= 80; ti += 10) {
+    int step = gonio_test_small() ? 16 : 8, ti_step = gonio_test_small() ? 20 : 10;
+    for (int ti = 0; ti <= 80; ti += ti_step) {
         for (int tr = -80; tr <= 80; tr += step)
             if (abs(tr - ti) > 3 && abs(ti + tr) >= 5 && n < cap)
                 brdf_pair_inplane(ti, tr, &s[n++].g);
