@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "brdf/abc.h"
+#include "brdf/analytic.h"
 #include "brdf/embedded.h"
 #include "brdf/material_private.h"
 #include "brdf/merl.h"
@@ -159,6 +160,11 @@ static brdf_material *open_builtin(const char *spec, const char *arg, struct gon
     return m;
 }
 
+static brdf_material *open_analytic(const char *spec, const char *arg, struct gonio_err *err)
+{
+    return brdf_analytic_open(spec, arg, err); /* brdf/analytic.h */
+}
+
 static brdf_material *open_spectral(const char *spec, const char *arg, struct gonio_err *err)
 {
     (void)arg;
@@ -173,6 +179,7 @@ brdf_material *brdf_material_open(const char *spec, struct gonio_err *err)
     } kinds[] = {
         {"nbrdf", open_nbrdf}, {"merl", open_merl},       {"abc", open_abc},
         {"sgd", open_sgd},     {"builtin", open_builtin}, {"spectral", open_spectral},
+        {"analytic", open_analytic},
     };
     if (!spec || !*spec) {
         gonio_err_set(err, GONIO_EBADCONFIG, "material: empty specification");
@@ -199,7 +206,7 @@ brdf_material *brdf_material_open(const char *spec, struct gonio_err *err)
     }
     gonio_err_set(err, GONIO_EBADCONFIG,
                   "%s: unknown material kind (use nbrdf:NAME, merl:PATH, abc:NAME, sgd:NAME, "
-                  "builtin:NAME, spectral:NAME or default)",
+                  "builtin:NAME, spectral:NAME, analytic:NAME or default)",
                   spec);
     return NULL;
 }

@@ -21,6 +21,7 @@ typedef struct brdf_material brdf_material;
  *   abc:NAME     published ABC fit of a MERL material (Low et al. 2012)
  *   sgd:NAME     published shifted-gamma fit (Bagher et al. 2012)
  *   builtin:NAME a material embedded in the library (brdf/embedded.h)
+ *   analytic:NAME an analytic material outside MERL (brdf/analytic.h)
  *   default      the embedded default (no shared data needed)
  * NAME may also be a path to a file of that kind. Errors name the spec, the
  * file and the problem. */

@@ -13,7 +13,7 @@ static void usage(FILE *out)
 {
     fprintf(out, "usage: gonio export merl --material SPEC -o FILE.binary\n"
                  "  SPEC: nbrdf:NAME, merl:FILE, abc:NAME, sgd:NAME, builtin:NAME, spectral:NAME,\n"
-                 "        default or model:FILE\n");
+                 "        analytic:NAME, default or model:FILE\n");
 }
 
 int cmd_export(int argc, char **argv)

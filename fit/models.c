@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "fit/abc_model.h"
+#include "fit/auto_model.h"
 #include "fit/abc_prior.h"
 #include "fit/latent.h"
 #include "fit/mlp.h"
@@ -23,6 +24,10 @@ static const struct fit_model_kind models[] = {
      fit_mlp_spectral_fit, fit_mlp_spectral_open},
     {"latent", "latent", "latent-code neural BRDF: frozen decoder, z fitted (docs/latent.md)",
      0, 1, fit_latent_model_fit, fit_latent_model_open},
+    {"auto", "abc|latent",
+     "the out-of-plane model (abc, abc-prior, latent) of lowest 5-fold CV log error "
+     "(fit/auto_model.h)",
+     0, 1, fit_auto_model_fit, NULL},
 };
 
 #define N_MODELS (sizeof models / sizeof models[0])
