@@ -228,7 +228,8 @@ static void test_concentrates_on_specular(void **state)
     }
     double share_pool = (double)near_pool / (double)plan_count(pool);
     double share_picks = (double)near_picks / (double)(r.n - 6);
-    print_message("near the mirror: %.2f of the picks, %.2f of the pool\n", share_picks, share_pool);
+    print_message("near the mirror: %.2f of the picks, %.2f of the pool\n", share_picks,
+                  share_pool);
     assert_true(share_picks > 2 * share_pool);
     plan_free(pool);
     gonio_test_dir_remove(dir);
