@@ -1,0 +1,503 @@
+/* Adaptive acquisition policy (adaptive/adaptive.h, docs/adaptive.md). */
+#include "adaptive/adaptive.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "adaptive/adaptive_private.h"
+#include "adaptive/ensemble.h"
+#include "adaptive/track.h"
+#include "brdf/domain.h"
+#include "fit/models.h"
+
+/* The first pairs: DS4's six (configs/plans/ds4.yaml), spread over
+ * back-scatter, the mirror neighbourhood and the forward lobe at
+ * theta_i = 30, each taken as the nearest pool point. Six samples are
+ * what the six-pair latent fit already does well with, and they give the
+ * ensemble its first fit. */
+static const double seed_pairs[][2] = {
+    {30, -60}, {30, -20}, {30, 20}, {30, 28}, {30, 36}, {30, 60},
+};
+#define N_SEEDS (sizeof seed_pairs / sizeof seed_pairs[0])
+
+/* Full-domain nodes over which the ensemble's spread is averaged for the
+ * error prediction: a seeded subset, as the study's errors are over the
+ * full domain. */
+#define PREDICT_NODES 2000
+
+/* docs/adaptive.md, "Stopping": the default gain tolerance (log error
+ * per minute), the shortest window the gain is measured over (rig
+ * seconds), and the samples before which neither the target nor the
+ * convergence stop may fire: below about 80 samples the prediction is
+ * too often far below the truth (the ensemble agrees on a wrong optimum). */
+#define DEFAULT_GAIN_TOL 0.002
+#define GAIN_WINDOW_S 60.0
+#define MIN_STOP_SAMPLES 80
+
+/* The noise term of the expected variance reduction, in units of the
+ * ensemble's squared cross-validated error; the width of the ALC's
+ * repulsion from measured points and the weight of coverage for the
+ * latent model, both in units of the spacing n samples would have spread
+ * evenly over the domain (docs/adaptive.md, "Tried and dropped"). */
+#define ALC_NOISE 0.1
+#define REPULSION_WIDTH 0.3
+#define COVER_WEIGHT 30.0
+
+/* The latent prediction's calibration: the geometric mean of true over
+ * predicted error past 40 samples on the calibration materials (every
+ * sixth of the decoder's training set, never a held-out one). */
+#define LATENT_PRED_FACTOR 1.2
+
+struct adaptive {
+    const struct plan *pool;
+    const struct plan_rig *rig;
+    struct adaptive_options opt;
+    char model[32];
+    size_t n_pool;
+    struct brdf_pair *pairs;  /* pool point i's pair */
+    double *integ;            /* pool point i's integration */
+    long *seed_point;         /* the pool point nearest each seed pair */
+    unsigned char *measured;
+    struct fit_sample *samples; /* in arrival order */
+    size_t n;
+    struct ens ens;
+    size_t fitted;            /* samples in the ensemble's latest fit */
+    struct brdf_domain dom;   /* the prediction's full-domain subset */
+    double predicted;
+    double spread;            /* the ensemble's mean sd over dom */
+    double mapped;            /* held-out residuals mapped onto dom */
+    double latent_abc_in_sample; /* the ABC fit's in-sample error when the latent was fitted */
+    double dom_cov[ENS_GROUPS][ENS_GROUPS]; /* mean over dom of dev dev^T */
+    int latent;               /* model latent or auto: the latent fit is tracked */
+    int cover;                /* picks weigh coverage (the latent model's own picks) */
+    struct track track;
+    double *gap;              /* pool point i's domain distance to the nearest measured point */
+    double max_alc;           /* the largest candidate ALC of this decision */
+    double *hist_t, *hist_e;  /* (rig time, predicted error) at each refit */
+    size_t n_hist;
+};
+
+struct adaptive_options adaptive_default_options(void)
+{
+    return (struct adaptive_options){
+        .model = "abc", .budget_s = 0, .target = 0, .converge = 0,
+        .gain_tol = DEFAULT_GAIN_TOL, .seed = 1,
+    };
+}
+
+static int check_options(const struct adaptive_options *o, struct gonio_err *err)
+{
+    if (!o->model)
+        return gonio_err_set(err, GONIO_EUSAGE, "adaptive model: none given");
+    if (strcmp(o->model, "auto") != 0 && !fit_model_find_rgb(o->model, "adaptive model", err))
+        return -GONIO_EUSAGE;
+    if (!(o->budget_s >= 0) || !isfinite(o->budget_s))
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "adaptive budget %g s: must be a finite number >= 0 (0: none)",
+                             o->budget_s);
+    if (!(o->target >= 0) || !isfinite(o->target))
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "adaptive stop target %g: must be a finite log error >= 0 (0: none)",
+                             o->target);
+    if (o->converge && (!(o->gain_tol > 0) || !isfinite(o->gain_tol)))
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "adaptive gain tolerance %g per minute: must be > 0 to stop on "
+                             "convergence", o->gain_tol);
+    return 0;
+}
+
+static void point_pair(const struct plan_point *pt, struct brdf_pair *p)
+{
+    if (pt->out_of_plane)
+        brdf_pair_spherical(pt->theta_i, pt->phi_i, pt->theta_o, pt->phi_o, p);
+    else
+        brdf_pair_inplane(pt->theta_i, pt->theta_r, p);
+}
+
+/* Chordal distance of two pairs: cheap, and as good as the angle for
+ * nearest neighbours. */
+static double chord(const struct brdf_pair *a, const struct brdf_pair *b)
+{
+    double s = 0;
+    for (int k = 0; k < 3; k++)
+        s += (a->wi[k] - b->wi[k]) * (a->wi[k] - b->wi[k]) +
+             (a->wo[k] - b->wo[k]) * (a->wo[k] - b->wo[k]);
+    return sqrt(s);
+}
+
+/* Distance of two pairs in the full domain's own coordinates: the MERL
+ * nodes are uniform in (sqrt(theta_h / 90 deg), theta_d / 90 deg, phi_d),
+ * so coverage in these units is coverage of the nodes the error is
+ * averaged over, whatever the pool's spacing. */
+static double dom_dist(const struct brdf_pair *a, const struct brdf_pair *b)
+{
+    double du = sqrt(a->theta_h / (90 * BRDF_DEG)) - sqrt(b->theta_h / (90 * BRDF_DEG));
+    double dv = (a->theta_d - b->theta_d) / (90 * BRDF_DEG);
+    return sqrt(du * du + dv * dv);
+}
+
+adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
+                       const double *integration_s, const struct adaptive_options *opt,
+                       struct gonio_err *err)
+{
+    struct adaptive_options o = opt ? *opt : adaptive_default_options();
+    if (check_options(&o, err) < 0)
+        return NULL;
+    size_t n = pool ? plan_count(pool) : 0;
+    if (n == 0) {
+        gonio_err_set(err, GONIO_EUSAGE, "adaptive pool %s: no points to choose from",
+                      pool ? plan_name(pool) : "(none)");
+        return NULL;
+    }
+    for (size_t i = 0; integration_s && i < n; i++)
+        if (!(integration_s[i] >= 0) || !isfinite(integration_s[i])) {
+            gonio_err_set(err, GONIO_EUSAGE,
+                          "adaptive pool %s: integration of point %zu is %g s, not a finite "
+                          "time >= 0", plan_name(pool), i, integration_s[i]);
+            return NULL;
+        }
+    adaptive *a = calloc(1, sizeof *a);
+    if (!a) {
+        gonio_err_set(err, ENOMEM, "adaptive policy: out of memory");
+        return NULL;
+    }
+    a->pool = pool;
+    a->rig = rig;
+    a->opt = o;
+    snprintf(a->model, sizeof a->model, "%s", o.model);
+    a->opt.model = a->model;
+    a->n_pool = n;
+    a->predicted = NAN;
+    a->latent = strcmp(o.model, "latent") == 0 || strcmp(o.model, "auto") == 0;
+    a->cover = a->latent;
+    ens_init(&a->ens);
+    a->pairs = malloc(n * sizeof *a->pairs);
+    a->integ = malloc(n * sizeof *a->integ);
+    a->measured = calloc(n, 1);
+    a->samples = malloc(n * sizeof *a->samples);
+    a->hist_t = malloc(n * sizeof *a->hist_t);
+    a->hist_e = malloc(n * sizeof *a->hist_e);
+    a->seed_point = malloc(N_SEEDS * sizeof *a->seed_point);
+    a->gap = malloc(n * sizeof *a->gap);
+    if (!a->gap || !a->pairs || !a->integ || !a->measured || !a->samples || !a->hist_t ||
+        !a->hist_e || !a->seed_point) {
+        gonio_err_set(err, ENOMEM, "adaptive policy: out of memory");
+        adaptive_free(a);
+        return NULL;
+    }
+    for (size_t i = 0; i < n; i++) {
+        point_pair(plan_point(pool, i), &a->pairs[i]);
+        a->integ[i] = integration_s ? integration_s[i] : rig->integration_s;
+    }
+    for (size_t i = 0; i < n; i++)
+        a->gap[i] = INFINITY;
+    for (size_t k = 0; k < N_SEEDS; k++) {
+        struct brdf_pair sp;
+        brdf_pair_inplane(seed_pairs[k][0], seed_pairs[k][1], &sp);
+        double best = INFINITY;
+        a->seed_point[k] = -1;
+        for (size_t i = 0; i < n; i++) {
+            double d = chord(&sp, &a->pairs[i]);
+            if (d < best) {
+                best = d;
+                a->seed_point[k] = (long)i;
+            }
+        }
+    }
+    if (brdf_domain_oop_random(&a->dom, PREDICT_NODES, o.seed, err) < 0 ||
+        (a->latent && track_init(&a->track, err) < 0)) {
+        adaptive_free(a);
+        return NULL;
+    }
+    return a;
+}
+
+void adaptive_free(adaptive *a)
+{
+    if (!a)
+        return;
+    free(a->pairs);
+    free(a->integ);
+    free(a->measured);
+    free(a->samples);
+    free(a->hist_t);
+    free(a->hist_e);
+    free(a->seed_point);
+    free(a->gap);
+    ens_free(&a->ens);
+    track_free(&a->track);
+    brdf_domain_free(&a->dom);
+    free(a);
+}
+
+int adaptive_add(adaptive *a, size_t point, const struct fit_sample *s, int saturated,
+                 struct gonio_err *err)
+{
+    (void)saturated; /* the ABC family fits saturated readings clipped (fit/models.h) */
+    if (point >= a->n_pool)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "adaptive: sample of point %zu, but the pool %s has %zu points",
+                             point, plan_name(a->pool), a->n_pool);
+    if (a->measured[point])
+        return gonio_err_set(err, GONIO_EUSAGE, "adaptive: point %zu of pool %s given twice",
+                             point, plan_name(a->pool));
+    a->measured[point] = 1;
+    for (size_t i = 0; i < a->n_pool; i++)
+        a->gap[i] = fmin(a->gap[i], dom_dist(&a->pairs[i], &a->pairs[point]));
+    a->samples[a->n++] = *s;
+    return 0;
+}
+
+/* Rig time of measuring point i with the axes at `from`. */
+static double point_cost(const adaptive *a, const struct plan_axes *from, size_t i)
+{
+    return plan_move_time_backlash(a->rig, from, &plan_point(a->pool, i)->ax) + a->rig->settle_s +
+           a->integ[i];
+}
+
+/* The predicted full-domain log error of the model fitted now
+ * (docs/adaptive.md, "Predicting the error"). ABC: each node of the
+ * full-domain subset takes the held-out residual of the sample nearest it
+ * in (theta_h, theta_d), so the samples' errors count by the share of the
+ * domain they stand for, not by where the policy chose to look; never
+ * below the ensemble's spread over the subset, which is what the samples
+ * leave open. Latent: the mapped residual times the ratio of the tracked
+ * latent fit's in-sample error to the ABC fit's, calibrated. */
+static double predict_error(adaptive *a)
+{
+    double spread = 0, mapped = 0;
+    for (size_t i = 0; i < a->dom.n; i++) {
+        const struct brdf_pair *p = &a->dom.pairs[i];
+        spread += sqrt(ens_variance(&a->ens, p));
+        double best = INFINITY, r = 0;
+        for (size_t k = 0; k < a->n; k++) {
+            double dh = p->theta_h - a->samples[k].g.theta_h;
+            double dd = p->theta_d - a->samples[k].g.theta_d;
+            if (dh * dh + dd * dd < best) {
+                best = dh * dh + dd * dd;
+                r = a->ens.cv_resid[k];
+            }
+        }
+        mapped += r;
+    }
+    a->spread = spread / (double)a->dom.n;
+    a->mapped = mapped / (double)a->dom.n;
+    if (!a->latent || (strcmp(a->model, "auto") == 0 && !a->cover))
+        return fmax(a->mapped, a->spread);
+    if (!(a->track.fitted > 0) || !(a->latent_abc_in_sample > 0))
+        return NAN;
+    return LATENT_PRED_FACTOR * a->mapped * a->track.in_sample / a->latent_abc_in_sample;
+}
+
+void adaptive_evidence(const adaptive *a, struct adaptive_evidence *ev)
+{
+    int ok = a->ens.ok && isfinite(a->predicted);
+    *ev = (struct adaptive_evidence){
+        .samples = a->fitted,
+        .fit_error = ok ? a->ens.fit_error : NAN,
+        .cv_error = ok ? a->ens.cv_error : NAN,
+        .spread = ok ? a->spread : NAN,
+        .mapped = ok ? a->mapped : NAN,
+    };
+}
+
+/* Predicted error reduction per minute of rig time: minus the
+ * least-squares slope of the predictions against rig time over the
+ * latest GAIN_WINDOW_S or third of the rig time, whichever is longer
+ * (a shorter window follows the noise of single refits). Negative while
+ * the prediction rises: the samples are still finding error the model
+ * did not show. NAN with fewer than 8 predictions in the window. */
+static double gain_per_min(const adaptive *a)
+{
+    if (a->n_hist == 0)
+        return NAN;
+    double t_end = a->hist_t[a->n_hist - 1];
+    double window = fmax(GAIN_WINDOW_S, t_end / 3);
+    size_t lo = a->n_hist;
+    while (lo > 0 && a->hist_t[lo - 1] >= t_end - window)
+        lo--;
+    size_t m = a->n_hist - lo;
+    if (m < 8)
+        return NAN;
+    double st = 0, se = 0;
+    for (size_t k = lo; k < a->n_hist; k++) {
+        st += a->hist_t[k];
+        se += a->hist_e[k];
+    }
+    st /= (double)m;
+    se /= (double)m;
+    double stt = 0, ste = 0;
+    for (size_t k = lo; k < a->n_hist; k++) {
+        stt += (a->hist_t[k] - st) * (a->hist_t[k] - st);
+        ste += (a->hist_t[k] - st) * (a->hist_e[k] - se);
+    }
+    if (!(stt > 0))
+        return NAN;
+    return -ste / stt * 60;
+}
+
+static void compute_dom_cov(adaptive *a)
+{
+    memset(a->dom_cov, 0, sizeof a->dom_cov);
+    for (size_t i = 0; i < a->dom.n; i++) {
+        double d[ENS_GROUPS];
+        ens_deviations(&a->ens, &a->dom.pairs[i], d);
+        for (int g = 0; g < ENS_GROUPS; g++)
+            for (int h = 0; h < ENS_GROUPS; h++)
+                a->dom_cov[g][h] += d[g] * d[h];
+    }
+    for (int g = 0; g < ENS_GROUPS; g++)
+        for (int h = 0; h < ENS_GROUPS; h++)
+            a->dom_cov[g][h] /= (double)a->dom.n;
+}
+
+static void refit(adaptive *a, double rig_time_s)
+{
+    if (a->fitted == a->n)
+        return;
+    a->fitted = a->n;
+    if (a->n < N_SEEDS || ens_fit(&a->ens, a->samples, a->n) < 0) {
+        a->predicted = NAN;
+        return;
+    }
+    compute_dom_cov(a);
+    if (a->latent && track_update(&a->track, a->samples, a->n, a->opt.seed) == 1) {
+        a->latent_abc_in_sample = a->ens.fit_error;
+        /* The decoder's prior must fit the material before its picks are
+         * trusted: a latent fit no better on its own samples than ABC is
+         * on samples it did not see follows a material the decoder does
+         * not know (issue 16, item 5). */
+        a->cover = a->track.in_sample < a->ens.cv_error;
+    }
+    a->predicted = predict_error(a);
+    if (isfinite(a->predicted)) {
+        a->hist_t[a->n_hist] = rig_time_s;
+        a->hist_e[a->n_hist++] = a->predicted;
+    }
+}
+
+static int is_seed(const adaptive *a, size_t i)
+{
+    for (size_t k = 0; k < N_SEEDS; k++)
+        if (a->seed_point[k] == (long)i)
+            return 1;
+    return 0;
+}
+
+/* The expected reduction of the ensemble's variance over the full-domain
+ * subset if candidate i were measured (Cohn's ALC): with d_i the members'
+ * deviations at i and C the subset's mean of d d^T, sum over nodes of
+ * cov(i, x)^2 / (noise + var(i)) = d_i^T C d_i / (noise + |d_i|^2). The
+ * noise is the model's own misfit: a model that cannot follow the
+ * material there gains less from a sample than its variance says. */
+static double alc(const adaptive *a, size_t i)
+{
+    double d[ENS_GROUPS], v = 0, q = 0;
+    ens_deviations(&a->ens, &a->pairs[i], d);
+    for (int g = 0; g < ENS_GROUPS; g++) {
+        v += d[g] * d[g];
+        for (int h = 0; h < ENS_GROUPS; h++)
+            q += d[g] * a->dom_cov[g][h] * d[h];
+    }
+    return q / (ALC_NOISE * a->ens.cv_error * a->ens.cv_error + v + 1e-300);
+}
+
+/* What measuring candidate i is worth, before its cost: until the seeds
+ * are measured, 1 at a seed and 0 elsewhere; without an ensemble, the
+ * domain distance to the nearest point measured or pending. Then for ABC
+ * the ALC, damped near what is measured or pending: the jackknife spread
+ * of a misspecified model hardly falls where a neighbour was just
+ * measured, and without the damping a fine pool's cheap 1-degree steps
+ * pile samples into one region. For the latent model (whose fit the
+ * ensemble does not describe) the ALC relative to the best one plus that
+ * distance: coverage of the domain. */
+static double worth(const adaptive *a, size_t i, long pending, int seeding)
+{
+    if (seeding)
+        return is_seed(a, i) ? 1 : 0;
+    double gap = a->gap[i];
+    if (pending >= 0)
+        gap = fmin(gap, dom_dist(&a->pairs[i], &a->pairs[pending]));
+    if (!a->ens.ok)
+        return isfinite(gap) ? gap : 1;
+    /* gap in units of the even spacing of n + 1 points over the unit
+     * square of dom_dist's coordinates */
+    double g = gap * sqrt((double)(a->n + 1));
+    if (!a->cover)
+        return alc(a, i) * (1 - exp(-(g / REPULSION_WIDTH) * (g / REPULSION_WIDTH)));
+    return alc(a, i) / a->max_alc + COVER_WEIGHT * g;
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, long pending,
+                   struct adaptive_status *st, struct gonio_err *err)
+{
+    double t0 = now_s();
+    if (pending >= (long)a->n_pool || pending < -1)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "adaptive: pending point %ld is not in pool %s (%zu points)",
+                             pending, plan_name(a->pool), a->n_pool);
+    refit(a, rig_time_s);
+    /* While pending is measured, the next move starts from its axes and
+     * the rig clock runs on by its move, settle and integration. */
+    struct plan_axes from = *at;
+    double clock = rig_time_s;
+    if (pending >= 0) {
+        clock += point_cost(a, at, (size_t)pending);
+        from = plan_point(a->pool, (size_t)pending)->ax;
+    }
+    const char *stop = "";
+    double gain = gain_per_min(a);
+    if (a->n >= MIN_STOP_SAMPLES && a->opt.target > 0 && a->predicted <= a->opt.target)
+        stop = "target";
+    else if (a->n >= MIN_STOP_SAMPLES && a->opt.converge && fabs(gain) < a->opt.gain_tol)
+        stop = "converged";
+    int seeding = 0;
+    for (size_t k = 0; k < N_SEEDS; k++) {
+        long p = a->seed_point[k];
+        seeding |= !a->measured[p] && p != pending;
+    }
+    a->max_alc = 1e-300;
+    for (size_t i = 0; a->ens.ok && a->cover && i < a->n_pool; i++)
+        if (!a->measured[i])
+            a->max_alc = fmax(a->max_alc, alc(a, i));
+    long best = -1;
+    double best_score = -INFINITY;
+    int open = 0; /* candidates left, affordable or not */
+    for (size_t i = 0; !*stop && i < a->n_pool; i++) {
+        if (a->measured[i] || (long)i == pending)
+            continue;
+        open = 1;
+        double cost = point_cost(a, &from, i);
+        if (a->opt.budget_s > 0 && clock + cost > a->opt.budget_s)
+            continue;
+        double score = worth(a, i, pending, seeding) / cost;
+        if (score > best_score) {
+            best_score = score;
+            best = (long)i;
+        }
+    }
+    if (!*stop && best < 0)
+        stop = open ? "budget" : "exhausted";
+    if (st) {
+        *st = (struct adaptive_status){
+            .samples = a->n, .predicted_error = a->predicted, .gain_per_min = gain,
+            .predicted_next_s = 60, .decision_s = now_s() - t0,
+        };
+        st->predicted_next = isfinite(gain) ? fmax(0, a->predicted - fmax(gain, 0)) : NAN;
+        snprintf(st->model, sizeof st->model, "%s",
+                 strcmp(a->model, "auto") != 0 ? a->model : a->cover ? "latent" : "abc");
+        snprintf(st->stop, sizeof st->stop, "%s", stop);
+    }
+    return *stop ? -1 : best;
+}
