@@ -20,15 +20,17 @@ ALLOWED = {
     "journal": {"brdf", "common"},
     "planner": {"rig", "brdf", "common"},
     "fit": {"journal", "brdf", "common"},
+    "adaptive": {"fit", "planner", "rig", "brdf", "journal", "common"},
     "sim": {"planner", "modbus_map", "rig", "brdf", "common"},
     "drivers": {"modbus_map", "sim", "rig", "brdf", "common"},
-    "capture": {"drivers", "sim", "fit", "journal", "planner", "rig", "brdf", "common"},
-    "daemon": {"capture", "drivers", "sim", "fit", "journal", "planner", "rig", "brdf",
-               "common"},
+    "capture": {"adaptive", "drivers", "sim", "fit", "journal", "planner", "rig", "brdf",
+                "common"},
+    "daemon": {"capture", "adaptive", "drivers", "sim", "fit", "journal", "planner", "rig",
+               "brdf", "common"},
     "render": {"fit", "planner", "rig", "brdf", "common"},
     "report": {"fit", "journal", "planner", "rig", "brdf", "common"},
-    "study": {"capture", "drivers", "sim", "fit", "journal", "planner", "rig", "brdf",
-              "common"},
+    "study": {"capture", "adaptive", "drivers", "sim", "fit", "journal", "planner", "rig",
+              "brdf", "common"},
 }
 # Inside drivers/ the in-process simulator backend alone may see sim/: the
 # core and the Modbus and USB backends must not.

@@ -1,0 +1,349 @@
+/* Adaptive acquisition policy (adaptive/adaptive.h, docs/adaptive.md). */
+#include "adaptive/adaptive.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "adaptive/ensemble.h"
+#include "brdf/domain.h"
+#include "fit/models.h"
+
+/* The first pairs: DS4's six (configs/plans/ds4.yaml), spread over
+ * back-scatter, the mirror neighbourhood and the forward lobe at
+ * theta_i = 30, each taken as the nearest pool point. Six samples are
+ * what the six-pair latent fit already does well with, and they give the
+ * ensemble its first fit. */
+static const double seed_pairs[][2] = {{30, -60}, {30, -20}, {30, 20}, {30, 28}, {30, 36}, {30, 60}};
+#define N_SEEDS (sizeof seed_pairs / sizeof seed_pairs[0])
+
+/* Full-domain nodes over which the ensemble's spread is averaged for the
+ * error prediction: a seeded subset, as the study's errors are over the
+ * full domain. */
+#define PREDICT_NODES 2000
+
+/* docs/adaptive.md, "Stopping on convergence" */
+#define DEFAULT_GAIN_TOL 0.002
+
+struct adaptive {
+    const struct plan *pool;
+    const struct plan_rig *rig;
+    struct adaptive_options opt;
+    char model[32];
+    size_t n_pool;
+    struct brdf_pair *pairs;  /* pool point i's pair */
+    double *integ;            /* pool point i's integration */
+    long *seed_point;         /* the pool point nearest each seed pair */
+    unsigned char *measured;
+    struct fit_sample *samples; /* in arrival order */
+    size_t n;
+    struct ens ens;
+    size_t fitted;            /* samples in the ensemble's latest fit */
+    struct brdf_domain dom;   /* the prediction's full-domain subset */
+    double predicted;
+    double *hist_t, *hist_e;  /* (rig time, predicted error) at each refit */
+    size_t n_hist;
+};
+
+struct adaptive_options adaptive_default_options(void)
+{
+    return (struct adaptive_options){
+        .model = "abc", .budget_s = 0, .target = 0, .converge = 0,
+        .gain_tol = DEFAULT_GAIN_TOL, .seed = 1,
+    };
+}
+
+static int check_options(const struct adaptive_options *o, struct gonio_err *err)
+{
+    if (!o->model || (strcmp(o->model, "auto") != 0 && !fit_model_find_rgb(o->model, "adaptive model", err)))
+        return o->model ? -GONIO_EUSAGE
+                        : gonio_err_set(err, GONIO_EUSAGE, "adaptive model: none given");
+    if (!(o->budget_s >= 0) || !isfinite(o->budget_s))
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "adaptive budget %g s: must be a finite number >= 0 (0: none)",
+                             o->budget_s);
+    if (!(o->target >= 0) || !isfinite(o->target))
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "adaptive stop target %g: must be a finite log error >= 0 (0: none)",
+                             o->target);
+    if (o->converge && (!(o->gain_tol > 0) || !isfinite(o->gain_tol)))
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "adaptive gain tolerance %g per minute: must be > 0 to stop on "
+                             "convergence", o->gain_tol);
+    return 0;
+}
+
+static void point_pair(const struct plan_point *pt, struct brdf_pair *p)
+{
+    if (pt->out_of_plane)
+        brdf_pair_spherical(pt->theta_i, pt->phi_i, pt->theta_o, pt->phi_o, p);
+    else
+        brdf_pair_inplane(pt->theta_i, pt->theta_r, p);
+}
+
+/* Angular distance of two pairs: between the incident directions plus
+ * between the outgoing ones (radians). */
+static double pair_distance(const struct brdf_pair *a, const struct brdf_pair *b)
+{
+    double ci = a->wi[0] * b->wi[0] + a->wi[1] * b->wi[1] + a->wi[2] * b->wi[2];
+    double co = a->wo[0] * b->wo[0] + a->wo[1] * b->wo[1] + a->wo[2] * b->wo[2];
+    return acos(fmax(-1, fmin(1, ci))) + acos(fmax(-1, fmin(1, co)));
+}
+
+adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
+                       const double *integration_s, const struct adaptive_options *opt,
+                       struct gonio_err *err)
+{
+    struct adaptive_options o = opt ? *opt : adaptive_default_options();
+    if (check_options(&o, err) < 0)
+        return NULL;
+    size_t n = pool ? plan_count(pool) : 0;
+    if (n == 0) {
+        gonio_err_set(err, GONIO_EUSAGE, "adaptive pool %s: no points to choose from",
+                      pool ? plan_name(pool) : "(none)");
+        return NULL;
+    }
+    for (size_t i = 0; integration_s && i < n; i++)
+        if (!(integration_s[i] >= 0) || !isfinite(integration_s[i])) {
+            gonio_err_set(err, GONIO_EUSAGE,
+                          "adaptive pool %s: integration of point %zu is %g s, not a finite "
+                          "time >= 0", plan_name(pool), i, integration_s[i]);
+            return NULL;
+        }
+    adaptive *a = calloc(1, sizeof *a);
+    if (!a) {
+        gonio_err_set(err, ENOMEM, "adaptive policy: out of memory");
+        return NULL;
+    }
+    a->pool = pool;
+    a->rig = rig;
+    a->opt = o;
+    snprintf(a->model, sizeof a->model, "%s", o.model);
+    a->opt.model = a->model;
+    a->n_pool = n;
+    a->predicted = NAN;
+    ens_init(&a->ens);
+    a->pairs = malloc(n * sizeof *a->pairs);
+    a->integ = malloc(n * sizeof *a->integ);
+    a->measured = calloc(n, 1);
+    a->samples = malloc(n * sizeof *a->samples);
+    a->hist_t = malloc(n * sizeof *a->hist_t);
+    a->hist_e = malloc(n * sizeof *a->hist_e);
+    a->seed_point = malloc(N_SEEDS * sizeof *a->seed_point);
+    if (!a->pairs || !a->integ || !a->measured || !a->samples || !a->hist_t || !a->hist_e ||
+        !a->seed_point) {
+        gonio_err_set(err, ENOMEM, "adaptive policy: out of memory");
+        adaptive_free(a);
+        return NULL;
+    }
+    for (size_t i = 0; i < n; i++) {
+        point_pair(plan_point(pool, i), &a->pairs[i]);
+        a->integ[i] = integration_s ? integration_s[i] : rig->integration_s;
+    }
+    for (size_t k = 0; k < N_SEEDS; k++) {
+        struct brdf_pair sp;
+        brdf_pair_inplane(seed_pairs[k][0], seed_pairs[k][1], &sp);
+        double best = INFINITY;
+        a->seed_point[k] = -1;
+        for (size_t i = 0; i < n; i++) {
+            double d = pair_distance(&sp, &a->pairs[i]);
+            if (d < best) {
+                best = d;
+                a->seed_point[k] = (long)i;
+            }
+        }
+    }
+    if (brdf_domain_oop_random(&a->dom, PREDICT_NODES, o.seed, err) < 0) {
+        adaptive_free(a);
+        return NULL;
+    }
+    return a;
+}
+
+void adaptive_free(adaptive *a)
+{
+    if (!a)
+        return;
+    free(a->pairs);
+    free(a->integ);
+    free(a->measured);
+    free(a->samples);
+    free(a->hist_t);
+    free(a->hist_e);
+    free(a->seed_point);
+    ens_free(&a->ens);
+    brdf_domain_free(&a->dom);
+    free(a);
+}
+
+int adaptive_add(adaptive *a, size_t point, const struct fit_sample *s, int saturated,
+                 struct gonio_err *err)
+{
+    (void)saturated; /* the ABC family fits saturated readings clipped (fit/models.h) */
+    if (point >= a->n_pool)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "adaptive: sample of point %zu, but the pool %s has %zu points",
+                             point, plan_name(a->pool), a->n_pool);
+    if (a->measured[point])
+        return gonio_err_set(err, GONIO_EUSAGE, "adaptive: point %zu of pool %s given twice",
+                             point, plan_name(a->pool));
+    a->measured[point] = 1;
+    a->samples[a->n++] = *s;
+    return 0;
+}
+
+/* Rig time of measuring point i with the axes at `from`. */
+static double point_cost(const adaptive *a, const struct plan_axes *from, size_t i)
+{
+    return plan_move_time_backlash(a->rig, from, &plan_point(a->pool, i)->ax) + a->rig->settle_s +
+           a->integ[i];
+}
+
+/* The predicted full-domain log error of the model fitted now: the
+ * ensemble's cross-validated error on the samples plus its spread over
+ * the full-domain subset (docs/adaptive.md, "Predicting the error"). */
+static double predict_error(const adaptive *a)
+{
+    if (!a->ens.ok)
+        return NAN;
+    double spread = 0;
+    for (size_t i = 0; i < a->dom.n; i++)
+        spread += sqrt(ens_variance(&a->ens, &a->dom.pairs[i]));
+    spread /= (double)a->dom.n;
+    return a->ens.cv_error + spread;
+}
+
+/* Predicted error reduction per minute of rig time: the least-squares
+ * slope of the recent predictions against rig time (the last third of
+ * them, at least four). */
+static double gain_per_min(const adaptive *a)
+{
+    size_t m = a->n_hist / 3 > 4 ? a->n_hist / 3 : 4;
+    if (a->n_hist < m)
+        return NAN;
+    size_t lo = a->n_hist - m;
+    double st = 0, se = 0;
+    for (size_t k = lo; k < a->n_hist; k++) {
+        st += a->hist_t[k];
+        se += a->hist_e[k];
+    }
+    st /= (double)m;
+    se /= (double)m;
+    double stt = 0, ste = 0;
+    for (size_t k = lo; k < a->n_hist; k++) {
+        stt += (a->hist_t[k] - st) * (a->hist_t[k] - st);
+        ste += (a->hist_t[k] - st) * (a->hist_e[k] - se);
+    }
+    if (!(stt > 0))
+        return NAN;
+    return fmax(0, -ste / stt * 60);
+}
+
+static void refit(adaptive *a, double rig_time_s)
+{
+    if (a->fitted == a->n)
+        return;
+    a->fitted = a->n;
+    if (a->n < N_SEEDS || ens_fit(&a->ens, a->samples, a->n) < 0) {
+        a->predicted = NAN;
+        return;
+    }
+    a->predicted = predict_error(a);
+    if (isfinite(a->predicted)) {
+        a->hist_t[a->n_hist] = rig_time_s;
+        a->hist_e[a->n_hist++] = a->predicted;
+    }
+}
+
+static int is_seed(const adaptive *a, size_t i)
+{
+    for (size_t k = 0; k < N_SEEDS; k++)
+        if (a->seed_point[k] == (long)i)
+            return 1;
+    return 0;
+}
+
+/* What measuring candidate i is worth, before its cost: a seed point's
+ * worth is infinite until the seeds are measured; then the ensemble's
+ * spread there, or (no ensemble yet) the distance to the nearest point
+ * measured or pending. */
+static double worth(const adaptive *a, size_t i, long pending, int seeding)
+{
+    if (seeding)
+        return is_seed(a, i) ? 1 : 0;
+    if (a->ens.ok)
+        return sqrt(ens_variance(&a->ens, &a->pairs[i]));
+    double near = INFINITY;
+    for (size_t j = 0; j < a->n_pool; j++)
+        if (a->measured[j] || (long)j == pending)
+            near = fmin(near, pair_distance(&a->pairs[i], &a->pairs[j]));
+    return isfinite(near) ? near : 1;
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, long pending,
+                   struct adaptive_status *st, struct gonio_err *err)
+{
+    double t0 = now_s();
+    if (pending >= (long)a->n_pool || pending < -1)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "adaptive: pending point %ld is not in pool %s (%zu points)",
+                             pending, plan_name(a->pool), a->n_pool);
+    refit(a, rig_time_s);
+    /* While pending is measured, the next move starts from its axes and
+     * the rig clock runs on by its move, settle and integration. */
+    struct plan_axes from = *at;
+    double clock = rig_time_s;
+    if (pending >= 0) {
+        clock += point_cost(a, at, (size_t)pending);
+        from = plan_point(a->pool, (size_t)pending)->ax;
+    }
+    const char *stop = "";
+    double gain = gain_per_min(a);
+    if (a->opt.target > 0 && a->predicted <= a->opt.target)
+        stop = "target";
+    else if (a->opt.converge && gain < a->opt.gain_tol)
+        stop = "converged";
+    int seeding = 0;
+    for (size_t k = 0; k < N_SEEDS; k++) {
+        long p = a->seed_point[k];
+        seeding |= !a->measured[p] && p != pending;
+    }
+    long best = -1;
+    double best_score = -INFINITY;
+    int open = 0; /* candidates left, affordable or not */
+    for (size_t i = 0; !*stop && i < a->n_pool; i++) {
+        if (a->measured[i] || (long)i == pending)
+            continue;
+        open = 1;
+        double cost = point_cost(a, &from, i);
+        if (a->opt.budget_s > 0 && clock + cost > a->opt.budget_s)
+            continue;
+        double score = worth(a, i, pending, seeding) / cost;
+        if (score > best_score) {
+            best_score = score;
+            best = (long)i;
+        }
+    }
+    if (!*stop && best < 0)
+        stop = open ? "budget" : "exhausted";
+    if (st) {
+        *st = (struct adaptive_status){
+            .samples = a->n, .predicted_error = a->predicted, .gain_per_min = gain,
+            .predicted_next_s = 60, .decision_s = now_s() - t0,
+        };
+        st->predicted_next = isfinite(gain) ? fmax(0, a->predicted - gain) : NAN;
+        snprintf(st->model, sizeof st->model, "%s", a->model);
+        snprintf(st->stop, sizeof st->stop, "%s", stop);
+    }
+    return *stop ? -1 : best;
+}

@@ -1,0 +1,120 @@
+/* Delete-group jackknife ensemble of ABC fits (adaptive/ensemble.h). */
+#include "adaptive/ensemble.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+
+#include "brdf/metrics.h"
+#include "common/err.h"
+
+void ens_init(struct ens *e)
+{
+    *e = (struct ens){.fit_error = NAN, .cv_error = NAN};
+}
+
+void ens_free(struct ens *e)
+{
+    free(e->scratch);
+    ens_init(e);
+}
+
+double ens_log_value(const struct brdf_abc *params, const struct brdf_pair *p)
+{
+    double rgb[3];
+    brdf_abc_eval(params, p, rgb);
+    double c = p->wi[2] > 0 ? p->wi[2] : 0;
+    double sum = 0;
+    for (int k = 0; k < 3; k++)
+        sum += log1p(fmax(rgb[k], 0) * c);
+    return sum / 3;
+}
+
+double ens_variance(const struct ens *e, const struct brdf_pair *p)
+{
+    double v[ENS_GROUPS], mean = 0;
+    for (int g = 0; g < ENS_GROUPS; g++) {
+        v[g] = ens_log_value(&e->member[g], p);
+        mean += v[g];
+    }
+    mean /= ENS_GROUPS;
+    double ss = 0;
+    for (int g = 0; g < ENS_GROUPS; g++)
+        ss += (v[g] - mean) * (v[g] - mean);
+    return ss * (ENS_GROUPS - 1) / ENS_GROUPS;
+}
+
+/* Log error of params on the samples of group g (g < 0: every sample). */
+static double group_error(const struct brdf_abc *params, const struct fit_sample *s, size_t n,
+                          int g, struct brdf_errors_acc *acc)
+{
+    struct brdf_errors_acc own;
+    brdf_errors_acc_init(&own);
+    for (size_t k = 0; k < n; k++) {
+        if (g >= 0 && (int)(k % ENS_GROUPS) != g)
+            continue;
+        double rgb[3];
+        brdf_abc_eval(params, &s[k].g, rgb);
+        brdf_errors_acc_add(&own, &s[k].g, s[k].rgb, rgb, 1);
+        if (acc)
+            brdf_errors_acc_add(acc, &s[k].g, s[k].rgb, rgb, 1);
+    }
+    struct brdf_errors out;
+    brdf_errors_acc_finish(&own, &out);
+    return out.log;
+}
+
+int ens_fit(struct ens *e, const struct fit_sample *s, size_t n)
+{
+    if (n > e->cap) {
+        struct fit_sample *grown = realloc(e->scratch, 2 * n * sizeof *grown);
+        if (!grown)
+            return -ENOMEM;
+        e->scratch = grown;
+        e->cap = 2 * n;
+    }
+    struct fit_options fo = fit_default_options();
+    fo.heldout = 0; /* the ensemble holds out its own groups */
+    struct brdf_abc next, cold;
+    struct fit_info info, cold_info;
+    int had = e->ok;
+    fo.warm_start = had ? &e->full : NULL;
+    int ok = fit_abc(s, n, &fo, &next, &info, NULL) == 0;
+    /* A warm start only refines: each time the data have doubled the
+     * global start runs too and the lower cost wins (as fit/stream.c). */
+    if (had && n >= 2 * e->cold_n) {
+        fo.warm_start = NULL;
+        if (fit_abc(s, n, &fo, &cold, &cold_info, NULL) == 0 && (!ok || cold_info.cost < info.cost)) {
+            next = cold;
+            ok = 1;
+        }
+        e->cold_n = n;
+    } else if (!had) {
+        e->cold_n = n;
+    }
+    if (!ok) {
+        e->ok = 0;
+        return -GONIO_EFIT;
+    }
+    e->full = next;
+    fo.warm_start = &e->full;
+    struct brdf_errors_acc cv;
+    brdf_errors_acc_init(&cv);
+    for (int g = 0; g < ENS_GROUPS; g++) {
+        size_t m = 0;
+        for (size_t k = 0; k < n; k++)
+            if ((int)(k % ENS_GROUPS) != g)
+                e->scratch[m++] = s[k];
+        if (fit_abc(e->scratch, m, &fo, &e->member[g], NULL, NULL) != 0) {
+            e->ok = 0;
+            return -GONIO_EFIT;
+        }
+        group_error(&e->member[g], s, n, g, &cv);
+    }
+    struct brdf_errors cve;
+    brdf_errors_acc_finish(&cv, &cve);
+    e->cv_error = cve.log;
+    e->fit_error = group_error(&e->full, s, n, -1, NULL);
+    e->ok = 1;
+    return 0;
+}

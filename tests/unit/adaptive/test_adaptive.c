@@ -1,0 +1,263 @@
+/* The adaptive policy (adaptive/adaptive.h) run in a loop against an
+ * analytic material, without the capture engine: what it picks, when it
+ * stops, and what it refuses. */
+#include "tests/gonio_test.h"
+
+#include "adaptive/adaptive.h"
+#include "brdf/abc.h"
+#include "rig/motion.h"
+
+/* A sharp glossy lobe on a dark base: most of the information sits near
+ * the mirror direction. */
+static const struct brdf_abc sharp = {
+    .kd = {0.05, 0.04, 0.03}, .A = {4, 4, 4}, .B = 3000, .C = 0.7, .eta = 1.6,
+};
+
+#define MAX_PICKS 2000
+
+struct run {
+    long pick[MAX_PICKS];
+    size_t n;
+    double clock;     /* rig time when the policy stopped */
+    double max_clock; /* the latest any measured point ended */
+    struct adaptive_status st;
+};
+
+static struct plan *load(const char *name, struct plan_rig *rig)
+{
+    struct gonio_err err = {0};
+    struct plan *p = NULL;
+    plan_rig_default(rig);
+    if (plan_load(name, rig, &p, &err) <= 0) {
+        print_error("plan %s: %s\n", name, err.msg);
+        fail();
+    }
+    return p;
+}
+
+static struct fit_sample measure(const struct plan *pool, long i)
+{
+    const struct plan_point *pt = plan_point(pool, (size_t)i);
+    struct fit_sample s;
+    brdf_pair_inplane(pt->theta_i, pt->theta_r, &s.g);
+    brdf_abc_eval(&sharp, &s.g, s.rgb);
+    return s;
+}
+
+/* Measure what the policy asks, one point at a time, on the rig clock,
+ * until it stops or max picks. */
+static void run_policy(const struct plan *pool, const struct plan_rig *rig,
+                       const struct adaptive_options *o, size_t max, struct run *r)
+{
+    struct gonio_err err = {0};
+    adaptive *a = adaptive_new(pool, rig, NULL, o, &err);
+    assert_non_null(a);
+    struct plan_axes at = {0, 0, 0};
+    memset(r, 0, sizeof *r);
+    while (r->n < max) {
+        long i = adaptive_next(a, &at, r->clock, -1, &r->st, &err);
+        if (i == -1)
+            break;
+        assert_true(i >= 0 && (size_t)i < plan_count(pool));
+        const struct plan_point *pt = plan_point(pool, (size_t)i);
+        r->clock += plan_move_time_backlash(rig, &at, &pt->ax) + rig->settle_s + rig->integration_s;
+        r->max_clock = fmax(r->max_clock, r->clock);
+        at = pt->ax;
+        r->pick[r->n++] = i;
+        struct fit_sample s = measure(pool, i);
+        assert_int_equal(adaptive_add(a, (size_t)i, &s, 0, &err), 0);
+    }
+    adaptive_free(a);
+}
+
+static void test_deterministic(void **state)
+{
+    (void)state;
+    struct plan_rig rig;
+    struct plan *pool = load("ds1", &rig);
+    struct adaptive_options o = adaptive_default_options();
+    static struct run r1, r2;
+    run_policy(pool, &rig, &o, 30, &r1);
+    run_policy(pool, &rig, &o, 30, &r2);
+    assert_int_equal(r1.n, 30);
+    assert_int_equal(r2.n, 30);
+    assert_memory_equal(r1.pick, r2.pick, sizeof r1.pick);
+    plan_free(pool);
+}
+
+static void test_budget_never_exceeded(void **state)
+{
+    (void)state;
+    struct plan_rig rig;
+    struct plan *pool = load("ds1", &rig);
+    struct adaptive_options o = adaptive_default_options();
+    o.budget_s = 15;
+    static struct run r;
+    run_policy(pool, &rig, &o, MAX_PICKS, &r);
+    assert_true(r.n >= 6);
+    assert_true(r.max_clock <= o.budget_s);
+    assert_string_equal(r.st.stop, "budget");
+    plan_free(pool);
+}
+
+static void test_exhausted_no_repeat(void **state)
+{
+    (void)state;
+    struct plan_rig rig;
+    struct plan *pool = load("ds3", &rig);
+    struct adaptive_options o = adaptive_default_options();
+    static struct run r;
+    run_policy(pool, &rig, &o, MAX_PICKS, &r);
+    assert_int_equal(r.n, plan_count(pool));
+    assert_string_equal(r.st.stop, "exhausted");
+    unsigned char seen[64] = {0};
+    for (size_t k = 0; k < r.n; k++) {
+        assert_int_equal(seen[r.pick[k]], 0);
+        seen[r.pick[k]] = 1;
+    }
+    plan_free(pool);
+}
+
+/* A point being measured is never offered again, from the seeds on. */
+static void test_pending_excluded(void **state)
+{
+    (void)state;
+    struct plan_rig rig;
+    struct plan *pool = load("ds1", &rig);
+    struct gonio_err err = {0};
+    adaptive *a = adaptive_new(pool, &rig, NULL, NULL, &err);
+    assert_non_null(a);
+    struct plan_axes at = {0, 0, 0};
+    long pending = -1;
+    for (int k = 0; k < 20; k++) {
+        long i = adaptive_next(a, &at, 0, pending, NULL, &err);
+        assert_true(i >= 0);
+        assert_true(i != pending);
+        /* the pending point's sample arrives now; i becomes pending */
+        if (pending >= 0) {
+            struct fit_sample s = measure(pool, pending);
+            assert_int_equal(adaptive_add(a, (size_t)pending, &s, 0, &err), 0);
+        }
+        pending = i;
+    }
+    adaptive_free(a);
+    plan_free(pool);
+}
+
+static void test_bad_input(void **state)
+{
+    (void)state;
+    struct plan_rig rig;
+    struct plan *pool = load("ds1", &rig);
+    struct gonio_err err = {0};
+    struct adaptive_options o = adaptive_default_options();
+    o.budget_s = -1;
+    assert_null(adaptive_new(pool, &rig, NULL, &o, &err));
+    assert_int_equal(err.code, GONIO_EUSAGE);
+    assert_non_null(strstr(err.msg, "budget -1"));
+    o = adaptive_default_options();
+    o.target = NAN;
+    assert_null(adaptive_new(pool, &rig, NULL, &o, &err));
+    assert_non_null(strstr(err.msg, "target nan"));
+    o = adaptive_default_options();
+    o.converge = 1;
+    o.gain_tol = 0;
+    assert_null(adaptive_new(pool, &rig, NULL, &o, &err));
+    assert_non_null(strstr(err.msg, "gain tolerance 0"));
+    o = adaptive_default_options();
+    o.model = "phong";
+    assert_null(adaptive_new(pool, &rig, NULL, &o, &err));
+    assert_non_null(strstr(err.msg, "phong"));
+    double *integ = calloc(plan_count(pool), sizeof *integ);
+    integ[7] = -0.5;
+    assert_null(adaptive_new(pool, &rig, integ, NULL, &err));
+    assert_non_null(strstr(err.msg, "point 7 is -0.5 s"));
+    free(integ);
+
+    adaptive *a = adaptive_new(pool, &rig, NULL, NULL, &err);
+    assert_non_null(a);
+    struct fit_sample s = measure(pool, 3);
+    assert_int_equal(adaptive_add(a, 3, &s, 0, &err), 0);
+    assert_int_equal(adaptive_add(a, 3, &s, 0, &err), -GONIO_EUSAGE);
+    assert_non_null(strstr(err.msg, "point 3 of pool ds1 given twice"));
+    assert_int_equal(adaptive_add(a, plan_count(pool), &s, 0, &err), -GONIO_EUSAGE);
+    struct plan_axes at = {0, 0, 0};
+    assert_int_equal(adaptive_next(a, &at, 0, (long)plan_count(pool), NULL, &err),
+                     -GONIO_EUSAGE);
+    adaptive_free(a);
+    plan_free(pool);
+}
+
+/* On a sharp lobe the policy spends its points near the mirror direction:
+ * a larger share of its picks within 10 degrees of it than of the pool's
+ * points. */
+static void test_concentrates_on_specular(void **state)
+{
+    (void)state;
+    struct plan_rig rig;
+    struct plan *pool = load("ds1", &rig);
+    struct adaptive_options o = adaptive_default_options();
+    static struct run r;
+    size_t picks = gonio_test_small() ? 30 : 60;
+    run_policy(pool, &rig, &o, picks, &r);
+    size_t near_pool = 0, near_picks = 0;
+    for (size_t i = 0; i < plan_count(pool); i++)
+        near_pool += fabs(plan_point(pool, i)->theta_r - plan_point(pool, i)->theta_i) <= 10;
+    for (size_t k = 6; k < r.n; k++) {
+        const struct plan_point *pt = plan_point(pool, (size_t)r.pick[k]);
+        near_picks += fabs(pt->theta_r - pt->theta_i) <= 10;
+    }
+    double share_pool = (double)near_pool / (double)plan_count(pool);
+    double share_picks = (double)near_picks / (double)(r.n - 6);
+    print_message("near the mirror: %.2f of the picks, %.2f of the pool\n", share_picks, share_pool);
+    assert_true(share_picks > 1.5 * share_pool);
+    plan_free(pool);
+}
+
+/* Six samples, on a pool of grazing pairs only (theta_i 75 and 80): the
+ * prediction is a finite positive number from the first fit on, and the
+ * policy keeps choosing (no NaN score loses every comparison). */
+static void test_predicted_finite_early_and_grazing(void **state)
+{
+    (void)state;
+    char dir[64], path[96];
+    assert_int_equal(gonio_test_dir_make(dir, sizeof dir, "adaptive"), 0);
+    snprintf(path, sizeof path, "%s/grazing.yaml", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("name: grazing\npairs:\n", f);
+    for (int ti = 75; ti <= 80; ti += 5)
+        for (int tr = -80; tr <= 80; tr += 10)
+            if (abs(ti + tr) >= 10)
+                fprintf(f, "  - [%d, %d]\n", ti, tr);
+    fputs("order: travel\nstop: all\n", f);
+    fclose(f);
+    struct plan_rig rig;
+    struct plan *pool = load(path, &rig);
+    struct adaptive_options o = adaptive_default_options();
+    static struct run r;
+    run_policy(pool, &rig, &o, 7, &r);
+    /* the 7th decision is made on the first six samples */
+    assert_int_equal(r.n, 7);
+    assert_int_equal(r.st.samples, 6);
+    assert_true(isfinite(r.st.predicted_error) && r.st.predicted_error > 0);
+    run_policy(pool, &rig, &o, 20, &r);
+    assert_int_equal(r.n, 20);
+    assert_true(isfinite(r.st.predicted_error) && r.st.predicted_error > 0);
+    plan_free(pool);
+    gonio_test_dir_remove(dir);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_deterministic),
+        cmocka_unit_test(test_budget_never_exceeded),
+        cmocka_unit_test(test_exhausted_no_repeat),
+        cmocka_unit_test(test_pending_excluded),
+        cmocka_unit_test(test_bad_input),
+        cmocka_unit_test(test_concentrates_on_specular),
+        cmocka_unit_test(test_predicted_finite_early_and_grazing),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
