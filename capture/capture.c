@@ -434,6 +434,23 @@ static void progress(const struct capture_hooks *hooks, const struct capture_inp
     hooks->on_progress(hooks->user, &p);
 }
 
+/* A resumed capture's in-process rig: its axes where the interrupted run
+ * left them, as a real rig's stay, and its clock at the last sample's time
+ * (the scene's drift runs on it), so the rig time goes on as it would
+ * have (an adaptive capture's budget and convergence read it). An axis
+ * the rig's fault effects stop keeps where it is. */
+static void sim_resume(sim_rig *sim, const struct journal_sample *last,
+                       const struct plan_point *pt)
+{
+    static const enum sim_axis_id axis[3] = {SIM_AXIS_SAMPLE, SIM_AXIS_ARM, SIM_AXIS_AZIMUTH};
+    const double at[3] = {last->s, last->a, pt->ax.az};
+    for (int i = 0; i < 3; i++)
+        if (sim_rig_start_move(sim, axis[i], at[i], NULL) == 0 &&
+            sim_rig_wait(sim, axis[i], NULL) < 0)
+            sim_rig_reset_alarm(sim, axis[i]);
+    sim_rig_advance(sim, fmax(0, last->rig_time_s - sim_rig_now(sim)));
+}
+
 /* Measure every point the journal does not hold yet, from `first` on in
  * the order seq gives. Sets *aborted when the host asked to stop,
  * *converged when the streaming fit decided that further points would not
@@ -477,10 +494,8 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
     } else {
         sim = sim_rig_new_scene(&in->rig, in->material, &in->scene, cfg->out_dir, err);
         rc = sim ? devices_open_sim(sim, &dev, err) : -abs(err ? err->code : ENOMEM);
-        /* The simulated rig's own clock continues too: its effects (drift)
-         * run on it. */
-        if (rc == 0 && base > 0)
-            sim_rig_advance(sim, base);
+        if (rc == 0 && *n > 0)
+            sim_resume(sim, &all[*n - 1], plan_point(in->plan, (size_t)all[*n - 1].point));
     }
     if (rc < 0) {
         sim_rig_free(sim);

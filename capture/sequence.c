@@ -104,32 +104,27 @@ static long next_undone(const sequence *q, size_t from)
     return -1;
 }
 
-/* A resumed adaptive capture: the policy gets the journal in record order
- * and decides as the uninterrupted capture did while the last journalled
- * point was measured. */
+/* The policy's first decision, and a resumed capture's replay: the
+ * journal's samples in record order, each decision made again as the
+ * uninterrupted capture made it while the point was measured (the policy
+ * refits in every decision, warm-starting from the one before, so the
+ * samples alone would not bring it to the same state). The last decision
+ * gives the point that comes next. */
 static int replay(sequence *q, const struct journal_sample *js, size_t n, long *first,
                   struct gonio_err *err)
 {
-    if (n == 0) {
-        decision_set(q, -1);
-        decide(q, &q->d);
-        return decision_take(q, first, err);
-    }
-    for (size_t i = 0; i + 1 < n; i++) {
-        int rc = policy_add(q->policy, &js[i], err);
-        if (rc < 0)
-            return rc;
-    }
-    if (n >= 2) {
-        q->prev = js[n - 2];
-        q->has_prev = q->prev_added = 1;
-    }
-    decision_set(q, js[n - 1].point);
+    decision_set(q, -1);
     decide(q, &q->d);
-    q->prev = js[n - 1];
-    q->has_prev = 1;
-    q->prev_added = 0;
-    return decision_take(q, first, err);
+    int rc = decision_take(q, first, err);
+    for (size_t i = 0; i < n && rc == 0; i++) {
+        decision_set(q, js[i].point);
+        decide(q, &q->d);
+        q->prev = js[i];
+        q->has_prev = 1;
+        q->prev_added = 0;
+        rc = decision_take(q, first, err);
+    }
+    return rc;
 }
 
 int sequence_new(const struct plan *plan, const struct plan_rig *rig,
