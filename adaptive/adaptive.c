@@ -8,7 +8,9 @@
 #include <string.h>
 #include <time.h>
 
+#include "adaptive/adaptive_private.h"
 #include "adaptive/ensemble.h"
+#include "adaptive/track.h"
 #include "brdf/domain.h"
 #include "fit/models.h"
 
@@ -28,6 +30,12 @@ static const double seed_pairs[][2] = {{30, -60}, {30, -20}, {30, 20}, {30, 28},
 /* docs/adaptive.md, "Stopping on convergence" */
 #define DEFAULT_GAIN_TOL 0.002
 
+/* The noise term of the expected variance reduction, in units of the
+ * ensemble's squared cross-validated error, and the weight of coverage
+ * for the latent model (docs/adaptive.md, "Tuning"). */
+#define ALC_NOISE 0.1
+#define COVER_WEIGHT 10.0
+
 struct adaptive {
     const struct plan *pool;
     const struct plan_rig *rig;
@@ -44,6 +52,16 @@ struct adaptive {
     size_t fitted;            /* samples in the ensemble's latest fit */
     struct brdf_domain dom;   /* the prediction's full-domain subset */
     double predicted;
+    double spread;            /* the ensemble's mean sd over dom */
+    double mapped;            /* held-out residuals mapped onto dom */
+    double latent_abc_in_sample; /* the ABC fit's in-sample error when the latent was fitted */
+    double dom_cov[ENS_GROUPS][ENS_GROUPS]; /* mean over dom of dev dev^T */
+    int latent;               /* model latent or auto: the latent fit is tracked */
+    int cover;                /* picks weigh coverage (the latent model's own picks) */
+    struct track track;
+    double *spacing;          /* pool point i's distance to its nearest pool neighbour */
+    double *gap;              /* its distance to the nearest measured point, in spacings */
+    double max_alc;           /* the largest candidate ALC of this decision */
     double *hist_t, *hist_e;  /* (rig time, predicted error) at each refit */
     size_t n_hist;
 };
@@ -84,13 +102,15 @@ static void point_pair(const struct plan_point *pt, struct brdf_pair *p)
         brdf_pair_inplane(pt->theta_i, pt->theta_r, p);
 }
 
-/* Angular distance of two pairs: between the incident directions plus
- * between the outgoing ones (radians). */
-static double pair_distance(const struct brdf_pair *a, const struct brdf_pair *b)
+/* Chordal distance of two pairs: cheap, and as good as the angle for
+ * nearest neighbours. */
+static double chord(const struct brdf_pair *a, const struct brdf_pair *b)
 {
-    double ci = a->wi[0] * b->wi[0] + a->wi[1] * b->wi[1] + a->wi[2] * b->wi[2];
-    double co = a->wo[0] * b->wo[0] + a->wo[1] * b->wo[1] + a->wo[2] * b->wo[2];
-    return acos(fmax(-1, fmin(1, ci))) + acos(fmax(-1, fmin(1, co)));
+    double s = 0;
+    for (int k = 0; k < 3; k++)
+        s += (a->wi[k] - b->wi[k]) * (a->wi[k] - b->wi[k]) +
+             (a->wo[k] - b->wo[k]) * (a->wo[k] - b->wo[k]);
+    return sqrt(s);
 }
 
 adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
@@ -125,6 +145,8 @@ adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
     a->opt.model = a->model;
     a->n_pool = n;
     a->predicted = NAN;
+    a->latent = strcmp(o.model, "latent") == 0 || strcmp(o.model, "auto") == 0;
+    a->cover = a->latent;
     ens_init(&a->ens);
     a->pairs = malloc(n * sizeof *a->pairs);
     a->integ = malloc(n * sizeof *a->integ);
@@ -133,7 +155,9 @@ adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
     a->hist_t = malloc(n * sizeof *a->hist_t);
     a->hist_e = malloc(n * sizeof *a->hist_e);
     a->seed_point = malloc(N_SEEDS * sizeof *a->seed_point);
-    if (!a->pairs || !a->integ || !a->measured || !a->samples || !a->hist_t || !a->hist_e ||
+    a->spacing = malloc(n * sizeof *a->spacing);
+    a->gap = malloc(n * sizeof *a->gap);
+    if (!a->spacing || !a->gap || !a->pairs || !a->integ || !a->measured || !a->samples || !a->hist_t || !a->hist_e ||
         !a->seed_point) {
         gonio_err_set(err, ENOMEM, "adaptive policy: out of memory");
         adaptive_free(a);
@@ -143,20 +167,34 @@ adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
         point_pair(plan_point(pool, i), &a->pairs[i]);
         a->integ[i] = integration_s ? integration_s[i] : rig->integration_s;
     }
+    for (size_t i = 0; i < n; i++) {
+        a->spacing[i] = INFINITY;
+        a->gap[i] = INFINITY;
+    }
+    for (size_t i = 0; i < n; i++)
+        for (size_t j = i + 1; j < n; j++) {
+            double d = chord(&a->pairs[i], &a->pairs[j]);
+            a->spacing[i] = fmin(a->spacing[i], d);
+            a->spacing[j] = fmin(a->spacing[j], d);
+        }
+    for (size_t i = 0; i < n; i++)
+        if (!(a->spacing[i] > 0) || !isfinite(a->spacing[i]))
+            a->spacing[i] = 1;
     for (size_t k = 0; k < N_SEEDS; k++) {
         struct brdf_pair sp;
         brdf_pair_inplane(seed_pairs[k][0], seed_pairs[k][1], &sp);
         double best = INFINITY;
         a->seed_point[k] = -1;
         for (size_t i = 0; i < n; i++) {
-            double d = pair_distance(&sp, &a->pairs[i]);
+            double d = chord(&sp, &a->pairs[i]);
             if (d < best) {
                 best = d;
                 a->seed_point[k] = (long)i;
             }
         }
     }
-    if (brdf_domain_oop_random(&a->dom, PREDICT_NODES, o.seed, err) < 0) {
+    if (brdf_domain_oop_random(&a->dom, PREDICT_NODES, o.seed, err) < 0 ||
+        (a->latent && track_init(&a->track, err) < 0)) {
         adaptive_free(a);
         return NULL;
     }
@@ -174,7 +212,10 @@ void adaptive_free(adaptive *a)
     free(a->hist_t);
     free(a->hist_e);
     free(a->seed_point);
+    free(a->spacing);
+    free(a->gap);
     ens_free(&a->ens);
+    track_free(&a->track);
     brdf_domain_free(&a->dom);
     free(a);
 }
@@ -191,6 +232,8 @@ int adaptive_add(adaptive *a, size_t point, const struct fit_sample *s, int satu
         return gonio_err_set(err, GONIO_EUSAGE, "adaptive: point %zu of pool %s given twice",
                              point, plan_name(a->pool));
     a->measured[point] = 1;
+    for (size_t i = 0; i < a->n_pool; i++)
+        a->gap[i] = fmin(a->gap[i], chord(&a->pairs[i], &a->pairs[point]) / a->spacing[i]);
     a->samples[a->n++] = *s;
     return 0;
 }
@@ -202,18 +245,50 @@ static double point_cost(const adaptive *a, const struct plan_axes *from, size_t
            a->integ[i];
 }
 
-/* The predicted full-domain log error of the model fitted now: the
- * ensemble's cross-validated error on the samples plus its spread over
- * the full-domain subset (docs/adaptive.md, "Predicting the error"). */
-static double predict_error(const adaptive *a)
+/* The predicted full-domain log error of the model fitted now
+ * (docs/adaptive.md, "Predicting the error"). ABC: each node of the
+ * full-domain subset takes the held-out residual of the sample nearest it
+ * in (theta_h, theta_d), so the samples' errors count by the share of the
+ * domain they stand for, not by where the policy chose to look; never
+ * below the ensemble's spread over the subset, which is what the samples
+ * leave open. Latent: that, times the ratio of the tracked latent fit's
+ * in-sample error to the ABC fit's. */
+static double predict_error(adaptive *a)
 {
-    if (!a->ens.ok)
+    double spread = 0, mapped = 0;
+    for (size_t i = 0; i < a->dom.n; i++) {
+        const struct brdf_pair *p = &a->dom.pairs[i];
+        spread += sqrt(ens_variance(&a->ens, p));
+        double best = INFINITY, r = 0;
+        for (size_t k = 0; k < a->n; k++) {
+            double dh = p->theta_h - a->samples[k].g.theta_h;
+            double dd = p->theta_d - a->samples[k].g.theta_d;
+            if (dh * dh + dd * dd < best) {
+                best = dh * dh + dd * dd;
+                r = a->ens.cv_resid[k];
+            }
+        }
+        mapped += r;
+    }
+    a->spread = spread / (double)a->dom.n;
+    a->mapped = mapped / (double)a->dom.n;
+    if (!a->latent || (strcmp(a->model, "auto") == 0 && !a->cover))
+        return fmax(a->mapped, a->spread);
+    if (!(a->track.fitted > 0) || !(a->latent_abc_in_sample > 0))
         return NAN;
-    double spread = 0;
-    for (size_t i = 0; i < a->dom.n; i++)
-        spread += sqrt(ens_variance(&a->ens, &a->dom.pairs[i]));
-    spread /= (double)a->dom.n;
-    return a->ens.cv_error + spread;
+    return a->mapped * a->track.in_sample / a->latent_abc_in_sample;
+}
+
+void adaptive_evidence(const adaptive *a, struct adaptive_evidence *ev)
+{
+    int ok = a->ens.ok && isfinite(a->predicted);
+    *ev = (struct adaptive_evidence){
+        .samples = a->fitted,
+        .fit_error = ok ? a->ens.fit_error : NAN,
+        .cv_error = ok ? a->ens.cv_error : NAN,
+        .spread = ok ? a->spread : NAN,
+        .mapped = ok ? a->mapped : NAN,
+    };
 }
 
 /* Predicted error reduction per minute of rig time: the least-squares
@@ -242,6 +317,21 @@ static double gain_per_min(const adaptive *a)
     return fmax(0, -ste / stt * 60);
 }
 
+static void compute_dom_cov(adaptive *a)
+{
+    memset(a->dom_cov, 0, sizeof a->dom_cov);
+    for (size_t i = 0; i < a->dom.n; i++) {
+        double d[ENS_GROUPS];
+        ens_deviations(&a->ens, &a->dom.pairs[i], d);
+        for (int g = 0; g < ENS_GROUPS; g++)
+            for (int h = 0; h < ENS_GROUPS; h++)
+                a->dom_cov[g][h] += d[g] * d[h];
+    }
+    for (int g = 0; g < ENS_GROUPS; g++)
+        for (int h = 0; h < ENS_GROUPS; h++)
+            a->dom_cov[g][h] /= (double)a->dom.n;
+}
+
 static void refit(adaptive *a, double rig_time_s)
 {
     if (a->fitted == a->n)
@@ -250,6 +340,15 @@ static void refit(adaptive *a, double rig_time_s)
     if (a->n < N_SEEDS || ens_fit(&a->ens, a->samples, a->n) < 0) {
         a->predicted = NAN;
         return;
+    }
+    compute_dom_cov(a);
+    if (a->latent && track_update(&a->track, a->samples, a->n, a->opt.seed) == 1) {
+        a->latent_abc_in_sample = a->ens.fit_error;
+        /* The decoder's prior must fit the material before its picks are
+         * trusted: a latent fit no better on its own samples than ABC is
+         * on samples it did not see follows a material the decoder does
+         * not know (issue 16, item 5). */
+        a->cover = a->track.in_sample < a->ens.cv_error;
     }
     a->predicted = predict_error(a);
     if (isfinite(a->predicted)) {
@@ -266,21 +365,42 @@ static int is_seed(const adaptive *a, size_t i)
     return 0;
 }
 
-/* What measuring candidate i is worth, before its cost: a seed point's
- * worth is infinite until the seeds are measured; then the ensemble's
- * spread there, or (no ensemble yet) the distance to the nearest point
- * measured or pending. */
+/* The expected reduction of the ensemble's variance over the full-domain
+ * subset if candidate i were measured (Cohn's ALC): with d_i the members'
+ * deviations at i and C the subset's mean of d d^T, sum over nodes of
+ * cov(i, x)^2 / (noise + var(i)) = d_i^T C d_i / (noise + |d_i|^2). The
+ * noise is the model's own misfit: a model that cannot follow the
+ * material there gains less from a sample than its variance says. */
+static double alc(const adaptive *a, size_t i)
+{
+    double d[ENS_GROUPS], v = 0, q = 0;
+    ens_deviations(&a->ens, &a->pairs[i], d);
+    for (int g = 0; g < ENS_GROUPS; g++) {
+        v += d[g] * d[g];
+        for (int h = 0; h < ENS_GROUPS; h++)
+            q += d[g] * a->dom_cov[g][h] * d[h];
+    }
+    return q / (ALC_NOISE * a->ens.cv_error * a->ens.cv_error + v + 1e-300);
+}
+
+/* What measuring candidate i is worth, before its cost: until the seeds
+ * are measured, 1 at a seed and 0 elsewhere; without an ensemble, the
+ * distance to the nearest point measured or pending; then the ALC, and
+ * for the latent model (whose fit the ensemble does not describe) the ALC
+ * relative to the best one plus the candidate's distance, in pool
+ * spacings, from what is measured or pending: coverage. */
 static double worth(const adaptive *a, size_t i, long pending, int seeding)
 {
     if (seeding)
         return is_seed(a, i) ? 1 : 0;
-    if (a->ens.ok)
-        return sqrt(ens_variance(&a->ens, &a->pairs[i]));
-    double near = INFINITY;
-    for (size_t j = 0; j < a->n_pool; j++)
-        if (a->measured[j] || (long)j == pending)
-            near = fmin(near, pair_distance(&a->pairs[i], &a->pairs[j]));
-    return isfinite(near) ? near : 1;
+    double gap = a->gap[i];
+    if (pending >= 0)
+        gap = fmin(gap, chord(&a->pairs[i], &a->pairs[pending]) / a->spacing[i]);
+    if (!a->ens.ok)
+        return isfinite(gap) ? gap : 1;
+    if (!a->cover)
+        return alc(a, i);
+    return alc(a, i) / a->max_alc + COVER_WEIGHT * gap;
 }
 
 static double now_s(void)
@@ -318,6 +438,10 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
         long p = a->seed_point[k];
         seeding |= !a->measured[p] && p != pending;
     }
+    a->max_alc = 1e-300;
+    for (size_t i = 0; a->ens.ok && a->cover && i < a->n_pool; i++)
+        if (!a->measured[i])
+            a->max_alc = fmax(a->max_alc, alc(a, i));
     long best = -1;
     double best_score = -INFINITY;
     int open = 0; /* candidates left, affordable or not */
@@ -342,7 +466,8 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
             .predicted_next_s = 60, .decision_s = now_s() - t0,
         };
         st->predicted_next = isfinite(gain) ? fmax(0, a->predicted - gain) : NAN;
-        snprintf(st->model, sizeof st->model, "%s", a->model);
+        snprintf(st->model, sizeof st->model, "%s",
+                 strcmp(a->model, "auto") != 0 ? a->model : a->cover ? "latent" : "abc");
         snprintf(st->stop, sizeof st->stop, "%s", stop);
     }
     return *stop ? -1 : best;

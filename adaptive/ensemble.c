@@ -16,6 +16,7 @@ void ens_init(struct ens *e)
 void ens_free(struct ens *e)
 {
     free(e->scratch);
+    free(e->cv_resid);
     ens_init(e);
 }
 
@@ -30,23 +31,31 @@ double ens_log_value(const struct brdf_abc *params, const struct brdf_pair *p)
     return sum / 3;
 }
 
-double ens_variance(const struct ens *e, const struct brdf_pair *p)
+void ens_deviations(const struct ens *e, const struct brdf_pair *p, double dev[ENS_GROUPS])
 {
-    double v[ENS_GROUPS], mean = 0;
+    double mean = 0;
     for (int g = 0; g < ENS_GROUPS; g++) {
-        v[g] = ens_log_value(&e->member[g], p);
-        mean += v[g];
+        dev[g] = ens_log_value(&e->member[g], p);
+        mean += dev[g];
     }
     mean /= ENS_GROUPS;
-    double ss = 0;
+    double k = sqrt((double)(ENS_GROUPS - 1) / ENS_GROUPS);
     for (int g = 0; g < ENS_GROUPS; g++)
-        ss += (v[g] - mean) * (v[g] - mean);
-    return ss * (ENS_GROUPS - 1) / ENS_GROUPS;
+        dev[g] = k * (dev[g] - mean);
+}
+
+double ens_variance(const struct ens *e, const struct brdf_pair *p)
+{
+    double dev[ENS_GROUPS], ss = 0;
+    ens_deviations(e, p, dev);
+    for (int g = 0; g < ENS_GROUPS; g++)
+        ss += dev[g] * dev[g];
+    return ss;
 }
 
 /* Log error of params on the samples of group g (g < 0: every sample). */
 static double group_error(const struct brdf_abc *params, const struct fit_sample *s, size_t n,
-                          int g, struct brdf_errors_acc *acc)
+                          int g, struct brdf_errors_acc *acc, double *resid)
 {
     struct brdf_errors_acc own;
     brdf_errors_acc_init(&own);
@@ -58,6 +67,12 @@ static double group_error(const struct brdf_abc *params, const struct fit_sample
         brdf_errors_acc_add(&own, &s[k].g, s[k].rgb, rgb, 1);
         if (acc)
             brdf_errors_acc_add(acc, &s[k].g, s[k].rgb, rgb, 1);
+        if (resid) {
+            double c = fmax(s[k].g.wi[2], 0), r = 0;
+            for (int ch = 0; ch < 3; ch++)
+                r += fabs(log1p(fmax(rgb[ch], 0) * c) - log1p(fmax(s[k].rgb[ch], 0) * c));
+            resid[k] = isfinite(r) ? r / 3 : 0;
+        }
     }
     struct brdf_errors out;
     brdf_errors_acc_finish(&own, &out);
@@ -68,9 +83,13 @@ int ens_fit(struct ens *e, const struct fit_sample *s, size_t n)
 {
     if (n > e->cap) {
         struct fit_sample *grown = realloc(e->scratch, 2 * n * sizeof *grown);
-        if (!grown)
+        if (grown)
+            e->scratch = grown;
+        double *r = realloc(e->cv_resid, 2 * n * sizeof *r);
+        if (r)
+            e->cv_resid = r;
+        if (!grown || !r)
             return -ENOMEM;
-        e->scratch = grown;
         e->cap = 2 * n;
     }
     struct fit_options fo = fit_default_options();
@@ -109,12 +128,12 @@ int ens_fit(struct ens *e, const struct fit_sample *s, size_t n)
             e->ok = 0;
             return -GONIO_EFIT;
         }
-        group_error(&e->member[g], s, n, g, &cv);
+        group_error(&e->member[g], s, n, g, &cv, e->cv_resid);
     }
     struct brdf_errors cve;
     brdf_errors_acc_finish(&cv, &cve);
     e->cv_error = cve.log;
-    e->fit_error = group_error(&e->full, s, n, -1, NULL);
+    e->fit_error = group_error(&e->full, s, n, -1, NULL, NULL);
     e->ok = 1;
     return 0;
 }

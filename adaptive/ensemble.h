@@ -24,6 +24,8 @@ struct ens {
     size_t cold_n;                        /* samples at the latest global-start fit */
     double fit_error;                     /* full's log error on the samples */
     double cv_error;                      /* members' log error on their held-out groups */
+    double *cv_resid;                     /* sample k's held-out |log residual|, mean
+                                             over channels (the member without it) */
     struct fit_sample *scratch;           /* a member's samples */
     size_t cap;
 };
@@ -38,6 +40,12 @@ int ens_fit(struct ens *e, const struct fit_sample *s, size_t n);
 
 /* log(1 + f cos theta_i) of params at p, mean over the channels. */
 double ens_log_value(const struct brdf_abc *params, const struct brdf_pair *p);
+
+/* The members' deviations from their mean of that value at p, scaled so
+ * that the sum of their squares is the jackknife variance: dev[g],
+ * g < ENS_GROUPS. The covariance of the predictions at two pairs is the
+ * dot product of their deviations. */
+void ens_deviations(const struct ens *e, const struct brdf_pair *p, double dev[ENS_GROUPS]);
 
 /* The jackknife variance of that value at p: (G - 1) / G times the sum of
  * the members' squared deviations from their mean. */

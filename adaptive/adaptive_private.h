@@ -1,0 +1,21 @@
+/* What the adaptive policy's error prediction is made of, for the bench
+ * that calibrates it (bench/adaptive_sim.c --calibrate): not part of the
+ * interface the engine uses. */
+#ifndef GONIO_ADAPTIVE_ADAPTIVE_PRIVATE_H
+#define GONIO_ADAPTIVE_ADAPTIVE_PRIVATE_H
+
+#include "adaptive/adaptive.h"
+
+struct adaptive_evidence {
+    size_t samples;   /* in the latest ensemble fit */
+    double fit_error; /* the full fit's log error on its samples */
+    double cv_error;  /* the jackknife members' log error on their held-out groups */
+    double spread;    /* the ensemble's mean sd of log(1 + f cos) over the full-domain subset */
+    double mapped;    /* the held-out residuals mapped onto that subset: each node takes the
+                         one of the sample nearest it in (theta_h, theta_d) */
+};
+
+/* NAN fields before the first ensemble fit. */
+void adaptive_evidence(const adaptive *a, struct adaptive_evidence *ev);
+
+#endif
