@@ -109,34 +109,6 @@ static enum plan_stop_kind stop_kind(const struct capture_config *cfg, const str
     return plan_stop(plan)->kind;
 }
 
-/* The adaptive order's options: a budget and a target mean nothing in a
- * fixed order, so they are refused there rather than ignored. */
-static int resolve_policy(const struct capture_config *cfg, struct capture_inputs *in,
-                          struct gonio_err *err)
-{
-    in->adaptive = plan_current_order(in->plan) == PLAN_ORDER_ADAPTIVE;
-    const char *name[2] = {"--budget", "--stop-target"};
-    const double v[2] = {cfg->budget_min, cfg->stop_target};
-    for (int i = 0; i < 2; i++) {
-        if (!isfinite(v[i]) || v[i] < 0)
-            return gonio_err_set(err, GONIO_EUSAGE, "%s %g: %s", name[i], v[i],
-                                 i ? "a full-domain log error, a positive number"
-                                   : "a rig-time budget, a positive number of minutes");
-        if (v[i] > 0 && !in->adaptive)
-            return gonio_err_set(err, GONIO_EUSAGE,
-                                 "%s %g: only the adaptive order stops on it (--order adaptive; "
-                                 "plan '%s' is in %s order)",
-                                 name[i], v[i], plan_name(in->plan),
-                                 plan_order_name(plan_current_order(in->plan)));
-    }
-    in->policy = adaptive_default_options();
-    in->policy.model = cfg->model;
-    in->policy.budget_s = 60 * cfg->budget_min;
-    in->policy.target = cfg->stop_target;
-    in->policy.converge = stop_kind(cfg, in->plan) == PLAN_STOP_CONVERGE;
-    return 0;
-}
-
 static int resolve_inputs(const struct capture_config *cfg, const struct capture_hooks *hooks,
                           struct capture_inputs *in, struct gonio_err *err)
 {
@@ -180,7 +152,9 @@ static int resolve_inputs(const struct capture_config *cfg, const struct capture
         inputs_free(in);
         return gonio_err_set(err, GONIO_EUSAGE, "--stop '%s': use all or converge", cfg->stop);
     }
-    if ((rc = resolve_policy(cfg, in, err)) < 0) {
+    in->adaptive = plan_current_order(in->plan) == PLAN_ORDER_ADAPTIVE;
+    if ((rc = sequence_options(cfg, in->plan, stop_kind(cfg, in->plan) == PLAN_STOP_CONVERGE,
+                               &in->policy, err)) < 0) {
         inputs_free(in);
         return rc;
     }
@@ -741,28 +715,6 @@ static int stream_new(const struct capture_config *cfg, const struct plan *plan,
     return fit_stream_new(&so, &st->fs, err);
 }
 
-/* An adaptive capture's figures for results.json, with the policy's
- * prediction over every sample; its "converged" stop is the capture's. */
-static int adaptive_summary(sequence *seq, const struct adaptive_options *opt, int *converged,
-                            struct capture_summary *out, struct gonio_err *err)
-{
-    struct sequence_report rep;
-    int rc = sequence_finish(seq, err);
-    if (rc < 0 || !sequence_report(seq, &rep))
-        return rc;
-    out->adaptive = 1;
-    out->budget_s = opt->budget_s;
-    out->target = opt->target;
-    out->converge = opt->converge;
-    out->policy = rep.status;
-    out->decisions = rep.decisions;
-    out->decision_mean_s = rep.decision_mean_s;
-    out->decision_max_s = rep.decision_max_s;
-    out->decision_wait_s = rep.wait_s;
-    *converged = !strcmp(rep.status.stop, "converged");
-    return 0;
-}
-
 int capture_run(const struct capture_config *cfg, const struct capture_hooks *hooks,
                 struct capture_summary *out, struct gonio_err *err)
 {
@@ -828,7 +780,9 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
                      &out->paused_s, &out->mech, err);
     journal_close(j);
     if (rc == 0 && !aborted)
-        rc = adaptive_summary(seq, &in.policy, &converged, out, err);
+        rc = sequence_summary(seq, &in.policy, out, err);
+    if (out->adaptive && !strcmp(out->policy.stop, "converged"))
+        converged = 1; /* the policy's convergence is the capture's */
     sequence_free(seq);
     if (rc == 0) {
         out->samples = n;

@@ -1,6 +1,7 @@
 #include "capture/sequence.h"
 
 #include <errno.h>
+#include <math.h>
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
@@ -238,16 +239,57 @@ int sequence_report(const sequence *q, struct sequence_report *r)
     return 1;
 }
 
-int sequence_finish(sequence *q, struct gonio_err *err)
+int sequence_options(const struct capture_config *cfg, const struct plan *plan, int converge,
+                     struct adaptive_options *opt, struct gonio_err *err)
 {
-    if (!q->policy || !q->has_prev)
+    int in_order = plan_current_order(plan) == PLAN_ORDER_ADAPTIVE;
+    const char *name[2] = {"--budget", "--stop-target"};
+    const double v[2] = {cfg->budget_min, cfg->stop_target};
+    for (int i = 0; i < 2; i++) {
+        if (!isfinite(v[i]) || v[i] < 0)
+            return gonio_err_set(err, GONIO_EUSAGE, "%s %g: %s", name[i], v[i],
+                                 i ? "a full-domain log error, a positive number"
+                                   : "a rig-time budget, a positive number of minutes");
+        if (v[i] > 0 && !in_order)
+            return gonio_err_set(err, GONIO_EUSAGE,
+                                 "%s %g: only the adaptive order stops on it (--order adaptive; "
+                                 "plan '%s' is in %s order)",
+                                 name[i], v[i], plan_name(plan),
+                                 plan_order_name(plan_current_order(plan)));
+    }
+    *opt = adaptive_default_options();
+    opt->model = cfg->model;
+    opt->budget_s = 60 * cfg->budget_min;
+    opt->target = cfg->stop_target;
+    opt->converge = converge;
+    return 0;
+}
+
+int sequence_summary(sequence *q, const struct adaptive_options *opt,
+                     struct capture_summary *out, struct gonio_err *err)
+{
+    if (!q->policy)
         return 0;
-    char stop[sizeof q->report.status.stop];
-    memcpy(stop, q->report.status.stop, sizeof stop);
-    decision_set(q, -1);
-    decide(q, &q->d);
-    long ignored;
-    int rc = decision_take(q, &ignored, err);
-    memcpy(q->report.status.stop, stop, sizeof stop);
-    return rc < 0 ? rc : 0;
+    if (q->has_prev) { /* the prediction with the last sample in */
+        char stop[sizeof q->report.status.stop];
+        memcpy(stop, q->report.status.stop, sizeof stop);
+        decision_set(q, -1);
+        decide(q, &q->d);
+        long ignored;
+        int rc = decision_take(q, &ignored, err);
+        memcpy(q->report.status.stop, stop, sizeof stop);
+        if (rc < 0)
+            return rc;
+    }
+    const struct sequence_report *r = &q->report;
+    out->adaptive = 1;
+    out->budget_s = opt->budget_s;
+    out->target = opt->target;
+    out->converge = opt->converge;
+    out->policy = r->status;
+    out->decisions = r->decisions;
+    out->decision_mean_s = r->decision_mean_s;
+    out->decision_max_s = r->decision_max_s;
+    out->decision_wait_s = r->wait_s;
+    return 0;
 }

@@ -16,6 +16,7 @@
 #include <stddef.h>
 
 #include "adaptive/adaptive.h"
+#include "capture/capture.h"
 #include "common/err.h"
 #include "journal/journal.h"
 #include "planner/planner.h"
@@ -60,9 +61,17 @@ int sequence_end(sequence *q, const struct journal_sample *s, long *next,
 /* The policy's figures; 0 when the order is not adaptive. */
 int sequence_report(const sequence *q, struct sequence_report *r);
 
-/* After the last point: give the policy the last sample and ask for its
- * prediction with every sample in (the status only: the stop reason stays
- * the one that ended the capture). A no-op in plan order. */
-int sequence_finish(sequence *q, struct gonio_err *err);
+/* The adaptive order's options (opt->model borrows cfg->model): the
+ * capture's budget and target, refused in a fixed order (where they would
+ * mean nothing) rather than ignored; converge: the capture's stop rule. */
+int sequence_options(const struct capture_config *cfg, const struct plan *plan, int converge,
+                     struct adaptive_options *opt, struct gonio_err *err);
+
+/* After the last point, in the adaptive order: the policy's prediction
+ * with every sample in (the last one given to it now; the stop reason
+ * stays the one that ended the capture), its options and the decisions'
+ * times into out (adaptive set). A no-op in plan order. */
+int sequence_summary(sequence *q, const struct adaptive_options *opt,
+                     struct capture_summary *out, struct gonio_err *err);
 
 #endif
