@@ -207,6 +207,20 @@ def test_goniod_yaml_page_names_every_key():
 
 # --- item 4: gonio plan ------------------------------------------------------
 
+def test_plan_inplane_1deg_pool():
+    """The adaptive pool: every reachable in-plane pair on a 1-degree grid
+    (81 x 161 minus the 719 in the 5-degree blind zone), declared adaptive,
+    kept as written (its first pairs theta_i 0, theta_r -80, -79, ...)."""
+    r = gonio("plan", "inplane-1deg", "--json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    assert doc["count"] == 81 * 161 - 719 == 12322
+    assert doc["order"] == "adaptive"
+    assert [(p["theta_i"], p["theta_r"]) for p in doc["pairs"][:3]] == [(0, -80), (0, -79),
+                                                                       (0, -78)]
+    assert len({(p["theta_i"], p["theta_r"]) for p in doc["pairs"]}) == 12322
+
+
 def test_capture_adaptive_offline(tmp):
     """--order adaptive: progress lines carry the policy's prediction (no
     bar: the pool is not measured whole), the summary its stop and figures;
