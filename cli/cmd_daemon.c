@@ -180,13 +180,14 @@ static void show_start(struct progress *p, json_t *d)
                       jsize(d, "total"));
 }
 
-static void show_event(struct progress *p, json_t *d, double estimate_s)
+/* pool: the capture is adaptive (its start document says so). */
+static void show_event(struct progress *p, json_t *d, double estimate_s, int pool)
 {
     progress_show(p, &(struct progress_state){
                          .done = jsize(d, "done"), .total = jsize(d, "total"), .unit = "points",
                          .rig_time_s = jreal(d, "rig_time_s"), .estimate_s = estimate_s,
                          .eta_s = jreal(d, "eta_s"), .fit_error = jreal(d, "fit_log_error"),
-                         .pool = json_object_get(d, "predicted_error") != NULL,
+                         .pool = pool,
                          .predicted = jreal(d, "predicted_error"),
                          .predicted_next = jreal(d, "predicted_next"),
                          .predicted_next_s = jreal(d, "predicted_next_s")});
@@ -236,6 +237,7 @@ static int follow(struct conn *c, const char *id, int quiet)
 {
     char cur[128] = "";
     double estimate_s = NAN;
+    int pool = 0;
     struct progress p;
     progress_init(&p, cur, quiet);
     if (id)
@@ -255,9 +257,10 @@ static int follow(struct conn *c, const char *id, int quiet)
             snprintf(cur, sizeof cur, "%s", cid ? cid : "?");
             progress_init(&p, cur, quiet);
             estimate_s = jreal(d, "estimate_s");
+            pool = json_is_true(json_object_get(d, "adaptive"));
             show_start(&p, d);
         } else if (!strcmp(cls, "event") && cur[0]) {
-            show_event(&p, d, estimate_s);
+            show_event(&p, d, estimate_s, pool);
         } else if (!strcmp(cls, "state") && mine && cur[0]) {
             const char *state = json_string_value(json_object_get(d, "state"));
             progress_note(&p, "capture %s %s", cur,

@@ -141,6 +141,7 @@ static void hook_on_progress(void *user, const struct capture_progress *p)
     m->total = p->total;
     m->already_done = p->already_done;
     m->estimate_s = p->estimate_s;
+    m->adaptive = p->policy != NULL;
     push(w, &m->base);
 }
 

@@ -71,6 +71,7 @@ struct worker_msg_start {
     char plan_name[128];
     size_t total, already_done;
     double estimate_s; /* the plan's rig-time estimate (capture_progress) */
+    int adaptive;      /* the adaptive order: total is the pool's size */
 };
 
 struct worker_msg_sample {

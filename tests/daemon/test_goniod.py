@@ -893,6 +893,16 @@ class CaptureTests(DaemonTest):
         self.assertEqual(res["stop_reason"], "budget")
         self.assertEqual(res["adaptive"]["decisions"], stop["samples"])
         self.assertEqual(stop["results"]["adaptive"]["model"], "abc")
+        self.assertIs(docs[0]["adaptive"], True)
+        # The client follows it with the policy's prediction, not a bar.
+        r = self.d.gonio("capture", "--plan", "ds2", "--order", "adaptive", "--stop", "all",
+                         "--budget", "1", "--name", "ad2", "--wait")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("(pool of 160)", r.stderr)
+        self.assertNotIn("/160 points", r.stderr)
+        self.assertRegex(r.stderr, r"predicted error now \d\.\d{3}")
+        self.assertIn("stopped: budget", r.stdout)
+        self.assertRegex(r.stdout, r"adaptive: predicted full-domain log error of abc \d\.\d{4}")
 
     def test_capture_models(self):
         """Any RGB model of the registry is a capture's final fit; every
