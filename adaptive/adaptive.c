@@ -27,8 +27,14 @@ static const double seed_pairs[][2] = {{30, -60}, {30, -20}, {30, 20}, {30, 28},
  * full domain. */
 #define PREDICT_NODES 2000
 
-/* docs/adaptive.md, "Stopping on convergence" */
+/* docs/adaptive.md, "Stopping": the default gain tolerance (log error
+ * per minute), the shortest window the gain is measured over (rig
+ * seconds), and the samples before which neither the target nor the
+ * convergence stop may fire: below about 80 samples the prediction is
+ * too often far below the truth (the ensemble agrees on a wrong optimum). */
 #define DEFAULT_GAIN_TOL 0.002
+#define GAIN_WINDOW_S 60.0
+#define MIN_STOP_SAMPLES 80
 
 /* The noise term of the expected variance reduction, in units of the
  * ensemble's squared cross-validated error, and the weight of coverage
@@ -291,15 +297,24 @@ void adaptive_evidence(const adaptive *a, struct adaptive_evidence *ev)
     };
 }
 
-/* Predicted error reduction per minute of rig time: the least-squares
- * slope of the recent predictions against rig time (the last third of
- * them, at least four). */
+/* Predicted error reduction per minute of rig time: minus the
+ * least-squares slope of the predictions against rig time over the
+ * latest GAIN_WINDOW_S or third of the rig time, whichever is longer
+ * (a shorter window follows the noise of single refits). Negative while
+ * the prediction rises: the samples are still finding error the model
+ * did not show. NAN with fewer than 8 predictions in the window. */
 static double gain_per_min(const adaptive *a)
 {
-    size_t m = a->n_hist / 3 > 4 ? a->n_hist / 3 : 4;
-    if (a->n_hist < m)
+    if (a->n_hist == 0)
         return NAN;
-    size_t lo = a->n_hist - m;
+    double t_end = a->hist_t[a->n_hist - 1];
+    double window = fmax(GAIN_WINDOW_S, t_end / 3);
+    size_t lo = a->n_hist;
+    while (lo > 0 && a->hist_t[lo - 1] >= t_end - window)
+        lo--;
+    size_t m = a->n_hist - lo;
+    if (m < 8)
+        return NAN;
     double st = 0, se = 0;
     for (size_t k = lo; k < a->n_hist; k++) {
         st += a->hist_t[k];
@@ -314,7 +329,7 @@ static double gain_per_min(const adaptive *a)
     }
     if (!(stt > 0))
         return NAN;
-    return fmax(0, -ste / stt * 60);
+    return -ste / stt * 60;
 }
 
 static void compute_dom_cov(adaptive *a)
@@ -429,9 +444,9 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
     }
     const char *stop = "";
     double gain = gain_per_min(a);
-    if (a->opt.target > 0 && a->predicted <= a->opt.target)
+    if (a->n >= MIN_STOP_SAMPLES && a->opt.target > 0 && a->predicted <= a->opt.target)
         stop = "target";
-    else if (a->opt.converge && gain < a->opt.gain_tol)
+    else if (a->n >= MIN_STOP_SAMPLES && a->opt.converge && fabs(gain) < a->opt.gain_tol)
         stop = "converged";
     int seeding = 0;
     for (size_t k = 0; k < N_SEEDS; k++) {
@@ -465,7 +480,7 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
             .samples = a->n, .predicted_error = a->predicted, .gain_per_min = gain,
             .predicted_next_s = 60, .decision_s = now_s() - t0,
         };
-        st->predicted_next = isfinite(gain) ? fmax(0, a->predicted - gain) : NAN;
+        st->predicted_next = isfinite(gain) ? fmax(0, a->predicted - fmax(gain, 0)) : NAN;
         snprintf(st->model, sizeof st->model, "%s",
                  strcmp(a->model, "auto") != 0 ? a->model : a->cover ? "latent" : "abc");
         snprintf(st->stop, sizeof st->stop, "%s", stop);

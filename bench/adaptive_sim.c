@@ -3,7 +3,8 @@
  * to check its claims (docs/adaptive.md).
  *
  *   adaptive_sim [--pool PLAN] [--model abc|latent] [--budget-frac F | --budget S]
- *                [--target X] [--converge] [--gain-tol G] [--nodes N] [--seed S]
+ *                [--target X] [--converge] [--gain-tol G] [--reference PLAN] [--nodes N]
+ *                [--seed S]
  *                [--trace K] [--calibrate] [MATERIAL...]
  *
  * For each material (default: the 10 held-out study materials) nbrdf:NAME
@@ -13,7 +14,7 @@
  * plan: its rig time (plan_estimate) and the full-domain log error of the
  * model fitted to all of its samples. The adaptive run starts at home and
  * stops when the policy says (default budget: a quarter of DS1's rig
- * time); its samples are fitted with the same model and scored on the
+ * time; --reference takes another plan than DS1 as the reference); its samples are fitted with the same model and scored on the
  * same seeded full-domain subset (--nodes, default 20000). Printed per
  * material: samples, rig time and its share of DS1's, errors and their
  * ratio, the policy's predicted error against the true one, the decision
@@ -42,7 +43,7 @@
 #include "rig/motion.h"
 
 struct cfg {
-    const char *pool, *model;
+    const char *pool, *model, *reference;
     double budget_frac, budget_s, target, gain_tol;
     int converge, calibrate;
     size_t nodes, trace;
@@ -118,7 +119,7 @@ static struct fit_sample *sample_plan(const struct plan *p, const brdf_material 
 }
 
 static int run_material(const struct cfg *c, const char *name, const struct plan_rig *rig,
-                        const struct plan *pool, const struct plan *ds1,
+                        const struct plan *pool, const struct plan *ref,
                         const latent_decoder *dec, const struct brdf_domain *dom)
 {
     struct gonio_err err = {0};
@@ -130,15 +131,15 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
         return -1;
     }
     struct plan_estimate est;
-    plan_estimate(ds1, rig, &est);
-    struct fit_sample *ds1_s = sample_plan(ds1, truth), *pool_s = sample_plan(pool, truth);
+    plan_estimate(ref, rig, &est);
+    struct fit_sample *ref_s = sample_plan(ref, truth), *pool_s = sample_plan(pool, truth);
     size_t n_pool = plan_count(pool);
     struct fit_sample *got = malloc(n_pool * sizeof *got);
-    if (!ds1_s || !pool_s || !got) {
+    if (!ref_s || !pool_s || !got) {
         fprintf(stderr, "adaptive_sim: out of memory\n");
         return -1;
     }
-    double ds1_err = model_error(c->model, dec, truth, dom, ds1_s, plan_count(ds1), NULL);
+    double ref_err = model_error(c->model, dec, truth, dom, ref_s, plan_count(ref), NULL);
 
     struct adaptive_options o = adaptive_default_options();
     o.model = c->model;
@@ -186,12 +187,12 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
     }
     double e = model_error(c->model, dec, truth, dom, got, n, NULL);
     printf("| %s | %zu | %.0f s | %.0f%% | %.4f | %.4f | %.2f | %.4f | %.2f | %.1f / %.1f ms | %s |\n",
-           name, n, clock, 100 * clock / est.total_s, e, ds1_err, e / ds1_err,
+           name, n, clock, 100 * clock / est.total_s, e, ref_err, e / ref_err,
            st.predicted_error, st.predicted_error / e, 1e3 * dec_sum / (double)(n + 1),
            1e3 * dec_max, st.stop);
     fflush(stdout);
     adaptive_free(a);
-    free(ds1_s);
+    free(ref_s);
     free(pool_s);
     free(got);
     brdf_material_free(truth);
@@ -202,13 +203,14 @@ static int usage(void)
 {
     fprintf(stderr, "usage: adaptive_sim [--pool PLAN] [--model abc|latent] [--budget-frac F | "
                     "--budget S] [--target X] [--converge] [--gain-tol G] [--nodes N] "
-                    "[--seed S] [--trace K] [--calibrate] [MATERIAL...]\n");
+                    "[--reference PLAN] [--seed S] [--trace K] [--calibrate] [MATERIAL...]\n");
     return 2;
 }
 
 int main(int argc, char **argv)
 {
-    struct cfg c = {.pool = "ds1", .model = "abc", .budget_frac = 0.25, .nodes = 20000, .seed = 1};
+    struct cfg c = {.pool = "ds1", .model = "abc", .reference = "ds1", .budget_frac = 0.25,
+                    .nodes = 20000, .seed = 1};
     int k = 1;
     for (; k < argc && strncmp(argv[k], "--", 2) == 0; k++) {
         const char *opt = argv[k];
@@ -221,6 +223,8 @@ int main(int argc, char **argv)
         const char *v = argv[++k];
         if (strcmp(opt, "--pool") == 0)
             c.pool = v;
+        else if (strcmp(opt, "--reference") == 0)
+            c.reference = v;
         else if (strcmp(opt, "--model") == 0)
             c.model = v;
         else if (strcmp(opt, "--budget-frac") == 0)
@@ -242,10 +246,10 @@ int main(int argc, char **argv)
     }
     struct gonio_err err = {0};
     struct plan_rig rig;
-    struct plan *pool = NULL, *ds1 = NULL;
+    struct plan *pool = NULL, *ref = NULL;
     struct brdf_domain dom = {0};
     if (plan_rig_load("default", &rig, &err) < 0 || plan_load(c.pool, &rig, &pool, &err) < 0 ||
-        plan_load("ds1", &rig, &ds1, &err) < 0 ||
+        plan_load(c.reference, &rig, &ref, &err) < 0 ||
         brdf_domain_oop_random(&dom, c.nodes, 20030727, &err) < 0) {
         fprintf(stderr, "adaptive_sim: %s\n", err.msg);
         return 2;
@@ -259,9 +263,9 @@ int main(int argc, char **argv)
             return 2;
         }
     }
-    printf("adaptive_sim: pool %s (%zu points), model %s, %zu full-domain nodes, settle %.2f s\n",
-           c.pool, plan_count(pool), c.model, dom.n, rig.settle_s);
-    printf("| material | samples | rig time | of DS1 | error | DS1 error | ratio | predicted | "
+    printf("adaptive_sim: pool %s (%zu points), model %s, reference %s, %zu full-domain nodes, "
+           "settle %.2f s\n", c.pool, plan_count(pool), c.model, c.reference, dom.n, rig.settle_s);
+    printf("| material | samples | rig time | of ref | error | ref error | ratio | predicted | "
            "pred/true | decision mean / max | stop |\n|---|---:|---:|---:|---:|---:|---:|---:|"
            "---:|---:|---|\n");
     int rc = 0;
@@ -273,16 +277,16 @@ int main(int argc, char **argv)
             return 2;
         }
         for (size_t m = 0; m < n_names; m += 6)
-            rc |= run_material(&c, names[m], &rig, pool, ds1, dec, &dom);
+            rc |= run_material(&c, names[m], &rig, pool, ref, dec, &dom);
         latent_names_free(names, n_names);
     } else if (k == argc)
         for (size_t m = 0; m < BENCH_N_STUDY; m++)
-            rc |= run_material(&c, bench_study_materials[m], &rig, pool, ds1, dec, &dom);
+            rc |= run_material(&c, bench_study_materials[m], &rig, pool, ref, dec, &dom);
     for (; k < argc; k++)
-        rc |= run_material(&c, argv[k], &rig, pool, ds1, dec, &dom);
+        rc |= run_material(&c, argv[k], &rig, pool, ref, dec, &dom);
     latent_decoder_free(dec);
     brdf_domain_free(&dom);
     plan_free(pool);
-    plan_free(ds1);
+    plan_free(ref);
     return rc ? 1 : 0;
 }
