@@ -6,9 +6,9 @@
  * starts the decision of the point after k in a second thread as the
  * engine moves to, settles on and integrates point k, and sequence_end
  * collects it once k is journalled. The decision after k sees the samples
- * before k and k as the pending point, so a capture resumed from its
- * journal, which replays the samples in record order, takes the same
- * decisions as one never interrupted (docs/formats.md, "Adaptive
+ * before k, and k as the pending point: all in the journal, so a capture
+ * resumed from it, which makes the journal's decisions again in record
+ * order, goes on as one never interrupted (docs/formats.md, "Adaptive
  * captures"). */
 #ifndef GONIO_CAPTURE_SEQUENCE_H
 #define GONIO_CAPTURE_SEQUENCE_H
