@@ -47,6 +47,7 @@ static void usage(FILE *out)
 struct offline {
     struct progress bar;
     size_t done, total;
+    int pool; /* adaptive: total is the pool's size */
 };
 
 static void on_progress(void *user, const struct capture_progress *p)
@@ -57,6 +58,7 @@ static void on_progress(void *user, const struct capture_progress *p)
                       p->total);
     o->done = p->done;
     o->total = p->total;
+    o->pool = p->policy != NULL;
     const struct adaptive_status *a = p->policy;
     progress_show(&o->bar, &(struct progress_state){
                                .done = p->done, .total = p->total, .unit = "points",
@@ -168,9 +170,10 @@ int cmd_capture(int argc, char **argv)
             fprintf(stderr, "gonio capture: %s before the first point; nothing written\n", sig);
         else
             fprintf(stderr,
-                    "gonio capture: %s: stopped after %zu of %zu points, all in %s/samples.csv;"
-                    " run the same command again to resume\n",
-                    sig, o.done, o.total, cfg.out_dir);
+                    "gonio capture: %s: stopped after %zu %s %zu%s, all in %s/samples.csv; "
+                    "run the same command again to resume\n",
+                    sig, o.done, o.pool ? "points from a pool of" : "of", o.total,
+                    o.pool ? "" : " points", cfg.out_dir);
         return INTERRUPT_EXIT;
     }
     printf("capture %s: plan %s, material %s, model %s\n", cfg.out_dir, s.plan, s.material,
