@@ -289,16 +289,18 @@ class Torture:
 
 class AdaptiveTorture(Torture):
     """Kills in adaptive captures (issue 16; DS3's pairs as the pool, stop
-    converge): each capture, however often killed and resumed, must measure
-    the sequence of points an uninterrupted capture measures. There is no
-    streaming fit in the adaptive order: the kills aim at moves, torn
-    records and the final fit."""
+    converge, a budget of a minute, which goniod's resume must take from
+    request.json or the engine refuses the resume): each capture, however
+    often killed and resumed, must measure the sequence of points an
+    uninterrupted capture measures. There is no streaming fit in the
+    adaptive order: the kills aim at moves, torn records and the final fit."""
+    budget_min = 1
     phases = ("move", "journal", "final-fit")
 
     def new_capture(self, c):
         name = "a%d" % (len(self.captures) + 1)
         r = c.request("capture", plan=self.plan, name=name, material=MATERIAL,
-                      order="adaptive", stop="converge")
+                      order="adaptive", stop="converge", budget=self.budget_min)
         if r["class"] != "OK":
             raise AssertionError(r)
         self.captures.append(name)
@@ -308,7 +310,8 @@ class AdaptiveTorture(Torture):
         ref = os.path.join(self.folder, "reference")
         r = subprocess.run([tg.GONIO, "capture", "--offline", "--scene", "ideal", "--plan",
                             self.plan, "--material", MATERIAL, "--order", "adaptive", "--stop",
-                            "converge", "--out", ref, "--quiet"], capture_output=True,
+                            "converge", "--budget", str(self.budget_min), "--out", ref,
+                            "--quiet"], capture_output=True,
                            text=True, timeout=120)
         if r.returncode != 0:
             raise AssertionError(r.stderr)
