@@ -2,13 +2,13 @@
  * without the capture engine, against the true material, to tune it and
  * to check its claims (docs/adaptive.md).
  *
- *   adaptive_sim [--pool PLAN] [--model abc|latent] [--budget-frac F | --budget S]
+ *   adaptive_sim [--pool PLAN] [--model abc|latent|auto] [--budget-frac F | --budget S]
  *                [--target X] [--converge] [--gain-tol G] [--reference PLAN] [--nodes N]
  *                [--seed S]
  *                [--trace K] [--calibrate] [MATERIAL...]
  *
  * For each material (default: the 10 held-out study materials) nbrdf:NAME
- * is the truth: a sample is its noise-free value at the pool pair, and the
+ * (or a material spec with a colon, brdf/material.h) is the truth: a sample is its noise-free value at the pool pair, and the
  * rig clock adds each point's move (with backlash), settle and the rig's
  * fixed integration, as plan_estimate does. The reference is the full DS1
  * plan: its rig time (plan_estimate) and the full-domain log error of the
@@ -124,7 +124,7 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
 {
     struct gonio_err err = {0};
     char spec[256];
-    snprintf(spec, sizeof spec, "nbrdf:%s", name);
+    snprintf(spec, sizeof spec, strchr(name, ':') ? "%s" : "nbrdf:%s", name);
     brdf_material *truth = brdf_material_open(spec, &err);
     if (!truth) {
         fprintf(stderr, "adaptive_sim: %s\n", err.msg);
@@ -139,7 +139,12 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
         fprintf(stderr, "adaptive_sim: out of memory\n");
         return -1;
     }
-    double ref_err = model_error(c->model, dec, truth, dom, ref_s, plan_count(ref), NULL);
+    /* auto: the better of abc and latent on the reference */
+    int is_auto = strcmp(c->model, "auto") == 0;
+    double ref_err = model_error(is_auto ? "latent" : c->model, dec, truth, dom, ref_s,
+                                 plan_count(ref), NULL);
+    if (is_auto)
+        ref_err = fmin(ref_err, model_error("abc", dec, truth, dom, ref_s, plan_count(ref), NULL));
 
     struct adaptive_options o = adaptive_default_options();
     o.model = c->model;
@@ -169,7 +174,8 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
         if (c->trace && n >= 6 && n % c->trace == 0) {
             struct adaptive_evidence ev;
             adaptive_evidence(a, &ev);
-            double in_sample = NAN, te = model_error(c->model, dec, truth, dom, got, n, &in_sample);
+            double in_sample = NAN, te = model_error(is_auto ? st.model : c->model, dec, truth, dom, got, n,
+                                                   &in_sample);
             printf("trace %s %zu %.1f %.5f %.5f %.5f %.5f %.5f %.5f %.5f\n", name, n, clock,
                    ev.fit_error, ev.cv_error, ev.spread, ev.mapped, st.predicted_error, te,
                    in_sample);
@@ -185,11 +191,13 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
             break;
         }
     }
-    double e = model_error(c->model, dec, truth, dom, got, n, NULL);
+    double e = model_error(is_auto ? st.model : c->model, dec, truth, dom, got, n, NULL);
     printf("| %s | %zu | %.0f s | %.0f%% | %.4f | %.4f | %.2f | %.4f | %.2f | %.1f / %.1f ms | %s |\n",
            name, n, clock, 100 * clock / est.total_s, e, ref_err, e / ref_err,
            st.predicted_error, st.predicted_error / e, 1e3 * dec_sum / (double)(n + 1),
            1e3 * dec_max, st.stop);
+    if (is_auto)
+        printf("  auto: the policy followed %s; the final fit is that model's\n", st.model);
     fflush(stdout);
     adaptive_free(a);
     free(ref_s);
@@ -201,7 +209,7 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
 
 static int usage(void)
 {
-    fprintf(stderr, "usage: adaptive_sim [--pool PLAN] [--model abc|latent] [--budget-frac F | "
+    fprintf(stderr, "usage: adaptive_sim [--pool PLAN] [--model abc|latent|auto] [--budget-frac F | "
                     "--budget S] [--target X] [--converge] [--gain-tol G] [--nodes N] "
                     "[--reference PLAN] [--seed S] [--trace K] [--calibrate] [MATERIAL...]\n");
     return 2;
@@ -255,7 +263,7 @@ int main(int argc, char **argv)
         return 2;
     }
     latent_decoder *dec = NULL;
-    if (strcmp(c.model, "latent") == 0) {
+    if (strcmp(c.model, "latent") == 0 || strcmp(c.model, "auto") == 0) {
         char path[4096];
         latent_decoder_default_path(path, sizeof path);
         if (!(dec = latent_decoder_load(path, &err))) {
