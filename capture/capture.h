@@ -189,10 +189,12 @@ struct capture_hooks {
 };
 
 /* Run a capture: resolve and validate the inputs, prepare the directory
- * (or resume it: the same plan, scene, material, rig and detector only,
- * else -GONIO_EUSAGE naming the difference), holding its lock until the
- * end (another writer: EBUSY, nothing written), measure the points the
- * journal lacks, fit and write results.json. An aborted capture keeps its samples, stops the axes and
+ * (or resume it: the same plan, scene, material, rig, detector and
+ * adaptive options only, else -GONIO_EUSAGE naming the difference),
+ * holding its lock until the end (another writer: EBUSY, nothing
+ * written), measure the points the journal lacks (in the adaptive order:
+ * those the policy chooses, capture/sequence.h), fit and write
+ * results.json. An aborted capture keeps its samples, stops the axes and
  * returns 0 with stop_reason "aborted" (no fit, no results.json). Returns
  * a negative code with err filled on failure (see gonio_exit_status). */
 int capture_run(const struct capture_config *cfg, const struct capture_hooks *hooks,
