@@ -19,7 +19,9 @@
  * theta_i = 30, each taken as the nearest pool point. Six samples are
  * what the six-pair latent fit already does well with, and they give the
  * ensemble its first fit. */
-static const double seed_pairs[][2] = {{30, -60}, {30, -20}, {30, 20}, {30, 28}, {30, 36}, {30, 60}};
+static const double seed_pairs[][2] = {
+    {30, -60}, {30, -20}, {30, 20}, {30, 28}, {30, 36}, {30, 60},
+};
 #define N_SEEDS (sizeof seed_pairs / sizeof seed_pairs[0])
 
 /* Full-domain nodes over which the ensemble's spread is averaged for the
@@ -37,10 +39,18 @@ static const double seed_pairs[][2] = {{30, -60}, {30, -20}, {30, 20}, {30, 28},
 #define MIN_STOP_SAMPLES 80
 
 /* The noise term of the expected variance reduction, in units of the
- * ensemble's squared cross-validated error, and the weight of coverage
- * for the latent model (docs/adaptive.md, "Tuning"). */
+ * ensemble's squared cross-validated error; the width of the ALC's
+ * repulsion from measured points and the weight of coverage for the
+ * latent model, both in units of the spacing n samples would have spread
+ * evenly over the domain (docs/adaptive.md, "Tried and dropped"). */
 #define ALC_NOISE 0.1
-#define COVER_WEIGHT 10.0
+#define REPULSION_WIDTH 0.3
+#define COVER_WEIGHT 30.0
+
+/* The latent prediction's calibration: the geometric mean of true over
+ * predicted error past 40 samples on the calibration materials (every
+ * sixth of the decoder's training set, never a held-out one). */
+#define LATENT_PRED_FACTOR 1.2
 
 struct adaptive {
     const struct plan *pool;
@@ -65,8 +75,7 @@ struct adaptive {
     int latent;               /* model latent or auto: the latent fit is tracked */
     int cover;                /* picks weigh coverage (the latent model's own picks) */
     struct track track;
-    double *spacing;          /* pool point i's distance to its nearest pool neighbour */
-    double *gap;              /* its distance to the nearest measured point, in spacings */
+    double *gap;              /* pool point i's domain distance to the nearest measured point */
     double max_alc;           /* the largest candidate ALC of this decision */
     double *hist_t, *hist_e;  /* (rig time, predicted error) at each refit */
     size_t n_hist;
@@ -82,9 +91,10 @@ struct adaptive_options adaptive_default_options(void)
 
 static int check_options(const struct adaptive_options *o, struct gonio_err *err)
 {
-    if (!o->model || (strcmp(o->model, "auto") != 0 && !fit_model_find_rgb(o->model, "adaptive model", err)))
-        return o->model ? -GONIO_EUSAGE
-                        : gonio_err_set(err, GONIO_EUSAGE, "adaptive model: none given");
+    if (!o->model)
+        return gonio_err_set(err, GONIO_EUSAGE, "adaptive model: none given");
+    if (strcmp(o->model, "auto") != 0 && !fit_model_find_rgb(o->model, "adaptive model", err))
+        return -GONIO_EUSAGE;
     if (!(o->budget_s >= 0) || !isfinite(o->budget_s))
         return gonio_err_set(err, GONIO_EUSAGE,
                              "adaptive budget %g s: must be a finite number >= 0 (0: none)",
@@ -117,6 +127,17 @@ static double chord(const struct brdf_pair *a, const struct brdf_pair *b)
         s += (a->wi[k] - b->wi[k]) * (a->wi[k] - b->wi[k]) +
              (a->wo[k] - b->wo[k]) * (a->wo[k] - b->wo[k]);
     return sqrt(s);
+}
+
+/* Distance of two pairs in the full domain's own coordinates: the MERL
+ * nodes are uniform in (sqrt(theta_h / 90 deg), theta_d / 90 deg, phi_d),
+ * so coverage in these units is coverage of the nodes the error is
+ * averaged over, whatever the pool's spacing. */
+static double dom_dist(const struct brdf_pair *a, const struct brdf_pair *b)
+{
+    double du = sqrt(a->theta_h / (90 * BRDF_DEG)) - sqrt(b->theta_h / (90 * BRDF_DEG));
+    double dv = (a->theta_d - b->theta_d) / (90 * BRDF_DEG);
+    return sqrt(du * du + dv * dv);
 }
 
 adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
@@ -161,10 +182,9 @@ adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
     a->hist_t = malloc(n * sizeof *a->hist_t);
     a->hist_e = malloc(n * sizeof *a->hist_e);
     a->seed_point = malloc(N_SEEDS * sizeof *a->seed_point);
-    a->spacing = malloc(n * sizeof *a->spacing);
     a->gap = malloc(n * sizeof *a->gap);
-    if (!a->spacing || !a->gap || !a->pairs || !a->integ || !a->measured || !a->samples || !a->hist_t || !a->hist_e ||
-        !a->seed_point) {
+    if (!a->gap || !a->pairs || !a->integ || !a->measured || !a->samples || !a->hist_t ||
+        !a->hist_e || !a->seed_point) {
         gonio_err_set(err, ENOMEM, "adaptive policy: out of memory");
         adaptive_free(a);
         return NULL;
@@ -173,19 +193,8 @@ adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
         point_pair(plan_point(pool, i), &a->pairs[i]);
         a->integ[i] = integration_s ? integration_s[i] : rig->integration_s;
     }
-    for (size_t i = 0; i < n; i++) {
-        a->spacing[i] = INFINITY;
+    for (size_t i = 0; i < n; i++)
         a->gap[i] = INFINITY;
-    }
-    for (size_t i = 0; i < n; i++)
-        for (size_t j = i + 1; j < n; j++) {
-            double d = chord(&a->pairs[i], &a->pairs[j]);
-            a->spacing[i] = fmin(a->spacing[i], d);
-            a->spacing[j] = fmin(a->spacing[j], d);
-        }
-    for (size_t i = 0; i < n; i++)
-        if (!(a->spacing[i] > 0) || !isfinite(a->spacing[i]))
-            a->spacing[i] = 1;
     for (size_t k = 0; k < N_SEEDS; k++) {
         struct brdf_pair sp;
         brdf_pair_inplane(seed_pairs[k][0], seed_pairs[k][1], &sp);
@@ -218,7 +227,6 @@ void adaptive_free(adaptive *a)
     free(a->hist_t);
     free(a->hist_e);
     free(a->seed_point);
-    free(a->spacing);
     free(a->gap);
     ens_free(&a->ens);
     track_free(&a->track);
@@ -239,7 +247,7 @@ int adaptive_add(adaptive *a, size_t point, const struct fit_sample *s, int satu
                              point, plan_name(a->pool));
     a->measured[point] = 1;
     for (size_t i = 0; i < a->n_pool; i++)
-        a->gap[i] = fmin(a->gap[i], chord(&a->pairs[i], &a->pairs[point]) / a->spacing[i]);
+        a->gap[i] = fmin(a->gap[i], dom_dist(&a->pairs[i], &a->pairs[point]));
     a->samples[a->n++] = *s;
     return 0;
 }
@@ -257,8 +265,8 @@ static double point_cost(const adaptive *a, const struct plan_axes *from, size_t
  * in (theta_h, theta_d), so the samples' errors count by the share of the
  * domain they stand for, not by where the policy chose to look; never
  * below the ensemble's spread over the subset, which is what the samples
- * leave open. Latent: that, times the ratio of the tracked latent fit's
- * in-sample error to the ABC fit's. */
+ * leave open. Latent: the mapped residual times the ratio of the tracked
+ * latent fit's in-sample error to the ABC fit's, calibrated. */
 static double predict_error(adaptive *a)
 {
     double spread = 0, mapped = 0;
@@ -282,7 +290,7 @@ static double predict_error(adaptive *a)
         return fmax(a->mapped, a->spread);
     if (!(a->track.fitted > 0) || !(a->latent_abc_in_sample > 0))
         return NAN;
-    return a->mapped * a->track.in_sample / a->latent_abc_in_sample;
+    return LATENT_PRED_FACTOR * a->mapped * a->track.in_sample / a->latent_abc_in_sample;
 }
 
 void adaptive_evidence(const adaptive *a, struct adaptive_evidence *ev)
@@ -400,22 +408,28 @@ static double alc(const adaptive *a, size_t i)
 
 /* What measuring candidate i is worth, before its cost: until the seeds
  * are measured, 1 at a seed and 0 elsewhere; without an ensemble, the
- * distance to the nearest point measured or pending; then the ALC, and
- * for the latent model (whose fit the ensemble does not describe) the ALC
- * relative to the best one plus the candidate's distance, in pool
- * spacings, from what is measured or pending: coverage. */
+ * domain distance to the nearest point measured or pending. Then for ABC
+ * the ALC, damped near what is measured or pending: the jackknife spread
+ * of a misspecified model hardly falls where a neighbour was just
+ * measured, and without the damping a fine pool's cheap 1-degree steps
+ * pile samples into one region. For the latent model (whose fit the
+ * ensemble does not describe) the ALC relative to the best one plus that
+ * distance: coverage of the domain. */
 static double worth(const adaptive *a, size_t i, long pending, int seeding)
 {
     if (seeding)
         return is_seed(a, i) ? 1 : 0;
     double gap = a->gap[i];
     if (pending >= 0)
-        gap = fmin(gap, chord(&a->pairs[i], &a->pairs[pending]) / a->spacing[i]);
+        gap = fmin(gap, dom_dist(&a->pairs[i], &a->pairs[pending]));
     if (!a->ens.ok)
         return isfinite(gap) ? gap : 1;
+    /* gap in units of the even spacing of n + 1 points over the unit
+     * square of dom_dist's coordinates */
+    double g = gap * sqrt((double)(a->n + 1));
     if (!a->cover)
-        return alc(a, i);
-    return alc(a, i) / a->max_alc + COVER_WEIGHT * gap;
+        return alc(a, i) * (1 - exp(-(g / REPULSION_WIDTH) * (g / REPULSION_WIDTH)));
+    return alc(a, i) / a->max_alc + COVER_WEIGHT * g;
 }
 
 static double now_s(void)

@@ -103,7 +103,8 @@ int ens_fit(struct ens *e, const struct fit_sample *s, size_t n)
      * global start runs too and the lower cost wins (as fit/stream.c). */
     if (had && n >= 2 * e->cold_n) {
         fo.warm_start = NULL;
-        if (fit_abc(s, n, &fo, &cold, &cold_info, NULL) == 0 && (!ok || cold_info.cost < info.cost)) {
+        if (fit_abc(s, n, &fo, &cold, &cold_info, NULL) == 0 &&
+            (!ok || cold_info.cost < info.cost)) {
             next = cold;
             ok = 1;
         }

@@ -4,18 +4,20 @@
  *
  *   adaptive_sim [--pool PLAN] [--model abc|latent|auto] [--budget-frac F | --budget S]
  *                [--target X] [--converge] [--gain-tol G] [--reference PLAN] [--nodes N]
- *                [--seed S]
- *                [--trace K] [--calibrate] [MATERIAL...]
+ *                [--seed S] [--trace K] [--calibrate] [MATERIAL...]
  *
  * For each material (default: the 10 held-out study materials) nbrdf:NAME
- * (or a material spec with a colon, brdf/material.h) is the truth: a sample is its noise-free value at the pool pair, and the
- * rig clock adds each point's move (with backlash), settle and the rig's
- * fixed integration, as plan_estimate does. The reference is the full DS1
+ * (or a material spec with a colon, brdf/material.h) is the truth: a
+ * sample is its noise-free value at the pool pair, and the rig clock adds
+ * each point's move (with backlash), settle and the rig's fixed
+ * integration, as plan_estimate does. The reference is the full DS1
  * plan: its rig time (plan_estimate) and the full-domain log error of the
  * model fitted to all of its samples. The adaptive run starts at home and
  * stops when the policy says (default budget: a quarter of DS1's rig
- * time; --reference takes another plan than DS1 as the reference); its samples are fitted with the same model and scored on the
- * same seeded full-domain subset (--nodes, default 20000). Printed per
+ * time; --reference takes another plan than DS1 as the reference); its
+ * samples are fitted with the same model (auto: the one the policy
+ * followed; its reference is the better of abc and latent) and scored on
+ * the same seeded full-domain subset (--nodes, default 20000). Printed per
  * material: samples, rig time and its share of DS1's, errors and their
  * ratio, the policy's predicted error against the true one, the decision
  * time per point (mean and max) against the settle, and why it stopped.
@@ -174,8 +176,9 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
         if (c->trace && n >= 6 && n % c->trace == 0) {
             struct adaptive_evidence ev;
             adaptive_evidence(a, &ev);
-            double in_sample = NAN, te = model_error(is_auto ? st.model : c->model, dec, truth, dom, got, n,
-                                                   &in_sample);
+            double in_sample = NAN;
+            double te = model_error(is_auto ? st.model : c->model, dec, truth, dom, got, n,
+                                    &in_sample);
             printf("trace %s %zu %.1f %.5f %.5f %.5f %.5f %.5f %.5f %.5f\n", name, n, clock,
                    ev.fit_error, ev.cv_error, ev.spread, ev.mapped, st.predicted_error, te,
                    in_sample);
@@ -192,8 +195,8 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
         }
     }
     double e = model_error(is_auto ? st.model : c->model, dec, truth, dom, got, n, NULL);
-    printf("| %s | %zu | %.0f s | %.0f%% | %.4f | %.4f | %.2f | %.4f | %.2f | %.1f / %.1f ms | %s |\n",
-           name, n, clock, 100 * clock / est.total_s, e, ref_err, e / ref_err,
+    printf("| %s | %zu | %.0f s | %.0f%% | %.4f | %.4f | %.2f | %.4f | %.2f | %.1f / %.1f ms "
+           "| %s |\n", name, n, clock, 100 * clock / est.total_s, e, ref_err, e / ref_err,
            st.predicted_error, st.predicted_error / e, 1e3 * dec_sum / (double)(n + 1),
            1e3 * dec_max, st.stop);
     if (is_auto)
@@ -209,9 +212,10 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
 
 static int usage(void)
 {
-    fprintf(stderr, "usage: adaptive_sim [--pool PLAN] [--model abc|latent|auto] [--budget-frac F | "
-                    "--budget S] [--target X] [--converge] [--gain-tol G] [--nodes N] "
-                    "[--reference PLAN] [--seed S] [--trace K] [--calibrate] [MATERIAL...]\n");
+    fprintf(stderr, "usage: adaptive_sim [--pool PLAN] [--model abc|latent|auto] "
+                    "[--budget-frac F | --budget S] [--target X] [--converge] [--gain-tol G] "
+                    "[--nodes N] [--reference PLAN] [--seed S] [--trace K] [--calibrate] "
+                    "[MATERIAL...]\n");
     return 2;
 }
 
