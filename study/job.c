@@ -309,7 +309,8 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
 
     /* The capture: a rerun resumes it from its journal (or finds it done). */
     struct capture_config cfg = {
-        .plan = plan->file, .scene = scene->spec, .material = mat->spec, .model = "abc",
+        .plan = plan->file, .scene = scene->spec, .material = mat->spec,
+        .model = plan->model ? plan->model : "abc", /* the adaptive policy's */
         .out_dir = jobdir, .order = plan->order, .stop = plan->stop, .quiet = 1,
         .measure_only = 1, .lazy_journal = 1, .budget_min = plan->budget_min,
     };
