@@ -10,6 +10,7 @@
 #include "brdf/material.h"
 #include "common/clock.h"
 #include "capture/capture_files.h"
+#include "capture/sequence.h"
 #include "fit/journal_samples.h"
 #include "journal/journal.h"
 #include "drivers/drv_sim.h"
@@ -38,6 +39,8 @@ struct capture_inputs {
     char material_name[512]; /* what was measured, as a label; "" when unknown */
     char truth_name[512];
     const struct fit_model_kind *model; /* the final fit's (fit/models.h) */
+    int adaptive; /* the plan's order is adaptive: the policy's options */
+    struct adaptive_options policy;
     /* The rig time the capture will take, and each point's share: on the
      * simulated rig with the integration its detector will choose
      * (sim/estimate.h), elsewhere with the rig's fixed integration. */
@@ -98,6 +101,14 @@ static int estimate(struct capture_inputs *in, struct gonio_err *err)
     return 0;
 }
 
+/* The capture's stop rule: the plan's, or --stop. */
+static enum plan_stop_kind stop_kind(const struct capture_config *cfg, const struct plan *plan)
+{
+    if (cfg->stop)
+        return strcmp(cfg->stop, "all") ? PLAN_STOP_CONVERGE : PLAN_STOP_ALL;
+    return plan_stop(plan)->kind;
+}
+
 static int resolve_inputs(const struct capture_config *cfg, const struct capture_hooks *hooks,
                           struct capture_inputs *in, struct gonio_err *err)
 {
@@ -124,7 +135,8 @@ static int resolve_inputs(const struct capture_config *cfg, const struct capture
         if (mode < 0) {
             inputs_free(in);
             return gonio_err_set(err, GONIO_EUSAGE,
-                                 "--order '%s': use travel, progressive, as-written or greedy",
+                                 "--order '%s': use travel, progressive, as-written, greedy or "
+                                 "adaptive",
                                  cfg->order);
         }
         if ((rc = plan_order(in->plan, (enum plan_order_mode)mode, &in->rig)) < 0) {
@@ -139,6 +151,12 @@ static int resolve_inputs(const struct capture_config *cfg, const struct capture
     if (cfg->stop && strcmp(cfg->stop, "all") && strcmp(cfg->stop, "converge")) {
         inputs_free(in);
         return gonio_err_set(err, GONIO_EUSAGE, "--stop '%s': use all or converge", cfg->stop);
+    }
+    in->adaptive = plan_current_order(in->plan) == PLAN_ORDER_ADAPTIVE;
+    if ((rc = sequence_options(cfg, in->plan, stop_kind(cfg, in->plan) == PLAN_STOP_CONVERGE,
+                               &in->policy, err)) < 0) {
+        inputs_free(in);
+        return rc;
     }
     if ((rc = resolve_materials(cfg, in, err)) == 0)
         rc = estimate(in, err);
@@ -371,8 +389,8 @@ struct eta {
 };
 
 static void progress(const struct capture_hooks *hooks, const struct capture_inputs *in,
-                     const struct eta *eta, const struct stream *st, size_t done,
-                     size_t already, double rig_time_s)
+                     const struct eta *eta, const struct stream *st, const sequence *seq,
+                     size_t done, size_t already, double rig_time_s)
 {
     if (!hooks->on_progress)
         return;
@@ -388,61 +406,68 @@ static void progress(const struct capture_hooks *hooks, const struct capture_inp
         .eta_s = eta->left_s * scale,
         .fit_log_error = st->log_error,
     };
+    struct sequence_report rep;
+    if (sequence_report(seq, &rep)) {
+        /* The adaptive order measures a few of the pool's points: the
+         * pool's estimate says nothing, the budget says how long. */
+        int budget = in->policy.budget_s > 0;
+        p.estimate_s = budget ? in->policy.budget_s : NAN;
+        p.eta_s = budget ? fmax(in->policy.budget_s - rig_time_s, 0) : NAN;
+        p.policy = &rep.status;
+    }
     hooks->on_progress(hooks->user, &p);
 }
 
-/* Measure every point the journal does not hold yet, in plan order. Sets
- * *aborted when the host asked to stop, *converged when the streaming fit
- * decided that further points would not change the model, *paused_s to the
- * rig clock the host held the capture paused. */
+/* A resumed capture's in-process rig: its axes where the interrupted run
+ * left them, as a real rig's stay, and its clock at the last sample's time
+ * (the scene's drift runs on it), so the rig time goes on as it would
+ * have (an adaptive capture's budget and convergence read it). An axis
+ * the rig's fault effects stop keeps where it is. */
+static void sim_resume(sim_rig *sim, const struct journal_sample *last,
+                       const struct plan_point *pt)
+{
+    static const enum sim_axis_id axis[3] = {SIM_AXIS_SAMPLE, SIM_AXIS_ARM, SIM_AXIS_AZIMUTH};
+    const double at[3] = {last->s, last->a, pt->ax.az};
+    for (int i = 0; i < 3; i++)
+        if (sim_rig_start_move(sim, axis[i], at[i], NULL) == 0 &&
+            sim_rig_wait(sim, axis[i], NULL) < 0)
+            sim_rig_reset_alarm(sim, axis[i]);
+    sim_rig_advance(sim, fmax(0, last->rig_time_s - sim_rig_now(sim)));
+}
+
+/* Measure every point the journal does not hold yet, from `first` on in
+ * the order seq gives. Sets *aborted when the host asked to stop,
+ * *converged when the streaming fit decided that further points would not
+ * change the model, *paused_s to the rig clock the host held the capture
+ * paused. */
 static int acquire(const struct capture_config *cfg, const struct capture_inputs *in,
-                   const struct capture_hooks *hooks, journal *j,
+                   const struct capture_hooks *hooks, journal *j, sequence *seq, long first,
                    struct journal_sample **samples, size_t *n, int *aborted,
                    struct stream *fs, int *converged, double *paused_s,
                    struct drv_axis_stats *mech,
                    struct gonio_err *err)
 {
     size_t count = plan_count(in->plan);
-    unsigned char *done = calloc(count, 1);
     struct journal_sample *all = realloc(*samples, count * sizeof *all);
-    if (!done || !all) {
-        free(done);
-        if (all)
-            *samples = all;
+    if (!all)
         return gonio_err_set(err, ENOMEM, "out of memory");
-    }
     *samples = all;
-    for (size_t i = 0; i < *n; i++) {
-        int p = all[i].point;
-        if (p < 0 || (size_t)p >= count || done[p]) {
-            free(done);
-            return gonio_err_set(err, GONIO_EBADDATA,
-                                 "%s: journal record %zu names point %d, which the plan (%zu "
-                                 "points) does not have or has twice",
-                                 cfg->out_dir, i + 1, p, count);
-        }
-        done[p] = 1;
-    }
     size_t already = *n;
     struct eta eta = {.run_base_s = *n > 0 ? all[*n - 1].rig_time_s : 0};
     for (size_t k = 0; k < count; k++)
-        if (!done[k])
+        if (!sequence_done(seq, k))
             eta.left_s += in->point_s[k];
-    progress(hooks, in, &eta, fs, *n, already, eta.run_base_s);
+    progress(hooks, in, &eta, fs, seq, *n, already, eta.run_base_s);
     /* A resumed capture replays its journal: the same samples give the
      * same rounds, so a capture that had converged stays converged. */
     for (size_t i = 0; i < *n && !*converged; i++) {
         int rc = stream_feed(fs, in->plan, hooks, all, i + 1, err);
-        if (rc < 0) {
-            free(done);
+        if (rc < 0)
             return rc;
-        }
         *converged = rc;
     }
-    if (*converged) {
-        free(done);
+    if (*converged || first < 0)
         return 0;
-    }
 
     struct capture_devices dev;
     sim_rig *sim = NULL;
@@ -453,22 +478,17 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
     } else {
         sim = sim_rig_new_scene(&in->rig, in->material, &in->scene, cfg->out_dir, err);
         rc = sim ? devices_open_sim(sim, &dev, err) : -abs(err ? err->code : ENOMEM);
-        /* The simulated rig's own clock continues too: its effects (drift)
-         * run on it. */
-        if (rc == 0 && base > 0)
-            sim_rig_advance(sim, base);
+        if (rc == 0 && *n > 0)
+            sim_resume(sim, &all[*n - 1], plan_point(in->plan, (size_t)all[*n - 1].point));
     }
     if (rc < 0) {
         sim_rig_free(sim);
-        free(done);
         return rc;
     }
     struct rig_clock clk;
     rig_clock_start(&clk, dev.clock, base);
 
-    for (size_t k = 0; k < count && rc == 0; k++) {
-        if (done[k])
-            continue;
+    for (long k = first; k >= 0 && rc == 0;) {
         enum capture_control c = hooks->control ? hooks->control(hooks->user) : CAPTURE_GO;
         if (c == CAPTURE_ABORT) {
             stop_axes(&dev);
@@ -478,14 +498,17 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
         if (c == CAPTURE_PAUSED)
             rig_clock_paused(&clk);
         struct journal_sample s;
-        const struct plan_point *pt = plan_point(in->plan, k);
-        rc = measure_point(&dev, &clk, hooks, &in->rig, pt, (int)k, &s, err);
+        const struct plan_point *pt = plan_point(in->plan, (size_t)k);
+        /* The adaptive order decides the point after k meanwhile. */
+        rc = sequence_begin(seq, k, err);
+        if (rc == 0)
+            rc = measure_point(&dev, &clk, hooks, &in->rig, pt, (int)k, &s, err);
         if (rc < 0) {
             stop_axes(&dev); /* a failed point leaves no axis moving */
             if (err) { /* name the point the operator will find in plan.json */
                 char msg[GONIO_ERR_MSG_MAX];
                 snprintf(msg, sizeof msg, "%s", err->msg);
-                gonio_err_set(err, err->code, "point %zu (theta_i %g, theta_r %g): %s", k,
+                gonio_err_set(err, err->code, "point %ld (theta_i %g, theta_r %g): %s", k,
                               pt->theta_i, pt->theta_r, msg);
             }
         }
@@ -494,22 +517,28 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
             rc = journal_append(j, &s, err);
             phase(hooks, CAPTURE_PHASE_BETWEEN, (int)k);
         }
-        if (rc == 0) {
-            all[(*n)++] = s;
-            /* The fit round first: the host's sample event carries it. */
-            rc = stream_feed(fs, in->plan, hooks, all, *n, err);
-            eta.left_s -= in->point_s[k];
-            eta.run_est_s += in->point_s[k];
-            if (rc >= 0)
-                progress(hooks, in, &eta, fs, *n, already, s.rig_time_s);
-            if (rc >= 0 && hooks->on_sample)
-                hooks->on_sample(hooks->user, &s, *n, count);
-            if (rc > 0) {
-                *converged = 1;
-                rc = 0;
-                break;
-            }
+        long next = -1;
+        if (rc < 0) {
+            sequence_end(seq, NULL, &next, NULL);
+            break;
         }
+        all[(*n)++] = s;
+        rc = sequence_end(seq, &s, &next, err);
+        /* The fit round first: the host's sample event carries it. */
+        if (rc == 0)
+            rc = stream_feed(fs, in->plan, hooks, all, *n, err);
+        eta.left_s -= in->point_s[k];
+        eta.run_est_s += in->point_s[k];
+        if (rc >= 0)
+            progress(hooks, in, &eta, fs, seq, *n, already, s.rig_time_s);
+        if (rc >= 0 && hooks->on_sample)
+            hooks->on_sample(hooks->user, &s, *n, count);
+        if (rc > 0) {
+            *converged = 1;
+            rc = 0;
+            break;
+        }
+        k = next;
     }
     *paused_s = clk.paused;
     add_axis_stats(&dev, mech);
@@ -518,7 +547,6 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
     else
         devices_close(&dev);
     sim_rig_free(sim);
-    free(done);
     return rc;
 }
 
@@ -670,15 +698,17 @@ static int assess_truth(const brdf_material *truth, const brdf_material *model,
 }
 
 /* The streaming fit a capture runs: its plan's stop rule (or --stop)
- * converge, or rounds for a host's progress figures; none otherwise. */
+ * converge, or rounds for a host's progress figures; none otherwise, and
+ * none in the adaptive order. */
 static int stream_new(const struct capture_config *cfg, const struct plan *plan,
                       struct stream *st, struct gonio_err *err)
 {
     memset(st, 0, sizeof *st);
     st->log_error = NAN;
+    if (plan_current_order(plan) == PLAN_ORDER_ADAPTIVE)
+        return 0; /* the policy stops the capture and predicts its error */
     struct plan_stop stop = *plan_stop(plan);
-    if (cfg->stop)
-        stop.kind = strcmp(cfg->stop, "all") ? PLAN_STOP_CONVERGE : PLAN_STOP_ALL;
+    stop.kind = stop_kind(cfg, plan);
     struct fit_stream_options so = fit_stream_default_options();
     if (stop.kind == PLAN_STOP_CONVERGE) {
         so.tol = stop.tol;
@@ -739,6 +769,7 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
         .material = in.material_name[0] ? in.material_name : NULL,
         .driver = cfg->driver ? cfg->driver : "sim",
         .detector = detector,
+        .policy = in.adaptive ? &in.policy : NULL,
     };
     rc = capture_files_prepare(cfg->out_dir, &setup, &lock_fd, err);
     if (rc == 0) {
@@ -749,11 +780,20 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
         if (j && cfg->lazy_journal)
             journal_set_lazy(j);
     }
-    if (rc == 0) {
-        rc = acquire(cfg, &in, hooks, j, &samples, &n, &aborted, &fs, &converged,
+    sequence *seq = NULL;
+    long first = -1;
+    if (rc == 0)
+        rc = sequence_new(in.plan, &in.rig, &in.policy, samples, n, cfg->out_dir, &seq, &first,
+                          err);
+    if (rc == 0)
+        rc = acquire(cfg, &in, hooks, j, seq, first, &samples, &n, &aborted, &fs, &converged,
                      &out->paused_s, &out->mech, err);
-        journal_close(j);
-    }
+    journal_close(j);
+    if (rc == 0 && !aborted)
+        rc = sequence_summary(seq, &in.policy, out, err);
+    if (out->adaptive && !strcmp(out->policy.stop, "converged"))
+        converged = 1; /* the policy's convergence is the capture's */
+    sequence_free(seq);
     if (rc == 0) {
         out->samples = n;
         out->rig_time_s = n ? samples[n - 1].rig_time_s : 0;
@@ -762,7 +802,10 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
         out->settle_s = (double)n * in.rig.settle_s;
         out->move_s = out->rig_time_s - out->settle_s - out->integration_s;
         snprintf(out->stop_reason, sizeof out->stop_reason, "%s",
-                 aborted ? "aborted" : converged ? "converged" : "complete");
+                 aborted                ? "aborted"
+                 : out->policy.stop[0] ? out->policy.stop
+                 : converged            ? "converged"
+                                        : "complete");
     }
     int fit = rc == 0 && !aborted && !cfg->measure_only;
     if (fit)

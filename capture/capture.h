@@ -14,6 +14,7 @@
 
 #include <stddef.h>
 
+#include "adaptive/adaptive.h"
 #include "brdf/abc.h"
 #include "fit/fit.h"
 #include "brdf/metrics.h"
@@ -49,6 +50,14 @@ struct capture_config {
     const char *out_dir;  /* the capture directory */
     const char *order;    /* overrides the plan's ordering, or NULL */
     const char *stop;     /* "all" or "converge": overrides the plan's stop rule, or NULL */
+    /* The adaptive order (order "adaptive", or a plan that declares it):
+     * the policy (adaptive/adaptive.h) chooses each next point from the
+     * plan's pairs and predicts the error of `model`; it stops before the
+     * rig time passes budget_min minutes, once its predicted full-domain
+     * log error is at most stop_target, with stop converge once the
+     * predicted gain per minute is below its tolerance, else when the pool
+     * is exhausted. 0: no budget, no target. Refused in other orders. */
+    double budget_min, stop_target;
     int quiet;            /* the host shows no progress (gonio capture --quiet) */
     /* gonio study: measure and journal only (no fit, no truth errors, no
      * results.json: the study fits its models itself), and journal without
@@ -84,11 +93,23 @@ struct capture_summary {
                                the name and format gonio fit writes), else "" */
     struct brdf_errors err_plan, err_inplane, err_full;
     int has_truth; /* inplane/full errors computed against truth */
-    char stop_reason[32]; /* "complete", "converged" (stop rule), "aborted" */
+    /* "complete", "converged" (stop rule), "aborted"; the adaptive order's
+     * policy also "target", "budget", "exhausted" */
+    char stop_reason[32];
     struct fit_uncertainty sd; /* parameter sds of an ABC final fit (fit/fit.h) */
     char warning[256];         /* abc-prior: "too few samples" warning, or "" */
     struct drv_axis_stats mech; /* this run's axis mechanics, all axes (drivers.h) */
     struct fit_status status;  /* what the final fit can know (fit/fit_status.h) */
+    /* The adaptive order: its options, the policy's prediction at the stop
+     * with every sample in, and the wall time of its decisions (each an
+     * adaptive_add and an adaptive_next, made while the rig measured the
+     * point before) and how long the engine waited for them after a point. */
+    int adaptive;
+    double budget_s, target; /* 0: none */
+    int converge;
+    struct adaptive_status policy;
+    size_t decisions;
+    double decision_mean_s, decision_max_s, decision_wait_s;
 };
 
 /* The devices a capture runs on. */
@@ -131,6 +152,10 @@ struct capture_progress {
      * points left, scaled by how this run's points compared with theirs. */
     double estimate_s, eta_s;
     double fit_log_error; /* the latest streaming fit round's, NAN before one */
+    /* The adaptive order's latest prediction, NULL in other orders; total
+     * is then the pool's size, estimate_s the budget (NAN: none) and eta_s
+     * the budget left. */
+    const struct adaptive_status *policy;
 };
 
 /* How a host (gonio, goniod) takes part in a capture. Every member may be
@@ -164,10 +189,12 @@ struct capture_hooks {
 };
 
 /* Run a capture: resolve and validate the inputs, prepare the directory
- * (or resume it: the same plan, scene, material, rig and detector only,
- * else -GONIO_EUSAGE naming the difference), holding its lock until the
- * end (another writer: EBUSY, nothing written), measure the points the
- * journal lacks, fit and write results.json. An aborted capture keeps its samples, stops the axes and
+ * (or resume it: the same plan, scene, material, rig, detector and
+ * adaptive options only, else -GONIO_EUSAGE naming the difference),
+ * holding its lock until the end (another writer: EBUSY, nothing
+ * written), measure the points the journal lacks (in the adaptive order:
+ * those the policy chooses, capture/sequence.h), fit and write
+ * results.json. An aborted capture keeps its samples, stops the axes and
  * returns 0 with stop_reason "aborted" (no fit, no results.json). Returns
  * a negative code with err filled on failure (see gonio_exit_status). */
 int capture_run(const struct capture_config *cfg, const struct capture_hooks *hooks,

@@ -82,6 +82,14 @@ static json_t *setup_json(const struct capture_setup *su)
                                       "seed", (json_int_t)sc->seed, "effects", sc->n_effects));
     if (root && su->material)
         json_object_set_new(root, "material", json_string(su->material));
+    /* A resumed adaptive capture must decide as it began (docs/formats.md). */
+    const struct adaptive_options *po = su->policy;
+    if (root && po)
+        json_object_set_new(root, "adaptive",
+                            json_pack("{s:s,s:f,s:f,s:b,s:f,s:I}", "model", po->model,
+                                      "budget_s", po->budget_s, "target", po->target,
+                                      "converge", po->converge, "gain_tol", po->gain_tol, "seed",
+                                      (json_int_t)po->seed));
     return root;
 }
 
@@ -112,6 +120,19 @@ static int same_value(json_t *a, json_t *b)
 static int check_same_setup(const char *dir, json_t *was, json_t *now, struct gonio_err *err)
 {
     static const char *const keys[] = {"scene", "material", "rig", "detector"};
+    json_t *pa = json_object_get(was, "adaptive"), *pb = json_object_get(now, "adaptive");
+    if (pa && pb && !json_equal(pa, pb)) {
+        char *ta = json_dumps(pa, JSON_COMPACT | JSON_SORT_KEYS),
+             *tb = json_dumps(pb, JSON_COMPACT | JSON_SORT_KEYS);
+        gonio_err_set(err, GONIO_EUSAGE,
+                      "%s: setup.json has adaptive %s, this capture asks for %s; a resumed "
+                      "adaptive capture keeps its model, budget, target and stop rule (or use "
+                      "a new directory)",
+                      dir, ta ? ta : "?", tb ? tb : "?");
+        free(ta);
+        free(tb);
+        return -GONIO_EUSAGE;
+    }
     for (size_t i = 0; i < sizeof keys / sizeof *keys; i++) {
         json_t *a = json_object_get(was, keys[i]), *b = json_object_get(now, keys[i]);
         if (!a && !strcmp(keys[i], "detector"))
@@ -284,6 +305,29 @@ static json_t *status_json(const struct fit_status *st)
     return o;
 }
 
+/* The adaptive order's policy at the stop: its prediction of the model's
+ * full-domain log error (with every sample in), what more rig time would
+ * buy, why it stopped, and what its decisions cost (docs/formats.md). */
+static json_t *adaptive_json(const struct capture_summary *s)
+{
+    const struct adaptive_status *st = &s->policy;
+    json_t *o = json_object();
+    json_object_set_new(o, "model", json_string(st->model));
+    json_object_set_new(o, "predicted_error", num_or_null(st->predicted_error));
+    json_object_set_new(o, "predicted_next", num_or_null(st->predicted_next));
+    json_object_set_new(o, "predicted_next_s", num_or_null(st->predicted_next_s));
+    json_object_set_new(o, "gain_per_min", num_or_null(st->gain_per_min));
+    json_object_set_new(o, "stop", json_string(st->stop));
+    json_object_set_new(o, "budget_s", s->budget_s > 0 ? json_real(s->budget_s) : json_null());
+    json_object_set_new(o, "target", s->target > 0 ? json_real(s->target) : json_null());
+    json_object_set_new(o, "converge", json_boolean(s->converge));
+    json_object_set_new(o, "decisions", json_integer((json_int_t)s->decisions));
+    json_object_set_new(o, "decision_mean_s", json_real(s->decision_mean_s));
+    json_object_set_new(o, "decision_max_s", json_real(s->decision_max_s));
+    json_object_set_new(o, "decision_wait_s", json_real(s->decision_wait_s));
+    return o;
+}
+
 int capture_files_results(const char *dir, const struct capture_summary *s,
                           struct gonio_err *err)
 {
@@ -330,5 +374,9 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
                                                      : json_null());
     if (root)
         json_object_set_new(root, "fit_status", status_json(&s->status));
+    if (root) {
+        json_object_set_new(root, "stop_reason", json_string(s->stop_reason));
+        json_object_set_new(root, "adaptive", s->adaptive ? adaptive_json(s) : json_null());
+    }
     return write_json(dir, "results.json", root, err);
 }

@@ -10,19 +10,22 @@
 #include "planner/planner.h"
 #include "sim/scene.h"
 
-/* What setup.json records; scene and material may be NULL (not given). */
+/* What setup.json records; scene and material may be NULL (not given),
+ * policy is the adaptive order's options (NULL in other orders). */
 struct capture_setup {
     const struct plan *plan;
     const struct plan_rig *rig;
     const struct sim_scene *scene;
     const char *material;
     const char *driver, *detector;
+    const struct adaptive_options *policy;
 };
 
 /* Create dir (or accept it for a resume), take its lock (*lock_fd, for
  * capture_files_unlock) and write plan.json and setup.json. A resume must
  * be of the same capture: its plan.json this plan's byte for byte, its
- * setup.json the same scene, material, rig and detector; otherwise, or
+ * setup.json the same scene, material, rig, detector and adaptive policy
+ * options (model, budget, target, stop rule); otherwise, or
  * when another process holds the directory, an error names what differs
  * (or the pid) and nothing is written. */
 int capture_files_prepare(const char *dir, const struct capture_setup *setup, int *lock_fd,

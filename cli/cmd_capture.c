@@ -4,6 +4,7 @@
 #include <math.h>
 #include <signal.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli/commands.h"
@@ -17,8 +18,9 @@ static void usage(FILE *out)
     fprintf(out,
             "usage: gonio capture --offline --scene NAME|FILE --plan NAME|FILE --out DIR\n"
             "                     [--material SPEC] [--model NAME] [--rig NAME|FILE]\n"
-            "                     [--order travel|progressive|as-written|greedy]\n"
-            "                     [--stop all|converge] [--truth SPEC] [--quiet]\n"
+            "                     [--order travel|progressive|as-written|greedy|adaptive]\n"
+            "                     [--stop all|converge] [--budget MINUTES]\n"
+            "                     [--stop-target LOG_ERR] [--truth SPEC] [--quiet]\n"
             "  --material overrides the scene's material: nbrdf:NAME, merl:FILE, abc:NAME,\n"
             "  sgd:NAME, builtin:NAME, spectral:NAME or default. DIR receives plan.json,\n"
             "  setup.json, samples.csv and results.json; running again on the same DIR\n"
@@ -30,6 +32,12 @@ static void usage(FILE *out)
             "  --stop converge ends the capture once the streaming ABC fit has converged\n"
             "  (the plan's stop tolerances, or the defaults of docs/fitting.md); --stop all\n"
             "  measures every point whatever the plan says.\n"
+            "  --order adaptive: the plan's pairs are a pool the capture chooses from, each\n"
+            "  next pair where the samples so far say it pays most (docs/adaptive.md; plan\n"
+            "  inplane-1deg is such a pool). It stops at --budget MINUTES of rig time, once\n"
+            "  its predicted full-domain log error of the model is at most --stop-target,\n"
+            "  with --stop converge once more rig time would buy too little, or when the\n"
+            "  pool is exhausted. A resume keeps the model, budget, target and stop rule.\n"
             "  Progress goes to stderr (a bar on a terminal) unless --quiet. SIGINT or\n"
             "  SIGTERM ends the capture after the point in progress: the journal is kept,\n"
             "  the same command resumes it, the exit status is 130.\n");
@@ -39,6 +47,7 @@ static void usage(FILE *out)
 struct offline {
     struct progress bar;
     size_t done, total;
+    int pool; /* adaptive: total is the pool's size */
 };
 
 static void on_progress(void *user, const struct capture_progress *p)
@@ -49,10 +58,16 @@ static void on_progress(void *user, const struct capture_progress *p)
                       p->total);
     o->done = p->done;
     o->total = p->total;
+    o->pool = p->policy != NULL;
+    const struct adaptive_status *a = p->policy;
     progress_show(&o->bar, &(struct progress_state){
                                .done = p->done, .total = p->total, .unit = "points",
                                .rig_time_s = p->rig_time_s, .estimate_s = p->estimate_s,
-                               .eta_s = p->eta_s, .fit_error = p->fit_log_error});
+                               .eta_s = p->eta_s, .fit_error = p->fit_log_error,
+                               .pool = a != NULL,
+                               .predicted = a ? a->predicted_error : NAN,
+                               .predicted_next = a ? a->predicted_next : NAN,
+                               .predicted_next_s = a ? a->predicted_next_s : NAN});
 }
 
 static enum capture_control on_control(void *user)
@@ -67,6 +82,27 @@ static void print_errors(const char *domain, const struct brdf_errors *e)
            e->rel_rmse, e->n_used);
 }
 
+int cmd_capture_number(const char *opt, const char *text, double *out)
+{
+    char *end;
+    *out = strtod(text, &end);
+    if (end == text || *end || !isfinite(*out) || *out <= 0) {
+        fprintf(stderr, "gonio capture: %s '%s': a positive number\n", opt, text);
+        return -1;
+    }
+    return 0;
+}
+
+/* The adaptive order: why it stopped, what it predicts, what deciding cost. */
+static void print_policy(const struct capture_summary *s)
+{
+    printf("  adaptive: stopped (%s) after %zu samples; predicted full-domain log error of "
+           "%s %.4f\n",
+           s->stop_reason, s->samples, s->policy.model, s->policy.predicted_error);
+    printf("  decisions %zu, %.3f s mean, %.3f s max; the rig waited %.3f s for them\n",
+           s->decisions, s->decision_mean_s, s->decision_max_s, s->decision_wait_s);
+}
+
 int cmd_capture(int argc, char **argv)
 {
     static const struct option opts[] = {
@@ -76,6 +112,7 @@ int cmd_capture(int argc, char **argv)
         {"order", required_argument, NULL, 'o'}, {"out", required_argument, NULL, 'd'},
         {"quiet", no_argument, NULL, 'q'},     {"help", no_argument, NULL, 'h'},
         {"stop", required_argument, NULL, 'S'}, {"truth", required_argument, NULL, 't'},
+        {"budget", required_argument, NULL, 'B'}, {"stop-target", required_argument, NULL, 'T'},
         {NULL, 0, NULL, 0},
     };
     struct capture_config cfg = {.model = "abc"};
@@ -94,6 +131,12 @@ int cmd_capture(int argc, char **argv)
         case 'S': cfg.stop = optarg; break;
         case 't': cfg.truth = optarg; break;
         case 'q': cfg.quiet = 1; break;
+        case 'B':
+        case 'T':
+            if (cmd_capture_number(c == 'B' ? "--budget" : "--stop-target", optarg,
+                             c == 'B' ? &cfg.budget_min : &cfg.stop_target) < 0)
+                return 2;
+            break;
         case 'h': usage(stdout); return 0;
         default: usage(stderr); return 2;
         }
@@ -127,9 +170,10 @@ int cmd_capture(int argc, char **argv)
             fprintf(stderr, "gonio capture: %s before the first point; nothing written\n", sig);
         else
             fprintf(stderr,
-                    "gonio capture: %s: stopped after %zu of %zu points, all in %s/samples.csv;"
-                    " run the same command again to resume\n",
-                    sig, o.done, o.total, cfg.out_dir);
+                    "gonio capture: %s: stopped after %zu %s %zu%s, all in %s/samples.csv; "
+                    "run the same command again to resume\n",
+                    sig, o.done, o.pool ? "points from a pool of" : "of", o.total,
+                    o.pool ? "" : " points", cfg.out_dir);
         return INTERRUPT_EXIT;
     }
     printf("capture %s: plan %s, material %s, model %s\n", cfg.out_dir, s.plan, s.material,
@@ -149,7 +193,9 @@ int cmd_capture(int argc, char **argv)
                kind && fit_model_censors(kind, FIT_SATURATED_DEFAULT)
                    ? "as lower bounds (censored)"
                    : "at their clipped values (lower bounds of the truth)");
-    if (!strcmp(s.stop_reason, "converged"))
+    if (s.adaptive)
+        print_policy(&s);
+    else if (!strcmp(s.stop_reason, "converged"))
         printf("  stopped on convergence after %zu samples\n", s.samples);
     if (s.model_file[0])
         printf("  model file %s/%s\n", cfg.out_dir, s.model_file);

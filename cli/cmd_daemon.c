@@ -180,12 +180,17 @@ static void show_start(struct progress *p, json_t *d)
                       jsize(d, "total"));
 }
 
-static void show_event(struct progress *p, json_t *d, double estimate_s)
+/* pool: the capture is adaptive (its start document says so). */
+static void show_event(struct progress *p, json_t *d, double estimate_s, int pool)
 {
     progress_show(p, &(struct progress_state){
                          .done = jsize(d, "done"), .total = jsize(d, "total"), .unit = "points",
                          .rig_time_s = jreal(d, "rig_time_s"), .estimate_s = estimate_s,
-                         .eta_s = jreal(d, "eta_s"), .fit_error = jreal(d, "fit_log_error")});
+                         .eta_s = jreal(d, "eta_s"), .fit_error = jreal(d, "fit_log_error"),
+                         .pool = pool,
+                         .predicted = jreal(d, "predicted_error"),
+                         .predicted_next = jreal(d, "predicted_next"),
+                         .predicted_next_s = jreal(d, "predicted_next_s")});
 }
 
 static void show_stop(struct progress *p, json_t *d)
@@ -214,6 +219,13 @@ static void show_stop(struct progress *p, json_t *d)
         if (ef)
             printf("  against %s: full-domain log error %.4f\n", truth ? truth : "the material",
                    jreal(ef, "log_error"));
+        json_t *ad = json_object_get(res, "adaptive");
+        if (ad)
+            printf("  adaptive: predicted full-domain log error of %s %.4f; decisions %.3f s "
+                   "mean, %.3f s max\n",
+                   json_string_value(json_object_get(ad, "model")),
+                   jreal(ad, "predicted_error"), jreal(ad, "decision_mean_s"),
+                   jreal(ad, "decision_max_s"));
     }
     fflush(stdout);
 }
@@ -225,6 +237,7 @@ static int follow(struct conn *c, const char *id, int quiet)
 {
     char cur[128] = "";
     double estimate_s = NAN;
+    int pool = 0;
     struct progress p;
     progress_init(&p, cur, quiet);
     if (id)
@@ -244,9 +257,10 @@ static int follow(struct conn *c, const char *id, int quiet)
             snprintf(cur, sizeof cur, "%s", cid ? cid : "?");
             progress_init(&p, cur, quiet);
             estimate_s = jreal(d, "estimate_s");
+            pool = json_is_true(json_object_get(d, "adaptive"));
             show_start(&p, d);
         } else if (!strcmp(cls, "event") && cur[0]) {
-            show_event(&p, d, estimate_s);
+            show_event(&p, d, estimate_s, pool);
         } else if (!strcmp(cls, "state") && mine && cur[0]) {
             const char *state = json_string_value(json_object_get(d, "state"));
             progress_note(&p, "capture %s %s", cur,
@@ -444,7 +458,8 @@ static void capture_usage(FILE *out)
     fprintf(out,
             "usage: gonio capture --plan NAME|FILE [--scene NAME|FILE] [--material SPEC]\n"
             "                     [--rig NAME|FILE] [--model NAME] [--order ORDER]\n"
-            "                     [--stop all|converge] [--truth SPEC] [--name ID] [--wait]\n"
+            "                     [--stop all|converge] [--budget MINUTES]\n"
+            "                     [--stop-target LOG_ERR] [--truth SPEC] [--name ID] [--wait]\n"
             "                     [--quiet] [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). Files are relative to goniod's capture\n"
@@ -453,8 +468,11 @@ static void capture_usage(FILE *out)
             "  full-domain errors (on hardware there are none without it; on the simulator\n"
             "  the default is the material it measures). --wait follows the capture to its\n"
             "  end, its progress on stderr (--quiet: none): exit 0 when it completes.\n"
+            "  --order adaptive, --budget, --stop-target: as 'gonio capture --offline --help'\n"
+            "  says.\n"
             "  goniod checks the request before it starts anything: a bad plan, scene,\n"
-            "  rig, material, model, order, stop or truth exits 2 and creates nothing.\n"
+            "  rig, material, model, order, stop, budget, target or truth exits 2 and\n"
+            "  creates nothing.\n"
             "  The socket is --socket, else $GONIO_SOCKET, else " GONIO_SOCKET_DEFAULT ".\n");
 }
 
@@ -467,12 +485,14 @@ int cmd_capture_daemon(int argc, char **argv)
         {"model", required_argument, NULL, 'M'}, {"order", required_argument, NULL, 'o'},
         {"stop", required_argument, NULL, 'x'},  {"name", required_argument, NULL, 'n'},
         {"truth", required_argument, NULL, 't'}, {"wait", no_argument, NULL, 'w'},
-        {"quiet", no_argument, NULL, 'q'},       {NULL, 0, NULL, 0},
+        {"quiet", no_argument, NULL, 'q'},       {"budget", required_argument, NULL, 'B'},
+        {"stop-target", required_argument, NULL, 'T'}, {NULL, 0, NULL, 0},
     };
     static const char *const keys[] = {"plan", "scene", "material", "rig",
                                        "model", "order", "stop", "name", "truth"};
     static const char letters[] = "psmrMoxnt";
     const char *vals[9] = {0}, *sock = NULL;
+    double budget = 0, target = 0;
     int wait = 0, quiet = 0, ch;
     optind = 1;
     while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
@@ -485,6 +505,12 @@ int cmd_capture_daemon(int argc, char **argv)
         case 'S': sock = optarg; break;
         case 'w': wait = 1; break;
         case 'q': quiet = 1; break;
+        case 'B':
+        case 'T':
+            if (cmd_capture_number(ch == 'B' ? "--budget" : "--stop-target", optarg,
+                                   ch == 'B' ? &budget : &target) < 0)
+                return 2;
+            break;
         case 'h': capture_usage(stdout); return 0;
         default: capture_usage(stderr); return 2;
         }
@@ -519,6 +545,10 @@ int cmd_capture_daemon(int argc, char **argv)
         for (int i = 0; i < 9; i++)
             if (vals[i])
                 json_object_set_new(req, keys[i], json_string(vals[i]));
+        if (budget > 0)
+            json_object_set_new(req, "budget", json_real(budget));
+        if (target > 0)
+            json_object_set_new(req, "stop_target", json_real(target));
         rep = conn_request(&c, req);
         rc = reply_failed(rep);
     }

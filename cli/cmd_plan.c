@@ -21,7 +21,7 @@
 static void plan_usage(FILE *out)
 {
     fprintf(out, "usage: gonio plan NAME|FILE.yaml [--rig NAME|FILE] [--scene NAME|FILE]\n"
-                 "                  [--order travel|progressive|as-written|greedy]\n"
+                 "                  [--order travel|progressive|as-written|greedy|adaptive]\n"
                  "                  [--summary | --json]\n"
                  "Dry run: a summary (plan, rig, count, time estimate), then the pairs in\n"
                  "execution order with their axis positions.\n"
@@ -146,7 +146,7 @@ int cmd_plan(int argc, char **argv)
             } else if ((order = plan_order_parse(argv[++i])) < 0) {
                 fprintf(stderr,
                         "gonio plan: --order '%s': unknown (allowed travel, progressive, "
-                        "as-written, greedy)\n",
+                        "as-written, greedy, adaptive)\n",
                         argv[i]);
                 return 2;
             }

@@ -25,4 +25,8 @@ int cmd_resume(int argc, char **argv);
 int cmd_abort(int argc, char **argv);
 int cmd_shutdown(int argc, char **argv);
 
+/* --budget MINUTES, --stop-target LOG_ERR (opt) of both capture commands:
+ * a positive number, else a message on stderr and -1. */
+int cmd_capture_number(const char *opt, const char *text, double *out);
+
 #endif

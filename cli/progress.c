@@ -3,6 +3,7 @@
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <string.h>
 #include <unistd.h>
 
 #define BAR_WIDTH 24
@@ -25,7 +26,9 @@ void progress_hms(double s, char *buf, size_t size)
         snprintf(buf, size, "%ld:%02ld", t / 60, t % 60);
 }
 
-/* "rig 0:29 of ~13:40  ETA 11:02  fit 0.0123", the parts the job has. */
+/* "rig 0:29 of ~13:40  ETA 11:02  fit 0.0123", the parts the job has;
+ * an adaptive capture's "rig 0:29 of 2:00 budget ... predicted error now
+ * 0.031, 0.025 in ~4 min". */
 static void figures(const struct progress_state *s, int tty, char *buf, size_t size)
 {
     char a[32], b[32];
@@ -36,8 +39,16 @@ static void figures(const struct progress_state *s, int tty, char *buf, size_t s
         n += snprintf(buf + n, size - (size_t)n, tty ? "  rig %s" : ", rig time %s", a);
         if (isfinite(s->estimate_s) && (size_t)n < size) {
             progress_hms(s->estimate_s, b, sizeof b);
-            n += snprintf(buf + n, size - (size_t)n, " of ~%s estimated", b);
+            n += snprintf(buf + n, size - (size_t)n, s->pool ? " of %s budget" : " of ~%s estimated",
+                          b);
         }
+    }
+    if (s->pool && isfinite(s->predicted) && (size_t)n < size) {
+        n += snprintf(buf + n, size - (size_t)n, "%spredicted error now %.3f", tty ? "  " : ", ",
+                      s->predicted);
+        if (isfinite(s->predicted_next) && isfinite(s->predicted_next_s) && (size_t)n < size)
+            n += snprintf(buf + n, size - (size_t)n, ", %.3f in ~%.0f min", s->predicted_next,
+                          fmax(1, s->predicted_next_s / 60));
     }
     if (isfinite(s->eta_s) && (size_t)n < size) {
         progress_hms(s->eta_s, a, sizeof a);
@@ -48,12 +59,30 @@ static void figures(const struct progress_state *s, int tty, char *buf, size_t s
                  s->fit_error);
 }
 
+/* Redraw the bar's line in place; spaces wipe what a longer line left. */
+static void redraw(struct progress *p, const char *line)
+{
+    size_t len = strlen(line);
+    fprintf(stderr, "\r%s%*s", line, p->drawn > len ? (int)(p->drawn - len) : 0, "");
+    fflush(stderr);
+    p->drawn = len;
+}
+
 void progress_show(struct progress *p, const struct progress_state *s)
 {
     if (p->quiet)
         return;
-    char fig[160];
+    char fig[224];
     figures(s, p->tty, fig, sizeof fig);
+    if (!p->tty && s->pool) {
+        /* The first line, then one each ten points. */
+        if (p->last_tenth && s->done % 10)
+            return;
+        p->last_tenth = 1;
+        fprintf(stderr, "%s: %zu %s (pool of %zu)%s\n", p->label, s->done, s->unit, s->total,
+                fig);
+        return;
+    }
     if (!p->tty) {
         /* The first line, then one as each tenth begins (the last: done). */
         size_t tenth = s->total ? s->done * 10 / s->total : 10;
@@ -63,19 +92,20 @@ void progress_show(struct progress *p, const struct progress_state *s)
         fprintf(stderr, "%s: %zu/%zu %s%s\n", p->label, s->done, s->total, s->unit, fig);
         return;
     }
+    if (s->pool) {
+        char line[256];
+        snprintf(line, sizeof line, "%s %zu %s%s", p->label, s->done, s->unit, fig);
+        redraw(p, line);
+        return;
+    }
     char bar[BAR_WIDTH + 1];
     size_t fill = s->total ? BAR_WIDTH * s->done / s->total : 0;
     for (size_t i = 0; i < BAR_WIDTH; i++)
         bar[i] = i < fill ? '#' : '.';
     bar[BAR_WIDTH] = '\0';
     char line[256];
-    int n = snprintf(line, sizeof line, "%s [%s] %zu/%zu%s", p->label, bar, s->done, s->total,
-                     fig);
-    size_t len = n < 0 ? 0 : (size_t)n < sizeof line ? (size_t)n : sizeof line - 1;
-    /* Redraw in place; spaces wipe what a longer line left. */
-    fprintf(stderr, "\r%s%*s", line, p->drawn > len ? (int)(p->drawn - len) : 0, "");
-    fflush(stderr);
-    p->drawn = len;
+    snprintf(line, sizeof line, "%s [%s] %zu/%zu%s", p->label, bar, s->done, s->total, fig);
+    redraw(p, line);
 }
 
 void progress_end(struct progress *p)

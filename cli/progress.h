@@ -14,7 +14,8 @@
 struct progress {
     const char *label; /* "capture", "study", ... */
     int quiet, tty;
-    size_t last_tenth; /* plain lines: the last tenth printed, +1 (0: none yet) */
+    size_t last_tenth; /* plain lines: the last tenth printed, +1 (0: none yet; a
+                          pool's: 1 once one is printed) */
     size_t drawn;      /* terminal: length of the bar line on screen, 0 when none */
 };
 
@@ -27,6 +28,12 @@ struct progress_state {
     size_t done, total;
     double rig_time_s, estimate_s, eta_s, fit_error;
     const char *unit; /* "points", "jobs", "epochs" */
+    /* An adaptive capture (pool set): total is the size of the pool it
+     * chooses from (no bar: it measures a few), estimate_s its budget; its
+     * prediction "predicted error now 0.031, 0.025 in ~4 min" when finite
+     * (the fields are read only with pool set). */
+    int pool;
+    double predicted, predicted_next, predicted_next_s;
 };
 
 void progress_show(struct progress *p, const struct progress_state *s);

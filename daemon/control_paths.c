@@ -161,10 +161,11 @@ static void request_path(const struct worker_request *r, char *out, size_t size)
 
 int control_save_request(const struct worker_request *r, struct gonio_err *err)
 {
-    json_t *d = json_pack("{s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s}", "id", r->id, "plan",
-                          r->plan, "scene", r->scene, "rig", r->rig, "material", r->material,
-                          "truth", r->truth, "model", r->model, "order", r->order, "stop",
-                          r->stop);
+    json_t *d = json_pack("{s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:f, s:f}", "id", r->id,
+                          "plan", r->plan, "scene", r->scene, "rig", r->rig, "material",
+                          r->material, "truth", r->truth, "model", r->model, "order", r->order,
+                          "stop", r->stop, "budget", r->budget_min, "stop_target",
+                          r->stop_target);
     char *text = d ? control_json_text(d) : NULL;
     if (!text)
         return gonio_err_set(err, ENOMEM, "out of memory");
@@ -186,10 +187,12 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
                              "capture '%s' has no readable %s (%s): not a goniod capture",
                              r->id, request_file, je.text);
     const char *plan, *scene, *rig, *material, *truth = "", *model, *order, *stop;
-    /* truth: absent from the records of older goniods */
-    if (json_unpack(d, "{s:s, s:s, s:s, s:s, s?:s, s:s, s:s, s:s}", "plan", &plan, "scene",
-                    &scene, "rig", &rig, "material", &material, "truth", &truth, "model", &model,
-                    "order", &order, "stop", &stop) < 0) {
+    double budget = 0, target = 0;
+    /* truth, budget, stop_target: absent from the records of older goniods */
+    if (json_unpack(d, "{s:s, s:s, s:s, s:s, s?:s, s:s, s:s, s:s, s?:F, s?:F}", "plan", &plan,
+                    "scene", &scene, "rig", &rig, "material", &material, "truth", &truth,
+                    "model", &model, "order", &order, "stop", &stop, "budget", &budget,
+                    "stop_target", &target) < 0) {
         json_decref(d);
         return gonio_err_set(err, GONIO_EBADDATA, "%s: lacks a field goniod writes", path);
     }
@@ -226,6 +229,8 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
     snprintf(r->model, sizeof r->model, "%s", model);
     snprintf(r->order, sizeof r->order, "%s", order);
     snprintf(r->stop, sizeof r->stop, "%s", stop);
+    r->budget_min = budget;
+    r->stop_target = target;
     json_decref(d);
     return 0;
 }

@@ -29,10 +29,16 @@ static json_t *start_doc(const struct worker_msg_start *m)
     json_object_set_new(s, "model", json_string(m->req.model));
     json_object_set_new(s, "order", m->req.order[0] ? json_string(m->req.order) : json_null());
     json_object_set_new(s, "stop", m->req.stop[0] ? json_string(m->req.stop) : json_null());
+    json_object_set_new(s, "budget", m->req.budget_min > 0 ? json_real(m->req.budget_min)
+                                                           : json_null());
+    json_object_set_new(s, "stop_target", m->req.stop_target > 0
+                                              ? json_real(m->req.stop_target)
+                                              : json_null());
     json_object_set_new(s, "resume", json_boolean(m->req.resume));
     json_object_set_new(s, "total", json_integer((json_int_t)m->total));
     json_object_set_new(s, "already_done", json_integer((json_int_t)m->already_done));
     json_object_set_new(s, "estimate_s", control_json_number(m->estimate_s));
+    json_object_set_new(s, "adaptive", json_boolean(m->adaptive));
     json_object_set_new(s, "time", json_integer((json_int_t)time(NULL)));
     return s;
 }
@@ -63,6 +69,11 @@ static json_t *sample_doc(const control *c, const struct worker_msg_sample *m)
     json_object_set_new(d, "eta_s", control_json_number(m->eta_s));
     if (isfinite(m->fit_log_error))
         json_object_set_new(d, "fit_log_error", json_real(m->fit_log_error));
+    if (isfinite(m->predicted)) { /* the adaptive order */
+        json_object_set_new(d, "predicted_error", json_real(m->predicted));
+        json_object_set_new(d, "predicted_next", control_json_number(m->predicted_next));
+        json_object_set_new(d, "predicted_next_s", control_json_number(m->predicted_next_s));
+    }
     return d;
 }
 
@@ -183,6 +194,13 @@ static json_t *stop_doc(const struct worker_msg_stop *m)
             json_object_set_new(r, "err_inplane", errors_doc(&s->err_inplane));
             json_object_set_new(r, "err_full", errors_doc(&s->err_full));
         }
+        if (s->adaptive) /* results.json has the rest */
+            json_object_set_new(
+                r, "adaptive",
+                json_pack("{s:s, s:o, s:o, s:o}", "model", s->policy.model, "predicted_error",
+                          control_json_number(s->policy.predicted_error), "decision_mean_s",
+                          control_json_number(s->decision_mean_s), "decision_max_s",
+                          control_json_number(s->decision_max_s)));
         json_object_set_new(d, "results", r);
     }
     return d;

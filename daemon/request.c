@@ -3,7 +3,7 @@
 #include <stdio.h>
 #include <string.h>
 
-enum arg_type { ARG_STRING, ARG_BOOL, ARG_INT };
+enum arg_type { ARG_STRING, ARG_BOOL, ARG_INT, ARG_NUMBER };
 
 struct arg_spec {
     const char *name;
@@ -14,7 +14,7 @@ static const struct arg_spec capture_args[] = {
     {"plan", ARG_STRING},  {"scene", ARG_STRING}, {"material", ARG_STRING},
     {"rig", ARG_STRING},   {"model", ARG_STRING}, {"order", ARG_STRING},
     {"stop", ARG_STRING},  {"name", ARG_STRING},  {"truth", ARG_STRING},
-    {NULL, ARG_STRING},
+    {"budget", ARG_NUMBER}, {"stop_target", ARG_NUMBER}, {NULL, ARG_STRING},
 };
 static const struct arg_spec resume_args[] = {{"capture_id", ARG_STRING}, {NULL, ARG_STRING}};
 static const struct arg_spec no_args[] = {{NULL, ARG_STRING}};
@@ -40,13 +40,18 @@ const char *control_cmd_name(enum control_cmd cmd)
 
 static const char *type_name(enum arg_type t)
 {
-    return t == ARG_STRING ? "a string" : t == ARG_BOOL ? "true or false" : "an integer";
+    return t == ARG_STRING ? "a string"
+           : t == ARG_BOOL ? "true or false"
+           : t == ARG_INT  ? "an integer"
+                           : "a number";
 }
 
 static int type_ok(enum arg_type t, json_t *v)
 {
-    return t == ARG_STRING ? json_is_string(v) : t == ARG_BOOL ? json_is_boolean(v)
-                                                               : json_is_integer(v);
+    return t == ARG_STRING ? json_is_string(v)
+           : t == ARG_BOOL ? json_is_boolean(v)
+           : t == ARG_INT  ? json_is_integer(v)
+                           : json_is_number(v);
 }
 
 static int fail(const char **code, const char *what, char *msg, size_t size, const char *text)

@@ -26,6 +26,7 @@ struct worker {
     struct worker_request req;
     size_t done, total;
     double rig_time_s, estimate_s, eta_s;
+    double predicted[3]; /* the adaptive order's prediction (worker_msg_sample) */
     int announced; /* this run's start message is queued */
     /* The last capture's end: "" while none has ended since the current
      * one started (worker_status). */
@@ -124,6 +125,10 @@ static void hook_on_progress(void *user, const struct capture_progress *p)
     w->total = p->total;
     w->estimate_s = p->estimate_s;
     w->eta_s = p->eta_s;
+    const struct adaptive_status *a = p->policy;
+    w->predicted[0] = a ? a->predicted_error : NAN;
+    w->predicted[1] = a ? a->predicted_next : NAN;
+    w->predicted[2] = a ? a->predicted_next_s : NAN;
     int announce = !w->announced;
     w->announced = 1;
     pthread_mutex_unlock(&w->mu);
@@ -136,6 +141,7 @@ static void hook_on_progress(void *user, const struct capture_progress *p)
     m->total = p->total;
     m->already_done = p->already_done;
     m->estimate_s = p->estimate_s;
+    m->adaptive = p->policy != NULL;
     push(w, &m->base);
 }
 
@@ -165,6 +171,7 @@ static void hook_on_sample(void *user, const struct journal_sample *s, size_t do
     w->rig_time_s = s->rig_time_s;
     double fit_log = w->has_fit && !strcmp(w->fit_id, w->req.id) ? w->fit_log : NAN;
     double eta = w->eta_s;
+    double predicted[3] = {w->predicted[0], w->predicted[1], w->predicted[2]};
     pthread_mutex_unlock(&w->mu);
     struct worker_msg_sample *m = calloc(1, sizeof *m);
     if (!m)
@@ -175,6 +182,9 @@ static void hook_on_sample(void *user, const struct journal_sample *s, size_t do
     m->total = total;
     m->fit_log_error = fit_log;
     m->eta_s = eta;
+    m->predicted = predicted[0];
+    m->predicted_next = predicted[1];
+    m->predicted_next_s = predicted[2];
     push(w, &m->base);
 }
 
@@ -240,6 +250,8 @@ static struct capture_config request_config(const worker *w, const struct worker
         .out_dir = r->dir,
         .order = r->order[0] ? r->order : NULL,
         .stop = r->stop[0] ? r->stop : NULL,
+        .budget_min = r->budget_min,
+        .stop_target = r->stop_target,
         .quiet = 1,
         .assess_nodes = (size_t)w->cfg->assess_nodes,
         .progress_fit = 1,

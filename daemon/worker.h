@@ -29,6 +29,7 @@ struct worker_request {
      * reference of the truth errors, "" for none (docs/protocol.md). */
     char plan[1024], scene[1024], rig[1024], material[1024], truth[1024], model[32], order[32];
     char stop[16]; /* "all", "converge" or "" (the plan's rule) */
+    double budget_min, stop_target; /* the adaptive order's stops, 0: none */
     int resume; /* the directory exists: continue from its journal */
 };
 
@@ -70,6 +71,7 @@ struct worker_msg_start {
     char plan_name[128];
     size_t total, already_done;
     double estimate_s; /* the plan's rig-time estimate (capture_progress) */
+    int adaptive;      /* the adaptive order: total is the pool's size */
 };
 
 struct worker_msg_sample {
@@ -78,6 +80,10 @@ struct worker_msg_sample {
     size_t done, total;
     double fit_log_error; /* the streaming fit's in-sample error, NAN before a round */
     double eta_s;         /* rig time still to go (capture_progress) */
+    /* The adaptive order's prediction (capture_progress.policy): the
+     * full-domain log error now, and predicted_next after predicted_next_s
+     * more rig time; NAN in other orders. */
+    double predicted, predicted_next, predicted_next_s;
 };
 
 struct worker_msg_stop {

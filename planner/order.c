@@ -472,7 +472,7 @@ int plan_order_indices(const struct plan_point *pts, size_t n, enum plan_order_m
     struct tour t = {pts, rig, {0, 0, 0}, NULL, n};
     for (size_t i = 0; i < n; i++)
         order[i] = i;
-    if (mode == PLAN_ORDER_AS_WRITTEN)
+    if (mode == PLAN_ORDER_AS_WRITTEN || mode == PLAN_ORDER_ADAPTIVE)
         return 0;
     double *matrix = NULL;
     if (n <= MATRIX_MAX && (matrix = malloc((n ? n * n : 1) * sizeof *matrix))) {
@@ -483,7 +483,8 @@ int plan_order_indices(const struct plan_point *pts, size_t n, enum plan_order_m
     }
     int rc = -EINVAL;
     switch (mode) {
-    case PLAN_ORDER_AS_WRITTEN: rc = 0; break;
+    case PLAN_ORDER_AS_WRITTEN:
+    case PLAN_ORDER_ADAPTIVE: rc = 0; break;
     case PLAN_ORDER_GREEDY:
         /* O(n^2): for dense domain plans the sweep stands in */
         if (n > GREEDY_MAX)

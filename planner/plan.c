@@ -11,11 +11,11 @@
 #include "planner/plan_private.h"
 
 static const char *const order_names[] = {"travel", "progressive", "as-written", "greedy",
-                                          NULL};
+                                          "adaptive", NULL};
 
 const char *plan_order_name(enum plan_order_mode mode)
 {
-    return (unsigned)mode < 4 ? order_names[mode] : "?";
+    return (unsigned)mode <= PLAN_ORDER_ADAPTIVE ? order_names[mode] : "?";
 }
 
 int plan_order_parse(const char *name)

@@ -26,6 +26,10 @@ enum plan_order_mode {
     PLAN_ORDER_PROGRESSIVE, /* coarse to fine, each level travel-ordered */
     PLAN_ORDER_AS_WRITTEN,  /* file order (grids: theta_i, then theta_r) */
     PLAN_ORDER_GREEDY,      /* nearest neighbour in move time: a baseline */
+    /* The capture chooses each next point from the samples so far
+     * (adaptive/adaptive.h): the plan is the candidate pool, kept in
+     * written order, which does not matter. */
+    PLAN_ORDER_ADAPTIVE,
 };
 
 enum plan_stop_kind { PLAN_STOP_ALL, PLAN_STOP_CONVERGE };
@@ -123,8 +127,8 @@ const struct plan_stop *plan_stop(const struct plan *plan);
  * blind zone (retro-reflection); 0 for lists of pairs, which are refused. */
 size_t plan_dropped(const struct plan *plan);
 
-/* "travel", "progressive", "as-written", "greedy"; parse returns -1 when
- * unknown. */
+/* "travel", "progressive", "as-written", "greedy", "adaptive"; parse
+ * returns -1 when unknown. */
 const char *plan_order_name(enum plan_order_mode mode);
 int plan_order_parse(const char *name);
 

@@ -309,9 +309,10 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
 
     /* The capture: a rerun resumes it from its journal (or finds it done). */
     struct capture_config cfg = {
-        .plan = plan->file, .scene = scene->spec, .material = mat->spec, .model = "abc",
+        .plan = plan->file, .scene = scene->spec, .material = mat->spec,
+        .model = plan->model ? plan->model : "abc", /* the adaptive policy's */
         .out_dir = jobdir, .order = plan->order, .stop = plan->stop, .quiet = 1,
-        .measure_only = 1, .lazy_journal = 1,
+        .measure_only = 1, .lazy_journal = 1, .budget_min = plan->budget_min,
     };
     struct capture_summary sum;
     struct fit_sample *samples = NULL;
@@ -356,6 +357,12 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
         rc = fit_one(s, m, jobdir, samples, lower, n, mat->spec, &t, &f, err);
         if (rc < 0)
             break;
+        if (sum.adaptive && !strcmp(f.model, sum.policy.model)) { /* its own prediction */
+            char note[sizeof f.note];
+            snprintf(note, sizeof note, "adaptive: predicted full log error %.4g; %.520s",
+                     sum.policy.predicted_error, f.note);
+            memcpy(f.note, note, sizeof note);
+        }
         if (saturated) { /* say how the fit took the clipped values */
             char note[sizeof f.note];
             snprintf(note, sizeof note, "%zu saturated samples (%s); %.520s", saturated,

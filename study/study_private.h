@@ -21,6 +21,8 @@ struct study_plan {
     const char *order; /* capture order override, or NULL */
     const char *stop;  /* capture stop override, or NULL */
     double weight;     /* relative cost of a job, for scheduling */
+    double budget_min; /* the adaptive order's rig-time budget, 0: none */
+    const char *model; /* the adaptive policy's model (the capture's), NULL: abc */
 };
 
 /* The plan of a --plans entry: a built-in study plan by name, or a plan

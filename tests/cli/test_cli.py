@@ -207,6 +207,47 @@ def test_goniod_yaml_page_names_every_key():
 
 # --- item 4: gonio plan ------------------------------------------------------
 
+def test_plan_inplane_1deg_pool():
+    """The adaptive pool: every reachable in-plane pair on a 1-degree grid
+    (81 x 161 minus the 719 in the 5-degree blind zone), declared adaptive,
+    kept as written (its first pairs theta_i 0, theta_r -80, -79, ...)."""
+    r = gonio("plan", "inplane-1deg", "--json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    assert doc["count"] == 81 * 161 - 719 == 12322
+    assert doc["order"] == "adaptive"
+    assert [(p["theta_i"], p["theta_r"]) for p in doc["pairs"][:3]] == [(0, -80), (0, -79),
+                                                                       (0, -78)]
+    assert len({(p["theta_i"], p["theta_r"]) for p in doc["pairs"]}) == 12322
+
+
+def test_capture_adaptive_offline(tmp):
+    """--order adaptive: progress lines carry the policy's prediction (no
+    bar: the pool is not measured whole), the summary its stop and figures;
+    --budget outside the adaptive order, or not a positive number, exits 2
+    with nothing written."""
+    out = os.path.join(tmp, "ad")
+    r = gonio("capture", "--offline", "--scene", "ideal", "--plan", "ds2", "--order", "adaptive",
+              "--stop", "all", "--budget", "1", "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert "(pool of 160)" in r.stderr
+    assert re.search(r"predicted error now \d\.\d{3}", r.stderr), r.stderr
+    assert re.search(r"adaptive: stopped \(budget\) after \d+ samples; predicted full-domain "
+                     r"log error of abc \d\.\d{4}", r.stdout), r.stdout
+    with open(os.path.join(out, "results.json")) as f:
+        assert json.load(f)["rig_time_s"] <= 60
+    for args, needle in ((("--budget", "0.5"), "--budget 0.5: only the adaptive order"),
+                         (("--stop-target", "0.05"), "--stop-target 0.05: only the adaptive"),
+                         (("--order", "adaptive", "--budget", "soon"), "--budget 'soon'"),
+                         (("--order", "adaptive", "--stop-target", "0"), "--stop-target '0'")):
+        bad = os.path.join(tmp, "bad")
+        r = gonio("capture", "--offline", "--scene", "ideal", "--plan", "ds2", "--out", bad,
+                  *args)
+        assert r.returncode == 2, (args, r.stderr)
+        assert needle in r.stderr, (args, r.stderr)
+        assert not os.path.exists(bad), args
+
+
 def test_plan_summary_first_and_alone():
     full = gonio("plan", "ds1")
     assert full.returncode == 0, full.stderr

@@ -859,6 +859,51 @@ class CaptureTests(DaemonTest):
         st = c.request("status")
         self.assertEqual((st["state"], st["capture"]), ("idle", None))
 
+    def test_adaptive_capture(self):
+        """--order adaptive through goniod: budget and stop_target are
+        numbers, refused (nothing created) in a fixed order or out of range;
+        an adaptive capture stops on its budget within it, its events carry
+        the policy's prediction, its results the policy's figures."""
+        c = self.d.connect()
+        c.request("watch")
+        r = c.request("capture", plan="ds2", order="adaptive", budget="1", name="ad")
+        self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-type"), r)
+        self.assertIn("budget", r["message"])
+        for args, needle in (({"budget": 0.5}, "--budget 0.5"),
+                             ({"stop_target": 0.04}, "--stop-target 0.04"),
+                             ({"order": "adaptive", "budget": -2}, "--budget -2")):
+            r = c.request("capture", plan="ds2", name="ad", **args)
+            self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-value"), (args, r))
+            self.assertIn(needle, r["message"])
+            self.assertFalse(os.path.exists(os.path.join(self.d.root, "ad")), args)
+        r = c.request("capture", plan="ds2", order="adaptive", stop="all", budget=0.5,
+                      name="ad")
+        self.assertEqual(r["class"], "OK", r)
+        docs = c.until_stop("ad")
+        self.assertEqual(docs[0]["budget"], 0.5)
+        stop = docs[-1]
+        self.assertEqual((stop["exit_status"], stop["reason"]), ("success", "budget"), stop)
+        self.assertLessEqual(stop["rig_time_s"], 30)
+        events = [d for d in docs if d.get("class") == "event"]
+        self.assertEqual(len(events), stop["samples"])
+        self.assertTrue(any("predicted_error" in e for e in events), events[-1])
+        self.assertEqual(len({e["point"] for e in events}), len(events))
+        with open(os.path.join(self.d.root, "ad", "results.json")) as f:
+            res = json.load(f)
+        self.assertEqual(res["stop_reason"], "budget")
+        self.assertEqual(res["adaptive"]["decisions"], stop["samples"])
+        self.assertEqual(stop["results"]["adaptive"]["model"], "abc")
+        self.assertIs(docs[0]["adaptive"], True)
+        # The client follows it with the policy's prediction, not a bar.
+        r = self.d.gonio("capture", "--plan", "ds2", "--order", "adaptive", "--stop", "all",
+                         "--budget", "1", "--name", "ad2", "--wait")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("(pool of 160)", r.stderr)
+        self.assertNotIn("/160 points", r.stderr)
+        self.assertRegex(r.stderr, r"predicted error now \d\.\d{3}")
+        self.assertIn("stopped: budget", r.stdout)
+        self.assertRegex(r.stdout, r"adaptive: predicted full-domain log error of abc \d\.\d{4}")
+
     def test_capture_models(self):
         """Any RGB model of the registry is a capture's final fit; every
         model writes its model file in the capture, ABC models also report

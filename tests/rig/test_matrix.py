@@ -57,13 +57,14 @@ def read_rows(path):
 class Sim:
     """gonio-sim on a scene, RTU on its pty and TCP on loopback."""
 
-    def __init__(self, folder, scene):
+    def __init__(self, folder, scene, scale=SCALE):
         self.folder = folder
+        self.scale = scale
         self.stats = os.path.join(folder, "sim-stats.json")
         out = os.path.join(folder, "sim.out")
         self.proc = subprocess.Popen(
             tg.wrap([os.path.join(tg.BIN, "gonio-sim"), "--scene", scene, "--time-scale",
-                     str(SCALE), "--tcp", "127.0.0.1:0", "--stats", self.stats], folder),
+                     str(scale), "--tcp", "127.0.0.1:0", "--stats", self.stats], folder),
             stdout=open(out, "w"), stderr=open(os.path.join(folder, "sim.err"), "w"))
         deadline = time.time() + tg.START_S
         text = ""
@@ -80,7 +81,7 @@ class Sim:
                  if transport == "rtu" else
                  "  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n" % self.port)
         return where + ("  time_scale: %d\n  timeout_s: %g\n  slaves: {sample: 1, arm: 2, "
-                        "detector: 3, azimuth: 4}\n" % (SCALE, 0.1 * tg.SLOW))
+                        "detector: 3, azimuth: 4}\n" % (self.scale, 0.1 * tg.SLOW))
 
     def stop(self):
         """SIGTERM; gonio-sim's stats (it writes them at exit)."""

@@ -1,0 +1,295 @@
+#include "capture/sequence.h"
+
+#include <errno.h>
+#include <math.h>
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/clock.h"
+#include "fit/journal_samples.h"
+
+/* One decision of the adaptive policy: give it the sample measured before
+ * the pending point (when it has not had it yet), then ask for the next. */
+struct decision {
+    const struct journal_sample *add; /* NULL: nothing new */
+    long pending;
+    struct plan_axes at;
+    double rig_time_s;
+    long next; /* the answer: a point, -1 (stop), or a negative code */
+    struct adaptive_status st;
+    struct gonio_err err;
+    double wall_s;
+};
+
+struct sequence {
+    const struct plan *plan;
+    const struct plan_rig *rig;
+    size_t count;
+    unsigned char *done; /* journalled points */
+    adaptive *policy;    /* NULL: plan order */
+    /* The adaptive order: the sample journalled before the pending point
+     * (has_prev), which the policy gets in the next decision unless
+     * prev_added. */
+    struct journal_sample prev;
+    int has_prev, prev_added;
+    struct decision d;
+    pthread_t thread;
+    int running;
+    struct sequence_report report;
+    double decision_sum_s;
+};
+
+static const struct plan_axes home = {0, 0, 0};
+
+static int policy_add(adaptive *a, const struct journal_sample *s, struct gonio_err *err)
+{
+    struct fit_sample fs;
+    fit_journal_samples(s, 1, &fs);
+    return adaptive_add(a, (size_t)s->point, &fs, (s->flags & JOURNAL_FLAG_SATURATED) != 0,
+                        err);
+}
+
+static void decide(sequence *q, struct decision *d)
+{
+    double t0 = gonio_monotonic_s();
+    int rc = d->add ? policy_add(q->policy, d->add, &d->err) : 0;
+    d->next = rc < 0 ? rc
+                     : adaptive_next(q->policy, &d->at, d->rig_time_s, d->pending, &d->st,
+                                     &d->err);
+    d->wall_s = gonio_monotonic_s() - t0;
+}
+
+static void *decide_thread(void *arg)
+{
+    sequence *q = arg;
+    decide(q, &q->d);
+    return NULL;
+}
+
+/* The decision with `pending` being measured, after prev (NULL: the first
+ * point); prev is given to the policy unless it already has it. The axes
+ * and the rig clock are prev's as the journal has them (home and 0 before
+ * the first point), from which the policy counts the pending point's
+ * cost: a resumed capture passes what the uninterrupted one did. */
+static void decision_set(sequence *q, long pending)
+{
+    const struct journal_sample *prev = q->has_prev ? &q->prev : NULL;
+    memset(&q->d, 0, sizeof q->d);
+    q->d.add = prev && !q->prev_added ? prev : NULL;
+    q->d.pending = pending;
+    q->d.at = prev ? plan_point(q->plan, (size_t)prev->point)->ax : home;
+    q->d.rig_time_s = prev ? prev->rig_time_s : 0;
+    q->prev_added = 1;
+}
+
+/* The decision's answer as the engine takes it. */
+static int decision_take(sequence *q, long *next, struct gonio_err *err)
+{
+    q->report.status = q->d.st;
+    if (q->d.next < -1) {
+        if (err)
+            *err = q->d.err;
+        return (int)q->d.next;
+    }
+    *next = q->d.next;
+    return 0;
+}
+
+/* The next point in plan order the journal lacks, from `from` on. */
+static long next_undone(const sequence *q, size_t from)
+{
+    for (size_t k = from; k < q->count; k++)
+        if (!q->done[k])
+            return (long)k;
+    return -1;
+}
+
+/* The policy's first decision, and a resumed capture's replay: the
+ * journal's samples in record order, each decision made again as the
+ * uninterrupted capture made it while the point was measured (the policy
+ * refits in every decision, warm-starting from the one before, so the
+ * samples alone would not bring it to the same state). The last decision
+ * gives the point that comes next. */
+static int replay(sequence *q, const struct journal_sample *js, size_t n, long *first,
+                  struct gonio_err *err)
+{
+    decision_set(q, -1);
+    decide(q, &q->d);
+    int rc = decision_take(q, first, err);
+    for (size_t i = 0; i < n && rc == 0; i++) {
+        decision_set(q, js[i].point);
+        decide(q, &q->d);
+        q->prev = js[i];
+        q->has_prev = 1;
+        q->prev_added = 0;
+        rc = decision_take(q, first, err);
+    }
+    return rc;
+}
+
+int sequence_new(const struct plan *plan, const struct plan_rig *rig,
+                 const struct adaptive_options *opt, const struct journal_sample *js, size_t n,
+                 const char *dir, sequence **out, long *first, struct gonio_err *err)
+{
+    *out = NULL;
+    sequence *q = calloc(1, sizeof *q);
+    size_t count = plan_count(plan);
+    if (!q || !(q->done = calloc(count ? count : 1, 1))) {
+        free(q);
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    }
+    q->plan = plan;
+    q->rig = rig;
+    q->count = count;
+    for (size_t i = 0; i < n; i++) {
+        int p = js[i].point;
+        if (p < 0 || (size_t)p >= count || q->done[p]) {
+            sequence_free(q);
+            return gonio_err_set(err, GONIO_EBADDATA,
+                                 "%s: journal record %zu names point %d, which the plan (%zu "
+                                 "points) does not have or has twice",
+                                 dir, i + 1, p, count);
+        }
+        q->done[p] = 1;
+    }
+    int rc = 0;
+    if (plan_current_order(plan) != PLAN_ORDER_ADAPTIVE) {
+        *first = next_undone(q, 0);
+    } else if (!(q->policy = adaptive_new(plan, rig, NULL, opt, err))) {
+        rc = -abs(err && err->code ? err->code : ENOMEM);
+    } else {
+        rc = replay(q, js, n, first, err);
+    }
+    if (rc < 0) {
+        sequence_free(q);
+        return rc;
+    }
+    *out = q;
+    return 0;
+}
+
+static void join(sequence *q)
+{
+    if (!q->running)
+        return;
+    double t0 = gonio_monotonic_s();
+    pthread_join(q->thread, NULL);
+    q->running = 0;
+    q->report.wait_s += gonio_monotonic_s() - t0;
+    q->report.decisions++;
+    q->decision_sum_s += q->d.wall_s;
+    q->report.decision_mean_s = q->decision_sum_s / (double)q->report.decisions;
+    if (q->d.wall_s > q->report.decision_max_s)
+        q->report.decision_max_s = q->d.wall_s;
+}
+
+void sequence_free(sequence *q)
+{
+    if (!q)
+        return;
+    join(q);
+    adaptive_free(q->policy);
+    free(q->done);
+    free(q);
+}
+
+int sequence_done(const sequence *q, size_t point)
+{
+    return point < q->count && q->done[point];
+}
+
+int sequence_begin(sequence *q, long k, struct gonio_err *err)
+{
+    if (!q->policy)
+        return 0;
+    decision_set(q, k);
+    int rc = pthread_create(&q->thread, NULL, decide_thread, q);
+    if (rc != 0)
+        return gonio_err_set(err, rc, "adaptive decision thread: %s", strerror(rc));
+    q->running = 1;
+    return 0;
+}
+
+int sequence_end(sequence *q, const struct journal_sample *s, long *next,
+                 struct gonio_err *err)
+{
+    *next = -1;
+    if (s)
+        q->done[s->point] = 1;
+    if (!q->policy) {
+        if (s)
+            *next = next_undone(q, (size_t)s->point + 1);
+        return 0;
+    }
+    join(q);
+    if (!s)
+        return 0;
+    q->prev = *s;
+    q->has_prev = 1;
+    q->prev_added = 0;
+    return decision_take(q, next, err);
+}
+
+int sequence_report(const sequence *q, struct sequence_report *r)
+{
+    if (!q->policy)
+        return 0;
+    *r = q->report;
+    return 1;
+}
+
+int sequence_options(const struct capture_config *cfg, const struct plan *plan, int converge,
+                     struct adaptive_options *opt, struct gonio_err *err)
+{
+    int in_order = plan_current_order(plan) == PLAN_ORDER_ADAPTIVE;
+    const char *name[2] = {"--budget", "--stop-target"};
+    const double v[2] = {cfg->budget_min, cfg->stop_target};
+    for (int i = 0; i < 2; i++) {
+        if (!isfinite(v[i]) || v[i] < 0)
+            return gonio_err_set(err, GONIO_EUSAGE, "%s %g: %s", name[i], v[i],
+                                 i ? "a full-domain log error, a positive number"
+                                   : "a rig-time budget, a positive number of minutes");
+        if (v[i] > 0 && !in_order)
+            return gonio_err_set(err, GONIO_EUSAGE,
+                                 "%s %g: only the adaptive order stops on it (--order adaptive; "
+                                 "plan '%s' is in %s order)",
+                                 name[i], v[i], plan_name(plan),
+                                 plan_order_name(plan_current_order(plan)));
+    }
+    *opt = adaptive_default_options();
+    opt->model = cfg->model;
+    opt->budget_s = 60 * cfg->budget_min;
+    opt->target = cfg->stop_target;
+    opt->converge = converge;
+    return 0;
+}
+
+int sequence_summary(sequence *q, const struct adaptive_options *opt,
+                     struct capture_summary *out, struct gonio_err *err)
+{
+    if (!q->policy)
+        return 0;
+    if (q->has_prev) { /* the prediction with the last sample in */
+        char stop[sizeof q->report.status.stop];
+        memcpy(stop, q->report.status.stop, sizeof stop);
+        decision_set(q, -1);
+        decide(q, &q->d);
+        long ignored;
+        int rc = decision_take(q, &ignored, err);
+        memcpy(q->report.status.stop, stop, sizeof stop);
+        if (rc < 0)
+            return rc;
+    }
+    const struct sequence_report *r = &q->report;
+    out->adaptive = 1;
+    out->budget_s = opt->budget_s;
+    out->target = opt->target;
+    out->converge = opt->converge;
+    out->policy = r->status;
+    out->decisions = r->decisions;
+    out->decision_mean_s = r->decision_mean_s;
+    out->decision_max_s = r->decision_max_s;
+    out->decision_wait_s = r->wait_s;
+    return 0;
+}

@@ -1,0 +1,77 @@
+/* Inside capture/: which point a capture measures next.
+ *
+ * In a plan's order the answer is the next point the journal lacks. In the
+ * adaptive order (adaptive/adaptive.h) the policy chooses it from the
+ * samples so far, and it decides while the rig works: sequence_begin
+ * starts the decision of the point after k in a second thread as the
+ * engine moves to, settles on and integrates point k, and sequence_end
+ * collects it once k is journalled. The decision after k sees the samples
+ * before k, and k as the pending point: all in the journal, so a capture
+ * resumed from it, which makes the journal's decisions again in record
+ * order, goes on as one never interrupted (docs/formats.md, "Adaptive
+ * captures"). */
+#ifndef GONIO_CAPTURE_SEQUENCE_H
+#define GONIO_CAPTURE_SEQUENCE_H
+
+#include <stddef.h>
+
+#include "adaptive/adaptive.h"
+#include "capture/capture.h"
+#include "common/err.h"
+#include "journal/journal.h"
+#include "planner/planner.h"
+#include "rig/rig.h"
+
+typedef struct sequence sequence;
+
+/* The policy's figures, for results.json and the progress display. */
+struct sequence_report {
+    struct adaptive_status status; /* the latest decision's */
+    size_t decisions;               /* made by this run, in the second thread */
+    double decision_mean_s, decision_max_s; /* wall time of each (add + next) */
+    /* Wall time the engine waited for a decision after its point was
+     * journalled: what deciding cost the rig. */
+    double wait_s;
+};
+
+/* A sequence over plan's points (plan order, or the adaptive policy for
+ * the plan's current order PLAN_ORDER_ADAPTIVE, with opt), after the n
+ * journalled samples js (record order), which must each name a distinct
+ * point of the plan (else GONIO_EBADDATA naming the record; dir names the
+ * capture). *first receives the first point to measure, -1 when there is
+ * none (every point done, or the policy stops). */
+int sequence_new(const struct plan *plan, const struct plan_rig *rig,
+                 const struct adaptive_options *opt, const struct journal_sample *js, size_t n,
+                 const char *dir, sequence **out, long *first, struct gonio_err *err);
+void sequence_free(sequence *q);
+
+/* Whether the journal holds the point (for the ETA). */
+int sequence_done(const sequence *q, size_t point);
+
+/* Start deciding the point after k while k is measured. */
+int sequence_begin(sequence *q, long k, struct gonio_err *err);
+
+/* k's journalled sample s (NULL: k was not measured, the decision is
+ * dropped). *next receives the next point, -1 when there is none (every
+ * point done, or the policy stops). Returns 0 or a negative code with err
+ * filled. */
+int sequence_end(sequence *q, const struct journal_sample *s, long *next,
+                 struct gonio_err *err);
+
+/* The policy's figures; 0 when the order is not adaptive. */
+int sequence_report(const sequence *q, struct sequence_report *r);
+
+/* The adaptive order's options (opt->model borrows cfg->model): the
+ * capture's budget and target, refused in a fixed order (where they would
+ * mean nothing) rather than ignored; converge: the capture's stop rule. */
+int sequence_options(const struct capture_config *cfg, const struct plan *plan, int converge,
+                     struct adaptive_options *opt, struct gonio_err *err);
+
+/* After the last point, in the adaptive order: the policy's prediction
+ * with every sample in (the last one given to it now; the stop reason
+ * stays the one that ended the capture), its options and the decisions'
+ * times into out (adaptive set). A no-op in plan order. */
+int sequence_summary(sequence *q, const struct adaptive_options *opt,
+                     struct capture_summary *out, struct gonio_err *err);
+
+#endif

@@ -1,0 +1,184 @@
+/* Adaptive captures (--order adaptive, adaptive/adaptive.h) on the
+ * in-process ideal rig: one completes with the policy's stop reason, its
+ * journal's points distinct and within the rig-time budget; a capture
+ * interrupted part way and resumed measures the same points in the same
+ * order, with the same readings, as one never interrupted; a resume that
+ * changes the policy's options is refused and leaves the journal as it
+ * was; a budget or target outside the adaptive order is refused before
+ * anything is written. The pool is DS2 and the material the embedded
+ * default, so the test needs no shared data. */
+#include <stdio.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "capture/capture.h"
+#include "journal/journal.h"
+#include "tests/gonio_test.h"
+
+static char dir[256];
+
+static int setup(void **state)
+{
+    (void)state;
+    return gonio_test_dir_make(dir, sizeof dir, "adaptive");
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    return gonio_test_dir_remove(dir);
+}
+
+#define BUDGET_MIN 0.75 /* DS2's pool on the default rig: some 15 points */
+
+static struct capture_config config(const char *out, const char *plan, double budget_min)
+{
+    return (struct capture_config){.plan = plan, .scene = "ideal", .model = "abc",
+                                   .out_dir = out, .order = "adaptive", .stop = "all",
+                                   .budget_min = budget_min, .quiet = 1,
+                                   .assess_nodes = gonio_test_assess_nodes()};
+}
+
+static size_t journal_of(const char *out, struct journal_sample **s)
+{
+    char path[1024];
+    size_t n;
+    snprintf(path, sizeof path, "%s/samples.csv", out);
+    assert_int_equal(journal_read(path, s, &n, NULL), 0);
+    return n;
+}
+
+static int exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+static void test_completes_within_budget(void **state)
+{
+    (void)state;
+    char out[300];
+    snprintf(out, sizeof out, "%s/whole", dir);
+    struct capture_config cfg = config(out, "ds2", BUDGET_MIN);
+    struct capture_summary s;
+    struct gonio_err err = {0};
+    assert_int_equal(capture_run_offline(&cfg, &s, &err), 0);
+    assert_string_equal(s.stop_reason, "budget");
+    assert_true(s.adaptive);
+    assert_string_equal(s.policy.stop, "budget");
+    assert_true(s.rig_time_s <= 60 * BUDGET_MIN);
+    assert_true(s.samples >= 6 && s.samples < 160);
+    assert_int_equal(s.decisions, s.samples);
+    struct journal_sample *js;
+    size_t n = journal_of(out, &js);
+    assert_int_equal(n, s.samples);
+    unsigned char seen[160] = {0};
+    for (size_t i = 0; i < n; i++) {
+        assert_true(js[i].point >= 0 && js[i].point < 160);
+        assert_false(seen[js[i].point]);
+        seen[js[i].point] = 1;
+    }
+    /* Not DS2's written order: the policy chose. */
+    int in_order = 1;
+    for (size_t i = 0; i < n; i++)
+        in_order &= js[i].point == (int)i;
+    assert_false(in_order);
+    free(js);
+    printf("adaptive ds2 pool, %.2f min budget: %zu samples, rig time %.1f s, decisions %.4f "
+           "s mean, %.4f s max\n",
+           BUDGET_MIN, s.samples, s.rig_time_s, s.decision_mean_s, s.decision_max_s);
+}
+
+/* The first call comes before anything is written, then one per point. */
+struct abort_after {
+    size_t calls, points;
+};
+
+static enum capture_control abort_after(void *user)
+{
+    struct abort_after *a = user;
+    return ++a->calls > a->points + 1 ? CAPTURE_ABORT : CAPTURE_GO;
+}
+
+/* Stopped on convergence, which reads the policy's history of predictions
+ * against rig time: the resumed run must rebuild that history and go on
+ * with the rig clock where it was. */
+static void test_resume_continues_the_same_sequence(void **state)
+{
+    (void)state;
+    char whole[300], part[300];
+    snprintf(whole, sizeof whole, "%s/ref", dir);
+    snprintf(part, sizeof part, "%s/part", dir);
+    struct capture_config cw = config(whole, "ds2", 0), cp = config(part, "ds2", 0);
+    cw.stop = cp.stop = "converge";
+    struct capture_summary s;
+    struct gonio_err err = {0};
+    assert_int_equal(capture_run_offline(&cw, &s, &err), 0);
+    assert_string_equal(s.stop_reason, "converged");
+    size_t n_whole = s.samples;
+    assert_true(n_whole > 8 && n_whole < 160);
+    printf("converged after %zu samples\n", n_whole);
+
+    /* Late, where the history decides the stop. */
+    struct abort_after ab = {0, n_whole - 2};
+    struct capture_hooks hooks = {.control = abort_after, .user = &ab};
+    assert_int_equal(capture_run(&cp, &hooks, &s, &err), 0);
+    assert_string_equal(s.stop_reason, "aborted");
+    assert_int_equal(s.samples, ab.points);
+    /* A resume asking for another budget would decide otherwise: refused,
+     * the journal as it was. */
+    struct capture_config changed = cp;
+    changed.budget_min = BUDGET_MIN;
+    assert_int_equal(capture_run_offline(&changed, &s, &err), -GONIO_EUSAGE);
+    assert_non_null(strstr(err.msg, "setup.json has adaptive"));
+    struct journal_sample *a, *b;
+    assert_int_equal(journal_of(part, &a), ab.points);
+    free(a);
+
+    assert_int_equal(capture_run_offline(&cp, &s, &err), 0);
+    assert_string_equal(s.stop_reason, "converged");
+    size_t na = journal_of(whole, &a), nb = journal_of(part, &b);
+    assert_int_equal(na, n_whole);
+    assert_int_equal(nb, n_whole);
+    for (size_t i = 0; i < na; i++) {
+        assert_int_equal(a[i].point, b[i].point);
+        assert_memory_equal(a[i].rgb, b[i].rgb, sizeof a[i].rgb);
+        assert_true(a[i].rig_time_s == b[i].rig_time_s);
+    }
+    free(a);
+    free(b);
+}
+
+static void test_budget_needs_adaptive_order(void **state)
+{
+    (void)state;
+    char out[300];
+    snprintf(out, sizeof out, "%s/refused", dir);
+    struct capture_config cfg = config(out, "ds2", BUDGET_MIN);
+    cfg.order = "travel";
+    struct capture_summary s;
+    struct gonio_err err = {0};
+    assert_int_equal(capture_run_offline(&cfg, &s, &err), -GONIO_EUSAGE);
+    assert_non_null(strstr(err.msg, "--budget"));
+    assert_false(exists(out));
+    cfg.budget_min = 0;
+    cfg.stop_target = 0.05;
+    assert_int_equal(capture_run_offline(&cfg, &s, &err), -GONIO_EUSAGE);
+    assert_non_null(strstr(err.msg, "--stop-target"));
+    assert_false(exists(out));
+    cfg.order = "adaptive";
+    cfg.stop_target = -1;
+    assert_int_equal(capture_run_offline(&cfg, &s, &err), -GONIO_EUSAGE);
+    assert_false(exists(out));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_completes_within_budget),
+        cmocka_unit_test(test_resume_continues_the_same_sequence),
+        cmocka_unit_test(test_budget_needs_adaptive_order),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
