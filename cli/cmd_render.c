@@ -28,7 +28,7 @@ static void usage(FILE *out)
             "       gonio render --study DIR [--study-scene NAME] [--columns N] [OPTIONS]\n"
             "                    (a grid per material in DIR/renders/MATERIAL/)\n"
             "  SPEC: nbrdf:NAME, abc:NAME, sgd:NAME, merl:FILE, builtin:NAME, spectral:NAME,\n"
-            "        default or model:FILE (a fitted model)\n"
+            "        analytic:NAME, default or model:FILE (a fitted model)\n"
             "  --scene FILE|NAME  render scene (configs/render/NAME.yaml; default: 'default')\n"
             "  --size N           pixels per side of each image (%d..%d, default 256)\n"
             "  --label TEXT       with --grid: the label of the next --model (in order)\n"

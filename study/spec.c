@@ -36,7 +36,7 @@ static const struct study_plan plans[] = {
     {"oop200k", "oop200k", NULL, NULL, 30.0, 0, NULL},
 };
 
-static const char *const models[] = {"abc", "abc-prior", "mlp", "latent"};
+static const char *const models[] = {"abc", "abc-prior", "mlp", "latent", "auto"};
 
 static const char *const full_plans =
     "ds1,ds2,ds3,ds4,progressive,adaptive,adaptive-15s,adaptive-latent,inplane-full,oop200k";
@@ -162,7 +162,7 @@ static int item_check(enum study_list which, const char *token, struct study_ite
             known |= !strcmp(models[i], token);
         if (!known || !fit_model_find(token))
             return gonio_err_set(err, GONIO_EUSAGE,
-                                 "%s: unknown model '%s' (use abc, abc-prior, mlp, latent)", opt,
+                                 "%s: unknown model '%s' (use abc, abc-prior, mlp, latent, auto)", opt,
                                  token);
         snprintf(it->spec, sizeof it->spec, "%s", token);
         snprintf(it->name, sizeof it->name, "%s", token);
