@@ -16,6 +16,7 @@
 
 #include "fit/abc_problem.h"
 #include "fit/fit.h"
+#include "fit/sample_order.h"
 
 /* Above this many samples the start search and the multi-start solves run
  * on a seeded random subset; only the winner is refined on all samples.
@@ -616,11 +617,11 @@ int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options
     return abc_fit_run(samples, n, opt, NULL, 0.0, out, info, err);
 }
 
-int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_options *opt_in,
-                const struct abc_prior_term *prior, double prior_sigma, struct brdf_abc *out,
-                struct fit_info *info, struct gonio_err *err)
+/* abc_fit_run on samples in canonical order (fit/sample_order.h). */
+static int fit_sorted(const struct fit_sample *samples, size_t n, struct fit_options opt,
+                      const struct abc_prior_term *prior, double prior_sigma,
+                      struct brdf_abc *out, struct fit_info *info, struct gonio_err *err)
 {
-    struct fit_options opt = opt_in ? *opt_in : fit_default_options();
     if (opt.max_iter <= 0 || opt.n_starts <= 0)
         return gonio_err_set(err, GONIO_EUSAGE,
                              "fit_abc: max_iter %d, n_starts %d: both must be >= 1",
@@ -847,5 +848,21 @@ done:
     abc_problem_free(&grid);
     free(idx);
     free(scaled);
+    return rc;
+}
+
+int abc_fit_run(const struct fit_sample *samples, size_t n, const struct fit_options *opt,
+                const struct abc_prior_term *prior, double prior_sigma, struct brdf_abc *out,
+                struct fit_info *info, struct gonio_err *err)
+{
+    struct fit_options o = opt ? *opt : fit_default_options();
+    struct fit_sample *sorted;
+    unsigned char *lower;
+    if (fit_samples_canonical(samples, o.lower_bound, n, &sorted, &lower) < 0)
+        return gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", n);
+    o.lower_bound = lower;
+    int rc = fit_sorted(sorted, n, o, prior, prior_sigma, out, info, err);
+    free(sorted);
+    free(lower);
     return rc;
 }

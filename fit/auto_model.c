@@ -11,6 +11,7 @@
 
 #include "brdf/domain.h"
 #include "fit/model_file.h"
+#include "fit/sample_order.h"
 
 #define AUTO_PI 3.14159265358979323846
 /* The folds' draw is kept apart from the draws of the fits (same seed). */
@@ -154,11 +155,11 @@ static brdf_material *fit_open(const struct fit_model_kind *kind, const struct f
     return m;
 }
 
-int fit_auto_cross_validate(const struct fit_data *data, const struct fit_model_options *opt,
-                            struct fit_auto_cv *out, struct gonio_err *err)
+/* fit_auto_cross_validate on samples in canonical order (fit/sample_order.h):
+ * the folds' scores are sums over the samples. */
+static int cross_validate(const struct fit_data *data, struct fit_model_options o,
+                          struct fit_auto_cv *out, struct gonio_err *err)
 {
-    struct fit_model_options o = opt ? *opt : fit_model_default_options();
-    o.quiet = 1;
     size_t n = data->n_rgb;
     if (!n)
         return gonio_err_set(err, GONIO_EUSAGE, "auto: needs RGB samples");
@@ -244,6 +245,24 @@ done:
     free(fold);
     free(train);
     free(tlower);
+    return rc;
+}
+
+int fit_auto_cross_validate(const struct fit_data *data, const struct fit_model_options *opt,
+                            struct fit_auto_cv *out, struct gonio_err *err)
+{
+    struct fit_model_options o = opt ? *opt : fit_model_default_options();
+    o.quiet = 1;
+    struct fit_data sd = *data;
+    struct fit_sample *sorted;
+    unsigned char *lower;
+    if (fit_samples_canonical(data->rgb, data->rgb_lower, data->n_rgb, &sorted, &lower) < 0)
+        return gonio_err_set(err, ENOMEM, "auto: out of memory");
+    sd.rgb = sorted;
+    sd.rgb_lower = lower;
+    int rc = cross_validate(&sd, o, out, err);
+    free(sorted);
+    free(lower);
     return rc;
 }
 

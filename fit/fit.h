@@ -103,7 +103,8 @@ double fit_data_scale(const struct fit_sample *s, const size_t *idx, size_t n);
  * construction; on success out holds finite parameters. Unusable samples are
  * dropped and counted in info->dropped; fewer than 3 usable samples (9
  * residuals for 9 parameters) is a GONIO_EFIT error. opt may be NULL for the
- * defaults; info may be NULL. The first call turns GSL's abort-on-error
+ * defaults; info may be NULL. The result does not depend on the samples'
+ * order (fit/sample_order.h). The first call turns GSL's abort-on-error
  * handler off (gsl_set_error_handler_off) for the whole process: a fit
  * that fails is a normal result here, never an abort. See docs/fitting.md. */
 int fit_abc(const struct fit_sample *samples, size_t n, const struct fit_options *opt,

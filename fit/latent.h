@@ -166,7 +166,8 @@ struct latent_fit_info {
  * objective (docs/latent.md). Six samples do not pin 12 latent numbers; the
  * prior keeps z near real materials then, and fades as 1 / n with more data.
  * Fewer than 3 usable samples is a GONIO_EFIT error. opt and info may be
- * NULL. Deterministic for opt->seed. */
+ * NULL. Deterministic for opt->seed, and independent of the samples' order
+ * (fit/sample_order.h). */
 int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t n,
                const struct latent_fit_options *opt, double *z, struct latent_fit_info *info,
                struct gonio_err *err);

@@ -18,6 +18,7 @@
 
 #include "brdf/domain.h"
 #include "fit/latent_private.h"
+#include "fit/sample_order.h"
 
 #define LF_PI 3.14159265358979323846
 
@@ -173,11 +174,11 @@ static double heldout_rms(const latent_decoder *d, const double *z0, size_t n, c
     return r;
 }
 
-int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t n,
-               const struct latent_fit_options *opt, double *z, struct latent_fit_info *info,
-               struct gonio_err *err)
+/* fit_latent on samples in canonical order (fit/sample_order.h). */
+static int fit_sorted(const latent_decoder *d, const struct fit_sample *samples, size_t n,
+                      struct latent_fit_options o, double *z, struct latent_fit_info *info,
+                      struct gonio_err *err)
 {
-    struct latent_fit_options o = opt ? *opt : latent_fit_default_options();
     if (o.max_iter < 1)
         o.max_iter = 1;
     if (o.max_samples < 3)
@@ -215,7 +216,7 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
         return gonio_err_set(err, GONIO_EFIT,
                              "fit_latent: %zu usable samples of %zu (need at least 3)", used, n);
     }
-    /* A seeded subset for large inputs: partial Fisher-Yates, kept in input order. */
+    /* A seeded subset for large inputs: partial Fisher-Yates, kept in (canonical) input order. */
     if (used > o.max_samples) {
         uint64_t s = o.seed ^ 0x243f6a8885a308d3ULL;
         for (size_t k = 0; k < o.max_samples; k++) {
@@ -225,7 +226,7 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
             idx[j] = tmp;
         }
         used = o.max_samples;
-        for (size_t a = 1; a < used; a++) /* insertion sort: order-independent result */
+        for (size_t a = 1; a < used; a++) /* insertion sort: back in canonical order */
             for (size_t b = a; b > 0 && idx[b - 1] > idx[b]; b--) {
                 size_t tmp = idx[b];
                 idx[b] = idx[b - 1];
@@ -336,4 +337,20 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
     if (!isfinite(fbest))
         return gonio_err_set(err, GONIO_EFIT, "fit_latent: objective not finite");
     return 0;
+}
+
+int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t n,
+               const struct latent_fit_options *opt, double *z, struct latent_fit_info *info,
+               struct gonio_err *err)
+{
+    struct latent_fit_options o = opt ? *opt : latent_fit_default_options();
+    struct fit_sample *sorted;
+    unsigned char *lower;
+    if (fit_samples_canonical(samples, o.lower, n, &sorted, &lower) < 0)
+        return gonio_err_set(err, ENOMEM, "fit_latent: out of memory");
+    o.lower = lower;
+    int rc = fit_sorted(d, sorted, n, o, z, info, err);
+    free(sorted);
+    free(lower);
+    return rc;
 }

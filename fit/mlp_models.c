@@ -11,6 +11,7 @@
 #include "brdf/material_private.h"
 #include "fit/mlp.h"
 #include "fit/model_file.h"
+#include "fit/sample_order.h"
 
 #define RGB_VERSION 1
 #define SPECTRAL_VERSION 1
@@ -121,6 +122,14 @@ int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, const unsign
                               struct fit_mlp_train_report *rep, size_t *left_out,
                               size_t *geometries, struct gonio_err *err)
 {
+    /* The samples in canonical order (fit/sample_order.h): the held-out
+     * rows and the batches are drawn by row, from the seed. */
+    struct fit_sample *sorted;
+    unsigned char *sorted_lower;
+    if (fit_samples_canonical(s, lower, n, &sorted, &sorted_lower) < 0)
+        return gonio_err_set(err, ENOMEM, "mlp: out of memory");
+    s = sorted;
+    lower = sorted_lower;
     /* Two rows a sample: itself and its reciprocal. */
     size_t cap = 2 * (n ? n : 1);
     double *u = malloc(cap * 2 * sizeof *u), *f = malloc(cap * 3 * sizeof *f),
@@ -133,6 +142,8 @@ int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, const unsign
         free(c);
         free(twin);
         free(lo);
+        free(sorted);
+        free(sorted_lower);
         return gonio_err_set(err, ENOMEM, "mlp: out of memory");
     }
     size_t m = 0, used = 0;
@@ -196,6 +207,8 @@ int fit_mlp_rgb_train_samples(const struct fit_sample *s, size_t n, const unsign
     free(c);
     free(twin);
     free(lo);
+    free(sorted);
+    free(sorted_lower);
     return rc;
 }
 
