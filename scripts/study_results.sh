@@ -65,6 +65,10 @@ $col["status"] != "ok" { failed++; next }
     if ($col["full_rel_rmse"] != "") fullrel[k] = $col["full_rel_rmse"]
     kk = m SUBSEP sc SUBSEP p
     rig[kk] = $col["rig_time_s"]; nsamp[kk] = $col["samples"]; stop[kk] = $col["stop_reason"]
+    # the adaptive policy: its own prediction, in the row of its model (study/job.c)
+    if (match($0, /adaptive: predicted full log error [0-9.eE+-]+/)) {
+        pred[kk] = substr($0, RSTART + 35, RLENGTH - 35); predmo[kk] = mo
+    }
     fitcpu += $col["fit_cpu_s"]
 }
 END {
@@ -210,6 +214,53 @@ END {
     print "- err ratio = full-domain error of the model fitted to the stopped capture / fitted to all of"
     print "  DS1: the accuracy the saved time costs (1.00 = none)."
     print ""
+    # 4. adaptive
+    na = 0
+    for (q = 1; q <= np; q++) if (P[q] ~ /^adaptive/) AP[++na] = P[q]
+    if (na) {
+        print "## 4. Adaptive captures: what the samples chose"
+        print ""
+        print "`adaptive*` = the policy of docs/adaptive.md choosing each next pair from the samples so far"
+        print "(`--order adaptive`; study/spec.c gives the pool, stop and budget of each); compared with the"
+        print "full DS1 capture. err ratio = full-domain error of the model fitted to the adaptive capture /"
+        print "fitted to DS1; pred/true = the predicted error of the policy (for its model) / the true one."
+        print ""
+        print "| plan | scene | mean samples | rig time / DS1 | abc: ratio of means | <= " suffice " | latent: ratio of means | <= " suffice " | latent vs DS4: <= | pred/true within 1.5x |"
+        print "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"
+        for (q = 1; q <= na; q++) for (s = 1; s <= ns; s++) {
+            p = AP[q]; sc = S[s]; n = 0; sn = 0; st = 0; okp = 0; np4 = 0; ok4 = 0
+            for (i = 1; i <= nm; i++) {
+                a = mats[i] SUBSEP sc SUBSEP p; b = mats[i] SUBSEP sc SUBSEP "ds1"
+                if (!(a in rig) || !(b in rig)) continue
+                n++; sn += nsamp[a]; st += rig[a] / rig[b]
+                if ((a in pred) && ((mats[i], sc, p, predmo[a]) in full)) {
+                    r = pred[a] / full[mats[i], sc, p, predmo[a]]; if (r <= 1.5 && r >= 1 / 1.5) okp++
+                }
+                r = pair_ratio(mats[i], sc, p, "ds4", "latent"); if (r != "") { np4++; if (r <= 1) ok4++ }
+            }
+            if (!n) continue
+            ra = mean_over(full, sc, "ds1", "abc"); rl = mean_over(full, sc, "ds1", "latent")
+            ma = mean_over(full, sc, p, "abc"); ml = mean_over(full, sc, p, "latent")
+            ratio_stats(sc, p, "ds1", "abc"); wa = RS_within
+            ratio_stats(sc, p, "ds1", "latent"); wl = RS_within
+            printf "| %s | %s | %.0f | %.0f%% | %s | %s | %s | %s | %s | %d/%d |\n", p, sc, sn / n, 100 * st / n,
+                (ma != "" && ra > 0) ? sprintf("%.3f", ma / ra) : "-", wa, (ml != "" && rl > 0) ? sprintf("%.3f", ml / rl) : "-", wl,
+                np4 ? ok4 "/" np4 : "-", okp, n
+        }
+        print ""
+        print "Per material:"
+        print ""
+        print "| material | scene | plan | samples | rig time | DS1 rig time | stop | abc err ratio | latent err ratio | pred/true |"
+        print "|---|---|---|---:|---:|---:|---|---:|---:|---:|"
+        for (q = 1; q <= na; q++) for (i = 1; i <= nm; i++) for (s = 1; s <= ns; s++) {
+            a = mats[i] SUBSEP S[s] SUBSEP AP[q]; b = mats[i] SUBSEP S[s] SUBSEP "ds1"
+            if (!(a in rig) || !(b in rig)) continue
+            pt = ((a in pred) && ((mats[i], S[s], AP[q], predmo[a]) in full)) ? sprintf("%.2f (%s)", pred[a] / full[mats[i], S[s], AP[q], predmo[a]], predmo[a]) : "-"
+            printf "| %s | %s | %s | %d | %s | %s | %s | %s | %s | %s |\n", mats[i], S[s], AP[q], nsamp[a], hm(rig[a]), hm(rig[b]),
+                stop[a], f2(pair_ratio(mats[i], S[s], AP[q], "ds1", "abc")), f2(pair_ratio(mats[i], S[s], AP[q], "ds1", "latent")), pt
+        }
+        print ""
+    }
     printf "Fit CPU time over all rows: %.0f s.\n", fitcpu
 }
 function commas(list,    n, a, i, out) { n = split(list, a, " "); out = ""; for (i = 1; i <= n; i++) out = out (i > 1 ? ", " : "") a[i]; return out }
