@@ -18,4 +18,9 @@ struct adaptive_evidence {
 /* NAN fields before the first ensemble fit. */
 void adaptive_evidence(const adaptive *a, struct adaptive_evidence *ev);
 
+/* The status's predicted_next from the prediction and the gain per
+ * minute: NAN unless both are positive, the minute's drop at most half
+ * the prediction (for the unit test). */
+double adaptive_predicted_next(double predicted, double gain_per_min);
+
 #endif
