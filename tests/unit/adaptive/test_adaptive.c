@@ -4,6 +4,7 @@
 #include "tests/gonio_test.h"
 
 #include "adaptive/adaptive.h"
+#include "adaptive/adaptive_private.h"
 #include "brdf/abc.h"
 #include "rig/motion.h"
 
@@ -59,8 +60,19 @@ static struct fit_sample measure(const struct plan *pool, long i)
     return s;
 }
 
+/* The integration the detector chooses at a point, in units of the rig's
+ * fixed one (1: it integrates what the rig profile says). */
+static double (*detector)(const struct plan_point *pt);
+
+/* An auto-exposing detector on a material darker back-scattered: three
+ * to five times the rig's fixed integration. */
+static double auto_exposure(const struct plan_point *pt)
+{
+    return pt->theta_r < 0 ? 5 : 3;
+}
+
 /* Measure what the policy asks, one point at a time, on the rig clock,
- * until it stops or max picks. */
+ * telling it what each point took, until it stops or max picks. */
 static void run_policy(const struct plan *pool, const struct plan_rig *rig,
                        const struct adaptive_options *o, size_t max, struct run *r)
 {
@@ -75,12 +87,15 @@ static void run_policy(const struct plan *pool, const struct plan_rig *rig,
             break;
         assert_true(i >= 0 && (size_t)i < plan_count(pool));
         const struct plan_point *pt = plan_point(pool, (size_t)i);
-        r->clock += plan_move_time_backlash(rig, &at, &pt->ax) + rig->settle_s + rig->integration_s;
+        double integration = rig->integration_s * (detector ? detector(pt) : 1);
+        double took = plan_move_time_backlash(rig, &at, &pt->ax) + rig->settle_s + integration;
+        r->clock += took;
         r->max_clock = fmax(r->max_clock, r->clock);
         at = pt->ax;
         r->pick[r->n++] = i;
         struct fit_sample s = measure(pool, i);
         assert_int_equal(adaptive_add(a, (size_t)i, &s, 0, &err), 0);
+        assert_int_equal(adaptive_observe(a, (size_t)i, integration, took, &err), 0);
     }
     adaptive_free(a);
 }
@@ -115,6 +130,42 @@ static void test_budget_never_exceeded(void **state)
     assert_true(r.max_clock <= o.budget_s);
     assert_string_equal(r.st.stop, "budget");
     plan_free(pool);
+}
+
+/* The detector integrates longer than the rig profile says, and longer
+ * on one side than the other: the policy learns it from what the points
+ * took and still ends within the budget. */
+static void test_budget_held_with_longer_integration(void **state)
+{
+    (void)state;
+    struct plan_rig rig;
+    struct plan *pool = load("ds1", &rig);
+    struct adaptive_options o = adaptive_default_options();
+    static struct run r;
+    detector = auto_exposure;
+    for (double budget = 15; budget <= 60; budget += 15) {
+        o.budget_s = budget;
+        run_policy(pool, &rig, &o, MAX_PICKS, &r);
+        assert_true(r.n >= 5);
+        assert_true(r.max_clock <= o.budget_s);
+        assert_string_equal(r.st.stop, "budget");
+    }
+    detector = NULL;
+    plan_free(pool);
+}
+
+/* The error a minute on is below the error now by the gain, but never by
+ * more than half of it, and not given where nothing is gained. */
+static void test_predicted_next_sensible(void **state)
+{
+    (void)state;
+    assert_true(fabs(adaptive_predicted_next(0.031, 0.006) - 0.025) < 1e-12);
+    /* a steep early slope: 0.015 - 0.02 would be below zero */
+    assert_true(fabs(adaptive_predicted_next(0.015, 0.02) - 0.0075) < 1e-12);
+    assert_true(isnan(adaptive_predicted_next(0.015, 0)));
+    assert_true(isnan(adaptive_predicted_next(0.015, -0.001)));
+    assert_true(isnan(adaptive_predicted_next(0.015, NAN)));
+    assert_true(isnan(adaptive_predicted_next(NAN, 0.001)));
 }
 
 static void test_exhausted_no_repeat(void **state)
@@ -198,6 +249,10 @@ static void test_bad_input(void **state)
     assert_int_equal(adaptive_add(a, 3, &s, 0, &err), -GONIO_EUSAGE);
     assert_non_null(strstr(err.msg, "point 3 of pool ds1 given twice"));
     assert_int_equal(adaptive_add(a, plan_count(pool), &s, 0, &err), -GONIO_EUSAGE);
+    assert_int_equal(adaptive_observe(a, plan_count(pool), 0.1, 1, &err), -GONIO_EUSAGE);
+    assert_int_equal(adaptive_observe(a, 3, 0.1, -1, &err), -GONIO_EUSAGE);
+    assert_non_null(strstr(err.msg, "point 3 observed with integration 0.1 s in -1 s"));
+    assert_int_equal(adaptive_observe(a, 3, NAN, 1, &err), -GONIO_EUSAGE);
     struct plan_axes at = {0, 0, 0};
     assert_int_equal(adaptive_next(a, &at, 0, (long)plan_count(pool), NULL, &err),
                      -GONIO_EUSAGE);
@@ -384,6 +439,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_deterministic),
         cmocka_unit_test(test_budget_never_exceeded),
+        cmocka_unit_test(test_budget_held_with_longer_integration),
+        cmocka_unit_test(test_predicted_next_sensible),
         cmocka_unit_test(test_exhausted_no_repeat),
         cmocka_unit_test(test_pending_excluded),
         cmocka_unit_test(test_bad_input),
