@@ -306,8 +306,7 @@ static double integration_of(const adaptive *a, size_t i)
     return fmax(a->rig->integration_s, a->obs_integ[j]);
 }
 
-/* Rig time of measuring point i with the axes at `from`. */
-static double point_cost(const adaptive *a, const struct plan_axes *from, size_t i)
+double adaptive_point_cost(const adaptive *a, const struct plan_axes *from, size_t i)
 {
     return plan_move_time_backlash(a->rig, from, &plan_point(a->pool, i)->ax) + a->rig->settle_s +
            integration_of(a, i);
@@ -331,7 +330,7 @@ int adaptive_observe(adaptive *a, size_t point, double integration_s, double poi
     static const struct plan_axes home = {0, 0, 0};
     const struct plan_axes *from = a->last_obs >= 0 ? &plan_point(a->pool, (size_t)a->last_obs)->ax
                                                     : &home;
-    double cost = point_cost(a, from, point);
+    double cost = adaptive_point_cost(a, from, point);
     a->ratio[a->n_obs++ % MARGIN_WINDOW] = cost > 0 ? point_rig_s / cost : 1;
     a->obs_integ[point] = integration_s;
     for (size_t i = 0; i < a->n_pool; i++) {
@@ -557,7 +556,7 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
     struct plan_axes from = *at;
     double clock = rig_time_s, m = margin(a);
     if (pending >= 0) {
-        clock += m * point_cost(a, at, (size_t)pending);
+        clock += m * adaptive_point_cost(a, at, (size_t)pending);
         from = plan_point(a->pool, (size_t)pending)->ax;
     }
     const char *stop = "";
@@ -582,7 +581,7 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
         if (a->measured[i] || (long)i == pending)
             continue;
         open = 1;
-        double cost = point_cost(a, &from, i);
+        double cost = adaptive_point_cost(a, &from, i);
         if (a->opt.budget_s > 0 && clock + m * cost > a->opt.budget_s)
             continue;
         double score = worth(a, i, pending, seeding) / cost;
