@@ -219,7 +219,7 @@ static void test_budget_held_on_lab_and_bad_day(void **state)
             assert_string_equal(s.stop_reason, "budget");
             printf("%s, %.2f min budget: %zu samples, rig time %.2f s\n", scenes[i],
                    budgets[k], s.samples, s.rig_time_s);
-            assert_true(s.samples >= 5);
+            assert_true(s.samples >= 4);
             assert_true(s.rig_time_s <= 60 * budgets[k]);
         }
 }
