@@ -486,7 +486,13 @@ static void test_converge_stop(void **state)
     assert_string_equal(r.st.stop, "converged");
     assert_true(r.n >= 80 && r.n < plan_count(pool));
     assert_true(fabs(r.st.gain_per_min) < o.gain_tol);
-    assert_true(isfinite(r.st.predicted_next) && r.st.predicted_next <= r.st.predicted_error);
+    /* the converged gain may be of either sign: a minute on is predicted
+     * only where it is positive */
+    if (r.st.gain_per_min > 0)
+        assert_true(r.st.predicted_next < r.st.predicted_error &&
+                    r.st.predicted_next >= r.st.predicted_error / 2);
+    else
+        assert_true(isnan(r.st.predicted_next));
     plan_free(pool);
 }
 
