@@ -52,6 +52,24 @@ static const double seed_pairs[][2] = {
  * sixth of the decoder's training set, never a held-out one). */
 #define LATENT_PRED_FACTOR 1.2
 
+/* predicted_next: the extrapolated minute of gain takes at most this
+ * fraction of the prediction. A straight line through the predictions
+ * fitted while they fall fast reaches zero within the minute; the error
+ * of a model fitted to more samples never does. */
+#define MAX_NEXT_DROP 0.5
+
+/* The budget's margin (docs/adaptive.md, "Holding the budget"): every
+ * cost checked against it is multiplied by the largest ratio of a point's
+ * rig time to its cost over the latest MARGIN_WINDOW points (long enough
+ * to hold the day's pace, short enough that one slow stretch does not
+ * cost the rest of the budget), never by less than MIN_MARGIN (the lab
+ * scene's moves took up to 3 % more than the planner's estimate before
+ * any such move was seen), and the largest excess of a point's rig time
+ * over its cost seen in the whole capture is kept in reserve once (a
+ * fault's retries or a stall's recovery: seconds, on any point). */
+#define MARGIN_WINDOW 16
+#define MIN_MARGIN 1.05
+
 struct adaptive {
     const struct plan *pool;
     const struct plan_rig *rig;
@@ -59,7 +77,21 @@ struct adaptive {
     char model[32];
     size_t n_pool;
     struct brdf_pair *pairs;  /* pool point i's pair */
-    double *integ;            /* pool point i's integration */
+    double *integ;            /* pool point i's integration as the host expects it */
+    int expected;             /* the host gave integ (else the rig's fixed one) */
+    /* What the rig did (adaptive_observe): the integration measured at
+     * each observed point (NAN elsewhere), each pool point's nearest
+     * observed point (-1: none yet) and its chord distance, the point
+     * observed last (-1: none, the axes at home), and the ratios of the
+     * latest points' rig times to what the policy costed them at (a ring
+     * of MARGIN_WINDOW, n_obs observed in all). */
+    double *obs_integ;
+    long *near_obs;
+    double *near_d;
+    long last_obs;
+    double ratio[MARGIN_WINDOW];
+    size_t n_obs;
+    double reserve;           /* the largest excess of rig time over cost, s */
     long *seed_point;         /* the pool point nearest each seed pair */
     unsigned char *measured;
     struct fit_sample *samples; /* in arrival order */
@@ -177,6 +209,9 @@ adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
     ens_init(&a->ens);
     a->pairs = malloc(n * sizeof *a->pairs);
     a->integ = malloc(n * sizeof *a->integ);
+    a->obs_integ = malloc(n * sizeof *a->obs_integ);
+    a->near_obs = malloc(n * sizeof *a->near_obs);
+    a->near_d = malloc(n * sizeof *a->near_d);
     a->measured = calloc(n, 1);
     a->samples = malloc(n * sizeof *a->samples);
     a->hist_t = malloc(n * sizeof *a->hist_t);
@@ -184,7 +219,7 @@ adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
     a->seed_point = malloc(N_SEEDS * sizeof *a->seed_point);
     a->gap = malloc(n * sizeof *a->gap);
     if (!a->gap || !a->pairs || !a->integ || !a->measured || !a->samples || !a->hist_t ||
-        !a->hist_e || !a->seed_point) {
+        !a->hist_e || !a->seed_point || !a->obs_integ || !a->near_obs || !a->near_d) {
         gonio_err_set(err, ENOMEM, "adaptive policy: out of memory");
         adaptive_free(a);
         return NULL;
@@ -192,7 +227,12 @@ adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
     for (size_t i = 0; i < n; i++) {
         point_pair(plan_point(pool, i), &a->pairs[i]);
         a->integ[i] = integration_s ? integration_s[i] : rig->integration_s;
+        a->obs_integ[i] = NAN;
+        a->near_obs[i] = -1;
+        a->near_d[i] = INFINITY;
     }
+    a->expected = integration_s != NULL;
+    a->last_obs = -1;
     for (size_t i = 0; i < n; i++)
         a->gap[i] = INFINITY;
     for (size_t k = 0; k < N_SEEDS; k++) {
@@ -222,6 +262,9 @@ void adaptive_free(adaptive *a)
         return;
     free(a->pairs);
     free(a->integ);
+    free(a->obs_integ);
+    free(a->near_obs);
+    free(a->near_d);
     free(a->measured);
     free(a->samples);
     free(a->hist_t);
@@ -252,11 +295,72 @@ int adaptive_add(adaptive *a, size_t point, const struct fit_sample *s, int satu
     return 0;
 }
 
-/* Rig time of measuring point i with the axes at `from`. */
-static double point_cost(const adaptive *a, const struct plan_axes *from, size_t i)
+/* The integration point i will take: the host's expectation until the
+ * rig has measured somewhere, then the one measured at the nearest
+ * observed point — scaled by how that point's measured integration
+ * compared with the host's expectation there, where the host gave one
+ * (the expectation knows how the signal varies between the two; the
+ * measurement, how the day's detector differs from it), else as it is,
+ * never below the rig's fixed integration (an auto-exposing detector
+ * integrates at least that). */
+static double integration_of(const adaptive *a, size_t i)
+{
+    long j = a->near_obs[i];
+    if (j < 0)
+        return a->integ[i];
+    if (a->expected && a->integ[j] > 0)
+        return a->integ[i] * a->obs_integ[j] / a->integ[j];
+    return fmax(a->rig->integration_s, a->obs_integ[j]);
+}
+
+double adaptive_point_cost(const adaptive *a, const struct plan_axes *from, size_t i)
 {
     return plan_move_time_backlash(a->rig, from, &plan_point(a->pool, i)->ax) + a->rig->settle_s +
-           a->integ[i];
+           integration_of(a, i);
+}
+
+int adaptive_observe(adaptive *a, size_t point, double integration_s, double point_rig_s,
+                     struct gonio_err *err)
+{
+    if (point >= a->n_pool)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "adaptive: observed point %zu, but the pool %s has %zu points",
+                             point, plan_name(a->pool), a->n_pool);
+    if (!(integration_s >= 0) || !isfinite(integration_s) || !(point_rig_s >= 0) ||
+        !isfinite(point_rig_s))
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "adaptive: point %zu observed with integration %g s in %g s of rig "
+                             "time, not finite times >= 0",
+                             point, integration_s, point_rig_s);
+    /* The cost as a decision would have put it, before this point's own
+     * integration is known. */
+    static const struct plan_axes home = {0, 0, 0};
+    const struct plan_axes *from = a->last_obs >= 0 ? &plan_point(a->pool, (size_t)a->last_obs)->ax
+                                                    : &home;
+    double cost = adaptive_point_cost(a, from, point);
+    a->ratio[a->n_obs++ % MARGIN_WINDOW] = cost > 0 ? point_rig_s / cost : 1;
+    a->reserve = fmax(a->reserve, point_rig_s - cost);
+    a->obs_integ[point] = integration_s;
+    for (size_t i = 0; i < a->n_pool; i++) {
+        double d = chord(&a->pairs[i], &a->pairs[point]);
+        if (d < a->near_d[i]) {
+            a->near_d[i] = d;
+            a->near_obs[i] = (long)point;
+        }
+    }
+    a->last_obs = (long)point;
+    return 0;
+}
+
+/* What every cost checked against the budget is multiplied by: the
+ * largest ratio of rig time to cost over the latest points, at least
+ * MIN_MARGIN. */
+static double margin(const adaptive *a)
+{
+    double m = MIN_MARGIN;
+    for (size_t k = 0; k < a->n_obs && k < MARGIN_WINDOW; k++)
+        m = fmax(m, a->ratio[k]);
+    return m;
 }
 
 /* The predicted full-domain log error of the model fitted now
@@ -338,6 +442,14 @@ static double gain_per_min(const adaptive *a)
     if (!(stt > 0))
         return NAN;
     return -ste / stt * 60;
+}
+
+double adaptive_predicted_next(double predicted, double gain_per_min)
+{
+    if (!isfinite(predicted) || !(predicted > 0) || !isfinite(gain_per_min) ||
+        !(gain_per_min > 0))
+        return NAN;
+    return predicted - fmin(gain_per_min, MAX_NEXT_DROP * predicted);
 }
 
 static void compute_dom_cov(adaptive *a)
@@ -451,9 +563,9 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
     /* While pending is measured, the next move starts from its axes and
      * the rig clock runs on by its move, settle and integration. */
     struct plan_axes from = *at;
-    double clock = rig_time_s;
+    double clock = rig_time_s + a->reserve, m = margin(a);
     if (pending >= 0) {
-        clock += point_cost(a, at, (size_t)pending);
+        clock += m * adaptive_point_cost(a, at, (size_t)pending);
         from = plan_point(a->pool, (size_t)pending)->ax;
     }
     const char *stop = "";
@@ -478,8 +590,8 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
         if (a->measured[i] || (long)i == pending)
             continue;
         open = 1;
-        double cost = point_cost(a, &from, i);
-        if (a->opt.budget_s > 0 && clock + cost > a->opt.budget_s)
+        double cost = adaptive_point_cost(a, &from, i);
+        if (a->opt.budget_s > 0 && clock + m * cost > a->opt.budget_s)
             continue;
         double score = worth(a, i, pending, seeding) / cost;
         if (score > best_score) {
@@ -494,7 +606,7 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
             .samples = a->n, .predicted_error = a->predicted, .gain_per_min = gain,
             .predicted_next_s = 60, .decision_s = now_s() - t0,
         };
-        st->predicted_next = isfinite(gain) ? fmax(0, a->predicted - fmax(gain, 0)) : NAN;
+        st->predicted_next = adaptive_predicted_next(a->predicted, gain);
         snprintf(st->model, sizeof st->model, "%s",
                  strcmp(a->model, "auto") != 0 ? a->model : a->cover ? "latent" : "abc");
         snprintf(st->stop, sizeof st->stop, "%s", stop);

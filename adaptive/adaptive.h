@@ -45,7 +45,9 @@ struct adaptive_options adaptive_default_options(void);
 struct adaptive_status {
     size_t samples;          /* samples received */
     double predicted_error;  /* predicted full-domain log error of the model fitted now */
-    double predicted_next;   /* the same after predicted_next_s more rig time */
+    double predicted_next;   /* the same after predicted_next_s more rig time: NAN
+                                unless the gain is positive, and never below half
+                                the prediction */
     double predicted_next_s;
     double gain_per_min;     /* predicted error reduction per minute of rig time now */
     double decision_s;       /* wall time the latest adaptive_next took */
@@ -57,7 +59,7 @@ typedef struct adaptive adaptive;
 
 /* A policy over the pool's points (plan_point(pool, i), i < plan_count),
  * on rig; integration_s[i] is the integration the host expects at point i
- * (NULL: rig->integration_s everywhere). The pool and rig must outlive the
+ * (NULL: rig->integration_s everywhere; adaptive_observe corrects it). The pool and rig must outlive the
  * policy. Returns NULL with err filled on bad options or out of memory. */
 adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
                        const double *integration_s, const struct adaptive_options *opt,
@@ -70,6 +72,20 @@ void adaptive_free(adaptive *a);
  * code with err filled. */
 int adaptive_add(adaptive *a, size_t point, const struct fit_sample *s, int saturated,
                  struct gonio_err *err);
+
+/* What the rig did at pool point `point`: the integration its detector
+ * chose (journal_sample.integration_s) and the rig time the point took
+ * from the end of the point observed before it (from 0 for the first).
+ * The policy then costs candidates with the integration measured nearest
+ * them, and multiplies every cost it checks against the budget by the
+ * largest ratio of a point's rig time to its own cost of that point seen
+ * so far (at least 1), so that the budget holds where the rig is slower
+ * than the rig profile says (auto-exposure, a bad day). Give every
+ * measured point, in the order measured; a resumed capture gives the
+ * journal's in record order. A point outside the pool or a time that is
+ * not finite and >= 0 is a GONIO_EUSAGE error. */
+int adaptive_observe(adaptive *a, size_t point, double integration_s, double point_rig_s,
+                     struct gonio_err *err);
 
 /* The next point to measure, from the samples added so far, with the axes
  * at `at` and the rig clock at rig_time_s. pending: a point being measured

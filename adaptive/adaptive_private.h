@@ -1,6 +1,6 @@
-/* What the adaptive policy's error prediction is made of, for the bench
- * that calibrates it (bench/adaptive_sim.c --calibrate): not part of the
- * interface the engine uses. */
+/* What the adaptive policy's error prediction and costs are made of, for
+ * the bench that calibrates it (bench/adaptive_sim.c --calibrate) and the
+ * unit tests: not part of the interface the engine uses. */
 #ifndef GONIO_ADAPTIVE_ADAPTIVE_PRIVATE_H
 #define GONIO_ADAPTIVE_ADAPTIVE_PRIVATE_H
 
@@ -17,5 +17,15 @@ struct adaptive_evidence {
 
 /* NAN fields before the first ensemble fit. */
 void adaptive_evidence(const adaptive *a, struct adaptive_evidence *ev);
+
+/* The rig time the policy expects pool point i to take with the axes at
+ * `from`, before any margin: the move, the settle and the integration
+ * (adaptive_observe's corrections in). */
+double adaptive_point_cost(const adaptive *a, const struct plan_axes *from, size_t i);
+
+/* The status's predicted_next from the prediction and the gain per
+ * minute: NAN unless both are positive, the minute's drop at most half
+ * the prediction (for the unit test). */
+double adaptive_predicted_next(double predicted, double gain_per_min);
 
 #endif

@@ -46,11 +46,16 @@ struct capture_inputs {
      * (sim/estimate.h), elsewhere with the rig's fixed integration. */
     struct plan_estimate est;
     double *point_s;
+    /* Each point's integration on the simulated rig, for the adaptive
+     * policy's costs; NULL elsewhere (the policy learns it from the
+     * journal). */
+    double *integration_s;
 };
 
 static void inputs_free(struct capture_inputs *in)
 {
     free(in->point_s);
+    free(in->integration_s);
     plan_free(in->plan);
     brdf_material_free(in->material);
     brdf_material_free(in->truth_own);
@@ -94,9 +99,12 @@ static int estimate(struct capture_inputs *in, struct gonio_err *err)
     size_t n = plan_count(in->plan);
     if (!(in->point_s = malloc((n ? n : 1) * sizeof *in->point_s)))
         return gonio_err_set(err, ENOMEM, "out of memory");
+    if (in->sim && in->adaptive &&
+        !(in->integration_s = malloc((n ? n : 1) * sizeof *in->integration_s)))
+        return gonio_err_set(err, ENOMEM, "out of memory");
     if (in->sim)
         return sim_estimate_plan(&in->scene, in->material, in->plan, &in->rig, in->point_s,
-                                 &in->est, err);
+                                 in->integration_s, &in->est, err);
     plan_estimate_points(in->plan, &in->rig, NULL, NULL, in->point_s, &in->est);
     return 0;
 }
@@ -783,7 +791,7 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
     sequence *seq = NULL;
     long first = -1;
     if (rc == 0)
-        rc = sequence_new(in.plan, &in.rig, &in.policy, samples, n, cfg->out_dir, &seq, &first,
+        rc = sequence_new(in.plan, &in.rig, in.integration_s, &in.policy, samples, n, cfg->out_dir, &seq, &first,
                           err);
     if (rc == 0)
         rc = acquire(cfg, &in, hooks, j, seq, first, &samples, &n, &aborted, &fs, &converged,

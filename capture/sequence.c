@@ -13,6 +13,7 @@
  * the pending point (when it has not had it yet), then ask for the next. */
 struct decision {
     const struct journal_sample *add; /* NULL: nothing new */
+    double add_rig_s; /* the rig time add took, from the record before it */
     long pending;
     struct plan_axes at;
     double rig_time_s;
@@ -30,8 +31,10 @@ struct sequence {
     adaptive *policy;    /* NULL: plan order */
     /* The adaptive order: the sample journalled before the pending point
      * (has_prev), which the policy gets in the next decision unless
-     * prev_added. */
+     * prev_added; prev_start_s: the rig time of the record before prev
+     * (0 for the first). */
     struct journal_sample prev;
+    double prev_start_s;
     int has_prev, prev_added;
     struct decision d;
     pthread_t thread;
@@ -42,18 +45,32 @@ struct sequence {
 
 static const struct plan_axes home = {0, 0, 0};
 
-static int policy_add(adaptive *a, const struct journal_sample *s, struct gonio_err *err)
+/* The sample, and what the rig did to take it: what the policy learns
+ * of the rig's time comes from the journal only, so a replay learns the
+ * same. */
+static int policy_add(adaptive *a, const struct journal_sample *s, double rig_s,
+                      struct gonio_err *err)
 {
     struct fit_sample fs;
     fit_journal_samples(s, 1, &fs);
-    return adaptive_add(a, (size_t)s->point, &fs, (s->flags & JOURNAL_FLAG_SATURATED) != 0,
-                        err);
+    int rc = adaptive_add(a, (size_t)s->point, &fs, (s->flags & JOURNAL_FLAG_SATURATED) != 0,
+                          err);
+    return rc < 0 ? rc : adaptive_observe(a, (size_t)s->point, s->integration_s, rig_s, err);
+}
+
+/* s journalled after prev. */
+static void set_prev(sequence *q, const struct journal_sample *s)
+{
+    q->prev_start_s = q->has_prev ? q->prev.rig_time_s : 0;
+    q->prev = *s;
+    q->has_prev = 1;
+    q->prev_added = 0;
 }
 
 static void decide(sequence *q, struct decision *d)
 {
     double t0 = gonio_monotonic_s();
-    int rc = d->add ? policy_add(q->policy, d->add, &d->err) : 0;
+    int rc = d->add ? policy_add(q->policy, d->add, d->add_rig_s, &d->err) : 0;
     d->next = rc < 0 ? rc
                      : adaptive_next(q->policy, &d->at, d->rig_time_s, d->pending, &d->st,
                                      &d->err);
@@ -77,6 +94,7 @@ static void decision_set(sequence *q, long pending)
     const struct journal_sample *prev = q->has_prev ? &q->prev : NULL;
     memset(&q->d, 0, sizeof q->d);
     q->d.add = prev && !q->prev_added ? prev : NULL;
+    q->d.add_rig_s = prev ? prev->rig_time_s - q->prev_start_s : 0;
     q->d.pending = pending;
     q->d.at = prev ? plan_point(q->plan, (size_t)prev->point)->ax : home;
     q->d.rig_time_s = prev ? prev->rig_time_s : 0;
@@ -120,16 +138,14 @@ static int replay(sequence *q, const struct journal_sample *js, size_t n, long *
     for (size_t i = 0; i < n && rc == 0; i++) {
         decision_set(q, js[i].point);
         decide(q, &q->d);
-        q->prev = js[i];
-        q->has_prev = 1;
-        q->prev_added = 0;
+        set_prev(q, &js[i]);
         rc = decision_take(q, first, err);
     }
     return rc;
 }
 
 int sequence_new(const struct plan *plan, const struct plan_rig *rig,
-                 const struct adaptive_options *opt, const struct journal_sample *js, size_t n,
+                 const double *integration_s, const struct adaptive_options *opt, const struct journal_sample *js, size_t n,
                  const char *dir, sequence **out, long *first, struct gonio_err *err)
 {
     *out = NULL;
@@ -156,7 +172,7 @@ int sequence_new(const struct plan *plan, const struct plan_rig *rig,
     int rc = 0;
     if (plan_current_order(plan) != PLAN_ORDER_ADAPTIVE) {
         *first = next_undone(q, 0);
-    } else if (!(q->policy = adaptive_new(plan, rig, NULL, opt, err))) {
+    } else if (!(q->policy = adaptive_new(plan, rig, integration_s, opt, err))) {
         rc = -abs(err && err->code ? err->code : ENOMEM);
     } else {
         rc = replay(q, js, n, first, err);
@@ -225,9 +241,7 @@ int sequence_end(sequence *q, const struct journal_sample *s, long *next,
     join(q);
     if (!s)
         return 0;
-    q->prev = *s;
-    q->has_prev = 1;
-    q->prev_added = 0;
+    set_prev(q, s);
     return decision_take(q, next, err);
 }
 

@@ -35,13 +35,15 @@ struct sequence_report {
 };
 
 /* A sequence over plan's points (plan order, or the adaptive policy for
- * the plan's current order PLAN_ORDER_ADAPTIVE, with opt), after the n
+ * the plan's current order PLAN_ORDER_ADAPTIVE, with opt and the
+ * integration the host expects at each point, integration_s, or NULL
+ * where it does not know: adaptive_new), after the n
  * journalled samples js (record order), which must each name a distinct
  * point of the plan (else GONIO_EBADDATA naming the record; dir names the
  * capture). *first receives the first point to measure, -1 when there is
  * none (every point done, or the policy stops). */
 int sequence_new(const struct plan *plan, const struct plan_rig *rig,
-                 const struct adaptive_options *opt, const struct journal_sample *js, size_t n,
+                 const double *integration_s, const struct adaptive_options *opt, const struct journal_sample *js, size_t n,
                  const char *dir, sequence **out, long *first, struct gonio_err *err);
 void sequence_free(sequence *q);
 

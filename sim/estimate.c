@@ -18,12 +18,14 @@ static double point_integration(void *user, const struct plan_point *pt)
 
 int sim_estimate_plan(const struct sim_scene *scene, const brdf_material *material,
                       const struct plan *plan, const struct plan_rig *rig, double *point_s,
-                      struct plan_estimate *est, struct gonio_err *err)
+                      double *integration_s, struct plan_estimate *est, struct gonio_err *err)
 {
     sim_effects *fx = sim_effects_new(scene, err);
     sim_detector *det = fx ? sim_detector_new(rig, material, scene, fx, NULL, err) : NULL;
     if (det)
         plan_estimate_points(plan, rig, point_integration, det, point_s, est);
+    for (size_t i = 0; det && integration_s && i < plan_count(plan); i++)
+        integration_s[i] = point_integration(det, plan_point(plan, i));
     int rc = det ? 0 : -abs(err ? err->code : ENOMEM);
     sim_detector_free(det);
     sim_effects_free(fx);

@@ -13,11 +13,13 @@
 #include "sim/scene.h"
 
 /* Estimate plan on rig for scene measuring material (borrowed). point_s
- * (plan_count entries, or NULL) receives each point's share. Returns 0, or
+ * (plan_count entries, or NULL) receives each point's share, integration_s
+ * (the same, or NULL) each point's integration (the adaptive policy's
+ * cost of a point in any order). Returns 0, or
  * a negative code with err (out of memory; a spectral material outside the
  * detector's bands). */
 int sim_estimate_plan(const struct sim_scene *scene, const brdf_material *material,
                       const struct plan *plan, const struct plan_rig *rig, double *point_s,
-                      struct plan_estimate *est, struct gonio_err *err);
+                      double *integration_s, struct plan_estimate *est, struct gonio_err *err);
 
 #endif
