@@ -388,7 +388,7 @@ static void test_large_input_subset_path(void **state)
 static void test_bad_options(void **state)
 {
     (void)state;
-    struct fit_sample s[3];
+    struct fit_sample s[3] = {0}; /* read (sorted) before the options are checked */
     struct brdf_abc p;
     struct fit_options opt = fit_default_options();
     opt.n_starts = 0;
