@@ -4,6 +4,7 @@
 #include <math.h>
 
 #include "brdf/metrics.h"
+#include "fit/model_run.h"
 
 /* Fewer Adam steps than a capture's final fit (300): the tracked fit only
  * measures how well the decoder can follow the samples, and runs inside a
@@ -40,16 +41,11 @@ int track_update(struct track *t, const struct fit_sample *s, size_t n, uint64_t
     brdf_material *m = latent_material_scaled(t->dec, z, info.scale, "latent");
     if (!m)
         return -GONIO_EFIT;
-    struct brdf_errors_acc acc;
-    brdf_errors_acc_init(&acc);
-    for (size_t k = 0; k < n; k++) {
-        double rgb[3];
-        brdf_material_eval(m, &s[k].g, 1, rgb);
-        brdf_errors_acc_add(&acc, &s[k].g, s[k].rgb, rgb, 1);
-    }
-    brdf_material_free(m);
     struct brdf_errors e;
-    brdf_errors_acc_finish(&acc, &e);
+    int rc = fit_sample_errors(m, s, n, &e, NULL);
+    brdf_material_free(m);
+    if (rc < 0)
+        return rc;
     t->fitted = n;
     t->in_sample = e.log;
     return 1;

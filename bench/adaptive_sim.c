@@ -41,6 +41,7 @@
 #include "brdf/material.h"
 #include "brdf/metrics.h"
 #include "fit/latent.h"
+#include "fit/model_run.h"
 #include "planner/planner.h"
 #include "rig/motion.h"
 
@@ -82,17 +83,8 @@ static double model_error(const char *model, const latent_decoder *dec,
     if (!m)
         return NAN;
     struct brdf_errors e;
-    if (in_sample) {
-        struct brdf_errors_acc acc;
-        brdf_errors_acc_init(&acc);
-        for (size_t k = 0; k < n; k++) {
-            double rgb[3];
-            brdf_material_eval(m, &s[k].g, 1, rgb);
-            brdf_errors_acc_add(&acc, &s[k].g, s[k].rgb, rgb, 1);
-        }
-        brdf_errors_acc_finish(&acc, &e);
-        *in_sample = e.log;
-    }
+    if (in_sample)
+        *in_sample = fit_sample_errors(m, s, n, &e, NULL) == 0 ? e.log : NAN;
     brdf_errors_material(truth, m, dom, &e, NULL);
     brdf_material_free(m);
     return e.log;
