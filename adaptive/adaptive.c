@@ -16,9 +16,10 @@
 
 /* The first pairs: DS4's six (configs/plans/ds4.yaml), spread over
  * back-scatter, the mirror neighbourhood and the forward lobe at
- * theta_i = 30, each taken as the nearest pool point. Six samples are
- * what the six-pair latent fit already does well with, and they give the
- * ensemble its first fit. */
+ * theta_i = 30, each taken as the nearest pool point, in DS4's order (its
+ * travel order from home: the arm sweeps once from back-scatter to the
+ * forward lobe). Six samples are what the six-pair latent fit already
+ * does well with, and they give the ensemble its first fit. */
 static const double seed_pairs[][2] = {
     {30, -60}, {30, -20}, {30, 20}, {30, 28}, {30, 36}, {30, 60},
 };
@@ -62,13 +63,17 @@ static const double seed_pairs[][2] = {
  * cost checked against it is multiplied by the largest ratio of a point's
  * rig time to its cost over the latest MARGIN_WINDOW points (long enough
  * to hold the day's pace, short enough that one slow stretch does not
- * cost the rest of the budget), never by less than MIN_MARGIN (the lab
- * scene's moves took up to 3 % more than the planner's estimate before
- * any such move was seen), and the largest excess of a point's rig time
- * over its cost seen in the whole capture is kept in reserve once (a
- * fault's retries or a stall's recovery: seconds, on any point). */
+ * cost the rest of the budget), never by less than 1, and by at least
+ * MIN_MARGIN for a move longer than any the rig has made (the lab scene's
+ * moves took up to 3 % more than the planner's estimate, and a short
+ * move's pace does not vouch for a longer one's); the largest excess of a
+ * point's rig time over its cost seen in the whole capture is kept in
+ * reserve once (a fault's retries or a stall's recovery: seconds, on any
+ * point). BUDGET_SLACK_S absorbs the rounding of a sum of costs that
+ * meets the budget exactly. */
 #define MARGIN_WINDOW 16
 #define MIN_MARGIN 1.05
+#define BUDGET_SLACK_S 1e-9
 
 struct adaptive {
     const struct plan *pool;
@@ -92,6 +97,7 @@ struct adaptive {
     double ratio[MARGIN_WINDOW];
     size_t n_obs;
     double reserve;           /* the largest excess of rig time over cost, s */
+    double longest_move;      /* the longest move observed, s (-1: none) */
     long *seed_point;         /* the pool point nearest each seed pair */
     unsigned char *measured;
     struct fit_sample *samples; /* in arrival order */
@@ -233,6 +239,7 @@ adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
     }
     a->expected = integration_s != NULL;
     a->last_obs = -1;
+    a->longest_move = -1;
     for (size_t i = 0; i < n; i++)
         a->gap[i] = INFINITY;
     for (size_t k = 0; k < N_SEEDS; k++) {
@@ -313,10 +320,14 @@ static double integration_of(const adaptive *a, size_t i)
     return fmax(a->rig->integration_s, a->obs_integ[j]);
 }
 
+static double move_time(const adaptive *a, const struct plan_axes *from, size_t i)
+{
+    return plan_move_time_backlash(a->rig, from, &plan_point(a->pool, i)->ax);
+}
+
 double adaptive_point_cost(const adaptive *a, const struct plan_axes *from, size_t i)
 {
-    return plan_move_time_backlash(a->rig, from, &plan_point(a->pool, i)->ax) + a->rig->settle_s +
-           integration_of(a, i);
+    return move_time(a, from, i) + a->rig->settle_s + integration_of(a, i);
 }
 
 int adaptive_observe(adaptive *a, size_t point, double integration_s, double point_rig_s,
@@ -340,6 +351,7 @@ int adaptive_observe(adaptive *a, size_t point, double integration_s, double poi
     double cost = adaptive_point_cost(a, from, point);
     a->ratio[a->n_obs++ % MARGIN_WINDOW] = cost > 0 ? point_rig_s / cost : 1;
     a->reserve = fmax(a->reserve, point_rig_s - cost);
+    a->longest_move = fmax(a->longest_move, move_time(a, from, point));
     a->obs_integ[point] = integration_s;
     for (size_t i = 0; i < a->n_pool; i++) {
         double d = chord(&a->pairs[i], &a->pairs[point]);
@@ -352,15 +364,26 @@ int adaptive_observe(adaptive *a, size_t point, double integration_s, double poi
     return 0;
 }
 
-/* What every cost checked against the budget is multiplied by: the
- * largest ratio of rig time to cost over the latest points, at least
- * MIN_MARGIN. */
-static double margin(const adaptive *a)
+/* What a cost checked against the budget is multiplied by: the largest
+ * ratio of rig time to cost over the latest points, at least 1, and at
+ * least MIN_MARGIN for a move of move_s longer than any observed. */
+static double margin(const adaptive *a, double move_s)
 {
-    double m = MIN_MARGIN;
+    double m = 1;
     for (size_t k = 0; k < a->n_obs && k < MARGIN_WINDOW; k++)
         m = fmax(m, a->ratio[k]);
-    return m;
+    return move_s > a->longest_move ? fmax(m, MIN_MARGIN) : m;
+}
+
+/* Point i's cost from the axes at from (*cost), and whether it fits the
+ * budget when the rig clock, with what is pending, stands at clock. */
+static int affordable(const adaptive *a, const struct plan_axes *from, size_t i, double clock,
+                      double *cost)
+{
+    double move = move_time(a, from, i);
+    *cost = move + a->rig->settle_s + integration_of(a, i);
+    return !(a->opt.budget_s > 0) ||
+           clock + margin(a, move) * *cost <= a->opt.budget_s + BUDGET_SLACK_S;
 }
 
 /* The predicted full-domain log error of the model fitted now
@@ -492,14 +515,6 @@ static void refit(adaptive *a, double rig_time_s)
     }
 }
 
-static int is_seed(const adaptive *a, size_t i)
-{
-    for (size_t k = 0; k < N_SEEDS; k++)
-        if (a->seed_point[k] == (long)i)
-            return 1;
-    return 0;
-}
-
 /* The expected reduction of the ensemble's variance over the full-domain
  * subset if candidate i were measured (Cohn's ALC): with d_i the members'
  * deviations at i and C the subset's mean of d d^T, sum over nodes of
@@ -518,19 +533,17 @@ static double alc(const adaptive *a, size_t i)
     return q / (ALC_NOISE * a->ens.cv_error * a->ens.cv_error + v + 1e-300);
 }
 
-/* What measuring candidate i is worth, before its cost: until the seeds
- * are measured, 1 at a seed and 0 elsewhere; without an ensemble, the
- * domain distance to the nearest point measured or pending. Then for ABC
+/* What measuring candidate i is worth, before its cost: without an
+ * ensemble, the domain distance to the nearest point measured or
+ * pending. Then for ABC
  * the ALC, damped near what is measured or pending: the jackknife spread
  * of a misspecified model hardly falls where a neighbour was just
  * measured, and without the damping a fine pool's cheap 1-degree steps
  * pile samples into one region. For the latent model (whose fit the
  * ensemble does not describe) the ALC relative to the best one plus that
  * distance: coverage of the domain. */
-static double worth(const adaptive *a, size_t i, long pending, int seeding)
+static double worth(const adaptive *a, size_t i, long pending)
 {
-    if (seeding)
-        return is_seed(a, i) ? 1 : 0;
     double gap = a->gap[i];
     if (pending >= 0)
         gap = fmin(gap, dom_dist(&a->pairs[i], &a->pairs[pending]));
@@ -542,6 +555,62 @@ static double worth(const adaptive *a, size_t i, long pending, int seeding)
     if (!a->cover)
         return alc(a, i) * (1 - exp(-(g / REPULSION_WIDTH) * (g / REPULSION_WIDTH)));
     return alc(a, i) / a->max_alc + COVER_WEIGHT * g;
+}
+
+/* The seeds not measured or pending, from the axes at from: nearest
+ * first (in_order 0) or in DS4's order (1). *first receives the first of
+ * them (-1: none left), and the function returns the rig time of them
+ * all. */
+static double seed_route(const adaptive *a, const struct plan_axes *from, long pending,
+                         int in_order, long *first)
+{
+    unsigned char done[N_SEEDS];
+    for (size_t k = 0; k < N_SEEDS; k++) {
+        long p = a->seed_point[k];
+        done[k] = a->measured[p] || p == pending;
+        for (size_t j = 0; j < k; j++) /* a coarse pool's point nearest two seeds */
+            done[k] |= a->seed_point[j] == p;
+    }
+    struct plan_axes at = *from;
+    double total = 0;
+    *first = -1;
+    for (;;) {
+        long next = -1;
+        double best = INFINITY;
+        for (size_t k = 0; k < N_SEEDS && !(in_order && next >= 0); k++) {
+            if (done[k])
+                continue;
+            /* ties to the lower pool index, as the criterion's scan */
+            double c = adaptive_point_cost(a, &at, (size_t)a->seed_point[k]);
+            if (c < best || (c == best && a->seed_point[k] < a->seed_point[next])) {
+                best = c;
+                next = (long)k;
+            }
+        }
+        if (next < 0)
+            return total;
+        done[next] = 1;
+        total += best;
+        at = plan_point(a->pool, (size_t)a->seed_point[next])->ax;
+        if (*first < 0)
+            *first = a->seed_point[next];
+    }
+}
+
+/* The next seed: the nearest (the policy's later picks did best after
+ * that start, docs/adaptive.md), unless the budget left is too short for
+ * the seeds on that route and long enough on DS4's travel order: then
+ * DS4's order, so that DS4's rig time holds DS4's six. -1: none left. */
+static long next_seed(const adaptive *a, const struct plan_axes *from, long pending,
+                      double clock)
+{
+    long nearest, in_order;
+    double t_nearest = seed_route(a, from, pending, 0, &nearest);
+    double t_in_order = seed_route(a, from, pending, 1, &in_order);
+    if (a->opt.budget_s > 0 && clock + t_nearest > a->opt.budget_s &&
+        clock + t_in_order <= a->opt.budget_s + BUDGET_SLACK_S)
+        return in_order;
+    return nearest;
 }
 
 static double now_s(void)
@@ -563,9 +632,10 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
     /* While pending is measured, the next move starts from its axes and
      * the rig clock runs on by its move, settle and integration. */
     struct plan_axes from = *at;
-    double clock = rig_time_s + a->reserve, m = margin(a);
+    double clock = rig_time_s + a->reserve;
     if (pending >= 0) {
-        clock += m * adaptive_point_cost(a, at, (size_t)pending);
+        double move = move_time(a, at, (size_t)pending);
+        clock += margin(a, move) * (move + a->rig->settle_s + integration_of(a, (size_t)pending));
         from = plan_point(a->pool, (size_t)pending)->ax;
     }
     const char *stop = "";
@@ -574,26 +644,24 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
         stop = "target";
     else if (a->n >= MIN_STOP_SAMPLES && a->opt.converge && fabs(gain) < a->opt.gain_tol)
         stop = "converged";
-    int seeding = 0;
-    for (size_t k = 0; k < N_SEEDS; k++) {
-        long p = a->seed_point[k];
-        seeding |= !a->measured[p] && p != pending;
-    }
+    long best = next_seed(a, &from, pending, clock);
+    double cost;
+    if (*stop || (best >= 0 && !affordable(a, &from, (size_t)best, clock, &cost)))
+        best = -1;
+    int seeding = best >= 0;
     a->max_alc = 1e-300;
-    for (size_t i = 0; a->ens.ok && a->cover && i < a->n_pool; i++)
+    for (size_t i = 0; !seeding && a->ens.ok && a->cover && i < a->n_pool; i++)
         if (!a->measured[i])
             a->max_alc = fmax(a->max_alc, alc(a, i));
-    long best = -1;
     double best_score = -INFINITY;
     int open = 0; /* candidates left, affordable or not */
-    for (size_t i = 0; !*stop && i < a->n_pool; i++) {
+    for (size_t i = 0; !*stop && !seeding && i < a->n_pool; i++) {
         if (a->measured[i] || (long)i == pending)
             continue;
         open = 1;
-        double cost = adaptive_point_cost(a, &from, i);
-        if (a->opt.budget_s > 0 && clock + m * cost > a->opt.budget_s)
+        if (!affordable(a, &from, i, clock, &cost))
             continue;
-        double score = worth(a, i, pending, seeding) / cost;
+        double score = worth(a, i, pending) / cost;
         if (score > best_score) {
             best_score = score;
             best = (long)i;

@@ -178,10 +178,15 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
         if (i < 0)
             break;
         const struct plan_point *pt = plan_point(pool, (size_t)i);
-        clock += plan_move_time_backlash(rig, &at, &pt->ax) + rig->settle_s + rig->integration_s;
+        double took =
+            plan_move_time_backlash(rig, &at, &pt->ax) + rig->settle_s + rig->integration_s;
+        clock += took;
         at = pt->ax;
         got[n++] = pool_s[i];
-        if (adaptive_add(a, (size_t)i, &pool_s[i], 0, &err) < 0) {
+        /* as the engine does with each journalled sample: the point and
+         * what it took (the rig's pace, for the budget's margin) */
+        if (adaptive_add(a, (size_t)i, &pool_s[i], 0, &err) < 0 ||
+            adaptive_observe(a, (size_t)i, rig->integration_s, took, &err) < 0) {
             fprintf(stderr, "adaptive_sim: %s: %s\n", name, err.msg);
             break;
         }

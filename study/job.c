@@ -289,6 +289,20 @@ static enum capture_control stop_control(void *user)
     return sc->stop() ? CAPTURE_ABORT : CAPTURE_GO;
 }
 
+/* cfg's budget: the named plan's rig time as a capture of it on cfg's
+ * scene and material would estimate it (what that plan would cost this
+ * job, for a budget "of DS4's rig time"). */
+static int budget_of(struct capture_config *cfg, const char *plan, struct gonio_err *err)
+{
+    struct capture_config c = {.plan = plan, .scene = cfg->scene, .material = cfg->material,
+                               .model = "abc"};
+    struct plan_estimate est;
+    int rc = capture_check(&c, NULL, &est, err);
+    if (rc == 0)
+        cfg->budget_min = est.total_s / 60;
+    return rc;
+}
+
 int study_job_run(const struct study_spec *s, const struct study_job *job, const char *dir,
                   int (*stop)(void), struct gonio_err *err)
 {
@@ -314,6 +328,7 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
         .out_dir = jobdir, .order = plan->order, .stop = plan->stop, .quiet = 1,
         .measure_only = 1, .lazy_journal = 1, .budget_min = plan->budget_min,
     };
+
     struct capture_summary sum;
     struct fit_sample *samples = NULL;
     struct journal_sample *js = NULL;
@@ -324,7 +339,9 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
     char path[4200];
     struct stop_check sc = {stop};
     struct capture_hooks hooks = {.control = stop ? stop_control : NULL, .user = &sc};
-    rc = capture_run(&cfg, &hooks, &sum, err);
+    rc = plan->budget_of ? budget_of(&cfg, plan->budget_of, err) : 0;
+    if (rc == 0)
+        rc = capture_run(&cfg, &hooks, &sum, err);
     if (rc == 0 && !strcmp(sum.stop_reason, "aborted"))
         rc = gonio_err_set(err, EINTR, "interrupted; its journal is kept for the rerun");
     if (rc == 0) {

@@ -22,6 +22,9 @@ struct study_plan {
     const char *stop;  /* capture stop override, or NULL */
     double weight;     /* relative cost of a job, for scheduling */
     double budget_min; /* the adaptive order's rig-time budget, 0: none */
+    /* or that budget is this plan's estimated rig time on the job's scene
+     * and material (NULL: budget_min) */
+    const char *budget_of;
     const char *model; /* the adaptive policy's model (the capture's), NULL: abc */
 };
 

@@ -144,6 +144,33 @@ static void test_budget_never_exceeded(void **state)
     plan_free(pool);
 }
 
+/* The first picks are DS4's six pairs in DS4's order (its travel order:
+ * the arm sweeps once), and a budget of DS4's own estimated rig time
+ * holds all six on a rig that keeps the planner's pace: an operator who
+ * gives the adaptive capture DS4's time gets at least DS4's samples. */
+static void test_seeds_fill_ds4_time(void **state)
+{
+    (void)state;
+    struct plan_rig rig;
+    struct plan *pool = load("ds1", &rig), *ds4 = load("ds4", &rig);
+    struct plan_estimate est;
+    plan_estimate(ds4, &rig, &est);
+    struct adaptive_options o = adaptive_default_options();
+    o.budget_s = est.total_s;
+    static struct run r;
+    run_policy(pool, &rig, &o, MAX_PICKS, &r);
+    print_message("budget %.3f s: %zu picks in %.3f s\n", o.budget_s, r.n, r.max_clock);
+    assert_int_equal(r.n, plan_count(ds4));
+    for (size_t k = 0; k < r.n; k++) {
+        const struct plan_point *p = plan_point(pool, (size_t)r.pick[k]), *q = plan_point(ds4, k);
+        assert_true(fabs(p->theta_i - q->theta_i) < 1e-9 && fabs(p->theta_r - q->theta_r) < 1e-9);
+    }
+    assert_true(r.max_clock <= o.budget_s + 1e-6);
+    assert_string_equal(r.st.stop, "budget");
+    plan_free(ds4);
+    plan_free(pool);
+}
+
 /* The detector integrates longer than the rig profile says, longer on
  * one side than the other, and every point takes a little more than its
  * move, settle and integration: the policy learns it from what the points
@@ -544,6 +571,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_deterministic),
         cmocka_unit_test(test_budget_never_exceeded),
+        cmocka_unit_test(test_seeds_fill_ds4_time),
         cmocka_unit_test(test_budget_held_on_a_slower_rig),
         cmocka_unit_test(test_budget_held_through_rare_faults),
         cmocka_unit_test(test_cost_learns_integration),
