@@ -55,6 +55,16 @@ struct adaptive_status {
     char stop[16];           /* "" (go on), "target", "budget", "converged", "exhausted" */
 };
 
+/* Whether a prediction from this many samples is only rough: below 40 the
+ * calibration (docs/adaptive.md, "Predicting the error") found it within
+ * 1.5x of the truth on fewer than half its checkpoints, and at six samples
+ * it was 1.5-7x below the truth on the held-out materials. */
+#define ADAPTIVE_CALIBRATED_SAMPLES 40
+static inline int adaptive_prediction_rough(size_t samples)
+{
+    return samples < ADAPTIVE_CALIBRATED_SAMPLES;
+}
+
 typedef struct adaptive adaptive;
 
 /* A policy over the pool's points (plan_point(pool, i), i < plan_count),

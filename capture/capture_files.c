@@ -314,6 +314,8 @@ static json_t *adaptive_json(const struct capture_summary *s)
     json_t *o = json_object();
     json_object_set_new(o, "model", json_string(st->model));
     json_object_set_new(o, "predicted_error", num_or_null(st->predicted_error));
+    json_object_set_new(o, "prediction_rough",
+                        json_boolean(adaptive_prediction_rough(st->samples)));
     json_object_set_new(o, "predicted_next", num_or_null(st->predicted_next));
     json_object_set_new(o, "predicted_next_s", num_or_null(st->predicted_next_s));
     json_object_set_new(o, "gain_per_min", num_or_null(st->gain_per_min));

@@ -6,6 +6,8 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "adaptive/adaptive.h"
+
 #define BAR_WIDTH 24
 
 void progress_init(struct progress *p, const char *label, int quiet)
@@ -44,8 +46,9 @@ static void figures(const struct progress_state *s, int tty, char *buf, size_t s
         }
     }
     if (s->pool && isfinite(s->predicted) && (size_t)n < size) {
-        n += snprintf(buf + n, size - (size_t)n, "%spredicted error now %.3f", tty ? "  " : ", ",
-                      s->predicted);
+        n += snprintf(buf + n, size - (size_t)n, "%spredicted error now %.3f%s", tty ? "  " : ", ",
+                      s->predicted,
+                      adaptive_prediction_rough(s->done) ? " (rough: few samples)" : "");
         if (isfinite(s->predicted_next) && isfinite(s->predicted_next_s) && (size_t)n < size)
             n += snprintf(buf + n, size - (size_t)n, ", %.3f in ~%.0f min", s->predicted_next,
                           fmax(1, s->predicted_next_s / 60));

@@ -30,8 +30,9 @@ struct progress_state {
     const char *unit; /* "points", "jobs", "epochs" */
     /* An adaptive capture (pool set): total is the size of the pool it
      * chooses from (no bar: it measures a few), estimate_s its budget; its
-     * prediction "predicted error now 0.031, 0.025 in ~4 min" when finite
-     * (the fields are read only with pool set). */
+     * prediction "predicted error now 0.031, 0.025 in ~4 min" when finite,
+     * marked "(rough: few samples)" while done is below
+     * ADAPTIVE_CALIBRATED_SAMPLES (the fields are read only with pool set). */
     int pool;
     double predicted, predicted_next, predicted_next_s;
 };
