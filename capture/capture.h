@@ -74,7 +74,20 @@ struct capture_config {
      * progress figures): a round when the sample count reaches 16, 32,
      * 64... (the cost of them all stays below twice the final fit's). */
     int progress_fit;
+    /* A pre-scan (docs/plans.md, "Estimates on a real day"): this many of
+     * the plan's points, spread over it, measured first, so that the ETA
+     * counts the integration the detector chooses from early on. They are
+     * journalled as any sample (the fit uses them) and the plan's order
+     * skips them. 0: the default (CAPTURE_PRESCAN_DEFAULT points on a
+     * host's rig, none on the in-process rig, whose estimate knows its
+     * material, none in the adaptive order); CAPTURE_PRESCAN_OFF: none;
+     * else 1..CAPTURE_PRESCAN_MAX (refused in the adaptive order). */
+    int prescan;
 };
+
+#define CAPTURE_PRESCAN_OFF (-1)
+#define CAPTURE_PRESCAN_DEFAULT 6
+#define CAPTURE_PRESCAN_MAX 64
 
 struct capture_summary {
     char plan[128], model[32];
@@ -148,8 +161,9 @@ struct capture_progress {
     double rig_time_s;   /* the rig clock so far, all runs, paused time excluded */
     /* The whole plan's rig time as estimated before the first move (on the
      * simulated rig with the integration its detector will choose,
-     * sim/estimate.h), and the rig time still to go: the estimate of the
-     * points left, scaled by how this run's points compared with theirs. */
+     * sim/estimate.h), and the rig time still to go: the points left with
+     * the integration measured nearest each and the overhead per point the
+     * journal shows (capture/eta.h). */
     double estimate_s, eta_s;
     double fit_log_error; /* the latest streaming fit round's, NAN before one */
     /* The adaptive order's latest prediction, NULL in other orders; total
