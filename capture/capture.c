@@ -107,19 +107,39 @@ static int estimate(struct capture_inputs *in, struct gonio_err *err)
     return 0;
 }
 
-/* The pre-scan: cfg->prescan's points, by default CAPTURE_PRESCAN_DEFAULT
- * on a host's rig, whose material the engine cannot meter before it
- * measures, and none on the in-process rig, whose estimate already counts
- * the integration its detector will choose; never in the adaptive order,
- * whose policy chooses every point. */
+/* The pre-scan: cfg->prescan's points. By default on a host's rig, whose
+ * material the engine cannot meter before it measures,
+ * CAPTURE_PRESCAN_DEFAULT points, but one in CAPTURE_PRESCAN_SHARE of a
+ * smaller plan's (at least 2): the pre-scan crosses the plan's domain once,
+ * which on a small plan costs more than its ETA is worth (DS3, 52 points:
+ * 6 cost 19 s of 81 s, 2 cost 1.4 s; docs/plans.md). None on the in-process
+ * rig, whose estimate already counts the integration its detector will
+ * choose, and never in the adaptive order, whose policy chooses every
+ * point. */
+static size_t prescan_default(const struct plan *plan)
+{
+    size_t n = plan_count(plan) / CAPTURE_PRESCAN_SHARE;
+    return n < 2 ? 2 : n > CAPTURE_PRESCAN_DEFAULT ? CAPTURE_PRESCAN_DEFAULT : n;
+}
+
+int capture_prescan_option(const char *opt, long long points, int *prescan,
+                           struct gonio_err *err)
+{
+    if (points < 0 || points > CAPTURE_PRESCAN_MAX)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "%s %lld: a number of points from 0 (none) to %d", opt, points,
+                             CAPTURE_PRESCAN_MAX);
+    *prescan = points ? (int)points : CAPTURE_PRESCAN_OFF;
+    return 0;
+}
+
 static int resolve_prescan(const struct capture_config *cfg, struct capture_inputs *in,
                            struct gonio_err *err)
 {
     if (cfg->prescan < CAPTURE_PRESCAN_OFF || cfg->prescan > CAPTURE_PRESCAN_MAX)
         return gonio_err_set(err, GONIO_EUSAGE,
-                             "--prescan %d: a number of points from 0 (none) to %d",
-                             cfg->prescan == CAPTURE_PRESCAN_OFF ? 0 : cfg->prescan,
-                             CAPTURE_PRESCAN_MAX);
+                             "prescan %d: a number of points from 0 (none) to %d",
+                             cfg->prescan, CAPTURE_PRESCAN_MAX);
     if (cfg->prescan > 0 && in->adaptive)
         return gonio_err_set(err, GONIO_EUSAGE,
                              "--prescan %d: the adaptive order chooses every point itself "
@@ -127,7 +147,7 @@ static int resolve_prescan(const struct capture_config *cfg, struct capture_inpu
                              cfg->prescan, plan_name(in->plan));
     in->prescan = cfg->prescan > 0                        ? (size_t)cfg->prescan
                   : cfg->prescan == CAPTURE_PRESCAN_OFF ? 0
-                  : !in->sim && !in->adaptive            ? CAPTURE_PRESCAN_DEFAULT
+                  : !in->sim && !in->adaptive            ? prescan_default(in->plan)
                                                          : 0;
     return 0;
 }

@@ -78,15 +78,17 @@ struct capture_config {
      * the plan's points, spread over it, measured first, so that the ETA
      * counts the integration the detector chooses from early on. They are
      * journalled as any sample (the fit uses them) and the plan's order
-     * skips them. 0: the default (CAPTURE_PRESCAN_DEFAULT points on a
-     * host's rig, none on the in-process rig, whose estimate knows its
-     * material, none in the adaptive order); CAPTURE_PRESCAN_OFF: none;
-     * else 1..CAPTURE_PRESCAN_MAX (refused in the adaptive order). */
+     * skips them. 0: the default (on a host's rig CAPTURE_PRESCAN_DEFAULT
+     * points, or one in CAPTURE_PRESCAN_SHARE of a smaller plan's, at least
+     * 2; none on the in-process rig, whose estimate knows its material,
+     * none in the adaptive order); CAPTURE_PRESCAN_OFF: none; else
+     * 1..CAPTURE_PRESCAN_MAX (refused in the adaptive order). */
     int prescan;
 };
 
 #define CAPTURE_PRESCAN_OFF (-1)
 #define CAPTURE_PRESCAN_DEFAULT 6
+#define CAPTURE_PRESCAN_SHARE 25
 #define CAPTURE_PRESCAN_MAX 64
 
 struct capture_summary {
@@ -201,6 +203,12 @@ struct capture_hooks {
     void (*on_progress)(void *user, const struct capture_progress *p);
     void *user;
 };
+
+/* A count of pre-scan points as an operator gives it (0: none) into
+ * capture_config.prescan; -GONIO_EUSAGE naming opt (--prescan, goniod's
+ * prescan field) outside 0..CAPTURE_PRESCAN_MAX. */
+int capture_prescan_option(const char *opt, long long points, int *prescan,
+                           struct gonio_err *err);
 
 /* Run a capture: resolve and validate the inputs, prepare the directory
  * (or resume it: the same plan, scene, material, rig, detector and

@@ -131,12 +131,14 @@ static long next_undone(sequence *q)
     return q->cursor < q->count ? (long)q->cursor : -1;
 }
 
-/* The pre-scan's points: n of the plan's, at the middles of n equal
- * stretches of its order. The plan's order is a tour (or levels of
- * tours) that keeps neighbours together, so these spread over the plan's
- * domain in proportion to its density of points: each stands for the
- * stretch around it, which is what a sum over the points (the ETA) weighs
- * it by. */
+/* The pre-scan's points: one in each of n equal stretches of the plan's
+ * order. The order is a tour (or levels of tours) that keeps neighbours
+ * together, so the stretches spread over the plan's domain in proportion
+ * to its density of points: each pre-scanned point stands for its stretch,
+ * which is what a sum over the points (the ETA) weighs it by. In each
+ * stretch the point the axes reach soonest from the one before (home for
+ * the first): the pre-scan crosses the domain once, in as little rig time
+ * as the stretches allow, rather than zigzagging through their middles. */
 static int prescan_points(sequence *q, size_t n, struct gonio_err *err)
 {
     if (n > q->count)
@@ -145,8 +147,19 @@ static int prescan_points(sequence *q, size_t n, struct gonio_err *err)
         return 0;
     if (!(q->prescan = malloc(n * sizeof *q->prescan)))
         return gonio_err_set(err, ENOMEM, "out of memory");
-    for (size_t j = 0; j < n; j++)
-        q->prescan[j] = (long)(((2 * j + 1) * q->count) / (2 * n));
+    struct plan_axes at = home;
+    for (size_t j = 0; j < n; j++) {
+        size_t lo = j * q->count / n, hi = (j + 1) * q->count / n;
+        double best = INFINITY;
+        for (size_t i = lo; i < hi; i++) {
+            double t = plan_move_time_backlash(q->rig, &at, &plan_point(q->plan, i)->ax);
+            if (t < best) {
+                best = t;
+                q->prescan[j] = (long)i;
+            }
+        }
+        at = plan_point(q->plan, (size_t)q->prescan[j])->ax;
+    }
     q->n_prescan = n;
     return 0;
 }

@@ -252,6 +252,7 @@ static struct capture_config request_config(const worker *w, const struct worker
         .stop = r->stop[0] ? r->stop : NULL,
         .budget_min = r->budget_min,
         .stop_target = r->stop_target,
+        .prescan = r->prescan,
         .quiet = 1,
         .assess_nodes = (size_t)w->cfg->assess_nodes,
         .progress_fit = 1,
