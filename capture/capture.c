@@ -110,16 +110,17 @@ static int estimate(struct capture_inputs *in, struct gonio_err *err)
 /* The pre-scan: cfg->prescan's points. By default on a host's rig, whose
  * material the engine cannot meter before it measures,
  * CAPTURE_PRESCAN_DEFAULT points, but one in CAPTURE_PRESCAN_SHARE of a
- * smaller plan's (at least 2): the pre-scan crosses the plan's domain once,
- * which on a small plan costs more than its ETA is worth (DS3, 52 points:
- * 6 cost 19 s of 81 s, 2 cost 1.4 s; docs/plans.md). None on the in-process
+ * smaller plan's, and none when that is fewer than 2: the pre-scan crosses
+ * the plan's domain once, which on a small plan costs more than its ETA is
+ * worth (DS3, 52 points: 6 cost 19 s of 81 s, 2 cost 1.4 s; DS4, 6 points:
+ * 2 cost 8 s of 18 s; docs/plans.md). None on the in-process
  * rig, whose estimate already counts the integration its detector will
  * choose, and never in the adaptive order, whose policy chooses every
  * point. */
 static size_t prescan_default(const struct plan *plan)
 {
     size_t n = plan_count(plan) / CAPTURE_PRESCAN_SHARE;
-    return n < 2 ? 2 : n > CAPTURE_PRESCAN_DEFAULT ? CAPTURE_PRESCAN_DEFAULT : n;
+    return n < 2 ? 0 : n > CAPTURE_PRESCAN_DEFAULT ? CAPTURE_PRESCAN_DEFAULT : n;
 }
 
 int capture_prescan_option(const char *opt, long long points, int *prescan,
@@ -149,6 +150,8 @@ static int resolve_prescan(const struct capture_config *cfg, struct capture_inpu
                   : cfg->prescan == CAPTURE_PRESCAN_OFF ? 0
                   : !in->sim && !in->adaptive            ? prescan_default(in->plan)
                                                          : 0;
+    if (in->prescan > plan_count(in->plan))
+        in->prescan = plan_count(in->plan);
     return 0;
 }
 
@@ -446,6 +449,7 @@ static void progress(const struct capture_hooks *hooks, const struct capture_inp
         .estimate_s = in->est.total_s,
         .eta_s = eta ? capture_eta_left(eta) : NAN,
         .fit_log_error = st->log_error,
+        .prescan = in->prescan,
     };
     struct sequence_report rep;
     if (sequence_report(seq, &rep)) {

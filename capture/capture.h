@@ -79,15 +79,15 @@ struct capture_config {
      * counts the integration the detector chooses from early on. They are
      * journalled as any sample (the fit uses them) and the plan's order
      * skips them. 0: the default (on a host's rig CAPTURE_PRESCAN_DEFAULT
-     * points, or one in CAPTURE_PRESCAN_SHARE of a smaller plan's, at least
-     * 2; none on the in-process rig, whose estimate knows its material,
+     * points, or one in CAPTURE_PRESCAN_SHARE of a smaller plan's, none
+     * when that is fewer than 2; none on the in-process rig, whose estimate knows its material,
      * none in the adaptive order); CAPTURE_PRESCAN_OFF: none; else
      * 1..CAPTURE_PRESCAN_MAX (refused in the adaptive order). */
     int prescan;
 };
 
 #define CAPTURE_PRESCAN_OFF (-1)
-#define CAPTURE_PRESCAN_DEFAULT 6
+#define CAPTURE_PRESCAN_DEFAULT 12
 #define CAPTURE_PRESCAN_SHARE 25
 #define CAPTURE_PRESCAN_MAX 64
 
@@ -168,6 +168,7 @@ struct capture_progress {
      * journal shows (capture/eta.h). */
     double estimate_s, eta_s;
     double fit_log_error; /* the latest streaming fit round's, NAN before one */
+    size_t prescan;       /* the points the pre-scan measures first, 0: none */
     /* The adaptive order's latest prediction, NULL in other orders; total
      * is then the pool's size, estimate_s the budget (NAN: none) and eta_s
      * the budget left. */

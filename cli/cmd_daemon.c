@@ -474,7 +474,7 @@ static void capture_usage(FILE *out)
             PRESCAN_HELP
             "  (default on a Modbus or USB rig: " PRESCAN_STR(CAPTURE_PRESCAN_DEFAULT) ", or one in "
             PRESCAN_STR(CAPTURE_PRESCAN_SHARE) " of a smaller plan's points,\n"
-            "  at least 2; none on goniod's simulated rig, which knows its material).\n"
+            "  none below 2; none on goniod's simulated rig, which knows its material).\n"
             "  goniod checks the request before it starts anything: a bad plan, scene,\n"
             "  rig, material, model, order, stop, budget, target or truth exits 2 and\n"
             "  creates nothing.\n"

@@ -142,6 +142,7 @@ static void hook_on_progress(void *user, const struct capture_progress *p)
     m->already_done = p->already_done;
     m->estimate_s = p->estimate_s;
     m->adaptive = p->policy != NULL;
+    m->prescan = p->prescan;
     push(w, &m->base);
 }
 

@@ -73,6 +73,7 @@ struct worker_msg_start {
     size_t total, already_done;
     double estimate_s; /* the plan's rig-time estimate (capture_progress) */
     int adaptive;      /* the adaptive order: total is the pool's size */
+    size_t prescan;    /* the pre-scan's points (capture_progress) */
 };
 
 struct worker_msg_sample {

@@ -33,11 +33,12 @@ PLANS = os.environ.get("PLANS", "ds4 ds3 ds2 ds1").split()
 TRANSPORTS = os.environ.get("TRANSPORTS", "rtu tcp").split()
 SCENE = os.environ.get("SCENE", "lab")
 SCALE = float(os.environ.get("TIME_SCALE", "20"))
-PRESCAN = 6  # goniod's default on a Modbus rig (capture/capture.h)
+
 
 
 def capture(plan, transport):
-    """(announced estimate, total after the pre-scan, total halfway, actual rig time)."""
+    """(pre-scan points, announced estimate, total after the pre-scan, total halfway,
+    actual rig time)."""
     folder = tg.tmpdir()
     sim = tm.Sim(folder, SCENE, scale=SCALE)
     d = None
@@ -57,10 +58,10 @@ def capture(plan, transport):
         stop = docs[-1]
         assert stop["exit_status"] == "success", stop
         total = events[-1]["total"]
-        after = next(e for e in events if e["done"] == PRESCAN)
+        after = next(e for e in events if e["done"] == max(start["prescan"], 1))
         half = next(e for e in events if e["done"] >= total / 2)
         res = tm.results(os.path.join(folder, "cap", "e"))
-        return (start["estimate_s"], after["rig_time_s"] + after["eta_s"],
+        return (start["prescan"], start["estimate_s"], after["rig_time_s"] + after["eta_s"],
                 half["rig_time_s"] + half["eta_s"], res["rig_time_s"])
     finally:
         if d:
@@ -75,14 +76,14 @@ def pct(e, a):
 
 
 def main():
-    rows = ["| plan | transport | fixed estimate (s) | after the pre-scan (s) | halfway (s) | "
-            "actual (s) | fixed vs actual | pre-scan vs actual | halfway vs actual |",
-            "|---|---|---|---|---|---|---|---|---|"]
+    rows = ["| plan | transport | pre-scan | fixed estimate (s) | after the pre-scan (s) | "
+            "halfway (s) | actual (s) | fixed vs actual | pre-scan vs actual | halfway vs actual |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
     for plan in PLANS:
         for transport in TRANSPORTS:
-            fixed, after, half, actual = capture(plan, transport)
-            rows.append("| %s | %s | %.1f | %.1f | %.1f | %.1f | %s | %s | %s |" % (
-                plan, transport.upper(), fixed, after, half, actual, pct(fixed, actual),
+            n, fixed, after, half, actual = capture(plan, transport)
+            rows.append("| %s | %s | %d | %.1f | %.1f | %.1f | %.1f | %s | %s | %s |" % (
+                plan, transport.upper(), n, fixed, after, half, actual, pct(fixed, actual),
                 pct(after, actual), pct(half, actual)))
             sys.stderr.write(rows[-1] + "\n")
     table = "\n".join(rows) + "\n"
