@@ -465,13 +465,14 @@ static void progress(const struct capture_hooks *hooks, const struct capture_inp
 
 /* The ETA of a capture in plan order, having observed the journal's
  * records (a resumed capture's); none in the adaptive order, whose
- * progress counts down its budget. */
-static int eta_new(const struct capture_inputs *in, const sequence *seq,
-                   const struct journal_sample *js, size_t n, capture_eta **out,
-                   struct gonio_err *err)
+ * progress counts down its budget, nor for a host that shows no progress
+ * (the study): metering costs O(points) per sample. */
+static int eta_new(const struct capture_inputs *in, const struct capture_hooks *hooks,
+                   const sequence *seq, const struct journal_sample *js, size_t n,
+                   capture_eta **out, struct gonio_err *err)
 {
     *out = NULL;
-    if (in->adaptive)
+    if (in->adaptive || !hooks->on_progress)
         return 0;
     size_t count = plan_count(in->plan);
     long *order = malloc((count ? count : 1) * sizeof *order);
@@ -524,7 +525,7 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
     *samples = all;
     size_t already = *n;
     capture_eta *eta = NULL;
-    int rc = eta_new(in, seq, all, *n, &eta, err);
+    int rc = eta_new(in, hooks, seq, all, *n, &eta, err);
     if (rc < 0)
         return rc;
     progress(hooks, in, eta, fs, seq, *n, already, *n > 0 ? all[*n - 1].rig_time_s : 0);
