@@ -446,7 +446,7 @@ static void progress(const struct capture_hooks *hooks, const struct capture_inp
         .total = plan_count(in->plan),
         .already_done = already,
         .rig_time_s = rig_time_s,
-        .estimate_s = in->est.total_s,
+        .estimate_s = eta ? capture_eta_estimate(eta) : in->est.total_s,
         .eta_s = eta ? capture_eta_left(eta) : NAN,
         .fit_log_error = st->log_error,
         .prescan = in->prescan,

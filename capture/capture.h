@@ -161,9 +161,10 @@ struct capture_progress {
     size_t done, total;  /* samples journalled (all runs), planned points */
     size_t already_done; /* journalled by earlier runs: this run resumed */
     double rig_time_s;   /* the rig clock so far, all runs, paused time excluded */
-    /* The whole plan's rig time as estimated before the first move (on the
-     * simulated rig with the integration its detector will choose,
-     * sim/estimate.h), and the rig time still to go: the points left with
+    /* The whole capture's rig time as estimated before the first move (on
+     * the simulated rig with the integration its detector will choose,
+     * sim/estimate.h; in the capture's order, a pre-scan's detours
+     * included), and the rig time still to go: the points left with
      * the integration measured nearest each and the overhead per point the
      * journal shows (capture/eta.h). */
     double estimate_s, eta_s;

@@ -18,6 +18,7 @@ struct capture_eta {
     double last_rig_s;
     double overhead_sum;
     size_t n_obs;
+    double estimate_s; /* capture_eta_left before any observation */
 };
 
 static const struct plan_axes home = {0, 0, 0};
@@ -49,6 +50,7 @@ capture_eta *capture_eta_new(const struct plan *plan, const struct plan_rig *rig
         e->move[i] = plan_move_time_backlash(rig, at, to);
         at = to;
     }
+    e->estimate_s = capture_eta_left(e);
     return e;
 }
 
@@ -76,6 +78,11 @@ void capture_eta_observe(capture_eta *e, const struct journal_sample *s)
     e->last_rig_s = s->rig_time_s;
     e->done[i] = 1;
     plan_meter_observe(e->meter, i, s->integration_s);
+}
+
+double capture_eta_estimate(const capture_eta *e)
+{
+    return e->estimate_s;
 }
 
 double capture_eta_overhead(const capture_eta *e)

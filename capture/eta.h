@@ -42,6 +42,10 @@ void capture_eta_observe(capture_eta *e, const struct journal_sample *s);
 /* The rig time of the points not observed yet. */
 double capture_eta_left(const capture_eta *e);
 
+/* capture_eta_left before any observation: the whole capture's estimate in
+ * its order (the plan's estimate, plus a pre-scan's detours). */
+double capture_eta_estimate(const capture_eta *e);
+
 /* The mean overhead per point so far (the settle before any point). */
 double capture_eta_overhead(const capture_eta *e);
 

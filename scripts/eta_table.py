@@ -4,7 +4,7 @@ goniod captures over Modbus RTU (gonio-sim's pty) and Modbus TCP against
 gonio-sim on a scene (default lab), with the pre-scan goniod makes on a
 Modbus rig. For each plan and transport: the estimate goniod announces
 before the first move (the fixed integration: goniod cannot meter the
-material in advance), the total the ETA gives right after the pre-scan
+material in advance; the pre-scan's detours included), the total the ETA gives right after the pre-scan
 (the rig time so far plus the ETA), the same halfway through the points,
 and the rig time the capture took (results.json).
 

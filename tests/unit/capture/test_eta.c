@@ -40,6 +40,7 @@ static void test_first_eta_is_the_estimate(void **state)
     struct plan_estimate est;
     plan_estimate(ds3, &rig, &est);
     assert_close(capture_eta_left(e), est.total_s, 1e-9);
+    assert_close(capture_eta_estimate(e), est.total_s, 1e-9);
     assert_close(capture_eta_overhead(e), rig.settle_s, 0);
     capture_eta_free(e);
 }
@@ -149,6 +150,10 @@ static void test_order_counts_the_moves(void **state)
         at = to;
     }
     assert_close(capture_eta_left(e), want, 1e-9);
+    assert_close(capture_eta_estimate(e), want, 1e-9); /* the order's detour included */
+    struct plan_estimate est;
+    plan_estimate(ds3, &rig, &est);
+    assert_true(want > est.total_s);
     capture_eta_free(e);
     free(order);
 }
