@@ -254,11 +254,6 @@ void sequence_free(sequence *q)
     free(q);
 }
 
-int sequence_done(const sequence *q, size_t point)
-{
-    return point < q->count && q->done[point];
-}
-
 int sequence_begin(sequence *q, long k, struct gonio_err *err)
 {
     if (!q->policy)

@@ -52,9 +52,6 @@ int sequence_new(const struct plan *plan, const struct plan_rig *rig,
                  const char *dir, sequence **out, long *first, struct gonio_err *err);
 void sequence_free(sequence *q);
 
-/* Whether the journal holds the point (for the ETA). */
-int sequence_done(const sequence *q, size_t point);
-
 /* Plan order: every point of the plan in the order the sequence measures
  * them, the pre-scan's first (plan_count entries into order; the ETA's
  * moves). O(count x pre-scan). */
