@@ -13,6 +13,7 @@
 #include "adaptive/track.h"
 #include "brdf/domain.h"
 #include "fit/models.h"
+#include "planner/meter.h"
 
 /* The first pairs: DS4's six (configs/plans/ds4.yaml), spread over
  * back-scatter, the mirror neighbourhood and the forward lobe at
@@ -82,17 +83,13 @@ struct adaptive {
     char model[32];
     size_t n_pool;
     struct brdf_pair *pairs;  /* pool point i's pair */
-    double *integ;            /* pool point i's integration as the host expects it */
-    int expected;             /* the host gave integ (else the rig's fixed one) */
-    /* What the rig did (adaptive_observe): the integration measured at
-     * each observed point (NAN elsewhere), each pool point's nearest
-     * observed point (-1: none yet) and its chord distance, the point
-     * observed last (-1: none, the axes at home), and the ratios of the
-     * latest points' rig times to what the policy costed them at (a ring
-     * of MARGIN_WINDOW, n_obs observed in all). */
-    double *obs_integ;
-    long *near_obs;
-    double *near_d;
+    /* What the rig did (adaptive_observe): the integration each pool
+     * point will take, from the host's expectation and the integration
+     * measured nearest (planner/meter.h), the point observed last (-1:
+     * none, the axes at home), and the ratios of the latest points' rig
+     * times to what the policy costed them at (a ring of MARGIN_WINDOW,
+     * n_obs observed in all). */
+    plan_meter *meter;
     long last_obs;
     double ratio[MARGIN_WINDOW];
     size_t n_obs;
@@ -214,30 +211,21 @@ adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
     a->cover = a->latent;
     ens_init(&a->ens);
     a->pairs = malloc(n * sizeof *a->pairs);
-    a->integ = malloc(n * sizeof *a->integ);
-    a->obs_integ = malloc(n * sizeof *a->obs_integ);
-    a->near_obs = malloc(n * sizeof *a->near_obs);
-    a->near_d = malloc(n * sizeof *a->near_d);
+    a->meter = plan_meter_new(pool, rig, integration_s, err);
     a->measured = calloc(n, 1);
     a->samples = malloc(n * sizeof *a->samples);
     a->hist_t = malloc(n * sizeof *a->hist_t);
     a->hist_e = malloc(n * sizeof *a->hist_e);
     a->seed_point = malloc(N_SEEDS * sizeof *a->seed_point);
     a->gap = malloc(n * sizeof *a->gap);
-    if (!a->gap || !a->pairs || !a->integ || !a->measured || !a->samples || !a->hist_t ||
-        !a->hist_e || !a->seed_point || !a->obs_integ || !a->near_obs || !a->near_d) {
+    if (!a->gap || !a->pairs || !a->meter || !a->measured || !a->samples || !a->hist_t ||
+        !a->hist_e || !a->seed_point) {
         gonio_err_set(err, ENOMEM, "adaptive policy: out of memory");
         adaptive_free(a);
         return NULL;
     }
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = 0; i < n; i++)
         point_pair(plan_point(pool, i), &a->pairs[i]);
-        a->integ[i] = integration_s ? integration_s[i] : rig->integration_s;
-        a->obs_integ[i] = NAN;
-        a->near_obs[i] = -1;
-        a->near_d[i] = INFINITY;
-    }
-    a->expected = integration_s != NULL;
     a->last_obs = -1;
     a->longest_move = -1;
     for (size_t i = 0; i < n; i++)
@@ -268,10 +256,7 @@ void adaptive_free(adaptive *a)
     if (!a)
         return;
     free(a->pairs);
-    free(a->integ);
-    free(a->obs_integ);
-    free(a->near_obs);
-    free(a->near_d);
+    plan_meter_free(a->meter);
     free(a->measured);
     free(a->samples);
     free(a->hist_t);
@@ -302,24 +287,6 @@ int adaptive_add(adaptive *a, size_t point, const struct fit_sample *s, int satu
     return 0;
 }
 
-/* The integration point i will take: the host's expectation until the
- * rig has measured somewhere, then the one measured at the nearest
- * observed point — scaled by how that point's measured integration
- * compared with the host's expectation there, where the host gave one
- * (the expectation knows how the signal varies between the two; the
- * measurement, how the day's detector differs from it), else as it is,
- * never below the rig's fixed integration (an auto-exposing detector
- * integrates at least that). */
-static double integration_of(const adaptive *a, size_t i)
-{
-    long j = a->near_obs[i];
-    if (j < 0)
-        return a->integ[i];
-    if (a->expected && a->integ[j] > 0)
-        return a->integ[i] * a->obs_integ[j] / a->integ[j];
-    return fmax(a->rig->integration_s, a->obs_integ[j]);
-}
-
 static double move_time(const adaptive *a, const struct plan_axes *from, size_t i)
 {
     return plan_move_time_backlash(a->rig, from, &plan_point(a->pool, i)->ax);
@@ -327,7 +294,7 @@ static double move_time(const adaptive *a, const struct plan_axes *from, size_t 
 
 double adaptive_point_cost(const adaptive *a, const struct plan_axes *from, size_t i)
 {
-    return move_time(a, from, i) + a->rig->settle_s + integration_of(a, i);
+    return move_time(a, from, i) + a->rig->settle_s + plan_meter_integration(a->meter, i);
 }
 
 int adaptive_observe(adaptive *a, size_t point, double integration_s, double point_rig_s,
@@ -352,14 +319,7 @@ int adaptive_observe(adaptive *a, size_t point, double integration_s, double poi
     a->ratio[a->n_obs++ % MARGIN_WINDOW] = cost > 0 ? point_rig_s / cost : 1;
     a->reserve = fmax(a->reserve, point_rig_s - cost);
     a->longest_move = fmax(a->longest_move, move_time(a, from, point));
-    a->obs_integ[point] = integration_s;
-    for (size_t i = 0; i < a->n_pool; i++) {
-        double d = chord(&a->pairs[i], &a->pairs[point]);
-        if (d < a->near_d[i]) {
-            a->near_d[i] = d;
-            a->near_obs[i] = (long)point;
-        }
-    }
+    plan_meter_observe(a->meter, point, integration_s);
     a->last_obs = (long)point;
     return 0;
 }
@@ -381,7 +341,7 @@ static int affordable(const adaptive *a, const struct plan_axes *from, size_t i,
                       double *cost)
 {
     double move = move_time(a, from, i);
-    *cost = move + a->rig->settle_s + integration_of(a, i);
+    *cost = move + a->rig->settle_s + plan_meter_integration(a->meter, i);
     return !(a->opt.budget_s > 0) ||
            clock + margin(a, move) * *cost <= a->opt.budget_s + BUDGET_SLACK_S;
 }
@@ -635,7 +595,8 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
     double clock = rig_time_s + a->reserve;
     if (pending >= 0) {
         double move = move_time(a, at, (size_t)pending);
-        clock += margin(a, move) * (move + a->rig->settle_s + integration_of(a, (size_t)pending));
+        clock += margin(a, move) *
+                 (move + a->rig->settle_s + plan_meter_integration(a->meter, (size_t)pending));
         from = plan_point(a->pool, (size_t)pending)->ax;
     }
     const char *stop = "";

@@ -10,6 +10,7 @@
 #include "brdf/material.h"
 #include "common/clock.h"
 #include "capture/capture_files.h"
+#include "capture/eta.h"
 #include "capture/sequence.h"
 #include "fit/journal_samples.h"
 #include "journal/journal.h"
@@ -41,20 +42,20 @@ struct capture_inputs {
     const struct fit_model_kind *model; /* the final fit's (fit/models.h) */
     int adaptive; /* the plan's order is adaptive: the policy's options */
     struct adaptive_options policy;
-    /* The rig time the capture will take, and each point's share: on the
-     * simulated rig with the integration its detector will choose
-     * (sim/estimate.h), elsewhere with the rig's fixed integration. */
+    /* The rig time the capture will take: on the simulated rig with the
+     * integration its detector will choose (sim/estimate.h), elsewhere
+     * with the rig's fixed integration. */
     struct plan_estimate est;
-    double *point_s;
     /* Each point's integration on the simulated rig, for the adaptive
-     * policy's costs; NULL elsewhere (the policy learns it from the
+     * policy's costs and the ETA; NULL elsewhere (both learn it from the
      * journal). */
     double *integration_s;
+    /* Points measured first to meter the material (capture/sequence.h). */
+    size_t prescan;
 };
 
 static void inputs_free(struct capture_inputs *in)
 {
-    free(in->point_s);
     free(in->integration_s);
     plan_free(in->plan);
     brdf_material_free(in->material);
@@ -97,15 +98,60 @@ static int resolve_materials(const struct capture_config *cfg, struct capture_in
 static int estimate(struct capture_inputs *in, struct gonio_err *err)
 {
     size_t n = plan_count(in->plan);
-    if (!(in->point_s = malloc((n ? n : 1) * sizeof *in->point_s)))
-        return gonio_err_set(err, ENOMEM, "out of memory");
-    if (in->sim && in->adaptive &&
-        !(in->integration_s = malloc((n ? n : 1) * sizeof *in->integration_s)))
+    if (in->sim && !(in->integration_s = malloc((n ? n : 1) * sizeof *in->integration_s)))
         return gonio_err_set(err, ENOMEM, "out of memory");
     if (in->sim)
-        return sim_estimate_plan(&in->scene, in->material, in->plan, &in->rig, in->point_s,
+        return sim_estimate_plan(&in->scene, in->material, in->plan, &in->rig, NULL,
                                  in->integration_s, &in->est, err);
-    plan_estimate_points(in->plan, &in->rig, NULL, NULL, in->point_s, &in->est);
+    plan_estimate(in->plan, &in->rig, &in->est);
+    return 0;
+}
+
+/* The pre-scan: cfg->prescan's points. By default on a host's rig, whose
+ * material the engine cannot meter before it measures,
+ * CAPTURE_PRESCAN_DEFAULT points, but one in CAPTURE_PRESCAN_SHARE of a
+ * smaller plan's, and none when that is fewer than 2: the pre-scan crosses
+ * the plan's domain once, which on a small plan costs more than its ETA is
+ * worth (DS3, 52 points: 6 cost 19 s of 81 s, 2 cost 1.4 s; DS4, 6 points:
+ * 2 cost 8 s of 18 s; docs/plans.md). None on the in-process
+ * rig, whose estimate already counts the integration its detector will
+ * choose, and never in the adaptive order, whose policy chooses every
+ * point. */
+static size_t prescan_default(const struct plan *plan)
+{
+    size_t n = plan_count(plan) / CAPTURE_PRESCAN_SHARE;
+    return n < 2 ? 0 : n > CAPTURE_PRESCAN_DEFAULT ? CAPTURE_PRESCAN_DEFAULT : n;
+}
+
+int capture_prescan_option(const char *opt, long long points, int *prescan,
+                           struct gonio_err *err)
+{
+    if (points < 0 || points > CAPTURE_PRESCAN_MAX)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "%s %lld: a number of points from 0 (none) to %d", opt, points,
+                             CAPTURE_PRESCAN_MAX);
+    *prescan = points ? (int)points : CAPTURE_PRESCAN_OFF;
+    return 0;
+}
+
+static int resolve_prescan(const struct capture_config *cfg, struct capture_inputs *in,
+                           struct gonio_err *err)
+{
+    if (cfg->prescan < CAPTURE_PRESCAN_OFF || cfg->prescan > CAPTURE_PRESCAN_MAX)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "prescan %d: a number of points from 0 (none) to %d",
+                             cfg->prescan, CAPTURE_PRESCAN_MAX);
+    if (cfg->prescan > 0 && in->adaptive)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "--prescan %d: the adaptive order chooses every point itself "
+                             "(plan '%s')",
+                             cfg->prescan, plan_name(in->plan));
+    in->prescan = cfg->prescan > 0                        ? (size_t)cfg->prescan
+                  : cfg->prescan == CAPTURE_PRESCAN_OFF ? 0
+                  : !in->sim && !in->adaptive            ? prescan_default(in->plan)
+                                                         : 0;
+    if (in->prescan > plan_count(in->plan))
+        in->prescan = plan_count(in->plan);
     return 0;
 }
 
@@ -162,7 +208,8 @@ static int resolve_inputs(const struct capture_config *cfg, const struct capture
     }
     in->adaptive = plan_current_order(in->plan) == PLAN_ORDER_ADAPTIVE;
     if ((rc = sequence_options(cfg, in->plan, stop_kind(cfg, in->plan) == PLAN_STOP_CONVERGE,
-                               &in->policy, err)) < 0) {
+                               &in->policy, err)) < 0 ||
+        (rc = resolve_prescan(cfg, in, err)) < 0) {
         inputs_free(in);
         return rc;
     }
@@ -386,33 +433,23 @@ static int stream_feed(struct stream *st, const struct plan *plan,
     return rc;
 }
 
-/* The ETA a host shows: the estimate of the points still to measure,
- * scaled by how this run's measured points compared with their estimate
- * (not at all before the first), so the first figure is the plan's
- * estimate and later ones learn the day's pace. */
-struct eta {
-    double left_s;     /* estimate of the points not measured yet */
-    double run_est_s;  /* estimate of the points this run measured */
-    double run_base_s; /* rig time when this run started */
-};
-
+/* The ETA a host shows: capture/eta.h's, metered from the journal. */
 static void progress(const struct capture_hooks *hooks, const struct capture_inputs *in,
-                     const struct eta *eta, const struct stream *st, const sequence *seq,
+                     const capture_eta *eta, const struct stream *st, const sequence *seq,
                      size_t done, size_t already, double rig_time_s)
 {
     if (!hooks->on_progress)
         return;
-    double run = rig_time_s - eta->run_base_s;
-    double scale = eta->run_est_s > 0 && run > 0 ? run / eta->run_est_s : 1;
     struct capture_progress p = {
         .plan = plan_name(in->plan),
         .done = done,
         .total = plan_count(in->plan),
         .already_done = already,
         .rig_time_s = rig_time_s,
-        .estimate_s = in->est.total_s,
-        .eta_s = eta->left_s * scale,
+        .estimate_s = eta ? capture_eta_estimate(eta) : in->est.total_s,
+        .eta_s = eta ? capture_eta_left(eta) : NAN,
         .fit_log_error = st->log_error,
+        .prescan = in->prescan,
     };
     struct sequence_report rep;
     if (sequence_report(seq, &rep)) {
@@ -424,6 +461,32 @@ static void progress(const struct capture_hooks *hooks, const struct capture_inp
         p.policy = &rep.status;
     }
     hooks->on_progress(hooks->user, &p);
+}
+
+/* The ETA of a capture in plan order, having observed the journal's
+ * records (a resumed capture's); none in the adaptive order, whose
+ * progress counts down its budget, nor for a host that shows no progress
+ * (the study): metering costs O(points) per sample. */
+static int eta_new(const struct capture_inputs *in, const struct capture_hooks *hooks,
+                   const sequence *seq, const struct journal_sample *js, size_t n,
+                   capture_eta **out, struct gonio_err *err)
+{
+    *out = NULL;
+    if (in->adaptive || !hooks->on_progress)
+        return 0;
+    size_t count = plan_count(in->plan);
+    long *order = malloc((count ? count : 1) * sizeof *order);
+    if (!order)
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    sequence_order(seq, order);
+    capture_eta *e = capture_eta_new(in->plan, &in->rig, order, in->integration_s, err);
+    free(order);
+    if (!e)
+        return -abs(err ? err->code : ENOMEM);
+    for (size_t i = 0; i < n; i++)
+        capture_eta_observe(e, &js[i]);
+    *out = e;
+    return 0;
 }
 
 /* A resumed capture's in-process rig: its axes where the interrupted run
@@ -461,26 +524,29 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
         return gonio_err_set(err, ENOMEM, "out of memory");
     *samples = all;
     size_t already = *n;
-    struct eta eta = {.run_base_s = *n > 0 ? all[*n - 1].rig_time_s : 0};
-    for (size_t k = 0; k < count; k++)
-        if (!sequence_done(seq, k))
-            eta.left_s += in->point_s[k];
-    progress(hooks, in, &eta, fs, seq, *n, already, eta.run_base_s);
+    capture_eta *eta = NULL;
+    int rc = eta_new(in, hooks, seq, all, *n, &eta, err);
+    if (rc < 0)
+        return rc;
+    progress(hooks, in, eta, fs, seq, *n, already, *n > 0 ? all[*n - 1].rig_time_s : 0);
     /* A resumed capture replays its journal: the same samples give the
      * same rounds, so a capture that had converged stays converged. */
     for (size_t i = 0; i < *n && !*converged; i++) {
-        int rc = stream_feed(fs, in->plan, hooks, all, i + 1, err);
-        if (rc < 0)
+        rc = stream_feed(fs, in->plan, hooks, all, i + 1, err);
+        if (rc < 0) {
+            capture_eta_free(eta);
             return rc;
+        }
         *converged = rc;
     }
-    if (*converged || first < 0)
+    if (*converged || first < 0) {
+        capture_eta_free(eta);
         return 0;
+    }
 
     struct capture_devices dev;
     sim_rig *sim = NULL;
     double base = *n > 0 ? all[*n - 1].rig_time_s : 0;
-    int rc;
     if (!in->sim) {
         rc = hooks->open_devices(hooks->user, &in->rig, &dev, err);
     } else {
@@ -491,6 +557,7 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
     }
     if (rc < 0) {
         sim_rig_free(sim);
+        capture_eta_free(eta);
         return rc;
     }
     struct rig_clock clk;
@@ -535,10 +602,10 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
         /* The fit round first: the host's sample event carries it. */
         if (rc == 0)
             rc = stream_feed(fs, in->plan, hooks, all, *n, err);
-        eta.left_s -= in->point_s[k];
-        eta.run_est_s += in->point_s[k];
+        if (eta)
+            capture_eta_observe(eta, &s);
         if (rc >= 0)
-            progress(hooks, in, &eta, fs, seq, *n, already, s.rig_time_s);
+            progress(hooks, in, eta, fs, seq, *n, already, s.rig_time_s);
         if (rc >= 0 && hooks->on_sample)
             hooks->on_sample(hooks->user, &s, *n, count);
         if (rc > 0) {
@@ -555,6 +622,7 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
     else
         devices_close(&dev);
     sim_rig_free(sim);
+    capture_eta_free(eta);
     return rc;
 }
 
@@ -791,8 +859,8 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
     sequence *seq = NULL;
     long first = -1;
     if (rc == 0)
-        rc = sequence_new(in.plan, &in.rig, in.integration_s, &in.policy, samples, n, cfg->out_dir, &seq, &first,
-                          err);
+        rc = sequence_new(in.plan, &in.rig, in.integration_s, &in.policy, in.prescan, samples, n,
+                          cfg->out_dir, &seq, &first, err);
     if (rc == 0)
         rc = acquire(cfg, &in, hooks, j, seq, first, &samples, &n, &aborted, &fs, &converged,
                      &out->paused_s, &out->mech, err);

@@ -74,7 +74,22 @@ struct capture_config {
      * progress figures): a round when the sample count reaches 16, 32,
      * 64... (the cost of them all stays below twice the final fit's). */
     int progress_fit;
+    /* A pre-scan (docs/plans.md, "Estimates on a real day"): this many of
+     * the plan's points, spread over it, measured first, so that the ETA
+     * counts the integration the detector chooses from early on. They are
+     * journalled as any sample (the fit uses them) and the plan's order
+     * skips them. 0: the default (on a host's rig CAPTURE_PRESCAN_DEFAULT
+     * points, or one in CAPTURE_PRESCAN_SHARE of a smaller plan's, none
+     * when that is fewer than 2; none on the in-process rig, whose estimate knows its material,
+     * none in the adaptive order); CAPTURE_PRESCAN_OFF: none; else
+     * 1..CAPTURE_PRESCAN_MAX (refused in the adaptive order). */
+    int prescan;
 };
+
+#define CAPTURE_PRESCAN_OFF (-1)
+#define CAPTURE_PRESCAN_DEFAULT 12
+#define CAPTURE_PRESCAN_SHARE 25
+#define CAPTURE_PRESCAN_MAX 64
 
 struct capture_summary {
     char plan[128], model[32];
@@ -146,12 +161,15 @@ struct capture_progress {
     size_t done, total;  /* samples journalled (all runs), planned points */
     size_t already_done; /* journalled by earlier runs: this run resumed */
     double rig_time_s;   /* the rig clock so far, all runs, paused time excluded */
-    /* The whole plan's rig time as estimated before the first move (on the
-     * simulated rig with the integration its detector will choose,
-     * sim/estimate.h), and the rig time still to go: the estimate of the
-     * points left, scaled by how this run's points compared with theirs. */
+    /* The whole capture's rig time as estimated before the first move (on
+     * the simulated rig with the integration its detector will choose,
+     * sim/estimate.h; in the capture's order, a pre-scan's detours
+     * included), and the rig time still to go: the points left with
+     * the integration measured nearest each and the overhead per point the
+     * journal shows (capture/eta.h). */
     double estimate_s, eta_s;
     double fit_log_error; /* the latest streaming fit round's, NAN before one */
+    size_t prescan;       /* the points the pre-scan measures first, 0: none */
     /* The adaptive order's latest prediction, NULL in other orders; total
      * is then the pool's size, estimate_s the budget (NAN: none) and eta_s
      * the budget left. */
@@ -187,6 +205,12 @@ struct capture_hooks {
     void (*on_progress)(void *user, const struct capture_progress *p);
     void *user;
 };
+
+/* A count of pre-scan points as an operator gives it (0: none) into
+ * capture_config.prescan; -GONIO_EUSAGE naming opt (--prescan, goniod's
+ * prescan field) outside 0..CAPTURE_PRESCAN_MAX. */
+int capture_prescan_option(const char *opt, long long points, int *prescan,
+                           struct gonio_err *err);
 
 /* Run a capture: resolve and validate the inputs, prepare the directory
  * (or resume it: the same plan, scene, material, rig, detector and

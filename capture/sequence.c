@@ -29,6 +29,12 @@ struct sequence {
     size_t count;
     unsigned char *done; /* journalled points */
     adaptive *policy;    /* NULL: plan order */
+    /* Plan order: the pre-scan's points, measured first, and the first
+     * point in plan order that may not be done yet (the points before it
+     * are). */
+    long *prescan;
+    size_t n_prescan;
+    size_t cursor;
     /* The adaptive order: the sample journalled before the pending point
      * (has_prev), which the policy gets in the next decision unless
      * prev_added; prev_start_s: the rig time of the record before prev
@@ -114,13 +120,48 @@ static int decision_take(sequence *q, long *next, struct gonio_err *err)
     return 0;
 }
 
-/* The next point in plan order the journal lacks, from `from` on. */
-static long next_undone(const sequence *q, size_t from)
+/* Plan order: the next point the journal lacks, the pre-scan's first. */
+static long next_undone(sequence *q)
 {
-    for (size_t k = from; k < q->count; k++)
-        if (!q->done[k])
-            return (long)k;
-    return -1;
+    for (size_t j = 0; j < q->n_prescan; j++)
+        if (!q->done[q->prescan[j]])
+            return q->prescan[j];
+    while (q->cursor < q->count && q->done[q->cursor])
+        q->cursor++;
+    return q->cursor < q->count ? (long)q->cursor : -1;
+}
+
+/* The pre-scan's points: one in each of n equal stretches of the plan's
+ * order. The order is a tour (or levels of tours) that keeps neighbours
+ * together, so the stretches spread over the plan's domain in proportion
+ * to its density of points: each pre-scanned point stands for its stretch,
+ * which is what a sum over the points (the ETA) weighs it by. In each
+ * stretch the point the axes reach soonest from the one before (home for
+ * the first): the pre-scan crosses the domain once, in as little rig time
+ * as the stretches allow, rather than zigzagging through their middles. */
+static int prescan_points(sequence *q, size_t n, struct gonio_err *err)
+{
+    if (n > q->count)
+        n = q->count;
+    if (n == 0)
+        return 0;
+    if (!(q->prescan = malloc(n * sizeof *q->prescan)))
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    struct plan_axes at = home;
+    for (size_t j = 0; j < n; j++) {
+        size_t lo = j * q->count / n, hi = (j + 1) * q->count / n;
+        double best = INFINITY;
+        for (size_t i = lo; i < hi; i++) {
+            double t = plan_move_time_backlash(q->rig, &at, &plan_point(q->plan, i)->ax);
+            if (t < best) {
+                best = t;
+                q->prescan[j] = (long)i;
+            }
+        }
+        at = plan_point(q->plan, (size_t)q->prescan[j])->ax;
+    }
+    q->n_prescan = n;
+    return 0;
 }
 
 /* The policy's first decision, and a resumed capture's replay: the
@@ -145,7 +186,8 @@ static int replay(sequence *q, const struct journal_sample *js, size_t n, long *
 }
 
 int sequence_new(const struct plan *plan, const struct plan_rig *rig,
-                 const double *integration_s, const struct adaptive_options *opt, const struct journal_sample *js, size_t n,
+                 const double *integration_s, const struct adaptive_options *opt,
+                 size_t prescan, const struct journal_sample *js, size_t n,
                  const char *dir, sequence **out, long *first, struct gonio_err *err)
 {
     *out = NULL;
@@ -171,7 +213,8 @@ int sequence_new(const struct plan *plan, const struct plan_rig *rig,
     }
     int rc = 0;
     if (plan_current_order(plan) != PLAN_ORDER_ADAPTIVE) {
-        *first = next_undone(q, 0);
+        rc = prescan_points(q, prescan, err);
+        *first = next_undone(q);
     } else if (!(q->policy = adaptive_new(plan, rig, integration_s, opt, err))) {
         rc = -abs(err && err->code ? err->code : ENOMEM);
     } else {
@@ -206,13 +249,9 @@ void sequence_free(sequence *q)
         return;
     join(q);
     adaptive_free(q->policy);
+    free(q->prescan);
     free(q->done);
     free(q);
-}
-
-int sequence_done(const sequence *q, size_t point)
-{
-    return point < q->count && q->done[point];
 }
 
 int sequence_begin(sequence *q, long k, struct gonio_err *err)
@@ -235,7 +274,7 @@ int sequence_end(sequence *q, const struct journal_sample *s, long *next,
         q->done[s->point] = 1;
     if (!q->policy) {
         if (s)
-            *next = next_undone(q, (size_t)s->point + 1);
+            *next = next_undone(q);
         return 0;
     }
     join(q);
@@ -243,6 +282,20 @@ int sequence_end(sequence *q, const struct journal_sample *s, long *next,
         return 0;
     set_prev(q, s);
     return decision_take(q, next, err);
+}
+
+void sequence_order(const sequence *q, long *order)
+{
+    size_t k = 0;
+    for (size_t j = 0; j < q->n_prescan; j++)
+        order[k++] = q->prescan[j];
+    for (size_t i = 0; i < q->count; i++) {
+        int first = 0;
+        for (size_t j = 0; j < q->n_prescan && !first; j++)
+            first = q->prescan[j] == (long)i;
+        if (!first)
+            order[k++] = (long)i;
+    }
 }
 
 int sequence_report(const sequence *q, struct sequence_report *r)

@@ -37,18 +37,25 @@ struct sequence_report {
 /* A sequence over plan's points (plan order, or the adaptive policy for
  * the plan's current order PLAN_ORDER_ADAPTIVE, with opt and the
  * integration the host expects at each point, integration_s, or NULL
- * where it does not know: adaptive_new), after the n
+ * where it does not know: adaptive_new). In plan order, a pre-scan of
+ * `prescan` points spread over the plan (at most its count; 0: none) comes
+ * first: they are measured before the plan's order starts, which then
+ * skips them (a resumed capture finishes the pre-scan first, if it was
+ * interrupted in it). After the n
  * journalled samples js (record order), which must each name a distinct
  * point of the plan (else GONIO_EBADDATA naming the record; dir names the
  * capture). *first receives the first point to measure, -1 when there is
  * none (every point done, or the policy stops). */
 int sequence_new(const struct plan *plan, const struct plan_rig *rig,
-                 const double *integration_s, const struct adaptive_options *opt, const struct journal_sample *js, size_t n,
+                 const double *integration_s, const struct adaptive_options *opt,
+                 size_t prescan, const struct journal_sample *js, size_t n,
                  const char *dir, sequence **out, long *first, struct gonio_err *err);
 void sequence_free(sequence *q);
 
-/* Whether the journal holds the point (for the ETA). */
-int sequence_done(const sequence *q, size_t point);
+/* Plan order: every point of the plan in the order the sequence measures
+ * them, the pre-scan's first (plan_count entries into order; the ETA's
+ * moves). O(count x pre-scan). */
+void sequence_order(const sequence *q, long *order);
 
 /* Start deciding the point after k while k is measured. */
 int sequence_begin(sequence *q, long k, struct gonio_err *err);

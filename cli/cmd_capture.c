@@ -20,7 +20,8 @@ static void usage(FILE *out)
             "                     [--material SPEC] [--model NAME] [--rig NAME|FILE]\n"
             "                     [--order travel|progressive|as-written|greedy|adaptive]\n"
             "                     [--stop all|converge] [--budget MINUTES]\n"
-            "                     [--stop-target LOG_ERR] [--truth SPEC] [--quiet]\n"
+            "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
+            "                     [--quiet]\n"
             "  --material overrides the scene's material: nbrdf:NAME, merl:FILE, abc:NAME,\n"
             "  sgd:NAME, builtin:NAME, spectral:NAME, analytic:NAME or default. DIR receives\n"
             "  plan.json, setup.json, samples.csv and results.json; running again on the same\n"
@@ -38,6 +39,8 @@ static void usage(FILE *out)
             "  its predicted full-domain log error of the model is at most --stop-target,\n"
             "  with --stop converge once more rig time would buy too little, or when the\n"
             "  pool is exhausted. A resume keeps the model, budget, target and stop rule.\n"
+            PRESCAN_HELP
+            "  (default here: none, the scene's estimate knows its material).\n"
             "  Progress goes to stderr (a bar on a terminal) unless --quiet. SIGINT or\n"
             "  SIGTERM ends the capture after the point in progress: the journal is kept,\n"
             "  the same command resumes it, the exit status is 130.\n");
@@ -82,6 +85,22 @@ static void print_errors(const char *domain, const struct brdf_errors *e)
            e->rel_rmse, e->n_used);
 }
 
+int cmd_capture_prescan(const char *text, long long *points, int *prescan)
+{
+    char *end;
+    struct gonio_err err = {0};
+    *points = strtoll(text, &end, 10);
+    if (end == text || *end) {
+        fprintf(stderr, "gonio capture: --prescan '%s': a number of points\n", text);
+        return -1;
+    }
+    if (capture_prescan_option("--prescan", *points, prescan, &err) < 0) {
+        fprintf(stderr, "gonio capture: %s\n", err.msg);
+        return -1;
+    }
+    return 0;
+}
+
 int cmd_capture_number(const char *opt, const char *text, double *out)
 {
     char *end;
@@ -113,9 +132,10 @@ int cmd_capture(int argc, char **argv)
         {"quiet", no_argument, NULL, 'q'},     {"help", no_argument, NULL, 'h'},
         {"stop", required_argument, NULL, 'S'}, {"truth", required_argument, NULL, 't'},
         {"budget", required_argument, NULL, 'B'}, {"stop-target", required_argument, NULL, 'T'},
-        {NULL, 0, NULL, 0},
+        {"prescan", required_argument, NULL, 'P'}, {NULL, 0, NULL, 0},
     };
     struct capture_config cfg = {.model = "abc"};
+    long long points;
     int offline = 0, c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
@@ -131,6 +151,10 @@ int cmd_capture(int argc, char **argv)
         case 'S': cfg.stop = optarg; break;
         case 't': cfg.truth = optarg; break;
         case 'q': cfg.quiet = 1; break;
+        case 'P':
+            if (cmd_capture_prescan(optarg, &points, &cfg.prescan) < 0)
+                return 2;
+            break;
         case 'B':
         case 'T':
             if (cmd_capture_number(c == 'B' ? "--budget" : "--stop-target", optarg,

@@ -14,6 +14,7 @@
 
 #include <jansson.h>
 
+#include "capture/capture.h"
 #include "cli/commands.h"
 #include "cli/progress.h"
 #include "fit/models.h"
@@ -459,8 +460,8 @@ static void capture_usage(FILE *out)
             "usage: gonio capture --plan NAME|FILE [--scene NAME|FILE] [--material SPEC]\n"
             "                     [--rig NAME|FILE] [--model NAME] [--order ORDER]\n"
             "                     [--stop all|converge] [--budget MINUTES]\n"
-            "                     [--stop-target LOG_ERR] [--truth SPEC] [--name ID] [--wait]\n"
-            "                     [--quiet] [--socket PATH]\n"
+            "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
+            "                     [--name ID] [--wait] [--quiet] [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). Files are relative to goniod's capture\n"
             "  root. --model: the final fit's model, any RGB model of 'gonio fit --help'\n"
@@ -470,6 +471,10 @@ static void capture_usage(FILE *out)
             "  end, its progress on stderr (--quiet: none): exit 0 when it completes.\n"
             "  --order adaptive, --budget, --stop-target: as 'gonio capture --offline --help'\n"
             "  says.\n"
+            PRESCAN_HELP
+            "  (default on a Modbus or USB rig: " PRESCAN_STR(CAPTURE_PRESCAN_DEFAULT) ", or one in "
+            PRESCAN_STR(CAPTURE_PRESCAN_SHARE) " of a smaller plan's points,\n"
+            "  none below 2; none on goniod's simulated rig, which knows its material).\n"
             "  goniod checks the request before it starts anything: a bad plan, scene,\n"
             "  rig, material, model, order, stop, budget, target or truth exits 2 and\n"
             "  creates nothing.\n"
@@ -486,14 +491,16 @@ int cmd_capture_daemon(int argc, char **argv)
         {"stop", required_argument, NULL, 'x'},  {"name", required_argument, NULL, 'n'},
         {"truth", required_argument, NULL, 't'}, {"wait", no_argument, NULL, 'w'},
         {"quiet", no_argument, NULL, 'q'},       {"budget", required_argument, NULL, 'B'},
-        {"stop-target", required_argument, NULL, 'T'}, {NULL, 0, NULL, 0},
+        {"stop-target", required_argument, NULL, 'T'},
+        {"prescan", required_argument, NULL, 'P'}, {NULL, 0, NULL, 0},
     };
     static const char *const keys[] = {"plan", "scene", "material", "rig",
                                        "model", "order", "stop", "name", "truth"};
     static const char letters[] = "psmrMoxnt";
     const char *vals[9] = {0}, *sock = NULL;
     double budget = 0, target = 0;
-    int wait = 0, quiet = 0, ch;
+    long long prescan = -1; /* -1: not given, goniod's default */
+    int wait = 0, quiet = 0, ch, ignored;
     optind = 1;
     while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         const char *at = ch ? strchr(letters, ch) : NULL;
@@ -505,6 +512,10 @@ int cmd_capture_daemon(int argc, char **argv)
         case 'S': sock = optarg; break;
         case 'w': wait = 1; break;
         case 'q': quiet = 1; break;
+        case 'P':
+            if (cmd_capture_prescan(optarg, &prescan, &ignored) < 0)
+                return 2;
+            break;
         case 'B':
         case 'T':
             if (cmd_capture_number(ch == 'B' ? "--budget" : "--stop-target", optarg,
@@ -549,6 +560,8 @@ int cmd_capture_daemon(int argc, char **argv)
             json_object_set_new(req, "budget", json_real(budget));
         if (target > 0)
             json_object_set_new(req, "stop_target", json_real(target));
+        if (prescan >= 0)
+            json_object_set_new(req, "prescan", json_integer((json_int_t)prescan));
         rep = conn_request(&c, req);
         rc = reply_failed(rep);
     }

@@ -29,4 +29,17 @@ int cmd_shutdown(int argc, char **argv);
  * a positive number, else a message on stderr and -1. */
 int cmd_capture_number(const char *opt, const char *text, double *out);
 
+/* --prescan N (both captures): the count as given (0..CAPTURE_PRESCAN_MAX)
+ * and as capture_config.prescan; prints the error and returns -1 on a bad
+ * one. PRESCAN_HELP: its --help lines, before each command's default. */
+int cmd_capture_prescan(const char *text, long long *points, int *prescan);
+#define PRESCAN_STR_(x) #x
+#define PRESCAN_STR(x) PRESCAN_STR_(x)
+#define PRESCAN_HELP                                                                         \
+    "  --prescan N: first measure N of the plan's points (0: none, at most "                 \
+    PRESCAN_STR(CAPTURE_PRESCAN_MAX) "), spread\n"                                              \
+    "  over its order, so that the ETA counts the integration the detector chooses\n"        \
+    "  for an unknown material from early on; they are ordinary samples, which the\n"        \
+    "  plan's order then skips\n"
+
 #endif

@@ -38,6 +38,7 @@ static json_t *start_doc(const struct worker_msg_start *m)
     json_object_set_new(s, "total", json_integer((json_int_t)m->total));
     json_object_set_new(s, "already_done", json_integer((json_int_t)m->already_done));
     json_object_set_new(s, "estimate_s", control_json_number(m->estimate_s));
+    json_object_set_new(s, "prescan", json_integer((json_int_t)m->prescan));
     json_object_set_new(s, "adaptive", json_boolean(m->adaptive));
     json_object_set_new(s, "time", json_integer((json_int_t)time(NULL)));
     return s;

@@ -14,7 +14,8 @@ static const struct arg_spec capture_args[] = {
     {"plan", ARG_STRING},  {"scene", ARG_STRING}, {"material", ARG_STRING},
     {"rig", ARG_STRING},   {"model", ARG_STRING}, {"order", ARG_STRING},
     {"stop", ARG_STRING},  {"name", ARG_STRING},  {"truth", ARG_STRING},
-    {"budget", ARG_NUMBER}, {"stop_target", ARG_NUMBER}, {NULL, ARG_STRING},
+    {"budget", ARG_NUMBER}, {"stop_target", ARG_NUMBER}, {"prescan", ARG_INT},
+    {NULL, ARG_STRING},
 };
 static const struct arg_spec resume_args[] = {{"capture_id", ARG_STRING}, {NULL, ARG_STRING}};
 static const struct arg_spec no_args[] = {{NULL, ARG_STRING}};

@@ -142,6 +142,7 @@ static void hook_on_progress(void *user, const struct capture_progress *p)
     m->already_done = p->already_done;
     m->estimate_s = p->estimate_s;
     m->adaptive = p->policy != NULL;
+    m->prescan = p->prescan;
     push(w, &m->base);
 }
 
@@ -252,6 +253,7 @@ static struct capture_config request_config(const worker *w, const struct worker
         .stop = r->stop[0] ? r->stop : NULL,
         .budget_min = r->budget_min,
         .stop_target = r->stop_target,
+        .prescan = r->prescan,
         .quiet = 1,
         .assess_nodes = (size_t)w->cfg->assess_nodes,
         .progress_fit = 1,

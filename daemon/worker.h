@@ -30,6 +30,7 @@ struct worker_request {
     char plan[1024], scene[1024], rig[1024], material[1024], truth[1024], model[32], order[32];
     char stop[16]; /* "all", "converge" or "" (the plan's rule) */
     double budget_min, stop_target; /* the adaptive order's stops, 0: none */
+    int prescan; /* capture_config.prescan: 0 the engine's default */
     int resume; /* the directory exists: continue from its journal */
 };
 
@@ -72,6 +73,7 @@ struct worker_msg_start {
     size_t total, already_done;
     double estimate_s; /* the plan's rig-time estimate (capture_progress) */
     int adaptive;      /* the adaptive order: total is the pool's size */
+    size_t prescan;    /* the pre-scan's points (capture_progress) */
 };
 
 struct worker_msg_sample {

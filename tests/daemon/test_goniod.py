@@ -859,6 +859,42 @@ class CaptureTests(DaemonTest):
         st = c.request("status")
         self.assertEqual((st["state"], st["capture"]), ("idle", None))
 
+    def test_prescan_request(self):
+        """prescan (docs/protocol.md): an integer 0..64, refused (nothing
+        created) out of range or with the adaptive order; none by default on
+        the sim driver, whose estimate knows the material; N points, one in
+        each of N stretches of the plan's order, measured first, once, and
+        kept in request.json."""
+        c = self.d.connect()
+        c.request("watch")
+        r = c.request("capture", plan="ds3", prescan="2", name="ps")
+        self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-type"), r)
+        self.assertIn("prescan", r["message"])
+        for args, needle in (({"prescan": -1}, "prescan -1"), ({"prescan": 65}, "prescan 65"),
+                             ({"prescan": 3, "order": "adaptive"}, "--prescan 3")):
+            r = c.request("capture", plan="ds3", name="ps", **args)
+            self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-value"), (args, r))
+            self.assertIn(needle, r["message"])
+            self.assertFalse(os.path.exists(os.path.join(self.d.root, "ps")), args)
+        r = self.d.gonio("capture", "--plan", "ds3", "--prescan", "70")
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("--prescan 70", r.stderr)
+        self.assertEqual(c.request("capture", plan="ds3", name="none")["class"], "OK")
+        docs = c.until_stop("none")
+        self.assertEqual(docs[0]["prescan"], 0)
+        self.assertEqual([d["point"] for d in docs if d.get("class") == "event"], list(range(52)))
+        self.assertEqual(c.request("capture", plan="ds3", prescan=3, name="ps")["class"], "OK")
+        docs = c.until_stop("ps")
+        self.assertEqual(docs[0]["prescan"], 3)
+        self.assertEqual(docs[-1]["exit_status"], "success", docs[-1])
+        points = [d["point"] for d in docs if d.get("class") == "event"]
+        self.assertEqual(sorted(points), list(range(52)))
+        for j in range(3):
+            self.assertTrue(j * 52 // 3 <= points[j] < (j + 1) * 52 // 3, points)
+        self.assertEqual(points[3:], sorted(points[3:]))
+        with open(os.path.join(self.d.root, "ps", "request.json")) as f:
+            self.assertEqual(json.load(f)["prescan"], 3)
+
     def test_adaptive_capture(self):
         """--order adaptive through goniod: budget and stop_target are
         numbers, refused (nothing created) in a fixed order or out of range;

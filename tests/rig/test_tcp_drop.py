@@ -48,6 +48,8 @@ def test_capture_survives_tcp_drops():
             # Each drop is noticed by the next request, which re-opens the
             # connection at least once.
             assert stop["comm"]["reconnects"] >= 2, stop["comm"]
-            assert journal_rows(os.path.join(d.root, "drop", "samples.csv")) == list(range(52))
+            # (in the pre-scan's order first, docs/plans.md: the order is not the point here)
+            assert sorted(journal_rows(os.path.join(d.root, "drop", "samples.csv"))) == \
+                list(range(52))
         finally:
             d.stop()

@@ -1,0 +1,100 @@
+#include "capture/eta.h"
+
+#include <errno.h>
+#include <stdlib.h>
+
+#include "planner/meter.h"
+
+struct capture_eta {
+    const struct plan *plan;
+    const struct plan_rig *rig;
+    size_t n;
+    plan_meter *meter;
+    double *move;          /* point i's move from its predecessor in the order */
+    unsigned char *done;
+    /* The record observed last (-1: none; the axes at home, rig time 0),
+     * and the overheads summed over n_obs records. */
+    long last;
+    double last_rig_s;
+    double overhead_sum;
+    size_t n_obs;
+    double estimate_s; /* capture_eta_left before any observation */
+};
+
+static const struct plan_axes home = {0, 0, 0};
+
+capture_eta *capture_eta_new(const struct plan *plan, const struct plan_rig *rig,
+                             const long *order, const double *expected_s,
+                             struct gonio_err *err)
+{
+    size_t n = plan_count(plan);
+    capture_eta *e = calloc(1, sizeof *e);
+    if (e) {
+        e->move = malloc((n ? n : 1) * sizeof *e->move);
+        e->done = calloc(n ? n : 1, 1);
+        e->meter = plan_meter_new(plan, rig, expected_s, err);
+    }
+    if (!e || !e->move || !e->done || !e->meter) {
+        capture_eta_free(e);
+        gonio_err_set(err, ENOMEM, "ETA: out of memory");
+        return NULL;
+    }
+    e->plan = plan;
+    e->rig = rig;
+    e->n = n;
+    e->last = -1;
+    const struct plan_axes *at = &home;
+    for (size_t k = 0; k < n; k++) {
+        size_t i = order ? (size_t)order[k] : k;
+        const struct plan_axes *to = &plan_point(plan, i)->ax;
+        e->move[i] = plan_move_time_backlash(rig, at, to);
+        at = to;
+    }
+    e->estimate_s = capture_eta_left(e);
+    return e;
+}
+
+void capture_eta_free(capture_eta *e)
+{
+    if (!e)
+        return;
+    plan_meter_free(e->meter);
+    free(e->move);
+    free(e->done);
+    free(e);
+}
+
+void capture_eta_observe(capture_eta *e, const struct journal_sample *s)
+{
+    if (s->point < 0 || (size_t)s->point >= e->n)
+        return;
+    size_t i = (size_t)s->point;
+    const struct plan_axes *from = e->last >= 0 ? &plan_point(e->plan, (size_t)e->last)->ax
+                                                : &home;
+    double move = plan_move_time_backlash(e->rig, from, &plan_point(e->plan, i)->ax);
+    e->overhead_sum += s->rig_time_s - e->last_rig_s - move - s->integration_s;
+    e->n_obs++;
+    e->last = s->point;
+    e->last_rig_s = s->rig_time_s;
+    e->done[i] = 1;
+    plan_meter_observe(e->meter, i, s->integration_s);
+}
+
+double capture_eta_estimate(const capture_eta *e)
+{
+    return e->estimate_s;
+}
+
+double capture_eta_overhead(const capture_eta *e)
+{
+    return e->n_obs ? e->overhead_sum / (double)e->n_obs : e->rig->settle_s;
+}
+
+double capture_eta_left(const capture_eta *e)
+{
+    double overhead = capture_eta_overhead(e), left = 0;
+    for (size_t i = 0; i < e->n; i++)
+        if (!e->done[i])
+            left += e->move[i] + overhead + plan_meter_integration(e->meter, i);
+    return left;
+}
