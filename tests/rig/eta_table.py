@@ -8,7 +8,10 @@ material in advance; the pre-scan's detours included), the total the ETA gives r
 (the rig time so far plus the ETA), the same halfway through the points,
 and the rig time the capture took (results.json).
 
-Usage: scripts/eta_table.py [BIN_DIR] (default build/bin); env PLANS
+A measurement on the rig tests' harness (test_goniod, test_matrix), kept
+beside them (Python is for tests only in gonio).
+
+Usage: tests/rig/eta_table.py [BIN_DIR] (default build/bin); env PLANS
 (default "ds4 ds3 ds2 ds1"), TRANSPORTS ("rtu tcp"), SCENE (lab),
 TIME_SCALE (gonio-sim's, default 20: the rig clock runs on while goniod
 talks on the bus, so a faster scale makes the bus cost more rig time than
@@ -20,11 +23,11 @@ import shutil
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-BIN = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else os.path.join(HERE, "..", "build",
-                                                                          "bin"))
+ROOT = os.path.join(HERE, "..", "..")
+BIN = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "build", "bin"))
 os.environ["GONIO_BIN"] = BIN
-sys.path.insert(0, os.path.join(HERE, "..", "tests", "daemon"))
-sys.path.insert(0, os.path.join(HERE, "..", "tests", "rig"))
+sys.path.insert(0, os.path.join(ROOT, "tests", "daemon"))
+sys.path.insert(0, HERE)
 import test_goniod as tg  # noqa: E402
 import test_matrix as tm  # noqa: E402
 
