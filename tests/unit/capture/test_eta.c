@@ -158,12 +158,58 @@ static void test_order_counts_the_moves(void **state)
     free(order);
 }
 
+/* A plan of 8,710 points meters every fifth record and counts the points
+ * off in between: from the first metered record on the ETA stays within
+ * 1 % of what is left, and it ends at 0 with every point done. Each point
+ * integrates 0.2 s and takes 0.1 s beyond its move and settle. */
+static void test_large_plan_counts_off(void **state)
+{
+    (void)state;
+    struct gonio_err err = {0};
+    struct plan *full = NULL;
+    assert_true(plan_load("inplane-full", &rig, &full, &err) > 0);
+    size_t n = plan_count(full);
+    assert_true(n > 4096);
+    capture_eta *e = capture_eta_new(full, &rig, NULL, NULL, &err);
+    assert_non_null(e);
+    double end = 0, worst = 0;
+    const struct plan_axes *at = &home;
+    for (size_t i = 0; i < n; i++) {
+        const struct plan_axes *to = &plan_point(full, i)->ax;
+        end += plan_move_time_backlash(&rig, at, to) + rig.settle_s + 0.2 + 0.1;
+        at = to;
+        struct journal_sample s;
+        memset(&s, 0, sizeof s);
+        s.point = (int)i;
+        s.integration_s = 0.2;
+        s.rig_time_s = end;
+        capture_eta_observe(e, &s);
+        double left = capture_eta_left(e);
+        /* what is left exactly: the rest's moves, settle + 0.1 and 0.2 each */
+        double exact = 0;
+        const struct plan_axes *b = to;
+        for (size_t j = i + 1; j < n; j++) {
+            exact += plan_move_time_backlash(&rig, b, &plan_point(full, j)->ax) + rig.settle_s +
+                     0.3;
+            b = &plan_point(full, j)->ax;
+        }
+        if (i >= 4) /* from the first metered record on */
+            worst = fmax(worst, fabs(left - exact) / fmax(exact, 1));
+    }
+    print_message("%zu points: the ETA within %.2f %% of what was left\n", n, 100 * worst);
+    assert_true(worst < 0.01);
+    assert_close(capture_eta_left(e), 0, 0);
+    capture_eta_free(e);
+    plan_free(full);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_first_eta_is_the_estimate),
         cmocka_unit_test(test_nearest_integration_and_overhead),
         cmocka_unit_test(test_order_counts_the_moves),
+        cmocka_unit_test(test_large_plan_counts_off),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
