@@ -17,10 +17,11 @@
 
 /* The first pairs: DS4's six (configs/plans/ds4.yaml), spread over
  * back-scatter, the mirror neighbourhood and the forward lobe at
- * theta_i = 30, each taken as the nearest pool point, in DS4's order (its
- * travel order from home: the arm sweeps once from back-scatter to the
- * forward lobe). Six samples are what the six-pair latent fit already
- * does well with, and they give the ensemble its first fit. */
+ * theta_i = 30, each taken as the nearest pool point; listed in DS4's
+ * order (its travel order from home: the arm sweeps once from back-scatter
+ * to the forward lobe), which next_seed takes when the budget is tight.
+ * Six samples are what the six-pair latent fit already does well with,
+ * and they give the ensemble its first fit. */
 static const double seed_pairs[][2] = {
     {30, -60}, {30, -20}, {30, 20}, {30, 28}, {30, 36}, {30, 60},
 };
@@ -494,12 +495,11 @@ static double alc(const adaptive *a, size_t i)
 }
 
 /* What measuring candidate i is worth, before its cost: without an
- * ensemble, the domain distance to the nearest point measured or
- * pending. Then for ABC
- * the ALC, damped near what is measured or pending: the jackknife spread
- * of a misspecified model hardly falls where a neighbour was just
- * measured, and without the damping a fine pool's cheap 1-degree steps
- * pile samples into one region. For the latent model (whose fit the
+ * ensemble, the domain distance to the nearest point measured or pending.
+ * Then for ABC the ALC, damped near what is measured or pending: the
+ * jackknife spread of a misspecified model hardly falls where a neighbour
+ * was just measured, and without the damping a fine pool's cheap 1-degree
+ * steps pile samples into one region. For the latent model (whose fit the
  * ensemble does not describe) the ALC relative to the best one plus that
  * distance: coverage of the domain. */
 static double worth(const adaptive *a, size_t i, long pending)
