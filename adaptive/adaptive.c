@@ -293,9 +293,15 @@ static double move_time(const adaptive *a, const struct plan_axes *from, size_t 
     return plan_move_time_backlash(a->rig, from, &plan_point(a->pool, i)->ax);
 }
 
+/* Point i's cost once its move to it takes move_s. */
+static double cost_after(const adaptive *a, double move_s, size_t i)
+{
+    return move_s + a->rig->settle_s + plan_meter_integration(a->meter, i);
+}
+
 double adaptive_point_cost(const adaptive *a, const struct plan_axes *from, size_t i)
 {
-    return move_time(a, from, i) + a->rig->settle_s + plan_meter_integration(a->meter, i);
+    return cost_after(a, move_time(a, from, i), i);
 }
 
 int adaptive_observe(adaptive *a, size_t point, double integration_s, double point_rig_s,
@@ -336,15 +342,23 @@ static double margin(const adaptive *a, double move_s)
     return move_s > a->longest_move ? fmax(m, MIN_MARGIN) : m;
 }
 
+/* Point i's cost from the axes at from (*cost), and that cost as the
+ * budget counts it: times the margin for its move. */
+static double budget_cost(const adaptive *a, const struct plan_axes *from, size_t i,
+                          double *cost)
+{
+    double move = move_time(a, from, i);
+    *cost = cost_after(a, move, i);
+    return margin(a, move) * *cost;
+}
+
 /* Point i's cost from the axes at from (*cost), and whether it fits the
  * budget when the rig clock, with what is pending, stands at clock. */
 static int affordable(const adaptive *a, const struct plan_axes *from, size_t i, double clock,
                       double *cost)
 {
-    double move = move_time(a, from, i);
-    *cost = move + a->rig->settle_s + plan_meter_integration(a->meter, i);
-    return !(a->opt.budget_s > 0) ||
-           clock + margin(a, move) * *cost <= a->opt.budget_s + BUDGET_SLACK_S;
+    double counted = budget_cost(a, from, i, cost);
+    return !(a->opt.budget_s > 0) || clock + counted <= a->opt.budget_s + BUDGET_SLACK_S;
 }
 
 /* The predicted full-domain log error of the model fitted now
@@ -594,9 +608,8 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
     struct plan_axes from = *at;
     double clock = rig_time_s + a->reserve;
     if (pending >= 0) {
-        double move = move_time(a, at, (size_t)pending);
-        clock += margin(a, move) *
-                 (move + a->rig->settle_s + plan_meter_integration(a->meter, (size_t)pending));
+        double cost;
+        clock += budget_cost(a, at, (size_t)pending, &cost);
         from = plan_point(a->pool, (size_t)pending)->ax;
     }
     const char *stop = "";

@@ -99,9 +99,9 @@ void plan_meter_observe(plan_meter *m, size_t point, double integration_s)
 
 double plan_meter_integration(const plan_meter *m, size_t i)
 {
-    long j = i < m->n ? m->nearest[i] : -1;
     if (i >= m->n)
         return m->rig->integration_s;
+    long j = m->nearest[i];
     if (j < 0)
         return m->expected[i];
     if (m->has_expected && m->expected[j] > 0)
