@@ -12,38 +12,31 @@
 
 #include "planner/plan_private.h"
 
-/* Up to this many points the local search runs to a local optimum over the
- * whole sequence. Each pass is O(n^2) and passes run into the hundreds
- * (3909 points took 28 s), so larger plans search within a window of
- * sequence positions: a wide one up to QUADRATIC_MAX, a narrow one for
- * dense domain plans up to WINDOWED_MAX. */
-#define LOCAL_SEARCH_MAX 1000
-/* Up to this many points the single O(n^2) steps run: the greedy start
- * and the progressive levels' farthest-point order. */
+/* The local search (2-opt and Or-opt) looks at each point's NEIGHBOURS
+ * nearest others, so a pass costs O(n NEIGHBOURS) rather than O(n^2) (the
+ * full search took 1.5 s on DS1's 912 points, 28 s on 3909); up to
+ * SEARCH_MAX points, a bounded number of passes to a local optimum. */
+#define NEIGHBOURS 10
+#define SEARCH_MAX 20000
+#define SEARCH_PASSES 1000
+/* Up to this many points the single O(n^2) steps run: the progressive
+ * levels' farthest-point order. */
 #define QUADRATIC_MAX 4000
-#define WINDOW_WIDE 150
-#define WIDE_ROUNDS 20
-#define WINDOWED_MAX 20000
-#define WINDOW 60
-#define WINDOWED_ROUNDS 8
 #define IMPROVE_EPS 1e-9
-#define GREEDY_MAX 20000
 
-/* Up to this many points the move times are tabulated once (8 n^2 bytes). */
+/* Up to this many points the lower bound tabulates the move times (8 n^2
+ * bytes) for its Held-Karp iterations. */
 #define MATRIX_MAX 2000
 
 struct tour {
     const struct plan_point *pts;
     const struct plan_rig *rig;
     struct plan_axes start;
-    const double *matrix; /* n x n move times, or NULL */
     size_t n;
 };
 
 static double cost(const struct tour *t, size_t i, size_t j)
 {
-    if (t->matrix)
-        return t->matrix[i * t->n + j];
     return plan_move_time(t->rig, &t->pts[i].ax, &t->pts[j].ax);
 }
 
@@ -90,27 +83,148 @@ static void reverse(size_t *seq, long i, long j)
     }
 }
 
-/* 2-opt on the open path: reverse seq[i+1..j]; the metric is symmetric, so
- * only the two boundary edges change. */
-static int two_opt(const struct tour *t, size_t *seq, long m, long window)
+/* What the local search knows of the points it orders: each one's
+ * nearest others in move time (k of them, nearest first, ties by index)
+ * and its position in the sequence, both by point index (the lists through
+ * slot[]). */
+struct near {
+    size_t k;
+    size_t *list; /* m rows of k */
+    long *slot;   /* point -> row of list */
+    long *pos;    /* point -> sequence position */
+};
+
+static const size_t *neighbours(const struct near *nr, size_t p)
+{
+    return nr->list + nr->k * (size_t)nr->slot[p];
+}
+
+static const struct plan_point *row_pts;
+
+/* By sample-axis position, then by index: a total order, so the same
+ * points always sort the same way. */
+static int cmp_s(const void *x, const void *y)
+{
+    size_t i = *(const size_t *)x, j = *(const size_t *)y;
+    double a = row_pts[i].ax.s, b = row_pts[j].ax.s;
+    if (a != b)
+        return a < b ? -1 : 1;
+    return (i > j) - (i < j);
+}
+
+static void near_free(struct near *nr)
+{
+    free(nr->list);
+    free(nr->slot);
+    free(nr->pos);
+}
+
+/* The lists of seq[0..m) (m >= 2), by a scan outwards from each point in
+ * order of the sample axis: a move takes at least the sample axis's time
+ * for its distance, so the scan stops where that alone reaches the k-th
+ * nearest so far. */
+static int near_init(struct near *nr, const struct tour *t, const size_t *seq, size_t m)
+{
+    nr->k = m - 1 < NEIGHBOURS ? m - 1 : NEIGHBOURS;
+    nr->list = malloc(m * nr->k * sizeof *nr->list);
+    nr->slot = malloc(t->n * sizeof *nr->slot);
+    nr->pos = malloc(t->n * sizeof *nr->pos);
+    size_t *by_s = malloc(m * sizeof *by_s);
+    double *dist = malloc(nr->k * sizeof *dist);
+    if (!nr->list || !nr->slot || !nr->pos || !by_s || !dist) {
+        near_free(nr);
+        free(by_s);
+        free(dist);
+        return -ENOMEM;
+    }
+    for (size_t i = 0; i < m; i++)
+        nr->slot[seq[i]] = (long)i;
+    memcpy(by_s, seq, m * sizeof *by_s);
+    row_pts = t->pts;
+    qsort(by_s, m, sizeof *by_s, cmp_s);
+    const struct plan_axis *sample = &t->rig->sample;
+    for (long r = 0; r < (long)m; r++) {
+        size_t p = by_s[r], *list = nr->list + nr->k * (size_t)nr->slot[p], have = 0;
+        for (long dir = -1; dir <= 1; dir += 2) {
+            for (long q = r + dir; q >= 0 && q < (long)m; q += dir) {
+                size_t o = by_s[q];
+                int full = have == nr->k;
+                if (full && plan_axis_time(t->pts[o].ax.s - t->pts[p].ax.s, sample->speed,
+                                           sample->accel) >= dist[have - 1])
+                    break;
+                double d = cost(t, p, o);
+                if (full && (d > dist[have - 1] || (d == dist[have - 1] && o > list[have - 1])))
+                    continue;
+                size_t at = full ? have - 1 : have++;
+                while (at > 0 && (dist[at - 1] > d || (dist[at - 1] == d && list[at - 1] > o))) {
+                    dist[at] = dist[at - 1];
+                    list[at] = list[at - 1];
+                    at--;
+                }
+                dist[at] = d;
+                list[at] = o;
+            }
+        }
+    }
+    free(by_s);
+    free(dist);
+    return 0;
+}
+
+/* 2-opt on the open path: reverse seq[x+1..y] (x may be -1, the start), so
+ * that seq[x] joins seq[y] and seq[x+1] joins seq[y+1]; the metric is
+ * symmetric, so only these edges change. Returns whether it paid. */
+static int try_two_opt(const struct tour *t, size_t *seq, long m, long *pos, long x, long y)
+{
+    if (x >= y)
+        return 0;
+    double gain = edge(t, seq, m, x) + edge(t, seq, m, y) - link(t, seq, m, x, y) -
+                  link(t, seq, m, x + 1, y + 1);
+    if (gain <= IMPROVE_EPS)
+        return 0;
+    reverse(seq, x + 1, y);
+    for (long k = x + 1; k <= y; k++)
+        pos[seq[k]] = k;
+    return 1;
+}
+
+/* 2-opt moves that add an edge from a point to one of its neighbours: an
+ * improving move adds at least one edge shorter than an edge it removes at
+ * the same point (otherwise it could not gain), so scanning each point's
+ * neighbours nearer than its own path edges finds the improving moves
+ * whose new edges are among the neighbour lists. The start has no list:
+ * its moves are tried against every position. */
+static int two_opt(const struct tour *t, size_t *seq, long m, const struct near *nr)
 {
     int improved = 0;
-    for (long i = -1; i < m - 1; i++) {
-        long jend = window && i + 1 + window < m ? i + 1 + window : m;
-        for (long j = i + 1; j < jend; j++) {
-            double before = edge(t, seq, m, i) + edge(t, seq, m, j);
-            double after = link(t, seq, m, i, j) + link(t, seq, m, i + 1, j + 1);
-            if (after < before - IMPROVE_EPS) {
-                reverse(seq, i + 1, j);
+    for (long y = 0; y < m; y++)
+        improved |= try_two_opt(t, seq, m, nr->pos, -1, y);
+    for (long i = 0; i < m; i++) {
+        size_t a = seq[i];
+        double next = edge(t, seq, m, i), prev = edge(t, seq, m, i - 1);
+        for (size_t r = 0; r < nr->k; r++) {
+            size_t c = neighbours(nr, a)[r];
+            double d = cost(t, a, c);
+            if (d >= next && d >= prev)
+                break;
+            long j = nr->pos[c], lo = i < j ? i : j, hi = i < j ? j : i;
+            /* a joins c in place of their successors' edges, or of their
+             * predecessors' */
+            if ((d < next && try_two_opt(t, seq, m, nr->pos, lo, hi)) ||
+                (d < prev && try_two_opt(t, seq, m, nr->pos, lo - 1, hi - 1))) {
                 improved = 1;
+                i--; /* the point at i changed: look again from there */
+                break;
             }
         }
     }
     return improved;
 }
 
-/* Or-opt: move a run of 1..3 points elsewhere, forwards or reversed. */
-static int or_opt(const struct tour *t, size_t *seq, long m, long window)
+/* Or-opt: move the run seq[i..last] (1 to 3 points) between seq[k] and
+ * seq[k+1], forwards or reversed, where one of its ends lands beside one of
+ * that end's neighbours. */
+static int or_opt(const struct tour *t, size_t *seq, long m, const struct near *nr)
 {
     int improved = 0;
     for (long len = 1; len <= 3; len++) {
@@ -123,20 +237,25 @@ static int or_opt(const struct tour *t, size_t *seq, long m, long window)
             long best_k = -2;
             int best_rev = 0;
             double best = gain - IMPROVE_EPS;
-            long kbeg = window && i - 1 - window > -1 ? i - 1 - window : -1;
-            long kend = window && last + 1 + window < m ? last + 1 + window : m;
-            for (long k = kbeg; k < kend; k++) {
-                if (k >= i - 1 && k <= last)
-                    continue;
-                for (int rev = 0; rev < 2; rev++) {
-                    long a = rev ? last : i, b = rev ? i : last;
-                    double added = link(t, seq, m, k, a) - edge(t, seq, m, k);
-                    if (k + 1 < m)
-                        added += cost(t, seq[b], seq[k + 1]);
-                    if (added < best) {
-                        best = added;
-                        best_k = k;
-                        best_rev = rev;
+            for (int end = 0; end < 2; end++) {
+                size_t e = seq[end ? last : i];
+                const size_t *list = neighbours(nr, e);
+                for (size_t r = 0; r < nr->k && cost(t, e, list[r]) < gain; r++) {
+                    /* the neighbour before the run, or after it */
+                    for (long k = nr->pos[list[r]] - 1; k <= nr->pos[list[r]]; k++) {
+                        if (k >= i - 1 && k <= last)
+                            continue;
+                        for (int rev = 0; rev < 2; rev++) {
+                            long a = rev ? last : i, b = rev ? i : last;
+                            double added = link(t, seq, m, k, a) - edge(t, seq, m, k);
+                            if (k + 1 < m)
+                                added += cost(t, seq[b], seq[k + 1]);
+                            if (added < best) {
+                                best = added;
+                                best_k = k;
+                                best_rev = rev;
+                            }
+                        }
                     }
                 }
             }
@@ -146,62 +265,36 @@ static int or_opt(const struct tour *t, size_t *seq, long m, long window)
             memcpy(run, seq + i, (size_t)len * sizeof *seq);
             if (best_rev)
                 reverse(run, 0, len - 1);
+            long from, to;
             if (best_k > last) { /* shift the points between left */
                 memmove(seq + i, seq + last + 1, (size_t)(best_k - last) * sizeof *seq);
                 memcpy(seq + best_k - len + 1, run, (size_t)len * sizeof *seq);
+                from = i, to = best_k;
             } else { /* best_k < i - 1: shift right */
                 memmove(seq + best_k + 1 + len, seq + best_k + 1,
                         (size_t)(i - best_k - 1) * sizeof *seq);
                 memcpy(seq + best_k + 1, run, (size_t)len * sizeof *seq);
+                from = best_k + 1, to = last;
             }
+            for (long k = from; k <= to; k++)
+                nr->pos[seq[k]] = k;
             improved = 1;
         }
     }
     return improved;
 }
 
-/* Full 2-opt and Or-opt to a local optimum; beyond LOCAL_SEARCH_MAX
- * points the same moves within a window of sequence positions, a bounded
- * number of rounds: the starts are a sweep or greedy, so spatial neighbours
- * are mostly near in sequence. */
-static void local_search(const struct tour *t, size_t *seq, size_t m)
+/* 2-opt and Or-opt over the neighbour lists to a local optimum (or
+ * SEARCH_PASSES passes). */
+static void local_search(const struct tour *t, size_t *seq, size_t m, const struct near *nr)
 {
-    if (m < 3 || m > WINDOWED_MAX)
-        return;
-    long window = 0;
-    int rounds = 200;
-    if (m > QUADRATIC_MAX) {
-        window = WINDOW;
-        rounds = WINDOWED_ROUNDS;
-    } else if (m > LOCAL_SEARCH_MAX) {
-        window = WINDOW_WIDE;
-        rounds = WIDE_ROUNDS;
-    }
-    for (int round = 0; round < rounds; round++) {
-        int a = two_opt(t, seq, (long)m, window);
-        int b = or_opt(t, seq, (long)m, window);
+    for (size_t i = 0; i < m; i++)
+        nr->pos[seq[i]] = (long)i;
+    for (int pass = 0; pass < SEARCH_PASSES; pass++) {
+        int a = two_opt(t, seq, (long)m, nr);
+        int b = or_opt(t, seq, (long)m, nr);
         if (!a && !b)
             break;
-    }
-}
-
-/* Nearest neighbour in move time from the start; ties keep the earlier
- * written point. */
-static void greedy(const struct tour *t, size_t *seq, size_t m)
-{
-    for (size_t k = 0; k < m; k++) {
-        size_t best = k;
-        double bc = INFINITY;
-        for (size_t j = k; j < m; j++) {
-            double c = k ? cost(t, seq[k - 1], seq[j]) : cost_from_start(t, seq[j]);
-            if (c < bc || (c == bc && seq[j] < seq[best])) {
-                bc = c;
-                best = j;
-            }
-        }
-        size_t tmp = seq[k];
-        seq[k] = seq[best];
-        seq[best] = tmp;
     }
 }
 
@@ -260,9 +353,63 @@ static void serpentine_best(const struct tour *t, size_t *out, size_t m, const s
     }
 }
 
+/* Nearest neighbour in move time from the start (ties keep the earlier
+ * written point) from the neighbour lists: the first unvisited point of the
+ * list is the nearest unvisited one, and only when the whole list is
+ * visited are all the rest scanned. */
+static void greedy_near(const struct tour *t, size_t *seq, size_t m, const struct near *nr)
+{
+    for (size_t i = 0; i < m; i++)
+        nr->pos[seq[i]] = (long)i;
+    for (size_t k = 0; k < m; k++) { /* seq[k..m) is unvisited */
+        long best = -1;
+        if (k) {
+            const size_t *list = neighbours(nr, seq[k - 1]);
+            for (size_t r = 0; r < nr->k && best < 0; r++)
+                if (nr->pos[list[r]] >= (long)k)
+                    best = nr->pos[list[r]];
+        }
+        if (best < 0) {
+            double bc = INFINITY;
+            for (size_t j = k; j < m; j++) {
+                double c = k ? cost(t, seq[k - 1], seq[j]) : cost_from_start(t, seq[j]);
+                if (c < bc || (c == bc && seq[j] < seq[best])) {
+                    bc = c;
+                    best = (long)j;
+                }
+            }
+        }
+        size_t tmp = seq[k];
+        seq[k] = seq[best];
+        seq[best] = tmp;
+        nr->pos[seq[k]] = (long)k;
+        nr->pos[seq[best]] = best;
+    }
+}
+
+/* Nearest neighbour in move time from the start; for dense domain plans
+ * (beyond SEARCH_MAX points) the sweep stands in. */
+static int greedy(const struct tour *t, size_t *seq, size_t m)
+{
+    if (m > SEARCH_MAX) {
+        serpentine_band(t->pts, seq, m, 1e-6);
+        return 0;
+    }
+    if (m < 2)
+        return 0;
+    struct near nr;
+    if (near_init(&nr, t, seq, m) < 0)
+        return -ENOMEM;
+    greedy_near(t, seq, m, &nr);
+    near_free(&nr);
+    return 0;
+}
+
 /* Best of three starts (written order, serpentine sweep, greedy), each
  * improved by local search; since each start is only ever improved, the
- * result is never worse than the written or the greedy order. */
+ * result is never worse than the written or the greedy order. Beyond
+ * SEARCH_MAX points (dense domain plans) the better of the written order
+ * and the sweep. */
 static int travel(const struct tour *t, size_t *seq, size_t m)
 {
     if (m < 2)
@@ -273,21 +420,25 @@ static int travel(const struct tour *t, size_t *seq, size_t m)
         return -ENOMEM;
     size_t *best = buf, *work = buf + m, *orig = buf + 2 * m, *scratch = buf + 3 * m;
     double best_c = INFINITY;
+    struct near nr = {0};
+    int search = m <= SEARCH_MAX;
+    if (search && near_init(&nr, t, seq, m) < 0) {
+        free(buf);
+        return -ENOMEM;
+    }
     memcpy(orig, seq, m * sizeof *seq);
     for (int start = 0; start < 3; start++) {
-        /* large plans: greedy is O(n^2), and the written order of a domain
-         * is kept as it is (still a candidate, so travel is never worse) */
-        if (start == 2 && m > QUADRATIC_MAX)
+        if (start == 2 && !search)
             continue;
         memcpy(work, orig, m * sizeof *work);
         if (start == 1) {
             serpentine_best(t, scratch, m, work);
             memcpy(work, scratch, m * sizeof *work);
         } else if (start == 2) {
-            greedy(t, work, m);
+            greedy_near(t, work, m, &nr);
         }
-        if (start != 0 || m <= QUADRATIC_MAX)
-            local_search(t, work, m);
+        if (search && m >= 3)
+            local_search(t, work, m, &nr);
         double c = path_cost(t, work, m);
         if (c < best_c) {
             best_c = c;
@@ -295,6 +446,8 @@ static int travel(const struct tour *t, size_t *seq, size_t m)
         }
     }
     memcpy(seq, best, m * sizeof *seq);
+    if (search)
+        near_free(&nr);
     free(buf);
     return 0;
 }
@@ -341,14 +494,6 @@ static int farthest_levels(const struct plan_point *pts, size_t n, int *level)
     }
     free(dist);
     return 0;
-}
-
-static const struct plan_point *row_pts;
-
-static int cmp_s(const void *x, const void *y)
-{
-    double a = row_pts[*(const size_t *)x].ax.s, b = row_pts[*(const size_t *)y].ax.s;
-    return (a > b) - (a < b);
 }
 
 /* The finest level of a ladder holds most of the points (DS1's is 752 of
@@ -469,34 +614,19 @@ static int progressive(const struct tour *t, size_t *seq, size_t n)
 int plan_order_indices(const struct plan_point *pts, size_t n, enum plan_order_mode mode,
                        const struct plan_rig *rig, size_t *order)
 {
-    struct tour t = {pts, rig, {0, 0, 0}, NULL, n};
+    struct tour t = {pts, rig, {0, 0, 0}, n};
     for (size_t i = 0; i < n; i++)
         order[i] = i;
     if (mode == PLAN_ORDER_AS_WRITTEN || mode == PLAN_ORDER_ADAPTIVE)
         return 0;
-    double *matrix = NULL;
-    if (n <= MATRIX_MAX && (matrix = malloc((n ? n * n : 1) * sizeof *matrix))) {
-        for (size_t i = 0; i < n; i++)
-            for (size_t j = 0; j < n; j++)
-                matrix[i * n + j] = plan_move_time(rig, &pts[i].ax, &pts[j].ax);
-        t.matrix = matrix;
-    }
     int rc = -EINVAL;
     switch (mode) {
     case PLAN_ORDER_AS_WRITTEN:
     case PLAN_ORDER_ADAPTIVE: rc = 0; break;
-    case PLAN_ORDER_GREEDY:
-        /* O(n^2): for dense domain plans the sweep stands in */
-        if (n > GREEDY_MAX)
-            serpentine_band(pts, order, n, 1e-6);
-        else
-            greedy(&t, order, n);
-        rc = 0;
-        break;
+    case PLAN_ORDER_GREEDY: rc = greedy(&t, order, n); break;
     case PLAN_ORDER_TRAVEL: rc = travel(&t, order, n); break;
     case PLAN_ORDER_PROGRESSIVE: rc = progressive(&t, order, n); break;
     }
-    free(matrix);
     return rc;
 }
 
