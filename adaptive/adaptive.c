@@ -19,7 +19,8 @@
  * back-scatter, the mirror neighbourhood and the forward lobe at
  * theta_i = 30, each taken as the nearest pool point; listed in DS4's
  * order (its travel order from home: the arm sweeps once from back-scatter
- * to the forward lobe), which next_seed takes when the budget is tight.
+ * to the forward lobe), which next_seed's search finds when DS4's rig time
+ * is the budget.
  * Six samples are what the six-pair latent fit already does well with,
  * and they give the ensemble its first fit. */
 static const double seed_pairs[][2] = {
@@ -531,27 +532,31 @@ static double worth(const adaptive *a, size_t i, long pending)
     return alc(a, i) / a->max_alc + COVER_WEIGHT * g;
 }
 
-/* The seeds not measured or pending, from the axes at from: nearest
- * first (in_order 0) or in DS4's order (1). *first receives the first of
- * them (-1: none left), and the function returns the rig time of them
- * all. */
-static double seed_route(const adaptive *a, const struct plan_axes *from, long pending,
-                         int in_order, long *first)
+/* done[k]: seed k is measured, pending, or the same pool point as an
+ * earlier seed (a coarse pool's point nearest two seeds). */
+static void seeds_done(const adaptive *a, long pending, unsigned char *done)
 {
-    unsigned char done[N_SEEDS];
     for (size_t k = 0; k < N_SEEDS; k++) {
         long p = a->seed_point[k];
         done[k] = a->measured[p] || p == pending;
-        for (size_t j = 0; j < k; j++) /* a coarse pool's point nearest two seeds */
+        for (size_t j = 0; j < k; j++)
             done[k] |= a->seed_point[j] == p;
     }
+}
+
+/* The seeds not done, nearest first from the axes at from: *first
+ * receives the first of them (-1: none left), and the function returns the
+ * rig time of them all. */
+static double seed_route(const adaptive *a, const struct plan_axes *from, unsigned char *done,
+                         long *first)
+{
     struct plan_axes at = *from;
     double total = 0;
     *first = -1;
     for (;;) {
         long next = -1;
         double best = INFINITY;
-        for (size_t k = 0; k < N_SEEDS && !(in_order && next >= 0); k++) {
+        for (size_t k = 0; k < N_SEEDS; k++) {
             if (done[k])
                 continue;
             /* ties to the lower pool index, as the criterion's scan */
@@ -571,20 +576,60 @@ static double seed_route(const adaptive *a, const struct plan_axes *from, long p
     }
 }
 
+/* The most seeds not done that a route from the axes at measures within
+ * `left` rig seconds (*count), the least time for that many (*time) and
+ * that route's first pool point (*first, -1: none fits). Costs as the
+ * nearest-first route counts them: the margin is the budget's check of
+ * each next point when its turn comes (affordable). Exhaustive: six seeds
+ * are 720 routes at most. */
+static void seeds_within(const adaptive *a, const struct plan_axes *at, unsigned char *done,
+                         double left, int *count, double *time, long *first)
+{
+    *count = 0;
+    *time = 0;
+    *first = -1;
+    for (size_t k = 0; k < N_SEEDS; k++) {
+        if (done[k])
+            continue;
+        size_t p = (size_t)a->seed_point[k];
+        double c = adaptive_point_cost(a, at, p);
+        if (c > left)
+            continue;
+        int n;
+        double t;
+        long ignored;
+        done[k] = 1;
+        seeds_within(a, &plan_point(a->pool, p)->ax, done, left - c, &n, &t, &ignored);
+        done[k] = 0;
+        if (n + 1 > *count || (n + 1 == *count && c + t < *time)) {
+            *count = n + 1;
+            *time = c + t;
+            *first = (long)p;
+        }
+    }
+}
+
 /* The next seed: the nearest (the policy's later picks did best after
  * that start, docs/adaptive.md), unless the budget left is too short for
- * the seeds on that route and long enough on DS4's travel order: then
- * DS4's order, so that DS4's rig time holds DS4's six. -1: none left. */
+ * all the seeds on that route: then the first of the route that measures
+ * the most of them within it (DS4's own order when DS4's rig time is the
+ * budget), the quickest such. -1: none left, or none fits. */
 static long next_seed(const adaptive *a, const struct plan_axes *from, long pending,
                       double clock)
 {
-    long nearest, in_order;
-    double t_nearest = seed_route(a, from, pending, 0, &nearest);
-    double t_in_order = seed_route(a, from, pending, 1, &in_order);
-    if (a->opt.budget_s > 0 && clock + t_nearest > a->opt.budget_s &&
-        clock + t_in_order <= a->opt.budget_s + BUDGET_SLACK_S)
-        return in_order;
-    return nearest;
+    unsigned char done[N_SEEDS], route_done[N_SEEDS];
+    seeds_done(a, pending, done);
+    memcpy(route_done, done, sizeof done);
+    long nearest;
+    double t_nearest = seed_route(a, from, route_done, &nearest);
+    double left = a->opt.budget_s + BUDGET_SLACK_S - clock;
+    if (!(a->opt.budget_s > 0) || t_nearest <= left)
+        return nearest;
+    int count;
+    double time;
+    long first;
+    seeds_within(a, from, done, left, &count, &time, &first);
+    return first;
 }
 
 static double now_s(void)
