@@ -104,6 +104,15 @@ static inline int gonio_test_dir_remove(const char *dir)
     return system(cmd);
 }
 
+/* Writes text to path (a test's input file), failing the test if it cannot. */
+static inline void gonio_test_write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    assert_true(fputs(text, f) >= 0);
+    assert_int_equal(fclose(f), 0);
+}
+
 /* Nonzero when the test should run at its small size: under valgrind
  * (make check-valgrind; memcheck costs some 50x in CPU) or with
  * GONIO_TEST_SMALL=1 (to run the small size natively or under ASan).

@@ -397,12 +397,11 @@ static void test_concentrates_on_specular(void **state)
     char dir[64], path[96];
     assert_int_equal(gonio_test_dir_make(dir, sizeof dir, "adaptive"), 0);
     snprintf(path, sizeof path, "%s/uniform.yaml", dir);
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("name: uniform\ngrid:\n  theta_i_step: 4\n  theta_i_max: 80\n  diffuse_step: 4\n"
-          "  glossy_step: 4\n  glossy_half_width: 12\n  theta_r_min: -80\n  theta_r_max: 80\n"
-          "  blind: 5\norder: travel\nstop: all\n", f);
-    fclose(f);
+    gonio_test_write_text(path,
+                          "name: uniform\ngrid:\n  theta_i_step: 4\n  theta_i_max: 80\n"
+                          "  diffuse_step: 4\n  glossy_step: 4\n  glossy_half_width: 12\n"
+                          "  theta_r_min: -80\n  theta_r_max: 80\n  blind: 5\norder: travel\n"
+                          "stop: all\n");
     struct plan_rig rig;
     struct plan *pool = load(path, &rig);
     struct adaptive_options o = adaptive_default_options();

@@ -158,12 +158,8 @@ static void test_orders_dense_grid(void **state)
     char dir[256], path[300];
     assert_int_equal(gonio_test_dir_make(dir, sizeof dir, "order"), 0);
     snprintf(path, sizeof path, "%s/dense.yaml", dir);
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("name: dense\ngrid:\n  theta_i_step: 0.5\n  theta_i_max: 80\n  diffuse_step: 10\n"
-          "  glossy_step: 2\n  glossy_half_width: 15\n",
-          f);
-    assert_int_equal(fclose(f), 0);
+    gonio_test_write_text(path, "name: dense\ngrid:\n  theta_i_step: 0.5\n  theta_i_max: 80\n"
+                                "  diffuse_step: 10\n  glossy_step: 2\n  glossy_half_width: 15\n");
     check_orders(path);
     assert_int_equal(gonio_test_dir_remove(dir), 0);
 }
