@@ -85,11 +85,12 @@ static void reverse(size_t *seq, long i, long j)
 
 /* What the local search knows of the points it orders: each one's
  * nearest others in move time (k of them, nearest first, ties by index)
- * and its position in the sequence, both by point index (the lists through
- * slot[]). */
+ * with those move times, and its position in the sequence, both by point
+ * index (the lists through slot[]). */
 struct near {
     size_t k;
     size_t *list; /* m rows of k */
+    double *dist; /* the move time to each, m rows of k */
     long *slot;   /* point -> row of list */
     long *pos;    /* point -> sequence position */
 };
@@ -97,6 +98,11 @@ struct near {
 static const size_t *neighbours(const struct near *nr, size_t p)
 {
     return nr->list + nr->k * (size_t)nr->slot[p];
+}
+
+static const double *neighbour_times(const struct near *nr, size_t p)
+{
+    return nr->dist + nr->k * (size_t)nr->slot[p];
 }
 
 static const struct plan_point *row_pts;
@@ -115,6 +121,7 @@ static int cmp_s(const void *x, const void *y)
 static void near_free(struct near *nr)
 {
     free(nr->list);
+    free(nr->dist);
     free(nr->slot);
     free(nr->pos);
 }
@@ -127,14 +134,13 @@ static int near_init(struct near *nr, const struct tour *t, const size_t *seq, s
 {
     nr->k = m - 1 < NEIGHBOURS ? m - 1 : NEIGHBOURS;
     nr->list = malloc(m * nr->k * sizeof *nr->list);
+    nr->dist = malloc(m * nr->k * sizeof *nr->dist);
     nr->slot = malloc(t->n * sizeof *nr->slot);
     nr->pos = malloc(t->n * sizeof *nr->pos);
     size_t *by_s = malloc(m * sizeof *by_s);
-    double *dist = malloc(nr->k * sizeof *dist);
-    if (!nr->list || !nr->slot || !nr->pos || !by_s || !dist) {
+    if (!nr->list || !nr->dist || !nr->slot || !nr->pos || !by_s) {
         near_free(nr);
         free(by_s);
-        free(dist);
         return -ENOMEM;
     }
     for (size_t i = 0; i < m; i++)
@@ -144,7 +150,8 @@ static int near_init(struct near *nr, const struct tour *t, const size_t *seq, s
     qsort(by_s, m, sizeof *by_s, cmp_s);
     const struct plan_axis *sample = &t->rig->sample;
     for (long r = 0; r < (long)m; r++) {
-        size_t p = by_s[r], *list = nr->list + nr->k * (size_t)nr->slot[p], have = 0;
+        size_t p = by_s[r], row = nr->k * (size_t)nr->slot[p], *list = nr->list + row, have = 0;
+        double *dist = nr->dist + row;
         for (long dir = -1; dir <= 1; dir += 2) {
             for (long q = r + dir; q >= 0 && q < (long)m; q += dir) {
                 size_t o = by_s[q];
@@ -167,7 +174,6 @@ static int near_init(struct near *nr, const struct tour *t, const size_t *seq, s
         }
     }
     free(by_s);
-    free(dist);
     return 0;
 }
 
@@ -202,9 +208,11 @@ static int two_opt(const struct tour *t, size_t *seq, long m, const struct near 
     for (long i = 0; i < m; i++) {
         size_t a = seq[i];
         double next = edge(t, seq, m, i), prev = edge(t, seq, m, i - 1);
+        const size_t *list = neighbours(nr, a);
+        const double *times = neighbour_times(nr, a);
         for (size_t r = 0; r < nr->k; r++) {
-            size_t c = neighbours(nr, a)[r];
-            double d = cost(t, a, c);
+            size_t c = list[r];
+            double d = times[r];
             if (d >= next && d >= prev)
                 break;
             long j = nr->pos[c], lo = i < j ? i : j, hi = i < j ? j : i;
@@ -240,7 +248,8 @@ static int or_opt(const struct tour *t, size_t *seq, long m, const struct near *
             for (int end = 0; end < 2; end++) {
                 size_t e = seq[end ? last : i];
                 const size_t *list = neighbours(nr, e);
-                for (size_t r = 0; r < nr->k && cost(t, e, list[r]) < gain; r++) {
+                const double *times = neighbour_times(nr, e);
+                for (size_t r = 0; r < nr->k && times[r] < gain; r++) {
                     /* the neighbour before the run, or after it */
                     for (long k = nr->pos[list[r]] - 1; k <= nr->pos[list[r]]; k++) {
                         if (k >= i - 1 && k <= last)
@@ -446,8 +455,7 @@ static int travel(const struct tour *t, size_t *seq, size_t m)
         }
     }
     memcpy(seq, best, m * sizeof *seq);
-    if (search)
-        near_free(&nr);
+    near_free(&nr);
     free(buf);
     return 0;
 }
