@@ -307,59 +307,75 @@ static void local_search(const struct tour *t, size_t *seq, size_t m, const stru
     }
 }
 
-static const struct plan_point *sort_pts;
-static double sort_band;
-
-static long band_of(double v)
-{
-    return (long)floor(v / sort_band + 1e-9);
-}
+/* A point's place in the sweep, worked out once per point rather than in
+ * every comparison (the comparisons were most of a 1.5-million-point
+ * plan's load). pos, its place in the order given, breaks ties, so the
+ * sweep is the same whatever sort the C library has. */
+struct sweep_key {
+    long row, band; /* bands of the sample axis and of the azimuth */
+    double a;
+    size_t point, pos;
+};
 
 /* Boustrophedon: rows are bands of the sample axis; within a row the
  * azimuth bands alternate direction row by row, and within an azimuth band
  * the arm alternates, so consecutive points are neighbours. */
-static int cmp_rows(const void *x, const void *y)
+static int cmp_sweep(const void *x, const void *y)
 {
-    const struct plan_point *a = &sort_pts[*(const size_t *)x];
-    const struct plan_point *b = &sort_pts[*(const size_t *)y];
-    long ra = band_of(a->ax.s), rb = band_of(b->ax.s);
-    if (ra != rb)
-        return ra < rb ? -1 : 1;
-    long qa = band_of(a->ax.az), qb = band_of(b->ax.az);
-    int flip = (int)(ra & 1);
-    if (qa != qb)
-        return (qa < qb) != flip ? -1 : 1;
-    if (a->ax.a == b->ax.a)
-        return 0;
-    flip = (int)((ra + qa) & 1);
-    return (a->ax.a < b->ax.a) != flip ? -1 : 1;
+    const struct sweep_key *a = x, *b = y;
+    if (a->row != b->row)
+        return a->row < b->row ? -1 : 1;
+    int flip = (int)(a->row & 1);
+    if (a->band != b->band)
+        return (a->band < b->band) != flip ? -1 : 1;
+    if (a->a != b->a) {
+        flip = (int)((a->row + a->band) & 1);
+        return (a->a < b->a) != flip ? -1 : 1;
+    }
+    return a->pos < b->pos ? -1 : a->pos > b->pos;
 }
 
-static void serpentine_band(const struct plan_point *pts, size_t *seq, size_t m, double band)
+static long band_of(double v, double band)
 {
-    sort_pts = pts;
-    sort_band = band;
-    qsort(seq, m, sizeof *seq, cmp_rows);
+    return (long)floor(v / band + 1e-9);
+}
+
+static int serpentine_band(const struct plan_point *pts, size_t *seq, size_t m, double band)
+{
+    struct sweep_key *key = malloc((m ? m : 1) * sizeof *key);
+    if (!key)
+        return -ENOMEM;
+    for (size_t k = 0; k < m; k++) {
+        const struct plan_axes *ax = &pts[seq[k]].ax;
+        key[k] = (struct sweep_key){band_of(ax->s, band), band_of(ax->az, band), ax->a, seq[k], k};
+    }
+    qsort(key, m, sizeof *key, cmp_sweep);
+    for (size_t k = 0; k < m; k++)
+        seq[k] = key[k].point;
+    free(key);
+    return 0;
 }
 
 static double path_cost(const struct tour *t, const size_t *seq, size_t m);
 
 /* Grids have rows of exactly equal s; domain plans have scattered values,
  * where wider bands pay off. Try a few widths and keep the cheapest sweep. */
-static void serpentine_best(const struct tour *t, size_t *out, size_t m, const size_t *in)
+static int serpentine_best(const struct tour *t, size_t *out, size_t m, const size_t *in)
 {
     static const double bands[] = {1e-6, 0.5, 1, 2, 5, 10};
     double best = INFINITY;
     size_t *try = out + m; /* out has room for 2m */
     for (size_t b = 0; b < sizeof bands / sizeof bands[0]; b++) {
         memcpy(try, in, m * sizeof *try);
-        serpentine_band(t->pts, try, m, bands[b]);
+        if (serpentine_band(t->pts, try, m, bands[b]) < 0)
+            return -ENOMEM;
         double c = path_cost(t, try, m);
         if (c < best) {
             best = c;
             memcpy(out, try, m * sizeof *out);
         }
     }
+    return 0;
 }
 
 /* Nearest neighbour in move time from the start (ties keep the earlier
@@ -400,10 +416,8 @@ static void greedy_near(const struct tour *t, size_t *seq, size_t m, const struc
  * (beyond SEARCH_MAX points) the sweep stands in. */
 static int greedy(const struct tour *t, size_t *seq, size_t m)
 {
-    if (m > SEARCH_MAX) {
-        serpentine_band(t->pts, seq, m, 1e-6);
-        return 0;
-    }
+    if (m > SEARCH_MAX)
+        return serpentine_band(t->pts, seq, m, 1e-6);
     if (m < 2)
         return 0;
     struct near nr;
@@ -441,7 +455,11 @@ static int travel(const struct tour *t, size_t *seq, size_t m)
             continue;
         memcpy(work, orig, m * sizeof *work);
         if (start == 1) {
-            serpentine_best(t, scratch, m, work);
+            if (serpentine_best(t, scratch, m, work) < 0) {
+                near_free(&nr);
+                free(buf);
+                return -ENOMEM;
+            }
             memcpy(work, scratch, m * sizeof *work);
         } else if (start == 2) {
             greedy_near(t, work, m, &nr);
