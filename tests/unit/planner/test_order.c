@@ -162,6 +162,15 @@ static void test_orders_ds2_ds3_ds4(void **state)
     check_orders("ds4");
 }
 
+/* A plan file holding yaml in a fresh test folder dir (char[256]): its
+ * path (char[300]). */
+static void plan_file(char *dir, char *path, const char *yaml)
+{
+    assert_int_equal(gonio_test_dir_make(dir, 256, "order"), 0);
+    snprintf(path, 300, "%s/plan.yaml", dir);
+    gonio_test_write_text(path, yaml);
+}
+
 /* A dense grid (4347 pairs, theta_i every half degree): beyond the sizes
  * where the local search once ran in full, travel must still be no worse
  * than greedy (it was 11 % worse when large plans skipped the greedy
@@ -170,10 +179,8 @@ static void test_orders_dense_grid(void **state)
 {
     (void)state;
     char dir[256], path[300];
-    assert_int_equal(gonio_test_dir_make(dir, sizeof dir, "order"), 0);
-    snprintf(path, sizeof path, "%s/dense.yaml", dir);
-    gonio_test_write_text(path, "name: dense\ngrid:\n  theta_i_step: 0.5\n  theta_i_max: 80\n"
-                                "  diffuse_step: 10\n  glossy_step: 2\n  glossy_half_width: 15\n");
+    plan_file(dir, path, "name: dense\ngrid:\n  theta_i_step: 0.5\n  theta_i_max: 80\n"
+                         "  diffuse_step: 10\n  glossy_step: 2\n  glossy_half_width: 15\n");
     check_orders(path);
     assert_int_equal(gonio_test_dir_remove(dir), 0);
 }
@@ -200,17 +207,15 @@ static void travel_vs_written(const char *path, int count)
  * down is its approach legs, so an order shorter in plain move time can
  * cost the rig more. On the 906 pairs travel cost 272.5 s when it chose by
  * plain move time, the written rows 260.3 s; on the 27,117 (beyond the
- * local search, where the sweep stands in) 3623.6 s against 2312.3 s, and
- * the sweep's rows went every way the parity of their band numbers said.
- * The larger grid is left to the full size (memcheck minutes). */
+ * local search, where the sweep stands in) 3623.6 s against 2312.3 s: a
+ * boustrophedon pays the legs of every move down, a raster one move back
+ * per row. The larger grid is left to the full size (memcheck minutes). */
 static void test_travel_fine_grid(void **state)
 {
     (void)state;
     char dir[256], path[300];
-    assert_int_equal(gonio_test_dir_make(dir, sizeof dir, "order"), 0);
-    snprintf(path, sizeof path, "%s/fine.yaml", dir);
-    gonio_test_write_text(path, "name: fine\ngrid:\n  theta_i_step: 30\n  diffuse_step: 0.5\n"
-                                "  glossy_step: 0.5\n");
+    plan_file(dir, path, "name: fine\ngrid:\n  theta_i_step: 30\n  diffuse_step: 0.5\n"
+                         "  glossy_step: 0.5\n");
     travel_vs_written(path, 906);
     if (!gonio_test_small()) {
         gonio_test_write_text(path, "name: finer\ngrid:\n  theta_i_step: 10\n"
@@ -230,10 +235,8 @@ static void test_sweep_alternates(void **state)
 {
     (void)state;
     char dir[256], path[300];
-    assert_int_equal(gonio_test_dir_make(dir, sizeof dir, "order"), 0);
-    snprintf(path, sizeof path, "%s/rows.yaml", dir);
-    gonio_test_write_text(path, "name: rows\ngrid:\n  theta_i_step: 0.1\n  diffuse_step: 5\n"
-                                "  glossy_step: 5\n");
+    plan_file(dir, path, "name: rows\ngrid:\n  theta_i_step: 0.1\n  diffuse_step: 5\n"
+                         "  glossy_step: 5\n");
     struct plan *p;
     struct gonio_err err = {0};
     assert_int_equal(plan_load(path, &rig, &p, &err), 25462);
