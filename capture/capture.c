@@ -23,6 +23,7 @@
 #include "fit/models.h"
 #include "fit/stream.h"
 #include "planner/planner.h"
+#include "rig/motion.h"
 #include "sim/estimate.h"
 #include "sim/scene.h"
 #include "sim/sim.h"
@@ -308,6 +309,24 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
         if ((rc = drv_axis_start_move(axes[i], to[i], err)) < 0)
             return rc;
     phase(hooks, CAPTURE_PHASE_MOVE, index);
+    /* An axis moving against its approach direction stops beyond the
+     * target, then comes back: each such approach leg is sent as its first
+     * leg ends, the axes whose first legs end first first, so the move
+     * lasts as long as its slowest axis (rig/motion.h). */
+    const struct plan_axis *prof[3] = {&rig->sample, &rig->arm, &rig->azimuth};
+    int by_leg[3] = {0, 1, 2};
+    double leg[3];
+    for (int i = 0; i < n; i++)
+        leg[i] = plan_axis_time(drv_axis_leg_deg(axes[i]), prof[i]->speed, prof[i]->accel);
+    for (int i = 1; i < n; i++)
+        for (int k = i; k > 0 && leg[by_leg[k]] < leg[by_leg[k - 1]]; k--) {
+            int tmp = by_leg[k];
+            by_leg[k] = by_leg[k - 1];
+            by_leg[k - 1] = tmp;
+        }
+    for (int k = 0; k < n; k++)
+        if ((rc = drv_axis_wait_leg(axes[by_leg[k]], err)) < 0)
+            return rc;
     for (int i = 0; i < n; i++)
         if ((rc = drv_axis_wait(axes[i], err)) < 0)
             return rc;

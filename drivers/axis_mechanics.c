@@ -317,6 +317,28 @@ static int come_to_rest(drv_axis *ax, struct gonio_err *err)
     }
 }
 
+double drv_axis_leg_deg(const drv_axis *ax)
+{
+    return ax->moving ? fabs(ax->leg_target - ax->leg_from) : 0;
+}
+
+int drv_axis_wait_leg(drv_axis *ax, struct gonio_err *err)
+{
+    if (!ax->moving || !ax->final_pending)
+        return 0;
+    int in_pos = 0;
+    unsigned alarm = 0;
+    int rc = ax->ops->wait_rest(ax->priv, &in_pos, &alarm, err);
+    if (rc < 0) {
+        ax->moving = 0;
+        return rc;
+    }
+    if (alarm || ax->stopped)
+        return 0;
+    ax->final_pending = 0;
+    return send_leg(ax, ax->leg_target, ax->target, err);
+}
+
 int drv_axis_wait(drv_axis *ax, struct gonio_err *err)
 {
     if (!ax->moving)

@@ -52,6 +52,15 @@ struct drv_axis_mechanics {
 };
 
 int drv_axis_start_move(drv_axis *ax, double target_deg, struct gonio_err *err);
+/* Degrees of the leg under way (0 when none): with backlash the first leg
+ * of a move can stop beyond its target, and the approach leg follows. */
+double drv_axis_leg_deg(const drv_axis *ax);
+/* Wait for the leg under way when the approach leg follows it, and send
+ * that at once without waiting for it: a caller moving several axes sends
+ * each one's approach leg as soon as its first leg ends, taking the axes
+ * whose first legs end first first. 0 when no approach leg was pending (an
+ * alarm or a stop is left to drv_axis_wait). */
+int drv_axis_wait_leg(drv_axis *ax, struct gonio_err *err);
 int drv_axis_wait(drv_axis *ax, struct gonio_err *err);
 int drv_axis_position(drv_axis *ax, double *deg, struct gonio_err *err);
 /* Rig seconds the axis has rested since its last move or homing ended,

@@ -172,7 +172,8 @@ static int near_init(struct near *nr, const struct tour *t, const size_t *seq, s
     qsort(by_s, m, sizeof *by_s, cmp_s);
     const struct plan_axis *sample = &t->rig->sample;
     for (long r = 0; r < (long)m; r++) {
-        size_t p = by_s[r].point, row = nr->k * (size_t)nr->slot[p], *list = nr->list + row, have = 0;
+        size_t p = by_s[r].point, row = nr->k * (size_t)nr->slot[p];
+        size_t *list = nr->list + row, have = 0;
         double *dist = nr->dist + row;
         for (long dir = -1; dir <= 1; dir += 2) {
             for (long q = r + dir; q >= 0 && q < (long)m; q += dir) {
@@ -407,7 +408,6 @@ static int sweep_band(const struct plan_point *pts, size_t *seq, size_t m, doubl
     free(key);
     return 0;
 }
-
 
 /* Grids have rows of exactly equal s (the first width); domain plans have
  * scattered values, where wider bands pay off. */

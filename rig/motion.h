@@ -25,10 +25,9 @@ double plan_move_time(const struct plan_rig *rig, const struct plan_axes *from,
 /* The move as the drivers make it on the rig's mechanics: an axis with
  * backlash arriving against its approach direction takes the leg beyond
  * the target and the approach leg back (rig.h, struct plan_mechanics),
- * and the capture, waiting for the axes in turn (sample, arm, azimuth),
- * sends an axis's approach leg once the axes before it rest. What the
- * plan's estimate counts, and the simulated rig's clock on a scene
- * without effects to the rounding. */
+ * sent as the first leg ends (capture/capture.c, measure_point). What the
+ * plan's estimate counts, and the simulated clock on a scene without
+ * effects. */
 double plan_move_time_backlash(const struct plan_rig *rig, const struct plan_axes *from,
                                const struct plan_axes *to);
 

@@ -29,32 +29,20 @@ static double axis_time(double d, double v, double a)
 
 /* From x to y on an axis with back degrees of backlash taken up from
  * below (the default rig: 0.05): a move down goes back degrees further
- * (not past lo), then up to y (*approach, the second leg's time). back 0:
- * the ordering's symmetric metric. */
-static double axis_move(double x, double y, double v, double a, double lo, double back,
-                        double *approach)
+ * (not past lo), then up to y. back 0: the ordering's symmetric metric. */
+static double axis_move(double x, double y, double v, double a, double lo, double back)
 {
     double via = fmax(y - back, lo);
-    *approach = 0;
-    if (back > 0 && y < x && via < y) {
-        *approach = axis_time(y - via, v, a);
-        return axis_time(via - x, v, a);
-    }
+    if (back > 0 && y < x && via < y)
+        return axis_time(via - x, v, a) + axis_time(y - via, v, a);
     return axis_time(y - x, v, a);
 }
 
-/* The axes start together and are waited for in turn (sample, arm,
- * azimuth); an axis's approach leg starts when its wait comes. */
 static double move_backlash(const struct plan_axes *p, const struct plan_axes *q, double back)
 {
-    const double v[3] = {20, 15, 30}, acc[3] = {40, 30, 60}, lo[3] = {-90, -170, -180};
-    const double x[3] = {p->s, p->a, p->az}, y[3] = {q->s, q->a, q->az};
-    double t = 0;
-    for (int i = 0; i < 3; i++) {
-        double approach, first = axis_move(x[i], y[i], v[i], acc[i], lo[i], back, &approach);
-        t = fmax(t, first) + approach;
-    }
-    return t;
+    double t = fmax(axis_move(p->s, q->s, 20, 40, -90, back),
+                    axis_move(p->a, q->a, 15, 30, -170, back));
+    return fmax(t, axis_move(p->az, q->az, 30, 60, -180, back));
 }
 
 static double move(const struct plan_axes *p, const struct plan_axes *q)
