@@ -341,16 +341,20 @@ struct sweep_key {
     size_t point, pos;
 };
 
-static int cmp_bands(const void *x, const void *y)
+/* The raster: rows, then azimuth bands, then the arm, all upwards. */
+static int cmp_raster(const void *x, const void *y)
 {
     const struct sweep_key *a = x, *b = y;
     if (a->row != b->row)
         return a->row < b->row ? -1 : 1;
     if (a->band != b->band)
         return a->band < b->band ? -1 : 1;
+    if (a->a != b->a)
+        return a->a < b->a ? -1 : 1;
     return a->pos < b->pos ? -1 : a->pos > b->pos;
 }
 
+/* The boustrophedon: the raster with the flips sweep_keys set. */
 static int cmp_sweep(const void *x, const void *y)
 {
     const struct sweep_key *a = x, *b = y;
@@ -369,28 +373,26 @@ static long band_of(double v, double band)
 }
 
 /* Rows are bands of the sample axis, taken upwards; within a row, bands of
- * the azimuth; within those, the arm. A boustrophedon alternates the
- * azimuth bands row by row and the arm band by band, so consecutive points
- * are neighbours; a raster (one_way) takes every band and the arm upwards,
- * the way the drives approach their targets, and pays one long move back
- * per band instead of the approach legs of every move down (on a grid of
- * 0.05-degree steps, 2312 s of moves against the boustrophedon's 3624 s).
- * The alternation goes by the rank of a row or band among the occupied
- * ones: the parity of a band's own number does not alternate (rows 0.81
- * degrees apart fall in bands 1 apart or 2, and in 1e-6 bands any even
- * number apart). */
-static int sweep_band(const struct plan_point *pts, size_t *seq, size_t m, double band,
-                      int one_way)
+ * the azimuth; within those, the arm. A raster takes every band and the
+ * arm upwards, the way the drives approach their targets, and pays one
+ * long move back per band; a boustrophedon alternates the azimuth bands
+ * row by row and the arm band by band, so consecutive points are
+ * neighbours, and pays the approach legs of every move down (on a grid of
+ * 0.05-degree steps, 2312 s of moves against 3624 s; on rows of 5-degree
+ * steps the other way round). key[0..m) gets seq's points in raster order
+ * with the boustrophedon's flips, which go by the rank of a row or band
+ * among the occupied ones: the parity of a band's own number does not
+ * alternate (rows 0.81 degrees apart fall in bands 1 apart or 2, and in
+ * 1e-6 bands any even number apart). */
+static void sweep_keys(const struct plan_point *pts, const size_t *seq, size_t m, double band,
+                       struct sweep_key *key)
 {
-    struct sweep_key *key = malloc((m ? m : 1) * sizeof *key);
-    if (!key)
-        return -ENOMEM;
     for (size_t k = 0; k < m; k++) {
         const struct plan_axes *ax = &pts[seq[k]].ax;
         key[k] = (struct sweep_key){.row = band_of(ax->s, band), .band = band_of(ax->az, band),
                                     .a = ax->a, .point = seq[k], .pos = k};
     }
-    qsort(key, m, sizeof *key, cmp_bands);
+    qsort(key, m, sizeof *key, cmp_raster);
     long row_rank = -1, band_rank = -1;
     for (size_t k = 0; k < m; k++) {
         if (k == 0 || key[k].row != key[k - 1].row) {
@@ -399,14 +401,9 @@ static int sweep_band(const struct plan_point *pts, size_t *seq, size_t m, doubl
         }
         if (band_rank < 0 || key[k].band != key[k - 1].band)
             band_rank++;
-        key[k].down_band = !one_way && (row_rank & 1);
-        key[k].down_arm = !one_way && ((row_rank + band_rank) & 1);
+        key[k].down_band = (int)(row_rank & 1);
+        key[k].down_arm = (int)((row_rank + band_rank) & 1);
     }
-    qsort(key, m, sizeof *key, cmp_sweep);
-    for (size_t k = 0; k < m; k++)
-        seq[k] = key[k].point;
-    free(key);
-    return 0;
 }
 
 /* Grids have rows of exactly equal s (the first width); domain plans have
@@ -414,23 +411,31 @@ static int sweep_band(const struct plan_point *pts, size_t *seq, size_t m, doubl
 static const double sweep_widths[] = {1e-6, 0.5, 1, 2, 5, 10};
 #define N_SWEEP_WIDTHS (sizeof sweep_widths / sizeof sweep_widths[0])
 
-/* The sweep of the first n_widths band widths, either way, that costs the
- * rig least. */
+/* The sweep of the first n_widths band widths, raster or boustrophedon,
+ * that costs the rig least. */
 static int sweep_best(const struct tour *t, size_t *out, size_t m, const size_t *in,
                       size_t n_widths)
 {
+    struct sweep_key *key = malloc((m ? m : 1) * sizeof *key);
+    if (!key)
+        return -ENOMEM;
     double best = INFINITY;
     size_t *try = out + m; /* out has room for 2m */
-    for (size_t b = 0; b < 2 * n_widths; b++) {
-        memcpy(try, in, m * sizeof *try);
-        if (sweep_band(t->pts, try, m, sweep_widths[b / 2], (int)(b & 1)) < 0)
-            return -ENOMEM;
-        double c = path_cost(t, try, m);
-        if (c < best) {
-            best = c;
-            memcpy(out, try, m * sizeof *out);
+    for (size_t w = 0; w < n_widths; w++) {
+        sweep_keys(t->pts, in, m, sweep_widths[w], key);
+        for (int boustrophedon = 0; boustrophedon < 2; boustrophedon++) {
+            if (boustrophedon)
+                qsort(key, m, sizeof *key, cmp_sweep);
+            for (size_t k = 0; k < m; k++)
+                try[k] = key[k].point;
+            double c = path_cost(t, try, m);
+            if (c < best) {
+                best = c;
+                memcpy(out, try, m * sizeof *out);
+            }
         }
     }
+    free(key);
     return 0;
 }
 
