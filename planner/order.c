@@ -428,11 +428,7 @@ static int sweep_best(const struct tour *t, size_t *out, size_t m, const size_t 
                 qsort(key, m, sizeof *key, cmp_sweep);
             for (size_t k = 0; k < m; k++)
                 try[k] = key[k].point;
-            double c = path_cost(t, try, m);
-            if (c < best) {
-                best = c;
-                memcpy(out, try, m * sizeof *out);
-            }
+            keep_cheaper(t, try, m, out, &best);
         }
     }
     free(key);
