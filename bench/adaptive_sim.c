@@ -53,9 +53,11 @@ struct cfg {
     uint64_t seed;
 };
 
-/* The model fitted to n samples, as a material; NULL with a message. */
+/* The model fitted to n samples, as a material; NULL with a message.
+ * chosen: an adaptive policy chose the samples, so ABC weighs them by their
+ * domain share, as a capture's final fit does (fit/models.h fit_data). */
 static brdf_material *fit_model(const char *model, const latent_decoder *dec,
-                                const struct fit_sample *s, size_t n)
+                                const struct fit_sample *s, size_t n, int chosen)
 {
     struct gonio_err err = {0};
     if (strcmp(model, "latent") == 0) {
@@ -68,7 +70,9 @@ static brdf_material *fit_model(const char *model, const latent_decoder *dec,
         return latent_material_scaled(dec, z, info.scale, "latent");
     }
     struct brdf_abc p;
-    if (fit_abc(s, n, NULL, &p, NULL, &err) < 0) {
+    struct fit_options fo = fit_default_options();
+    fo.domain_weights = chosen;
+    if (fit_abc(s, n, &fo, &p, NULL, &err) < 0) {
         fprintf(stderr, "adaptive_sim: abc fit of %zu samples: %s\n", n, err.msg);
         return NULL;
     }
@@ -77,9 +81,9 @@ static brdf_material *fit_model(const char *model, const latent_decoder *dec,
 
 static double model_error(const char *model, const latent_decoder *dec,
                           const brdf_material *truth, const struct brdf_domain *dom,
-                          const struct fit_sample *s, size_t n, double *in_sample)
+                          const struct fit_sample *s, size_t n, int chosen, double *in_sample)
 {
-    brdf_material *m = fit_model(model, dec, s, n);
+    brdf_material *m = fit_model(model, dec, s, n, chosen);
     if (!m)
         return NAN;
     struct brdf_errors e;
@@ -136,9 +140,10 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
     /* auto: the better of abc and latent on the reference */
     int is_auto = strcmp(c->model, "auto") == 0;
     double ref_err = model_error(is_auto ? "latent" : c->model, dec, truth, dom, ref_s,
-                                 plan_count(ref), NULL);
+                                 plan_count(ref), 0, NULL);
     if (is_auto)
-        ref_err = fmin(ref_err, model_error("abc", dec, truth, dom, ref_s, plan_count(ref), NULL));
+        ref_err =
+            fmin(ref_err, model_error("abc", dec, truth, dom, ref_s, plan_count(ref), 0, NULL));
 
     struct adaptive_options o = adaptive_default_options();
     o.model = c->model;
@@ -169,7 +174,7 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
             struct adaptive_evidence ev;
             adaptive_evidence(a, &ev);
             double in_sample = NAN;
-            double te = model_error(is_auto ? st.model : c->model, dec, truth, dom, got, n,
+            double te = model_error(is_auto ? st.model : c->model, dec, truth, dom, got, n, 1,
                                     &in_sample);
             printf("trace %s %zu %.1f %.5f %.5f %.5f %.5f %.5f %.5f %.5f\n", name, n, clock,
                    ev.fit_error, ev.cv_error, ev.spread, ev.mapped, st.predicted_error, te,
@@ -191,7 +196,7 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
             break;
         }
     }
-    double e = model_error(is_auto ? st.model : c->model, dec, truth, dom, got, n, NULL);
+    double e = model_error(is_auto ? st.model : c->model, dec, truth, dom, got, n, 1, NULL);
     printf("| %s | %zu | %.0f s | %.0f%% | %.4f | %.4f | %.2f | %.4f | %.2f | %.1f / %.1f ms "
            "| %s |\n", name, n, clock, 100 * clock / est.total_s, e, ref_err, e / ref_err,
            st.predicted_error, st.predicted_error / e, 1e3 * dec_sum / (double)(n + 1),

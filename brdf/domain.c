@@ -8,6 +8,7 @@
 #define N_TH 90
 #define N_TD 90
 #define N_PD 180
+_Static_assert(N_TH == BRDF_DOMAIN_N_HD && N_TD == BRDF_DOMAIN_N_HD, "brdf_domain_hd_counts");
 
 /* Tolerance on the 80 degree limit: rounding in the polar angle must not
  * decide whether a node on the limit is in. */
@@ -125,6 +126,24 @@ int brdf_domain_inplane(struct brdf_domain *d, struct gonio_err *err)
 {
     const double phis[2] = {0.0, PI};
     return build(d, phis, 2, err, "in-plane");
+}
+
+void brdf_domain_hd_counts(unsigned short counts[BRDF_DOMAIN_N_HD * BRDF_DOMAIN_N_HD])
+{
+    double phis[N_PD];
+    full_phis(phis);
+    struct grid g;
+    grid_init(&g, phis, N_PD);
+    for (int i = 0; i < N_TH; i++)
+        for (int j = 0; j < N_TD; j++) {
+            unsigned short kept = 0;
+            for (int k = 0; k < N_PD; k++) {
+                struct brdf_pair p;
+                grid_pair(&g, i, j, k, &p);
+                kept += (unsigned short)grid_keeps(&g, &p);
+            }
+            counts[i * BRDF_DOMAIN_N_HD + j] = kept;
+        }
 }
 
 uint64_t brdf_splitmix64(uint64_t *state)

@@ -43,6 +43,15 @@ int brdf_domain_inplane(struct brdf_domain *d, struct gonio_err *err);
 int brdf_domain_oop_random(struct brdf_domain *d, size_t n, uint64_t seed,
                            struct gonio_err *err);
 
+/* How much of the full domain each (theta_h, theta_d) cell of the MERL grid
+ * stands for: counts[i * BRDF_DOMAIN_N_HD + j] = the full domain's nodes at
+ * (i, j) over all phi_d, 0..180 (the 80-degree rule keeps fewer at large
+ * angles). What an error averaged over the full domain weighs a
+ * (theta_h, theta_d) by, for samples (in-plane ones) that do not resolve
+ * phi_d. */
+#define BRDF_DOMAIN_N_HD 90
+void brdf_domain_hd_counts(unsigned short counts[BRDF_DOMAIN_N_HD * BRDF_DOMAIN_N_HD]);
+
 /* splitmix64 (Steele, Lea, Flood 2014): advance *state, return the next
  * value. Exposed so tests and plans can reproduce the draw. */
 uint64_t brdf_splitmix64(uint64_t *state);

@@ -668,6 +668,7 @@ static int fit_abc_capture(const struct fit_data *data, const struct brdf_abc *w
     struct fit_options opt = fit_default_options();
     opt.warm_start = warm; /* the streaming fit's last parameters, when there is one */
     opt.lower_bound = data->rgb_lower;
+    opt.domain_weights = data->domain_weights;
     struct fit_info info;
     double t0 = gonio_monotonic_s();
     /* abc-prior: MAP with the population prior, the material left out of it */
@@ -730,11 +731,12 @@ static int fit_registry_capture(const struct fit_data *data, const char *dir,
 /* The final fit of the journalled samples with the capture's model, and its
  * error on them (the plan domain). Saturated readings are fitted as lower
  * bounds when the model censors them (fit_model_censors; docs/fitting.md
- * "Saturated readings"). A failed fit names the model and leaves the
- * journal as it is. */
+ * "Saturated readings"), and samples an adaptive policy chose (chosen) are
+ * weighted by their share of the domain (fit/models.h fit_data). A failed
+ * fit names the model and leaves the journal as it is. */
 static int fit_samples(const struct journal_sample *js, size_t n, const struct brdf_abc *warm,
                        const struct fit_model_kind *kind, const char *dir, const char *material,
-                       struct capture_summary *out, brdf_material **fitted,
+                       int chosen, struct capture_summary *out, brdf_material **fitted,
                        struct gonio_err *err)
 {
     struct fit_sample *fs = malloc((n ? n : 1) * sizeof *fs);
@@ -751,7 +753,8 @@ static int fit_samples(const struct journal_sample *js, size_t n, const struct b
                             .n_rgb = n,
                             .rgb_lower = out->saturated && fit_model_censors(
                                              kind, FIT_SATURATED_DEFAULT) ? lower : NULL,
-                            .material = material};
+                            .material = material,
+                            .domain_weights = chosen};
     int rc = !strcmp(kind->name, "abc") || !strcmp(kind->name, "abc-prior")
                  ? fit_abc_capture(&data, warm, dir, kind->name, out, fitted, err)
                  : fit_registry_capture(&data, dir, kind, out, fitted, err);
@@ -914,7 +917,7 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
                          in.material_name[0] ? in.material_name
                          : in.truth_name[0] ? in.truth_name
                                             : NULL,
-                         out, &fitted, err);
+                         in.adaptive, out, &fitted, err);
     if (rc == 0 && converged)
         out->converged = 1; /* the stop rule decided: the capture converged */
     if (rc == 0 && fit && in.truth)

@@ -23,7 +23,8 @@
 static void usage(FILE *out)
 {
     fprintf(out, "usage: gonio fit SAMPLES --model NAME [-o MODEL_FILE] [--seed N] [--epochs N]\n"
-                 "                 [--truth SPEC] [--saturated clipped|censored] [--quiet]\n"
+                 "                 [--truth SPEC] [--saturated clipped|censored]\n"
+                 "                 [--weights domain|none] [--quiet]\n"
                  "  SAMPLES: a capture directory or its samples.csv; for mlp-spectral a\n"
                  "           capture directory (its spectra.csv) or a spectral CSV\n"
                  "           (theta_i,theta_r,wavelength_nm,value)\n"
@@ -32,6 +33,9 @@ static void usage(FILE *out)
                  "  --saturated: fit saturated readings as lower bounds (one-sided\n"
                  "           residuals) or at their clipped value; default: the model's\n"
                  "           (clipped for abc, abc-prior, abc-pseudo, censored for the others)\n"
+                 "  --weights: weight each sample by its share of the full domain (abc,\n"
+                 "           abc-prior, and auto's candidates) or not; default: domain for the\n"
+                 "           samples of an adaptive capture (its setup.json), else none\n"
                  "models:\n");
     for (size_t i = 0; fit_model_at(i); i++)
         fprintf(out, "  %-13s %s\n", fit_model_at(i)->name, fit_model_at(i)->summary);
@@ -127,7 +131,7 @@ int cmd_fit(int argc, char **argv)
         {"model", required_argument, NULL, 'm'}, {"output", required_argument, NULL, 'o'},
         {"seed", required_argument, NULL, 's'},  {"epochs", required_argument, NULL, 'e'},
         {"truth", required_argument, NULL, 't'}, {"quiet", no_argument, NULL, 'q'},
-        {"saturated", required_argument, NULL, 'S'},
+        {"saturated", required_argument, NULL, 'S'}, {"weights", required_argument, NULL, 'w'},
         {"help", no_argument, NULL, 'h'},        {NULL, 0, NULL, 0},
     };
     const char *model = NULL, *out = NULL, *truth_spec = NULL;
@@ -136,6 +140,7 @@ int cmd_fit(int argc, char **argv)
     optind = 1;
     int c;
     enum fit_saturated how = FIT_SATURATED_DEFAULT;
+    int weights = -1; /* -1: as the capture's setup.json says */
     while ((c = getopt_long(argc, argv, "m:o:s:e:t:qh", opts, NULL)) != -1) {
         char *end;
         switch (c) {
@@ -148,6 +153,13 @@ int cmd_fit(int argc, char **argv)
                 fprintf(stderr, "gonio fit: --saturated '%s': use clipped or censored\n", optarg);
                 return 2;
             }
+            break;
+        case 'w':
+            if (strcmp(optarg, "domain") && strcmp(optarg, "none")) {
+                fprintf(stderr, "gonio fit: --weights '%s': use domain or none\n", optarg);
+                return 2;
+            }
+            weights = !strcmp(optarg, "domain");
             break;
         case 's':
             mo.seed = strtoull(optarg, &end, 10);
@@ -223,6 +235,14 @@ int cmd_fit(int argc, char **argv)
         snprintf(material_buf, sizeof material_buf, "%s",
                  json_string_value(json_object_get(setup, "material")));
     json_decref(setup);
+    /* An adaptive policy chose the samples: fitted as the capture fitted
+     * them, weighted by their share of the domain (fit/models.h). */
+    if (weights < 0) {
+        setup = json_load_file(setup_path, 0, NULL);
+        weights = json_is_object(json_object_get(setup, "adaptive"));
+        json_decref(setup);
+    }
+    data.domain_weights = weights > 0;
     data.material = truth_spec ? truth_spec : material_buf[0] ? material_buf : NULL;
     size_t n = kind->spectral ? data.n_spectral : data.n_rgb;
     if (!n) {
@@ -248,6 +268,9 @@ int cmd_fit(int argc, char **argv)
     if (!rc) {
         printf("%-10s %s\n", "model", model);
         printf("%-10s %zu (%s)\n", "samples", n, samples_path);
+        if (data.domain_weights)
+            printf("%-10s each sample's share of the full domain (an adaptive capture's "
+                   "samples)\n", "weights");
         if (saturated)
             printf("%-10s %zu readings, lower bounds: %s\n", "saturated", saturated,
                    censored ? "fitted one-sided (censored)" : "fitted at their clipped values");

@@ -15,6 +15,7 @@
 #include <gsl/gsl_rng.h>
 
 #include "fit/abc_problem.h"
+#include "fit/domain_weights.h"
 #include "fit/fit.h"
 #include "fit/sample_order.h"
 
@@ -572,8 +573,8 @@ static int peak_unbounded(const struct fit_sample *s, const size_t *idx, size_t 
  * of the rest resumed from theta. NAN when a fold's rest is too small to
  * fit. */
 static double heldout_rms(const struct fit_sample *s, const size_t *idx, size_t n,
-                          const struct fit_options *opt, const struct abc_prior_term *prior,
-                          const double theta[ABC_NPAR])
+                          const struct fit_options *opt, const double *weight,
+                          const struct abc_prior_term *prior, const double theta[ABC_NPAR])
 {
     size_t folds = n < ABC_FOLDS ? n : ABC_FOLDS, need = prior ? 1 : 3;
     if (!folds || n - (n + folds - 1) / folds < need)
@@ -593,8 +594,10 @@ static double heldout_rms(const struct fit_sample *s, const size_t *idx, size_t 
         struct solve_result r;
         if (abc_problem_init(&tp, s, train, nt) == 0 && abc_problem_set_loss(&tp, opt->loss) == 0 &&
             abc_problem_set_lower(&tp, opt->lower_bound, train) == 0 &&
+            abc_problem_set_weights(&tp, weight, train) == 0 &&
             abc_problem_init(&hp, s, test, nh) == 0 &&
-            abc_problem_set_lower(&hp, opt->lower_bound, test) == 0) {
+            abc_problem_set_lower(&hp, opt->lower_bound, test) == 0 &&
+            abc_problem_set_weights(&hp, weight, test) == 0) {
             tp.prior = prior;
             if (local_solve(&tp, theta, opt, ABC_COARSE_FTOL, NULL, &r) == 0) {
                 sum += 2.0 * abc_problem_cost(&hp, r.theta);
@@ -669,11 +672,26 @@ static int fit_sorted(const struct fit_sample *samples, size_t n, struct fit_opt
                              nv, n);
     }
 
+    /* weight[i] for sample i (indexed as the samples, for the subsets) */
+    double *weight = NULL, *share = NULL;
+    if (opt.domain_weights &&
+        (!(weight = malloc(n * sizeof *weight)) || !(share = malloc(nv * sizeof *share)) ||
+         fit_domain_weights(samples, idx, nv, share) < 0)) {
+        free(weight);
+        free(share);
+        free(idx);
+        return gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", n);
+    }
+    for (size_t k = 0; weight && k < nv; k++)
+        weight[idx[k]] = share[k];
+    free(share);
+
     struct fit_sample *scaled = NULL;
     struct brdf_abc warm_scaled;
     if (scale != 1.0) {
         if (!(scaled = malloc(n * sizeof *scaled))) {
             free(idx);
+            free(weight);
             return gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", n);
         }
         for (size_t k = 0; k < nv; k++) {
@@ -697,6 +715,8 @@ static int fit_sorted(const struct fit_sample *samples, size_t n, struct fit_opt
         gsl_rng *rng = gsl_rng_alloc(gsl_rng_mt19937);
         if (!rng) {
             free(idx);
+            free(weight);
+            free(scaled);
             return gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory");
         }
         gsl_rng_set(rng, opt.seed);
@@ -715,7 +735,8 @@ static int fit_sorted(const struct fit_sample *samples, size_t n, struct fit_opt
 
     if (abc_problem_init(&local, samples, idx, n_local) < 0 ||
         abc_problem_set_loss(&local, opt.loss) < 0 ||
-        abc_problem_set_lower(&local, opt.lower_bound, idx) < 0) {
+        abc_problem_set_lower(&local, opt.lower_bound, idx) < 0 ||
+        abc_problem_set_weights(&local, weight, idx) < 0) {
         rc = gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", n_local);
         goto done;
     }
@@ -738,7 +759,9 @@ static int fit_sorted(const struct fit_sample *samples, size_t n, struct fit_opt
                 ng = n_grid;
         }
         if (ng < n_local) {
-            int ok = abc_problem_init(&grid, samples, ng < n_grid ? gidx : idx, ng) == 0;
+            const size_t *gi = ng < n_grid ? gidx : idx;
+            int ok = abc_problem_init(&grid, samples, gi, ng) == 0 &&
+                     abc_problem_set_weights(&grid, weight, gi) == 0;
             free(gidx);
             if (!ok) {
                 rc = gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory");
@@ -788,7 +811,8 @@ static int fit_sorted(const struct fit_sample *samples, size_t n, struct fit_opt
     if (n_local < nv && isfinite(best.cost)) {
         if (abc_problem_init(&full, samples, idx, nv) < 0 ||
             abc_problem_set_loss(&full, opt.loss) < 0 ||
-            abc_problem_set_lower(&full, opt.lower_bound, idx) < 0) {
+            abc_problem_set_lower(&full, opt.lower_bound, idx) < 0 ||
+            abc_problem_set_weights(&full, weight, idx) < 0) {
             rc = gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", nv);
             goto done;
         }
@@ -828,12 +852,14 @@ static int fit_sorted(const struct fit_sample *samples, size_t n, struct fit_opt
             s2 = isfinite(s2) && s2 > prior_sigma * prior_sigma ? s2 : prior_sigma * prior_sigma;
         uncertainty(fp, best.theta, s2, &info->sd);
         info->scale = scale;
+        info->domain_weights = weight != NULL;
         struct fit_status *st = &info->status;
         *st = fit_status_init();
         st->geometries = fit_status_geometries(samples, idx, nv);
         abc_status_figures(fp, best.theta, st);
         st->insample = rms_log(fp, best.theta);
-        st->heldout = opt.heldout ? heldout_rms(samples, idx, n_local, &opt, prior, best.theta)
+        st->heldout = opt.heldout ? heldout_rms(samples, idx, n_local, &opt, weight, prior,
+                                                best.theta)
                                   : NAN;
         if (!best.converged)
             st->findings |= 1u << FIT_STATUS_NOT_CONVERGED;
@@ -848,6 +874,7 @@ done:
     abc_problem_free(&grid);
     free(idx);
     free(scaled);
+    free(weight);
     return rc;
 }
 

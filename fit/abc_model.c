@@ -28,6 +28,8 @@ struct fit_model_file *fit_abc_fitted_file(const struct brdf_abc *p, unsigned lo
     if (f && (fit_model_file_set(f, "seed", "%llu", seed) ||
               fit_model_file_set(f, "cost", "%.6g", info->cost) ||
               fit_model_file_set(f, "scale", "%.17g", info->scale) ||
+              (info->domain_weights &&
+               fit_model_file_set(f, "weights", "each sample's share of the full domain")) ||
               fit_status_file_keys(f, &info->status))) {
         fit_model_file_free(f);
         return NULL;
@@ -78,6 +80,7 @@ int fit_abc_model_fit(const struct fit_data *data, const struct fit_model_option
     struct fit_options fo = fit_default_options();
     fo.seed = (unsigned)o.seed;
     fo.lower_bound = data->rgb_lower;
+    fo.domain_weights = data->domain_weights;
     struct brdf_abc p;
     struct fit_info info;
     int rc = fit_abc(data->rgb, data->n_rgb, &fo, &p, &info, err);

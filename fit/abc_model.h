@@ -18,7 +18,8 @@ struct fit_model_file *fit_abc_model_file(const struct brdf_abc *p);
 
 /* The same for the result of a fit: also the seed it ran with, its final
  * cost, the data's scale and the fit's status (fit_status_file_keys), the
- * keys every abc file written by a fit carries (NULL: out of memory). */
+ * keys every abc file written by a fit carries, and "weights" when the
+ * samples were weighted (fit_info.domain_weights) (NULL: out of memory). */
 struct fit_model_file *fit_abc_fitted_file(const struct brdf_abc *p, unsigned long long seed,
                                            const struct fit_info *info);
 

@@ -150,6 +150,7 @@ int fit_abc_prior_model_fit(const struct fit_data *data, const struct fit_model_
     struct fit_options fo = fit_default_options();
     fo.seed = (unsigned)o.seed;
     fo.lower_bound = data->rgb_lower;
+    fo.domain_weights = data->domain_weights;
     struct brdf_abc p;
     struct fit_info info;
     if ((rc = fit_abc_map(data->rgb, data->n_rgb, &fo, &prior, &p, &info, err)) < 0)

@@ -114,6 +114,7 @@ void abc_problem_free(struct abc_problem *pb)
     free(pb->xi);
     free(pb->vi);
     free(pb->s);
+    free(pb->sw);
     free(pb->lower);
     memset(pb, 0, sizeof *pb);
 }
@@ -127,6 +128,17 @@ int abc_problem_set_lower(struct abc_problem *pb, const unsigned char *flags, co
             return -1;
         pb->lower[k] = 1;
     }
+    return 0;
+}
+
+int abc_problem_set_weights(struct abc_problem *pb, const double *w, const size_t *idx)
+{
+    if (!w)
+        return 0;
+    if (!pb->sw && !(pb->sw = malloc((pb->n ? pb->n : 1) * sizeof *pb->sw)))
+        return -1;
+    for (size_t k = 0; k < pb->n; k++)
+        pb->sw[k] = sqrt(w[idx ? idx[k] : k]);
     return 0;
 }
 
@@ -247,12 +259,13 @@ void abc_problem_eval(const struct abc_problem *pb, const double th[ABC_NPAR], d
             double rv = lin ? (fhat - pb->f[row]) * pb->s[row] : log1p(fhat * ci) - pb->y[row];
             /* a lower bound the model is above: no residual, no slope */
             int met = pb->lower && pb->lower[k] && rv > 0;
+            double sw = pb->sw ? pb->sw[k] : 1.0;
             if (r)
-                r[row] = met ? 0.0 : rv;
+                r[row] = met ? 0.0 : sw * rv;
             if (!J)
                 continue;
             /* w = dr/dfhat: d log(1 + fhat cos) = cos / (1 + fhat cos) d fhat */
-            double w = met ? 0.0 : lin ? pb->s[row] : ci / (1.0 + fhat * ci);
+            double w = met ? 0.0 : sw * (lin ? pb->s[row] : ci / (1.0 + fhat * ci));
             double *jr = J + row * ABC_NPAR;
             memset(jr, 0, ABC_NPAR * sizeof *jr);
             jr[c] = w * dkd[c] / ABC_PI;
@@ -426,6 +439,12 @@ double abc_problem_resid(const struct abc_problem *pb, const double th[ABC_NPAR]
             for (size_t k = 0; k < n; k++)
                 if (pb->lower[k] && out[ch * n + k] > 0)
                     out[ch * n + k] = c->w[ch * n + k] = 0.0;
+    if (pb->sw)
+        for (size_t ch = 0; ch < 3; ch++)
+            for (size_t k = 0; k < n; k++) {
+                out[ch * n + k] *= pb->sw[k];
+                c->w[ch * n + k] *= pb->sw[k];
+            }
     for (size_t row = 0; row < 3 * n; row++)
         ss += out[row] * out[row];
     if (pb->prior) {

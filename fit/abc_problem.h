@@ -79,6 +79,10 @@ struct abc_problem {
      * its residuals count only while negative (the model below the value).
      * NULL when no sample is (abc_problem_set_lower). */
     unsigned char *lower;
+    /* sw[k]: the square root of sample k's weight (fit_options.domain_weights),
+     * multiplying its residuals and their slopes. NULL: all 1
+     * (abc_problem_set_weights). */
+    double *sw;
     enum fit_loss loss; /* FIT_LOSS_LOG after init; abc_problem_set_loss changes it */
     double *s;      /* linear losses: r = (fhat - f) s, 3n (NULL for the log loss) */
     const struct abc_prior_term *prior; /* NULL: no prior rows */
@@ -97,6 +101,11 @@ void abc_problem_free(struct abc_problem *pb);
 /* Mark the samples whose values are lower bounds: flags[idx[k]] (idx as
  * given to abc_problem_init; flags NULL: none). Returns 0, -1 on no memory. */
 int abc_problem_set_lower(struct abc_problem *pb, const unsigned char *flags, const size_t *idx);
+
+/* Weigh the samples: w[idx[k]] (idx as given to abc_problem_init; w NULL:
+ * none), each >= 0, multiplies sample k's squared residuals. Returns 0, -1
+ * on no memory. */
+int abc_problem_set_weights(struct abc_problem *pb, const double *w, const size_t *idx);
 
 /* Switch the data residuals to another loss (fit/fit.h enum fit_loss).
  * Returns 0, or -1 for an unknown loss or no memory. */

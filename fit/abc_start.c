@@ -130,7 +130,7 @@ double abc_linear_score(const struct abc_problem *pb, double B, double C, double
         double ci = pb->cosi[k];
         for (int c = 0; c < 3; c++) {
             double d = ci / (1.0 + fmax(pb->f[3 * k + c], 0.0) * ci);
-            double wk = d * d, fk = pb->f[3 * k + c];
+            double wk = d * d * (pb->sw ? pb->sw[k] * pb->sw[k] : 1.0), fk = pb->f[3 * k + c];
             s11[c] += wk / (ABC_PI * ABC_PI);
             s12[c] += wk * s / ABC_PI;
             s22[c] += wk * s * s;
@@ -145,7 +145,7 @@ double abc_linear_score(const struct abc_problem *pb, double B, double C, double
         double ci = pb->cosi[k];
         for (int c = 0; c < 3; c++) {
             double r = log1p((kd[c] / ABC_PI + A[c] * spec[k]) * ci) - pb->y[3 * k + c];
-            score += r * r;
+            score += r * r * (pb->sw ? pb->sw[k] * pb->sw[k] : 1.0);
         }
     }
     return isfinite(score) ? score : INFINITY;
@@ -240,10 +240,11 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
             fr[k] = fu[pb->vi[k]] * pb->gterm[k];
     }
     /* Weights of the linearised log loss: d log(1 + f cos) / df = cos / (1 + f cos),
-     * squared because the linear solve minimises squared differences in f. */
+     * squared because the linear solve minimises squared differences in f; times
+     * the sample's weight. */
     for (size_t k = 0; k < 3 * n; k++) {
         double ci = pb->cosi[k / 3];
-        double d = ci / (1.0 + fmax(pb->f[k], 0.0) * ci);
+        double d = ci / (1.0 + fmax(pb->f[k], 0.0) * ci) * (pb->sw ? pb->sw[k / 3] : 1.0);
         w[k] = d * d;
     }
 
@@ -347,6 +348,9 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
         /* log(1 + fhat cos) - log(1 + f cos) as one log; w is free by now */
         true_rows(n, fr, lobe, pb->xi, pb->cosi, pb->iy, kdp, nd->A, w);
         abc_vlog(w, 3 * n);
+        if (pb->sw)
+            for (size_t k = 0; k < 3 * n; k++)
+                w[k] *= pb->sw[k % n];
         double score = 0;
         for (size_t k = 0; k < 3 * n; k++)
             score += w[k] * w[k];

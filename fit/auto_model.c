@@ -207,7 +207,8 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
                 .rgb_lower = data->rgb_lower && fit_model_censors(kind, FIT_SATURATED_DEFAULT)
                                  ? tlower
                                  : NULL,
-                .material = data->material};
+                .material = data->material,
+                .domain_weights = data->domain_weights};
             struct gonio_err e = {0};
             brdf_material *m = fit_open(kind, &d, &o, &e);
             if (!m) {

@@ -47,6 +47,13 @@ struct fit_options {
      * data: no residual while the model is above the value
      * (docs/fitting.md "Saturated readings"). */
     const unsigned char *lower_bound;
+    /* 1: each sample's squared residuals weighted by its share of the full
+     * domain (fit/domain_weights.h), so that the loss estimates the
+     * full-domain error rather than the error at the samples: for samples
+     * not spread like the domain (an adaptive capture's). 0 (default): all
+     * alike. The in-sample and held-out residuals of the status are then
+     * weighted means. */
+    int domain_weights;
     /* 1 (default): the fit status's held-out residual (fit_info.status),
      * five coarse refits; 0 leaves it NaN, for fits whose status nobody
      * reads (the streaming fit's rounds, which hold out samples their own
@@ -83,6 +90,7 @@ struct fit_info {
     double scale;        /* the data were divided by it before the fit (fit_data_scale);
                             cost is in those units */
     struct fit_status status; /* what the fit can know (fit/fit_status.h) */
+    int domain_weights;  /* 1: the samples were weighted by their domain share */
 };
 
 /* Scale normalisation. The log loss log(1 + f cos theta_i) has a scale of

@@ -42,6 +42,11 @@ struct fit_data {
     const struct fit_spectral_sample *spectral;
     size_t n_spectral;
     const char *material; /* the captured material (nbrdf:NAME) when known, else NULL */
+    /* 1: the samples were chosen by an adaptive policy, so they are not
+     * spread like the domain: the ABC fits weight each by its share of the
+     * domain (fit_options.domain_weights, fit/domain_weights.h) and say so
+     * in the model file ("weights"); other models fit them alike. */
+    int domain_weights;
 };
 
 struct fit_model_options {

@@ -194,8 +194,8 @@ static int write_json_atomic(const char *path, json_t *o, struct gonio_err *err)
  * failures of the machinery are errors. */
 static int fit_one(const struct study_spec *s, size_t mi, const char *jobdir,
                    const struct fit_sample *samples, const unsigned char *lower, size_t n,
-                   const char *material_spec, const struct truth_values *t, struct row_fit *f,
-                   struct gonio_err *err)
+                   int chosen, const char *material_spec, const struct truth_values *t,
+                   struct row_fit *f, struct gonio_err *err)
 {
     const struct fit_model_kind *kind = fit_model_find(s->models[mi].name);
     memset(f, 0, sizeof *f);
@@ -208,7 +208,8 @@ static int fit_one(const struct study_spec *s, size_t mi, const char *jobdir,
     struct fit_data data = {.rgb = samples,
                             .n_rgb = n,
                             .rgb_lower = censored ? lower : NULL,
-                            .material = material_spec};
+                            .material = material_spec,
+                            .domain_weights = chosen}; /* an adaptive policy's samples, as the capture fits them */
     struct fit_model_options mo = fit_model_default_options();
     struct fit_model_report rep = {0};
     struct fit_model_file *mf = NULL;
@@ -371,7 +372,7 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
         if (access(path, F_OK) == 0)
             continue; /* finished by an earlier run */
         struct row_fit f;
-        rc = fit_one(s, m, jobdir, samples, lower, n, mat->spec, &t, &f, err);
+        rc = fit_one(s, m, jobdir, samples, lower, n, sum.adaptive, mat->spec, &t, &f, err);
         if (rc < 0)
             break;
         if (sum.adaptive && !strcmp(f.model, sum.policy.model)) { /* its own prediction */

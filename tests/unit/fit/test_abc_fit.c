@@ -141,7 +141,7 @@ static void test_jacobian_matches_finite_differences(void **state)
 
 /* The solver's fused path (residuals with a cache, then J^T J, J^T r and
  * J u without forming J) against the dense residuals and Jacobian, for
- * each loss, with and without prior rows. */
+ * each loss, with and without prior rows and sample weights. */
 static void test_fused_path_matches_dense(void **state)
 {
     (void)state;
@@ -158,12 +158,17 @@ static void test_fused_path_matches_dense(void **state)
         {.kd = {0.01, 0.02, 0.03}, .A = {300, 200, 100}, .B = 2e5, .C = 0.3, .eta = 1.08},
     };
     const enum fit_loss losses[] = {FIT_LOSS_LOG, FIT_LOSS_RELATIVE, FIT_LOSS_COS_L2};
-    for (int with_prior = 0; with_prior < 2; with_prior++)
+    double weight[400];
+    for (size_t k = 0; k < n; k++)
+        weight[k] = k % 7 == 3 ? 0.0 : 0.25 + (double)(k % 5); /* some 0: a sample left out */
+    for (int with_prior = 0; with_prior < 4; with_prior++)
         for (size_t l = 0; l < 3; l++) {
             struct abc_problem pb;
             assert_int_equal(abc_problem_init(&pb, s, NULL, n), 0);
             assert_int_equal(abc_problem_set_loss(&pb, losses[l]), 0);
-            pb.prior = with_prior ? &prior : NULL;
+            assert_int_equal(abc_problem_set_weights(&pb, with_prior >= 2 ? weight : NULL, NULL),
+                             0);
+            pb.prior = with_prior % 2 ? &prior : NULL;
             /* in-plane data repeat their geometry: fewer lobes than samples */
             assert_true(pb.nux < n && pb.nuv < n);
             size_t nr = abc_problem_nres(&pb);
@@ -175,6 +180,13 @@ static void test_fused_path_matches_dense(void **state)
                 double th[ABC_NPAR], u[ABC_NPAR];
                 abc_params_to_theta(&at[a], th);
                 abc_problem_eval(&pb, th, r, J);
+                if (pb.sw) { /* a weight w scales the sample's residuals by sqrt(w) */
+                    struct abc_problem pu = pb;
+                    pu.sw = NULL;
+                    abc_problem_eval(&pu, th, Ju, NULL);
+                    for (size_t k = 0; k < 3 * n; k++)
+                        assert_close(r[k], sqrt(weight[k / 3]) * Ju[k], 1e-12 * fabs(Ju[k]));
+                }
                 double cost = abc_problem_resid(&pb, th, rf, &c), ss = 0;
                 for (size_t i = 0; i < nr; i++) {
                     assert_close(rf[i], r[i], 1e-12 * (1 + fabs(r[i])));
@@ -228,6 +240,38 @@ static void test_fused_path_matches_dense(void **state)
             free(Ju);
             abc_problem_free(&pb);
         }
+}
+
+/* The start search's linear score (kd and A solved per lobe) is the true
+ * log loss at the kd and A it returns, weighted as the residuals are. */
+static void test_linear_score_weighted(void **state)
+{
+    (void)state;
+    struct brdf_pair g[400];
+    size_t n = ds2_grid(g);
+    struct fit_sample s[400];
+    synth(&truth, g, n, s);
+    double weight[400], spec[400], plain = 0;
+    for (size_t k = 0; k < n; k++)
+        weight[k] = k % 3 ? 0.1 : 3.0;
+    for (int weighted = 0; weighted < 2; weighted++) {
+        struct abc_problem pb;
+        assert_int_equal(abc_problem_init(&pb, s, NULL, n), 0);
+        assert_int_equal(abc_problem_set_weights(&pb, weighted ? weight : NULL, NULL), 0);
+        struct brdf_abc p = {.B = 200, .C = 1.3, .eta = 3};
+        double score = abc_linear_score(&pb, p.B, p.C, p.eta, p.kd, p.A, spec);
+        for (int c = 0; c < 3; c++) {
+            p.kd[c] = fmax(p.kd[c], 1e-300);
+            p.A[c] = fmax(p.A[c], 1e-300);
+        }
+        double th[ABC_NPAR];
+        abc_params_to_theta(&p, th);
+        assert_rel_close(score, 2 * abc_problem_cost(&pb, th), 1e-9);
+        if (weighted)
+            assert_true(fabs(score - plain) > 1e-3 * plain); /* the weights count */
+        plain = score;
+        abc_problem_free(&pb);
+    }
 }
 
 static void test_parametrisation_round_trip(void **state)
@@ -403,6 +447,7 @@ int main(void)
         cmocka_unit_test(test_recovers_known_parameters),
         cmocka_unit_test(test_jacobian_matches_finite_differences),
         cmocka_unit_test(test_fused_path_matches_dense),
+        cmocka_unit_test(test_linear_score_weighted),
         cmocka_unit_test(test_parametrisation_round_trip),
         cmocka_unit_test(test_six_samples_finite),
         cmocka_unit_test(test_all_diffuse_data),

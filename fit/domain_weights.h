@@ -1,0 +1,26 @@
+/* Sample weights that make a fit's loss an estimate of the full-domain
+ * error (DESIGN.md section 6), for samples not spread like the domain.
+ *
+ * An adaptive capture measures where its model is unsure, which is seldom
+ * where the domain's mass is: fitted unweighted, a model that cannot
+ * follow the material everywhere bends towards the crowded samples
+ * (docs/adaptive.md "Why ABC stalls near 1.1x"). Weighting each sample by
+ * the share of the domain it stands for corrects that bias (importance
+ * weighting for a covariate shift). */
+#ifndef GONIO_FIT_DOMAIN_WEIGHTS_H
+#define GONIO_FIT_DOMAIN_WEIGHTS_H
+
+#include <stddef.h>
+
+#include "fit/fit.h"
+
+/* w[k] for samples s[idx[k]], k < n (idx NULL: s[0..n)): every
+ * (theta_h, theta_d) cell of the MERL grid, counted by its full-domain
+ * nodes (brdf_domain_hd_counts), goes to the sample nearest it in
+ * (sqrt(theta_h / 90 deg), theta_d / 90 deg), the coordinates the nodes
+ * are uniform in; samples at the same point split it. Scaled to mean 1; a
+ * sample no cell is nearest to weighs 0. Content-only: a permutation of the
+ * samples permutes the weights. Returns 0, or -1 when out of memory. */
+int fit_domain_weights(const struct fit_sample *s, const size_t *idx, size_t n, double *w);
+
+#endif
