@@ -224,7 +224,9 @@ def test_plan_inplane_1deg_pool():
 def test_capture_adaptive_offline(tmp):
     """--order adaptive: progress lines carry the policy's prediction (no
     bar: the pool is not measured whole), marked rough below 40 samples
-    (where its calibration is poor), the summary its stop and figures;
+    (where its calibration is poor), the summary its stop and figures; its
+    ABC model weighs the samples by their domain share, and gonio fit of the
+    directory writes the same file byte for byte (--weights none another);
     --budget outside the adaptive order, or not a positive number, exits 2
     with nothing written."""
     out = os.path.join(tmp, "ad")
@@ -242,6 +244,17 @@ def test_capture_adaptive_offline(tmp):
         res = json.load(f)
     assert res["rig_time_s"] <= 120
     assert res["adaptive"]["prediction_rough"] is (res["samples"] < 40)
+    with open(os.path.join(out, "abc.model"), "rb") as f:
+        captured = f.read()
+    assert b"\nweights each sample's share of the full domain\n" in captured
+    for weights, same in ((), True), (("--weights", "domain"), True), (("--weights", "none"), False):
+        refit = os.path.join(tmp, "refit.model")
+        r = gonio("fit", out, "--model", "abc", "--quiet", "-o", refit, *weights)
+        assert r.returncode == 0, r.stderr
+        with open(refit, "rb") as f:
+            assert (f.read() == captured) is same, weights
+    r = gonio("fit", out, "--model", "abc", "--weights", "some")
+    assert r.returncode == 2 and "--weights 'some': use domain or none" in r.stderr, r.stderr
     for args, needle in ((("--budget", "0.5"), "--budget 0.5: only the adaptive order"),
                          (("--stop-target", "0.05"), "--stop-target 0.05: only the adaptive"),
                          (("--order", "adaptive", "--budget", "soon"), "--budget 'soon'"),
