@@ -471,7 +471,13 @@ static void refit(adaptive *a, double rig_time_s)
     if (a->fitted == a->n)
         return;
     a->fitted = a->n;
-    if (a->n < N_SEEDS || ens_fit(&a->ens, a->samples, a->n) < 0) {
+    /* ABC's own picks and prediction come from fits weighted as the
+     * capture's final ABC fit (docs/adaptive.md, the policy, step 2); for
+     * the latent model the ensemble serves the picks' coverage term and the
+     * prior's check, and unweighted fits there kept the latent policy's
+     * errors on the lab scene (docs/adaptive.md, "With the ABC fits
+     * weighted by domain share"). */
+    if (a->n < N_SEEDS || ens_fit(&a->ens, a->samples, a->n, !a->latent) < 0) {
         a->predicted = NAN;
         return;
     }

@@ -79,7 +79,7 @@ static double group_error(const struct brdf_abc *params, const struct fit_sample
     return out.log;
 }
 
-int ens_fit(struct ens *e, const struct fit_sample *s, size_t n)
+int ens_fit(struct ens *e, const struct fit_sample *s, size_t n, int weighted)
 {
     if (n > e->cap) {
         struct fit_sample *grown = realloc(e->scratch, 2 * n * sizeof *grown);
@@ -94,7 +94,7 @@ int ens_fit(struct ens *e, const struct fit_sample *s, size_t n)
     }
     struct fit_options fo = fit_default_options();
     fo.heldout = 0; /* the ensemble holds out its own groups */
-    fo.domain_weights = 1; /* as the capture's final fit (fit/models.h fit_data) */
+    fo.domain_weights = weighted;
     struct brdf_abc next, cold;
     struct fit_info info, cold_info;
     int had = e->ok;

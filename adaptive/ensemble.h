@@ -33,10 +33,12 @@ struct ens {
 void ens_init(struct ens *e);
 void ens_free(struct ens *e);
 
-/* Refit to samples[0..n). Returns 0, -ENOMEM, or -GONIO_EFIT when too few
- * samples (or a failed fit) leave no ensemble; e->ok says whether the
- * ensemble is usable. Deterministic for the same samples. */
-int ens_fit(struct ens *e, const struct fit_sample *s, size_t n);
+/* Refit to samples[0..n), each fit weighting the samples by their domain
+ * share when weighted (fit_options.domain_weights). Returns 0, -ENOMEM, or
+ * -GONIO_EFIT when too few samples (or a failed fit) leave no ensemble;
+ * e->ok says whether the ensemble is usable. Deterministic for the same
+ * samples. */
+int ens_fit(struct ens *e, const struct fit_sample *s, size_t n, int weighted);
 
 /* log(1 + f cos theta_i) of params at p, mean over the channels. */
 double ens_log_value(const struct brdf_abc *params, const struct brdf_pair *p);
