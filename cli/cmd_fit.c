@@ -237,7 +237,8 @@ int cmd_fit(int argc, char **argv)
     json_decref(setup);
     /* An adaptive policy chose the samples: fitted as the capture fitted
      * them, weighted by their share of the domain (fit/models.h). */
-    if (weights < 0) {
+    int asked = weights >= 0;
+    if (!asked) {
         setup = json_load_file(setup_path, 0, NULL);
         weights = json_is_object(json_object_get(setup, "adaptive"));
         json_decref(setup);
@@ -269,8 +270,8 @@ int cmd_fit(int argc, char **argv)
         printf("%-10s %s\n", "model", model);
         printf("%-10s %zu (%s)\n", "samples", n, samples_path);
         if (data.domain_weights)
-            printf("%-10s each sample's share of the full domain (an adaptive capture's "
-                   "samples)\n", "weights");
+            printf("%-10s each sample's share of the full domain (%s)\n", "weights",
+                   asked ? "--weights domain" : "an adaptive capture's samples");
         if (saturated)
             printf("%-10s %zu readings, lower bounds: %s\n", "saturated", saturated,
                    censored ? "fitted one-sided (censored)" : "fitted at their clipped values");

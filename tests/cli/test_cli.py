@@ -251,6 +251,9 @@ def test_capture_adaptive_offline(tmp):
         refit = os.path.join(tmp, "refit.model")
         r = gonio("fit", out, "--model", "abc", "--quiet", "-o", refit, *weights)
         assert r.returncode == 0, r.stderr
+        assert ("weights    each sample's share of the full domain (%s)"
+                % ("--weights domain" if weights else "an adaptive capture's samples")
+                in r.stdout) is same, r.stdout
         with open(refit, "rb") as f:
             assert (f.read() == captured) is same, weights
     r = gonio("fit", out, "--model", "abc", "--weights", "some")
