@@ -580,8 +580,7 @@ static double heldout_rms(const struct fit_sample *s, const size_t *idx, size_t 
     if (!folds || n - (n + folds - 1) / folds < need)
         return NAN;
     size_t *train = malloc(n * sizeof *train), *test = malloc(n * sizeof *test);
-    double sum = 0;
-    size_t tested = 0;
+    double sum = 0, tested = 0; /* residual rows tested, each counted by its weight */
     for (size_t f = 0; train && test && f < folds; f++) {
         size_t nt = 0, nh = 0;
         for (size_t k = 0; k < n; k++) {
@@ -601,7 +600,8 @@ static double heldout_rms(const struct fit_sample *s, const size_t *idx, size_t 
             tp.prior = prior;
             if (local_solve(&tp, theta, opt, ABC_COARSE_FTOL, NULL, &r) == 0) {
                 sum += 2.0 * abc_problem_cost(&hp, r.theta);
-                tested += 3 * nh;
+                for (size_t k = 0; k < nh; k++)
+                    tested += 3 * (weight ? weight[test[k]] : 1.0);
             }
         }
         abc_problem_free(&tp);
@@ -609,7 +609,7 @@ static double heldout_rms(const struct fit_sample *s, const size_t *idx, size_t 
     }
     free(train);
     free(test);
-    return tested ? sqrt(sum / (double)tested) : NAN;
+    return tested > 0 ? sqrt(sum / tested) : NAN;
 }
 
 static int gsl_handler_off_done;

@@ -118,7 +118,7 @@ void abc_theta_to_params(const double theta[ABC_NPAR], struct brdf_abc *p);
 void abc_params_to_theta(const struct brdf_abc *p, double theta[ABC_NPAR]);
 
 /* Residuals r[nres] (log loss: log(1 + fhat cos) - log(1 + f cos); the
- * linear losses (fhat - f) s) and, when J is not NULL, the Jacobian
+ * linear losses (fhat - f) s; each times its sample's sw) and, when J is not NULL, the Jacobian
  * dr/dtheta, row-major nres x 9. r may be NULL when only the Jacobian is
  * wanted. nres = abc_problem_nres(pb). */
 void abc_problem_eval(const struct abc_problem *pb, const double theta[ABC_NPAR], double *r,
@@ -176,7 +176,7 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
 
 /* Score of one (B, C, eta): kd and A per channel by the weighted
  * non-negative linear solve of abc_grid_starts, then the true log loss
- * (sum of squares). spec[n] is scratch. Returns INFINITY if not finite. */
+ * (sum of squares, each times its sample's weight sw^2). spec[n] is scratch. Returns INFINITY if not finite. */
 double abc_linear_score(const struct abc_problem *pb, double B, double C, double eta,
                         double kd[3], double A[3], double *spec);
 

@@ -38,7 +38,8 @@ static int cmp_point(const void *a, const void *b)
 
 /* The first of pts[0..n) (sorted by u) nearest (u, v): a scan outwards in
  * u from where u would sort, stopped on each side once the gap in u alone
- * is no shorter than the best distance found. */
+ * rules out a nearer point (and, going down, a tie: ties go to the first
+ * in sorted order). */
 static size_t nearest(const struct point *pts, size_t n, double u, double v)
 {
     size_t lo = 0, hi = n;
