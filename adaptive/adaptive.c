@@ -166,15 +166,16 @@ static double chord(const struct brdf_pair *a, const struct brdf_pair *b)
     return sqrt(s);
 }
 
-/* Distance of two pairs in the full domain's own coordinates: the MERL
- * nodes are uniform in (sqrt(theta_h / 90 deg), theta_d / 90 deg, phi_d),
- * so coverage in these units is coverage of the nodes the error is
- * averaged over, whatever the pool's spacing. */
+/* Distance of two pairs in the full domain's own coordinates
+ * (brdf_domain_hd_place; the MERL nodes are also uniform in phi_d), so
+ * coverage in these units is coverage of the nodes the error is averaged
+ * over, whatever the pool's spacing. */
 static double dom_dist(const struct brdf_pair *a, const struct brdf_pair *b)
 {
-    double du = sqrt(a->theta_h / (90 * BRDF_DEG)) - sqrt(b->theta_h / (90 * BRDF_DEG));
-    double dv = (a->theta_d - b->theta_d) / (90 * BRDF_DEG);
-    return sqrt(du * du + dv * dv);
+    double ua, va, ub, vb;
+    brdf_domain_hd_place(a, &ua, &va);
+    brdf_domain_hd_place(b, &ub, &vb);
+    return sqrt((ua - ub) * (ua - ub) + (va - vb) * (va - vb));
 }
 
 adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,

@@ -128,6 +128,12 @@ int brdf_domain_inplane(struct brdf_domain *d, struct gonio_err *err)
     return build(d, phis, 2, err, "in-plane");
 }
 
+void brdf_domain_hd_place(const struct brdf_pair *p, double *u, double *v)
+{
+    *u = sqrt(fmax(p->theta_h, 0.0) / (90 * BRDF_DEG));
+    *v = p->theta_d / (90 * BRDF_DEG);
+}
+
 void brdf_domain_hd_counts(unsigned short counts[BRDF_DOMAIN_N_HD * BRDF_DOMAIN_N_HD])
 {
     double phis[N_PD];

@@ -43,6 +43,12 @@ int brdf_domain_inplane(struct brdf_domain *d, struct gonio_err *err);
 int brdf_domain_oop_random(struct brdf_domain *d, size_t n, uint64_t seed,
                            struct gonio_err *err);
 
+/* A pair's place in the coordinates the MERL nodes are uniform in,
+ * u = sqrt(theta_h / 90 deg) and v = theta_d / 90 deg (node (i, j) at
+ * (i / 90, j / 90); a pair and its reciprocal at one place): where coverage
+ * of the error's domain is measured. */
+void brdf_domain_hd_place(const struct brdf_pair *p, double *u, double *v);
+
 /* How much of the full domain each (theta_h, theta_d) cell of the MERL grid
  * stands for: counts[i * BRDF_DOMAIN_N_HD + j] = the full domain's nodes at
  * (i, j) over all phi_d, 0..180 (the 80-degree rule keeps fewer at large

@@ -227,22 +227,20 @@ int cmd_fit(int argc, char **argv)
         spec[i].saturated = 0; /* spectra.csv's flags, as rgb_lower */
     data.spectral = spec;
     /* The captured material, so that abc-prior leaves it out of its prior:
-     * --truth, else the capture's setup.json (simulated captures name it). */
+     * --truth, else the capture's setup.json (simulated captures name it).
+     * An adaptive policy chose the samples when setup.json says so: fitted
+     * as the capture fitted them, weighted by their share of the domain
+     * (fit/models.h), unless --weights says otherwise. */
     char setup_path[4200], material_buf[512] = "";
     snprintf(setup_path, sizeof setup_path, "%.4000s/setup.json", dir);
-    json_t *setup = truth_spec ? NULL : json_load_file(setup_path, 0, NULL);
-    if (setup && json_is_string(json_object_get(setup, "material")))
+    json_t *setup = json_load_file(setup_path, 0, NULL);
+    if (!truth_spec && json_is_string(json_object_get(setup, "material")))
         snprintf(material_buf, sizeof material_buf, "%s",
                  json_string_value(json_object_get(setup, "material")));
-    json_decref(setup);
-    /* An adaptive policy chose the samples: fitted as the capture fitted
-     * them, weighted by their share of the domain (fit/models.h). */
     int asked = weights >= 0;
-    if (!asked) {
-        setup = json_load_file(setup_path, 0, NULL);
+    if (!asked)
         weights = json_is_object(json_object_get(setup, "adaptive"));
-        json_decref(setup);
-    }
+    json_decref(setup);
     data.domain_weights = weights > 0;
     data.material = truth_spec ? truth_spec : material_buf[0] ? material_buf : NULL;
     size_t n = kind->spectral ? data.n_spectral : data.n_rgb;

@@ -19,8 +19,8 @@ static void cell_nodes_init(void)
     brdf_domain_hd_counts(cell_nodes);
 }
 
-/* A sample's place in the coordinates the MERL nodes are uniform in: node
- * (i, j) sits at (i / 90, j / 90). */
+/* A sample's place (brdf_domain_hd_place): node (i, j) sits at
+ * (i / 90, j / 90). */
 struct point {
     double u, v;
     size_t k; /* the sample's position in the caller's list */
@@ -88,9 +88,8 @@ int fit_domain_weights(const struct fit_sample *s, const size_t *idx, size_t n, 
     }
     pthread_once(&cell_nodes_once, cell_nodes_init);
     for (size_t k = 0; k < n; k++) {
-        const struct brdf_pair *g = &s[idx ? idx[k] : k].g;
-        double th = fmax(g->theta_h, 0.0);
-        pts[k] = (struct point){sqrt(th / (90 * BRDF_DEG)), g->theta_d / (90 * BRDF_DEG), k};
+        pts[k].k = k;
+        brdf_domain_hd_place(&s[idx ? idx[k] : k].g, &pts[k].u, &pts[k].v);
     }
     qsort(pts, n, sizeof *pts, cmp_point);
     double total = 0;
