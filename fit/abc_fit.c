@@ -374,9 +374,71 @@ static double predictive_sd(const double th[ABC_NPAR], double c[ABC_NPAR][ABC_NP
     return sum / (double)(3 * n);
 }
 
+/* The residual variance of a fit of cost (half the sum of squared, weighted
+ * residuals) over pb's rows: their mean square with ABC_NPAR degrees of
+ * freedom spent. Weighted rows count as Kish's effective number,
+ * (sum w)^2 / sum w^2, all of them when the weights are equal: samples of
+ * weight 0 add nothing to what the residuals can tell. NAN for no more
+ * (effective) rows than parameters. */
+static double residual_variance(const struct abc_problem *pb, double cost)
+{
+    double rows = 3.0 * (double)pb->n;
+    if (!pb->sw)
+        return rows > ABC_NPAR ? 2.0 * cost / (rows - ABC_NPAR) : NAN;
+    double sw = 0, sw2 = 0;
+    for (size_t k = 0; k < pb->n; k++) {
+        double w = pb->sw[k] * pb->sw[k];
+        sw += w;
+        sw2 += w * w;
+    }
+    double eff = sw2 > 0 ? 3.0 * sw * sw / sw2 : 0;
+    return eff > ABC_NPAR ? 2.0 * cost / (3.0 * sw) * eff / (eff - ABC_NPAR) : NAN;
+}
+
+/* M = K^T K for the nk x ABC_NPAR rows K. */
+static void gram(const double *K, size_t nk, double M[ABC_NPAR][ABC_NPAR])
+{
+    for (int i = 0; i < ABC_NPAR; i++)
+        for (int j = 0; j < ABC_NPAR; j++) {
+            double t = 0;
+            for (size_t r = 0; r < nk; r++)
+                t += K[r * ABC_NPAR + i] * K[r * ABC_NPAR + j];
+            M[i][j] = t;
+        }
+}
+
+/* The middle of a weighted fit's sandwich covariance: J^T W^2 J (and the
+ * prior's rows, as in J^T W J), the rows of pb's Jacobian scaled by the
+ * weights themselves instead of their square roots. Returns 0, -1 on no
+ * memory. */
+static int weighted_meat(const struct abc_problem *pb, const double th[ABC_NPAR],
+                         double M[ABC_NPAR][ABC_NPAR])
+{
+    struct abc_problem sq = *pb;
+    double K[(15 + ABC_NPAR) * ABC_NPAR], cn[ABC_NPAR];
+    double *w = malloc((pb->n ? pb->n : 1) * sizeof *w);
+    if (!w)
+        return -1;
+    for (size_t k = 0; k < pb->n; k++)
+        w[k] = pb->sw[k] * pb->sw[k];
+    sq.sw = w;
+    size_t nk = abc_jacobian_root(&sq, th, K, cn);
+    free(w);
+    if (nk == 0)
+        return -1;
+    gram(K, nk, M);
+    return 0;
+}
+
 /* Parameter standard deviations at theta: covariance s2 (J^T J)^-1 from
- * GSL, mapped to natural units. A parameter whose column of J is zero
- * (clamped, or without influence) is undetermined: INFINITY. */
+ * GSL, mapped to natural units. Weighted samples (pb->sw) are not weighted
+ * by their precision but by the share of the domain they stand for, and a
+ * sample standing for more of it is no less noisy: their covariance is the
+ * sandwich s2 H^-1 (J^T W^2 J) H^-1, H = J^T W J, which the equal weights
+ * of an unweighted fit reduce to s2 (J^T J)^-1 (importance weights
+ * inflate the variance by about mean(w^2), Kish's design effect). A
+ * parameter whose column of J is zero (clamped, or without influence) is
+ * undetermined: INFINITY. */
 static void uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR], double s2,
                         struct fit_uncertainty *u)
 {
@@ -394,13 +456,28 @@ static void uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR],
     if (gsl_multifit_nlinear_covar(&Kv.matrix, 1e-12, cov) != GSL_SUCCESS)
         goto done;
     /* GSL zeroes the rows and columns of the parameters it found dependent */
-    double c[ABC_NPAR][ABC_NPAR];
+    double c[ABC_NPAR][ABC_NPAR], h[ABC_NPAR][ABC_NPAR], M[ABC_NPAR][ABC_NPAR];
     int undet[ABC_NPAR];
     for (int i = 0; i < ABC_NPAR; i++) {
         undet[i] = !(cn[i] > 0) || !(gsl_matrix_get(cov, (size_t)i, (size_t)i) > 0);
         for (int j = 0; j < ABC_NPAR; j++)
-            c[i][j] = s2 * gsl_matrix_get(cov, (size_t)i, (size_t)j);
+            c[i][j] = h[i][j] = gsl_matrix_get(cov, (size_t)i, (size_t)j);
     }
+    if (pb->sw) {
+        if (weighted_meat(pb, th, M) < 0)
+            goto done;
+        for (int i = 0; i < ABC_NPAR; i++)
+            for (int j = 0; j < ABC_NPAR; j++) {
+                double t = 0;
+                for (int a = 0; a < ABC_NPAR; a++)
+                    for (int b = 0; b < ABC_NPAR; b++)
+                        t += h[i][a] * M[a][b] * h[b][j];
+                c[i][j] = t;
+            }
+    }
+    for (int i = 0; i < ABC_NPAR; i++)
+        for (int j = 0; j < ABC_NPAR; j++)
+            c[i][j] *= s2;
     for (int k = 0; k < 3; k++) {
         u->log_kd[k] = undet[k] ? INFINITY : sqrt(c[k][k]);
         u->log_A[k] = undet[3 + k] ? INFINITY : sqrt(c[3 + k][3 + k]);
@@ -844,10 +921,9 @@ static int fit_sorted(const struct fit_sample *samples, size_t n, struct fit_opt
         info->reason = best.reason;
         info->dropped = n - nv;
         const struct abc_problem *fp = full.n ? &full : &local;
-        size_t m = 3 * fp->n;
         /* Residual variance from the fit's own residuals; for a prior fit at
          * least the prior's noise level (the MAP problem's posterior). */
-        double s2 = m > ABC_NPAR ? 2.0 * best.cost / (double)(m - ABC_NPAR) : NAN;
+        double s2 = residual_variance(fp, best.cost);
         if (prior) /* the prior's noise level, or the misfit when it is larger */
             s2 = isfinite(s2) && s2 > prior_sigma * prior_sigma ? s2 : prior_sigma * prior_sigma;
         uncertainty(fp, best.theta, s2, &info->sd);

@@ -66,9 +66,12 @@ struct fit_options fit_default_options(void);
 /* Standard deviations of the fitted parameters in natural units, from the
  * Jacobian at the optimum (covariance s^2 (J^T J)^-1, s^2 the residual
  * variance 2 cost / (residuals - 9); for a prior fit the prior's noise
- * level, fit/abc_prior.h). INFINITY: the data do not determine the
- * parameter (no influence, or clamped at a bound); all NaN: not computed
- * (fewer residuals than parameters without a prior). */
+ * level, fit/abc_prior.h; for a fit weighted by domain share the sandwich
+ * s^2 H^-1 (J^T W^2 J) H^-1, H = J^T W J, with the residuals counted as
+ * Kish's effective number, docs/fitting.md "Domain weights"). INFINITY:
+ * the data do not determine the parameter (no influence, or clamped at a
+ * bound); all NaN: not computed (fewer residuals than parameters without
+ * a prior). */
 struct fit_uncertainty {
     double log_kd[3], log_A[3];
     double log_B, log_C, eta;

@@ -9,7 +9,11 @@
  *  - a fit of spread samples plus a crowd from another material: weighted,
  *    the crowd counts as the bit of domain it covers and the fit follows
  *    the spread samples; unweighted, it bends towards the crowd. The model
- *    file says the fit was weighted. */
+ *    file says the fit was weighted;
+ *  - a weighted fit's parameter sds are the spread its estimates have over
+ *    repeated noisy captures (the sandwich covariance), not the far smaller
+ *    figure that treating the weights as precisions gives. */
+#include <math.h>
 #include <string.h>
 
 #include "brdf/abc.h"
@@ -213,6 +217,85 @@ static void test_weighted_fit_ignores_crowd(void **state)
     fit_model_file_free(f);
 }
 
+/* A standard normal deviate (Box-Muller) from the splitmix64 stream. */
+static double gauss(uint64_t *st)
+{
+    double u1 = ((double)(brdf_splitmix64(st) >> 11) + 0.5) / 9007199254740992.0;
+    double u2 = (double)(brdf_splitmix64(st) >> 11) / 9007199254740992.0;
+    return sqrt(-2 * log(u1)) * cos(360 * BRDF_DEG * u2);
+}
+
+#define REPEATS 30
+#define NOISE 0.02 /* sd of the noise added to log(1 + f cos theta_i) */
+
+static void test_weighted_sds_match_their_spread(void **state)
+{
+    (void)state;
+    const struct brdf_abc mat = {
+        .kd = {0.20, 0.15, 0.10}, .A = {20.0, 15.0, 10.0}, .B = 3000, .C = 0.9, .eta = 1.5};
+    /* 40 spread samples and a crowd of 200 in one grazing corner: the crowd
+     * stands for little of the domain, so the spread samples carry nearly
+     * all the weight */
+    struct fit_sample clean[300], s[300];
+    size_t n = 0;
+    for (double ti = 0; ti <= 75; ti += 15)
+        for (double tr = -75; tr <= 75; tr += 22)
+            if (fabs(ti + tr) >= 5) {
+                brdf_pair_inplane(ti, tr, &clean[n].g);
+                brdf_abc_eval(&mat, &clean[n].g, clean[n].rgb);
+                n++;
+            }
+    for (int c = 0; c < 200; c++) {
+        brdf_pair_inplane(70 + 0.05 * (c % 20), -(60 + 0.1 * (c / 20)), &clean[n].g);
+        brdf_abc_eval(&mat, &clean[n].g, clean[n].rgb);
+        n++;
+    }
+    double w[300], w2 = 0;
+    assert_int_equal(fit_domain_weights(clean, NULL, n, w), 0);
+    for (size_t k = 0; k < n; k++)
+        w2 += w[k] * w[k] / (double)n;
+    /* Kish's design effect: the precision-weighted sds would be about
+     * sqrt(w2) times too small; the test must tell the two apart */
+    printf("%zu samples, mean w^2 %.2f\n", n, w2);
+    assert_true(w2 > 3);
+
+    struct fit_options o = fit_default_options();
+    o.domain_weights = 1;
+    o.heldout = 0;
+    uint64_t st = 2026;
+    double est[3][REPEATS], sd[3] = {0};
+    for (int r = 0; r < REPEATS; r++) {
+        for (size_t k = 0; k < n; k++) {
+            s[k] = clean[k];
+            double ci = s[k].g.wi[2];
+            for (int c = 0; c < 3; c++)
+                s[k].rgb[c] = expm1(log1p(clean[k].rgb[c] * ci) + NOISE * gauss(&st)) / ci;
+        }
+        struct brdf_abc fit;
+        struct fit_info info;
+        struct gonio_err err = {0};
+        assert_int_equal(fit_abc(s, n, &o, &fit, &info, &err), 0);
+        est[0][r] = log(fit.kd[0]);
+        est[1][r] = log(fit.A[0]);
+        est[2][r] = log(fit.B);
+        sd[0] += info.sd.log_kd[0] / REPEATS;
+        sd[1] += info.sd.log_A[0] / REPEATS;
+        sd[2] += info.sd.log_B / REPEATS;
+    }
+    static const char *const name[3] = {"log kd[0]", "log A[0]", "log B"};
+    for (int p = 0; p < 3; p++) {
+        double mean = 0, var = 0;
+        for (int r = 0; r < REPEATS; r++)
+            mean += est[p][r] / REPEATS;
+        for (int r = 0; r < REPEATS; r++)
+            var += (est[p][r] - mean) * (est[p][r] - mean) / (REPEATS - 1);
+        printf("%-9s: spread over %d captures %.4f, reported sd %.4f\n", name[p], REPEATS,
+               sqrt(var), sd[p]);
+        /* 30 captures estimate a spread within about 13 %% */
+        assert_true(sd[p] > 0.65 * sqrt(var) && sd[p] < 1.5 * sqrt(var));
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -220,6 +303,7 @@ int main(void)
         cmocka_unit_test(test_crowd_shares_its_point),
         cmocka_unit_test(test_ties_and_order),
         cmocka_unit_test(test_weighted_fit_ignores_crowd),
+        cmocka_unit_test(test_weighted_sds_match_their_spread),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
