@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "brdf/domain.h"
+#include "fit/domain_weights.h"
 #include "fit/model_file.h"
 #include "fit/sample_order.h"
 
@@ -95,10 +96,11 @@ static size_t assign_folds(const struct fit_sample *s, size_t n, uint64_t seed, 
     return groups;
 }
 
-/* Add the held-out log errors of m at the samples of fold k. */
+/* Add the held-out log errors of m at the samples of fold k, each counted
+ * by its sample's weight w[i] (NULL: 1) in *sum, *sum2 and *count. */
 static int score(const brdf_material *m, const struct fit_sample *s,
-                 const unsigned char *lower, const int *fold, int k, size_t n, double *sum,
-                 double *sum2, size_t *count)
+                 const unsigned char *lower, const double *w, const int *fold, int k, size_t n,
+                 double *sum, double *sum2, double *count)
 {
     size_t nk = 0;
     for (size_t i = 0; i < n; i++)
@@ -127,9 +129,10 @@ static int score(const brdf_material *m, const struct fit_sample *s,
             double d = isfinite(p) && 1 + p * c > 0 ? fabs(log1p(p * c) - log1p(y * c)) : 1e3;
             if (lower && lower[i] && isfinite(p) && p >= y)
                 d = 0; /* above a lower bound: consistent with it */
-            *sum += d;
-            *sum2 += d * d;
-            (*count)++;
+            double wi = w ? w[i] : 1;
+            *sum += wi * d;
+            *sum2 += wi * d * d;
+            *count += wi;
         }
         j++;
     }
@@ -155,6 +158,26 @@ static brdf_material *fit_open(const struct fit_model_kind *kind, const struct f
     return m;
 }
 
+/* The domain share of every sample with a geometry (fold >= 0; 0 for the
+ * others) into w. Returns 0, -1 when out of memory. */
+static int held_out_weights(const struct fit_sample *s, const int *fold, size_t n, double *w)
+{
+    size_t *idx = malloc(n * sizeof *idx), nv = 0;
+    double *wv = malloc(n * sizeof *wv);
+    int rc = idx && wv ? 0 : -1;
+    for (size_t i = 0; i < n && rc == 0; i++) {
+        w[i] = 0;
+        if (fold[i] >= 0)
+            idx[nv++] = i;
+    }
+    if (rc == 0 && (rc = fit_domain_weights(s, idx, nv, wv)) == 0)
+        for (size_t k = 0; k < nv; k++)
+            w[idx[k]] = wv[k];
+    free(idx);
+    free(wv);
+    return rc;
+}
+
 /* fit_auto_cross_validate on samples in canonical order (fit/sample_order.h):
  * the folds' scores are sums over the samples. */
 static int cross_validate(const struct fit_data *data, struct fit_model_options o,
@@ -167,15 +190,19 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
     int *fold = malloc(n * sizeof *fold);
     struct fit_sample *train = malloc(n * sizeof *train);
     unsigned char *tlower = malloc(n);
-    double sum[N_CANDIDATES] = {0}, sum2[N_CANDIDATES] = {0};
-    size_t count[N_CANDIDATES] = {0};
+    /* weighted data: each held-out error counts by its sample's share of
+     * the domain, as in the weighted candidates' own losses, so that the
+     * choice estimates the full-domain error, not the error where an
+     * adaptive capture's samples crowd */
+    double *w = data->domain_weights ? malloc(n * sizeof *w) : NULL;
+    double sum[N_CANDIDATES] = {0}, sum2[N_CANDIDATES] = {0}, count[N_CANDIDATES] = {0};
     int rc = 0;
-    if (!fold || !train || !tlower) {
+    if (!fold || !train || !tlower || (data->domain_weights && !w)) {
         rc = gonio_err_set(err, ENOMEM, "auto: out of memory");
         goto done;
     }
     out->geometries = assign_folds(data->rgb, n, o.seed, fold);
-    if (out->geometries == (size_t)-1) {
+    if (out->geometries == (size_t)-1 || (w && held_out_weights(data->rgb, fold, n, w) < 0)) {
         rc = gonio_err_set(err, ENOMEM, "auto: out of memory");
         goto done;
     }
@@ -216,7 +243,7 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
                          e.msg[0] ? e.msg : "failed");
                 continue;
             }
-            rc = score(m, data->rgb, data->rgb_lower, fold, k, n, &sum[c], &sum2[c],
+            rc = score(m, data->rgb, data->rgb_lower, w, fold, k, n, &sum[c], &sum2[c],
                        &count[c]);
             brdf_material_free(m);
             if (rc < 0) {
@@ -227,10 +254,10 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
     }
     int any = 0;
     for (size_t c = 0; c < N_CANDIDATES; c++) {
-        out->cv[c] = out->failed[c][0] || !count[c] ? INFINITY : sum[c] / (double)count[c];
-        out->cv_rms[c] = out->failed[c][0] || !count[c] ? INFINITY
-                                                        : sqrt(sum2[c] / (double)count[c]);
-        if (!out->failed[c][0] && !count[c])
+        int none = !(count[c] > 0);
+        out->cv[c] = out->failed[c][0] || none ? INFINITY : sum[c] / count[c];
+        out->cv_rms[c] = out->failed[c][0] || none ? INFINITY : sqrt(sum2[c] / count[c]);
+        if (!out->failed[c][0] && none)
             snprintf(out->failed[c], sizeof out->failed[c], "no held-out value to score");
         if (!out->failed[c][0] && (!any || out->cv[c] < out->cv[out->chosen])) {
             out->chosen = c;
@@ -246,6 +273,7 @@ done:
     free(fold);
     free(train);
     free(tlower);
+    free(w);
     return rc;
 }
 

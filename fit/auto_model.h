@@ -10,8 +10,11 @@
  * FIT_AUTO_FOLDS folds after a seeded shuffle. A candidate's CV error is
  * the mean |log(1 + fhat cos ti) - log(1 + f cos ti)| over every held-out
  * sample and channel (the headline log error of brdf/metrics.h; one-sided
- * for a saturated reading, which is a lower bound). The lowest wins; a tie
- * goes to the earlier candidate. docs/fitting.md "auto" says why K = 5.
+ * for a saturated reading, which is a lower bound); with
+ * fit_data.domain_weights each held-out sample counts by its share of the
+ * domain (fit/domain_weights.h, over all the samples), as in the weighted
+ * candidates' own losses. The lowest wins; a tie goes to the earlier
+ * candidate. docs/fitting.md "auto" says why K = 5.
  *
  * The file written is the chosen model's own (kind abc or latent), so
  * reading it needs nothing new; it carries the choice as keys `auto` (the

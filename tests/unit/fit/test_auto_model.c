@@ -2,8 +2,10 @@
  * figures both ways (an analytic gold conductor, which the latent decoder
  * cannot follow, goes to the ABC family; the decoder's own material goes
  * to latent), the chosen model's file, note and status carry the figures, the
- * folds are deterministic for a seed, and too few distinct geometries
- * (reciprocal twins counted once) are refused clearly. */
+ * folds are deterministic for a seed, too few distinct geometries
+ * (reciprocal twins counted once) are refused clearly, and weighted data
+ * (an adaptive capture's) are scored by their share of the domain: a crowd
+ * in one corner does not set the figures. */
 #include <string.h>
 
 #include "brdf/angles.h"
@@ -198,6 +200,47 @@ static void test_refuses_too_few_geometries(void **state)
     assert_non_null(strstr(err.msg, "auto: 3 distinct geometries"));
 }
 
+/* Spread samples of plastic-ggx (the grid) and, when crowd, 120 more in one
+ * grazing corner of a material four times as bright: what an adaptive
+ * capture's crowd looks like to a model that cannot follow it. Returns the
+ * abc candidate's CV error with the data weighted by domain share or not. */
+static double abc_cv_with_crowd(int crowd, int weighted)
+{
+    static struct fit_sample s[520];
+    size_t n = grid(s, 400);
+    eval_material("analytic:plastic-ggx", s, n);
+    if (crowd) {
+        size_t m = n;
+        for (int c = 0; c < 120; c++)
+            brdf_pair_inplane(70 + 0.1 * (c % 10), -(60 + 0.1 * (c / 10)), &s[n++].g);
+        eval_material("analytic:plastic-ggx", s + m, n - m);
+        for (size_t k = m; k < n; k++)
+            for (int ch = 0; ch < 3; ch++)
+                s[k].rgb[ch] *= 4;
+    }
+    struct fit_data data = {.rgb = s, .n_rgb = n, .domain_weights = weighted};
+    struct fit_model_options opt = fit_model_default_options();
+    opt.max_epochs = small_epochs();
+    struct fit_auto_cv cv;
+    struct gonio_err err = {0};
+    if (fit_auto_cross_validate(&data, &opt, &cv, &err) < 0)
+        fail_msg("%s", err.msg);
+    return cv.cv[find(&cv, "abc")];
+}
+
+static void test_weighted_data_scored_by_domain_share(void **state)
+{
+    (void)state;
+    double spread = abc_cv_with_crowd(0, 1), weighted = abc_cv_with_crowd(1, 1),
+           plain = abc_cv_with_crowd(1, 0);
+    printf("abc cv: spread samples %.4f; with the crowd, weighted %.4f, unweighted %.4f\n",
+           spread, weighted, plain);
+    /* weighted, the crowd stands for its corner of the domain: the figure
+     * stays the spread samples'; unweighted, the crowd's misfit dominates */
+    assert_rel_close(weighted, spread, 0.25);
+    assert_true(plain > 2 * spread);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -205,6 +248,7 @@ int main(void)
         cmocka_unit_test(test_decoder_material_goes_to_latent),
         cmocka_unit_test(test_deterministic_for_a_seed),
         cmocka_unit_test(test_refuses_too_few_geometries),
+        cmocka_unit_test(test_weighted_data_scored_by_domain_share),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
