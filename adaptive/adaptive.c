@@ -102,6 +102,7 @@ struct adaptive {
     struct fit_sample *samples; /* in arrival order */
     size_t n;
     struct ens ens;
+    struct ens check;         /* unweighted, for the prior's check while ens is weighted */
     size_t fitted;            /* samples in the ensemble's latest fit */
     struct brdf_domain dom;   /* the prediction's full-domain subset */
     double predicted;
@@ -213,6 +214,7 @@ adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
     a->latent = strcmp(o.model, "latent") == 0 || strcmp(o.model, "auto") == 0;
     a->cover = a->latent;
     ens_init(&a->ens);
+    ens_init(&a->check);
     a->pairs = malloc(n * sizeof *a->pairs);
     a->meter = plan_meter_new(pool, rig, integration_s, err);
     a->measured = calloc(n, 1);
@@ -267,6 +269,7 @@ void adaptive_free(adaptive *a)
     free(a->seed_point);
     free(a->gap);
     ens_free(&a->ens);
+    ens_free(&a->check);
     track_free(&a->track);
     brdf_domain_free(&a->dom);
     free(a);
@@ -488,8 +491,15 @@ static void refit(adaptive *a, double rig_time_s)
         /* The decoder's prior must fit the material before its picks are
          * trusted: a latent fit no better on its own samples than ABC is
          * on samples it did not see follows a material the decoder does
-         * not know (issue 16, item 5). */
-        a->cover = a->track.in_sample < a->ens.cv_error;
+         * not know (issue 16, item 5). Like with like: the ABC figure is
+         * always that of unweighted fits, as the latent fit is. Weighted
+         * fits (the policy's while it follows ABC) miss the crowded
+         * samples more, and the check then swung back and forth. */
+        const struct ens *abc = &a->ens;
+        if (!a->cover)
+            abc = ens_fit(&a->check, a->samples, a->n, 0) == 0 ? &a->check : NULL;
+        if (abc)
+            a->cover = a->track.in_sample < abc->cv_error;
     }
     a->predicted = predict_error(a);
     if (isfinite(a->predicted)) {
