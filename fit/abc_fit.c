@@ -395,24 +395,12 @@ static double residual_variance(const struct abc_problem *pb, double cost)
     return eff > ABC_NPAR ? 2.0 * cost / (3.0 * sw) * eff / (eff - ABC_NPAR) : NAN;
 }
 
-/* M = K^T K for the nk x ABC_NPAR rows K. */
-static void gram(const double *K, size_t nk, double M[ABC_NPAR][ABC_NPAR])
-{
-    for (int i = 0; i < ABC_NPAR; i++)
-        for (int j = 0; j < ABC_NPAR; j++) {
-            double t = 0;
-            for (size_t r = 0; r < nk; r++)
-                t += K[r * ABC_NPAR + i] * K[r * ABC_NPAR + j];
-            M[i][j] = t;
-        }
-}
-
-/* The middle of a weighted fit's sandwich covariance: J^T W^2 J (and the
- * prior's rows, as in J^T W J), the rows of pb's Jacobian scaled by the
- * weights themselves instead of their square roots. Returns 0, -1 on no
- * memory. */
-static int weighted_meat(const struct abc_problem *pb, const double th[ABC_NPAR],
-                         double M[ABC_NPAR][ABC_NPAR])
+/* A weighted fit's covariance, up to s2: the sandwich H^-1 (J^T W^2 J)
+ * H^-1 with hinv = H^-1 = (J^T W J)^-1, into hinv. J^T W^2 J (with the
+ * prior's rows, as in H) is the Gram matrix of pb's Jacobian with its rows
+ * scaled by the weights themselves instead of their square roots. Returns
+ * 0, -1 on no memory. */
+static int sandwich(const struct abc_problem *pb, const double th[ABC_NPAR], gsl_matrix *hinv)
 {
     struct abc_problem sq = *pb;
     double K[(15 + ABC_NPAR) * ABC_NPAR], cn[ABC_NPAR];
@@ -424,10 +412,19 @@ static int weighted_meat(const struct abc_problem *pb, const double th[ABC_NPAR]
     sq.sw = w;
     size_t nk = abc_jacobian_root(&sq, th, K, cn);
     free(w);
-    if (nk == 0)
-        return -1;
-    gram(K, nk, M);
-    return 0;
+    gsl_matrix *meat = gsl_matrix_alloc(ABC_NPAR, ABC_NPAR);
+    gsl_matrix *half = gsl_matrix_alloc(ABC_NPAR, ABC_NPAR);
+    int rc = nk && meat && half ? 0 : -1;
+    if (rc == 0) {
+        gsl_matrix_const_view Kv = gsl_matrix_const_view_array(K, nk, ABC_NPAR);
+        gsl_blas_dgemm(CblasTrans, CblasNoTrans, 1.0, &Kv.matrix, &Kv.matrix, 0.0, meat);
+        gsl_blas_dgemm(CblasNoTrans, CblasNoTrans, 1.0, hinv, meat, 0.0, half);
+        gsl_blas_dgemm(CblasNoTrans, CblasNoTrans, 1.0, half, hinv, 0.0, meat);
+        gsl_matrix_memcpy(hinv, meat);
+    }
+    gsl_matrix_free(meat);
+    gsl_matrix_free(half);
+    return rc;
 }
 
 /* Parameter standard deviations at theta: covariance s2 (J^T J)^-1 from
@@ -456,28 +453,15 @@ static void uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR],
     if (gsl_multifit_nlinear_covar(&Kv.matrix, 1e-12, cov) != GSL_SUCCESS)
         goto done;
     /* GSL zeroes the rows and columns of the parameters it found dependent */
-    double c[ABC_NPAR][ABC_NPAR], h[ABC_NPAR][ABC_NPAR], M[ABC_NPAR][ABC_NPAR];
+    double c[ABC_NPAR][ABC_NPAR];
     int undet[ABC_NPAR];
-    for (int i = 0; i < ABC_NPAR; i++) {
+    for (int i = 0; i < ABC_NPAR; i++)
         undet[i] = !(cn[i] > 0) || !(gsl_matrix_get(cov, (size_t)i, (size_t)i) > 0);
-        for (int j = 0; j < ABC_NPAR; j++)
-            c[i][j] = h[i][j] = gsl_matrix_get(cov, (size_t)i, (size_t)j);
-    }
-    if (pb->sw) {
-        if (weighted_meat(pb, th, M) < 0)
-            goto done;
-        for (int i = 0; i < ABC_NPAR; i++)
-            for (int j = 0; j < ABC_NPAR; j++) {
-                double t = 0;
-                for (int a = 0; a < ABC_NPAR; a++)
-                    for (int b = 0; b < ABC_NPAR; b++)
-                        t += h[i][a] * M[a][b] * h[b][j];
-                c[i][j] = t;
-            }
-    }
+    if (pb->sw && sandwich(pb, th, cov) < 0)
+        goto done;
     for (int i = 0; i < ABC_NPAR; i++)
         for (int j = 0; j < ABC_NPAR; j++)
-            c[i][j] *= s2;
+            c[i][j] = s2 * gsl_matrix_get(cov, (size_t)i, (size_t)j);
     for (int k = 0; k < 3; k++) {
         u->log_kd[k] = undet[k] ? INFINITY : sqrt(c[k][k]);
         u->log_A[k] = undet[3 + k] ? INFINITY : sqrt(c[3 + k][3 + k]);
