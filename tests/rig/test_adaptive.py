@@ -1,18 +1,23 @@
-"""An adaptive capture (issue 16) through goniod over Modbus TCP against
-gonio-sim on the lab scene: the policy chooses from the inplane-1deg pool
-within a small rig-time budget, while the rig settles and integrates. The
-simulator runs 20 times faster than real time, not the matrix's 1000: the
-rig clock runs on while the engine waits for a decision, and at 1000x a
-decision of 50 ms would be 50 s of rig time that no real rig would see. It
-completes with the policy's stop, every journalled point distinct and in
-the pool, the events carrying the policy's prediction, and results.json
-its figures, and its rig time within the budget; the decision time per
-point beside the rig's settle time is printed (a bench figure: timing is
-not asserted)."""
+"""An adaptive capture (issue 16) through goniod over Modbus TCP and RTU
+against gonio-sim on the lab scene: the policy chooses from the
+inplane-1deg pool within a small rig-time budget, while the rig settles and
+integrates. The simulator runs 20 times faster than real time, not the
+matrix's 1000: the rig clock runs on while the engine waits for a decision,
+and at 1000x a decision of 50 ms would be 50 s of rig time that no real rig
+would see. It completes with the policy's stop, every journalled point
+distinct and in the pool, the events carrying the policy's prediction, and
+results.json its figures, and its rig time within the budget; the decision
+time per point beside the rig's settle time is printed (a bench figure:
+timing is not asserted). And goniod killed with SIGKILL in the middle of an
+adaptive capture: the resumed capture keeps every sample the journal held,
+goes on with the same policy, model and budget, and measures no point
+twice."""
 import json
 import os
 import shutil
 import sys
+
+import pytest
 
 import test_matrix as tm
 import test_goniod as tg
@@ -20,14 +25,17 @@ import test_goniod as tg
 BUDGET_MIN = 2
 POOL = 12322  # inplane-1deg on the default rig
 SCALE = 20
+# under valgrind one transport (the matrix's diagonal runs RTU's framing)
+TRANSPORTS = ("tcp",) if tg.VALGRIND else ("tcp", "rtu")
 
 
-def test_adaptive_over_modbus_tcp():
+@pytest.mark.parametrize("transport", TRANSPORTS)
+def test_adaptive_over_modbus(transport):
     folder = tg.tmpdir()
     sim = tm.Sim(folder, "lab", scale=SCALE)
     d = None
     try:
-        d = tg.Daemon(folder, driver=sim.driver("tcp")).start()
+        d = tg.Daemon(folder, driver=sim.driver(transport)).start()
         c = d.connect()
         c.request("watch")
         reply = c.request("capture", plan="inplane-1deg", order="adaptive", stop="all",
@@ -62,12 +70,64 @@ def test_adaptive_over_modbus_tcp():
         with open(os.path.join(capdir, "setup.json")) as f:
             settle = json.load(f)["rig"]["settle_s"]
         sys.stderr.write(
-            "adaptive over Modbus TCP, lab, inplane-1deg pool, %.1f min budget: %d samples, "
+            "adaptive over Modbus %s, lab, inplane-1deg pool, %.1f min budget: %d samples, "
             "rig time %.1f s, stop %s; decision %.4f s mean, %.4f s max per point (settle "
             "%.2f s), the rig waited %.3f s wall for them; predicted full-domain log error "
             "%.4f, true %.4f\n" % (
-                BUDGET_MIN, len(points), res["rig_time_s"], stop["reason"],
+                transport.upper(), BUDGET_MIN, len(points), res["rig_time_s"], stop["reason"],
                 ad["decision_mean_s"], ad["decision_max_s"], settle, ad["decision_wait_s"],
                 ad["predicted_error"], res["errors"]["full"]["log"]))
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def test_kill9_during_adaptive_then_resume():
+    folder = tg.tmpdir()
+    sim = tm.Sim(folder, "lab", scale=SCALE)
+    d = None
+    cut_at = 12  # past the six seeds: the policy's own picks are under way
+    try:
+        d = tg.Daemon(folder, driver=sim.driver("tcp")).start()
+        c = d.connect()
+        c.request("watch")
+        reply = c.request("capture", plan="ds1", order="adaptive", model="abc", budget=1,
+                          name="cut", truth=tm.TRUTH)
+        assert reply["class"] == "OK", reply
+        while True:
+            e = c.read()
+            assert e is not None and e.get("class") != "stop", e
+            if e.get("class") == "event" and e["done"] >= cut_at:
+                break
+        d.kill9()
+        d.start()
+        c = d.connect()
+        c.request("watch")
+        assert c.request("resume", capture_id="cut")["class"] == "OK"
+        docs = c.until_stop("cut")
+    finally:
+        if d:
+            d.stop()
+        sim.stop()
+    try:
+        tg.assert_valgrind_clean(folder)
+        assert docs[0]["class"] == "start", docs[0]
+        kept = docs[0]["already_done"]  # what the journal held after the kill
+        assert kept >= cut_at, kept  # every sample reported done was journalled
+        stop = docs[-1]
+        assert stop["exit_status"] == "success", stop
+        capdir = os.path.join(d.root, "cut")
+        points, _ = tm.read_rows(os.path.join(capdir, "samples.csv"))
+        assert len(points) == stop["samples"] > kept  # the policy went on choosing
+        assert len(set(points)) == len(points)  # no point measured twice
+        assert all(0 <= p < 912 for p in points)  # all from DS1's pool
+        res = tm.results(capdir)
+        ad = res["adaptive"]
+        assert res["stop_reason"] == stop["reason"] == ad["stop"]
+        assert ad["model"] == "abc" and ad["budget_s"] == 60, ad  # the same policy
+        assert ad["decisions"] == len(points) - kept  # this run's (docs/formats.md)
+        assert res["rig_time_s"] <= 60, res["rig_time_s"]  # the budget spans the kill
+        sys.stderr.write("adaptive capture killed at %d samples: resumed from %d, ended with %d "
+                         "(%s) in %.1f s of rig time\n" % (cut_at, kept, len(points),
+                                                           stop["reason"], res["rig_time_s"]))
     finally:
         shutil.rmtree(folder, ignore_errors=True)
