@@ -92,14 +92,26 @@ int fit_domain_weights(const struct fit_sample *s, const size_t *idx, size_t n, 
         brdf_domain_hd_place(&s[idx ? idx[k] : k].g, &pts[k].u, &pts[k].v);
     }
     qsort(pts, n, sizeof *pts, cmp_point);
+    /* Samples denser than the cells would leave most of them nearest to
+     * none: then each cell's nodes are spread over sub x sub points round
+     * it, enough for four per sample (a few hundred samples: sub = 1, the
+     * cells themselves). */
+    int sub = 1;
+    while ((double)N_HD * N_HD * sub * sub < 4.0 * (double)n)
+        sub++;
     double total = 0;
     for (int i = 0; i < N_HD; i++)
         for (int j = 0; j < N_HD; j++) {
             unsigned short c = cell_nodes[i * N_HD + j];
-            if (c) {
-                share[nearest(pts, n, i / (double)N_HD, j / (double)N_HD)] += c;
-                total += c;
-            }
+            if (!c)
+                continue;
+            for (int a = 0; a < sub; a++)
+                for (int b = 0; b < sub; b++) {
+                    double u = (i + (a + 0.5) / sub - 0.5) / N_HD;
+                    double v = (j + (b + 0.5) / sub - 0.5) / N_HD;
+                    share[nearest(pts, n, u, v)] += c / (double)(sub * sub);
+                }
+            total += c;
         }
     /* samples at one point split what is nearest to it */
     for (size_t a = 0, b; a < n; a = b) {

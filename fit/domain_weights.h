@@ -18,8 +18,11 @@
  * (theta_h, theta_d) cell of the MERL grid, counted by its full-domain
  * nodes (brdf_domain_hd_counts), goes to the sample nearest it in
  * (sqrt(theta_h / 90 deg), theta_d / 90 deg), the coordinates the nodes
- * are uniform in; samples at the same point split it. Scaled to mean 1; a
- * sample no cell is nearest to weighs 0. Content-only: a permutation of the
+ * are uniform in; samples at the same point split it. More samples than a
+ * quarter of the cells: each cell's nodes are spread over points round it,
+ * four a sample, so that a dense capture's samples each get their share.
+ * Scaled to mean 1; a sample nothing is nearest to (where the domain has
+ * no nodes) weighs 0. Content-only: a permutation of the
  * samples permutes the weights. Returns 0, or -1 when out of memory. */
 int fit_domain_weights(const struct fit_sample *s, const size_t *idx, size_t n, double *w);
 

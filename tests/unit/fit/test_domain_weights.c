@@ -6,6 +6,7 @@
  *    other samples keep theirs;
  *  - samples at one point split it equally; a permutation of the samples
  *    permutes the weights;
+ *  - samples denser than the MERL grid's cells still each get a share;
  *  - a fit of spread samples plus a crowd from another material: weighted,
  *    the crowd counts as the bit of domain it covers and the fit follows
  *    the spread samples; unweighted, it bends towards the crowd. The model
@@ -141,6 +142,52 @@ static void test_ties_and_order(void **state)
     assert_int_equal(fit_domain_weights(three, NULL, 3, w3), 0);
     for (int k = 0; k < 3; k++)
         assert_true(wi[k] == w3[k]);
+}
+
+/* A capture denser than the MERL grid's 8,100 cells (a 1-degree pool
+ * measured to the end): every sample still stands for its bit of the
+ * domain, and a region's samples weigh what its nodes hold. */
+static void test_dense_capture(void **state)
+{
+    (void)state;
+    enum { SIDE = 100, N = SIDE * SIDE };
+    static struct fit_sample s[N];
+    static double w[N];
+    for (int i = 0; i < SIDE; i++)
+        for (int j = 0; j < SIDE; j++)
+            sample_at((i + 0.5) / SIDE, (j + 0.5) / SIDE, &s[i * SIDE + j]);
+    assert_int_equal(fit_domain_weights(s, NULL, N, w), 0);
+    assert_close(sum(w, N), (double)N, 1e-6);
+    static unsigned short counts[BRDF_DOMAIN_N_HD * BRDF_DOMAIN_N_HD];
+    brdf_domain_hd_counts(counts);
+    /* a sample where the domain has nodes (its nearest grid cell holds
+     * some; beyond the 80-degree rule none) must weigh something */
+    size_t zero = 0;
+    double low = 0; /* theta_d below 45 degrees: the samples' share */
+    for (int i = 0; i < SIDE; i++)
+        for (int j = 0; j < SIDE; j++) {
+            size_t k = (size_t)(i * SIDE + j);
+            int ci = (int)lround((i + 0.5) / SIDE * BRDF_DOMAIN_N_HD);
+            int cj = (int)lround((j + 0.5) / SIDE * BRDF_DOMAIN_N_HD);
+            int c = ci < BRDF_DOMAIN_N_HD && cj < BRDF_DOMAIN_N_HD
+                        ? counts[ci * BRDF_DOMAIN_N_HD + cj]
+                        : 0;
+            zero += c > 0 && !(w[k] > 0);
+            if (j < SIDE / 2)
+                low += w[k] / N;
+        }
+    double total = 0, below = 0; /* and the nodes' */
+    for (int i = 0; i < BRDF_DOMAIN_N_HD; i++)
+        for (int j = 0; j < BRDF_DOMAIN_N_HD; j++) {
+            total += counts[i * BRDF_DOMAIN_N_HD + j];
+            below += j < 45 ? counts[i * BRDF_DOMAIN_N_HD + j] : 0;
+        }
+    printf("%d samples: %zu of weight 0 where the domain has nodes; below theta_d 45 deg they "
+           "weigh %.4f of the total, "
+           "the nodes there %.4f\n",
+           N, zero, low, below / total);
+    assert_int_equal(zero, 0);
+    assert_close(low, below / total, 0.01);
 }
 
 /* Mean |log(1 + fhat cos) - log(1 + f cos)| over random pairs up to 80
@@ -302,6 +349,7 @@ int main(void)
         cmocka_unit_test(test_even_grid),
         cmocka_unit_test(test_crowd_shares_its_point),
         cmocka_unit_test(test_ties_and_order),
+        cmocka_unit_test(test_dense_capture),
         cmocka_unit_test(test_weighted_fit_ignores_crowd),
         cmocka_unit_test(test_weighted_sds_match_their_spread),
     };
