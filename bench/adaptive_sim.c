@@ -54,8 +54,8 @@ struct cfg {
 };
 
 /* The model fitted to n samples, as a material; NULL with a message.
- * chosen: an adaptive policy chose the samples, so ABC weighs them by their
- * domain share, as a capture's final fit does (fit/models.h fit_data). */
+ * chosen: an adaptive policy chose the samples, so the fit weighs them by
+ * their domain share, as a capture's final fit does (fit/models.h fit_data). */
 static brdf_material *fit_model(const char *model, const latent_decoder *dec,
                                 const struct fit_sample *s, size_t n, int chosen)
 {
@@ -63,7 +63,9 @@ static brdf_material *fit_model(const char *model, const latent_decoder *dec,
     if (strcmp(model, "latent") == 0) {
         double z[LATENT_MAX_NZ];
         struct latent_fit_info info;
-        if (fit_latent(dec, s, n, NULL, z, &info, &err) < 0) {
+        struct latent_fit_options lo = latent_fit_default_options();
+        lo.domain_weights = chosen;
+        if (fit_latent(dec, s, n, &lo, z, &info, &err) < 0) {
             fprintf(stderr, "adaptive_sim: latent fit of %zu samples: %s\n", n, err.msg);
             return NULL;
         }

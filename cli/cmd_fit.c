@@ -268,7 +268,7 @@ int cmd_fit(int argc, char **argv)
         printf("%-10s %s\n", "model", model);
         printf("%-10s %zu (%s)\n", "samples", n, samples_path);
         if (data.domain_weights && (!strcmp(model, "abc") || !strcmp(model, "abc-prior") ||
-                                    !strcmp(model, "auto")))
+                                    !strcmp(model, "latent") || !strcmp(model, "auto")))
             printf("%-10s each sample's share of the full domain (%s)\n", "weights",
                    asked ? "--weights domain" : "an adaptive capture's samples");
         if (saturated)

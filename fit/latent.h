@@ -130,6 +130,10 @@ struct latent_fit_options {
     uint64_t seed;
     const unsigned char *lower; /* NULL, or one flag per sample: 1 for a saturated
                                    reading, fitted as a lower bound (censored) */
+    int domain_weights;   /* 1: each sample's residuals weighted by its share of the
+                             full domain (fit/domain_weights.h; fit_options has the
+                             same), for samples an adaptive policy chose; the loss and
+                             the status's residuals are then weighted means */
 };
 
 struct latent_fit_options latent_fit_default_options(void);
@@ -147,6 +151,7 @@ struct latent_fit_info {
                              of the winning start's steps */
     double scale;         /* the data were divided by it (fit_data_scale, fit/fit.h): the
                              material is scale times the decoder at z */
+    int domain_weights;   /* 1: the samples were weighted by their domain share */
     struct fit_status status; /* fit/fit_status.h: params nz; held-out from a refit
                                  without every 5th sample; not-converged when the
                                  objective still fell by more than LATENT_FIT_GAIN_TOL

@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "brdf/domain.h"
+#include "fit/domain_weights.h"
 #include "fit/latent_private.h"
 #include "fit/sample_order.h"
 
@@ -42,14 +43,25 @@ struct fit_prior {
     double lambda, w, h;
 };
 
+/* The samples' weight in all: n unweighted (w NULL). */
+static double weight_sum(const double *w, size_t n)
+{
+    if (!w)
+        return (double)n;
+    double s = 0;
+    for (size_t k = 0; k < n; k++)
+        s += w[k];
+    return s;
+}
+
 static double objective(const latent_decoder *d, const double *z, size_t n, const double *x,
                         const double *c, const double *t, const unsigned char *lw,
-                        const struct fit_prior *p, double *gz)
+                        const double *w, const struct fit_prior *p, double *gz)
 {
-    double scale = 1.0 / (3.0 * (double)n);
+    double scale = 1.0 / (3.0 * weight_sum(w, n));
     if (gz)
         memset(gz, 0, (size_t)d->nz * sizeof *gz);
-    double l = latent_net_backprop(d, z, n, x, c, t, lw, scale, NULL, gz) * scale;
+    double l = latent_net_backprop(d, z, n, x, c, t, lw, w, scale, NULL, gz) * scale;
     double r = 0;
     for (int k = 0; k < d->nz; k++) {
         r += z[k] * z[k];
@@ -60,18 +72,21 @@ static double objective(const latent_decoder *d, const double *z, size_t n, cons
     return l + p->lambda * r / d->nz + kde;
 }
 
-/* The mean |r| part only, for reporting. */
+/* The mean |r| part only, for reporting (weighted by w, NULL: none). */
 static double data_loss(const latent_decoder *d, const double *z, size_t n, const double *x,
-                        const double *c, const double *t, const unsigned char *lw)
+                        const double *c, const double *t, const unsigned char *lw,
+                        const double *w)
 {
-    return latent_net_backprop(d, z, n, x, c, t, lw, 0.0, NULL, NULL) / (3.0 * (double)n);
+    return latent_net_backprop(d, z, n, x, c, t, lw, w, 0.0, NULL, NULL) /
+           (3.0 * weight_sum(w, n));
 }
 
 /* RMS of the log residuals log(1 + fhat c) - t over n samples and the
- * channels (none above a lower bound, lw): the figure every model's status
- * compares (fit/fit_status.h). */
+ * channels (none above a lower bound, lw; weighted by w, NULL: none): the
+ * figure every model's status compares (fit/fit_status.h). */
 static double rms_log(const latent_decoder *d, const double *z, size_t n, const double *x,
-                      const double *c, const double *t, const unsigned char *lw)
+                      const double *c, const double *t, const unsigned char *lw,
+                      const double *w)
 {
     enum { BLOCK = 256 };
     double o[3 * BLOCK], s = 0;
@@ -83,10 +98,11 @@ static double rms_log(const latent_decoder *d, const double *z, size_t n, const 
             double r = log1p((f > 0 ? f : 0.0) * c[i + k / 3]) - t[3 * i + k];
             if (lw && lw[i + k / 3] && r > 0)
                 r = 0;
-            s += r * r;
+            s += (w ? w[i + k / 3] : 1.0) * r * r;
         }
     }
-    return n ? sqrt(s / (3.0 * (double)n)) : NAN;
+    double ws = weight_sum(w, n);
+    return ws > 0 ? sqrt(s / (3.0 * ws)) : NAN;
 }
 
 /* Adam on z from z; returns the best objective and leaves its z in z.
@@ -94,8 +110,8 @@ static double rms_log(const latent_decoder *d, const double *z, size_t n, const 
  * tenth of the steps (still falling: not converged). */
 static double adam_z(const latent_decoder *d, double *z, size_t n, const double *x,
                      const double *c, const double *t, const unsigned char *lw,
-                     const struct fit_prior *p, const struct latent_fit_options *o,
-                     double *gain)
+                     const double *w, const struct fit_prior *p,
+                     const struct latent_fit_options *o, double *gain)
 {
     int late = o->max_iter - (o->max_iter + 9) / 10;
     double f_late = INFINITY, f_first = INFINITY;
@@ -105,7 +121,7 @@ static double adam_z(const latent_decoder *d, double *z, size_t n, const double 
     for (int it = 0; it < o->max_iter; it++) {
         if (it == late)
             f_late = best_f;
-        double f = objective(d, z, n, x, c, t, lw, p, g);
+        double f = objective(d, z, n, x, c, t, lw, w, p, g);
         if (it == 0)
             f_first = f;
         if (f < best_f) {
@@ -121,7 +137,7 @@ static double adam_z(const latent_decoder *d, double *z, size_t n, const double 
             z[k] -= lr * (m1[k] / c1) / (sqrt(m2[k] / c2) + 1e-12);
         }
     }
-    double f = objective(d, z, n, x, c, t, lw, p, NULL);
+    double f = objective(d, z, n, x, c, t, lw, w, p, NULL);
     if (f < best_f) {
         best_f = f;
         memcpy(best, z, (size_t)nz * sizeof *z);
@@ -141,15 +157,17 @@ static double adam_z(const latent_decoder *d, double *z, size_t n, const double 
  * (the kept samples first) in copies. NAN below 2 HOLDOUT_EVERY samples. */
 static double heldout_rms(const latent_decoder *d, const double *z0, size_t n, const double *x,
                           const double *c, const double *t, const unsigned char *lw,
-                          const struct fit_prior *p, const struct latent_fit_options *o)
+                          const double *w, const struct fit_prior *p,
+                          const struct latent_fit_options *o)
 {
     if (n < 2 * HOLDOUT_EVERY)
         return NAN;
     double *x2 = malloc(n * LATENT_NIN * sizeof *x2), *c2 = malloc(n * sizeof *c2),
            *t2 = malloc(n * 3 * sizeof *t2);
     unsigned char *l2 = lw ? malloc(n) : NULL;
+    double *w2 = w ? malloc(n * sizeof *w2) : NULL;
     double r = NAN;
-    if (x2 && c2 && t2 && (!lw || l2)) {
+    if (x2 && c2 && t2 && (!lw || l2) && (!w || w2)) {
         size_t nk = n - n / HOLDOUT_EVERY, a = 0, b = nk;
         for (size_t k = 0; k < n; k++) {
             size_t at = (k + 1) % HOLDOUT_EVERY ? a++ : b++;
@@ -158,15 +176,18 @@ static double heldout_rms(const latent_decoder *d, const double *z0, size_t n, c
             memcpy(t2 + 3 * at, t + 3 * k, 3 * sizeof *t);
             if (l2)
                 l2[at] = lw[k];
+            if (w2)
+                w2[at] = w[k];
         }
         double z[LATENT_MAX_NZ];
         memcpy(z, z0, (size_t)d->nz * sizeof *z);
         struct fit_prior pk = *p;
         pk.w = p->w * (double)n / (double)nk; /* the weight Bayes gives nk samples */
-        adam_z(d, z, nk, x2, c2, t2, l2, &pk, o, NULL);
+        adam_z(d, z, nk, x2, c2, t2, l2, w2, &pk, o, NULL);
         r = rms_log(d, z, n - nk, x2 + LATENT_NIN * nk, c2 + nk, t2 + 3 * nk,
-                    l2 ? l2 + nk : NULL);
+                    l2 ? l2 + nk : NULL, w2 ? w2 + nk : NULL);
     }
+    free(w2);
     free(l2);
     free(x2);
     free(c2);
@@ -236,12 +257,17 @@ static int fit_sorted(const latent_decoder *d, const struct fit_sample *samples,
     double *x = malloc(used * LATENT_NIN * sizeof *x), *c = malloc(used * sizeof *c),
            *t = malloc(used * 3 * sizeof *t);
     unsigned char *lw = o.lower ? malloc(used) : NULL;
-    if (!x || !c || !t || (o.lower && !lw)) {
+    /* each sample's share of the full domain (fit/domain_weights.h), as the
+     * weighted ABC fit's: the loss then estimates the full-domain error */
+    double *w = o.domain_weights ? malloc(used * sizeof *w) : NULL;
+    if (!x || !c || !t || (o.lower && !lw) || (o.domain_weights && !w) ||
+        (w && fit_domain_weights(samples, idx, used, w) < 0)) {
         free(idx);
         free(x);
         free(c);
         free(t);
         free(lw);
+        free(w);
         return gonio_err_set(err, ENOMEM, "fit_latent: out of memory");
     }
     for (size_t k = 0; k < used; k++) {
@@ -279,7 +305,7 @@ static int fit_sorted(const latent_decoder *d, const struct fit_sample *samples,
     }
     for (size_t m = 0; m < ncand; m++) {
         const double *zc = m < d->n_materials ? d->latents + m * (size_t)nz : d->mean;
-        double sc = objective(d, zc, nscore, x, c, t, lw, &pr, NULL);
+        double sc = objective(d, zc, nscore, x, c, t, lw, w, &pr, NULL);
         for (int k = 0; k < ns; k++)
             if (sc < best_s[k]) {
                 for (int q = ns - 1; q > k; q--) {
@@ -297,9 +323,9 @@ static int fit_sorted(const latent_decoder *d, const struct fit_sample *samples,
         size_t m = best_i[k];
         memcpy(zk, m < d->n_materials ? d->latents + m * (size_t)nz : d->mean,
                (size_t)nz * sizeof *zk);
-        double s0 = data_loss(d, zk, used, x, c, t, lw);
+        double s0 = data_loss(d, zk, used, x, c, t, lw, w);
         double gk;
-        double f = adam_z(d, zk, used, x, c, t, lw, &pr, &o, &gk);
+        double f = adam_z(d, zk, used, x, c, t, lw, w, &pr, &o, &gk);
         if (f < fbest) {
             fbest = f;
             gain = gk;
@@ -309,7 +335,7 @@ static int fit_sorted(const latent_decoder *d, const struct fit_sample *samples,
     }
     memcpy(z, zbest, (size_t)nz * sizeof *z);
     if (info) {
-        info->loss = data_loss(d, zbest, used, x, c, t, lw);
+        info->loss = data_loss(d, zbest, used, x, c, t, lw, w);
         info->start_loss = start_loss;
         info->iterations = o.max_iter;
         info->starts = ns;
@@ -319,12 +345,13 @@ static int fit_sorted(const latent_decoder *d, const struct fit_sample *samples,
         info->bandwidth = pr.h;
         info->scale = scale;
         info->gain = gain;
+        info->domain_weights = w != NULL;
         struct fit_status *st = &info->status;
         *st = fit_status_init();
         st->geometries = fit_status_geometries(samples, idx, used);
         st->params = nz;
-        st->insample = rms_log(d, zbest, used, x, c, t, lw);
-        st->heldout = heldout_rms(d, zbest, used, x, c, t, lw, &pr, &o);
+        st->insample = rms_log(d, zbest, used, x, c, t, lw, w);
+        st->heldout = heldout_rms(d, zbest, used, x, c, t, lw, w, &pr, &o);
         if (gain > LATENT_FIT_GAIN_TOL)
             st->findings |= 1u << FIT_STATUS_NOT_CONVERGED;
         fit_status_decide(st);
@@ -334,6 +361,7 @@ static int fit_sorted(const latent_decoder *d, const struct fit_sample *samples,
     free(c);
     free(t);
     free(lw);
+    free(w);
     if (!isfinite(fbest))
         return gonio_err_set(err, GONIO_EFIT, "fit_latent: objective not finite");
     return 0;

@@ -31,6 +31,7 @@ int fit_latent_model_fit(const struct fit_data *data, const struct fit_model_opt
     struct latent_fit_options lo = latent_fit_default_options();
     lo.seed = o.seed;
     lo.lower = data->rgb_lower;
+    lo.domain_weights = data->domain_weights;
     if (o.max_epochs > 0)
         lo.max_iter = o.max_epochs;
     double z[LATENT_MAX_NZ];
@@ -49,6 +50,9 @@ int fit_latent_model_fit(const struct fit_data *data, const struct fit_model_opt
     rc = rc ? rc : fit_model_file_set(f, "seed", "%llu", (unsigned long long)o.seed);
     rc = rc ? rc : fit_model_file_set(f, "scale", "%.17g", info.scale);
     rc = rc ? rc : fit_status_file_keys(f, &info.status);
+    rc = rc || !info.domain_weights
+             ? rc
+             : fit_model_file_set(f, "weights", "each sample's share of the full domain");
     rc = rc ? rc
             : fit_model_file_set(f, "prior",
                                  "kernel density of %zu training latents, bandwidth %.4g, "

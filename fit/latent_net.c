@@ -86,7 +86,7 @@ void latent_net_forward(const latent_decoder *d, const double *z, size_t n, cons
 
 double latent_net_backprop(const latent_decoder *d, const double *z, size_t n, const double *x,
                            const double *c, const double *t, const unsigned char *lower,
-                           double scale, double *gw, double *gz)
+                           const double *weight, double scale, double *gw, double *gz)
 {
     const int L = d->layers;
     const double *P = d->params;
@@ -101,7 +101,7 @@ double latent_net_backprop(const latent_decoder *d, const double *z, size_t n, c
         /* Output: r = log(1 + (e^o - 1) c) - t; d|r|/do = sign(r) c e^o / (1 + (e^o - 1) c).
          * 1 + (e^o - 1) c >= min(1, e^o) > 0 for c in [0, 1], so training
          * needs no clamp at f = 0 (the clamp would stop the gradient). */
-        double cs = c[s];
+        double cs = c[s], ws = weight ? weight[s] : 1.0;
         for (int k = 0; k < LATENT_NOUT; k++) {
             double o = h[L][k];
             if (o > LATENT_O_MAX) {
@@ -115,9 +115,9 @@ double latent_net_backprop(const latent_decoder *d, const double *z, size_t n, c
             double r = log(den) - t[LATENT_NOUT * s + k];
             if (lower && lower[s] && r > 0)
                 r = 0; /* above a lower bound: censored */
-            loss += fabs(r);
+            loss += ws * fabs(r);
             double sg = r > 0 ? 1.0 : (r < 0 ? -1.0 : 0.0);
-            dh[k] *= scale * sg * cs * eo / den;
+            dh[k] *= scale * ws * sg * cs * eo / den;
         }
         /* Backward through layers L..1; dh holds dLoss/dh[l]. */
         for (int l = L; l >= 1; l--) {

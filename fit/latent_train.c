@@ -208,7 +208,7 @@ static void *work(void *arg)
             for (int k = 0; k < d->nz; k++)
                 z[k] += d->train.z_noise * gauss(&ns);
         }
-        c->loss[m] = latent_net_backprop(d, z, (size_t)c->S, w->b.x, w->b.c, w->b.t, NULL, c->scale,
+        c->loss[m] = latent_net_backprop(d, z, (size_t)c->S, w->b.x, w->b.c, w->b.t, NULL, NULL, c->scale,
                                          gw, gz);
     }
     return NULL;

@@ -43,9 +43,10 @@ struct fit_data {
     size_t n_spectral;
     const char *material; /* the captured material (nbrdf:NAME) when known, else NULL */
     /* 1: the samples were chosen by an adaptive policy, so they are not
-     * spread like the domain: the ABC fits weight each by its share of the
-     * domain (fit_options.domain_weights, fit/domain_weights.h) and say so
-     * in the model file ("weights"); other models fit them alike. */
+     * spread like the domain: the ABC and latent fits weight each by its
+     * share of the domain (fit_options.domain_weights and
+     * latent_fit_options.domain_weights, fit/domain_weights.h) and say so
+     * in the model file ("weights"); the in-plane MLPs fit them alike. */
     int domain_weights;
 };
 

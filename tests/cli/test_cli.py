@@ -226,7 +226,8 @@ def test_capture_adaptive_offline(tmp):
     bar: the pool is not measured whole), marked rough below 40 samples
     (where its calibration is poor), the summary its stop and figures; its
     ABC model weighs the samples by their domain share, and gonio fit of the
-    directory writes the same file byte for byte (--weights none another);
+    directory writes the same file byte for byte (--weights none another),
+    and so does a latent fit of them;
     --budget outside the adaptive order, or not a positive number, exits 2
     with nothing written."""
     out = os.path.join(tmp, "ad")
@@ -256,6 +257,13 @@ def test_capture_adaptive_offline(tmp):
                 in r.stdout) is same, r.stdout
         with open(refit, "rb") as f:
             assert (f.read() == captured) is same, weights
+    for weights, weighted in ((), True), (("--weights", "none"), False):  # latent weighs too
+        refit = os.path.join(tmp, "refit-latent.model")
+        r = gonio("fit", out, "--model", "latent", "--quiet", "-o", refit, *weights)
+        assert r.returncode == 0, r.stderr
+        assert ("weights    each sample's share" in r.stdout) is weighted, r.stdout
+        with open(refit, "rb") as f:
+            assert (b"\nweights each sample's share of the full domain\n" in f.read()) is weighted
     r = gonio("fit", out, "--model", "abc", "--weights", "some")
     assert r.returncode == 2 and "--weights 'some': use domain or none" in r.stderr, r.stderr
     for args, needle in ((("--budget", "0.5"), "--budget 0.5: only the adaptive order"),
