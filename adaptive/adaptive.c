@@ -54,7 +54,7 @@ static const double seed_pairs[][2] = {
 /* The latent prediction's calibration: the geometric mean of true over
  * predicted error past 40 samples on the calibration materials (every
  * sixth of the decoder's training set, never a held-out one). */
-#define LATENT_PRED_FACTOR 1.2
+#define LATENT_PRED_FACTOR 1.13
 
 /* predicted_next: the extrapolated minute of gain takes at most this
  * fraction of the prediction. A straight line through the predictions
