@@ -13,6 +13,7 @@
 #include "brdf/domain.h"
 #include "brdf/metrics.h"
 #include "cli/commands.h"
+#include "fit/domain_weights.h"
 #include "fit/journal_samples.h"
 #include "journal/journal.h"
 #include "fit/mlp.h"
@@ -267,8 +268,9 @@ int cmd_fit(int argc, char **argv)
     if (!rc) {
         printf("%-10s %s\n", "model", model);
         printf("%-10s %zu (%s)\n", "samples", n, samples_path);
-        if (data.domain_weights && (!strcmp(model, "abc") || !strcmp(model, "abc-prior") ||
-                                    !strcmp(model, "latent") || !strcmp(model, "auto")))
+        if (data.domain_weights && n >= FIT_DOMAIN_WEIGHTS_MIN_SAMPLES &&
+            (!strcmp(model, "abc") || !strcmp(model, "abc-prior") || !strcmp(model, "latent") ||
+             !strcmp(model, "auto")))
             printf("%-10s each sample's share of the full domain (%s)\n", "weights",
                    asked ? "--weights domain" : "an adaptive capture's samples");
         if (saturated)

@@ -735,7 +735,7 @@ static int fit_sorted(const struct fit_sample *samples, size_t n, struct fit_opt
 
     /* weight[i] for sample i (indexed as the samples, for the subsets) */
     double *weight = NULL, *share = NULL;
-    if (opt.domain_weights &&
+    if (opt.domain_weights && nv >= FIT_DOMAIN_WEIGHTS_MIN_SAMPLES &&
         (!(weight = malloc(n * sizeof *weight)) || !(share = malloc(nv * sizeof *share)) ||
          fit_domain_weights(samples, idx, nv, share) < 0)) {
         free(weight);

@@ -194,10 +194,11 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
      * the domain, as in the weighted candidates' own losses, so that the
      * choice estimates the full-domain error, not the error where an
      * adaptive capture's samples crowd */
-    double *w = data->domain_weights ? malloc(n * sizeof *w) : NULL;
+    int weigh = data->domain_weights && n >= FIT_DOMAIN_WEIGHTS_MIN_SAMPLES;
+    double *w = weigh ? malloc(n * sizeof *w) : NULL;
     double sum[N_CANDIDATES] = {0}, sum2[N_CANDIDATES] = {0}, count[N_CANDIDATES] = {0};
     int rc = 0;
-    if (!fold || !train || !tlower || (data->domain_weights && !w)) {
+    if (!fold || !train || !tlower || (weigh && !w)) {
         rc = gonio_err_set(err, ENOMEM, "auto: out of memory");
         goto done;
     }

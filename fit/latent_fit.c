@@ -259,8 +259,9 @@ static int fit_sorted(const latent_decoder *d, const struct fit_sample *samples,
     unsigned char *lw = o.lower ? malloc(used) : NULL;
     /* each sample's share of the full domain (fit/domain_weights.h), as the
      * weighted ABC fit's: the loss then estimates the full-domain error */
-    double *w = o.domain_weights ? malloc(used * sizeof *w) : NULL;
-    if (!x || !c || !t || (o.lower && !lw) || (o.domain_weights && !w) ||
+    int weigh = o.domain_weights && used >= FIT_DOMAIN_WEIGHTS_MIN_SAMPLES;
+    double *w = weigh ? malloc(used * sizeof *w) : NULL;
+    if (!x || !c || !t || (o.lower && !lw) || (weigh && !w) ||
         (w && fit_domain_weights(samples, idx, used, w) < 0)) {
         free(idx);
         free(x);
