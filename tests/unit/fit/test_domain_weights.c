@@ -11,6 +11,7 @@
  *    the crowd counts as the bit of domain it covers and the fit follows
  *    the spread samples; unweighted, it bends towards the crowd. The model
  *    file says the fit was weighted;
+ *  - fewer than seven samples (DS4's six) are fitted unweighted;
  *  - a weighted fit's parameter sds are the spread its estimates have over
  *    repeated noisy captures (the sandwich covariance), not the far smaller
  *    figure that treating the weights as precisions gives. */
@@ -264,6 +265,35 @@ static void test_weighted_fit_ignores_crowd(void **state)
     fit_model_file_free(f);
 }
 
+/* DS4's six pairs are fitted unweighted whatever the options say: the
+ * same parameters as an unweighted fit, and no weights in the info; a
+ * seventh sample and the fit weighs them. */
+static void test_no_weights_below_seven(void **state)
+{
+    (void)state;
+    static const double tr[7] = {-60, -20, 20, 28, 36, 60, 45};
+    const struct brdf_abc mat = {
+        .kd = {0.20, 0.15, 0.10}, .A = {20.0, 15.0, 10.0}, .B = 3000, .C = 0.9, .eta = 1.5};
+    struct fit_sample s[7];
+    for (int k = 0; k < 7; k++) {
+        brdf_pair_inplane(30, tr[k], &s[k].g);
+        brdf_abc_eval(&mat, &s[k].g, s[k].rgb);
+        s[k].rgb[1] *= 1.3; /* not exactly an ABC material: the weights move the fit */
+    }
+    for (size_t n = 6; n <= 7; n++) {
+        struct fit_options o = fit_default_options();
+        struct brdf_abc plain, weighted;
+        struct fit_info pi, wi;
+        struct gonio_err err = {0};
+        assert_int_equal(fit_abc(s, n, &o, &plain, &pi, &err), 0);
+        o.domain_weights = 1;
+        assert_int_equal(fit_abc(s, n, &o, &weighted, &wi, &err), 0);
+        int below = n == 6;
+        assert_int_equal(wi.domain_weights, !below);
+        assert_int_equal(memcmp(&plain, &weighted, sizeof plain) == 0, below);
+    }
+}
+
 /* A standard normal deviate (Box-Muller) from the splitmix64 stream. */
 static double gauss(uint64_t *st)
 {
@@ -351,6 +381,7 @@ int main(void)
         cmocka_unit_test(test_ties_and_order),
         cmocka_unit_test(test_dense_capture),
         cmocka_unit_test(test_weighted_fit_ignores_crowd),
+        cmocka_unit_test(test_no_weights_below_seven),
         cmocka_unit_test(test_weighted_sds_match_their_spread),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
