@@ -487,7 +487,6 @@ static void refit(adaptive *a, double rig_time_s)
     }
     compute_dom_cov(a);
     if (a->latent && track_update(&a->track, a->samples, a->n, a->opt.seed) == 1) {
-        a->latent_abc_in_sample = a->ens.fit_error;
         /* The decoder's prior must fit the material before its picks are
          * trusted: a latent fit no better on its own samples than ABC is
          * on samples it did not see follows a material the decoder does
@@ -498,8 +497,10 @@ static void refit(adaptive *a, double rig_time_s)
         const struct ens *abc = &a->ens;
         if (!a->cover)
             abc = ens_fit(&a->check, a->samples, a->n, 0) == 0 ? &a->check : NULL;
-        if (abc)
+        if (abc) {
+            a->latent_abc_in_sample = abc->fit_error; /* the prediction's ratio: alike too */
             a->cover = a->track.in_sample < abc->cv_error;
+        }
     }
     a->predicted = predict_error(a);
     if (isfinite(a->predicted)) {

@@ -7,6 +7,7 @@
 
 #include "brdf/metrics.h"
 #include "common/err.h"
+#include "fit/domain_weights.h"
 
 void ens_init(struct ens *e)
 {
@@ -94,7 +95,10 @@ int ens_fit(struct ens *e, const struct fit_sample *s, size_t n, int weighted)
     }
     struct fit_options fo = fit_default_options();
     fo.heldout = 0; /* the ensemble holds out its own groups */
-    fo.domain_weights = weighted;
+    /* every member weighs as the fit to all samples does: weighted only
+     * when the smallest member has the samples a weighted fit needs */
+    fo.domain_weights = weighted && n - (n + ENS_GROUPS - 1) / ENS_GROUPS >=
+                                        FIT_DOMAIN_WEIGHTS_MIN_SAMPLES;
     struct brdf_abc next, cold;
     struct fit_info info, cold_info;
     int had = e->ok;

@@ -13,7 +13,6 @@
 #include "brdf/domain.h"
 #include "brdf/metrics.h"
 #include "cli/commands.h"
-#include "fit/domain_weights.h"
 #include "fit/journal_samples.h"
 #include "journal/journal.h"
 #include "fit/mlp.h"
@@ -35,8 +34,9 @@ static void usage(FILE *out)
                  "           residuals) or at their clipped value; default: the model's\n"
                  "           (clipped for abc, abc-prior, abc-pseudo, censored for the others)\n"
                  "  --weights: weight each sample by its share of the full domain (abc,\n"
-                 "           abc-prior, and auto's candidates) or not; default: domain for the\n"
-                 "           samples of an adaptive capture (its setup.json), else none\n"
+                 "           abc-prior, latent, auto's candidates and scores; never fewer\n"
+                 "           than 7 samples) or not; default: domain for the samples of an\n"
+                 "           adaptive capture (its setup.json), else none\n"
                  "models:\n");
     for (size_t i = 0; fit_model_at(i); i++)
         fprintf(out, "  %-13s %s\n", fit_model_at(i)->name, fit_model_at(i)->summary);
@@ -268,9 +268,7 @@ int cmd_fit(int argc, char **argv)
     if (!rc) {
         printf("%-10s %s\n", "model", model);
         printf("%-10s %zu (%s)\n", "samples", n, samples_path);
-        if (data.domain_weights && n >= FIT_DOMAIN_WEIGHTS_MIN_SAMPLES &&
-            (!strcmp(model, "abc") || !strcmp(model, "abc-prior") || !strcmp(model, "latent") ||
-             !strcmp(model, "auto")))
+        if (rep.weighted)
             printf("%-10s each sample's share of the full domain (%s)\n", "weights",
                    asked ? "--weights domain" : "an adaptive capture's samples");
         if (saturated)

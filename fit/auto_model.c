@@ -158,8 +158,9 @@ static brdf_material *fit_open(const struct fit_model_kind *kind, const struct f
     return m;
 }
 
-/* The domain share of every sample with a geometry (fold >= 0; 0 for the
- * others) into w. Returns 0, -1 when out of memory. */
+/* The domain share of every sample a fit can use (a geometry above the
+ * horizon, finite values; 0 for the others) into w. Returns 0, -1 when out
+ * of memory. */
 static int held_out_weights(const struct fit_sample *s, const int *fold, size_t n, double *w)
 {
     size_t *idx = malloc(n * sizeof *idx), nv = 0;
@@ -167,7 +168,10 @@ static int held_out_weights(const struct fit_sample *s, const int *fold, size_t 
     int rc = idx && wv ? 0 : -1;
     for (size_t i = 0; i < n && rc == 0; i++) {
         w[i] = 0;
-        if (fold[i] >= 0)
+        int ok = fold[i] >= 0 && s[i].g.wi[2] > 0 && s[i].g.wo[2] > 0;
+        for (int ch = 0; ch < 3 && ok; ch++)
+            ok = isfinite(s[i].rgb[ch]);
+        if (ok)
             idx[nv++] = i;
     }
     if (rc == 0 && (rc = fit_domain_weights(s, idx, nv, wv)) == 0)
@@ -190,20 +194,30 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
     int *fold = malloc(n * sizeof *fold);
     struct fit_sample *train = malloc(n * sizeof *train);
     unsigned char *tlower = malloc(n);
-    /* weighted data: each held-out error counts by its sample's share of
-     * the domain, as in the weighted candidates' own losses, so that the
-     * choice estimates the full-domain error, not the error where an
-     * adaptive capture's samples crowd */
-    int weigh = data->domain_weights && n >= FIT_DOMAIN_WEIGHTS_MIN_SAMPLES;
-    double *w = weigh ? malloc(n * sizeof *w) : NULL;
+    double *w = data->domain_weights ? malloc(n * sizeof *w) : NULL;
     double sum[N_CANDIDATES] = {0}, sum2[N_CANDIDATES] = {0}, count[N_CANDIDATES] = {0};
     int rc = 0;
-    if (!fold || !train || !tlower || (weigh && !w)) {
+    if (!fold || !train || !tlower || (data->domain_weights && !w)) {
         rc = gonio_err_set(err, ENOMEM, "auto: out of memory");
         goto done;
     }
     out->geometries = assign_folds(data->rgb, n, o.seed, fold);
-    if (out->geometries == (size_t)-1 || (w && held_out_weights(data->rgb, fold, n, w) < 0)) {
+    if (out->geometries == (size_t)-1) {
+        rc = gonio_err_set(err, ENOMEM, "auto: out of memory");
+        goto done;
+    }
+    /* Weighted data: each held-out error counts by its sample's share of
+     * the domain, as in the weighted candidates' own losses, so that the
+     * choice estimates the full-domain error, not the error where an
+     * adaptive capture's samples crowd. Only when every training set is
+     * large enough to be fitted weighted (fit/domain_weights.h): the
+     * candidates and their scores weigh alike. */
+    size_t in_fold[FIT_AUTO_FOLDS] = {0}, largest = 0;
+    for (size_t i = 0; i < n; i++)
+        if (fold[i] >= 0 && ++in_fold[fold[i]] > largest)
+            largest = in_fold[fold[i]];
+    int weigh = w && n - largest >= FIT_DOMAIN_WEIGHTS_MIN_SAMPLES;
+    if (weigh && held_out_weights(data->rgb, fold, n, w) < 0) {
         rc = gonio_err_set(err, ENOMEM, "auto: out of memory");
         goto done;
     }
@@ -236,7 +250,7 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
                                  ? tlower
                                  : NULL,
                 .material = data->material,
-                .domain_weights = data->domain_weights};
+                .domain_weights = weigh};
             struct gonio_err e = {0};
             brdf_material *m = fit_open(kind, &d, &o, &e);
             if (!m) {
@@ -244,8 +258,8 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
                          e.msg[0] ? e.msg : "failed");
                 continue;
             }
-            rc = score(m, data->rgb, data->rgb_lower, w, fold, k, n, &sum[c], &sum2[c],
-                       &count[c]);
+            rc = score(m, data->rgb, data->rgb_lower, weigh ? w : NULL, fold, k, n, &sum[c],
+                       &sum2[c], &count[c]);
             brdf_material_free(m);
             if (rc < 0) {
                 rc = gonio_err_set(err, ENOMEM, "auto: out of memory");

@@ -32,7 +32,7 @@ int fit_domain_weights(const struct fit_sample *s, const size_t *idx, size_t n, 
  * domain, and a fit of them is better unweighted (the latent fit at DS4's
  * rig time: 2.5 % worse weighted, at most DS4's error on 4 of 10 held-out
  * materials); from the policy's first picks on the weights gain (9
- * samples: 0.0449 weighted against 0.0531; docs/fitting.md). */
+ * samples: 0.0449 weighted against 0.0531; docs/adaptive.md). */
 #define FIT_DOMAIN_WEIGHTS_MIN_SAMPLES 7
 
 #endif

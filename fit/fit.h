@@ -52,7 +52,8 @@ struct fit_options {
      * full-domain error rather than the error at the samples: for samples
      * not spread like the domain (an adaptive capture's). 0 (default): all
      * alike. The in-sample and held-out residuals of the status are then
-     * weighted means. */
+     * weighted means. Fewer than FIT_DOMAIN_WEIGHTS_MIN_SAMPLES usable
+     * samples are fitted unweighted (fit_info.domain_weights says). */
     int domain_weights;
     /* 1 (default): the fit status's held-out residual (fit_info.status),
      * five coarse refits; 0 leaves it NaN, for fits whose status nobody
@@ -70,8 +71,8 @@ struct fit_options fit_default_options(void);
  * s^2 H^-1 (J^T W^2 J) H^-1, H = J^T W J, with the residuals counted as
  * Kish's effective number, docs/fitting.md "Domain weights"). INFINITY:
  * the data do not determine the parameter (no influence, or clamped at a
- * bound); all NaN: not computed (fewer residuals than parameters without
- * a prior). */
+ * bound); all NaN: not computed (fewer residuals, or for a weighted fit
+ * fewer effective ones, than parameters without a prior). */
 struct fit_uncertainty {
     double log_kd[3], log_A[3];
     double log_B, log_C, eta;

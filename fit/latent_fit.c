@@ -1,8 +1,9 @@
 /* Fitting a material's latent with the decoder frozen.
  *
  * The objective is the training objective of one material: mean |log(1 +
- * fhat cos ti) - log(1 + f cos ti)| + lambda_z mean(z^2), so a fitted z is
- * what training would have given the material (MAP under the latent prior
+ * fhat cos ti) - log(1 + f cos ti)| (weighted by the samples' domain
+ * shares when latent_fit_options.domain_weights) + lambda_z mean(z^2), so a
+ * fitted z is what training would have given the material (MAP under the latent prior
  * the decoder was trained with), plus the population prior of
  * latent_prior.c with the weight Bayes gives it for n samples (b / 3n):
  * with six samples many z fit the data equally well, and the prior picks
@@ -27,6 +28,7 @@ struct latent_fit_options latent_fit_default_options(void)
 {
     return (struct latent_fit_options){
         .max_iter = 300,
+        .weighted_iter = 1000,
         .n_starts = 2,
         .max_samples = 4096,
         .lr = 0.05,
@@ -58,9 +60,12 @@ static double objective(const latent_decoder *d, const double *z, size_t n, cons
                         const double *c, const double *t, const unsigned char *lw,
                         const double *w, const struct fit_prior *p, double *gz)
 {
-    double scale = 1.0 / (3.0 * weight_sum(w, n));
+    double ws = weight_sum(w, n);
     if (gz)
         memset(gz, 0, (size_t)d->nz * sizeof *gz);
+    if (!(ws > 0)) /* a subset of weight 0 says nothing */
+        return INFINITY;
+    double scale = 1.0 / (3.0 * ws);
     double l = latent_net_backprop(d, z, n, x, c, t, lw, w, scale, NULL, gz) * scale;
     double r = 0;
     for (int k = 0; k < d->nz; k++) {
@@ -77,8 +82,9 @@ static double data_loss(const latent_decoder *d, const double *z, size_t n, cons
                         const double *c, const double *t, const unsigned char *lw,
                         const double *w)
 {
-    return latent_net_backprop(d, z, n, x, c, t, lw, w, 0.0, NULL, NULL) /
-           (3.0 * weight_sum(w, n));
+    double ws = weight_sum(w, n);
+    return ws > 0 ? latent_net_backprop(d, z, n, x, c, t, lw, w, 0.0, NULL, NULL) / (3.0 * ws)
+                  : NAN;
 }
 
 /* RMS of the log residuals log(1 + fhat c) - t over n samples and the
@@ -260,6 +266,8 @@ static int fit_sorted(const latent_decoder *d, const struct fit_sample *samples,
     /* each sample's share of the full domain (fit/domain_weights.h), as the
      * weighted ABC fit's: the loss then estimates the full-domain error */
     int weigh = o.domain_weights && used >= FIT_DOMAIN_WEIGHTS_MIN_SAMPLES;
+    if (weigh && o.weighted_iter > 0)
+        o.max_iter = o.weighted_iter;
     double *w = weigh ? malloc(used * sizeof *w) : NULL;
     if (!x || !c || !t || (o.lower && !lw) || (weigh && !w) ||
         (w && fit_domain_weights(samples, idx, used, w) < 0)) {

@@ -32,8 +32,8 @@ int fit_latent_model_fit(const struct fit_data *data, const struct fit_model_opt
     lo.seed = o.seed;
     lo.lower = data->rgb_lower;
     lo.domain_weights = data->domain_weights;
-    if (o.max_epochs > 0)
-        lo.max_iter = o.max_epochs;
+    if (o.max_epochs > 0) /* weighted or not */
+        lo.max_iter = lo.weighted_iter = o.max_epochs;
     double z[LATENT_MAX_NZ];
     struct latent_fit_info info;
     int rc = fit_latent(d, data->rgb, data->n_rgb, &lo, z, &info, err);
@@ -50,9 +50,8 @@ int fit_latent_model_fit(const struct fit_data *data, const struct fit_model_opt
     rc = rc ? rc : fit_model_file_set(f, "seed", "%llu", (unsigned long long)o.seed);
     rc = rc ? rc : fit_model_file_set(f, "scale", "%.17g", info.scale);
     rc = rc ? rc : fit_status_file_keys(f, &info.status);
-    rc = rc || !info.domain_weights
-             ? rc
-             : fit_model_file_set(f, "weights", "each sample's share of the full domain");
+    if (!rc && info.domain_weights)
+        rc = fit_model_file_set(f, "weights", "each sample's share of the full domain");
     rc = rc ? rc
             : fit_model_file_set(f, "prior",
                                  "kernel density of %zu training latents, bandwidth %.4g, "
@@ -68,6 +67,7 @@ int fit_latent_model_fit(const struct fit_data *data, const struct fit_model_opt
     if (rep) {
         rep->converged = !(info.status.findings & (1u << FIT_STATUS_NOT_CONVERGED));
         rep->status = info.status;
+        rep->weighted = info.domain_weights;
         snprintf(rep->note, sizeof rep->note,
                  "latent: %d starts x %d Adam steps on %zu samples (%zu dropped), mean |log "
                  "residual| %.4f, population prior weight %.2g, %.2g of the objective's fall "

@@ -53,12 +53,13 @@ void latent_encode(const struct brdf_pair *p, double x[LATENT_NIN]);
  * Returns the sum over samples and channels of |log(1 + fhat c) - t|,
  * where lower (NULL, or n flags) marks the samples whose targets are lower
  * bounds (saturated readings): no residual while fhat is above them, and
- * w (NULL: all 1) weighs each sample's residuals.
- * When gw is not NULL, adds scale * d(sum)/d(weights) to gw[n_params];
+ * weight (NULL: all 1) weighs each sample's residuals.
+ * When gw is not NULL, adds scale * d(sum)/d(network parameters) to
+ * gw[n_params];
  * when gz is not NULL, adds scale * d(sum)/dz to gz[nz]. */
 double latent_net_backprop(const latent_decoder *d, const double *z, size_t n, const double *x,
                            const double *c, const double *t, const unsigned char *lower,
-                           const double *w, double scale, double *gw, double *gz);
+                           const double *weight, double scale, double *gw, double *gz);
 
 /* The raw outputs o (log(1 + f), clipped) at n encodings, into o[3n]. */
 void latent_net_forward(const latent_decoder *d, const double *z, size_t n, const double *x,

@@ -46,7 +46,9 @@ struct fit_data {
      * spread like the domain: the ABC and latent fits weight each by its
      * share of the domain (fit_options.domain_weights and
      * latent_fit_options.domain_weights, fit/domain_weights.h) and say so
-     * in the model file ("weights"); the in-plane MLPs fit them alike. */
+     * in the model file ("weights"), from seven samples on
+     * (fit/domain_weights.h); the in-plane MLPs and abc-pseudo fit them
+     * alike. */
     int domain_weights;
 };
 
@@ -63,6 +65,7 @@ struct fit_model_report {
     int converged;    /* 1 when the fit met its stopping rule, not a limit */
     char note[512];   /* one line for people: iterations/epochs, stop reason */
     struct fit_status status; /* what the fit can know (fit/fit_status.h) */
+    int weighted;     /* 1: the samples were weighted by their domain share */
 };
 
 struct fit_model_kind {

@@ -227,7 +227,7 @@ def test_capture_adaptive_offline(tmp):
     (where its calibration is poor), the summary its stop and figures; its
     ABC model weighs the samples by their domain share, and gonio fit of the
     directory writes the same file byte for byte (--weights none another),
-    and so does a latent fit of them;
+    and a latent fit of them is weighted too (the weights line and key);
     --budget outside the adaptive order, or not a positive number, exits 2
     with nothing written."""
     out = os.path.join(tmp, "ad")
