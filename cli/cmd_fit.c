@@ -13,6 +13,7 @@
 #include "brdf/domain.h"
 #include "brdf/metrics.h"
 #include "cli/commands.h"
+#include "fit/domain_weights.h"
 #include "fit/journal_samples.h"
 #include "journal/journal.h"
 #include "fit/mlp.h"
@@ -269,7 +270,7 @@ int cmd_fit(int argc, char **argv)
         printf("%-10s %s\n", "model", model);
         printf("%-10s %zu (%s)\n", "samples", n, samples_path);
         if (rep.weighted)
-            printf("%-10s each sample's share of the full domain (%s)\n", "weights",
+            printf("%-10s %s (%s)\n", "weights", FIT_DOMAIN_WEIGHTS_NOTE,
                    asked ? "--weights domain" : "an adaptive capture's samples");
         if (saturated)
             printf("%-10s %zu readings, lower bounds: %s\n", "saturated", saturated,

@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "fit/domain_weights.h"
 #include "fit/model_file.h"
 
 struct fit_model_file *fit_abc_model_file(const struct brdf_abc *p)
@@ -29,7 +30,7 @@ struct fit_model_file *fit_abc_fitted_file(const struct brdf_abc *p, unsigned lo
               fit_model_file_set(f, "cost", "%.6g", info->cost) ||
               fit_model_file_set(f, "scale", "%.17g", info->scale) ||
               (info->domain_weights &&
-               fit_model_file_set(f, "weights", "each sample's share of the full domain")) ||
+               fit_model_file_set(f, "weights", FIT_DOMAIN_WEIGHTS_NOTE)) ||
               fit_status_file_keys(f, &info->status))) {
         fit_model_file_free(f);
         return NULL;

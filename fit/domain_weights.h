@@ -26,6 +26,10 @@
  * samples permutes the weights. Returns 0, or -1 when out of memory. */
 int fit_domain_weights(const struct fit_sample *s, const size_t *idx, size_t n, double *w);
 
+/* What a weighted fit's model file says under its `weights` key (and
+ * gonio fit on its `weights` line). */
+#define FIT_DOMAIN_WEIGHTS_NOTE "each sample's share of the full domain"
+
 /* The fewest samples a fit weighs (fit_options.domain_weights,
  * latent_fit_options.domain_weights): DS4's six pairs, the adaptive
  * policy's seeds, are a fixed design, each standing for a sixth of the

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "fit/domain_weights.h"
 #include "fit/latent_private.h"
 #include "fit/model_file.h"
 #include "fit/models.h"
@@ -51,7 +52,7 @@ int fit_latent_model_fit(const struct fit_data *data, const struct fit_model_opt
     rc = rc ? rc : fit_model_file_set(f, "scale", "%.17g", info.scale);
     rc = rc ? rc : fit_status_file_keys(f, &info.status);
     if (!rc && info.domain_weights)
-        rc = fit_model_file_set(f, "weights", "each sample's share of the full domain");
+        rc = fit_model_file_set(f, "weights", FIT_DOMAIN_WEIGHTS_NOTE);
     rc = rc ? rc
             : fit_model_file_set(f, "prior",
                                  "kernel density of %zu training latents, bandwidth %.4g, "

@@ -96,17 +96,7 @@ def test_kill9_during_adaptive_then_resume():
         reply = c.request("capture", plan="ds1", order="adaptive", model="abc",
                           budget=budget_min, name="cut", truth=tm.TRUTH)
         assert reply["class"] == "OK", reply
-        while True:
-            e = c.read()
-            assert e is not None and e.get("class") != "stop", e
-            if e.get("class") == "event" and e["done"] >= cut_at:
-                break
-        d.kill9()
-        d.start()
-        c = d.connect()
-        c.request("watch")
-        assert c.request("resume", capture_id="cut")["class"] == "OK"
-        docs = c.until_stop("cut")
+        docs = tm.kill9_and_resume(d, c, "cut", cut_at)
     finally:
         if d:
             d.stop()

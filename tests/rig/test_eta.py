@@ -86,17 +86,7 @@ def test_kill9_during_prescan_then_resume():
         c.request("watch")
         reply = c.request("capture", plan=PLAN, name="cut", prescan=6)
         assert reply["class"] == "OK", reply
-        while True:
-            e = c.read()
-            assert e is not None and e.get("class") != "stop", e
-            if e.get("class") == "event" and e["done"] == 2:
-                break
-        d.kill9()
-        d.start()
-        c = d.connect()
-        c.request("watch")
-        assert c.request("resume", capture_id="cut")["class"] == "OK"
-        docs = c.until_stop("cut")
+        docs = tm.kill9_and_resume(d, c, "cut", 2)
         assert docs[0]["class"] == "start", docs[0]
         cut = docs[0]["already_done"]  # what the journal held after the kill
         assert 2 <= cut < 6, cut  # killed within the pre-scan

@@ -124,6 +124,23 @@ def offline(folder, scene):
     return out
 
 
+def kill9_and_resume(d, c, capture_id, done):
+    """Follow the events on the watching connection c until `done` points
+    are reported, SIGKILL goniod d, restart it and resume capture_id: every
+    document from the resume's start to its stop."""
+    while True:
+        e = c.read()
+        assert e is not None and e.get("class") != "stop", e
+        if e.get("class") == "event" and e["done"] >= done:
+            break
+    d.kill9()
+    d.start()
+    c = d.connect()
+    c.request("watch")
+    assert c.request("resume", capture_id=capture_id)["class"] == "OK"
+    return c.until_stop(capture_id)
+
+
 def results(capdir):
     with open(os.path.join(capdir, "results.json")) as f:
         return json.load(f)

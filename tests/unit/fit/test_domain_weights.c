@@ -191,6 +191,10 @@ static void test_dense_capture(void **state)
     assert_close(low, below / total, 0.01);
 }
 
+/* The fits' material: a glossy lobe on a coloured base. */
+static const struct brdf_abc glossy = {
+    .kd = {0.20, 0.15, 0.10}, .A = {20.0, 15.0, 10.0}, .B = 3000, .C = 0.9, .eta = 1.5};
+
 /* Mean |log(1 + fhat cos) - log(1 + f cos)| over random pairs up to 80
  * degrees. */
 static double oop_log_error(const struct brdf_abc *fit, const struct brdf_abc *ref)
@@ -216,8 +220,7 @@ static double oop_log_error(const struct brdf_abc *fit, const struct brdf_abc *r
 static void test_weighted_fit_ignores_crowd(void **state)
 {
     (void)state;
-    const struct brdf_abc spread_mat = {
-        .kd = {0.20, 0.15, 0.10}, .A = {20.0, 15.0, 10.0}, .B = 3000, .C = 0.9, .eta = 1.5};
+    const struct brdf_abc spread_mat = glossy;
     /* the crowd's material: four times as bright a diffuse part, as if a
      * grazing corner showed what the spread samples do not */
     struct brdf_abc crowd_mat = spread_mat;
@@ -272,12 +275,10 @@ static void test_no_weights_below_seven(void **state)
 {
     (void)state;
     static const double tr[7] = {-60, -20, 20, 28, 36, 60, 45};
-    const struct brdf_abc mat = {
-        .kd = {0.20, 0.15, 0.10}, .A = {20.0, 15.0, 10.0}, .B = 3000, .C = 0.9, .eta = 1.5};
     struct fit_sample s[7];
     for (int k = 0; k < 7; k++) {
         brdf_pair_inplane(30, tr[k], &s[k].g);
-        brdf_abc_eval(&mat, &s[k].g, s[k].rgb);
+        brdf_abc_eval(&glossy, &s[k].g, s[k].rgb);
         s[k].rgb[1] *= 1.3; /* not exactly an ABC material: the weights move the fit */
     }
     for (size_t n = 6; n <= 7; n++) {
@@ -308,8 +309,6 @@ static double gauss(uint64_t *st)
 static void test_weighted_sds_match_their_spread(void **state)
 {
     (void)state;
-    const struct brdf_abc mat = {
-        .kd = {0.20, 0.15, 0.10}, .A = {20.0, 15.0, 10.0}, .B = 3000, .C = 0.9, .eta = 1.5};
     /* 40 spread samples and a crowd of 200 in one grazing corner: the crowd
      * stands for little of the domain, so the spread samples carry nearly
      * all the weight */
@@ -319,12 +318,12 @@ static void test_weighted_sds_match_their_spread(void **state)
         for (double tr = -75; tr <= 75; tr += 22)
             if (fabs(ti + tr) >= 5) {
                 brdf_pair_inplane(ti, tr, &clean[n].g);
-                brdf_abc_eval(&mat, &clean[n].g, clean[n].rgb);
+                brdf_abc_eval(&glossy, &clean[n].g, clean[n].rgb);
                 n++;
             }
     for (int c = 0; c < 200; c++) {
         brdf_pair_inplane(70 + 0.05 * (c % 20), -(60 + 0.1 * (c / 20)), &clean[n].g);
-        brdf_abc_eval(&mat, &clean[n].g, clean[n].rgb);
+        brdf_abc_eval(&glossy, &clean[n].g, clean[n].rgb);
         n++;
     }
     double w[300], w2 = 0;
