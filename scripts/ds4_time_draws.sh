@@ -2,13 +2,15 @@
 # The DS4-time table of docs/adaptive.md ("Ten days in the lab"): the adaptive
 # capture with DS4's rig time as its budget (the study's adaptive-ds4) against
 # DS4 itself, latent fits, the ten held-out materials, on DRAWS copies of the
-# lab scene that differ only in their seed (the noise, the jitter and the
-# backlash of another day). One draw is what the study measures; the table
-# shows how much of its "at most DS4's error on N of 10" is the day's luck.
+# lab scene that differ only in their seed (the detector's noise, the lamp's
+# drift and the drives' jitter of another day). One draw is what the study
+# measures; the table shows how much of its "at most DS4's error on N of 10"
+# is the day's luck.
 #
-# Usage: scripts/ds4_time_draws.sh [BIN_DIR] (default build/bin); env
-# DRAWS_OUT (work dir, default out/ds4_time_draws), DRAWS (default 10),
-# JOBS (study workers, default 2). Needs the shared data (nbrdf:).
+# Usage, from the repository root: scripts/ds4_time_draws.sh [BIN_DIR]
+# (default build/bin); env DRAWS_OUT (work dir, default out/ds4_time_draws),
+# DRAWS (default 10), JOBS (study workers, default 2). Needs the shared data
+# (nbrdf:).
 # Prints the Markdown tables on stdout.
 set -eu
 bin=${1:-build/bin}
