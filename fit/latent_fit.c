@@ -30,6 +30,7 @@ struct latent_fit_options latent_fit_default_options(void)
         .max_iter = 300,
         .weighted_iter = 1000,
         .n_starts = 2,
+        .weighted_starts = 4,
         .max_samples = 4096,
         .lr = 0.05,
         .lambda_z = -1,
@@ -268,6 +269,8 @@ static int fit_sorted(const latent_decoder *d, const struct fit_sample *samples,
     int weigh = o.domain_weights && used >= FIT_DOMAIN_WEIGHTS_MIN_SAMPLES;
     if (weigh && o.weighted_iter > 0)
         o.max_iter = o.weighted_iter;
+    if (weigh && o.weighted_starts > 0)
+        o.n_starts = o.weighted_starts;
     double *w = weigh ? malloc(used * sizeof *w) : NULL;
     if (!x || !c || !t || (o.lower && !lw) || (weigh && !w) ||
         (w && fit_domain_weights(samples, idx, used, w) < 0)) {
