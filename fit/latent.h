@@ -126,10 +126,10 @@ struct latent_fit_options {
                              steps, 0.0374 after 1000, 0.0376 after 3000 */
     int n_starts;         /* starts: best training latents by initial loss, plus the mean */
     int weighted_starts;  /* the same when the fit weighs its samples; 0: n_starts. The
-                             weighted objective has more than one basin where the
-                             unweighted has one: gold-metallic-paint's adaptive lab
-                             capture 0.0255 full-domain log error from 2 starts, 0.0206
-                             from 4 (docs/latent.md) */
+                             weighted objective can have a second basin that both of two
+                             starts end in: gold-metallic-paint's adaptive lab capture
+                             0.0255 full-domain log error from 2 starts, 0.0207 from 4
+                             (docs/adaptive.md "Four starts for the weighted latent fit") */
     size_t max_samples;   /* larger inputs use a seeded random subset of this size */
     double lr;            /* Adam step size (cosine decay to lr / 20) */
     double lambda_z;      /* weight of the prior mean(z^2); < 0: the decoder's

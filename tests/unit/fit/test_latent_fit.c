@@ -132,8 +132,10 @@ static void test_weighted_fit_ignores_crowd(void **state)
     for (int weighted = 0; weighted < 2; weighted++) {
         struct latent_fit_options o = latent_fit_default_options();
         o.domain_weights = weighted;
-        if (gonio_test_small()) /* valgrind: the weighting, not its convergence */
+        if (gonio_test_small()) { /* valgrind: the weighting, not its convergence */
             o.weighted_iter = o.max_iter;
+            o.weighted_starts = o.n_starts;
+        }
         double z[LATENT_MAX_NZ];
         struct latent_fit_info info;
         struct gonio_err err = {0};
