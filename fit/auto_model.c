@@ -194,10 +194,10 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
     int *fold = malloc(n * sizeof *fold);
     struct fit_sample *train = malloc(n * sizeof *train);
     unsigned char *tlower = malloc(n);
-    double *w = data->domain_weights ? malloc(n * sizeof *w) : NULL;
+    double *w = NULL; /* the held-out samples' shares, when the scores weigh them */
     double sum[N_CANDIDATES] = {0}, sum2[N_CANDIDATES] = {0}, count[N_CANDIDATES] = {0};
     int rc = 0;
-    if (!fold || !train || !tlower || (data->domain_weights && !w)) {
+    if (!fold || !train || !tlower) {
         rc = gonio_err_set(err, ENOMEM, "auto: out of memory");
         goto done;
     }
@@ -216,8 +216,8 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
     for (size_t i = 0; i < n; i++)
         if (fold[i] >= 0 && ++in_fold[fold[i]] > largest)
             largest = in_fold[fold[i]];
-    int weigh = w && n - largest >= FIT_DOMAIN_WEIGHTS_MIN_SAMPLES;
-    if (weigh && held_out_weights(data->rgb, fold, n, w) < 0) {
+    int weigh = data->domain_weights && n - largest >= FIT_DOMAIN_WEIGHTS_MIN_SAMPLES;
+    if (weigh && (!(w = malloc(n * sizeof *w)) || held_out_weights(data->rgb, fold, n, w) < 0)) {
         rc = gonio_err_set(err, ENOMEM, "auto: out of memory");
         goto done;
     }
@@ -258,8 +258,8 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
                          e.msg[0] ? e.msg : "failed");
                 continue;
             }
-            rc = score(m, data->rgb, data->rgb_lower, weigh ? w : NULL, fold, k, n, &sum[c],
-                       &sum2[c], &count[c]);
+            rc = score(m, data->rgb, data->rgb_lower, w, fold, k, n, &sum[c], &sum2[c],
+                       &count[c]);
             brdf_material_free(m);
             if (rc < 0) {
                 rc = gonio_err_set(err, ENOMEM, "auto: out of memory");
