@@ -12,8 +12,9 @@ command -v valgrind >/dev/null || { echo "check-valgrind: valgrind is not instal
 cd "$build"
 rc=0
 # Every unit test under memcheck; the heavy ones see RUNNING_ON_VALGRIND
-# and run at their small size (tests/gonio_test.h, gonio_test_small).
-ctest -T memcheck -L unit -j "$jobs" --output-on-failure --timeout 1500 \
+# and run at their small size (tests/gonio_test.h, gonio_test_small). Each
+# test's TIMEOUT holds under memcheck (cmake/GonioTest.cmake).
+ctest -T memcheck -L unit -j "$jobs" --output-on-failure \
     --overwrite MemoryCheckCommand="$(command -v valgrind)" \
     --overwrite MemoryCheckCommandOptions="$opts" || rc=1
 # The daemon and rig tests with goniod and gonio-sim under memcheck: the
