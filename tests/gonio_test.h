@@ -12,6 +12,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/types.h>
+#include <unistd.h>
+
 #include <cmocka.h>
 #include <valgrind/valgrind.h>
 
@@ -87,6 +92,29 @@ static inline const char *gonio_test_shared_or_skip(void)
                         "beside the repository)");
     }
     return dir;
+}
+
+/* fork() for a test's helper process: the child gets SIGKILL when the test
+ * process dies (PR_SET_PDEATHSIG), so a test that crashes or hits its ctest
+ * TIMEOUT leaves no helper behind holding a lock, a port or ctest's output
+ * pipe. A child that changes its credentials loses the setting (Linux clears
+ * it) and calls gonio_test_die_with_parent() again after setuid. */
+static inline int gonio_test_die_with_parent(pid_t parent)
+{
+    if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0)
+        return -1;
+    /* The parent may have died before the prctl: then nobody is left to
+     * signal us. */
+    return getppid() == parent ? 0 : -1;
+}
+
+static inline pid_t gonio_test_fork(void)
+{
+    pid_t parent = getpid();
+    pid_t pid = fork();
+    if (pid == 0 && gonio_test_die_with_parent(parent) != 0)
+        _exit(127);
+    return pid;
 }
 
 /* A test group's scratch folder: made fresh in setup as

@@ -301,7 +301,7 @@ static void test_directory_in_use_is_refused(void **state)
     snprintf(path, sizeof path, "%s/lock", out);
     int ready[2];
     assert_int_equal(pipe(ready), 0);
-    pid_t child = fork();
+    pid_t child = gonio_test_fork();
     assert_true(child >= 0);
     if (child == 0) {
         int fd = open(path, O_RDWR | O_CREAT, 0644);

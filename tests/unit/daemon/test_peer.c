@@ -91,12 +91,15 @@ static void test_other_user(void **state)
     socklen_t len = (socklen_t)(sizeof sa.sun_family + 1 + strlen(sa.sun_path + 1));
     assert_int_equal(bind(lfd, (struct sockaddr *)&sa, len), 0);
     assert_int_equal(listen(lfd, 1), 0);
-    pid_t child = fork();
+    pid_t parent = getpid();
+    pid_t child = gonio_test_fork();
     assert_true(child >= 0);
     if (child == 0) {
         const gid_t groups[] = {4242, 4343};
         if (setgroups(2, groups) || setgid(65534) || setuid(65534))
             _exit(2);
+        if (gonio_test_die_with_parent(parent) != 0)
+            _exit(4);
         int fd = socket(AF_UNIX, SOCK_STREAM, 0);
         if (fd < 0 || connect(fd, (struct sockaddr *)&sa, len) < 0)
             _exit(3);

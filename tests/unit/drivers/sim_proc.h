@@ -40,7 +40,7 @@ static inline int sim_proc_start(struct sim_proc *p, const char *const *args)
     if (pipe(fds) < 0)
         return -1;
     memset(p, 0, sizeof *p);
-    p->pid = fork();
+    p->pid = gonio_test_fork();
     if (p->pid < 0)
         return -1;
     if (p->pid == 0) {

@@ -30,7 +30,7 @@ static int setup_tmp(void **state)
  * exit status, or -1. */
 static int run(const char *path, const char *const *argv)
 {
-    pid_t pid = fork();
+    pid_t pid = gonio_test_fork();
     if (pid < 0)
         return -1;
     if (pid == 0) {

@@ -40,7 +40,7 @@ static int run_gonio(const char *const *args)
     for (; *args && n < 31; args++)
         argv[n++] = *args;
     argv[n] = NULL;
-    pid_t pid = fork();
+    pid_t pid = gonio_test_fork();
     if (pid == 0) {
         execv(path, (char *const *)argv);
         _exit(127);
