@@ -8,6 +8,9 @@ and none failed exits 77, with one "SKIPPED: test: why" line per skip
 
   ctest_skips.py FILE.py ARGS...   run a unittest file (its unittest.main())
   pytest -p ctest_skips ...        the same for pytest (PYTHONPATH=tests)
+
+shared_or_skip() is gonio_test_shared_or_skip() (tests/gonio_test.h) for a
+Python test that needs the shared data folder.
 """
 import os
 import runpy
@@ -15,6 +18,22 @@ import sys
 import unittest
 
 SKIPPED = 77
+
+
+def shared_or_skip():
+    """The shared data folder ($GONIO_SHARED, else ../shared beside the
+    repository), or skip the calling test (unittest or pytest) saying why.
+    With GONIO_REQUIRE_SHARED set (CI, which has the data) a missing folder
+    fails the test instead, so that no data test is skipped unseen."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    folder = os.environ.get("GONIO_SHARED") or os.path.join(here, "..", "..", "shared")
+    if os.path.isdir(folder):
+        return folder
+    if os.environ.get("GONIO_REQUIRE_SHARED", "0") not in ("", "0"):
+        raise AssertionError("shared data folder not found (%s), and GONIO_REQUIRE_SHARED is set"
+                             % folder)
+    raise unittest.SkipTest("shared data folder not found (set GONIO_SHARED or put ../shared "
+                            "beside the repository)")
 
 
 def unittest_main(*args, **kwargs):

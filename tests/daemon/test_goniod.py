@@ -24,6 +24,8 @@ import tempfile
 import time
 import unittest
 
+import ctest_skips
+
 BIN = os.environ.get("GONIO_BIN", "build/bin")
 TESTS_BIN = os.environ.get("GONIO_TESTS_BIN", "build/tests")
 SOURCE = os.environ.get("GONIO_SOURCE", os.path.join(os.path.dirname(__file__), "..", ".."))
@@ -1715,6 +1717,7 @@ class OfflineTests(unittest.TestCase):
         """gonio train-decoder draws latent training on the one display (it
         used to print its own lines from inside fit/); stdout and the file do
         not depend on it."""
+        ctest_skips.shared_or_skip()  # the decoder trains on the MERL materials
         tiny = ["--epochs", "40", "--nz", "4", "--width", "16", "--samples", "16"]
         out = os.path.join(self.folder, "bar.gld")
         rc, text = run_on_pty([GONIO, "train-decoder", "-o", out] + tiny, self.env)
