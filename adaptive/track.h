@@ -1,7 +1,7 @@
 /* The latent model followed alongside the ABC ensemble (adaptive/track.c):
  * refitted each time the samples have grown by a quarter, so that the
  * policy can predict the latent fit's error and check that the decoder's
- * prior fits the material at all (docs/adaptive.md, "The latent model"). */
+ * prior fits the material at all (docs/adaptive.md, "The policy", step 5). */
 #ifndef GONIO_ADAPTIVE_TRACK_H
 #define GONIO_ADAPTIVE_TRACK_H
 

@@ -127,7 +127,7 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *
     *bus_out = NULL;
     return gonio_err_set(err, GONIO_EDEVICE,
                          "%s: driver '%s': this goniod was built without the Modbus backend "
-                         "(drivers/drv_modbus.c); use driver kind 'sim'",
+                         "(library gonio_drivers_modbus); use driver kind 'sim'",
                          cfg->path, goniod_driver_name(cfg->driver));
 }
 

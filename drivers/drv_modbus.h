@@ -102,7 +102,7 @@ struct drv_modbus_axis_opts {
  * position is asked for (drivers.h). The rest is dated by the status read
  * (drv_axis_rested). A leg with no progress for 0.5 s of rig time and no
  * alarm is a stall. drv_axis_home raises ZHOME and waits for HOME-END.
- * docs/protocol-modbus.md, "Bus cost per move", says what each costs. */
+ * docs/protocol-modbus.md, "Mechanics" (its bus cost per move), says what each costs. */
 drv_axis *drv_axis_new_modbus(drv_modbus_bus *bus, int slave, const struct plan_axis *profile,
                               const struct drv_modbus_axis_opts *opts, const char *name,
                               struct gonio_err *err);

@@ -96,7 +96,7 @@ void plan_estimate(const struct plan *plan, const struct plan_rig *rig,
                    struct plan_estimate *est);
 
 /* The integration a detector will choose at a point (an auto-exposing
- * detector integrates longer where the material is dark: sim/meter.h). */
+ * detector integrates longer where the material is dark: planner/meter.h). */
 typedef double (*plan_integration_fn)(void *user, const struct plan_point *pt);
 
 /* plan_estimate with each point's integration from integration (NULL: the
