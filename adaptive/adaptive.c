@@ -46,7 +46,7 @@ static const double seed_pairs[][2] = {
  * ensemble's squared cross-validated error; the width of the ALC's
  * repulsion from measured points and the weight of coverage for the
  * latent model, both in units of the spacing n samples would have spread
- * evenly over the domain (docs/adaptive.md, "Tried and dropped"). */
+ * evenly over the domain (docs/notes/adaptive.md, "Tried and dropped"). */
 #define ALC_NOISE 0.1
 #define REPULSION_WIDTH 0.3
 #define COVER_WEIGHT 30.0

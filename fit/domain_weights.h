@@ -4,7 +4,7 @@
  * An adaptive capture measures where its model is unsure, which is seldom
  * where the domain's mass is: fitted unweighted, a model that cannot
  * follow the material everywhere bends towards the crowded samples
- * (docs/adaptive.md "Why ABC stalls near 1.1x"). Weighting each sample by
+ * (docs/notes/adaptive.md "Why ABC stalls near 1.1x"). Weighting each sample by
  * the share of the domain it stands for corrects that bias (importance
  * weighting for a covariate shift). */
 #ifndef GONIO_FIT_DOMAIN_WEIGHTS_H

@@ -129,7 +129,7 @@ struct latent_fit_options {
                              weighted objective can have a second basin that both of two
                              starts end in: gold-metallic-paint's adaptive lab capture
                              0.0255 full-domain log error from 2 starts, 0.0207 from 4
-                             (docs/adaptive.md "Four starts for the weighted latent fit") */
+                             (docs/notes/adaptive.md "Four starts for the weighted latent fit") */
     size_t max_samples;   /* larger inputs use a seeded random subset of this size */
     double lr;            /* Adam step size (cosine decay to lr / 20) */
     double lambda_z;      /* weight of the prior mean(z^2); < 0: the decoder's

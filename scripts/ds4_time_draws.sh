@@ -1,5 +1,5 @@
 #!/bin/sh
-# The DS4-time table of docs/adaptive.md ("Ten days in the lab"): the adaptive
+# The DS4-time table of docs/notes/adaptive.md ("Ten days in the lab"): the adaptive
 # capture with DS4's rig time as its budget (the study's adaptive-ds4) against
 # DS4 itself, latent fits, the ten held-out materials, on DRAWS copies of the
 # lab scene that differ only in their seed (the detector's noise, the lamp's
