@@ -11,7 +11,7 @@ A path is a word that starts with one of the repository's top-level
 folders and ends in a file extension; words with a wildcard or a
 placeholder (test_*.c, configs/rigs/NAME.yaml) are patterns, not references. A section
 matches a heading of the document when the heading, without its #s and
-backticks, equals it or starts with it followed by a space, a colon or a
+backticks, equals it or starts with it followed by a space, a colon, a comma or a
 parenthesis."""
 import os
 import re
@@ -49,7 +49,7 @@ def headings(path, cache={}):
 def section_exists(doc, section):
     s = section.replace("`", "").lower().rstrip(".")
     for h in headings(doc):
-        if h == s or (h.startswith(s) and h[len(s)] in " :("):
+        if h == s or (h.startswith(s) and h[len(s)] in " :(,"):
             return True
     return False
 
