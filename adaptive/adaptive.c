@@ -490,7 +490,7 @@ static void refit(adaptive *a, double rig_time_s)
         /* The decoder's prior must fit the material before its picks are
          * trusted: a latent fit no better on its own samples than ABC is
          * on samples it did not see follows a material the decoder does
-         * not know (issue 16, item 5). Like with like: the ABC figure is
+         * not know. Like with like: the ABC figure is
          * always that of unweighted fits, as the latent fit is. Weighted
          * fits (the policy's while it follows ABC) miss the crowded
          * samples more, and the check then swung back and forth. */

@@ -1,4 +1,4 @@
-/* Issue 5's spectral acceptance line (docs/results-spectral.md): the spectral
+/* The spectral acceptance line (docs/results-spectral.md): the spectral
  * MLP (fit/mlp.h, same shape and reciprocity twins as mlp-spectral) trained
  * on spectral:gonio sampled at the DS2 plan's pairs on 31 bands 400-700 nm,
  * with every 5th pair (plan index % 5 == 2, all bands) and every 4th band

@@ -1,6 +1,6 @@
 /* Radiometry to colour (design brief section 6): a reflectance spectrum is
  * lit by CIE D65, seen by the CIE 1931 2-degree observer, and the XYZ result
- * is turned into linear sRGB with the brief's matrix. Spectra may come in
+ * is turned into linear sRGB with DESIGN.md's matrix. Spectra may come in
  * any band layout (31 bands 400-700 nm, 35 bands 390-730 nm, ...): they are
  * resampled onto the 5 nm CIE tables, so every layout is weighed by the
  * same observer and illuminant. */
@@ -37,7 +37,7 @@ int brdf_colour_weights(const double *lambda_nm, size_t n, double *w, struct gon
 int brdf_colour_spectrum_to_xyz(const double *lambda_nm, const double *refl, size_t n,
                                 double xyz[3], struct gonio_err *err);
 
-/* XYZ (D65 white at Y = 1) to linear sRGB with the matrix of the brief. */
+/* XYZ (D65 white at Y = 1) to linear sRGB with the matrix of DESIGN.md. */
 void brdf_colour_xyz_to_srgb_linear(const double xyz[3], double rgb[3]);
 
 /* Chromaticity x = X/(X+Y+Z), y = Y/(X+Y+Z). Returns 0, or -1 (xy set to

@@ -14,7 +14,7 @@
 #include "brdf/material_private.h"
 #include "brdf/spectral_private.h"
 
-/* The brief's XYZ -> linear sRGB matrix (brdf/colour.h applies it too). */
+/* DESIGN.md's XYZ -> linear sRGB matrix (brdf/colour.h applies it too). */
 static void xyz_to_rgb_row(const double xyz[3], double rgb[3])
 {
     brdf_colour_xyz_to_srgb_linear(xyz, rgb);

@@ -62,7 +62,7 @@ void brdf_spectral_basis(double lambda_nm, double b[3]);
 void brdf_spectral_from_rgb(const double rgb[3], const double *lambda_nm, size_t n, double *out);
 
 /* Weights w[3n] with linear sRGB[c] = sum_k w[3k + c] * s[k] for a spectrum
- * s at the n wavelengths (D65, CIE 1931 2 degree, the brief's matrix). */
+ * s at the n wavelengths (D65, CIE 1931 2 degree, DESIGN.md's matrix). */
 int brdf_spectral_rgb_weights(const double *lambda_nm, size_t n, double *w,
                               struct gonio_err *err);
 

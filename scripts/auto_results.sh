@@ -1,6 +1,6 @@
 #!/bin/sh
 # docs/results-auto.md: does `--model auto` notice a material the latent
-# decoder does not know (issue 16 item 5)?
+# decoder does not know?
 #
 # For each analytic material (analytic:NAME, brdf/analytic.h) and each of
 # the ten held-out MERL materials (nbrdf:NAME; left out, with a message,
@@ -80,7 +80,7 @@ done
     echo "and auto (seed 1). Errors: full-domain log error against the material (mean |log(1 + fhat"
     echo "cos) - log(1 + f cos)| over the 923,870 MERL nodes with both directions within 80°)."
     echo "auto's CV figures are its 5-fold cross-validated log errors on the captured samples"
-    echo "(docs/fitting.md \"auto\"). best = the better of abc and latent; the issue's criterion is"
+    echo "(docs/fitting.md \"auto\"). best = the better of abc and latent; the criterion is"
     echo "auto ≤ 1.1 × best. \"abc vs table\" is the abc fit's full-domain error against the"
     echo "material's MERL export read back (\`gonio export merl\`, then \`merl:PATH\`): equal to the abc"
     echo "column when the table holds the material at its nodes."
@@ -96,7 +96,7 @@ done
         if ($2 ~ /^analytic:/) { na[$1]++; oka[$1] += ($5 <= 1.1 * best) } }
         END { for (s in n) printf "- %s: auto within 1.1× of the better of abc and latent on %d of %d analytic materials, %d of %d in all.\n", s, oka[s], na[s], ok[s], n[s] }' "$rows" | sort
     echo
-    echo "Reading. The issue's criterion (16, done-when 4: auto within 1.1× of the better of abc"
+    echo "Reading. The criterion (auto within 1.1× of the better of abc"
     echo "and latent on DS1, on materials outside MERL) is the analytic rows'. Where the decoder's"
     echo "MERL prior does not hold (the gold conductor, the coated paint, the plastic), the CV"
     echo "figures say so from the samples alone and auto keeps an ABC fit; where it does, auto"

@@ -1,5 +1,5 @@
 #!/bin/sh
-# The bus's cost (issue 13, item 4): DS3 on the ideal scene captured by
+# The bus's cost: DS3 on the ideal scene captured by
 # goniod over gonio-sim, with gonio-sim emulating the line (--baud: an RTU
 # exchange takes its frames' time; --tcp-latency: each TCP reply is late).
 # Per run: requests per point (goniod's bus statistics), the capture's rig
@@ -83,4 +83,4 @@ row "RTU, no line cost" rtu-free rtu
 BAUD=115200 row "RTU 115200 baud" rtu-115200 rtu --baud 115200
 BAUD=19200 row "RTU 19200 baud" rtu-19200 rtu --baud 19200
 row "TCP, 1 ms latency" tcp-1ms tcp --tcp-latency 1
-echo "targets (issue 13): overhead <= 2 % at 115200 baud, <= 5 % at 19200"
+echo "targets: overhead <= 2 % at 115200 baud, <= 5 % at 19200"

@@ -90,7 +90,7 @@ done
          END { for (k in w) { split(k, a, " "); printf "| %s | %s | %.4f | %s | %.4f | %d of %d |\n",
                a[1], a[2], w[k], wm[k], s[k] / n[k], ok[k], n[k] } }' "$rows" | sort
     echo
-    echo "Acceptance target of the regularised fit (issue 4: abc-prior, or latent with its"
+    echo "Acceptance target of the regularised fit (abc-prior, or latent with its"
     echo "population prior): DS4 full-domain log error <= 0.12 on each material. mlp rows of"
     echo "the full domain cover its in-plane nodes only (see above)."
 } >"$doc"

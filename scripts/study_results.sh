@@ -1,5 +1,5 @@
 #!/bin/sh
-# The study's findings page: docs/results-study.md (issue 6, part 5), from a
+# The study's findings page: docs/results-study.md, from a
 # `gonio study` results.csv (columns: docs/study.md).
 #
 # Usage: scripts/study_results.sh [STUDY_DIR]

@@ -21,8 +21,8 @@
  * with the ABC policy choose from DS1's pairs (docs/study.md measures them
  * against the 1-degree pool inplane-1deg): until the policy says more
  * points would buy too little, within a quarter of DS1's rig time on the
- * default rig (858 s; issue 16: "in <= 25 % of DS1's rig time"), and
- * within DS4's rig time on the job's scene and material (issue 16: 15 s on
+ * default rig (858 s), and
+ * within DS4's rig time on the job's scene and material (15 s on
  * the ideal scene, more where the detector integrates longer); the latent
  * policy, best on the 1-degree pool (docs/adaptive.md), within a quarter of
  * DS1's rig time. */

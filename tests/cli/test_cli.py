@@ -1,5 +1,4 @@
-"""What an operator types and reads (issue 14, items 3, 4, 6 and the small
-ones): --version everywhere, gonio help CMD, did-you-mean, one error style;
+"""What an operator types and reads: --version everywhere, gonio help CMD, did-you-mean, one error style;
 gonio plan's summary, durations, rig file and blind zone; gonio results as a
 table; refusals of report, export and study; goniod --check's group and host;
 gonio-sim's announcement (through a pty, as a person sees it); the man pages

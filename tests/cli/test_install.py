@@ -1,4 +1,4 @@
-"""make install and make package (issue 14 item 7, docs/install.md): the
+"""make install and make package (docs/install.md): the
 installed gonio runs from outside the source tree with the source tree's
 configs hidden; the README's goniod command works against the installed
 config; the .deb holds the unit, sysusers.d and tmpfiles.d files and its

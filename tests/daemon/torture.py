@@ -288,7 +288,7 @@ class Torture:
 
 
 class AdaptiveTorture(Torture):
-    """Kills in adaptive captures (issue 16; DS3's pairs as the pool, stop
+    """Kills in adaptive captures (DS3's pairs as the pool, stop
     converge, a budget of a minute, which goniod's resume must take from
     request.json or the engine refuses the resume): each capture, however
     often killed and resumed, must measure the sequence of points an

@@ -1,4 +1,4 @@
-"""An adaptive capture (issue 16) through goniod over Modbus TCP and RTU
+"""An adaptive capture through goniod over Modbus TCP and RTU
 against gonio-sim on the lab scene: the policy chooses from the
 inplane-1deg pool within a small rig-time budget, while the rig settles and
 integrates. The simulator runs 20 times faster than real time, not the

@@ -1,5 +1,5 @@
-"""The ETA on a rig whose material goniod cannot meter in advance (issue 14,
-item 5; docs/plans.md, "The ETA as the capture goes"): goniod captures DS3
+"""The ETA on a rig whose material goniod cannot meter in advance
+(docs/plans.md, "The ETA as the capture goes"): goniod captures DS3
 over Modbus RTU and TCP against gonio-sim on the lab scene, whose detector
 auto-exposes. The start document's estimate, made with the rig profile's
 fixed integration, is short by more than 10 %; the ETA right after the
@@ -24,7 +24,7 @@ import test_goniod as tg
 PLAN = "ds3"
 POINTS = 52
 SCALE = 20
-TOLERANCE = 0.075  # the issue's target is 5 %; the bus's share of rig time varies with load
+TOLERANCE = 0.075  # the target is 5 %; the bus's share of rig time varies with load
 
 
 def run_capture(folder, transport, **request):

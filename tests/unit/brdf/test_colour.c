@@ -148,7 +148,7 @@ static void test_white_is_d65(void **state)
     }
 }
 
-/* The brief's matrix, applied by hand to two colours. */
+/* DESIGN.md's matrix, applied by hand to two colours. */
 static void test_srgb_matrix(void **state)
 {
     (void)state;

@@ -124,7 +124,7 @@ static void test_full_domain(void **state)
                   d.n, expect);
     if (row == every_row)
         assert_int_equal(d.n, expect);
-    assert_true(d.n > 900000 && d.n < 950000); /* "about 924k" in the brief */
+    assert_true(d.n > 900000 && d.n < 950000); /* "about 924k" in DESIGN.md */
     check_members(&d, 0, row);
     brdf_domain_free(&d);
     assert_null(d.pairs);

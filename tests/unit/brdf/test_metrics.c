@@ -1,4 +1,4 @@
-/* Error metrics against the brief's formulas written out in the test. */
+/* Error metrics against DESIGN.md's formulas written out in the test. */
 #include "brdf/domain.h"
 #include "brdf/material_private.h"
 #include "brdf/metrics.h"

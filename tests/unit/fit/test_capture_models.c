@@ -214,7 +214,7 @@ static void test_latent_capture_ds4(void **state)
 }
 
 /* tungsten-carbide: six pairs give plain ABC a lobe the rest of the
- * hemisphere does not have (issue 4: full log error 0.3-0.5); the latent
+ * hemisphere does not have (full log error 0.3-0.5); the latent
  * model on the same capture stays near the material. */
 static void test_model_option_changes_the_fit(void **state)
 {

@@ -372,7 +372,7 @@ static void test_real_edge_materials(void **state)
 }
 
 
-/* ---- scale, degenerate inputs, identifiability, noise (issue 15) ---- */
+/* ---- scale, degenerate inputs, identifiability, noise ---- */
 
 /* A standard normal deviate from a splitmix64 state (Box-Muller). */
 static double gauss(uint64_t *st)

@@ -348,7 +348,7 @@ static void test_too_few_samples(void **state)
     assert_non_null(strstr(err.msg, "2 usable"));
 }
 
-/* Issue 4's acceptance for the regularised fit: DS4 (six in-plane pairs at
+/* The acceptance line of the regularised fit: DS4 (six in-plane pairs at
  * theta_i 30, configs/plans/ds4.yaml) of held-out materials, full-domain log
  * error <= 0.12. These three are the ones the population prior was added
  * for (gold-metallic-paint was 0.173 and blue-acrylic 0.108 without it) and

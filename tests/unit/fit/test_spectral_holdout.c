@@ -1,5 +1,5 @@
 /* The spectral MLP predicts spectral:gonio at angle pairs and wavelength
- * bands it was not trained on (issue 5; bench/spectral_holdout.c gives the
+ * bands it was not trained on (bench/spectral_holdout.c gives the
  * DS2 figures). Default budget on an in-plane grid, every 5th pair and every
  * 4th band held out; the held-out relative RMSE against the true material
  * must stay below 0.25 (seed 7 gives 0.12 and 0.07; seeds 1-3 up to 0.16;
