@@ -12,7 +12,8 @@ folders and ends in a file extension; words with a wildcard or a
 placeholder (test_*.c, configs/rigs/NAME.yaml) are patterns, not references. A section
 matches a heading of the document when the heading, without its #s and
 backticks, equals it or starts with it followed by a space, a colon, a comma or a
-parenthesis."""
+parenthesis. README.md's source layout must list every top-level folder.
+"""
 import os
 import re
 import subprocess
@@ -54,6 +55,25 @@ def section_exists(doc, section):
     return False
 
 
+def check_layout(root, tops):
+    """README.md's "Source layout" table names every top-level folder of
+    the tree, and no folder the tree does not have."""
+    text = open(os.path.join(root, "README.md"), encoding="utf-8").read()
+    m = re.search(r"^## Source layout\n(.*?)(?=^## |\Z)", text, re.M | re.S)
+    if not m:
+        print('README.md: no "Source layout" section')
+        return 1
+    listed = set(re.findall(r"^\| `([\w.-]+)/` \|", m.group(1), re.M))
+    bad = 0
+    for d in sorted(set(tops) - listed):
+        print("README.md: the source layout does not list %s/" % d)
+        bad += 1
+    for d in sorted(listed - set(tops)):
+        print("README.md: the source layout lists %s/, which the tree does not have" % d)
+        bad += 1
+    return bad
+
+
 def main():
     root = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else ".")
     files = tracked(root)
@@ -87,6 +107,7 @@ def main():
                 if not section_exists(os.path.join(root, doc), section):
                     print('%s:%d: %s has no section "%s"' % (f, n, doc, section))
                     bad += 1
+    bad += check_layout(root, tops)
     if bad:
         print("docs-check: %d broken reference(s)" % bad)
     return 1 if bad else 0
