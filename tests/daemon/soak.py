@@ -66,7 +66,8 @@ class Rig:
             args += ["--stall", stall]
         out = os.path.join(folder, "sim.out")
         self.sim = subprocess.Popen(tg.wrap(args, folder), stdout=open(out, "w"),
-                                    stderr=open(os.path.join(folder, "sim.err"), "w"))
+                                    stderr=open(os.path.join(folder, "sim.err"), "w"),
+                                    preexec_fn=tg.child_procs.die_with_parent)
         deadline = time.time() + 2 * tg.START_S
         text = ""
         while time.time() < deadline and "tcp" not in text:

@@ -24,6 +24,7 @@ import tempfile
 import time
 import unittest
 
+import child_procs
 import ctest_skips
 
 BIN = os.environ.get("GONIO_BIN", "build/bin")
@@ -223,7 +224,8 @@ class Daemon:
         logf = open(self.log, "a")
         argv = (self.command + ["--config", self.config] if self.command else
                 wrap([self.binary, "--config", self.config], self.folder))
-        self.proc = subprocess.Popen(argv, stdout=logf, stderr=logf, env=self.env)
+        self.proc = subprocess.Popen(argv, stdout=logf, stderr=logf, env=self.env,
+                                     preexec_fn=child_procs.die_with_parent)
         logf.close()
         deadline = time.time() + START_S
         while time.time() < deadline:
@@ -1288,7 +1290,8 @@ class ModbusRig(unittest.TestCase):
                                           "%g" % self.SIM_SCALE,
                                           "--link", os.path.join(self.folder, "tty"), "--tcp",
                                           "127.0.0.1:0"], self.folder), stdout=out,
-                                    stderr=open(os.path.join(self.folder, "sim.err"), "w"))
+                                    stderr=open(os.path.join(self.folder, "sim.err"), "w"),
+                                    preexec_fn=child_procs.die_with_parent)
         deadline = time.time() + START_S
         text = ""
         while time.time() < deadline and "tcp" not in text:
@@ -1574,6 +1577,7 @@ def run_on_pty(argv, env, interrupt_at=None, interrupt_after_s=None, timeout=120
     pid, fd = pty.fork()
     if pid == 0:
         try:
+            child_procs.die_with_parent()
             os.execve(argv[0], argv, env)
         finally:
             os._exit(127)

@@ -122,7 +122,8 @@ def gonio_sim(*args):
     clean memcheck report)."""
     folder = tg.tmpdir()
     proc = subprocess.Popen(tg.wrap([os.path.join(gonio_bin(), "gonio-sim"), *args, "--tcp",
-                                     "127.0.0.1:0"], folder), stdout=subprocess.PIPE, text=True)
+                                     "127.0.0.1:0"], folder), stdout=subprocess.PIPE, text=True,
+                            preexec_fn=tg.child_procs.die_with_parent)
     try:
         pty = proc.stdout.readline().strip()
         tcp = proc.stdout.readline().strip()
