@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """docs-check's reference check: every path a document or a source comment
-names (`drivers/drv_modbus.h`, `docs/plans.md`) exists in the tree, and
+names (`drivers/drv_modbus.h`, `docs/plans.md`) or links to (`[x](plans.md)`)
+exists in the tree, and
 every section it cites (`docs/plans.md, "Reachability"`) is a heading of
 that document. Prints each broken reference as FILE:LINE: what, and exits 1
 when there is one.
@@ -21,6 +22,7 @@ import sys
 
 EXT = r"(?:c|h|md|sh|py|yaml|yml|json|txt|cmake|csv|supp|service|in|spec|html|svg|png)"
 SCANNED = re.compile(r"(\.(md|c|h|sh|py|cmake|txt|yaml)|Makefile)$")
+LINK = re.compile(r"\]\(([^)\s]+)\)")
 SECTION = re.compile(r"(?<![\w/.-])((?:docs/)?(?:notes/)?[\w-]+\.md)[`)]*,? +(?:section +)?\"([^\"\n]{2,100})\"")
 
 
@@ -97,6 +99,13 @@ def main():
                     continue
                 if p not in present and p not in dirs and not os.path.exists(os.path.join(root, p)):
                     print("%s:%d: no such file: %s" % (f, n, p))
+                    bad += 1
+            for m in LINK.finditer(line) if f.endswith(".md") else ():
+                target = m.group(1).split("#")[0]
+                if not target or re.match(r"[a-z]+:", target):
+                    continue
+                if not os.path.exists(os.path.join(root, os.path.dirname(f), target)):
+                    print("%s:%d: the link to %s leads nowhere" % (f, n, target))
                     bad += 1
             for m in SECTION.finditer(line):
                 doc, section = m.group(1), m.group(2)
