@@ -27,9 +27,18 @@ SECTION = re.compile(r"(?<![\w/.-])((?:docs/)?(?:notes/)?[\w-]+\.md)[`)]*,? +(?:
 
 
 def tracked(root):
-    out = subprocess.run(["git", "ls-files", "-z"], cwd=root, check=True,
-                         capture_output=True).stdout.decode()
-    return [f for f in out.split("\0") if f]
+    """The repository's files: git's list, or outside a git checkout (a
+    release tarball) every file but the build folders'."""
+    try:
+        out = subprocess.run(["git", "ls-files", "-z"], cwd=root, check=True,
+                             capture_output=True).stdout.decode()
+        return [f for f in out.split("\0") if f]
+    except (OSError, subprocess.CalledProcessError):
+        files = []
+        for folder, dirs, names in os.walk(root):
+            dirs[:] = [d for d in dirs if not d.startswith((".", "build", "out"))]
+            files += [os.path.relpath(os.path.join(folder, n), root) for n in names]
+        return files
 
 
 def headings(path, cache={}):
