@@ -43,6 +43,7 @@ struct control {
     const struct goniod_config *cfg;
     worker *w;
     int listen_fd;
+    int lock_fd;        /* holds the socket's lock (daemon/lock.h) */
     uid_t self_uid;     /* goniod's own user: always allowed */
     gid_t allowed_gid;  /* peers in this group are allowed (socket.group, else ours) */
     struct control_client **clients;
