@@ -287,7 +287,7 @@ static const struct command commands[CONTROL_CMD_COUNT] = {
     [CONTROL_CMD_SHUTDOWN] = {cmd_shutdown, NEED_ANY},
 };
 
-void control_handle_line(control *c, struct control_client *cl, const char *line, size_t len)
+int control_handle_line(control *c, struct control_client *cl, const char *line, size_t len)
 {
     struct control_request rq;
     const char *bad;
@@ -295,7 +295,7 @@ void control_handle_line(control *c, struct control_client *cl, const char *line
     if (control_request_parse(line, len, &rq, &bad, why, sizeof why) < 0) {
         control_send_error(cl, bad, rq.id, "%s", why);
         control_request_free(&rq);
-        return;
+        return 0;
     }
     const struct command *cmd = &commands[rq.cmd];
     json_t *req = rq.doc, *id = rq.id;
@@ -307,12 +307,12 @@ void control_handle_line(control *c, struct control_client *cl, const char *line
                            "%s: capture '%s' is running; abort it or wait for it to finish",
                            name, st.id);
         control_request_free(&rq);
-        return;
+        return 1;
     }
     if (cmd->need == NEED_ACTIVE && st.state == WORKER_IDLE) {
         control_send_error(cl, "not-running", id, "%s: no capture is running", name);
         control_request_free(&rq);
-        return;
+        return 1;
     }
     json_t *reply = json_object();
     json_object_set_new(reply, "class", json_string("OK"));
@@ -335,4 +335,5 @@ void control_handle_line(control *c, struct control_client *cl, const char *line
         }
     }
     control_request_free(&rq);
+    return 1;
 }
