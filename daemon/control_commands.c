@@ -65,7 +65,8 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
     snprintf(r.model, sizeof r.model, "%s", model ? model : "abc");
     snprintf(r.order, sizeof r.order, "%s", order ? order : "");
     snprintf(r.stop, sizeof r.stop, "%s", stop ? stop : "");
-    /* Ranges, and whether the order takes them, are the engine's check. */
+    /* In range (daemon/request.c); whether the order takes them is the
+     * engine's check. */
     r.budget_min = json_number_value(json_object_get(req, "budget"));
     r.stop_target = json_number_value(json_object_get(req, "stop_target"));
     json_t *prescan = json_object_get(req, "prescan");

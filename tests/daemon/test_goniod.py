@@ -859,6 +859,31 @@ class CaptureTests(DaemonTest):
         st = c.request("status")
         self.assertEqual((st["state"], st["capture"]), ("idle", None))
 
+    def test_numeric_fields_in_range(self):
+        """Every number a request carries is range-checked as the line is
+        parsed: bad-value naming the field and the value, before anything
+        is looked up or created (no capture directory that would only fail
+        once the capture ran)."""
+        c = self.d.connect()
+        cases = (("budget", 1e308, "1e+308"), ("budget", 1e-300, "1e-300"),
+                 ("budget", -2, "-2"), ("budget", 10081, "10081"),
+                 ("budget", 0.1 - 1e-16, "%.17g" % (0.1 - 1e-16)),
+                 ("stop_target", 1e308, "1e+308"), ("stop_target", 1e-300, "1e-300"),
+                 ("stop_target", -0.5, "-0.5"), ("prescan", -1, "-1"), ("prescan", 65, "65"),
+                 ("prescan", 2 ** 62, str(2 ** 62)))
+        for field, value, shown in cases:
+            r = c.request("capture", plan="ds2", order="adaptive", name="r", **{field: value})
+            self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-value"), (field, r))
+            self.assertIn("capture: field '%s' %s is out of range" % (field, shown),
+                          r["message"])
+            self.assertEqual(os.listdir(self.d.root), [], (field, value))
+        # Through the client: the same message, exit 2 (bad input).
+        r = self.d.gonio("capture", "--plan", "ds2", "--order", "adaptive", "--budget", "1e308")
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("field 'budget' 1e+308 is out of range: 0 (none) or 0.1..10080 minutes",
+                      r.stderr)
+        self.assertEqual(os.listdir(self.d.root), [])
+
     def test_prescan_request(self):
         """prescan (docs/protocol.md): an integer 0..64, refused (nothing
         created) out of range or with the adaptive order; none by default on
@@ -870,7 +895,8 @@ class CaptureTests(DaemonTest):
         r = c.request("capture", plan="ds3", prescan="2", name="ps")
         self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-type"), r)
         self.assertIn("prescan", r["message"])
-        for args, needle in (({"prescan": -1}, "prescan -1"), ({"prescan": 65}, "prescan 65"),
+        for args, needle in (({"prescan": -1}, "field 'prescan' -1"),
+                             ({"prescan": 65}, "field 'prescan' 65"),
                              ({"prescan": 3, "order": "adaptive"}, "--prescan 3")):
             r = c.request("capture", plan="ds3", name="ps", **args)
             self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-value"), (args, r))
@@ -907,7 +933,7 @@ class CaptureTests(DaemonTest):
         self.assertIn("budget", r["message"])
         for args, needle in (({"budget": 0.5}, "--budget 0.5"),
                              ({"stop_target": 0.04}, "--stop-target 0.04"),
-                             ({"order": "adaptive", "budget": -2}, "--budget -2")):
+                             ({"order": "adaptive", "budget": -2}, "field 'budget' -2")):
             r = c.request("capture", plan="ds2", name="ad", **args)
             self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-value"), (args, r))
             self.assertIn(needle, r["message"])
