@@ -772,6 +772,40 @@ class CaptureTests(DaemonTest):
         self.assertEqual(docs[-1]["reason"], "complete")
         self.check_complete("ab")
 
+    def test_rig_time_after_resume(self):
+        """status carries the capture's rig time over a resume: from the
+        resumed run's start (the journal's), and after resuming a capture
+        the journal already holds whole (nothing measured, rig time
+        unchanged: not 0)."""
+        c = self.d.connect()
+        c.request("watch")
+        c.request("capture", plan="ds3", name="rt")
+        while c.read()["class"] != "event":
+            pass
+        self.assertEqual(c.request("abort")["class"], "OK")
+        aborted = c.until_stop("rt")[-1]
+        self.assertGreater(aborted["rig_time_s"], 0)
+        self.assertEqual(c.request("pause")["class"], "ERROR")  # idle: nothing to pause
+        self.assertEqual(c.request("resume", capture_id="rt")["class"], "OK")
+        self.assertEqual(c.read()["class"], "start")
+        self.assertEqual(c.request("pause")["class"], "OK")
+        st = c.request("status")
+        self.assertGreaterEqual(st["rig_time_s"], aborted["rig_time_s"], st)
+        self.assertGreaterEqual(st["capture"]["rig_time_s"], aborted["rig_time_s"], st)
+        self.assertEqual(c.request("resume")["class"], "OK")
+        complete = c.until_stop("rt")[-1]
+        self.assertEqual(complete["reason"], "complete")
+        self.assertEqual(c.request("status")["capture"]["rig_time_s"], complete["rig_time_s"])
+        # Resumed again with every point journalled: the rig time stays.
+        self.assertEqual(c.request("resume", capture_id="rt")["class"], "OK")
+        again = c.until_stop("rt")[-1]
+        self.assertEqual(again["rig_time_s"], complete["rig_time_s"])
+        cap = c.request("status")["capture"]
+        self.assertEqual((cap["state"], cap["rig_time_s"]), ("complete", complete["rig_time_s"]))
+        r = self.d.gonio("status")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertNotIn("rig time 0:00", r.stdout)
+
     def test_offline_capture_into_goniods_directory_is_refused(self):
         # goniod holds the capture directory while the capture runs (here
         # paused): an offline capture into it writes nothing.
