@@ -39,4 +39,7 @@ install(FILES docs/man/goniod.8 DESTINATION ${CMAKE_INSTALL_MANDIR}/man8)
 
 file(GLOB GONIO_DOCS CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/docs/*.md)
 install(FILES ${GONIO_DOCS} README.md LICENSE DESTINATION ${CMAKE_INSTALL_DOCDIR})
-install(DIRECTORY configs/goniod/ DESTINATION ${CMAKE_INSTALL_DOCDIR}/examples/goniod)
+# source-tree.yaml runs goniod from a checkout (state in build/): no example
+# for an installed system.
+install(DIRECTORY configs/goniod/ DESTINATION ${CMAKE_INSTALL_DOCDIR}/examples/goniod
+        PATTERN "source-tree.yaml" EXCLUDE)

@@ -13,6 +13,55 @@
 
 #include "common/paths.h"
 #include "daemon/control_private.h"
+#include "daemon/lock.h"
+
+/* A socket folder goniod creates is 0750 in the socket's group (gid, or
+ * -1 for ours): only the operators can even reach the socket. An existing
+ * folder is left as it is (systemd's RuntimeDirectory=, or a test's). */
+static int socket_folder(const char *socket_path, gid_t gid, struct gonio_err *err)
+{
+    char dir[sizeof ((struct sockaddr_un *)0)->sun_path];
+    snprintf(dir, sizeof dir, "%s", socket_path);
+    char *slash = strrchr(dir, '/');
+    struct stat st;
+    if (!slash || slash == dir)
+        return 0;
+    *slash = '\0';
+    if (stat(dir, &st) == 0)
+        return 0;
+    int rc = gonio_mkdir_p(dir, err);
+    if (rc < 0)
+        return rc;
+    if (chmod(dir, 0750) < 0 || (gid != (gid_t)-1 && chown(dir, (uid_t)-1, gid) < 0))
+        return gonio_err_set(err, errno, "%s: %s", dir, strerror(errno));
+    return 0;
+}
+
+/* With the socket's lock held: remove a socket file nobody listens on (a
+ * dead daemon's). Something that answers there, or whose backlog is full,
+ * without the lock is not a goniod that locks, and not ours to replace;
+ * neither is a file that is not a socket. */
+static int replace_stale(const struct sockaddr_un *sa, struct gonio_err *err)
+{
+    struct stat st;
+    if (lstat(sa->sun_path, &st) != 0)
+        return 0;
+    if (!S_ISSOCK(st.st_mode))
+        return gonio_err_set(err, EEXIST, "%s: exists and is not a socket; not replacing it",
+                             sa->sun_path);
+    int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    int rc = fd < 0 ? -1 : connect(fd, (const struct sockaddr *)sa, sizeof *sa);
+    int e = errno;
+    if (fd >= 0)
+        close(fd);
+    if (rc == 0 || (e != ECONNREFUSED && e != ENOENT))
+        return gonio_err_set(err, EADDRINUSE,
+                             "%s: another goniod, or another program, is listening there (%s); "
+                             "not replacing it",
+                             sa->sun_path, rc == 0 ? "it answered" : strerror(e));
+    unlink(sa->sun_path);
+    return 0;
+}
 
 control *control_new(const struct goniod_config *cfg, worker *w, struct gonio_err *err)
 {
@@ -32,45 +81,22 @@ control *control_new(const struct goniod_config *cfg, worker *w, struct gonio_er
         }
         gid = allowed = g->gr_gid;
     }
-    /* A socket folder goniod creates is 0750 in the socket's group: only
-     * the operators can even reach the socket. An existing folder is left
-     * as it is (systemd's RuntimeDirectory=, or a test's). */
-    char dir[sizeof sa.sun_path];
-    snprintf(dir, sizeof dir, "%s", cfg->socket_path);
-    char *slash = strrchr(dir, '/');
-    struct stat st;
-    if (slash && slash != dir) {
-        *slash = '\0';
-        if (stat(dir, &st) != 0) {
-            if (gonio_mkdir_p(dir, err) < 0)
-                return NULL;
-            if (chmod(dir, 0750) < 0 || (gid != (gid_t)-1 && chown(dir, (uid_t)-1, gid) < 0)) {
-                gonio_err_set(err, errno, "%s: %s", dir, strerror(errno));
-                return NULL;
-            }
-        }
-    }
-    if (lstat(cfg->socket_path, &st) == 0 && !S_ISSOCK(st.st_mode)) {
-        gonio_err_set(err, EEXIST, "%s: exists and is not a socket; not replacing it",
-                      cfg->socket_path);
+    if (socket_folder(cfg->socket_path, gid, err) < 0)
+        return NULL;
+    /* The socket's lock, held until control_free: while another goniod
+     * holds it the socket is that daemon's, however long it takes to
+     * answer; once it is ours, a socket file nobody listens on is a dead
+     * daemon's and is replaced. */
+    char lock_path[sizeof sa.sun_path + 8];
+    snprintf(lock_path, sizeof lock_path, "%s.lock", cfg->socket_path);
+    int lock_fd = goniod_lock_file(lock_path, "control socket", err);
+    if (lock_fd < 0)
+        return NULL;
+    if (replace_stale(&sa, err) < 0) {
+        close(lock_fd);
         return NULL;
     }
     int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-    if (fd < 0) {
-        gonio_err_set(err, errno, "socket: %s", strerror(errno));
-        return NULL;
-    }
-    /* A socket file left by a daemon that died is stale when nobody
-     * answers on it; a live daemon's socket is never taken over. */
-    if (connect(fd, (struct sockaddr *)&sa, sizeof sa) == 0) {
-        close(fd);
-        gonio_err_set(err, EADDRINUSE, "%s: another goniod is listening there",
-                      cfg->socket_path);
-        return NULL;
-    }
-    close(fd);
-    unlink(cfg->socket_path);
-    fd = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
     /* Created 0660 from the start (umask), so there is no moment in which
      * others could connect; chmod then makes the mode exact. */
     mode_t old_mask = umask(0117);
@@ -82,17 +108,23 @@ control *control_new(const struct goniod_config *cfg, worker *w, struct gonio_er
         gonio_err_set(err, errno, "%s: %s", cfg->socket_path, strerror(errno));
         if (fd >= 0)
             close(fd);
+        if (bound == 0)
+            unlink(cfg->socket_path);
+        close(lock_fd);
         return NULL;
     }
     control *c = calloc(1, sizeof *c);
     if (!c) {
         close(fd);
+        unlink(cfg->socket_path);
+        close(lock_fd);
         gonio_err_set(err, ENOMEM, "out of memory");
         return NULL;
     }
     c->cfg = cfg;
     c->w = w;
     c->listen_fd = fd;
+    c->lock_fd = lock_fd;
     c->self_uid = geteuid();
     c->allowed_gid = allowed;
     return c;
@@ -108,6 +140,7 @@ void control_free(control *c)
     free(c->clients);
     close(c->listen_fd);
     unlink(c->cfg->socket_path);
+    close(c->lock_fd); /* only now: the path is free for the next goniod */
     free(c->start_doc);
     free(c->descriptor_doc);
     free(c);

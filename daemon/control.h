@@ -21,10 +21,12 @@
 
 typedef struct control control;
 
-/* Bind and listen on cfg->socket_path (a stale socket file is replaced),
- * mode 0660, group cfg->socket_group when set. */
+/* Take the socket's lock (cfg->socket_path + ".lock", daemon/lock.h), then
+ * bind and listen on cfg->socket_path, mode 0660, group cfg->socket_group
+ * when set. A socket file there is replaced only when it is stale: the
+ * lock was free and nothing answers on it. */
 control *control_new(const struct goniod_config *cfg, worker *w, struct gonio_err *err);
-/* Close every client and remove the socket file. */
+/* Close every client, remove the socket file, then release its lock. */
 void control_free(control *c);
 
 /* The descriptors to poll: at most max entries; returns the count. */

@@ -170,15 +170,16 @@ void control_client_read(control *c, struct control_client *cl)
     while (!cl->dead && !cl->closing &&
            (nl = memchr(cl->in + start, '\n', cl->in_len - start))) {
         size_t len = (size_t)(nl - (cl->in + start));
-        /* Only a whole request counts as activity: a client trickling
-         * bytes without ever finishing a line still times out. */
-        cl->last_active = gonio_monotonic_s();
-        if (len > 0 && !(len == 1 && cl->in[start] == '\r')) {
-            if (client_take_token(c, cl))
-                control_handle_line(c, cl, cl->in + start, len);
-            else
-                refuse_rate(c, cl, cl->in + start, len);
-        }
+        /* Every line spends a token, an empty one too, or "\n" in a loop
+         * would cost a client nothing. Only a well-formed request counts
+         * as activity: a client trickling bytes without ever finishing a
+         * line, or sending empty or malformed lines, still times out. An
+         * empty line gets no reply unless it is refused. */
+        int empty = len == 0 || (len == 1 && cl->in[start] == '\r');
+        if (!client_take_token(c, cl))
+            refuse_rate(c, cl, cl->in + start, len);
+        else if (!empty && control_handle_line(c, cl, cl->in + start, len))
+            cl->last_active = gonio_monotonic_s();
         start += len + 1;
     }
     memmove(cl->in, cl->in + start, cl->in_len - start);

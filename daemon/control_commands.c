@@ -65,7 +65,8 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
     snprintf(r.model, sizeof r.model, "%s", model ? model : "abc");
     snprintf(r.order, sizeof r.order, "%s", order ? order : "");
     snprintf(r.stop, sizeof r.stop, "%s", stop ? stop : "");
-    /* Ranges, and whether the order takes them, are the engine's check. */
+    /* In range (daemon/request.c); whether the order takes them is the
+     * engine's check. */
     r.budget_min = json_number_value(json_object_get(req, "budget"));
     r.stop_target = json_number_value(json_object_get(req, "stop_target"));
     json_t *prescan = json_object_get(req, "prescan");
@@ -287,7 +288,7 @@ static const struct command commands[CONTROL_CMD_COUNT] = {
     [CONTROL_CMD_SHUTDOWN] = {cmd_shutdown, NEED_ANY},
 };
 
-void control_handle_line(control *c, struct control_client *cl, const char *line, size_t len)
+int control_handle_line(control *c, struct control_client *cl, const char *line, size_t len)
 {
     struct control_request rq;
     const char *bad;
@@ -295,7 +296,7 @@ void control_handle_line(control *c, struct control_client *cl, const char *line
     if (control_request_parse(line, len, &rq, &bad, why, sizeof why) < 0) {
         control_send_error(cl, bad, rq.id, "%s", why);
         control_request_free(&rq);
-        return;
+        return 0;
     }
     const struct command *cmd = &commands[rq.cmd];
     json_t *req = rq.doc, *id = rq.id;
@@ -307,12 +308,12 @@ void control_handle_line(control *c, struct control_client *cl, const char *line
                            "%s: capture '%s' is running; abort it or wait for it to finish",
                            name, st.id);
         control_request_free(&rq);
-        return;
+        return 1;
     }
     if (cmd->need == NEED_ACTIVE && st.state == WORKER_IDLE) {
         control_send_error(cl, "not-running", id, "%s: no capture is running", name);
         control_request_free(&rq);
-        return;
+        return 1;
     }
     json_t *reply = json_object();
     json_object_set_new(reply, "class", json_string("OK"));
@@ -335,4 +336,5 @@ void control_handle_line(control *c, struct control_client *cl, const char *line
         }
     }
     control_request_free(&rq);
+    return 1;
 }

@@ -34,7 +34,7 @@ struct control_client {
     int watching;
     int closing;       /* close once out is sent */
     int dead;
-    double last_active; /* last complete request (or the connect) */
+    double last_active; /* last well-formed request (or the connect) */
     double tokens;      /* rate limit: requests it may send now */
     double tokens_at;   /* when tokens was last refilled */
 };
@@ -43,6 +43,7 @@ struct control {
     const struct goniod_config *cfg;
     worker *w;
     int listen_fd;
+    int lock_fd;        /* holds the socket's lock (daemon/lock.h) */
     uid_t self_uid;     /* goniod's own user: always allowed */
     gid_t allowed_gid;  /* peers in this group are allowed (socket.group, else ours) */
     struct control_client **clients;
@@ -101,8 +102,10 @@ void control_broadcast_state(control *c);
 
 /* ---- control_commands.c ----------------------------------------------- */
 
-/* Run one request line (without its newline) and queue the reply. */
-void control_handle_line(control *c, struct control_client *cl, const char *line, size_t len);
+/* Run one request line (without its newline) and queue the reply. Returns
+ * 1 when the line was a well-formed request (run, or refused for the rig's
+ * state), 0 when it was malformed. */
+int control_handle_line(control *c, struct control_client *cl, const char *line, size_t len);
 
 /* ---- control_paths.c -------------------------------------------------- */
 

@@ -17,6 +17,7 @@
 #include "common/version.h"
 #include "daemon/config.h"
 #include "daemon/control.h"
+#include "daemon/lock.h"
 #include "daemon/notify.h"
 #include "daemon/worker.h"
 
@@ -67,11 +68,16 @@ static int setup_signals(struct gonio_err *err)
 static int serve(const struct goniod_config *cfg)
 {
     struct gonio_err err = {0};
-    worker *w = worker_new(cfg, &err);
+    /* One daemon per capture root (daemon/lock.h), held until we exit;
+     * the socket's own lock is control_new's. */
+    int root_lock = goniod_lock_dir(cfg->capture_root, "capture root", &err);
+    worker *w = root_lock >= 0 ? worker_new(cfg, &err) : NULL;
     control *c = w ? control_new(cfg, w, &err) : NULL;
     if (!c) {
         fprintf(stderr, "goniod: %s\n", err.msg);
         worker_free(w);
+        if (root_lock >= 0)
+            close(root_lock);
         return 1;
     }
     fprintf(stderr, "goniod: version %s, listening on %s (driver %s, captures in %s)\n",
@@ -87,6 +93,7 @@ static int serve(const struct goniod_config *cfg)
     if (!pfd) {
         control_free(c);
         worker_free(w);
+        close(root_lock);
         return 1;
     }
     for (;;) {
@@ -151,6 +158,7 @@ static int serve(const struct goniod_config *cfg)
     control_free(c);
     worker_free(w);
     free(pfd);
+    close(root_lock);
     fprintf(stderr, "goniod: stopped\n");
     return 0;
 }

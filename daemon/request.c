@@ -1,24 +1,41 @@
 #include "daemon/request.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+
+#include "capture/capture.h"
 
 enum arg_type { ARG_STRING, ARG_BOOL, ARG_INT, ARG_NUMBER };
 
+/* A field a command takes. Numbers and integers have a range, checked
+ * here so that a request out of it is refused before anything is looked
+ * up or created: min..max, and 0 too when zero_none (0 then means none);
+ * unit says what the number is, in the message. */
 struct arg_spec {
     const char *name;
     enum arg_type type;
+    double min, max;
+    int zero_none;
+    const char *unit;
 };
 
+#define STRING_ARG(n) {.name = (n), .type = ARG_STRING}
 static const struct arg_spec capture_args[] = {
-    {"plan", ARG_STRING},  {"scene", ARG_STRING}, {"material", ARG_STRING},
-    {"rig", ARG_STRING},   {"model", ARG_STRING}, {"order", ARG_STRING},
-    {"stop", ARG_STRING},  {"name", ARG_STRING},  {"truth", ARG_STRING},
-    {"budget", ARG_NUMBER}, {"stop_target", ARG_NUMBER}, {"prescan", ARG_INT},
-    {NULL, ARG_STRING},
+    STRING_ARG("plan"), STRING_ARG("scene"), STRING_ARG("material"),
+    STRING_ARG("rig"),  STRING_ARG("model"), STRING_ARG("order"),
+    STRING_ARG("stop"), STRING_ARG("name"),  STRING_ARG("truth"),
+    /* From a few points' rig time to a week. */
+    {.name = "budget", .type = ARG_NUMBER, .min = 0.1, .max = 10080, .zero_none = 1,
+     .unit = "minutes of rig time"},
+    /* The full-domain log errors of real fits lie around 0.01..0.1. */
+    {.name = "stop_target", .type = ARG_NUMBER, .min = 1e-6, .max = 10, .zero_none = 1,
+     .unit = "a full-domain log error"},
+    {.name = "prescan", .type = ARG_INT, .min = 0, .max = CAPTURE_PRESCAN_MAX, .unit = "points"},
+    {.name = NULL},
 };
-static const struct arg_spec resume_args[] = {{"capture_id", ARG_STRING}, {NULL, ARG_STRING}};
-static const struct arg_spec no_args[] = {{NULL, ARG_STRING}};
+static const struct arg_spec resume_args[] = {STRING_ARG("capture_id"), {.name = NULL}};
+static const struct arg_spec no_args[] = {{.name = NULL}};
 
 /* The fields each command takes besides cmd and id, indexed by enum control_cmd. */
 static const struct {
@@ -53,6 +70,34 @@ static int type_ok(enum arg_type t, json_t *v)
            : t == ARG_BOOL ? json_is_boolean(v)
            : t == ARG_INT  ? json_is_integer(v)
                            : json_is_number(v);
+}
+
+static int in_range(const struct arg_spec *a, json_t *v)
+{
+    if (a->type == ARG_INT) {
+        json_int_t i = json_integer_value(v);
+        return (a->zero_none && i == 0) || ((double)i >= a->min && (double)i <= a->max);
+    }
+    if (a->type == ARG_NUMBER) {
+        double x = json_number_value(v);
+        return (a->zero_none && x == 0) || (x >= a->min && x <= a->max);
+    }
+    return 1;
+}
+
+/* "capture: field 'budget' 1e+308 is out of range: 0 (none) or 0.1..10080
+ * minutes of rig time". */
+static void range_message(const char *cmd, const struct arg_spec *a, json_t *v, char *out,
+                          size_t size)
+{
+    char value[64];
+    if (json_is_integer(v))
+        snprintf(value, sizeof value, "%lld", (long long)json_integer_value(v));
+    else if (snprintf(value, sizeof value, "%.15g", json_number_value(v)) > 0 &&
+             strtod(value, NULL) != json_number_value(v))
+        snprintf(value, sizeof value, "%.17g", json_number_value(v)); /* 15 digits hid it */
+    snprintf(out, size, "%s: field '%s' %s is out of range: %s%g..%g %s", cmd, a->name, value,
+             a->zero_none ? "0 (none) or " : "", a->min, a->max, a->unit);
 }
 
 static int fail(const char **code, const char *what, char *msg, size_t size, const char *text)
@@ -110,6 +155,10 @@ int control_request_parse(const char *line, size_t len, struct control_request *
             snprintf(why, sizeof why, "%s: field '%s' must be %s", req->name, key,
                      type_name(a->type));
             return fail(code, "bad-type", msg, size, why);
+        }
+        if (!in_range(a, val)) {
+            range_message(req->name, a, val, why, sizeof why);
+            return fail(code, "bad-value", msg, size, why);
         }
     }
     return 0;

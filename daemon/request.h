@@ -1,6 +1,7 @@
 /* One control-socket request line checked against the protocol's command
  * table (docs/protocol.md): JSON, an object, a string or integer id, a
- * known cmd, only that command's fields with their types. Kept apart from
+ * known cmd, only that command's fields with their types, numbers within
+ * their ranges. Kept apart from
  * the socket code so that the parser of what a local client sends can be
  * tested and fuzzed on its own (fuzz/fuzz_control.c). */
 #ifndef GONIO_DAEMON_REQUEST_H
@@ -30,7 +31,8 @@ struct control_request {
 
 /* Parse and check line[len] (no newline). Returns 0 with req filled, or -1
  * with *code the error class ("bad-json", "bad-request", "bad-type",
- * "unknown-command", "unknown-field") and msg the reason; req->id is then
+ * "unknown-command", "unknown-field", "bad-value" for a number out of its
+ * field's range) and msg the reason, naming the field and the value; req->id is then
  * the id to echo (NULL when the id itself was bad). Call
  * control_request_free in both cases. */
 int control_request_parse(const char *line, size_t len, struct control_request *req,

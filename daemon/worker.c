@@ -123,6 +123,11 @@ static void hook_on_progress(void *user, const struct capture_progress *p)
     pthread_mutex_lock(&w->mu);
     w->done = p->done;
     w->total = p->total;
+    /* The rig clock of every run so far: a resumed capture's first report
+     * carries its journal's, which no sample of this run may ever update
+     * (a capture the journal already holds whole). */
+    if (isfinite(p->rig_time_s))
+        w->rig_time_s = p->rig_time_s;
     w->estimate_s = p->estimate_s;
     w->eta_s = p->eta_s;
     const struct adaptive_status *a = p->policy;

@@ -379,7 +379,7 @@ class CheckTests(unittest.TestCase):
         self.assertIn("%s:1:" % path, r.stderr)
 
     def test_shipped_configs(self):
-        for name in ("sim.yaml", "modbus-rtu.yaml", "modbus-tcp.yaml"):
+        for name in ("sim.yaml", "modbus-rtu.yaml", "modbus-tcp.yaml", "source-tree.yaml"):
             path = shipped_config(name, self.folder)
             r = run_wrapped([GONIOD, "--config", path, "--check"], self.folder)
             self.assertEqual(r.returncode, 0, name + ": " + r.stderr)
@@ -776,6 +776,40 @@ class CaptureTests(DaemonTest):
         self.assertEqual(docs[-1]["reason"], "complete")
         self.check_complete("ab")
 
+    def test_rig_time_after_resume(self):
+        """status carries the capture's rig time over a resume: from the
+        resumed run's start (the journal's), and after resuming a capture
+        the journal already holds whole (nothing measured, rig time
+        unchanged: not 0)."""
+        c = self.d.connect()
+        c.request("watch")
+        c.request("capture", plan="ds3", name="rt")
+        while c.read()["class"] != "event":
+            pass
+        self.assertEqual(c.request("abort")["class"], "OK")
+        aborted = c.until_stop("rt")[-1]
+        self.assertGreater(aborted["rig_time_s"], 0)
+        self.assertEqual(c.request("pause")["class"], "ERROR")  # idle: nothing to pause
+        self.assertEqual(c.request("resume", capture_id="rt")["class"], "OK")
+        self.assertEqual(c.read()["class"], "start")
+        self.assertEqual(c.request("pause")["class"], "OK")
+        st = c.request("status")
+        self.assertGreaterEqual(st["rig_time_s"], aborted["rig_time_s"], st)
+        self.assertGreaterEqual(st["capture"]["rig_time_s"], aborted["rig_time_s"], st)
+        self.assertEqual(c.request("resume")["class"], "OK")
+        complete = c.until_stop("rt")[-1]
+        self.assertEqual(complete["reason"], "complete")
+        self.assertEqual(c.request("status")["capture"]["rig_time_s"], complete["rig_time_s"])
+        # Resumed again with every point journalled: the rig time stays.
+        self.assertEqual(c.request("resume", capture_id="rt")["class"], "OK")
+        again = c.until_stop("rt")[-1]
+        self.assertEqual(again["rig_time_s"], complete["rig_time_s"])
+        cap = c.request("status")["capture"]
+        self.assertEqual((cap["state"], cap["rig_time_s"]), ("complete", complete["rig_time_s"]))
+        r = self.d.gonio("status")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertNotIn("rig time 0:00", r.stdout)
+
     def test_offline_capture_into_goniods_directory_is_refused(self):
         # goniod holds the capture directory while the capture runs (here
         # paused): an offline capture into it writes nothing.
@@ -863,6 +897,31 @@ class CaptureTests(DaemonTest):
         st = c.request("status")
         self.assertEqual((st["state"], st["capture"]), ("idle", None))
 
+    def test_numeric_fields_in_range(self):
+        """Every number a request carries is range-checked as the line is
+        parsed: bad-value naming the field and the value, before anything
+        is looked up or created (no capture directory that would only fail
+        once the capture ran)."""
+        c = self.d.connect()
+        cases = (("budget", 1e308, "1e+308"), ("budget", 1e-300, "1e-300"),
+                 ("budget", -2, "-2"), ("budget", 10081, "10081"),
+                 ("budget", 0.1 - 1e-16, "%.17g" % (0.1 - 1e-16)),
+                 ("stop_target", 1e308, "1e+308"), ("stop_target", 1e-300, "1e-300"),
+                 ("stop_target", -0.5, "-0.5"), ("prescan", -1, "-1"), ("prescan", 65, "65"),
+                 ("prescan", 2 ** 62, str(2 ** 62)))
+        for field, value, shown in cases:
+            r = c.request("capture", plan="ds2", order="adaptive", name="r", **{field: value})
+            self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-value"), (field, r))
+            self.assertIn("capture: field '%s' %s is out of range" % (field, shown),
+                          r["message"])
+            self.assertEqual(os.listdir(self.d.root), [], (field, value))
+        # Through the client: the same message, exit 2 (bad input).
+        r = self.d.gonio("capture", "--plan", "ds2", "--order", "adaptive", "--budget", "1e308")
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("field 'budget' 1e+308 is out of range: 0 (none) or 0.1..10080 minutes",
+                      r.stderr)
+        self.assertEqual(os.listdir(self.d.root), [])
+
     def test_prescan_request(self):
         """prescan (docs/protocol.md): an integer 0..64, refused (nothing
         created) out of range or with the adaptive order; none by default on
@@ -874,7 +933,8 @@ class CaptureTests(DaemonTest):
         r = c.request("capture", plan="ds3", prescan="2", name="ps")
         self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-type"), r)
         self.assertIn("prescan", r["message"])
-        for args, needle in (({"prescan": -1}, "prescan -1"), ({"prescan": 65}, "prescan 65"),
+        for args, needle in (({"prescan": -1}, "field 'prescan' -1"),
+                             ({"prescan": 65}, "field 'prescan' 65"),
                              ({"prescan": 3, "order": "adaptive"}, "--prescan 3")):
             r = c.request("capture", plan="ds3", name="ps", **args)
             self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-value"), (args, r))
@@ -911,7 +971,7 @@ class CaptureTests(DaemonTest):
         self.assertIn("budget", r["message"])
         for args, needle in (({"budget": 0.5}, "--budget 0.5"),
                              ({"stop_target": 0.04}, "--stop-target 0.04"),
-                             ({"order": "adaptive", "budget": -2}, "--budget -2")):
+                             ({"order": "adaptive", "budget": -2}, "field 'budget' -2")):
             r = c.request("capture", plan="ds2", name="ad", **args)
             self.assertEqual((r["class"], r.get("code")), ("ERROR", "bad-value"), (args, r))
             self.assertIn(needle, r["message"])

@@ -20,7 +20,7 @@ import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from test_goniod import GONIOD, SOURCE, Conn, Daemon, DaemonTest, journal_points, plan_total, tmpdir  # noqa: E402
+from test_goniod import GONIOD, SOURCE, START_S, Conn, Daemon, DaemonTest, journal_points, plan_total, tmpdir  # noqa: E402
 
 DS3 = os.path.join(SOURCE, "configs", "plans", "ds3.yaml")
 
@@ -225,6 +225,107 @@ class LimitTests(DaemonTest):
         self.assertEqual(flood.request("status")["class"], "STATUS")
         self.assertEqual(w.until_stop("fl")[-1]["reason"], "complete")
         self.check_complete("fl")
+
+    def test_refill_follows_the_configured_rate(self):
+        # The bucket's refill, bounded both ways by the configured rate
+        # alone. Too slow: after a refusal the bucket holds less than one
+        # token, and 1/rate seconds later (the client's sleep; host delays
+        # only add to it) it holds at least one, so the next request must
+        # be served. Too fast: over the whole exchange at most the burst
+        # plus rate x the time the client saw pass are served, since the
+        # daemon's time between its first and last answer lies inside it.
+        rate, burst, waits = 5.0, 4, 15
+        self.restart("  rate_per_s: %g\n  burst: %d\n" % (rate, burst))
+        t0 = time.monotonic()
+        c = self.d.connect()
+        served = 0
+        for _ in range(waits):
+            while True:
+                r = c.request("status")
+                if r["class"] != "STATUS":
+                    break
+                served += 1
+            self.assertEqual(r.get("code"), "rate-limited", r)
+            time.sleep(1.05 / rate)
+            r = c.request("status")
+            self.assertEqual(r["class"], "STATUS",
+                             "refused %.2f s after a refusal at %g requests/s: %r"
+                             % (1.05 / rate, rate, r))
+            served += 1
+        elapsed = time.monotonic() - t0
+        self.assertLessEqual(served, burst + rate * elapsed + 0.5,
+                             "%d served in %.2f s at %g/s, bursts of %d"
+                             % (served, elapsed, rate, burst))
+
+    def test_empty_lines_spend_tokens(self):
+        # An empty line is a request as far as the rate limit goes: a burst
+        # of them leaves no token for the real request behind them (the
+        # refill, 0.01 a second, adds none meanwhile).
+        self.restart("  rate_per_s: 0.01\n  burst: 10\n")
+        c = self.d.connect()
+        c.send_raw(b"\n" * 6 + b"\r\n" * 4 + b'{"cmd": "status", "id": "late"}\n')
+        r = c.read()
+        self.assertEqual((r["class"], r.get("code"), r.get("id")),
+                         ("ERROR", "rate-limited", "late"), r)
+
+    def test_empty_line_clients_do_not_lock_out(self):
+        # max_clients (16) connections that send only empty lines, under the
+        # rate limit, are not activity: the idle timeout closes them, and a
+        # seventeenth client gets in.
+        self.restart("  idle_timeout_s: 1\n  rate_per_s: 5\n  burst: 10\n")
+        stop = threading.Event()
+        held = []
+        while len(held) < 16:
+            s = socket.socket(socket.AF_UNIX)
+            s.settimeout(20)
+            s.connect(self.d.sock)
+            f = s.makefile("rb")
+            first = json.loads(f.readline())
+            if first["class"] == "VERSION":
+                held.append((s, f))
+            else:  # start()'s probe not yet reaped
+                self.assertEqual(first.get("code"), "too-many-clients", first)
+                s.close()
+                time.sleep(0.05)
+
+        def keep_sending(s):
+            while not stop.is_set():
+                try:
+                    s.sendall(b"\n")
+                except OSError:
+                    return  # closed by goniod
+                stop.wait(0.3)
+
+        threads = [threading.Thread(target=keep_sending, args=(s,)) for s, _ in held]
+        for t in threads:
+            t.start()
+        try:
+            admitted = None
+            deadline = time.monotonic() + 6 * START_S
+            while admitted is None and time.monotonic() < deadline:
+                s = socket.socket(socket.AF_UNIX)
+                s.settimeout(20)
+                s.connect(self.d.sock)
+                first = json.loads(s.makefile("rb").readline())
+                s.close()
+                if first["class"] == "VERSION":
+                    admitted = first
+                else:
+                    self.assertEqual(first.get("code"), "too-many-clients", first)
+                    time.sleep(0.2)
+            self.assertIsNotNone(admitted, "16 clients sending empty lines kept the 17th out "
+                                 "for %d s with idle_timeout_s 1" % (6 * START_S))
+        finally:
+            stop.set()
+            for t in threads:
+                t.join()
+        # Each was closed by the idle timeout, and told so last.
+        for s, f in held:
+            lines = f.read().splitlines()
+            codes = [json.loads(x).get("code") for x in lines]
+            self.assertEqual(codes[-1:], ["idle-timeout"], codes)
+            s.close()
+        self.assertEqual(self.d.connect().request("status")["class"], "STATUS")
 
     def test_flooder_that_never_reads_is_dropped(self):
         # Refusals are output too: a flooder that does not read them fills
