@@ -94,17 +94,30 @@ static int write_fully(int fd, const char *buf, size_t len)
     return 0;
 }
 
-int journal_read(const char *path, struct journal_sample **samples, size_t *n,
-                 struct gonio_err *err)
+int journal_read_info(const char *path, struct journal_sample **samples, size_t *n,
+                      struct journal_info *info, struct gonio_err *err)
 {
     int fd = open(path, O_RDONLY | O_CLOEXEC);
     if (fd < 0)
         return gonio_err_set(err, errno == ENOENT ? GONIO_ENOTFOUND : errno, "%s: %s", path,
                              strerror(errno));
     struct journal_tail tail;
+    struct stat st;
     int rc = journal_load(path, fd, samples, n, &tail, err);
+    if (rc == 0 && info) {
+        info->chained = tail.format == JOURNAL_CHAINED;
+        info->torn_bytes = fstat(fd, &st) == 0 && st.st_size > tail.valid_len
+                               ? (size_t)(st.st_size - tail.valid_len)
+                               : 0;
+    }
     close(fd);
     return rc;
+}
+
+int journal_read(const char *path, struct journal_sample **samples, size_t *n,
+                 struct gonio_err *err)
+{
+    return journal_read_info(path, samples, n, NULL, err);
 }
 
 journal *journal_open(const char *path, struct journal_sample **samples, size_t *n,

@@ -67,4 +67,14 @@ void journal_close(journal *j);
 int journal_read(const char *path, struct journal_sample **samples, size_t *n,
                  struct gonio_err *err);
 
+/* What journal_read_info says of a journal besides its records. */
+struct journal_info {
+    int chained;       /* the current format (0: the earlier, unchained one) */
+    size_t torn_bytes; /* bytes of a torn last record, which journal_open cuts */
+};
+
+/* journal_read, and the format and torn tail found (gonio journal check). */
+int journal_read_info(const char *path, struct journal_sample **samples, size_t *n,
+                      struct journal_info *info, struct gonio_err *err);
+
 #endif
