@@ -16,8 +16,8 @@
  * there; then the capture is resumed to the end. The layer models the
  * journal's data; the durability of names is test_durability's.
  *
- * GONIO_POWERLOSS_TRIALS (default 12) and GONIO_POWERLOSS_SEED vary the
- * run. */
+ * GONIO_POWERLOSS_TRIALS (default 12, 3 at the small size) and
+ * GONIO_POWERLOSS_SEED vary the run. */
 #define _GNU_SOURCE /* syscall */
 #include <errno.h>
 #include <fcntl.h>
@@ -264,7 +264,7 @@ static void test_power_loss_keeps_every_reported_sample(void **state)
 {
     (void)state;
     const char *v = getenv("GONIO_POWERLOSS_TRIALS");
-    int trials = v ? atoi(v) : 12;
+    int trials = v ? atoi(v) : gonio_test_small() ? 3 : 12; /* memcheck: 3 */
     v = getenv("GONIO_POWERLOSS_SEED");
     unsigned seed = v ? (unsigned)strtoul(v, NULL, 0) : 20261203u;
     char capdir[300], image[300], report[300], jpath[400];
