@@ -22,7 +22,26 @@ struct journal {
     char path[4096];
 };
 
-static int write_fully(int fd, const char *buf, size_t len);
+/* Write all of buf. A write() that stops short says nothing of why (errno
+ * is left as it was): writing the rest gets the cause (ENOSPC on a full
+ * disk, EFBIG past the file size limit). 0, or -1 with errno set. */
+static int write_fully(int fd, const char *buf, size_t len)
+{
+    while (len > 0) {
+        ssize_t w = write(fd, buf, len);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w < 0)
+            return -1;
+        if (w == 0) {
+            errno = ENOSPC;
+            return -1;
+        }
+        buf += w;
+        len -= (size_t)w;
+    }
+    return 0;
+}
 
 #ifdef GONIO_TEST_HOOKS
 /* GONIO_JOURNAL_TEAR_S (crash torture, journal.h): seconds, 0..10. */
@@ -71,27 +90,6 @@ static int format_record(const struct journal_sample *s, const struct journal_ta
     *crc = journal_crc(tail->format == JOURNAL_CHAINED ? tail->crc : 0, buf, (size_t)n);
     n += snprintf(buf + n, size - (size_t)n, "%08lx\n", *crc);
     return n;
-}
-
-/* Write all of buf. A write() that stops short says nothing of why (errno
- * is left as it was): writing the rest gets the cause (ENOSPC on a full
- * disk, EFBIG past the file size limit). 0, or -1 with errno set. */
-static int write_fully(int fd, const char *buf, size_t len)
-{
-    while (len > 0) {
-        ssize_t w = write(fd, buf, len);
-        if (w < 0 && errno == EINTR)
-            continue;
-        if (w < 0)
-            return -1;
-        if (w == 0) {
-            errno = ENOSPC;
-            return -1;
-        }
-        buf += w;
-        len -= (size_t)w;
-    }
-    return 0;
 }
 
 int journal_read_info(const char *path, struct journal_sample **samples, size_t *n,
