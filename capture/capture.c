@@ -877,9 +877,9 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
         j = journal_open(path, &samples, &n, err);
         rc = j ? 0 : -abs(err ? err->code : EIO);
         /* A resume trusts only records measured at their plan points. */
+        struct journal_plan jp = {.plan = in.plan, .count = plan_count(in.plan)};
         if (j && n > 0)
-            rc = journal_plan_check(path, samples, n, &(struct journal_plan){.plan = in.plan,
-                                    .count = plan_count(in.plan)}, in.rig.mech.in_position_deg, err);
+            rc = journal_plan_check(path, samples, n, &jp, in.rig.mech.in_position_deg, err);
         if (j && cfg->lazy_journal)
             journal_set_lazy(j);
     }

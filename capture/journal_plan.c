@@ -135,7 +135,8 @@ int journal_plan_read(const char *plan_json, struct plan_point **points, size_t 
     json_error_t je;
     json_t *root = json_load_file(plan_json, 0, &je);
     if (!root)
-        return gonio_err_set(err, GONIO_EBADDATA, "%s:%d:%d: %s", plan_json, je.line, je.column, je.text);
+        return gonio_err_set(err, GONIO_EBADDATA, "%s:%d:%d: %s", plan_json, je.line, je.column,
+                             je.text);
     json_t *pairs = json_object_get(root, "pairs");
     size_t n = json_array_size(pairs);
     int rc = 0;

@@ -22,8 +22,9 @@ int journal_record_check(const struct journal_sample *s, const struct journal_ta
 {
     static const char *const names[] = {"theta_i", "theta_r", "phi_i", "theta_o", "phi_o",
                                         "s", "a", "r", "g", "b", "integration_s", "rig_time_s"};
-    const double v[] = {s->theta_i, s->theta_r, s->phi_i, s->theta_o,      s->phi_o,     s->s,
-                        s->a,       s->rgb[0],  s->rgb[1], s->rgb[2], s->integration_s, s->rig_time_s};
+    const double v[] = {s->theta_i, s->theta_r, s->phi_i,  s->theta_o, s->phi_o,
+                        s->s,       s->a,       s->rgb[0], s->rgb[1],  s->rgb[2],
+                        s->integration_s, s->rig_time_s};
     for (size_t i = 0; i < sizeof v / sizeof *v; i++)
         if (!isfinite(v[i])) {
             snprintf(why, size, "%s %g is not a finite number", names[i], v[i]);

@@ -18,7 +18,8 @@
 #include "common/err.h"
 #include "journal/journal.h"
 
-#define JOURNAL_COLUMNS "point,theta_i,theta_r,phi_i,theta_o,phi_o,s,a,r,g,b,integration_s,rig_time_s,flags,"
+#define JOURNAL_COLUMNS \
+    "point,theta_i,theta_r,phi_i,theta_o,phi_o,s,a,r,g,b,integration_s,rig_time_s,flags,"
 #define JOURNAL_HEADER_PER_RECORD JOURNAL_COLUMNS "crc32\n"
 #define JOURNAL_HEADER_CHAINED JOURNAL_COLUMNS "chain_crc32\n"
 #define JOURNAL_LINE_MAX 1024
