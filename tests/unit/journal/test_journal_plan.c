@@ -229,7 +229,7 @@ static void test_point_twice(void **state)
 }
 
 /* The band: an axis 0.05 deg off its target is within the default rig's
- * 0.1 deg, 0.15 deg is not. */
+ * 0.1 deg, 0.15 deg is not; the same for the azimuth. */
 static void test_in_position_band(void **state)
 {
     (void)state;
@@ -256,6 +256,13 @@ static void test_in_position_band(void **state)
     assert_int_equal(journal_plan_check(path, s, n, &plan, 0.1, &err), -GONIO_EBADDATA);
     assert_non_null(strstr(err.msg, ":5: point"));
     assert_int_equal(journal_plan_check(path, s, n, &plan, 0.2, &err), 0);
+    /* The azimuth phi_o implies, the short way round (0 and 360 agree). */
+    s[4].phi_o = s[4].theta_r >= 0 ? 180.05 : 359.95;
+    assert_int_equal(journal_plan_check(path, s, n, &plan, 0.2, &err), 0);
+    s[4].phi_o = s[4].theta_r >= 0 ? 180.5 : 359.5;
+    assert_int_equal(journal_plan_check(path, s, n, &plan, 0.2, &err), -GONIO_EBADDATA);
+    assert_non_null(strstr(err.msg, ":6: point"));
+    assert_non_null(strstr(err.msg, "azimuth"));
     free(s);
     free(pts);
 }
