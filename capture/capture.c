@@ -10,6 +10,7 @@
 #include "brdf/material.h"
 #include "common/clock.h"
 #include "capture/capture_files.h"
+#include "capture/journal_plan.h"
 #include "capture/eta.h"
 #include "capture/sequence.h"
 #include "fit/journal_samples.h"
@@ -875,6 +876,10 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
         snprintf(path, sizeof path, "%s/samples.csv", cfg->out_dir);
         j = journal_open(path, &samples, &n, err);
         rc = j ? 0 : -abs(err ? err->code : EIO);
+        /* A resume trusts only records measured at their plan points. */
+        struct journal_plan jp = {.plan = in.plan, .count = plan_count(in.plan)};
+        if (j && n > 0)
+            rc = journal_plan_check(path, samples, n, &jp, in.rig.mech.in_position_deg, err);
         if (j && cfg->lazy_journal)
             journal_set_lazy(j);
     }

@@ -29,6 +29,7 @@ static const struct {
     {"plot", cmd_plot, "one figure as SVG or PNG: slices, pareto, bars (docs/report.md)"},
     {"render", cmd_render, "render materials and fitted models on a lit sphere (EXR, PNG)"},
     {"study", cmd_study, "accuracy against rig time: materials x plans x models x scenes"},
+    {"journal", cmd_journal, "check a capture's journal as a resume would, without resuming"},
 };
 
 #define N_COMMANDS (sizeof commands / sizeof commands[0])

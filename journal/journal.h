@@ -2,10 +2,14 @@
  * written and fsync'd before the next point is measured, so a capture
  * interrupted at any instant resumes without losing or repeating a sample.
  *
- * Each record ends with the CRC-32 of the rest of its line. The reader
- * accepts a record only when its CRC matches and its newline is there; a
- * torn last record (power cut mid-write) is cut off on open, a bad record
- * anywhere else is corruption and an error. */
+ * Each record ends with a CRC-32 that continues the previous record's
+ * (journal_record.h), so an edited, removed, inserted or moved record
+ * breaks the chain at its line. The reader accepts a record only when its
+ * CRC continues the chain, its newline is there and its values are
+ * possible (finite, rig time not negative and never going back); a torn
+ * last record (no newline: power cut mid-write) is cut off on open, any
+ * other bad line is an error "path:LINE: what is wrong". Journals of the
+ * earlier unchained format are still read, and appended to in it. */
 #ifndef GONIO_JOURNAL_JOURNAL_H
 #define GONIO_JOURNAL_JOURNAL_H
 
@@ -46,7 +50,10 @@ journal *journal_open(const char *path, struct journal_sample **samples, size_t 
  * is simply measured again and fdatasync per sample would dominate the cost. */
 void journal_set_lazy(journal *j);
 
-/* Append one record and make it durable before returning (unless lazy). In
+/* Append one record and make it durable before returning (unless lazy).
+ * A sample the reader would refuse (journal_record.h's checks) is not
+ * written: -GONIO_EBADDATA. A write that fails names its cause (a full
+ * disk: "No space left on device"). In
  * the test build (GONIO_TEST_HOOKS, goniod-test), GONIO_JOURNAL_TEAR_S=SECONDS
  * in the environment (the crash torture, docs/torture.md) sends the record
  * out in two write()s with that pause between them, so a kill can tear it. */
@@ -55,8 +62,19 @@ int journal_append(journal *j, const struct journal_sample *s, struct gonio_err 
 /* Close; a lazy journal is fdatasync'd first. */
 void journal_close(journal *j);
 
-/* Read a journal without opening it for writing (torn tail ignored). */
+/* Read a journal without opening it for writing (torn tail ignored); the
+ * same checks and errors as journal_open. */
 int journal_read(const char *path, struct journal_sample **samples, size_t *n,
                  struct gonio_err *err);
+
+/* What journal_read_info says of a journal besides its records. */
+struct journal_info {
+    int chained;       /* the current format (0: the earlier, unchained one) */
+    size_t torn_bytes; /* bytes of a torn last record, which journal_open cuts */
+};
+
+/* journal_read, and the format and torn tail found (gonio journal check). */
+int journal_read_info(const char *path, struct journal_sample **samples, size_t *n,
+                      struct journal_info *info, struct gonio_err *err);
 
 #endif
