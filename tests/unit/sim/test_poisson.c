@@ -4,11 +4,13 @@
  * own sampler wraps its counts from a mean of about 4.3e9 (4.4e9 gave
  * 1.05e8) and does not return past about 1e10; the shot noise of a scene
  * at the top of its ranges (responsivity 1e15, a dark rate of 1e12 e-/s)
- * goes through the same counts.
+ * goes through the same counts, and every effect at both ends of its
+ * documented range reads at once through the in-process rig.
  *
  * Fixed seeds, and bounds of six standard errors: a seed that moved them
  * would have to be a one-in-a-billion draw. A sampler that hangs ends the
  * test at its alarm (60 s; the whole test takes well under a second). */
+#include <stdio.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -162,6 +164,78 @@ static void test_rig_reads_at_responsivity_1e15(void **state)
     brdf_material_free(m);
 }
 
+/* Every effect at both ends of its documented range, loaded from a scene
+ * file (the loader accepts what docs/scenes.md documents) and read through
+ * the in-process rig: every reading comes back at once, finite and >= 0
+ * where nothing can take it below (no read noise: it is the one effect
+ * that may). */
+static void read_scene(const char *text, int read_noise)
+{
+    char path[256];
+    snprintf(path, sizeof path, "/tmp/gonio-range-%d.yaml", (int)getpid());
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+    struct sim_scene sc;
+    struct gonio_err err = {0};
+    int rc = sim_scene_load(path, &sc, &err);
+    unlink(path);
+    if (rc != 0)
+        fail_msg("%s", err.msg);
+    struct plan_rig rig;
+    plan_rig_default(&rig);
+    rig.auto_max_s = 600; /* the longest a rig profile allows */
+    brdf_material *m = brdf_material_open("default", NULL);
+    sim_rig *r = sim_rig_new_scene(&rig, m, &sc, NULL, &err);
+    assert_non_null(r);
+    const double at[][2] = {{0, 10}, {40, 85}, {80, 165}, {20, 60}};
+    for (int i = 0; i < 40; i++) {
+        assert_int_equal(sim_rig_start_move(r, SIM_AXIS_SAMPLE, at[i % 4][0], NULL), 0);
+        assert_int_equal(sim_rig_start_move(r, SIM_AXIS_ARM, at[i % 4][1], NULL), 0);
+        assert_int_equal(sim_rig_wait(r, SIM_AXIS_SAMPLE, NULL), 0);
+        assert_int_equal(sim_rig_wait(r, SIM_AXIS_ARM, NULL), 0);
+        struct sim_reading rd;
+        assert_int_equal(sim_rig_acquire(r, 0.05, &rd, NULL), 0);
+        for (int c = 0; c < 3; c++) {
+            assert_true(isfinite(rd.rgb[c]));
+            if (!read_noise)
+                assert_true(rd.rgb[c] >= 0);
+        }
+    }
+    sim_rig_free(r);
+    brdf_material_free(m);
+}
+
+static void test_every_range_at_both_ends(void **state)
+{
+    (void)state;
+    read_scene("material: default\n"
+               "detector: {kind: rgb, responsivity: 1.0e15, target_e: 1.0e15}\n"
+               "effects:\n"
+               "  - {name: lamp_drift, sigma: 0.5, tau_s: 1.0e-3}\n"
+               "  - {name: stray_light, floor: 1000}\n"
+               "  - {name: dark, rate_e_per_s: 1.0e12}\n"
+               "  - shot_noise\n"
+               "  - {name: read_noise, sigma_e: 1.0e9}\n"
+               "  - {name: saturation, full_well_e: 1.0e15}\n",
+               1);
+    read_scene("material: default\n"
+               "detector: {kind: rgb, responsivity: 1.0e-6, target_e: 1}\n"
+               "effects:\n"
+               "  - {name: lamp_drift, sigma: 0.5, tau_s: 1.0e9}\n"
+               "  - {name: dark, rate_e_per_s: 1.0e12}\n"
+               "  - shot_noise\n"
+               "  - {name: saturation, full_well_e: 1}\n",
+               0);
+    read_scene("material: default\n"
+               "detector: {kind: spectral, responsivity: 1.0e15, target_e: 1}\n"
+               "effects:\n"
+               "  - {name: dark, rate_e_per_s: 1.0e12}\n"
+               "  - shot_noise\n",
+               0);
+}
+
 int main(void)
 {
     alarm(60);
@@ -171,6 +245,7 @@ int main(void)
         cmocka_unit_test(test_degenerate_means),
         cmocka_unit_test(test_shot_noise_at_the_top_of_the_scene_ranges),
         cmocka_unit_test(test_rig_reads_at_responsivity_1e15),
+        cmocka_unit_test(test_every_range_at_both_ends),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
