@@ -9,6 +9,8 @@
 #include <gsl/gsl_randist.h>
 #include <gsl/gsl_rng.h>
 
+#include "sim/poisson.h"
+
 /* The state of one effect: its parameters, its random stream and what it
  * carries from one call to the next. */
 struct fx_state {
@@ -52,19 +54,23 @@ struct sim_effects {
 /* Lamp drift: the source's output is 1 + x(t), x an Ornstein-Uhlenbeck
  * process (standard deviation sigma, correlation time tau_s) advanced
  * exactly over the time between readings; x = 0 at the first reading (the
- * lamp was calibrated when the capture started). */
+ * lamp was calibrated when the capture started). 1 - a^2 is computed as
+ * -expm1(-2 dt / tau): with dt a millionth of tau or less, 1 - a * a
+ * loses most of its digits, and all of them below 1e-16. A lamp emits no
+ * negative light: the output holds at 0 where x < -1 (at sigma 0.5, the
+ * largest a scene allows, 2.3% of the time). */
 static void fx_lamp_drift(struct fx_state *st, struct sim_signal *s)
 {
     if (!st->started) {
         st->started = 1;
         st->x = 0;
     } else {
-        double dt = s->now_s - st->t_last;
-        double a = exp(-(dt > 0 ? dt : 0) / st->spec.tau_s);
-        st->x = a * st->x + st->spec.sigma * sqrt(1 - a * a) * gsl_ran_ugaussian(st->rng);
+        double dt = fmax(s->now_s - st->t_last, 0) / st->spec.tau_s;
+        st->x = exp(-dt) * st->x +
+                st->spec.sigma * sqrt(-expm1(-2 * dt)) * gsl_ran_ugaussian(st->rng);
     }
     st->t_last = s->now_s;
-    double gain = 1 + st->x;
+    double gain = fmax(1 + st->x, 0);
     for (int k = 0; k < s->n; k++)
         s->v[k] *= gain;
 }
@@ -92,14 +98,15 @@ static void fx_dark(struct fx_state *st, struct sim_signal *s)
         s->v[k] += add;
 }
 
-/* Shot noise: the electron count is Poisson with the signal as its mean. */
+/* Shot noise: the electron count is Poisson with the signal as its mean
+ * (sim/poisson.h: exact where GSL is, for any mean a scene allows). */
 static void fx_shot_noise(struct fx_state *st, struct sim_signal *s)
 {
     double scale = electrons_per_unit(s);
     for (int k = 0; k < s->n; k++) {
         double e = s->v[k] * scale;
         if (e > 0) /* also skips NAN (no data) */
-            s->v[k] = (double)gsl_ran_poisson(st->rng, e) / scale;
+            s->v[k] = sim_poisson(st->rng, e) / scale;
     }
 }
 

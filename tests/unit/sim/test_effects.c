@@ -372,6 +372,74 @@ static void test_lamp_drift(void **state)
     sim_effects_free(fx);
 }
 
+/* The drift's size over the spacing of a capture's readings, not only its
+ * long-run spread: x(t + dt) - a x(t), a = exp(-dt / tau), is N(0, sigma^2
+ * (1 - a^2)) whatever x(t) was. Checked at the lab scene's tau (1800 s)
+ * with readings 2 s apart, where a drift 30 times slower (or weaker) moves
+ * the lamp 30 times less, and at dt = tau; the residual variance within
+ * six standard errors (6 sqrt(2 / n): 6%) both ways. */
+static void check_drift_steps(double sigma, double tau_s, double dt)
+{
+    struct sim_scene sc;
+    sim_scene_ideal(&sc, "default");
+    struct sim_effect_spec *d = add(&sc, SIM_FX_LAMP_DRIFT);
+    d->sigma = sigma;
+    d->tau_s = tau_s;
+    sim_effects *fx = sim_effects_new(&sc, NULL);
+    const int n = 20000;
+    const double a = exp(-dt / tau_s), want = sigma * sigma * -expm1(-2 * dt / tau_s);
+    double prev = 0, s1 = 0, s2 = 0;
+    for (int i = 0; i <= n; i++) {
+        double v = 3.0;
+        struct sim_signal s = {.v = &v, .n = 1, .now_s = 1000 + dt * i};
+        sim_effects_light(fx, &s);
+        double x = v / 3.0 - 1;
+        if (i > 0) {
+            double r = x - a * prev;
+            s1 += r;
+            s2 += r * r;
+        }
+        prev = x;
+    }
+    sim_effects_free(fx);
+    double mean = s1 / n, var = s2 / n - mean * mean;
+    assert_close(mean, 0, 6 * sqrt(want / n));
+    assert_rel_close(var, want, 6 * sqrt(2.0 / n));
+}
+
+static void test_lamp_drift_steps(void **state)
+{
+    (void)state;
+    check_drift_steps(0.005, 1800, 2);    /* the lab scene, a reading every 2 s */
+    check_drift_steps(0.03, 300, 300);    /* bad-day's, a tau apart */
+    check_drift_steps(0.02, 1e9, 1e-7);   /* 1 - a^2 = 2e-16: 1 - a * a is 11% off */
+}
+
+/* A lamp emits no negative light: at the largest sigma (0.5) the output
+ * holds at 0 when x < -1, as often as a normal draw is below -2 sigma. */
+static void test_lamp_drift_never_negative(void **state)
+{
+    (void)state;
+    struct sim_scene sc;
+    sim_scene_ideal(&sc, "default");
+    struct sim_effect_spec *d = add(&sc, SIM_FX_LAMP_DRIFT);
+    d->sigma = 0.5;
+    d->tau_s = 1;
+    sim_effects *fx = sim_effects_new(&sc, NULL);
+    const int n = 20000;
+    int dark = 0;
+    for (int i = 0; i <= n; i++) {
+        double v = 1.0;
+        struct sim_signal s = {.v = &v, .n = 1, .now_s = 100.0 * i};
+        sim_effects_light(fx, &s);
+        assert_true(v >= 0);
+        dark += i > 0 && v == 0;
+    }
+    sim_effects_free(fx);
+    const double p = 0.0227501319481792; /* P(z < -2) */
+    assert_close(dark / (double)n, p, 6 * sqrt(p * (1 - p) / n));
+}
+
 /* Streams are the effect's own: same seed, same draws; another effect in
  * the scene (here one that draws but changes nothing) leaves them alone;
  * another seed changes them. */
@@ -582,6 +650,8 @@ int main(void)
         cmocka_unit_test(test_read_noise_and_dark),
         cmocka_unit_test(test_saturation_clips_and_flags),
         cmocka_unit_test(test_lamp_drift),
+        cmocka_unit_test(test_lamp_drift_steps),
+        cmocka_unit_test(test_lamp_drift_never_negative),
         cmocka_unit_test(test_streams_reproducible_and_independent),
         cmocka_unit_test(test_stall_fails_the_wait_naming_the_alarm),
         cmocka_unit_test(test_alarm_rate),
