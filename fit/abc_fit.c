@@ -1,6 +1,7 @@
 /* fit_abc: validation, start search, local trust-region solves with GSL. */
 #include <float.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -335,27 +336,40 @@ static int sample_usable(const struct fit_sample *s, double scale)
     return 1;
 }
 
-/* Mean over an in-plane grid (theta_i 0..80 step 10, theta_r -80..80 step
- * 4, blind zone 5 degrees) and the channels of the standard deviation of
- * the predicted log(1 + f cos theta_i): g^T cov g with g its gradient in
- * theta. Parameters GSL found undetermined have zero covariance and add
- * nothing: they do not move the prediction. */
-static double predictive_sd(const double th[ABC_NPAR], double c[ABC_NPAR][ABC_NPAR])
+/* The in-plane grid of predictive_sd (theta_i 0..80 step 10, theta_r
+ * -80..80 step 4, blind zone 5 degrees; its first 153 pairs), built once
+ * per process: the same for every fit. */
+#define PRED_GRID_MAX (17 * 9)
+static struct fit_sample pred_grid[PRED_GRID_MAX];
+static size_t pred_grid_n;
+static pthread_once_t pred_grid_once = PTHREAD_ONCE_INIT;
+
+static void pred_grid_build(void)
 {
-    struct fit_sample s[17 * 9];
     size_t n = 0;
     for (int i = 0; i <= 8; i++)
         for (int r = -20; r <= 20; r++) {
             double ti = 10.0 * i, tr = 4.0 * r;
-            if (fabs(ti + tr) < 5 || n >= sizeof s / sizeof s[0])
+            if (fabs(ti + tr) < 5 || n >= PRED_GRID_MAX)
                 continue;
-            brdf_pair_inplane(ti, tr, &s[n].g);
-            s[n].rgb[0] = s[n].rgb[1] = s[n].rgb[2] = 0;
+            brdf_pair_inplane(ti, tr, &pred_grid[n].g);
+            pred_grid[n].rgb[0] = pred_grid[n].rgb[1] = pred_grid[n].rgb[2] = 0;
             n++;
         }
+    pred_grid_n = n;
+}
+
+/* Mean over the in-plane grid (pred_grid) and the channels of the standard
+ * deviation of the predicted log(1 + f cos theta_i): g^T cov g with g its
+ * gradient in theta. Parameters GSL found undetermined have zero
+ * covariance and add nothing: they do not move the prediction. */
+static double predictive_sd(const double th[ABC_NPAR], double c[ABC_NPAR][ABC_NPAR])
+{
+    pthread_once(&pred_grid_once, pred_grid_build);
+    size_t n = pred_grid_n;
     struct abc_problem pb;
     double *J = malloc(3 * n * ABC_NPAR * sizeof *J);
-    if (!J || abc_problem_init(&pb, s, NULL, n) < 0) {
+    if (!J || abc_problem_init(&pb, pred_grid, NULL, n) < 0) {
         free(J);
         return NAN;
     }
@@ -363,10 +377,15 @@ static double predictive_sd(const double th[ABC_NPAR], double c[ABC_NPAR][ABC_NP
     double sum = 0;
     for (size_t row = 0; row < 3 * n; row++) {
         const double *g = J + row * ABC_NPAR;
-        double v = 0;
+        /* a row has 5 non-zeros; the zero terms add nothing (c is finite) */
+        int nz[ABC_NPAR], m = 0;
         for (int a = 0; a < ABC_NPAR; a++)
-            for (int b = 0; b < ABC_NPAR; b++)
-                v += g[a] * c[a][b] * g[b];
+            if (g[a] != 0)
+                nz[m++] = a;
+        double v = 0;
+        for (int i = 0; i < m; i++)
+            for (int j = 0; j < m; j++)
+                v += g[nz[i]] * c[nz[i]][nz[j]] * g[nz[j]];
         sum += sqrt(fmax(v, 0.0));
     }
     abc_problem_free(&pb);
@@ -435,8 +454,10 @@ static int sandwich(const struct abc_problem *pb, const double th[ABC_NPAR], gsl
  * of an unweighted fit reduce to s2 (J^T J)^-1 (importance weights
  * inflate the variance by about mean(w^2), Kish's design effect). A
  * parameter whose column of J is zero (clamped, or without influence) is
- * undetermined: INFINITY. */
+ * undetermined: INFINITY. K (nk rows) and cn: the root of J^T J at theta
+ * (abc_jacobian_root). */
 static void uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR], double s2,
+                        const double *K, size_t nk, const double cn[ABC_NPAR],
                         struct fit_uncertainty *u)
 {
     double *sd = (double *)u; /* 10 doubles in the order of the struct */
@@ -444,12 +465,10 @@ static void uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR],
         sd[i] = NAN;
     if (!isfinite(s2))
         return;
-    double K[(15 + ABC_NPAR) * ABC_NPAR], cn[ABC_NPAR];
     gsl_matrix *cov = gsl_matrix_alloc(ABC_NPAR, ABC_NPAR);
-    size_t nk = cov ? abc_jacobian_root(pb, th, K, cn) : 0;
-    if (nk < ABC_NPAR)
+    if (!cov || nk < ABC_NPAR)
         goto done;
-    gsl_matrix_view Kv = gsl_matrix_view_array(K, nk, ABC_NPAR);
+    gsl_matrix_const_view Kv = gsl_matrix_const_view_array(K, nk, ABC_NPAR);
     if (gsl_multifit_nlinear_covar(&Kv.matrix, 1e-12, cov) != GSL_SUCCESS)
         goto done;
     /* GSL zeroes the rows and columns of the parameters it found dependent */
@@ -587,6 +606,18 @@ static size_t drop_duplicates(const struct fit_sample *s, size_t *idx, size_t nv
     return m;
 }
 
+/* abc_problem_cost through the solver's vectorised residual pass (equal
+ * to rounding: a log of the ratio for the log loss's log1p pair). */
+static double fast_cost(const struct abc_problem *pb, const double th[ABC_NPAR])
+{
+    struct abc_cache c;
+    if (abc_cache_init(&c, pb) < 0)
+        return abc_problem_cost(pb, th);
+    double cost = abc_problem_resid(pb, th, NULL, &c);
+    abc_cache_free(&c);
+    return cost;
+}
+
 /* RMS log residual of the data rows at theta (the prior's rows and the
  * fit's loss aside): residuals comparable across losses and models. */
 static double rms_log(const struct abc_problem *pb, const double th[ABC_NPAR])
@@ -594,7 +625,7 @@ static double rms_log(const struct abc_problem *pb, const double th[ABC_NPAR])
     struct abc_problem v = *pb;
     v.loss = FIT_LOSS_LOG;
     v.prior = NULL;
-    return pb->n ? sqrt(2.0 * abc_problem_cost(&v, th) / (3.0 * (double)pb->n)) : NAN;
+    return pb->n ? sqrt(2.0 * fast_cost(&v, th) / (3.0 * (double)pb->n)) : NAN;
 }
 
 /* peak-unbounded (fit/fit_status.h): the largest of the n readings idx
@@ -630,39 +661,46 @@ static int peak_unbounded(const struct fit_sample *s, const size_t *idx, size_t 
 #define ABC_FOLDS 5
 
 /* The RMS log residual of samples held out, ABC_FOLDS folds (sample k in
- * fold k mod ABC_FOLDS) of the first n of idx, each fold predicted by a fit
- * of the rest resumed from theta. NAN when a fold's rest is too small to
- * fit. */
-static double heldout_rms(const struct fit_sample *s, const size_t *idx, size_t n,
+ * fold k mod ABC_FOLDS) of the samples of pb (s[idx[k]], k < pb->n), each
+ * fold predicted by a fit of the rest resumed from theta. NAN when a
+ * fold's rest is too small to fit. */
+static double heldout_rms(const struct abc_problem *pb, const size_t *idx,
                           const struct fit_options *opt, const double *weight,
-                          const struct abc_prior_term *prior, const double theta[ABC_NPAR])
+                          const double theta[ABC_NPAR])
 {
-    size_t folds = n < ABC_FOLDS ? n : ABC_FOLDS, need = prior ? 1 : 3;
+    size_t n = pb->n, folds = n < ABC_FOLDS ? n : ABC_FOLDS, need = pb->prior ? 1 : 3;
     if (!folds || n - (n + folds - 1) / folds < need)
         return NAN;
-    size_t *train = malloc(n * sizeof *train), *test = malloc(n * sizeof *test);
+    /* positions in pb, and the samples they are (for the per-sample flags) */
+    size_t *train = malloc(2 * n * sizeof *train), *test = malloc(2 * n * sizeof *test);
     double sum = 0, tested = 0; /* residual rows tested, each counted by its weight */
     for (size_t f = 0; train && test && f < folds; f++) {
         size_t nt = 0, nh = 0;
         for (size_t k = 0; k < n; k++) {
             if (k % folds == f)
-                test[nh++] = idx[k];
+                test[nh++] = k;
             else
-                train[nt++] = idx[k];
+                train[nt++] = k;
         }
+        size_t *train_s = train + n, *test_s = test + n;
+        for (size_t k = 0; k < nt; k++)
+            train_s[k] = idx[train[k]];
+        for (size_t k = 0; k < nh; k++)
+            test_s[k] = idx[test[k]];
         struct abc_problem tp = {0}, hp = {0};
         struct solve_result r;
-        if (abc_problem_init(&tp, s, train, nt) == 0 && abc_problem_set_loss(&tp, opt->loss) == 0 &&
-            abc_problem_set_lower(&tp, opt->lower_bound, train) == 0 &&
-            abc_problem_set_weights(&tp, weight, train) == 0 &&
-            abc_problem_init(&hp, s, test, nh) == 0 &&
-            abc_problem_set_lower(&hp, opt->lower_bound, test) == 0 &&
-            abc_problem_set_weights(&hp, weight, test) == 0) {
-            tp.prior = prior;
+        if (abc_problem_subset(&tp, pb, train, nt) == 0 &&
+            abc_problem_set_loss(&tp, opt->loss) == 0 &&
+            abc_problem_set_lower(&tp, opt->lower_bound, train_s) == 0 &&
+            abc_problem_set_weights(&tp, weight, train_s) == 0 &&
+            abc_problem_subset(&hp, pb, test, nh) == 0 &&
+            abc_problem_set_lower(&hp, opt->lower_bound, test_s) == 0 &&
+            abc_problem_set_weights(&hp, weight, test_s) == 0) {
+            tp.prior = pb->prior;
             if (local_solve(&tp, theta, opt, ABC_COARSE_FTOL, NULL, &r) == 0) {
-                sum += 2.0 * abc_problem_cost(&hp, r.theta);
+                sum += 2.0 * fast_cost(&hp, r.theta);
                 for (size_t k = 0; k < nh; k++)
-                    tested += 3 * (weight ? weight[test[k]] : 1.0);
+                    tested += 3 * (weight ? weight[test_s[k]] : 1.0);
             }
         }
         abc_problem_free(&tp);
@@ -910,17 +948,19 @@ static int fit_sorted(const struct fit_sample *samples, size_t n, struct fit_opt
         double s2 = residual_variance(fp, best.cost);
         if (prior) /* the prior's noise level, or the misfit when it is larger */
             s2 = isfinite(s2) && s2 > prior_sigma * prior_sigma ? s2 : prior_sigma * prior_sigma;
-        uncertainty(fp, best.theta, s2, &info->sd);
+        /* the root of J^T J at the optimum, for the covariance and the
+         * status's rank (which leaves the prior's rows out) */
+        double K[(15 + ABC_NPAR) * ABC_NPAR], cn[ABC_NPAR];
+        size_t nk = abc_jacobian_root(fp, best.theta, K, cn);
+        uncertainty(fp, best.theta, s2, K, nk, cn, &info->sd);
         info->scale = scale;
         info->domain_weights = weight != NULL;
         struct fit_status *st = &info->status;
         *st = fit_status_init();
         st->geometries = fit_status_geometries(samples, idx, nv);
-        abc_status_figures(fp, best.theta, st);
+        abc_status_figures(best.theta, K, nk && prior ? nk - ABC_NPAR : nk, st);
         st->insample = rms_log(fp, best.theta);
-        st->heldout = opt.heldout ? heldout_rms(samples, idx, n_local, &opt, weight, prior,
-                                                best.theta)
-                                  : NAN;
+        st->heldout = opt.heldout ? heldout_rms(&local, idx, &opt, weight, best.theta) : NAN;
         if (!best.converged)
             st->findings |= 1u << FIT_STATUS_NOT_CONVERGED;
         if (peak_unbounded(samples, idx, nv, opt.lower_bound, out))
