@@ -112,7 +112,7 @@ class Problem:
         return J.reshape(3 * self.n, 9)
 
 
-COARSE_FTOL, POLISH_FTOL = 1e-6, 1e-10  # fit/abc_fit.c ABC_COARSE_FTOL, ABC_POLISH_FTOL
+COARSE_FTOL, POLISH_FTOL = 1e-6, 1e-10  # fit/abc_solve.h ABC_COARSE_FTOL, ABC_POLISH_FTOL
 
 
 def solve(pb, x0, ftol):

@@ -1,5 +1,5 @@
 /* The ABC Jacobian at a fit's optimum: its square root (for the parameter
- * covariance, fit/abc_fit.c) and what it says about the fit's status
+ * covariance, fit/abc_covariance.c) and what it says about the fit's status
  * (fit/fit_status.h): parameters on a bound, the rank and the condition
  * number of the free parameters. */
 #include <math.h>
