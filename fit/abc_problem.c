@@ -58,8 +58,7 @@ static size_t distinct(double *v, size_t n, double **u, unsigned *idx)
     return m;
 }
 
-int abc_problem_init(struct abc_problem *pb, const struct fit_sample *s, const size_t *idx,
-                     size_t n)
+static int problem_alloc(struct abc_problem *pb, size_t n)
 {
     memset(pb, 0, sizeof *pb);
     pb->n = n;
@@ -77,6 +76,26 @@ int abc_problem_init(struct abc_problem *pb, const struct fit_sample *s, const s
         abc_problem_free(pb);
         return -1;
     }
+    return 0;
+}
+
+/* The distinct values of x and v.h, once the samples are in. */
+static int problem_index(struct abc_problem *pb)
+{
+    pb->nux = distinct(pb->x, pb->n, &pb->ux, pb->xi);
+    pb->nuv = distinct(pb->vh, pb->n, &pb->uvh, pb->vi);
+    if (pb->n && (!pb->nux || !pb->nuv)) {
+        abc_problem_free(pb);
+        return -1;
+    }
+    return 0;
+}
+
+int abc_problem_init(struct abc_problem *pb, const struct fit_sample *s, const size_t *idx,
+                     size_t n)
+{
+    if (problem_alloc(pb, n) < 0)
+        return -1;
     for (size_t k = 0; k < n; k++) {
         const struct fit_sample *sk = &s[idx ? idx[k] : k];
         struct brdf_abc_geom geo;
@@ -91,12 +110,55 @@ int abc_problem_init(struct abc_problem *pb, const struct fit_sample *s, const s
             pb->iy[(size_t)c * n + k] = 1.0 / (1.0 + sk->rgb[c] * pb->cosi[k]);
         }
     }
-    pb->nux = distinct(pb->x, n, &pb->ux, pb->xi);
-    pb->nuv = distinct(pb->vh, n, &pb->uvh, pb->vi);
-    if (n && (!pb->nux || !pb->nuv)) {
+    return problem_index(pb);
+}
+
+int abc_problem_subset(struct abc_problem *pb, const struct abc_problem *src, const size_t *rows,
+                       size_t n)
+{
+    if (problem_alloc(pb, n) < 0)
+        return -1;
+    for (size_t k = 0; k < n; k++) {
+        size_t r = rows[k];
+        pb->x[k] = src->x[r];
+        pb->vh[k] = src->vh[r];
+        pb->gterm[k] = src->gterm[r];
+        pb->cosi[k] = src->cosi[r];
+        for (size_t c = 0; c < 3; c++) {
+            pb->f[3 * k + c] = src->f[3 * r + c];
+            pb->y[3 * k + c] = src->y[3 * r + c];
+            pb->iy[c * n + k] = src->iy[c * src->n + r];
+        }
+    }
+    /* src's distinct values in their order of first appearance among the
+     * rows: what distinct() would find, without hashing them again */
+    unsigned *map = malloc((src->nux > src->nuv ? src->nux : src->nuv) * sizeof *map + 1);
+    pb->ux = malloc((n ? n : 1) * sizeof *pb->ux);
+    pb->uvh = malloc((n ? n : 1) * sizeof *pb->uvh);
+    if (!map || !pb->ux || !pb->uvh) {
+        free(map);
         abc_problem_free(pb);
         return -1;
     }
+    memset(map, 0xff, src->nux * sizeof *map);
+    for (size_t k = 0; k < n; k++) {
+        unsigned u = src->xi[rows[k]];
+        if (map[u] == UINT_MAX) {
+            map[u] = (unsigned)pb->nux;
+            pb->ux[pb->nux++] = src->ux[u];
+        }
+        pb->xi[k] = map[u];
+    }
+    memset(map, 0xff, src->nuv * sizeof *map);
+    for (size_t k = 0; k < n; k++) {
+        unsigned u = src->vi[rows[k]];
+        if (map[u] == UINT_MAX) {
+            map[u] = (unsigned)pb->nuv;
+            pb->uvh[pb->nuv++] = src->uvh[u];
+        }
+        pb->vi[k] = map[u];
+    }
+    free(map);
     return 0;
 }
 

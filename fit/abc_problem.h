@@ -98,6 +98,13 @@ int abc_problem_init(struct abc_problem *pb, const struct fit_sample *s, const s
                      size_t n);
 void abc_problem_free(struct abc_problem *pb);
 
+/* The problem abc_problem_init would build from src's samples rows[k],
+ * k < n (positions in src), without recomputing their geometry: the
+ * held-out folds' problems. Lower bounds, weights, loss and prior are
+ * left to the setters, as after abc_problem_init. */
+int abc_problem_subset(struct abc_problem *pb, const struct abc_problem *src, const size_t *rows,
+                       size_t n);
+
 /* Mark the samples whose values are lower bounds: flags[idx[k]] (idx as
  * given to abc_problem_init; flags NULL: none). Returns 0, -1 on no memory. */
 int abc_problem_set_lower(struct abc_problem *pb, const unsigned char *flags, const size_t *idx);
@@ -197,9 +204,10 @@ struct fit_status;
  * on a bound (at_bound; kd or A at their lower clamp are absent terms,
  * neither free nor named), params (the free ones), and the rank and
  * condition number of the data rows of J on the free columns scaled to
- * unit length. Findings are left to fit_status_decide. */
-void abc_status_figures(const struct abc_problem *pb, const double th[ABC_NPAR],
-                        struct fit_status *st);
+ * unit length. K: the first nk rows of abc_jacobian_root at theta, its
+ * data rows (without a prior's); overwritten. Findings are left to
+ * fit_status_decide. */
+void abc_status_figures(const double th[ABC_NPAR], double *K, size_t nk, struct fit_status *st);
 
 /* fit_abc with an optional prior (NULL: fit_abc itself). prior_sigma is the
  * noise level the prior rows assume, used for the posterior covariance. */

@@ -211,33 +211,52 @@ static void node_sums2(const double *agg, const double *d, const double *e, size
     }
 }
 
-int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts)
+/* The grid search's arrays: per eta F G per sample, per B log1p(B x) per
+ * distinct x, the lobe scratch, the node weights aggregated per eta and
+ * distinct x (agg), the linearised loss's weights (w, later scratch), F per
+ * distinct v.h, and the nodes. */
+struct grid {
+    struct node *nodes;
+    double *fres, *lg, *lobe, *agg, *w, *fu;
+    /* node-independent sums of the normal equations, and sum w f^2 */
+    double s11[3], t1[3], wff[3];
+};
+
+static void grid_free(struct grid *g)
+{
+    free(g->nodes);
+    free(g->fres);
+    free(g->lg);
+    free(g->lobe);
+    free(g->agg);
+    free(g->w);
+    free(g->fu);
+}
+
+/* Allocate the grid and aggregate what the nodes share. Returns 0, -1 on
+ * no memory. */
+static int grid_init(struct grid *g, const struct abc_problem *pb)
 {
     size_t n = pb->n, nu = pb->nux;
-    int nnodes = N_B * N_C * N_ETA;
-    struct node *nodes = malloc((size_t)nnodes * sizeof *nodes);
-    double *fres = malloc((size_t)N_ETA * n * sizeof *fres); /* F * gterm per eta */
-    double *lg = malloc((size_t)N_B * nu * sizeof *lg);      /* log1p(B x) per B, distinct x */
-    double *lobe = malloc(2 * nu * sizeof *lobe); /* two lobes (node_sums2) */
-    double *agg = malloc((size_t)N_ETA * nu * 9 * sizeof *agg);
-    double *w = malloc(n * sizeof *w * 3);
-    double *fu = malloc((pb->nuv ? pb->nuv : 1) * sizeof *fu);
-    if (!nodes || !fres || !lg || !lobe || !agg || !w || !fu) {
-        free(fu);
-        free(nodes);
-        free(fres);
-        free(lg);
-        free(lobe);
-        free(agg);
-        free(w);
+    memset(g, 0, sizeof *g);
+    g->nodes = malloc((size_t)N_B * N_C * N_ETA * sizeof *g->nodes);
+    g->fres = malloc((size_t)N_ETA * n * sizeof *g->fres); /* F * gterm per eta */
+    g->lg = malloc((size_t)N_B * nu * sizeof *g->lg);      /* log1p(B x) per B, distinct x */
+    g->lobe = malloc(2 * nu * sizeof *g->lobe);            /* two lobes (node_sums2) */
+    g->agg = malloc((size_t)N_ETA * nu * 9 * sizeof *g->agg);
+    g->w = malloc(n * sizeof *g->w * 3);
+    g->fu = malloc((pb->nuv ? pb->nuv : 1) * sizeof *g->fu);
+    if (!g->nodes || !g->fres || !g->lg || !g->lobe || !g->agg || !g->w || !g->fu) {
+        grid_free(g);
         return -1;
     }
+    double *fres = g->fres, *w = g->w, *agg = g->agg;
     for (int ie = 0; ie < N_ETA; ie++) {
         double *fr = fres + (size_t)ie * n;
         for (size_t i = 0; i < pb->nuv; i++) /* F per distinct v.h */
-            fu[i] = brdf_abc_fresnel(grid_eta[ie], pb->uvh[i], NULL);
+            g->fu[i] = brdf_abc_fresnel(grid_eta[ie], pb->uvh[i], NULL);
         for (size_t k = 0; k < n; k++)
-            fr[k] = fu[pb->vi[k]] * pb->gterm[k];
+            fr[k] = g->fu[pb->vi[k]] * pb->gterm[k];
     }
     /* Weights of the linearised log loss: d log(1 + f cos) / df = cos / (1 + f cos),
      * squared because the linear solve minimises squared differences in f; times
@@ -247,16 +266,12 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
         double d = ci / (1.0 + fmax(pb->f[k], 0.0) * ci) * (pb->sw ? pb->sw[k / 3] : 1.0);
         w[k] = d * d;
     }
-
-    /* Node-independent sums of the normal equations, and sum w f^2 for the
-     * linearised score. */
-    double s11[3] = {0}, t1[3] = {0}, wff[3] = {0};
     for (size_t k = 0; k < n; k++)
         for (int c = 0; c < 3; c++) {
             double wk = w[3 * k + c], fk = pb->f[3 * k + c];
-            s11[c] += wk / (ABC_PI * ABC_PI);
-            t1[c] += wk * fk / ABC_PI;
-            wff[c] += wk * fk * fk;
+            g->s11[c] += wk / (ABC_PI * ABC_PI);
+            g->t1[c] += wk * fk / ABC_PI;
+            g->wff[c] += wk * fk * fk;
         }
     /* The node sums are sums over samples of (weight x F G) times D(x) or
      * D(x)^2, and D depends on the sample only through x: so the weights
@@ -277,10 +292,19 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
                 ag[(size_t)(6 + c) * nu] += ws * pb->f[3 * k + c];
             }
         }
+    return 0;
+}
+
+/* Every node's kd and A by the linear solve, and its linearised weighted
+ * SSE as its score (closed form from the node sums). */
+static void grid_score_linear(struct grid *g, const struct abc_problem *pb)
+{
+    size_t nu = pb->nux;
+    double *lobe = g->lobe;
     int m = 0;
     for (int ib = 0; ib < N_B; ib++) {
         double B = pow(10.0, 0.5 * ib);
-        double *lgb = lg + (size_t)ib * nu;
+        double *lgb = g->lg + (size_t)ib * nu;
         abc_vlog1p_mul(B, pb->ux, nu, lgb);
         double sums[2][N_ETA][9];
         for (int ic = 0; ic < N_C; ic++) {
@@ -292,9 +316,9 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
                 if (ic + 1 < N_C) {
                     memcpy(lobe + nu, lgb, nu * sizeof *lobe);
                     abc_vexp_neg(grid_c[ic + 1], lobe + nu, nu);
-                    node_sums2(agg, lobe, lobe + nu, nu, sums[0], sums[1]);
+                    node_sums2(g->agg, lobe, lobe + nu, nu, sums[0], sums[1]);
                 } else {
-                    node_sums(agg, lobe, nu, sums[0]);
+                    node_sums(g->agg, lobe, nu, sums[0]);
                 }
             }
             double (*sm)[9] = sums[ic % 2];
@@ -302,19 +326,18 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
                 double s12[3] = {sm[ie][0], sm[ie][1], sm[ie][2]};
                 double s22[3] = {sm[ie][3], sm[ie][4], sm[ie][5]};
                 double t2[3] = {sm[ie][6], sm[ie][7], sm[ie][8]};
-                struct node *nd = &nodes[m++];
+                struct node *nd = &g->nodes[m++];
                 nd->ib = ib;
                 nd->ic = ic;
                 nd->ie = ie;
-                /* linearised weighted SSE of the node's linear solve, in closed form */
                 double lin = 0;
                 for (int c = 0; c < 3; c++) {
                     double a, bb;
                     s12[c] /= ABC_PI;
-                    nnls2(s11[c], s12[c], s22[c], t1[c], t2[c], &a, &bb);
+                    nnls2(g->s11[c], s12[c], s22[c], g->t1[c], t2[c], &a, &bb);
                     nd->kd[c] = a;
                     nd->A[c] = bb;
-                    lin += wff[c] - 2 * (a * t1[c] + bb * t2[c]) + a * a * s11[c] +
+                    lin += g->wff[c] - 2 * (a * g->t1[c] + bb * t2[c]) + a * a * g->s11[c] +
                            2 * a * bb * s12[c] + bb * bb * s22[c];
                 }
                 nd->score = isfinite(lin) ? lin : INFINITY;
@@ -322,26 +345,22 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
             }
         }
     }
-    /* The true log loss costs a log per residual: score only the nodes the
-     * linearised loss ranks best (it ranks them alike; the true loss decides
-     * among them). Nodes not scored keep their linearised rank after these. */
-    struct rank *rk = malloc((size_t)nnodes * sizeof *rk);
-    int *taken = malloc((size_t)(max_starts > 0 ? max_starts : 1) * sizeof *taken);
-    int got = 0;
-    if (!rk || !taken)
-        goto out;
-    for (int i = 0; i < nnodes; i++)
-        rk[i] = (struct rank){nodes[i].score, 0, i, i};
-    int ntrue = GRID_TRUE_SCORED > 8 * max_starts ? GRID_TRUE_SCORED : 8 * max_starts;
-    if (ntrue > nnodes)
-        ntrue = nnodes;
-    best_first(rk, nnodes, ntrue);
+}
+
+/* The true log loss of the nodes rk[0..ntrue) (the linearised loss's best:
+ * it ranks them alike; a log per residual decides among them), into their
+ * nodes and ranks. */
+static void grid_score_true(struct grid *g, const struct abc_problem *pb, struct rank *rk,
+                            int ntrue)
+{
+    size_t n = pb->n, nu = pb->nux;
+    double *w = g->w, *lobe = g->lobe;
     for (int i = 0; i < ntrue; i++) {
-        struct node *nd = &nodes[rk[i].node];
+        struct node *nd = &g->nodes[rk[i].node];
         if (!isfinite(nd->score))
             break;
         double C = grid_c[nd->ic];
-        const double *fr = fres + (size_t)nd->ie * n, *lgb = lg + (size_t)nd->ib * nu;
+        const double *fr = g->fres + (size_t)nd->ie * n, *lgb = g->lg + (size_t)nd->ib * nu;
         memcpy(lobe, lgb, nu * sizeof *lobe);
         abc_vexp_neg(C, lobe, nu);
         double kdp[3] = {nd->kd[0] / ABC_PI, nd->kd[1] / ABC_PI, nd->kd[2] / ABC_PI};
@@ -359,14 +378,15 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
         rk[i].score = nd->score;
         rk[i].scored = 1;
     }
-    /* Re-rank: the scored nodes all lie in the first ntrue, and the rest
-     * keep their order behind them, so only that prefix moves. */
-    for (int i = 0; i < ntrue; i++)
-        rk[i].at = i;
-    qsort(rk, (size_t)ntrue, sizeof *rk, cmp_rank);
+}
 
-    /* Best nodes first, skipping grid neighbours of a node already taken, so
-     * the starts probe different basins rather than one basin several times. */
+/* Best nodes first (rk, its first ntrue sorted), skipping grid neighbours
+ * of a node already taken, so the starts probe different basins rather
+ * than one basin several times. Returns the starts written. */
+static int grid_pick(const struct node *nodes, struct rank *rk, int nnodes, int ntrue,
+                     int *taken, int max_starts, double *starts)
+{
+    int got = 0;
     for (int i = 0; i < nnodes && got < max_starts; i++) {
         if (i == ntrue) /* the starts need nodes beyond the scored ones */
             qsort(rk + ntrue, (size_t)(nnodes - ntrue), sizeof *rk, cmp_rank);
@@ -393,15 +413,39 @@ int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts
         abc_params_to_theta(&p, starts + (size_t)got * ABC_NPAR);
         got++;
     }
-out:
+    return got;
+}
+
+int abc_grid_starts(const struct abc_problem *pb, int max_starts, double *starts)
+{
+    int nnodes = N_B * N_C * N_ETA;
+    struct grid g;
+    if (grid_init(&g, pb) < 0)
+        return -1;
+    grid_score_linear(&g, pb);
+    /* The true log loss costs a log per residual: score only the nodes the
+     * linearised loss ranks best. Nodes not scored keep their linearised
+     * rank after these. */
+    struct rank *rk = malloc((size_t)nnodes * sizeof *rk);
+    int *taken = malloc((size_t)(max_starts > 0 ? max_starts : 1) * sizeof *taken);
+    int got = 0;
+    if (rk && taken) {
+        for (int i = 0; i < nnodes; i++)
+            rk[i] = (struct rank){g.nodes[i].score, 0, i, i};
+        int ntrue = GRID_TRUE_SCORED > 8 * max_starts ? GRID_TRUE_SCORED : 8 * max_starts;
+        if (ntrue > nnodes)
+            ntrue = nnodes;
+        best_first(rk, nnodes, ntrue);
+        grid_score_true(&g, pb, rk, ntrue);
+        /* Re-rank: the scored nodes all lie in the first ntrue, and the rest
+         * keep their order behind them, so only that prefix moves. */
+        for (int i = 0; i < ntrue; i++)
+            rk[i].at = i;
+        qsort(rk, (size_t)ntrue, sizeof *rk, cmp_rank);
+        got = grid_pick(g.nodes, rk, nnodes, ntrue, taken, max_starts, starts);
+    }
     free(rk);
     free(taken);
-    free(nodes);
-    free(fres);
-    free(lg);
-    free(lobe);
-    free(agg);
-    free(w);
-    free(fu);
+    grid_free(&g);
     return got;
 }

@@ -1,5 +1,5 @@
 /* The ABC Jacobian at a fit's optimum: its square root (for the parameter
- * covariance, fit/abc_fit.c) and what it says about the fit's status
+ * covariance, fit/abc_covariance.c) and what it says about the fit's status
  * (fit/fit_status.h): parameters on a bound, the rank and the condition
  * number of the free parameters. */
 #include <math.h>
@@ -88,8 +88,7 @@ static void name(struct fit_status *st, size_t *at, const char *s)
                                 *at ? "," : "", s);
 }
 
-void abc_status_figures(const struct abc_problem *pb, const double th[ABC_NPAR],
-                        struct fit_status *st)
+void abc_status_figures(const double th[ABC_NPAR], double *K, size_t nk, struct fit_status *st)
 {
     static const char *const amp[6] = {"kd_r", "kd_g", "kd_b", "A_r", "A_g", "A_b"};
     int bound[ABC_NPAR] = {0}, absent = 0;
@@ -124,10 +123,6 @@ void abc_status_figures(const struct abc_problem *pb, const double th[ABC_NPAR],
     /* Rank and condition of the data rows (a prior's rows would hide what
      * the data cannot tell) on the free columns scaled to unit length, so
      * that the figures do not depend on units or on the data's scale. */
-    struct abc_problem data = *pb;
-    data.prior = NULL;
-    double K[15 * ABC_NPAR], cn[ABC_NPAR];
-    size_t nk = abc_jacobian_root(&data, th, K, cn);
     int free_col[ABC_NPAR], nf = 0;
     for (int j = 0; j < ABC_NPAR; j++)
         if (!bound[j])

@@ -36,7 +36,7 @@ struct fit_options {
     int max_iter;      /* per local solve */
     int n_starts;      /* local solves started from the best grid nodes (<= 32) */
     unsigned seed;     /* for the subset the starts use above 8000 samples */
-    double xtol, gtol; /* MINPACK's step and gradient tests (fit/abc_fit.c local_solve) */
+    double xtol, gtol; /* MINPACK's step and gradient tests (fit/abc_solve.c) */
     double ftol;       /* stop when the cost fell less than this, relative, in 8 steps */
     const struct brdf_abc *warm_start; /* NULL: global start; else refine from here */
     enum fit_global global; /* start search when warm_start is NULL */

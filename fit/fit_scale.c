@@ -9,10 +9,37 @@
  * off-specular floor), are fitted as they are. */
 #define SCALE_CENTRE_LOG10 (-1.5)
 
-static int cmp_double(const void *a, const void *b)
+/* The k-th smallest of v[0..m) (k < m), v reordered: Hoare's selection,
+ * linear on average where sorting the 3n values was a tenth of a fit. */
+static double kth_smallest(double *v, size_t m, size_t k)
 {
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
+    size_t lo = 0, hi = m - 1;
+    while (lo < hi) {
+        double pivot = v[lo + (hi - lo) / 2];
+        size_t i = lo, j = hi;
+        while (i <= j) {
+            while (v[i] < pivot)
+                i++;
+            while (v[j] > pivot)
+                j--;
+            if (i <= j) {
+                double t = v[i];
+                v[i] = v[j];
+                v[j] = t;
+                i++;
+                if (j == 0)
+                    break;
+                j--;
+            }
+        }
+        if (k <= j)
+            hi = j;
+        else if (k >= i)
+            lo = i;
+        else
+            return v[k];
+    }
+    return v[k];
 }
 
 double fit_data_scale(const struct fit_sample *s, const size_t *idx, size_t n)
@@ -30,10 +57,8 @@ double fit_data_scale(const struct fit_sample *s, const size_t *idx, size_t n)
         }
     }
     double med = 0;
-    if (m) {
-        qsort(v, m, sizeof *v, cmp_double);
-        med = v[m / 2];
-    }
+    if (m)
+        med = kth_smallest(v, m, m / 2);
     free(v);
     if (!(med > 0) || !isfinite(med))
         return 1.0;

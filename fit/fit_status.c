@@ -3,6 +3,7 @@
 
 #include <math.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -110,6 +111,45 @@ static int cmp_pair(const void *a, const void *b)
     return 0;
 }
 
+/* The bits of a rounded value, -0 taken as +0 (which cmp_pair treats alike). */
+static uint64_t pair_bits(double v)
+{
+    uint64_t b;
+    v = v == 0 ? 0.0 : v;
+    memcpy(&b, &v, sizeof b);
+    return b;
+}
+
+/* The distinct pairs among p[0..n): an open-addressing hash table (sorting
+ * them was a thirtieth of an ABC fit); sorted when there is no memory. */
+static size_t count_distinct(double (*p)[2], size_t n)
+{
+    size_t cap = 4;
+    while (cap < 2 * n)
+        cap *= 2;
+    size_t *slot = calloc(cap, sizeof *slot); /* pair index + 1; 0: empty */
+    size_t distinct = 0;
+    if (!slot) {
+        qsort(p, n, sizeof *p, cmp_pair);
+        for (size_t i = 0; i < n; i++)
+            distinct += i == 0 || cmp_pair(p[i], p[i - 1]) != 0;
+        return distinct;
+    }
+    for (size_t i = 0; i < n; i++) {
+        uint64_t h = (pair_bits(p[i][0]) * 0x9E3779B97F4A7C15u) ^ pair_bits(p[i][1]);
+        h *= 0xFF51AFD7ED558CCDu;
+        size_t at = (size_t)(h ^ (h >> 32)) & (cap - 1);
+        while (slot[at] && cmp_pair(p[slot[at] - 1], p[i]) != 0)
+            at = (at + 1) & (cap - 1);
+        if (!slot[at]) {
+            slot[at] = i + 1;
+            distinct++;
+        }
+    }
+    free(slot);
+    return distinct;
+}
+
 size_t fit_status_distinct_pairs(double (*p)[2], size_t n)
 {
     /* on a 1e-9 grid, so that rounding in the angles' computation does
@@ -121,12 +161,7 @@ size_t fit_status_distinct_pairs(double (*p)[2], size_t n)
             p[m][1] = nearbyint(p[i][1] * 1e9);
             m++;
         }
-    n = m;
-    qsort(p, n, sizeof *p, cmp_pair);
-    size_t distinct = 0;
-    for (size_t i = 0; i < n; i++)
-        distinct += i == 0 || cmp_pair(p[i], p[i - 1]) != 0;
-    return distinct;
+    return count_distinct(p, m);
 }
 
 size_t fit_status_geometries(const struct fit_sample *s, const size_t *idx, size_t n)

@@ -98,8 +98,8 @@ void fit_status_findings(const struct fit_status *st, char *buf, size_t len);
 void fit_status_line(const struct fit_status *st, char *buf, size_t len);
 
 /* Distinct geometries: the number of distinct pairs (p[i][0], p[i][1]) on
- * a grid of 1e-9 (rad or degrees), non-finite pairs left out. Rounds,
- * compacts and sorts p in place. RGB fits
+ * a grid of 1e-9 (rad or degrees), non-finite pairs left out. Rounds
+ * and compacts p in place (and may reorder it). RGB fits
  * count (theta_h, theta_d), the angles an isotropic model mostly depends
  * on; the spectral MLP (theta_i, theta_r). */
 size_t fit_status_distinct_pairs(double (*p)[2], size_t n);

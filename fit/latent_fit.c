@@ -203,9 +203,9 @@ static double heldout_rms(const latent_decoder *d, const double *z0, size_t n, c
 }
 
 /* fit_latent on samples in canonical order (fit/sample_order.h). */
-static int fit_sorted(const latent_decoder *d, const struct fit_sample *samples, size_t n,
-                      struct latent_fit_options o, double *z, struct latent_fit_info *info,
-                      struct gonio_err *err)
+static int fit_latent_canonical(const latent_decoder *d, const struct fit_sample *samples,
+                                size_t n, struct latent_fit_options o, double *z,
+                                struct latent_fit_info *info, struct gonio_err *err)
 {
     if (o.max_iter < 1)
         o.max_iter = 1;
@@ -389,7 +389,7 @@ int fit_latent(const latent_decoder *d, const struct fit_sample *samples, size_t
     if (fit_samples_canonical(samples, o.lower, n, &sorted, &lower) < 0)
         return gonio_err_set(err, ENOMEM, "fit_latent: out of memory");
     o.lower = lower;
-    int rc = fit_sorted(d, sorted, n, o, z, info, err);
+    int rc = fit_latent_canonical(d, sorted, n, o, z, info, err);
     free(sorted);
     free(lower);
     return rc;

@@ -82,7 +82,7 @@ for p in ds1 ds2 ds3 ds4; do
 done
 
 echo
-echo "== 4. ABC fit: C (fit_abc) vs SciPy least_squares on the same DS1 samples and starts"
+echo "== 4. ABC fit at equal work: C (fit_abc) vs SciPy least_squares on the same DS1 samples and starts"
 if [ -d "${GONIO_SHARED:-../shared}/data/merl" ] && /usr/bin/python3 -c "import scipy" 2>/dev/null; then
     mkdir -p "$out/abc_scipy"
     "$bin/abc_scipy" "$out/abc_scipy" >/dev/null

@@ -274,6 +274,76 @@ static void test_linear_score_weighted(void **state)
     }
 }
 
+static void assert_same_doubles(const double *x, const double *y, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        assert_memory_equal(&x[i], &y[i], sizeof x[i]);
+}
+
+/* A subset of a problem (the held-out folds') is the problem built from
+ * those samples, bit for bit: the per-sample terms, the distinct x and v.h
+ * in their order of first appearance, and each sample's index into them. */
+static void test_subset_equals_init(void **state)
+{
+    (void)state;
+    struct brdf_pair g[400];
+    size_t n = ds2_grid(g);
+    struct fit_sample s[400];
+    synth(&truth, g, n, s);
+    struct abc_problem all, sub, ref;
+    assert_int_equal(abc_problem_init(&all, s, NULL, n), 0);
+    size_t rows[400], m = 0;
+    for (size_t k = n; k-- > 0;) /* backwards, skipping some: a new order of first appearance */
+        if (k % 5 != 2)
+            rows[m++] = k;
+    assert_int_equal(abc_problem_subset(&sub, &all, rows, m), 0);
+    assert_int_equal(abc_problem_init(&ref, s, rows, m), 0);
+    assert_int_equal(sub.n, m);
+    assert_same_doubles(sub.x, ref.x, m);
+    assert_same_doubles(sub.vh, ref.vh, m);
+    assert_same_doubles(sub.gterm, ref.gterm, m);
+    assert_same_doubles(sub.cosi, ref.cosi, m);
+    assert_same_doubles(sub.f, ref.f, 3 * m);
+    assert_same_doubles(sub.y, ref.y, 3 * m);
+    assert_same_doubles(sub.iy, ref.iy, 3 * m);
+    assert_int_equal(sub.nux, ref.nux);
+    assert_int_equal(sub.nuv, ref.nuv);
+    assert_true(sub.nux < m && sub.nuv < m); /* repeated geometry: the distinct values matter */
+    assert_same_doubles(sub.ux, ref.ux, ref.nux);
+    assert_same_doubles(sub.uvh, ref.uvh, ref.nuv);
+    assert_memory_equal(sub.xi, ref.xi, m * sizeof *ref.xi);
+    assert_memory_equal(sub.vi, ref.vi, m * sizeof *ref.vi);
+    abc_problem_free(&all);
+    abc_problem_free(&sub);
+    abc_problem_free(&ref);
+}
+
+/* fit_data_scale steps by 10^6 at a median |f cos| of 10^1.5 (fit/fit.h):
+ * with 21 distinct values of 7 samples, lows of them below that step and
+ * the rest above, in scrambled orders, the scale follows the 11th smallest
+ * exactly. */
+static void test_data_scale_median(void **state)
+{
+    (void)state;
+    for (size_t mul = 1; mul < 21; mul++) {
+        if (mul % 3 == 0 || mul % 7 == 0)
+            continue; /* j -> mul j mod 21 a permutation of 0..20 */
+        for (int lows = 10; lows <= 11; lows++) {
+            struct fit_sample s[7];
+            for (size_t k = 0; k < 7; k++) {
+                brdf_pair_inplane(0, 30, &s[k].g); /* cos theta_i = 1 */
+                for (int c = 0; c < 3; c++) {
+                    int v = (int)((mul * (3 * k + (size_t)c)) % 21);
+                    /* rank v: below the step (1.3 .. 1.49) or above it (1.51 ..) */
+                    double e = v < lows ? 1.49 - 0.01 * (lows - 1 - v) : 1.51 + 0.01 * (v - lows);
+                    s[k].rgb[c] = pow(10.0, e);
+                }
+            }
+            assert_true(fit_data_scale(s, NULL, 7) == (lows == 10 ? 1e6 : 1.0));
+        }
+    }
+}
+
 static void test_parametrisation_round_trip(void **state)
 {
     (void)state;
@@ -448,6 +518,8 @@ int main(void)
         cmocka_unit_test(test_jacobian_matches_finite_differences),
         cmocka_unit_test(test_fused_path_matches_dense),
         cmocka_unit_test(test_linear_score_weighted),
+        cmocka_unit_test(test_subset_equals_init),
+        cmocka_unit_test(test_data_scale_median),
         cmocka_unit_test(test_parametrisation_round_trip),
         cmocka_unit_test(test_six_samples_finite),
         cmocka_unit_test(test_all_diffuse_data),

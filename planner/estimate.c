@@ -1,0 +1,30 @@
+/* The rig-time estimate of a plan in its order (planner/planner.h): the
+ * moves from home through the points with their backlash legs, the settle
+ * and the integration of each point. */
+#include "planner/plan_private.h"
+
+void plan_estimate_points(const struct plan *plan, const struct plan_rig *rig,
+                          plan_integration_fn integration, void *user, double *point_s,
+                          struct plan_estimate *est)
+{
+    struct plan_axes at = {0, 0, 0};
+    est->move_s = est->integration_s = 0;
+    for (size_t i = 0; i < plan->n; i++) {
+        const struct plan_point *pt = plan_point(plan, i);
+        double move = plan_move_time_backlash(rig, &at, &pt->ax);
+        double t = integration ? integration(user, pt) : rig->integration_s;
+        est->move_s += move;
+        est->integration_s += t;
+        if (point_s)
+            point_s[i] = move + rig->settle_s + t;
+        at = pt->ax;
+    }
+    est->settle_s = (double)plan->n * rig->settle_s;
+    est->total_s = est->move_s + est->settle_s + est->integration_s;
+}
+
+void plan_estimate(const struct plan *plan, const struct plan_rig *rig,
+                   struct plan_estimate *est)
+{
+    plan_estimate_points(plan, rig, NULL, NULL, NULL, est);
+}
