@@ -14,7 +14,6 @@
 #include "capture/sequence.h"
 #include "fit/journal_samples.h"
 #include "journal/journal.h"
-#include "drivers/drv_sim.h"
 #include "fit/abc_model.h"
 #include "fit/abc_prior.h"
 #include "fit/fit.h"
@@ -24,18 +23,12 @@
 #include "fit/stream.h"
 #include "planner/planner.h"
 #include "rig/motion.h"
-#include "sim/estimate.h"
-#include "sim/scene.h"
-#include "sim/sim.h"
 
 /* What a capture reads, resolved and validated before anything is written. */
 struct capture_inputs {
-    int sim;                /* the engine runs the in-process simulated rig */
-    struct sim_scene scene;
-    int has_scene;
+    const struct capture_rig *src; /* the host's rig source */
     struct plan_rig rig;
     struct plan *plan;
-    brdf_material *material; /* what the in-process rig measures; NULL otherwise */
     brdf_material *truth_own; /* a named reference (cfg->truth), opened here */
     const brdf_material *truth; /* the truth errors' reference, NULL: none */
     char material_name[512]; /* what was measured, as a label; "" when unknown */
@@ -43,13 +36,12 @@ struct capture_inputs {
     const struct fit_model_kind *model; /* the final fit's (fit/models.h) */
     int adaptive; /* the plan's order is adaptive: the policy's options */
     struct adaptive_options policy;
-    /* The rig time the capture will take: on the simulated rig with the
-     * integration its detector will choose (sim/estimate.h), elsewhere
-     * with the rig's fixed integration. */
+    /* The rig time the capture will take: with the integration the rig
+     * source says its detector will choose, else the rig's fixed one. */
     struct plan_estimate est;
-    /* Each point's integration on the simulated rig, for the adaptive
-     * policy's costs and the ETA; NULL elsewhere (both learn it from the
-     * journal). */
+    /* Each point's integration as the rig source knows it, for the
+     * adaptive policy's costs and the ETA; NULL when it does not (both
+     * learn it from the journal). */
     double *integration_s;
     /* Points measured first to meter the material (capture/sequence.h). */
     size_t prescan;
@@ -59,7 +51,6 @@ static void inputs_free(struct capture_inputs *in)
 {
     free(in->integration_s);
     plan_free(in->plan);
-    brdf_material_free(in->material);
     brdf_material_free(in->truth_own);
 }
 
@@ -69,19 +60,16 @@ static const char *material_spec(const char *spec)
     return strcmp(spec, "default") ? spec : brdf_material_default_spec();
 }
 
-/* The material the in-process rig measures, or the label of a host's; and
- * the reference of the truth errors: the named one, else the simulated
- * rig's own material, else none (a host's rig measures what it measures). */
+/* What the rig measures, as its source knows it or as the host labels it;
+ * and the reference of the truth errors: the named one, else what the
+ * source says the rig measures, else none. */
 static int resolve_materials(const struct capture_config *cfg, struct capture_inputs *in,
                              struct gonio_err *err)
 {
-    if (in->sim) {
-        const char *spec = material_spec(cfg->material ? cfg->material : in->scene.material);
-        if (!(in->material = brdf_material_open(spec, err)))
-            return -abs(err ? err->code : GONIO_ENOTFOUND);
-        in->truth = in->material;
+    if (in->src->material) {
+        in->truth = in->src->material;
         snprintf(in->material_name, sizeof in->material_name, "%s",
-                 brdf_material_name(in->material));
+                 brdf_material_name(in->src->material));
     } else if (cfg->material) {
         snprintf(in->material_name, sizeof in->material_name, "%s",
                  material_spec(cfg->material));
@@ -99,12 +87,16 @@ static int resolve_materials(const struct capture_config *cfg, struct capture_in
 static int estimate(struct capture_inputs *in, struct gonio_err *err)
 {
     size_t n = plan_count(in->plan);
-    if (in->sim && !(in->integration_s = malloc((n ? n : 1) * sizeof *in->integration_s)))
+    const struct capture_rig *src = in->src;
+    if (!src->integration_s) {
+        plan_estimate(in->plan, &in->rig, &in->est);
+        return 0;
+    }
+    if (!(in->integration_s = malloc((n ? n : 1) * sizeof *in->integration_s)))
         return gonio_err_set(err, ENOMEM, "out of memory");
-    if (in->sim)
-        return sim_estimate_plan(&in->scene, in->material, in->plan, &in->rig, NULL,
-                                 in->integration_s, &in->est, err);
-    plan_estimate(in->plan, &in->rig, &in->est);
+    plan_estimate_points(in->plan, &in->rig, src->integration_s, src->user, NULL, &in->est);
+    for (size_t i = 0; i < n; i++)
+        in->integration_s[i] = src->integration_s(src->user, plan_point(in->plan, i));
     return 0;
 }
 
@@ -114,9 +106,9 @@ static int estimate(struct capture_inputs *in, struct gonio_err *err)
  * smaller plan's, and none when that is fewer than 2: the pre-scan crosses
  * the plan's domain once, which on a small plan costs more than its ETA is
  * worth (DS3, 52 points: 6 cost 19 s of 81 s, 2 cost 1.4 s; DS4, 6 points:
- * 2 cost 8 s of 18 s; docs/plans.md). None on the in-process
- * rig, whose estimate already counts the integration its detector will
- * choose, and never in the adaptive order, whose policy chooses every
+ * 2 cost 8 s of 18 s; docs/plans.md). None on a rig whose
+ * source knows the integration its detector will choose (the estimate
+ * already counts it), and never in the adaptive order, whose policy chooses every
  * point. */
 static size_t prescan_default(const struct plan *plan)
 {
@@ -149,7 +141,7 @@ static int resolve_prescan(const struct capture_config *cfg, struct capture_inpu
                              cfg->prescan, plan_name(in->plan));
     in->prescan = cfg->prescan > 0                        ? (size_t)cfg->prescan
                   : cfg->prescan == CAPTURE_PRESCAN_OFF ? 0
-                  : !in->sim && !in->adaptive            ? prescan_default(in->plan)
+                  : !in->src->integration_s && !in->adaptive ? prescan_default(in->plan)
                                                          : 0;
     if (in->prescan > plan_count(in->plan))
         in->prescan = plan_count(in->plan);
@@ -164,21 +156,13 @@ static enum plan_stop_kind stop_kind(const struct capture_config *cfg, const str
     return plan_stop(plan)->kind;
 }
 
-static int resolve_inputs(const struct capture_config *cfg, const struct capture_hooks *hooks,
+static int resolve_inputs(const struct capture_config *cfg, const struct capture_rig *src,
                           struct capture_inputs *in, struct gonio_err *err)
 {
     memset(in, 0, sizeof *in);
-    in->sim = !hooks->open_devices;
+    in->src = src;
     int rc;
-    if (cfg->scene) {
-        if ((rc = sim_scene_load(cfg->scene, &in->scene, err)) < 0)
-            return rc;
-        in->has_scene = 1;
-    } else if (in->sim) {
-        return gonio_err_set(err, GONIO_EUSAGE,
-                             "the simulated rig needs a scene (--scene NAME|FILE)");
-    }
-    const char *rig = cfg->rig ? cfg->rig : in->has_scene ? in->scene.rig : NULL;
+    const char *rig = cfg->rig ? cfg->rig : src->profile;
     if (!rig)
         return gonio_err_set(err, GONIO_EUSAGE, "no rig profile: name one (--rig NAME|FILE)");
     if ((rc = plan_rig_load(rig, &in->rig, err)) < 0)
@@ -219,33 +203,6 @@ static int resolve_inputs(const struct capture_config *cfg, const struct capture
     if (rc < 0)
         inputs_free(in);
     return rc;
-}
-
-static void devices_close(struct capture_devices *d)
-{
-    drv_axis_free(d->sample);
-    drv_axis_free(d->arm);
-    drv_axis_free(d->azimuth);
-    drv_detector_free(d->detector);
-    drv_clock_free(d->clock);
-    memset(d, 0, sizeof *d);
-}
-
-/* The in-process simulated rig: devices over a sim_rig reading the
- * capture's own material. */
-static int devices_open_sim(sim_rig *sim, struct capture_devices *d, struct gonio_err *err)
-{
-    memset(d, 0, sizeof *d);
-    d->sample = drv_axis_new_sim(sim, SIM_AXIS_SAMPLE);
-    d->arm = drv_axis_new_sim(sim, SIM_AXIS_ARM);
-    d->azimuth = drv_axis_new_sim(sim, SIM_AXIS_AZIMUTH);
-    d->detector = drv_detector_new_sim(sim);
-    d->clock = drv_clock_new_sim(sim);
-    if (!d->sample || !d->arm || !d->azimuth || !d->detector || !d->clock) {
-        devices_close(d);
-        return gonio_err_set(err, ENOMEM, "simulated rig: out of memory");
-    }
-    return 0;
 }
 
 const char *capture_phase_name(enum capture_phase phase)
@@ -508,23 +465,6 @@ static int eta_new(const struct capture_inputs *in, const struct capture_hooks *
     return 0;
 }
 
-/* A resumed capture's in-process rig: its axes where the interrupted run
- * left them, as a real rig's stay, and its clock at the last sample's time
- * (the scene's drift runs on it), so the rig time goes on as it would
- * have (an adaptive capture's budget and convergence read it). An axis
- * the rig's fault effects stop keeps where it is. */
-static void sim_resume(sim_rig *sim, const struct journal_sample *last,
-                       const struct plan_point *pt)
-{
-    static const enum sim_axis_id axis[3] = {SIM_AXIS_SAMPLE, SIM_AXIS_ARM, SIM_AXIS_AZIMUTH};
-    const double at[3] = {last->s, last->a, pt->ax.az};
-    for (int i = 0; i < 3; i++)
-        if (sim_rig_start_move(sim, axis[i], at[i], NULL) == 0 &&
-            sim_rig_wait(sim, axis[i], NULL) < 0)
-            sim_rig_reset_alarm(sim, axis[i]);
-    sim_rig_advance(sim, fmax(0, last->rig_time_s - sim_rig_now(sim)));
-}
-
 /* Measure every point the journal does not hold yet, from `first` on in
  * the order seq gives. Sets *aborted when the host asked to stop,
  * *converged when the streaming fit decided that further points would not
@@ -563,19 +503,17 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
         return 0;
     }
 
-    struct capture_devices dev;
-    sim_rig *sim = NULL;
+    struct capture_devices dev = {0};
+    const struct capture_rig *src = in->src;
     double base = *n > 0 ? all[*n - 1].rig_time_s : 0;
-    if (!in->sim) {
-        rc = hooks->open_devices(hooks->user, &in->rig, &dev, err);
-    } else {
-        sim = sim_rig_new_scene(&in->rig, in->material, &in->scene, cfg->out_dir, err);
-        rc = sim ? devices_open_sim(sim, &dev, err) : -abs(err ? err->code : ENOMEM);
-        if (rc == 0 && *n > 0)
-            sim_resume(sim, &all[*n - 1], plan_point(in->plan, (size_t)all[*n - 1].point));
+    rc = src->open(src->user, &in->rig, cfg->out_dir, &dev, err);
+    if (rc == 0 && *n > 0 && src->resume) {
+        /* the journal keeps the sample's axes; the azimuth is the plan's */
+        const struct journal_sample *last = &all[*n - 1];
+        const double at[3] = {last->s, last->a, plan_point(in->plan, (size_t)last->point)->ax.az};
+        src->resume(src->user, &dev, at, last->rig_time_s);
     }
     if (rc < 0) {
-        sim_rig_free(sim);
         capture_eta_free(eta);
         return rc;
     }
@@ -636,11 +574,7 @@ static int acquire(const struct capture_config *cfg, const struct capture_inputs
     }
     *paused_s = clk.paused;
     add_axis_stats(&dev, mech);
-    if (hooks->close_devices)
-        hooks->close_devices(hooks->user, &dev);
-    else
-        devices_close(&dev);
-    sim_rig_free(sim);
+    src->close(src->user, &dev);
     capture_eta_free(eta);
     return rc;
 }
@@ -823,15 +757,16 @@ static int stream_new(const struct capture_config *cfg, const struct plan *plan,
     return fit_stream_new(&so, &st->fs, err);
 }
 
-int capture_run(const struct capture_config *cfg, const struct capture_hooks *hooks,
-                struct capture_summary *out, struct gonio_err *err)
+int capture_run(const struct capture_config *cfg, const struct capture_rig *rig,
+                const struct capture_hooks *hooks, struct capture_summary *out,
+                struct gonio_err *err)
 {
     static const struct capture_hooks no_hooks;
     if (!hooks)
         hooks = &no_hooks;
     memset(out, 0, sizeof *out);
     struct capture_inputs in;
-    int rc = resolve_inputs(cfg, hooks, &in, err);
+    int rc = resolve_inputs(cfg, rig, &in, err);
     if (rc < 0)
         return rc;
     snprintf(out->plan, sizeof out->plan, "%s", plan_name(in.plan));
@@ -857,16 +792,13 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
         inputs_free(&in);
         return 0;
     }
-    const char *detector = cfg->detector ? cfg->detector
-                           : !in.has_scene ? "unknown"
-                           : in.scene.detector == SIM_DETECTOR_RGB ? "rgb" : "spectral";
     struct capture_setup setup = {
         .plan = in.plan,
         .rig = &in.rig,
-        .scene = in.has_scene ? &in.scene : NULL,
+        .source = rig->setup_json,
         .material = in.material_name[0] ? in.material_name : NULL,
-        .driver = cfg->driver ? cfg->driver : "sim",
-        .detector = detector,
+        .driver = rig->driver ? rig->driver : "unknown",
+        .detector = rig->detector ? rig->detector : "unknown",
         .policy = in.adaptive ? &in.policy : NULL,
     };
     rc = capture_files_prepare(cfg->out_dir, &setup, &lock_fd, err);
@@ -934,22 +866,15 @@ int capture_run(const struct capture_config *cfg, const struct capture_hooks *ho
     return rc;
 }
 
-int capture_check(const struct capture_config *cfg, const struct capture_hooks *hooks,
+int capture_check(const struct capture_config *cfg, const struct capture_rig *rig,
                   struct plan_estimate *est, struct gonio_err *err)
 {
-    static const struct capture_hooks no_hooks;
     struct capture_inputs in;
-    int rc = resolve_inputs(cfg, hooks ? hooks : &no_hooks, &in, err);
+    int rc = resolve_inputs(cfg, rig, &in, err);
     if (rc < 0)
         return rc;
     if (est)
         *est = in.est;
     inputs_free(&in);
     return 0;
-}
-
-int capture_run_offline(const struct capture_config *cfg, struct capture_summary *out,
-                        struct gonio_err *err)
-{
-    return capture_run(cfg, NULL, out, err);
 }

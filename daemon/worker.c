@@ -12,6 +12,7 @@
 
 #include "brdf/metrics.h"
 #include "daemon/devices.h"
+#include "sim_source/sim_source.h"
 
 struct worker {
     const struct goniod_config *cfg;
@@ -216,9 +217,10 @@ static enum capture_control hook_control(void *user)
     return c;
 }
 
-static int hook_open(void *user, const struct plan_rig *rig, struct capture_devices *dev,
-                     struct gonio_err *err)
+static int hook_open(void *user, const struct plan_rig *rig, const char *dir,
+                     struct capture_devices *dev, struct gonio_err *err)
 {
+    (void)dir;
     worker *w = user;
     return goniod_devices_open(w->cfg, rig, dev, &w->bus, err);
 }
@@ -236,17 +238,11 @@ static void hook_close(void *user, struct capture_devices *dev)
  * the reply and for the run. */
 static struct capture_config request_config(const worker *w, const struct worker_request *r)
 {
-    int sim = w->cfg->driver == GONIOD_DRIVER_SIM;
     return (struct capture_config){
         .plan = r->plan,
-        .scene = r->scene[0] ? r->scene : NULL,
         .material = r->material[0] ? r->material : NULL,
         .rig = r->rig[0] ? r->rig : NULL,
         .truth = r->truth[0] ? r->truth : NULL,
-        .driver = goniod_driver_name(w->cfg->driver),
-        .detector = sim                                          ? NULL
-                    : w->cfg->detector == GONIOD_DETECTOR_USB ? "usb-spectrometer"
-                                                               : "modbus",
         .model = r->model,
         .out_dir = r->dir,
         .order = r->order[0] ? r->order : NULL,
@@ -260,19 +256,48 @@ static struct capture_config request_config(const worker *w, const struct worker
     };
 }
 
-/* The simulator runs inside the engine (it reads the capture's own
- * material and continues the rig clock on a resume); hardware goes
- * through the configured drivers. */
-static int sim_driver(const worker *w)
+/* The rig source of a request: with the sim driver the in-process
+ * simulator of its scene and material (*sim, which the caller frees);
+ * otherwise the configured devices, described in setup.json by the
+ * request's scene when it names one (the Modbus simulator's). */
+static int request_rig(worker *w, const struct worker_request *r, sim_source **sim,
+                       struct capture_rig *rig, struct gonio_err *err)
 {
-    return w->cfg->driver == GONIOD_DRIVER_SIM;
+    const char *scene = r->scene[0] ? r->scene : NULL;
+    *sim = NULL;
+    memset(rig, 0, sizeof *rig);
+    if (w->cfg->driver == GONIOD_DRIVER_SIM) {
+        if (!(*sim = sim_source_new(scene, r->material[0] ? r->material : NULL,
+                                    r->rig[0] ? r->rig : NULL, err)))
+            return -abs(err ? err->code : ENOMEM);
+        sim_source_rig(*sim, rig);
+        rig->driver = goniod_driver_name(w->cfg->driver);
+        return 0;
+    }
+    if (scene) {
+        if (!(*sim = sim_source_describe(scene, err)))
+            return -abs(err ? err->code : ENOMEM);
+        sim_source_rig(*sim, rig);
+    }
+    rig->open = hook_open;
+    rig->close = hook_close;
+    rig->driver = goniod_driver_name(w->cfg->driver);
+    rig->detector = w->cfg->detector == GONIOD_DETECTOR_USB ? "usb-spectrometer" : "modbus";
+    rig->user = w;
+    return 0;
 }
 
 int worker_check(const worker *w, const struct worker_request *req, struct gonio_err *err)
 {
     struct capture_config cc = request_config(w, req);
-    struct capture_hooks hooks = {.open_devices = sim_driver(w) ? NULL : hook_open};
-    return capture_check(&cc, &hooks, NULL, err);
+    struct capture_rig rig;
+    sim_source *sim;
+    /* the check opens no device: the worker is not touched */
+    int rc = request_rig((worker *)w, req, &sim, &rig, err);
+    if (rc == 0)
+        rc = capture_check(&cc, &rig, NULL, err);
+    sim_source_free(sim);
+    return rc;
 }
 
 static void *run(void *arg)
@@ -293,11 +318,14 @@ static void *run(void *arg)
         .user = w,
     };
     w->has_comm = 0;
-    if (!sim_driver(w)) {
-        hooks.open_devices = hook_open;
-        hooks.close_devices = hook_close;
-    }
-    int rc = capture_run(&cc, &hooks, &sum, &err);
+    struct capture_rig rig;
+    sim_source *sim;
+    int rc = request_rig(w, &w->req, &sim, &rig, &err);
+    if (rc == 0)
+        rc = capture_run(&cc, &rig, &hooks, &sum, &err);
+    else
+        memset(&sum, 0, sizeof sum);
+    sim_source_free(sim);
     if (rc < 0 && !err.msg[0])
         snprintf(err.msg, sizeof err.msg, "%s", gonio_strerror(rc));
 

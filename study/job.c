@@ -17,6 +17,7 @@
 #include "brdf/metrics.h"
 #include "common/paths.h"
 #include "capture/capture.h"
+#include "sim_source/sim_source.h"
 #include "fit/journal_samples.h"
 #include "journal/journal.h"
 #include "fit/model_file.h"
@@ -293,12 +294,12 @@ static enum capture_control stop_control(void *user)
 /* cfg's budget: the named plan's rig time as a capture of it on cfg's
  * scene and material would estimate it (what that plan would cost this
  * job, for a budget "of DS4's rig time"). */
-static int budget_of(struct capture_config *cfg, const char *plan, struct gonio_err *err)
+static int budget_of(struct capture_config *cfg, const char *scene, const char *plan,
+                     struct gonio_err *err)
 {
-    struct capture_config c = {.plan = plan, .scene = cfg->scene, .material = cfg->material,
-                               .model = "abc"};
+    struct capture_config c = {.plan = plan, .material = cfg->material, .model = "abc"};
     struct plan_estimate est;
-    int rc = capture_check(&c, NULL, &est, err);
+    int rc = sim_source_check(scene, &c, &est, err);
     if (rc == 0)
         cfg->budget_min = est.total_s / 60;
     return rc;
@@ -324,7 +325,7 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
 
     /* The capture: a rerun resumes it from its journal (or finds it done). */
     struct capture_config cfg = {
-        .plan = plan->file, .scene = scene->spec, .material = mat->spec,
+        .plan = plan->file, .material = mat->spec,
         .model = plan->model ? plan->model : "abc", /* the adaptive policy's */
         .out_dir = jobdir, .order = plan->order, .stop = plan->stop, .quiet = 1,
         .measure_only = 1, .lazy_journal = 1, .budget_min = plan->budget_min,
@@ -340,9 +341,9 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
     char path[4200];
     struct stop_check sc = {stop};
     struct capture_hooks hooks = {.control = stop ? stop_control : NULL, .user = &sc};
-    rc = plan->budget_of ? budget_of(&cfg, plan->budget_of, err) : 0;
+    rc = plan->budget_of ? budget_of(&cfg, scene->spec, plan->budget_of, err) : 0;
     if (rc == 0)
-        rc = capture_run(&cfg, &hooks, &sum, err);
+        rc = sim_source_capture(scene->spec, &cfg, &hooks, &sum, err);
     if (rc == 0 && !strcmp(sum.stop_reason, "aborted"))
         rc = gonio_err_set(err, EINTR, "interrupted; its journal is kept for the rerun");
     if (rc == 0) {
