@@ -230,24 +230,42 @@ struct capture_hooks {
 int capture_prescan_option(const char *opt, long long points, int *prescan,
                            struct gonio_err *err);
 
-/* Run a capture on the devices of rig: resolve and validate the inputs,
- * prepare the directory (or resume it: the same plan, rig description,
- * material, detector and adaptive options only, else -GONIO_EUSAGE naming
- * the difference), holding its lock until the end (another writer: EBUSY,
- * nothing written), measure the points the journal lacks (in the adaptive
- * order: those the policy chooses, capture/sequence.h), fit and write
- * results.json. An aborted capture keeps its samples, stops the axes and
- * returns 0 with stop_reason "aborted" (no fit, no results.json). hooks may
- * be NULL. Returns a negative code with err filled on failure (see
- * gonio_exit_status). */
+/* A prepared capture: its inputs resolved and validated once (plan, rig
+ * profile, order, model, stop rule, adaptive options, pre-scan, material,
+ * truth and the rig-time estimate), for the check a host makes before it
+ * answers and for the run that follows. */
+typedef struct capture_job capture_job;
+
+/* Prepare a capture of cfg (copied) on the devices of rig (borrowed: it
+ * must outlive the job), writing nothing: bad input is refused here, as
+ * goniod refuses a bad request before it answers. Returns 0 with *job, or
+ * a negative code with err filled (see gonio_exit_status). */
+int capture_prepare(const struct capture_config *cfg, const struct capture_rig *rig,
+                    capture_job **job, struct gonio_err *err);
+
+/* The capture's rig-time estimate, before it runs. */
+const struct plan_estimate *capture_job_estimate(const capture_job *job);
+
+/* Run a prepared capture (once): prepare the directory (or resume it: the
+ * same plan, rig description, material, detector and adaptive options
+ * only, else -GONIO_EUSAGE naming the difference), holding its lock until
+ * the end (another writer: EBUSY, nothing written), measure the points
+ * the journal lacks (in the adaptive order: those the policy chooses,
+ * capture/sequence.h), fit and write results.json. An aborted capture
+ * keeps its samples, stops the axes and returns 0 with stop_reason
+ * "aborted" (no fit, no results.json). hooks may be NULL. Returns a
+ * negative code with err filled on failure. */
+int capture_job_run(capture_job *job, const struct capture_hooks *hooks,
+                    struct capture_summary *out, struct gonio_err *err);
+
+void capture_job_free(capture_job *job);
+
+/* capture_prepare, capture_job_run and capture_job_free in one. */
 int capture_run(const struct capture_config *cfg, const struct capture_rig *rig,
                 const struct capture_hooks *hooks, struct capture_summary *out,
                 struct gonio_err *err);
 
-/* Resolve and validate what capture_run would (plan, rig, order, model,
- * stop, material, truth) and write nothing: how goniod refuses a bad
- * request before it answers. est (may be NULL) receives the capture's
- * rig-time estimate. Returns 0 or capture_run's error. */
+/* capture_prepare and the estimate (est, may be NULL), writing nothing. */
 int capture_check(const struct capture_config *cfg, const struct capture_rig *rig,
                   struct plan_estimate *est, struct gonio_err *err);
 

@@ -14,6 +14,15 @@
 #include "daemon/devices.h"
 #include "sim_source/sim_source.h"
 
+/* A request's capture, prepared once: the job and the rig source it runs
+ * on (with the sim driver, or a scene to describe, the source's sim). */
+struct prepared {
+    char id[128], dir[4096];
+    sim_source *sim;
+    struct capture_rig rig;
+    capture_job *job;
+};
+
 struct worker {
     const struct goniod_config *cfg;
     pthread_mutex_t mu;
@@ -25,6 +34,9 @@ struct worker {
     int paused, abort;
     char abort_reason[32];
     struct worker_request req;
+    /* The capture worker_check prepared, until worker_start takes it (the
+     * main thread's), and the one the worker thread runs. */
+    struct prepared *pending, *current;
     size_t done, total;
     double rig_time_s, estimate_s, eta_s;
     double predicted[3]; /* the adaptive order's prediction (worker_msg_sample) */
@@ -287,17 +299,42 @@ static int request_rig(worker *w, const struct worker_request *r, sim_source **s
     return 0;
 }
 
-int worker_check(const worker *w, const struct worker_request *req, struct gonio_err *err)
+static void prepared_free(struct prepared *p)
 {
+    if (!p)
+        return;
+    capture_job_free(p->job);
+    sim_source_free(p->sim);
+    free(p);
+}
+
+/* The capture of req on its rig source, prepared (capture_prepare). */
+static int prepare(worker *w, const struct worker_request *req, struct prepared **out,
+                   struct gonio_err *err)
+{
+    *out = NULL;
+    struct prepared *p = calloc(1, sizeof *p);
+    if (!p)
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    snprintf(p->id, sizeof p->id, "%s", req->id);
+    snprintf(p->dir, sizeof p->dir, "%s", req->dir);
     struct capture_config cc = request_config(w, req);
-    struct capture_rig rig;
-    sim_source *sim;
-    /* the check opens no device: the worker is not touched */
-    int rc = request_rig((worker *)w, req, &sim, &rig, err);
+    int rc = request_rig(w, req, &p->sim, &p->rig, err);
     if (rc == 0)
-        rc = capture_check(&cc, &rig, NULL, err);
-    sim_source_free(sim);
-    return rc;
+        rc = capture_prepare(&cc, &p->rig, &p->job, err);
+    if (rc < 0) {
+        prepared_free(p);
+        return rc;
+    }
+    *out = p;
+    return 0;
+}
+
+int worker_check(worker *w, const struct worker_request *req, struct gonio_err *err)
+{
+    prepared_free(w->pending);
+    w->pending = NULL;
+    return prepare(w, req, &w->pending, err);
 }
 
 static void *run(void *arg)
@@ -306,7 +343,6 @@ static void *run(void *arg)
     struct worker_msg_stop *m = calloc(1, sizeof *m);
     struct capture_summary sum;
     struct gonio_err err = {0};
-    struct capture_config cc = request_config(w, &w->req);
     struct capture_hooks hooks = {
         .on_sample = hook_on_sample,
         .control = hook_control,
@@ -318,14 +354,13 @@ static void *run(void *arg)
         .user = w,
     };
     w->has_comm = 0;
-    struct capture_rig rig;
-    sim_source *sim;
-    int rc = request_rig(w, &w->req, &sim, &rig, &err);
+    memset(&sum, 0, sizeof sum);
+    /* A resume was not checked first: it is prepared here. */
+    int rc = w->current ? 0 : prepare(w, &w->req, &w->current, &err);
     if (rc == 0)
-        rc = capture_run(&cc, &rig, &hooks, &sum, &err);
-    else
-        memset(&sum, 0, sizeof sum);
-    sim_source_free(sim);
+        rc = capture_job_run(w->current->job, &hooks, &sum, &err);
+    prepared_free(w->current);
+    w->current = NULL;
     if (rc < 0 && !err.msg[0])
         snprintf(err.msg, sizeof err.msg, "%s", gonio_strerror(rc));
 
@@ -428,6 +463,7 @@ void worker_free(worker *w)
         next = m->next;
         free(m);
     }
+    prepared_free(w->pending);
 #ifdef GONIO_TEST_HOOKS
     if (w->phase_fd >= 0)
         close(w->phase_fd);
@@ -457,6 +493,14 @@ int worker_start(worker *w, const struct worker_request *req, struct gonio_err *
         return rc;
     }
     w->req = *req;
+    /* The capture worker_check prepared for this request, if it did. */
+    struct prepared *p = w->pending;
+    w->pending = NULL;
+    if (p && (strcmp(p->id, req->id) || strcmp(p->dir, req->dir))) {
+        prepared_free(p);
+        p = NULL;
+    }
+    w->current = p;
     w->running = 1;
     w->paused = w->abort = 0;
     w->abort_reason[0] = '\0';
@@ -471,6 +515,8 @@ int worker_start(worker *w, const struct worker_request *req, struct gonio_err *
     if (rc != 0) {
         pthread_mutex_lock(&w->mu);
         w->running = 0;
+        prepared_free(w->current);
+        w->current = NULL;
         pthread_mutex_unlock(&w->mu);
         return gonio_err_set(err, rc, "capture thread: %s", strerror(rc));
     }
