@@ -102,7 +102,7 @@ static void test_ds4_every_material(void **state)
             char path[400];
             snprintf(path, sizeof path, "%s/%s.model", cap, models[m]);
             brdf_material *fitted = NULL;
-            int rc = fit_model_run(kind, &data, &mo, path, &rep, NULL, &fitted, &err);
+            int rc = fit_model_run(kind, &data, &mo, path, &rep, &fitted, &err);
             if (rc)
                 print_error("%s %s: %s\n", docs[i].name, models[m], err.msg);
             assert_int_equal(rc, 0);
