@@ -6,248 +6,16 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "brdf/domain.h"
-#include "brdf/material.h"
-#include "common/clock.h"
 #include "capture/capture_files.h"
 #include "capture/journal_plan.h"
 #include "capture/eta.h"
+#include "capture/final_fit.h"
+#include "capture/job.h"
+#include "capture/live_fit.h"
 #include "capture/sequence.h"
-#include "fit/journal_samples.h"
 #include "journal/journal.h"
-#include "drivers/drv_sim.h"
-#include "fit/abc_model.h"
-#include "fit/abc_prior.h"
-#include "fit/fit.h"
-#include "fit/model_file.h"
-#include "fit/model_run.h"
-#include "fit/models.h"
-#include "fit/stream.h"
 #include "planner/planner.h"
 #include "rig/motion.h"
-#include "sim/estimate.h"
-#include "sim/scene.h"
-#include "sim/sim.h"
-
-/* What a capture reads, resolved and validated before anything is written. */
-struct capture_inputs {
-    int sim;                /* the engine runs the in-process simulated rig */
-    struct sim_scene scene;
-    int has_scene;
-    struct plan_rig rig;
-    struct plan *plan;
-    brdf_material *material; /* what the in-process rig measures; NULL otherwise */
-    brdf_material *truth_own; /* a named reference (cfg->truth), opened here */
-    const brdf_material *truth; /* the truth errors' reference, NULL: none */
-    char material_name[512]; /* what was measured, as a label; "" when unknown */
-    char truth_name[512];
-    const struct fit_model_kind *model; /* the final fit's (fit/models.h) */
-    int adaptive; /* the plan's order is adaptive: the policy's options */
-    struct adaptive_options policy;
-    /* The rig time the capture will take: on the simulated rig with the
-     * integration its detector will choose (sim/estimate.h), elsewhere
-     * with the rig's fixed integration. */
-    struct plan_estimate est;
-    /* Each point's integration on the simulated rig, for the adaptive
-     * policy's costs and the ETA; NULL elsewhere (both learn it from the
-     * journal). */
-    double *integration_s;
-    /* Points measured first to meter the material (capture/sequence.h). */
-    size_t prescan;
-};
-
-static void inputs_free(struct capture_inputs *in)
-{
-    free(in->integration_s);
-    plan_free(in->plan);
-    brdf_material_free(in->material);
-    brdf_material_free(in->truth_own);
-}
-
-/* "default" names the material actually used. */
-static const char *material_spec(const char *spec)
-{
-    return strcmp(spec, "default") ? spec : brdf_material_default_spec();
-}
-
-/* The material the in-process rig measures, or the label of a host's; and
- * the reference of the truth errors: the named one, else the simulated
- * rig's own material, else none (a host's rig measures what it measures). */
-static int resolve_materials(const struct capture_config *cfg, struct capture_inputs *in,
-                             struct gonio_err *err)
-{
-    if (in->sim) {
-        const char *spec = material_spec(cfg->material ? cfg->material : in->scene.material);
-        if (!(in->material = brdf_material_open(spec, err)))
-            return -abs(err ? err->code : GONIO_ENOTFOUND);
-        in->truth = in->material;
-        snprintf(in->material_name, sizeof in->material_name, "%s",
-                 brdf_material_name(in->material));
-    } else if (cfg->material) {
-        snprintf(in->material_name, sizeof in->material_name, "%s",
-                 material_spec(cfg->material));
-    }
-    if (cfg->truth) {
-        if (!(in->truth_own = brdf_material_open(material_spec(cfg->truth), err)))
-            return -abs(err ? err->code : GONIO_ENOTFOUND);
-        in->truth = in->truth_own;
-    }
-    if (in->truth)
-        snprintf(in->truth_name, sizeof in->truth_name, "%s", brdf_material_name(in->truth));
-    return 0;
-}
-
-static int estimate(struct capture_inputs *in, struct gonio_err *err)
-{
-    size_t n = plan_count(in->plan);
-    if (in->sim && !(in->integration_s = malloc((n ? n : 1) * sizeof *in->integration_s)))
-        return gonio_err_set(err, ENOMEM, "out of memory");
-    if (in->sim)
-        return sim_estimate_plan(&in->scene, in->material, in->plan, &in->rig, NULL,
-                                 in->integration_s, &in->est, err);
-    plan_estimate(in->plan, &in->rig, &in->est);
-    return 0;
-}
-
-/* The pre-scan: cfg->prescan's points. By default on a host's rig, whose
- * material the engine cannot meter before it measures,
- * CAPTURE_PRESCAN_DEFAULT points, but one in CAPTURE_PRESCAN_SHARE of a
- * smaller plan's, and none when that is fewer than 2: the pre-scan crosses
- * the plan's domain once, which on a small plan costs more than its ETA is
- * worth (DS3, 52 points: 6 cost 19 s of 81 s, 2 cost 1.4 s; DS4, 6 points:
- * 2 cost 8 s of 18 s; docs/plans.md). None on the in-process
- * rig, whose estimate already counts the integration its detector will
- * choose, and never in the adaptive order, whose policy chooses every
- * point. */
-static size_t prescan_default(const struct plan *plan)
-{
-    size_t n = plan_count(plan) / CAPTURE_PRESCAN_SHARE;
-    return n < 2 ? 0 : n > CAPTURE_PRESCAN_DEFAULT ? CAPTURE_PRESCAN_DEFAULT : n;
-}
-
-int capture_prescan_option(const char *opt, long long points, int *prescan,
-                           struct gonio_err *err)
-{
-    if (points < 0 || points > CAPTURE_PRESCAN_MAX)
-        return gonio_err_set(err, GONIO_EUSAGE,
-                             "%s %lld: a number of points from 0 (none) to %d", opt, points,
-                             CAPTURE_PRESCAN_MAX);
-    *prescan = points ? (int)points : CAPTURE_PRESCAN_OFF;
-    return 0;
-}
-
-static int resolve_prescan(const struct capture_config *cfg, struct capture_inputs *in,
-                           struct gonio_err *err)
-{
-    if (cfg->prescan < CAPTURE_PRESCAN_OFF || cfg->prescan > CAPTURE_PRESCAN_MAX)
-        return gonio_err_set(err, GONIO_EUSAGE,
-                             "prescan %d: a number of points from 0 (none) to %d",
-                             cfg->prescan, CAPTURE_PRESCAN_MAX);
-    if (cfg->prescan > 0 && in->adaptive)
-        return gonio_err_set(err, GONIO_EUSAGE,
-                             "--prescan %d: the adaptive order chooses every point itself "
-                             "(plan '%s')",
-                             cfg->prescan, plan_name(in->plan));
-    in->prescan = cfg->prescan > 0                        ? (size_t)cfg->prescan
-                  : cfg->prescan == CAPTURE_PRESCAN_OFF ? 0
-                  : !in->sim && !in->adaptive            ? prescan_default(in->plan)
-                                                         : 0;
-    if (in->prescan > plan_count(in->plan))
-        in->prescan = plan_count(in->plan);
-    return 0;
-}
-
-/* The capture's stop rule: the plan's, or --stop. */
-static enum plan_stop_kind stop_kind(const struct capture_config *cfg, const struct plan *plan)
-{
-    if (cfg->stop)
-        return strcmp(cfg->stop, "all") ? PLAN_STOP_CONVERGE : PLAN_STOP_ALL;
-    return plan_stop(plan)->kind;
-}
-
-static int resolve_inputs(const struct capture_config *cfg, const struct capture_hooks *hooks,
-                          struct capture_inputs *in, struct gonio_err *err)
-{
-    memset(in, 0, sizeof *in);
-    in->sim = !hooks->open_devices;
-    int rc;
-    if (cfg->scene) {
-        if ((rc = sim_scene_load(cfg->scene, &in->scene, err)) < 0)
-            return rc;
-        in->has_scene = 1;
-    } else if (in->sim) {
-        return gonio_err_set(err, GONIO_EUSAGE,
-                             "the simulated rig needs a scene (--scene NAME|FILE)");
-    }
-    const char *rig = cfg->rig ? cfg->rig : in->has_scene ? in->scene.rig : NULL;
-    if (!rig)
-        return gonio_err_set(err, GONIO_EUSAGE, "no rig profile: name one (--rig NAME|FILE)");
-    if ((rc = plan_rig_load(rig, &in->rig, err)) < 0)
-        return rc;
-    if ((rc = plan_load(cfg->plan, &in->rig, &in->plan, err)) < 0)
-        return rc;
-    if (cfg->order) {
-        int mode = plan_order_parse(cfg->order);
-        if (mode < 0) {
-            inputs_free(in);
-            return gonio_err_set(err, GONIO_EUSAGE,
-                                 "--order '%s': use travel, progressive, as-written, greedy or "
-                                 "adaptive",
-                                 cfg->order);
-        }
-        if ((rc = plan_order(in->plan, (enum plan_order_mode)mode, &in->rig)) < 0) {
-            inputs_free(in);
-            return gonio_err_set(err, -rc, "ordering plan: %s", gonio_strerror(rc));
-        }
-    }
-    if (!(in->model = fit_model_find_rgb(cfg->model, "--model", err))) {
-        inputs_free(in);
-        return -GONIO_EUSAGE;
-    }
-    if (cfg->stop && strcmp(cfg->stop, "all") && strcmp(cfg->stop, "converge")) {
-        inputs_free(in);
-        return gonio_err_set(err, GONIO_EUSAGE, "--stop '%s': use all or converge", cfg->stop);
-    }
-    in->adaptive = plan_current_order(in->plan) == PLAN_ORDER_ADAPTIVE;
-    if ((rc = sequence_options(cfg, in->plan, stop_kind(cfg, in->plan) == PLAN_STOP_CONVERGE,
-                               &in->policy, err)) < 0 ||
-        (rc = resolve_prescan(cfg, in, err)) < 0) {
-        inputs_free(in);
-        return rc;
-    }
-    if ((rc = resolve_materials(cfg, in, err)) == 0)
-        rc = estimate(in, err);
-    if (rc < 0)
-        inputs_free(in);
-    return rc;
-}
-
-static void devices_close(struct capture_devices *d)
-{
-    drv_axis_free(d->sample);
-    drv_axis_free(d->arm);
-    drv_axis_free(d->azimuth);
-    drv_detector_free(d->detector);
-    drv_clock_free(d->clock);
-    memset(d, 0, sizeof *d);
-}
-
-/* The in-process simulated rig: devices over a sim_rig reading the
- * capture's own material. */
-static int devices_open_sim(sim_rig *sim, struct capture_devices *d, struct gonio_err *err)
-{
-    memset(d, 0, sizeof *d);
-    d->sample = drv_axis_new_sim(sim, SIM_AXIS_SAMPLE);
-    d->arm = drv_axis_new_sim(sim, SIM_AXIS_ARM);
-    d->azimuth = drv_axis_new_sim(sim, SIM_AXIS_AZIMUTH);
-    d->detector = drv_detector_new_sim(sim);
-    d->clock = drv_clock_new_sim(sim);
-    if (!d->sample || !d->arm || !d->azimuth || !d->detector || !d->clock) {
-        devices_close(d);
-        return gonio_err_set(err, ENOMEM, "simulated rig: out of memory");
-    }
-    return 0;
-}
 
 const char *capture_phase_name(enum capture_phase phase)
 {
@@ -255,7 +23,7 @@ const char *capture_phase_name(enum capture_phase phase)
     return (unsigned)phase < sizeof names / sizeof *names ? names[phase] : "?";
 }
 
-static void phase(const struct capture_hooks *hooks, enum capture_phase ph, int point)
+void capture_phase_enter(const struct capture_hooks *hooks, enum capture_phase ph, int point)
 {
     if (hooks->on_phase)
         hooks->on_phase(hooks->user, ph, point);
@@ -309,7 +77,7 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
     for (int i = 0; i < n; i++)
         if ((rc = drv_axis_start_move(axes[i], to[i], err)) < 0)
             return rc;
-    phase(hooks, CAPTURE_PHASE_MOVE, index);
+    capture_phase_enter(hooks, CAPTURE_PHASE_MOVE, index);
     /* An axis moving against its approach direction stops beyond the
      * target, then comes back: each such approach leg is sent as its first
      * leg ends, the axes whose first legs end first first, so the move
@@ -331,7 +99,7 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
     for (int i = 0; i < n; i++)
         if ((rc = drv_axis_wait(axes[i], err)) < 0)
             return rc;
-    phase(hooks, CAPTURE_PHASE_ACQUIRE, index);
+    capture_phase_enter(hooks, CAPTURE_PHASE_ACQUIRE, index);
     for (int i = 0; i < n; i++)
         if ((rc = drv_axis_position(axes[i], &at[i], err)) < 0)
             return rc;
@@ -383,79 +151,9 @@ static void stop_axes(struct capture_devices *d)
         drv_axis_stop(d->azimuth, NULL);
 }
 
-/* The capture's streaming fit: the stop rule of stop: converge, or with
- * progress_fit the rounds behind a host's progress figures. */
-struct stream {
-    fit_stream *fs;   /* NULL: no streaming fit */
-    int progress;     /* rounds at 16, 32, 64... samples only */
-    double log_error; /* the latest round's in-sample log error, NAN before one */
-};
-
-#define PROGRESS_FIRST 16 /* samples before the first progress round */
-
-/* The in-sample errors of the latest round over the samples so far, for
- * the host. */
-static void report_fit(const struct capture_hooks *hooks, struct stream *st,
-                       const struct journal_sample *js, size_t n)
-{
-    const struct brdf_abc *p = fit_stream_params(st->fs);
-    struct brdf_pair *pairs = malloc(n * sizeof *pairs);
-    double *meas = malloc(n * 3 * sizeof *meas), *pred = malloc(n * 3 * sizeof *pred);
-    if (p && pairs && meas && pred) {
-        for (size_t i = 0; i < n; i++) {
-            journal_sample_pair(&js[i], &pairs[i]);
-            memcpy(meas + 3 * i, js[i].rgb, sizeof js[i].rgb);
-            brdf_abc_eval(p, &pairs[i], pred + 3 * i);
-        }
-        struct brdf_errors e;
-        brdf_errors_compute(pairs, meas, pred, n, &e);
-        st->log_error = e.log;
-        if (hooks->on_fit)
-            hooks->on_fit(hooks->user, &e, n);
-    }
-    free(pairs);
-    free(meas);
-    free(pred);
-}
-
-/* Feed the journalled sample js[n - 1] to the streaming fit. A round is
- * forced (and announced as the FIT phase) where a progressive level ends,
- * or, for progress, where the count reaches 16, 32, 64... Returns 1 once
- * the stop rule has decided. */
-static int stream_feed(struct stream *st, const struct plan *plan,
-                       const struct capture_hooks *hooks, const struct journal_sample *js,
-                       size_t n, struct gonio_err *err)
-{
-    if (!st->fs)
-        return 0;
-    const struct journal_sample *last = &js[n - 1];
-    struct fit_sample s;
-    fit_journal_samples(last, 1, &s);
-    int force;
-    if (st->progress) {
-        force = n >= PROGRESS_FIRST && (n & (n - 1)) == 0;
-    } else {
-        const struct plan_point *pt = plan_point(plan, (size_t)last->point),
-                                *next = plan_point(plan, (size_t)last->point + 1);
-        force = plan_current_order(plan) == PLAN_ORDER_PROGRESSIVE &&
-                (!next || next->level != pt->level);
-    }
-    struct fit_stream_status before, after;
-    fit_stream_status(st->fs, &before);
-    if (force)
-        phase(hooks, CAPTURE_PHASE_FIT, (int)n);
-    int rc = fit_stream_add(st->fs, &s, force, err);
-    if (force)
-        phase(hooks, CAPTURE_PHASE_BETWEEN, (int)n);
-    fit_stream_status(st->fs, &after);
-    if (rc >= 0 && after.rounds > before.rounds && (hooks->on_fit || hooks->on_progress))
-        report_fit(hooks, st, js, n);
-    return rc;
-}
-
 /* The ETA a host shows: capture/eta.h's, metered from the journal. */
-static void progress(const struct capture_hooks *hooks, const struct capture_inputs *in,
-                     const capture_eta *eta, const struct stream *st, const sequence *seq,
+static void progress(const struct capture_hooks *hooks, const struct capture_job *in,
+                     const capture_eta *eta, const struct live_fit *st, const sequence *seq,
                      size_t done, size_t already, double rig_time_s)
 {
     if (!hooks->on_progress)
@@ -487,7 +185,7 @@ static void progress(const struct capture_hooks *hooks, const struct capture_inp
  * records (a resumed capture's); none in the adaptive order, whose
  * progress counts down its budget, nor for a host that shows no progress
  * (the study): metering costs O(points) per sample. */
-static int eta_new(const struct capture_inputs *in, const struct capture_hooks *hooks,
+static int eta_new(const struct capture_job *in, const struct capture_hooks *hooks,
                    const sequence *seq, const struct journal_sample *js, size_t n,
                    capture_eta **out, struct gonio_err *err)
 {
@@ -509,452 +207,288 @@ static int eta_new(const struct capture_inputs *in, const struct capture_hooks *
     return 0;
 }
 
-/* A resumed capture's in-process rig: its axes where the interrupted run
- * left them, as a real rig's stay, and its clock at the last sample's time
- * (the scene's drift runs on it), so the rig time goes on as it would
- * have (an adaptive capture's budget and convergence read it). An axis
- * the rig's fault effects stop keeps where it is. */
-static void sim_resume(sim_rig *sim, const struct journal_sample *last,
-                       const struct plan_point *pt)
+/* One run of a job: the directory, the journal and what was measured. */
+struct run {
+    capture_job *job;
+    const struct capture_hooks *hooks;
+    struct capture_summary *out;
+    int lock_fd;
+    journal *j;
+    struct sequence_setup order;
+    sequence *seq;
+    struct journal_sample *samples; /* the journal's, then this run's (room for the plan) */
+    size_t n, already;              /* samples, of which journalled by earlier runs */
+    struct live_fit fit;
+    capture_eta *eta;
+    int aborted, converged;
+};
+
+/* Replay a resumed capture's journal into the streaming fit: the same
+ * samples give the same rounds, so a capture that had converged stays
+ * converged. */
+static int replay_journal(struct run *r, struct gonio_err *err)
 {
-    static const enum sim_axis_id axis[3] = {SIM_AXIS_SAMPLE, SIM_AXIS_ARM, SIM_AXIS_AZIMUTH};
-    const double at[3] = {last->s, last->a, pt->ax.az};
-    for (int i = 0; i < 3; i++)
-        if (sim_rig_start_move(sim, axis[i], at[i], NULL) == 0 &&
-            sim_rig_wait(sim, axis[i], NULL) < 0)
-            sim_rig_reset_alarm(sim, axis[i]);
-    sim_rig_advance(sim, fmax(0, last->rig_time_s - sim_rig_now(sim)));
+    for (size_t i = 0; i < r->n && !r->converged; i++) {
+        int rc = live_fit_feed(&r->fit, r->job->plan, r->hooks, r->samples, i + 1, err);
+        if (rc < 0)
+            return rc;
+        r->converged = rc;
+    }
+    return 0;
+}
+
+/* Open the source's devices; a resumed capture's where its journal left
+ * them (the journal keeps the sample's axes; the azimuth is the plan's). */
+static int open_devices(const struct run *r, struct capture_devices *dev, struct gonio_err *err)
+{
+    const struct capture_job *job = r->job;
+    const struct capture_rig *src = job->src;
+    memset(dev, 0, sizeof *dev);
+    int rc = src->open(src->user, &job->rig, job->cfg.out_dir, dev, err);
+    if (rc == 0 && r->n > 0 && src->resume) {
+        const struct journal_sample *last = &r->samples[r->n - 1];
+        const double at[3] = {last->s, last->a,
+                              plan_point(job->plan, (size_t)last->point)->ax.az};
+        src->resume(src->user, dev, at, last->rig_time_s);
+    }
+    return rc;
+}
+
+/* Measure point k and journal it; *next receives the point after it (-1:
+ * none). Returns 1 when the streaming fit decided. */
+static int measure_one(struct run *r, struct capture_devices *dev, struct rig_clock *clk,
+                       long k, long *next, struct gonio_err *err)
+{
+    const struct capture_job *job = r->job;
+    const struct capture_hooks *hooks = r->hooks;
+    const struct plan_point *pt = plan_point(job->plan, (size_t)k);
+    struct journal_sample s;
+    /* The adaptive order decides the point after k meanwhile. */
+    int rc = sequence_begin(r->seq, k, err);
+    if (rc == 0)
+        rc = measure_point(dev, clk, hooks, &job->rig, pt, (int)k, &s, err);
+    if (rc < 0) {
+        stop_axes(dev); /* a failed point leaves no axis moving */
+        if (err) { /* name the point the operator will find in plan.json */
+            char msg[GONIO_ERR_MSG_MAX];
+            snprintf(msg, sizeof msg, "%s", err->msg);
+            gonio_err_set(err, err->code, "point %ld (theta_i %g, theta_r %g): %s", k,
+                          pt->theta_i, pt->theta_r, msg);
+        }
+    }
+    if (rc == 0) {
+        capture_phase_enter(hooks, CAPTURE_PHASE_JOURNAL, (int)k);
+        rc = journal_append(r->j, &s, err);
+        capture_phase_enter(hooks, CAPTURE_PHASE_BETWEEN, (int)k);
+    }
+    *next = -1;
+    if (rc < 0) {
+        sequence_end(r->seq, NULL, next, NULL);
+        return rc;
+    }
+    r->samples[r->n++] = s;
+    rc = sequence_end(r->seq, &s, next, err);
+    /* The fit round first: the host's sample event carries it. */
+    if (rc == 0)
+        rc = live_fit_feed(&r->fit, job->plan, hooks, r->samples, r->n, err);
+    if (r->eta)
+        capture_eta_observe(r->eta, &s);
+    if (rc >= 0)
+        progress(hooks, job, r->eta, &r->fit, r->seq, r->n, r->already, s.rig_time_s);
+    if (rc >= 0 && hooks->on_sample)
+        hooks->on_sample(hooks->user, &s, r->n, plan_count(job->plan));
+    return rc;
 }
 
 /* Measure every point the journal does not hold yet, from `first` on in
- * the order seq gives. Sets *aborted when the host asked to stop,
- * *converged when the streaming fit decided that further points would not
- * change the model, *paused_s to the rig clock the host held the capture
- * paused. */
-static int acquire(const struct capture_config *cfg, const struct capture_inputs *in,
-                   const struct capture_hooks *hooks, journal *j, sequence *seq, long first,
-                   struct journal_sample **samples, size_t *n, int *aborted,
-                   struct stream *fs, int *converged, double *paused_s,
-                   struct drv_axis_stats *mech,
-                   struct gonio_err *err)
+ * the order the sequence gives. Sets r->aborted when the host asked to
+ * stop, r->converged when the streaming fit decided that further points
+ * would not change the model, the summary's paused_s to the rig clock the
+ * host held the capture paused. */
+static int acquire(struct run *r, long first, struct gonio_err *err)
 {
-    size_t count = plan_count(in->plan);
-    struct journal_sample *all = realloc(*samples, count * sizeof *all);
+    const struct capture_job *job = r->job;
+    const struct capture_hooks *hooks = r->hooks;
+    size_t count = plan_count(job->plan);
+    struct journal_sample *all = realloc(r->samples, (count ? count : 1) * sizeof *all);
     if (!all)
         return gonio_err_set(err, ENOMEM, "out of memory");
-    *samples = all;
-    size_t already = *n;
-    capture_eta *eta = NULL;
-    int rc = eta_new(in, hooks, seq, all, *n, &eta, err);
+    r->samples = all;
+    r->already = r->n;
+    int rc = eta_new(job, hooks, r->seq, all, r->n, &r->eta, err);
     if (rc < 0)
         return rc;
-    progress(hooks, in, eta, fs, seq, *n, already, *n > 0 ? all[*n - 1].rig_time_s : 0);
-    /* A resumed capture replays its journal: the same samples give the
-     * same rounds, so a capture that had converged stays converged. */
-    for (size_t i = 0; i < *n && !*converged; i++) {
-        rc = stream_feed(fs, in->plan, hooks, all, i + 1, err);
-        if (rc < 0) {
-            capture_eta_free(eta);
-            return rc;
-        }
-        *converged = rc;
-    }
-    if (*converged || first < 0) {
-        capture_eta_free(eta);
-        return 0;
-    }
+    progress(hooks, job, r->eta, &r->fit, r->seq, r->n, r->already,
+             r->n > 0 ? all[r->n - 1].rig_time_s : 0);
+    if ((rc = replay_journal(r, err)) < 0 || r->converged || first < 0)
+        return rc;
 
     struct capture_devices dev;
-    sim_rig *sim = NULL;
-    double base = *n > 0 ? all[*n - 1].rig_time_s : 0;
-    if (!in->sim) {
-        rc = hooks->open_devices(hooks->user, &in->rig, &dev, err);
-    } else {
-        sim = sim_rig_new_scene(&in->rig, in->material, &in->scene, cfg->out_dir, err);
-        rc = sim ? devices_open_sim(sim, &dev, err) : -abs(err ? err->code : ENOMEM);
-        if (rc == 0 && *n > 0)
-            sim_resume(sim, &all[*n - 1], plan_point(in->plan, (size_t)all[*n - 1].point));
-    }
-    if (rc < 0) {
-        sim_rig_free(sim);
-        capture_eta_free(eta);
+    if ((rc = open_devices(r, &dev, err)) < 0)
         return rc;
-    }
     struct rig_clock clk;
-    rig_clock_start(&clk, dev.clock, base);
-
+    rig_clock_start(&clk, dev.clock, r->n > 0 ? all[r->n - 1].rig_time_s : 0);
     for (long k = first; k >= 0 && rc == 0;) {
         enum capture_control c = hooks->control ? hooks->control(hooks->user) : CAPTURE_GO;
         if (c == CAPTURE_ABORT) {
             stop_axes(&dev);
-            *aborted = 1;
+            r->aborted = 1;
             break;
         }
         if (c == CAPTURE_PAUSED)
             rig_clock_paused(&clk);
-        struct journal_sample s;
-        const struct plan_point *pt = plan_point(in->plan, (size_t)k);
-        /* The adaptive order decides the point after k meanwhile. */
-        rc = sequence_begin(seq, k, err);
-        if (rc == 0)
-            rc = measure_point(&dev, &clk, hooks, &in->rig, pt, (int)k, &s, err);
-        if (rc < 0) {
-            stop_axes(&dev); /* a failed point leaves no axis moving */
-            if (err) { /* name the point the operator will find in plan.json */
-                char msg[GONIO_ERR_MSG_MAX];
-                snprintf(msg, sizeof msg, "%s", err->msg);
-                gonio_err_set(err, err->code, "point %ld (theta_i %g, theta_r %g): %s", k,
-                              pt->theta_i, pt->theta_r, msg);
-            }
-        }
-        if (rc == 0) {
-            phase(hooks, CAPTURE_PHASE_JOURNAL, (int)k);
-            rc = journal_append(j, &s, err);
-            phase(hooks, CAPTURE_PHASE_BETWEEN, (int)k);
-        }
-        long next = -1;
-        if (rc < 0) {
-            sequence_end(seq, NULL, &next, NULL);
-            break;
-        }
-        all[(*n)++] = s;
-        rc = sequence_end(seq, &s, &next, err);
-        /* The fit round first: the host's sample event carries it. */
-        if (rc == 0)
-            rc = stream_feed(fs, in->plan, hooks, all, *n, err);
-        if (eta)
-            capture_eta_observe(eta, &s);
-        if (rc >= 0)
-            progress(hooks, in, eta, fs, seq, *n, already, s.rig_time_s);
-        if (rc >= 0 && hooks->on_sample)
-            hooks->on_sample(hooks->user, &s, *n, count);
+        rc = measure_one(r, &dev, &clk, k, &k, err);
         if (rc > 0) {
-            *converged = 1;
+            r->converged = 1;
             rc = 0;
             break;
         }
-        k = next;
     }
-    *paused_s = clk.paused;
-    add_axis_stats(&dev, mech);
-    if (hooks->close_devices)
-        hooks->close_devices(hooks->user, &dev);
-    else
-        devices_close(&dev);
-    sim_rig_free(sim);
-    capture_eta_free(eta);
+    r->out->paused_s = clk.paused;
+    add_axis_stats(&dev, &r->out->mech);
+    job->src->close(job->src->user, &dev);
     return rc;
 }
 
-/* The capture's model file, DIR/NAME.model (the name `gonio fit DIR --model
- * NAME` writes by default), recorded in the summary. */
-static void model_path(const char *dir, const char *name, struct capture_summary *out,
-                       char *path, size_t len)
+/* Prepare the directory (or take up a resumed one), open the journal and
+ * the sequence after what it holds; *first: the first point to measure. */
+static int open_capture(struct run *r, long *first, struct gonio_err *err)
 {
-    snprintf(out->model_file, sizeof out->model_file, "%s.model", name);
-    snprintf(path, len, "%.4000s/%s", dir, out->model_file);
+    capture_job *job = r->job;
+    const struct capture_rig *src = job->src;
+    struct capture_setup setup = {
+        .plan = job->plan,
+        .rig = &job->rig,
+        .source = src->setup_json,
+        .material = job->material_name[0] ? job->material_name : NULL,
+        .driver = src->driver ? src->driver : "unknown",
+        .detector = src->detector ? src->detector : "unknown",
+        .policy = job->adaptive ? &job->policy : NULL,
+    };
+    const char *dir = job->cfg.out_dir;
+    int rc = capture_files_prepare(dir, &setup, &r->lock_fd, err);
+    if (rc < 0)
+        return rc;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/samples.csv", dir);
+    if (!(r->j = journal_open(path, &r->samples, &r->n, err)))
+        return -abs(err ? err->code : EIO);
+    /* A resume trusts only records measured at their plan points. */
+    struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
+    if (r->n > 0 &&
+        (rc = journal_plan_check(path, r->samples, r->n, &jp, job->rig.mech.in_position_deg,
+                                 err)) < 0)
+        return rc;
+    if (job->cfg.lazy_journal)
+        journal_set_lazy(r->j);
+    r->order = (struct sequence_setup){.plan = job->plan,
+                                       .rig = &job->rig,
+                                       .integration_s = job->integration_s,
+                                       .opt = &job->policy,
+                                       .prescan = job->prescan,
+                                       .dir = dir};
+    return sequence_new(&r->order, r->samples, r->n, &r->seq, first, err);
 }
 
-/* abc and abc-prior: fit_abc / fit_abc_map, warm-started from the
- * streaming fit, with parameter sds and (abc-prior) the too-few-samples
- * warning; the parameters go into results.json and, as gonio fit's abc
- * kind, into DIR/NAME.model, read back so that the errors are the file's. */
-static int fit_abc_capture(const struct fit_data *data, const struct brdf_abc *warm,
-                           const char *dir, const char *model, struct capture_summary *out,
-                           brdf_material **fitted, struct gonio_err *err)
+/* The figures of what was measured, from the journal, and why it stopped. */
+static void summarize(const struct run *r, struct capture_summary *out)
 {
-    const struct fit_sample *fs = data->rgb;
-    size_t n = data->n_rgb;
-    const char *material = data->material;
-    struct fit_options opt = fit_default_options();
-    opt.warm_start = warm; /* the streaming fit's last parameters, when there is one */
-    opt.lower_bound = data->rgb_lower;
-    opt.domain_weights = data->domain_weights;
-    struct fit_info info;
-    double t0 = gonio_monotonic_s();
-    /* abc-prior: MAP with the population prior, the material left out of it */
-    struct fit_abc_prior prior;
-    int use_prior = !strcmp(model, "abc-prior");
-    int rc = use_prior ? fit_abc_prior_build(material, &prior, err) : 0;
+    out->samples = r->n;
+    out->rig_time_s = r->n ? r->samples[r->n - 1].rig_time_s : 0;
+    for (size_t i = 0; i < r->n; i++)
+        out->integration_s += r->samples[i].integration_s;
+    out->settle_s = (double)r->n * r->job->rig.settle_s;
+    out->move_s = out->rig_time_s - out->settle_s - out->integration_s;
+    snprintf(out->stop_reason, sizeof out->stop_reason, "%s",
+             r->aborted            ? "aborted"
+             : out->policy.stop[0] ? out->policy.stop
+             : r->converged        ? "converged"
+                                   : "complete");
+}
+
+/* The final fit and its errors, and results.json. The final fit starts
+ * from the stop rule's last round; progress rounds do not steer it, so a
+ * capture fits the same with or without them. abc-prior leaves what was
+ * measured out of its prior. */
+static int finish(struct run *r, struct gonio_err *err)
+{
+    const capture_job *job = r->job;
+    struct capture_summary *out = r->out;
+    const struct live_fit *lf = &r->fit;
+    brdf_material *fitted = NULL; /* the final fit, as a material */
+    capture_phase_enter(r->hooks, CAPTURE_PHASE_FIT, -1);
+    int rc = capture_fit_samples(
+        r->samples, r->n, lf->fs && !lf->progress ? fit_stream_params(lf->fs) : NULL,
+        job->model, job->cfg.out_dir,
+        job->material_name[0] ? job->material_name
+        : job->truth_name[0]  ? job->truth_name
+                              : NULL,
+        job->adaptive, out, &fitted, err);
+    if (rc == 0 && r->converged)
+        out->converged = 1; /* the stop rule decided: the capture converged */
+    if (rc == 0 && job->truth)
+        rc = capture_assess_truth(job->truth, fitted, job->cfg.assess_nodes, out, err);
     if (rc == 0)
-        rc = use_prior ? fit_abc_map(fs, n, &opt, &prior, &out->params, &info, err)
-                       : fit_abc(fs, n, &opt, &out->params, &info, err);
-    out->fit_time_s = gonio_monotonic_s() - t0;
-    if (rc < 0)
-        return rc;
-    out->has_params = 1;
-    out->sd = info.sd;
-    if (use_prior)
-        fit_abc_prior_warning(&info, n - info.dropped, out->warning, sizeof out->warning);
-    out->converged = info.converged;
-    out->status = info.status;
-
-    /* The keys gonio fit's abc and abc-prior files carry, and where the
-     * start came from (a warm start makes the file differ from gonio fit's). */
-    struct fit_model_file *mf = fit_abc_fitted_file(&out->params, opt.seed, &info);
-    if (mf && ((warm && fit_model_file_set(mf, "warm_start", "the capture's streaming fit")) ||
-               (use_prior && fit_abc_prior_file_keys(mf, &prior, &info)))) {
-        fit_model_file_free(mf);
-        mf = NULL;
-    }
-    if (!mf)
-        return gonio_err_set(err, ENOMEM, "out of memory");
-    char path[4200];
-    model_path(dir, model, out, path, sizeof path);
-    rc = fit_model_write_open(mf, path, fitted, err);
-    fit_model_file_free(mf);
-    if (rc < 0)
-        out->model_file[0] = '\0';
+        rc = capture_files_results(job->cfg.out_dir, out, err);
+    brdf_material_free(fitted);
     return rc;
 }
 
-/* Any other registered RGB model: the fit `gonio fit` makes, its model
- * file written as DIR/NAME.model and read back, so that the errors below
- * are those of the file an operator renders or exports. */
-static int fit_registry_capture(const struct fit_data *data, const char *dir,
-                                const struct fit_model_kind *kind, struct capture_summary *out,
-                                brdf_material **fitted, struct gonio_err *err)
-{
-    struct fit_model_options mo = fit_model_default_options();
-    struct fit_model_report rep = {0};
-    char path[4200];
-    model_path(dir, kind->name, out, path, sizeof path);
-    int rc = fit_model_run(kind, data, &mo, path, &rep, &out->fit_time_s, fitted, err);
-    if (rc < 0) {
-        out->model_file[0] = '\0';
-        return rc;
-    }
-    out->converged = rep.converged;
-    out->status = rep.status;
-    return 0;
-}
-
-/* The final fit of the journalled samples with the capture's model, and its
- * error on them (the plan domain). Saturated readings are fitted as lower
- * bounds when the model censors them (fit_model_censors; docs/fitting.md
- * "Saturated readings"), and samples an adaptive policy chose (chosen) are
- * weighted by their share of the domain (fit/models.h fit_data). A failed
- * fit names the model and leaves the journal as it is. */
-static int fit_samples(const struct journal_sample *js, size_t n, const struct brdf_abc *warm,
-                       const struct fit_model_kind *kind, const char *dir, const char *material,
-                       int chosen, struct capture_summary *out, brdf_material **fitted,
-                       struct gonio_err *err)
-{
-    struct fit_sample *fs = malloc((n ? n : 1) * sizeof *fs);
-    unsigned char *lower = malloc(n ? n : 1);
-    if (!fs || !lower) {
-        free(fs);
-        free(lower);
-        return gonio_err_set(err, ENOMEM, "out of memory");
-    }
-    out->saturated = fit_journal_samples(js, n, fs);
-    for (size_t i = 0; i < n; i++)
-        lower[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
-    struct fit_data data = {.rgb = fs,
-                            .n_rgb = n,
-                            .rgb_lower = out->saturated && fit_model_censors(
-                                             kind, FIT_SATURATED_DEFAULT) ? lower : NULL,
-                            .material = material,
-                            .domain_weights = chosen};
-    int rc = !strcmp(kind->name, "abc") || !strcmp(kind->name, "abc-prior")
-                 ? fit_abc_capture(&data, warm, dir, kind->name, out, fitted, err)
-                 : fit_registry_capture(&data, dir, kind, out, fitted, err);
-    if (rc < 0 && err) {
-        char msg[GONIO_ERR_MSG_MAX];
-        snprintf(msg, sizeof msg, "%s", err->msg);
-        gonio_err_set(err, err->code,
-                      "final fit (model %s): %s; the %zu samples stay in %s/samples.csv",
-                      kind->name, msg, n, dir);
-    }
-    if (rc == 0) /* Plan-domain error: the model against what was measured. */
-        rc = fit_sample_errors(*fitted, fs, n, &out->err_plan, err);
-    free(fs);
-    free(lower);
-    return rc;
-}
-
-/* Errors against the true material over the in-plane and full domains. */
-#define ASSESS_SEED UINT64_C(20261201) /* the sample of the full domain (assess_nodes) */
-static int assess_truth(const brdf_material *truth, const brdf_material *model,
-                        size_t assess_nodes, struct capture_summary *out, struct gonio_err *err)
-{
-    struct brdf_domain inplane = {0}, full = {0};
-    int rc = brdf_domain_inplane(&inplane, err);
-    if (rc >= 0)
-        rc = assess_nodes ? brdf_domain_oop_random(&full, assess_nodes, ASSESS_SEED, err)
-                          : brdf_domain_full(&full, err);
-    if (rc >= 0)
-        rc = brdf_errors_material(truth, model, &inplane, &out->err_inplane, err);
-    if (rc >= 0)
-        rc = brdf_errors_material(truth, model, &full, &out->err_full, err);
-    if (rc >= 0) {
-        out->has_truth = 1;
-        rc = 0;
-    }
-    brdf_domain_free(&inplane);
-    brdf_domain_free(&full);
-    return rc;
-}
-
-/* The streaming fit a capture runs: its plan's stop rule (or --stop)
- * converge, or rounds for a host's progress figures; none otherwise, and
- * none in the adaptive order. */
-static int stream_new(const struct capture_config *cfg, const struct plan *plan,
-                      struct stream *st, struct gonio_err *err)
-{
-    memset(st, 0, sizeof *st);
-    st->log_error = NAN;
-    if (plan_current_order(plan) == PLAN_ORDER_ADAPTIVE)
-        return 0; /* the policy stops the capture and predicts its error */
-    struct plan_stop stop = *plan_stop(plan);
-    stop.kind = stop_kind(cfg, plan);
-    struct fit_stream_options so = fit_stream_default_options();
-    if (stop.kind == PLAN_STOP_CONVERGE) {
-        so.tol = stop.tol;
-        so.rounds = stop.rounds;
-        so.every = stop.every;
-        so.min_points = stop.min_points;
-    } else if (cfg->progress_fit && !cfg->measure_only) {
-        st->progress = 1;
-        so.converge = 0;
-        so.every = 0; /* only the rounds stream_feed forces */
-    } else {
-        return 0;
-    }
-    return fit_stream_new(&so, &st->fs, err);
-}
-
-int capture_run(const struct capture_config *cfg, const struct capture_hooks *hooks,
-                struct capture_summary *out, struct gonio_err *err)
+int capture_job_run(capture_job *job, const struct capture_hooks *hooks,
+                    struct capture_summary *out, struct gonio_err *err)
 {
     static const struct capture_hooks no_hooks;
-    if (!hooks)
-        hooks = &no_hooks;
     memset(out, 0, sizeof *out);
-    struct capture_inputs in;
-    int rc = resolve_inputs(cfg, hooks, &in, err);
+    if (job->ran)
+        return gonio_err_set(err, GONIO_EUSAGE, "a prepared capture runs once");
+    job->ran = 1;
+    struct run r = {.job = job, .hooks = hooks ? hooks : &no_hooks, .out = out, .lock_fd = -1};
+    snprintf(out->plan, sizeof out->plan, "%s", plan_name(job->plan));
+    snprintf(out->material, sizeof out->material, "%s", job->material_name);
+    snprintf(out->truth, sizeof out->truth, "%s", job->truth_name);
+    snprintf(out->model, sizeof out->model, "%s", job->cfg.model);
+    int rc = live_fit_new(&job->cfg, job->plan, &r.fit, err);
     if (rc < 0)
         return rc;
-    snprintf(out->plan, sizeof out->plan, "%s", plan_name(in.plan));
-    snprintf(out->material, sizeof out->material, "%s", in.material_name);
-    snprintf(out->truth, sizeof out->truth, "%s", in.truth_name);
-    snprintf(out->model, sizeof out->model, "%s", cfg->model);
-
-    struct journal_sample *samples = NULL;
-    size_t n = 0;
-    int aborted = 0, converged = 0, lock_fd = -1;
-    journal *j = NULL;
-    brdf_material *fitted = NULL; /* the final fit, as a material */
-    struct stream fs;
-    if ((rc = stream_new(cfg, in.plan, &fs, err)) < 0) {
-        inputs_free(&in);
-        return rc;
-    }
     /* Stopped before anything is written (an interrupt while planning):
      * an aborted capture with no files, not a half-made directory. */
-    if (hooks->control && hooks->control(hooks->user) == CAPTURE_ABORT) {
+    if (r.hooks->control && r.hooks->control(r.hooks->user) == CAPTURE_ABORT) {
         snprintf(out->stop_reason, sizeof out->stop_reason, "aborted");
-        fit_stream_free(fs.fs);
-        inputs_free(&in);
+        fit_stream_free(r.fit.fs);
         return 0;
     }
-    const char *detector = cfg->detector ? cfg->detector
-                           : !in.has_scene ? "unknown"
-                           : in.scene.detector == SIM_DETECTOR_RGB ? "rgb" : "spectral";
-    struct capture_setup setup = {
-        .plan = in.plan,
-        .rig = &in.rig,
-        .scene = in.has_scene ? &in.scene : NULL,
-        .material = in.material_name[0] ? in.material_name : NULL,
-        .driver = cfg->driver ? cfg->driver : "sim",
-        .detector = detector,
-        .policy = in.adaptive ? &in.policy : NULL,
-    };
-    rc = capture_files_prepare(cfg->out_dir, &setup, &lock_fd, err);
-    if (rc == 0) {
-        char path[4096];
-        snprintf(path, sizeof path, "%s/samples.csv", cfg->out_dir);
-        j = journal_open(path, &samples, &n, err);
-        rc = j ? 0 : -abs(err ? err->code : EIO);
-        /* A resume trusts only records measured at their plan points. */
-        struct journal_plan jp = {.plan = in.plan, .count = plan_count(in.plan)};
-        if (j && n > 0)
-            rc = journal_plan_check(path, samples, n, &jp, in.rig.mech.in_position_deg, err);
-        if (j && cfg->lazy_journal)
-            journal_set_lazy(j);
-    }
-    sequence *seq = NULL;
     long first = -1;
+    rc = open_capture(&r, &first, err);
     if (rc == 0)
-        rc = sequence_new(in.plan, &in.rig, in.integration_s, &in.policy, in.prescan, samples, n,
-                          cfg->out_dir, &seq, &first, err);
-    if (rc == 0)
-        rc = acquire(cfg, &in, hooks, j, seq, first, &samples, &n, &aborted, &fs, &converged,
-                     &out->paused_s, &out->mech, err);
-    journal_close(j);
-    if (rc == 0 && !aborted)
-        rc = sequence_summary(seq, &in.policy, out, err);
+        rc = acquire(&r, first, err);
+    journal_close(r.j);
+    capture_eta_free(r.eta);
+    if (rc == 0 && !r.aborted)
+        rc = sequence_summary(r.seq, &job->policy, out, err);
     if (out->adaptive && !strcmp(out->policy.stop, "converged"))
-        converged = 1; /* the policy's convergence is the capture's */
-    sequence_free(seq);
-    if (rc == 0) {
-        out->samples = n;
-        out->rig_time_s = n ? samples[n - 1].rig_time_s : 0;
-        for (size_t i = 0; i < n; i++)
-            out->integration_s += samples[i].integration_s;
-        out->settle_s = (double)n * in.rig.settle_s;
-        out->move_s = out->rig_time_s - out->settle_s - out->integration_s;
-        snprintf(out->stop_reason, sizeof out->stop_reason, "%s",
-                 aborted                ? "aborted"
-                 : out->policy.stop[0] ? out->policy.stop
-                 : converged            ? "converged"
-                                        : "complete");
-    }
-    int fit = rc == 0 && !aborted && !cfg->measure_only;
-    if (fit)
-        phase(hooks, CAPTURE_PHASE_FIT, -1);
-    /* The final fit starts from the stop rule's last round; progress
-     * rounds do not steer it, so a capture fits the same with or without
-     * them. abc-prior leaves what was measured out of its prior. */
-    if (fit)
-        rc = fit_samples(samples, n, fs.fs && !fs.progress ? fit_stream_params(fs.fs) : NULL,
-                         in.model, cfg->out_dir,
-                         in.material_name[0] ? in.material_name
-                         : in.truth_name[0] ? in.truth_name
-                                            : NULL,
-                         in.adaptive, out, &fitted, err);
-    if (rc == 0 && converged)
-        out->converged = 1; /* the stop rule decided: the capture converged */
-    if (rc == 0 && fit && in.truth)
-        rc = assess_truth(in.truth, fitted, cfg->assess_nodes, out, err);
-    if (rc == 0 && fit)
-        rc = capture_files_results(cfg->out_dir, out, err);
-    if (rc == 0 && !aborted)
-        phase(hooks, CAPTURE_PHASE_BETWEEN, -1);
-    capture_files_unlock(lock_fd);
-    brdf_material_free(fitted);
-    free(samples);
-    fit_stream_free(fs.fs);
-    inputs_free(&in);
+        r.converged = 1; /* the policy's convergence is the capture's */
+    sequence_free(r.seq);
+    if (rc == 0)
+        summarize(&r, out);
+    if (rc == 0 && !r.aborted && !job->cfg.measure_only)
+        rc = finish(&r, err);
+    if (rc == 0 && !r.aborted)
+        capture_phase_enter(r.hooks, CAPTURE_PHASE_BETWEEN, -1);
+    capture_files_unlock(r.lock_fd);
+    free(r.samples);
+    fit_stream_free(r.fit.fs);
     return rc;
 }
 
-int capture_check(const struct capture_config *cfg, const struct capture_hooks *hooks,
-                  struct plan_estimate *est, struct gonio_err *err)
+int capture_run(const struct capture_config *cfg, const struct capture_rig *rig,
+                const struct capture_hooks *hooks, struct capture_summary *out,
+                struct gonio_err *err)
 {
-    static const struct capture_hooks no_hooks;
-    struct capture_inputs in;
-    int rc = resolve_inputs(cfg, hooks ? hooks : &no_hooks, &in, err);
-    if (rc < 0)
-        return rc;
-    if (est)
-        *est = in.est;
-    inputs_free(&in);
-    return 0;
-}
-
-int capture_run_offline(const struct capture_config *cfg, struct capture_summary *out,
-                        struct gonio_err *err)
-{
-    return capture_run(cfg, NULL, out, err);
+    memset(out, 0, sizeof *out);
+    capture_job *job;
+    int rc = capture_prepare(cfg, rig, &job, err);
+    if (rc == 0)
+        rc = capture_job_run(job, hooks, out, err);
+    capture_job_free(job);
+    return rc;
 }

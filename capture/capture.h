@@ -1,14 +1,13 @@
 /* The capture engine: runs a plan on a rig, journals every sample, fits the
  * model and writes the capture directory (DESIGN.md sections 7 and 8).
  *
- * The engine takes devices: a host hands them over (open_devices: goniod's
- * Modbus rig), or the engine builds the in-process simulated rig from a
- * scene (`gonio capture --offline`, goniod's sim driver, the study). Only
- * that simulated rig needs a scene, and only there does the engine know
- * what it measured; elsewhere errors against a material are computed when
- * the request names a reference (truth). Everything a capture reads is
- * validated before anything is written, so bad input leaves no directory
- * behind. */
+ * The engine takes its devices from the host as a rig source (struct
+ * capture_rig): goniod's Modbus rig, or the in-process simulator a host
+ * builds (sim_source/sim_source.h). It knows no simulator: what the rig
+ * measures is known only when the source says (the simulator's material);
+ * elsewhere errors against a material are computed when the request names
+ * a reference (truth). Everything a capture reads is validated before
+ * anything is written, so bad input leaves no directory behind. */
 #ifndef GONIO_CAPTURE_CAPTURE_H
 #define GONIO_CAPTURE_CAPTURE_H
 
@@ -17,6 +16,7 @@
 #include "adaptive/adaptive.h"
 #include "brdf/abc.h"
 #include "fit/fit.h"
+#include "brdf/material.h"
 #include "brdf/metrics.h"
 #include "common/err.h"
 #include "journal/journal.h"
@@ -30,21 +30,14 @@ struct drv_clock;
 
 struct capture_config {
     const char *plan;     /* name (ds2) or path */
-    /* The simulator's scene, name or path: required for the in-process rig;
-     * with a host's devices only recorded in setup.json when given. */
-    const char *scene;
-    /* The in-process rig: overrides the scene's material. A host's devices:
-     * only a label in setup.json and results.json (NULL: unknown). */
+    /* What the rig measures, as a label in setup.json and results.json
+     * (NULL: unknown) when its source does not know it (capture_rig.material). */
     const char *material;
-    const char *rig;      /* overrides the scene's rig profile; required without a scene */
+    const char *rig;      /* the rig profile; NULL: the source's (capture_rig.profile) */
     /* The reference for the in-plane and full-domain errors (a material
-     * spec), labelled with it in results.json. NULL: the in-process rig's
-     * own material; with a host's devices, no such errors. */
+     * spec), labelled with it in results.json. NULL: what the rig source
+     * says it measures; otherwise no such errors. */
     const char *truth;
-    /* What setup.json records of the devices: the driver kind ("sim" when
-     * NULL) and the detector (NULL: the scene's, "rgb" or "spectral"). */
-    const char *driver;
-    const char *detector;
     const char *model;    /* any RGB model of the registry (fit/models.h); the
                              streaming fit of --stop converge is ABC whatever it is */
     const char *out_dir;  /* the capture directory */
@@ -80,8 +73,9 @@ struct capture_config {
      * journalled as any sample (the fit uses them) and the plan's order
      * skips them. 0: the default (on a host's rig CAPTURE_PRESCAN_DEFAULT
      * points, or one in CAPTURE_PRESCAN_SHARE of a smaller plan's, none
-     * when that is fewer than 2; none on the in-process rig, whose estimate knows its material,
-     * none in the adaptive order); CAPTURE_PRESCAN_OFF: none; else
+     * when that is fewer than 2; none on a rig whose source knows each
+     * point's integration (capture_rig.integration_s), none in the adaptive
+     * order); CAPTURE_PRESCAN_OFF: none; else
      * 1..CAPTURE_PRESCAN_MAX (refused in the adaptive order). */
     int prescan;
 };
@@ -134,6 +128,35 @@ struct capture_devices {
     struct drv_clock *clock;
 };
 
+/* A rig source: the devices a host hands the engine, and what it knows of
+ * them. open and close are required; every other member may be NULL. */
+struct capture_rig {
+    /* Open the devices for a capture on the rig profile rig (valid until
+     * close) into the capture directory dir (where a backend may keep its
+     * own records, the simulator's spectra.csv). */
+    int (*open)(void *user, const struct plan_rig *rig, const char *dir,
+                struct capture_devices *dev, struct gonio_err *err);
+    void (*close)(void *user, struct capture_devices *dev);
+    /* The integration the detector will choose at pt, known before it is
+     * measured (the simulator meters its material): the estimate, the ETA
+     * and the adaptive policy's costs count it, and no pre-scan is made by
+     * default. NULL: the rig's fixed integration, then the journal's. */
+    double (*integration_s)(void *user, const struct plan_point *pt);
+    /* A resumed capture, after open: put the devices where the interrupted
+     * run left them, the axes at at (sample, arm, azimuth) and the rig
+     * clock at rig_time_s. NULL: a real rig's stay where they are. */
+    void (*resume)(void *user, struct capture_devices *dev, const double at[3],
+                   double rig_time_s);
+    /* What setup.json records: the rig profile when the capture names
+     * none, the driver kind and the detector (NULL: "unknown"), and
+     * further members as a JSON object's text (the simulator's "scene"), compared on a resume as the rest is. */
+    const char *profile, *driver, *detector, *setup_json;
+    /* What the rig measures, when the source knows (the simulator): its
+     * label, and the reference of the truth errors unless truth names one. */
+    const brdf_material *material;
+    void *user;
+};
+
 /* CAPTURE_PAUSED: go on, after the host held the capture paused; the rig
  * clock that ran meanwhile is paused time, not rig time. */
 enum capture_control { CAPTURE_GO = 0, CAPTURE_ABORT = 1, CAPTURE_PAUSED = 2 };
@@ -161,9 +184,9 @@ struct capture_progress {
     size_t done, total;  /* samples journalled (all runs), planned points */
     size_t already_done; /* journalled by earlier runs: this run resumed */
     double rig_time_s;   /* the rig clock so far, all runs, paused time excluded */
-    /* The whole capture's rig time as estimated before the first move (on
-     * the simulated rig with the integration its detector will choose,
-     * sim/estimate.h; in the capture's order, a pre-scan's detours
+    /* The whole capture's rig time as estimated before the first move
+     * (with the integration the rig source says its detector will choose,
+     * capture_rig.integration_s; in the capture's order, a pre-scan's detours
      * included), and the rig time still to go: the points left with
      * the integration measured nearest each and the overhead per point the
      * journal shows (capture/eta.h). */
@@ -179,11 +202,6 @@ struct capture_progress {
 /* How a host (gonio, goniod) takes part in a capture. Every member may be
  * NULL. */
 struct capture_hooks {
-    /* Open the rig's devices; NULL: the in-process simulated rig of the
-     * capture's scene, reading its material. */
-    int (*open_devices)(void *user, const struct plan_rig *rig, struct capture_devices *dev,
-                        struct gonio_err *err);
-    void (*close_devices)(void *user, struct capture_devices *dev);
     /* Called after each sample is journalled (and after the streaming fit
      * round it set off, so that the host's figures include it). */
     void (*on_sample)(void *user, const struct journal_sample *s, size_t done, size_t total);
@@ -212,28 +230,43 @@ struct capture_hooks {
 int capture_prescan_option(const char *opt, long long points, int *prescan,
                            struct gonio_err *err);
 
-/* Run a capture: resolve and validate the inputs, prepare the directory
- * (or resume it: the same plan, scene, material, rig, detector and
- * adaptive options only, else -GONIO_EUSAGE naming the difference),
- * holding its lock until the end (another writer: EBUSY, nothing
- * written), measure the points the journal lacks (in the adaptive order:
- * those the policy chooses, capture/sequence.h), fit and write
- * results.json. An aborted capture keeps its samples, stops the axes and
- * returns 0 with stop_reason "aborted" (no fit, no results.json). Returns
- * a negative code with err filled on failure (see gonio_exit_status). */
-int capture_run(const struct capture_config *cfg, const struct capture_hooks *hooks,
-                struct capture_summary *out, struct gonio_err *err);
+/* A prepared capture: its inputs resolved and validated once (plan, rig
+ * profile, order, model, stop rule, adaptive options, pre-scan, material,
+ * truth and the rig-time estimate), for the check a host makes before it
+ * answers and for the run that follows. */
+typedef struct capture_job capture_job;
 
-/* Resolve and validate what capture_run would (plan, scene, rig, order,
- * model, stop, material, truth; hooks as capture_run's, NULL for the
- * in-process rig) and write nothing: how goniod refuses a bad request
- * before it answers. est (may be NULL) receives the capture's rig-time
- * estimate. Returns 0 or capture_run's error. */
-int capture_check(const struct capture_config *cfg, const struct capture_hooks *hooks,
+/* Prepare a capture of cfg (copied) on the devices of rig (borrowed: it
+ * must outlive the job), writing nothing: bad input is refused here, as
+ * goniod refuses a bad request before it answers. Returns 0 with *job, or
+ * a negative code with err filled (see gonio_exit_status). */
+int capture_prepare(const struct capture_config *cfg, const struct capture_rig *rig,
+                    capture_job **job, struct gonio_err *err);
+
+/* The capture's rig-time estimate, before it runs. */
+const struct plan_estimate *capture_job_estimate(const capture_job *job);
+
+/* Run a prepared capture (once): prepare the directory (or resume it: the
+ * same plan, rig description, material, detector and adaptive options
+ * only, else -GONIO_EUSAGE naming the difference), holding its lock until
+ * the end (another writer: EBUSY, nothing written), measure the points
+ * the journal lacks (in the adaptive order: those the policy chooses,
+ * capture/sequence.h), fit and write results.json. An aborted capture
+ * keeps its samples, stops the axes and returns 0 with stop_reason
+ * "aborted" (no fit, no results.json). hooks may be NULL. Returns a
+ * negative code with err filled on failure. */
+int capture_job_run(capture_job *job, const struct capture_hooks *hooks,
+                    struct capture_summary *out, struct gonio_err *err);
+
+void capture_job_free(capture_job *job);
+
+/* capture_prepare, capture_job_run and capture_job_free in one. */
+int capture_run(const struct capture_config *cfg, const struct capture_rig *rig,
+                const struct capture_hooks *hooks, struct capture_summary *out,
+                struct gonio_err *err);
+
+/* capture_prepare and the estimate (est, may be NULL), writing nothing. */
+int capture_check(const struct capture_config *cfg, const struct capture_rig *rig,
                   struct plan_estimate *est, struct gonio_err *err);
-
-/* capture_run on the in-process simulated rig, with no hooks. */
-int capture_run_offline(const struct capture_config *cfg, struct capture_summary *out,
-                        struct gonio_err *err);
 
 #endif

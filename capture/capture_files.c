@@ -73,13 +73,15 @@ static json_t *setup_json(const struct capture_setup *su)
                              "out_of_plane", rig->out_of_plane, "blind_deg", rig->blind_deg,
                              "settle_s", rig->settle_s, "integration_s", rig->integration_s,
                              "auto_min_s", rig->auto_min_s, "auto_max_s", rig->auto_max_s);
-    const struct sim_scene *sc = su->scene;
-    if (root && sc)
-        json_object_set_new(root, "scene",
-                            json_pack("{s:s,s:s,s:s,s:s,s:I,s:i}", "name", sc->name, "path",
-                                      sc->path, "material", sc->material, "detector",
-                                      sc->detector == SIM_DETECTOR_RGB ? "rgb" : "spectral",
-                                      "seed", (json_int_t)sc->seed, "effects", sc->n_effects));
+    if (root && su->source) {
+        json_error_t jerr;
+        json_t *more = json_loads(su->source, 0, &jerr);
+        if (!json_is_object(more) || json_object_update(root, more) < 0) {
+            json_decref(root);
+            root = NULL;
+        }
+        json_decref(more);
+    }
     if (root && su->material)
         json_object_set_new(root, "material", json_string(su->material));
     /* A resumed adaptive capture must decide as it began (docs/formats.md). */
@@ -114,12 +116,43 @@ static int same_value(json_t *a, json_t *b)
     return same;
 }
 
-/* A resume continues the capture setup.json describes: the same scene,
- * material, rig and detector (older setup.json files keep the detector in
- * the scene), else one line naming the first difference. */
+/* What a resume compares, in the order a difference is named: the rig
+ * source's own members (the simulator's scene), then these. */
+static const char *const setup_keys[] = {"material", "rig", "detector"};
+
+static int setup_key_known(const char *key)
+{
+    if (!strcmp(key, "driver") || !strcmp(key, "adaptive"))
+        return 1;
+    for (size_t i = 0; i < sizeof setup_keys / sizeof *setup_keys; i++)
+        if (!strcmp(key, setup_keys[i]))
+            return 1;
+    return 0;
+}
+
+/* The keys a resume compares: the source's members of either file, then
+ * setup_keys. At most max; returns the count. */
+static size_t compared_keys(json_t *was, json_t *now, const char **keys, size_t max)
+{
+    size_t n = 0;
+    const char *key;
+    json_t *v;
+    json_object_foreach(now, key, v)
+        if (!setup_key_known(key) && n < max)
+            keys[n++] = key;
+    json_object_foreach(was, key, v)
+        if (!setup_key_known(key) && !json_object_get(now, key) && n < max)
+            keys[n++] = key;
+    for (size_t i = 0; i < sizeof setup_keys / sizeof *setup_keys && n < max; i++)
+        keys[n++] = setup_keys[i];
+    return n;
+}
+
+/* A resume continues the capture setup.json describes: the same source
+ * members, material, rig and detector (older setup.json files keep the
+ * detector in the scene), else one line naming the first difference. */
 static int check_same_setup(const char *dir, json_t *was, json_t *now, struct gonio_err *err)
 {
-    static const char *const keys[] = {"scene", "material", "rig", "detector"};
     json_t *pa = json_object_get(was, "adaptive"), *pb = json_object_get(now, "adaptive");
     if (pa && pb && !json_equal(pa, pb)) {
         char *ta = json_dumps(pa, JSON_COMPACT | JSON_SORT_KEYS),
@@ -133,7 +166,9 @@ static int check_same_setup(const char *dir, json_t *was, json_t *now, struct go
         free(tb);
         return -GONIO_EUSAGE;
     }
-    for (size_t i = 0; i < sizeof keys / sizeof *keys; i++) {
+    const char *keys[32];
+    size_t nkeys = compared_keys(was, now, keys, sizeof keys / sizeof *keys);
+    for (size_t i = 0; i < nkeys; i++) {
         json_t *a = json_object_get(was, keys[i]), *b = json_object_get(now, keys[i]);
         if (!a && !strcmp(keys[i], "detector"))
             a = json_object_get(json_object_get(was, "scene"), "detector");

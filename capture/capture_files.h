@@ -1,21 +1,21 @@
 /* The files of a capture directory (DESIGN.md section 7, docs/formats.md):
  * plan.json (the resolved plan in execution order), setup.json (what is
- * known of the rig: driver, detector, rig profile, and scene and material
- * when given), samples.csv (the journal) and results.json. Every file but
+ * known of the rig: driver, detector, rig profile, what its source adds
+ * (the simulator's scene) and the material when given), samples.csv (the journal) and results.json. Every file but
  * the journal is written atomically. */
 #ifndef GONIO_CAPTURE_CAPTURE_FILES_H
 #define GONIO_CAPTURE_CAPTURE_FILES_H
 
 #include "capture/capture.h"
 #include "planner/planner.h"
-#include "sim/scene.h"
 
-/* What setup.json records; scene and material may be NULL (not given),
- * policy is the adaptive order's options (NULL in other orders). */
+/* What setup.json records; source (the rig source's further members, a
+ * JSON object's text) and material may be NULL (not given), policy is the
+ * adaptive order's options (NULL in other orders). */
 struct capture_setup {
     const struct plan *plan;
     const struct plan_rig *rig;
-    const struct sim_scene *scene;
+    const char *source;
     const char *material;
     const char *driver, *detector;
     const struct adaptive_options *policy;
@@ -24,7 +24,7 @@ struct capture_setup {
 /* Create dir (or accept it for a resume), take its lock (*lock_fd, for
  * capture_files_unlock) and write plan.json and setup.json. A resume must
  * be of the same capture: its plan.json this plan's byte for byte, its
- * setup.json the same scene, material, rig, detector and adaptive policy
+ * setup.json the same source members, material, rig, detector and adaptive policy
  * options (model, budget, target, stop rule); otherwise, or
  * when another process holds the directory, an error names what differs
  * (or the pid) and nothing is written. */

@@ -185,11 +185,11 @@ static int replay(sequence *q, const struct journal_sample *js, size_t n, long *
     return rc;
 }
 
-int sequence_new(const struct plan *plan, const struct plan_rig *rig,
-                 const double *integration_s, const struct adaptive_options *opt,
-                 size_t prescan, const struct journal_sample *js, size_t n,
-                 const char *dir, sequence **out, long *first, struct gonio_err *err)
+int sequence_new(const struct sequence_setup *su, const struct journal_sample *js, size_t n,
+                 sequence **out, long *first, struct gonio_err *err)
 {
+    const struct plan *plan = su->plan;
+    const struct plan_rig *rig = su->rig;
     *out = NULL;
     sequence *q = calloc(1, sizeof *q);
     size_t count = plan_count(plan);
@@ -207,15 +207,15 @@ int sequence_new(const struct plan *plan, const struct plan_rig *rig,
             return gonio_err_set(err, GONIO_EBADDATA,
                                  "%s: journal record %zu names point %d, which the plan (%zu "
                                  "points) does not have or has twice",
-                                 dir, i + 1, p, count);
+                                 su->dir, i + 1, p, count);
         }
         q->done[p] = 1;
     }
     int rc = 0;
     if (plan_current_order(plan) != PLAN_ORDER_ADAPTIVE) {
-        rc = prescan_points(q, prescan, err);
+        rc = prescan_points(q, su->prescan, err);
         *first = next_undone(q);
-    } else if (!(q->policy = adaptive_new(plan, rig, integration_s, opt, err))) {
+    } else if (!(q->policy = adaptive_new(plan, rig, su->integration_s, su->opt, err))) {
         rc = -abs(err && err->code ? err->code : ENOMEM);
     } else {
         rc = replay(q, js, n, first, err);

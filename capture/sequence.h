@@ -34,22 +34,30 @@ struct sequence_report {
     double wait_s;
 };
 
-/* A sequence over plan's points (plan order, or the adaptive policy for
- * the plan's current order PLAN_ORDER_ADAPTIVE, with opt and the
- * integration the host expects at each point, integration_s, or NULL
- * where it does not know: adaptive_new). In plan order, a pre-scan of
- * `prescan` points spread over the plan (at most its count; 0: none) comes
- * first: they are measured before the plan's order starts, which then
- * skips them (a resumed capture finishes the pre-scan first, if it was
- * interrupted in it). After the n
- * journalled samples js (record order), which must each name a distinct
- * point of the plan (else GONIO_EBADDATA naming the record; dir names the
- * capture). *first receives the first point to measure, -1 when there is
- * none (every point done, or the policy stops). */
-int sequence_new(const struct plan *plan, const struct plan_rig *rig,
-                 const double *integration_s, const struct adaptive_options *opt,
-                 size_t prescan, const struct journal_sample *js, size_t n,
-                 const char *dir, sequence **out, long *first, struct gonio_err *err);
+/* What a sequence runs over: plan's points (plan order, or the adaptive
+ * policy for the plan's current order PLAN_ORDER_ADAPTIVE, with opt and
+ * the integration the host expects at each point, integration_s, or NULL
+ * where it does not know: adaptive_new) on rig. In plan order, a pre-scan
+ * of `prescan` points spread over the plan (at most its count; 0: none)
+ * comes first: they are measured before the plan's order starts, which
+ * then skips them (a resumed capture finishes the pre-scan first, if it
+ * was interrupted in it). dir names the capture in messages. */
+struct sequence_setup {
+    const struct plan *plan;
+    const struct plan_rig *rig;
+    const double *integration_s;
+    const struct adaptive_options *opt;
+    size_t prescan;
+    const char *dir;
+};
+
+/* A sequence of setup (borrowed: it must outlive the sequence) after the
+ * n journalled samples js (record order), which must each name a distinct
+ * point of the plan (else GONIO_EBADDATA naming the record). *first
+ * receives the first point to measure, -1 when there is none (every point
+ * done, or the policy stops). */
+int sequence_new(const struct sequence_setup *setup, const struct journal_sample *js, size_t n,
+                 sequence **out, long *first, struct gonio_err *err);
 void sequence_free(sequence *q);
 
 /* Plan order: every point of the plan in the order the sequence measures

@@ -12,6 +12,7 @@
 #include "cli/progress.h"
 #include "capture/capture.h"
 #include "fit/models.h"
+#include "sim_source/sim_source.h"
 
 static void usage(FILE *out)
 {
@@ -136,12 +137,13 @@ int cmd_capture(int argc, char **argv)
     };
     struct capture_config cfg = {.model = "abc"};
     long long points;
+    const char *scene = NULL;
     int offline = 0, c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (c) {
         case 'O': offline = 1; break;
-        case 's': cfg.scene = optarg; break;
+        case 's': scene = optarg; break;
         case 'p': cfg.plan = optarg; break;
         case 'm': cfg.material = optarg; break;
         case 'M': cfg.model = optarg; break;
@@ -165,7 +167,7 @@ int cmd_capture(int argc, char **argv)
         default: usage(stderr); return 2;
         }
     }
-    if (optind != argc || !cfg.scene || !cfg.plan || !cfg.out_dir) {
+    if (optind != argc || !scene || !cfg.plan || !cfg.out_dir) {
         fprintf(stderr, "gonio capture: --scene, --plan and --out are required\n");
         usage(stderr);
         return 2;
@@ -182,7 +184,7 @@ int cmd_capture(int argc, char **argv)
     struct capture_hooks hooks = {.on_progress = on_progress, .control = on_control, .user = &o};
     cfg.progress_fit = !cfg.quiet; /* the live fit error on the bar */
     interrupt_catch();
-    int rc = capture_run(&cfg, &hooks, &s, &err);
+    int rc = sim_source_capture(scene, &cfg, &hooks, &s, &err);
     progress_end(&o.bar);
     if (rc < 0) {
         fprintf(stderr, "gonio capture: %s\n", err.msg[0] ? err.msg : gonio_strerror(rc));

@@ -43,32 +43,16 @@ static void usage(FILE *out)
         fprintf(out, "  %-13s %s\n", fit_model_at(i)->name, fit_model_at(i)->summary);
 }
 
-/* The journal's samples as a fit takes them; *lower flags the saturated
- * readings (lower bounds, fit/models.h) and *saturated counts them. */
-static int read_rgb(const char *path, struct fit_sample **out, unsigned char **lower, size_t *n,
-                    size_t *saturated, struct gonio_err *err)
+/* The journal's samples as a fit takes them (fit/journal_samples.h). */
+static int read_rgb(const char *path, struct fit_journal_data *out, struct gonio_err *err)
 {
     struct journal_sample *js = NULL;
     size_t m = 0;
     int rc = journal_read(path, &js, &m, err);
-    if (rc < 0)
-        return rc;
-    struct fit_sample *s = malloc((m ? m : 1) * sizeof *s);
-    unsigned char *lb = malloc(m ? m : 1);
-    if (!s || !lb) {
-        free(js);
-        free(s);
-        free(lb);
-        return gonio_err_set(err, GONIO_EBADDATA, "%s: out of memory", path);
-    }
-    *saturated = fit_journal_samples(js, m, s);
-    for (size_t i = 0; i < m; i++)
-        lb[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
-    *lower = lb;
-    *n = m;
+    if (rc == 0)
+        rc = fit_data_from_journal(js, m, out, err);
     free(js);
-    *out = s;
-    return 0;
+    return rc;
 }
 
 static void print_errors(const char *label, const struct brdf_errors *e)
@@ -211,23 +195,20 @@ int cmd_fit(int argc, char **argv)
         out = out_buf;
     }
     struct gonio_err err = {0};
-    struct fit_data data = {0};
-    struct fit_sample *rgb = NULL;
-    unsigned char *lower = NULL;
-    size_t saturated = 0;
+    struct fit_journal_data jd = {0};
     struct fit_spectral_sample *spec = NULL;
-    int rc = kind->spectral ? fit_spectral_samples_read(samples_path, &spec, &data.n_spectral, &err)
-                            : read_rgb(samples_path, &rgb, &lower, &data.n_rgb, &saturated, &err);
+    size_t n_spectral = 0;
+    int rc = kind->spectral ? fit_spectral_samples_read(samples_path, &spec, &n_spectral, &err)
+                            : read_rgb(samples_path, &jd, &err);
     if (rc < 0) {
         fprintf(stderr, "gonio fit: %s\n", err.msg);
         return gonio_exit_status(err.code);
     }
     int censored = fit_model_censors(kind, how);
-    data.rgb = rgb;
-    data.rgb_lower = censored ? lower : NULL;
-    for (size_t i = 0; !censored && i < data.n_spectral; i++)
+    size_t saturated = jd.saturated;
+    struct fit_sample *rgb = jd.rgb;
+    for (size_t i = 0; !censored && i < n_spectral; i++)
         spec[i].saturated = 0; /* spectra.csv's flags, as rgb_lower */
-    data.spectral = spec;
     /* The captured material, so that abc-prior leaves it out of its prior:
      * --truth, else the capture's setup.json (simulated captures name it).
      * An adaptive policy chose the samples when setup.json says so: fitted
@@ -243,29 +224,31 @@ int cmd_fit(int argc, char **argv)
     if (!asked)
         weights = json_is_object(json_object_get(setup, "adaptive"));
     json_decref(setup);
-    data.domain_weights = weights > 0;
-    data.material = truth_spec ? truth_spec : material_buf[0] ? material_buf : NULL;
+    struct fit_data data =
+        fit_journal_data_for(&jd, kind, how,
+                             truth_spec ? truth_spec : material_buf[0] ? material_buf : NULL,
+                             weights > 0);
+    data.spectral = spec;
+    data.n_spectral = n_spectral;
     size_t n = kind->spectral ? data.n_spectral : data.n_rgb;
     if (!n) {
         fprintf(stderr, "gonio fit: %s: no samples\n", samples_path);
-        free(rgb);
-        free(lower);
+        fit_journal_data_free(&jd);
         free(spec);
         return 2;
     }
     brdf_material *truth = NULL, *m = NULL;
     if (truth_spec && !(truth = fit_material_open(truth_spec, &err))) {
         fprintf(stderr, "gonio fit: %s\n", err.msg);
-        free(rgb);
-        free(lower);
+        fit_journal_data_free(&jd);
         free(spec);
         return gonio_exit_status(err.code);
     }
     struct fit_model_report rep = {0};
-    double fit_s = 0;
     /* RGB models are assessed as read back from their file; the spectral
      * MLP on its own samples (spectral_errors). */
-    rc = fit_model_run(kind, &data, &mo, out, &rep, &fit_s, kind->spectral ? NULL : &m, &err);
+    rc = fit_model_run(kind, &data, &mo, out, &rep, kind->spectral ? NULL : &m, &err);
+    double fit_s = rep.fit_s;
     if (!rc) {
         printf("%-10s %s\n", "model", model);
         printf("%-10s %zu (%s)\n", "samples", n, samples_path);
@@ -298,8 +281,7 @@ int cmd_fit(int argc, char **argv)
         printf("%-10s %s\n", "wrote", out);
     brdf_material_free(m);
     brdf_material_free(truth);
-    free(rgb);
-    free(lower);
+    fit_journal_data_free(&jd);
     free(spec);
     if (rc < 0) {
         fprintf(stderr, "gonio fit: %s\n", err.msg);

@@ -17,6 +17,7 @@
 #include "capture/capture.h"
 #include "planner/planner.h"
 #include "sim/scene.h"
+#include "sim_source/sim_source.h"
 
 static void plan_usage(FILE *out)
 {
@@ -193,10 +194,9 @@ int cmd_plan(int argc, char **argv)
     }
     /* With a scene, the estimate a capture of it makes (capture/capture.h). */
     struct plan_estimate est;
-    struct capture_config cc = {.plan = plan_arg, .scene = scene_arg, .rig = rig_arg,
-                                .model = "abc",
+    struct capture_config cc = {.plan = plan_arg, .rig = rig_arg, .model = "abc",
                                 .order = order >= 0 ? plan_order_name(order) : NULL};
-    if (scene_arg && (rc = capture_check(&cc, NULL, &est, &err)) < 0) {
+    if (scene_arg && (rc = sim_source_check(scene_arg, &cc, &est, &err)) < 0) {
         plan_free(plan);
         return report_failure(&err, rc);
     }

@@ -1,6 +1,7 @@
 /* goniod's devices for the Modbus drivers: the rig's axes, detector and
  * clock on the bus the configuration names (docs/protocol-modbus.md). The
- * simulator needs none of this: the capture engine runs it in-process. */
+ * sim driver needs none of this: goniod hands the engine the in-process
+ * simulator (sim_source/sim_source.h). */
 #ifndef GONIO_DAEMON_DEVICES_H
 #define GONIO_DAEMON_DEVICES_H
 

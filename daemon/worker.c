@@ -12,6 +12,16 @@
 
 #include "brdf/metrics.h"
 #include "daemon/devices.h"
+#include "sim_source/sim_source.h"
+
+/* A request's capture, prepared once: the job and the rig source it runs
+ * on (with the sim driver, or a scene to describe, the source's sim). */
+struct prepared {
+    char id[128], dir[4096];
+    sim_source *sim;
+    struct capture_rig rig;
+    capture_job *job;
+};
 
 struct worker {
     const struct goniod_config *cfg;
@@ -24,6 +34,9 @@ struct worker {
     int paused, abort;
     char abort_reason[32];
     struct worker_request req;
+    /* The capture worker_check prepared, until worker_start takes it (the
+     * main thread's), and the one the worker thread runs. */
+    struct prepared *pending, *current;
     size_t done, total;
     double rig_time_s, estimate_s, eta_s;
     double predicted[3]; /* the adaptive order's prediction (worker_msg_sample) */
@@ -221,9 +234,10 @@ static enum capture_control hook_control(void *user)
     return c;
 }
 
-static int hook_open(void *user, const struct plan_rig *rig, struct capture_devices *dev,
-                     struct gonio_err *err)
+static int hook_open(void *user, const struct plan_rig *rig, const char *dir,
+                     struct capture_devices *dev, struct gonio_err *err)
 {
+    (void)dir;
     worker *w = user;
     return goniod_devices_open(w->cfg, rig, dev, &w->bus, err);
 }
@@ -241,17 +255,11 @@ static void hook_close(void *user, struct capture_devices *dev)
  * the reply and for the run. */
 static struct capture_config request_config(const worker *w, const struct worker_request *r)
 {
-    int sim = w->cfg->driver == GONIOD_DRIVER_SIM;
     return (struct capture_config){
         .plan = r->plan,
-        .scene = r->scene[0] ? r->scene : NULL,
         .material = r->material[0] ? r->material : NULL,
         .rig = r->rig[0] ? r->rig : NULL,
         .truth = r->truth[0] ? r->truth : NULL,
-        .driver = goniod_driver_name(w->cfg->driver),
-        .detector = sim                                          ? NULL
-                    : w->cfg->detector == GONIOD_DETECTOR_USB ? "usb-spectrometer"
-                                                               : "modbus",
         .model = r->model,
         .out_dir = r->dir,
         .order = r->order[0] ? r->order : NULL,
@@ -265,19 +273,73 @@ static struct capture_config request_config(const worker *w, const struct worker
     };
 }
 
-/* The simulator runs inside the engine (it reads the capture's own
- * material and continues the rig clock on a resume); hardware goes
- * through the configured drivers. */
-static int sim_driver(const worker *w)
+/* The rig source of a request: with the sim driver the in-process
+ * simulator of its scene and material (*sim, which the caller frees);
+ * otherwise the configured devices, described in setup.json by the
+ * request's scene when it names one (the Modbus simulator's). */
+static int request_rig(worker *w, const struct worker_request *r, sim_source **sim,
+                       struct capture_rig *rig, struct gonio_err *err)
 {
-    return w->cfg->driver == GONIOD_DRIVER_SIM;
+    const char *scene = r->scene[0] ? r->scene : NULL;
+    *sim = NULL;
+    memset(rig, 0, sizeof *rig);
+    if (w->cfg->driver == GONIOD_DRIVER_SIM) {
+        if (!(*sim = sim_source_new(scene, r->material[0] ? r->material : NULL,
+                                    r->rig[0] ? r->rig : NULL, err)))
+            return -abs(err ? err->code : ENOMEM);
+        sim_source_rig(*sim, rig);
+        rig->driver = goniod_driver_name(w->cfg->driver);
+        return 0;
+    }
+    if (scene) {
+        if (!(*sim = sim_source_describe(scene, err)))
+            return -abs(err ? err->code : ENOMEM);
+        sim_source_rig(*sim, rig);
+    }
+    rig->open = hook_open;
+    rig->close = hook_close;
+    rig->driver = goniod_driver_name(w->cfg->driver);
+    rig->detector = w->cfg->detector == GONIOD_DETECTOR_USB ? "usb-spectrometer" : "modbus";
+    rig->user = w;
+    return 0;
 }
 
-int worker_check(const worker *w, const struct worker_request *req, struct gonio_err *err)
+static void prepared_free(struct prepared *p)
 {
+    if (!p)
+        return;
+    capture_job_free(p->job);
+    sim_source_free(p->sim);
+    free(p);
+}
+
+/* The capture of req on its rig source, prepared (capture_prepare). */
+static int prepare(worker *w, const struct worker_request *req, struct prepared **out,
+                   struct gonio_err *err)
+{
+    *out = NULL;
+    struct prepared *p = calloc(1, sizeof *p);
+    if (!p)
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    snprintf(p->id, sizeof p->id, "%s", req->id);
+    snprintf(p->dir, sizeof p->dir, "%s", req->dir);
     struct capture_config cc = request_config(w, req);
-    struct capture_hooks hooks = {.open_devices = sim_driver(w) ? NULL : hook_open};
-    return capture_check(&cc, &hooks, NULL, err);
+    int rc = request_rig(w, req, &p->sim, &p->rig, err);
+    if (rc == 0)
+        rc = capture_prepare(&cc, &p->rig, &p->job, err);
+    if (rc < 0) {
+        prepared_free(p);
+        return rc;
+    }
+    *out = p;
+    return 0;
+}
+
+int worker_check(worker *w, const struct worker_request *req, struct gonio_err *err)
+{
+    prepared_free(w->pending);
+    w->pending = NULL;
+    return prepare(w, req, &w->pending, err);
 }
 
 static void *run(void *arg)
@@ -286,7 +348,6 @@ static void *run(void *arg)
     struct worker_msg_stop *m = calloc(1, sizeof *m);
     struct capture_summary sum;
     struct gonio_err err = {0};
-    struct capture_config cc = request_config(w, &w->req);
     struct capture_hooks hooks = {
         .on_sample = hook_on_sample,
         .control = hook_control,
@@ -298,11 +359,13 @@ static void *run(void *arg)
         .user = w,
     };
     w->has_comm = 0;
-    if (!sim_driver(w)) {
-        hooks.open_devices = hook_open;
-        hooks.close_devices = hook_close;
-    }
-    int rc = capture_run(&cc, &hooks, &sum, &err);
+    memset(&sum, 0, sizeof sum);
+    /* A resume was not checked first: it is prepared here. */
+    int rc = w->current ? 0 : prepare(w, &w->req, &w->current, &err);
+    if (rc == 0)
+        rc = capture_job_run(w->current->job, &hooks, &sum, &err);
+    prepared_free(w->current);
+    w->current = NULL;
     if (rc < 0 && !err.msg[0])
         snprintf(err.msg, sizeof err.msg, "%s", gonio_strerror(rc));
 
@@ -405,6 +468,7 @@ void worker_free(worker *w)
         next = m->next;
         free(m);
     }
+    prepared_free(w->pending);
 #ifdef GONIO_TEST_HOOKS
     if (w->phase_fd >= 0)
         close(w->phase_fd);
@@ -434,6 +498,14 @@ int worker_start(worker *w, const struct worker_request *req, struct gonio_err *
         return rc;
     }
     w->req = *req;
+    /* The capture worker_check prepared for this request, if it did. */
+    struct prepared *p = w->pending;
+    w->pending = NULL;
+    if (p && (strcmp(p->id, req->id) || strcmp(p->dir, req->dir))) {
+        prepared_free(p);
+        p = NULL;
+    }
+    w->current = p;
     w->running = 1;
     w->paused = w->abort = 0;
     w->abort_reason[0] = '\0';
@@ -448,6 +520,8 @@ int worker_start(worker *w, const struct worker_request *req, struct gonio_err *
     if (rc != 0) {
         pthread_mutex_lock(&w->mu);
         w->running = 0;
+        prepared_free(w->current);
+        w->current = NULL;
         pthread_mutex_unlock(&w->mu);
         return gonio_err_set(err, rc, "capture thread: %s", strerror(rc));
     }

@@ -110,12 +110,15 @@ void worker_free(worker *w);
 /* The read end of the wake-up pipe: readable when messages are queued. */
 int worker_wake_fd(const worker *w);
 
-/* Check a request as the capture would (capture_check) without writing
- * anything; err names the field and value of what is wrong. */
-int worker_check(const worker *w, const struct worker_request *req, struct gonio_err *err);
+/* Prepare a request's capture as the run will (capture_prepare) without
+ * writing anything; err names the field and value of what is wrong. The
+ * prepared capture is kept for worker_start of the same request (id and
+ * directory), which runs it as it is: one resolution per capture. */
+int worker_check(worker *w, const struct worker_request *req, struct gonio_err *err);
 
-/* Start a capture; refused (GONIO_EUSAGE, err naming the capture that runs)
- * while one runs. */
+/* Start a capture, the one worker_check prepared for req if any (else the
+ * worker thread prepares it: a resume); refused (GONIO_EUSAGE, err naming
+ * the capture that runs) while one runs. */
 int worker_start(worker *w, const struct worker_request *req, struct gonio_err *err);
 
 /* Pause/resume take effect at the next point boundary. They return

@@ -38,6 +38,14 @@ struct fit_model_file *fit_abc_fitted_file(const struct brdf_abc *p, unsigned lo
     return f;
 }
 
+int fit_abc_warm_start_key(struct fit_model_file *f, const struct fit_model_options *opt)
+{
+    if (!opt->warm_start)
+        return 0;
+    return fit_model_file_set(f, "warm_start", "%s",
+                              opt->warm_start_from ? opt->warm_start_from : "given");
+}
+
 int fit_abc_model_params(const struct fit_model_file *f, const char *path, struct brdf_abc *p,
                          struct gonio_err *err)
 {
@@ -82,15 +90,23 @@ int fit_abc_model_fit(const struct fit_data *data, const struct fit_model_option
     fo.seed = (unsigned)o.seed;
     fo.lower_bound = data->rgb_lower;
     fo.domain_weights = data->domain_weights;
+    fo.warm_start = o.warm_start;
     struct brdf_abc p;
     struct fit_info info;
     int rc = fit_abc(data->rgb, data->n_rgb, &fo, &p, &info, err);
     if (rc)
         return rc;
     struct fit_model_file *f = fit_abc_fitted_file(&p, o.seed, &info);
+    if (f && fit_abc_warm_start_key(f, &o)) {
+        fit_model_file_free(f);
+        f = NULL;
+    }
     if (!f)
         return gonio_err_set(err, ENOMEM, "abc: out of memory");
     if (rep) {
+        rep->has_abc = 1;
+        rep->abc = p;
+        rep->sd = info.sd;
         rep->converged = info.converged;
         rep->status = info.status;
         rep->weighted = info.domain_weights;

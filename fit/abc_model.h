@@ -23,6 +23,11 @@ struct fit_model_file *fit_abc_model_file(const struct brdf_abc *p);
 struct fit_model_file *fit_abc_fitted_file(const struct brdf_abc *p, unsigned long long seed,
                                            const struct fit_info *info);
 
+/* The model file's "warm_start" key when the fit was warm started
+ * (fit_model_options.warm_start): where the start came from. 0, or -1 out
+ * of memory. */
+int fit_abc_warm_start_key(struct fit_model_file *f, const struct fit_model_options *opt);
+
 /* The parameters of an abc model file, checked (finite, kd, A, B, C >= 0,
  * eta >= 1); errors name path. */
 int fit_abc_model_params(const struct fit_model_file *f, const char *path, struct brdf_abc *p,

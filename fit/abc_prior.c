@@ -151,12 +151,13 @@ int fit_abc_prior_model_fit(const struct fit_data *data, const struct fit_model_
     fo.seed = (unsigned)o.seed;
     fo.lower_bound = data->rgb_lower;
     fo.domain_weights = data->domain_weights;
+    fo.warm_start = o.warm_start;
     struct brdf_abc p;
     struct fit_info info;
     if ((rc = fit_abc_map(data->rgb, data->n_rgb, &fo, &prior, &p, &info, err)) < 0)
         return rc;
     struct fit_model_file *f = fit_abc_fitted_file(&p, o.seed, &info);
-    if (f && fit_abc_prior_file_keys(f, &prior, &info)) {
+    if (f && (fit_abc_warm_start_key(f, &o) || fit_abc_prior_file_keys(f, &prior, &info))) {
         fit_model_file_free(f);
         f = NULL;
     }
@@ -165,6 +166,11 @@ int fit_abc_prior_model_fit(const struct fit_data *data, const struct fit_model_
     if (rep) {
         char warn[200];
         int w = fit_abc_prior_warning(&info, data->n_rgb - info.dropped, warn, sizeof warn);
+        rep->has_abc = 1;
+        rep->abc = p;
+        rep->sd = info.sd;
+        fit_abc_prior_warning(&info, data->n_rgb - info.dropped, rep->warning,
+                              sizeof rep->warning);
         rep->converged = info.converged;
         rep->status = info.status;
         snprintf(rep->note, sizeof rep->note,

@@ -297,6 +297,9 @@ int fit_auto_cross_validate(const struct fit_data *data, const struct fit_model_
 {
     struct fit_model_options o = opt ? *opt : fit_model_default_options();
     o.quiet = 1;
+    /* Every fold starts cold: a start fitted to all the samples would
+     * carry the held-out ones into the score. */
+    o.warm_start = NULL;
     struct fit_data sd = *data;
     struct fit_sample *sorted;
     unsigned char *lower;
@@ -333,6 +336,7 @@ int fit_auto_model_fit(const struct fit_data *data, const struct fit_model_optio
                        struct gonio_err *err)
 {
     struct fit_model_options o = opt ? *opt : fit_model_default_options();
+    o.warm_start = NULL; /* the chosen model is fitted as cross-validation scored it */
     struct fit_auto_cv cv;
     int rc = fit_auto_cross_validate(data, &o, &cv, err);
     if (rc < 0)
@@ -365,6 +369,10 @@ int fit_auto_model_fit(const struct fit_data *data, const struct fit_model_optio
     }
     if (rep) {
         *rep = r;
+        /* A model of its own: not reported as an ABC fit whatever it chose
+         * (the model file says which, docs/formats.md) */
+        rep->has_abc = 0;
+        rep->warning[0] = '\0';
         snprintf(rep->note, sizeof rep->note, "%.300s; %s: %.180s", line, kind->name, r.note);
     }
     return 0;

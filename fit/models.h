@@ -56,6 +56,12 @@ struct fit_model_options {
     uint64_t seed;   /* every randomised step of a fit derives from it */
     int max_epochs;  /* iterative trainers: 0 for the model's default */
     int quiet;       /* no progress lines on stderr */
+    /* A start for the fits of ABC parameters (abc, abc-prior), refined
+     * from there instead of the global start search (a capture's streaming
+     * fit), or NULL; warm_start_from says where it came from, recorded in
+     * the model file ("warm_start"). The other models ignore it. */
+    const struct brdf_abc *warm_start;
+    const char *warm_start_from;
 };
 
 struct fit_model_options fit_model_default_options(void);
@@ -66,6 +72,16 @@ struct fit_model_report {
     char note[512];   /* one line for people: iterations/epochs, stop reason */
     struct fit_status status; /* what the fit can know (fit/fit_status.h) */
     int weighted;     /* 1: the samples were weighted by their domain share */
+    /* The ABC fits (abc, abc-prior): their parameters and sds (has_abc 1),
+     * and a warning for people (abc-prior's too few samples), else "". */
+    int has_abc;
+    struct brdf_abc abc;
+    struct fit_uncertainty sd;
+    char warning[256];
+    /* fit_model_run: 1 once the fit itself succeeded (a failure after it
+     * is the model file's), and its wall and CPU seconds, the fit alone. */
+    int fitted;
+    double fit_s, cpu_s;
 };
 
 struct fit_model_kind {

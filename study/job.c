@@ -17,6 +17,7 @@
 #include "brdf/metrics.h"
 #include "common/paths.h"
 #include "capture/capture.h"
+#include "sim_source/sim_source.h"
 #include "fit/journal_samples.h"
 #include "journal/journal.h"
 #include "fit/model_file.h"
@@ -25,13 +26,6 @@
 #include "study/study_private.h"
 
 #define BLOCK 4096
-
-static double clock_s(clockid_t id)
-{
-    struct timespec ts;
-    clock_gettime(id, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 /* The true material on the two reference domains, evaluated once a job
  * and shared by its models. */
@@ -193,9 +187,8 @@ static int write_json_atomic(const char *path, json_t *o, struct gonio_err *err)
  * refuses the samples is a row of its own (status fit-failed); only
  * failures of the machinery are errors. */
 static int fit_one(const struct study_spec *s, size_t mi, const char *jobdir,
-                   const struct fit_sample *samples, const unsigned char *lower, size_t n,
-                   int chosen, const char *material_spec, const struct truth_values *t,
-                   struct row_fit *f, struct gonio_err *err)
+                   const struct fit_journal_data *jd, int chosen, const char *material_spec,
+                   const struct truth_values *t, struct row_fit *f, struct gonio_err *err)
 {
     const struct fit_model_kind *kind = fit_model_find(s->models[mi].name);
     memset(f, 0, sizeof *f);
@@ -204,42 +197,34 @@ static int fit_one(const struct study_spec *s, size_t mi, const char *jobdir,
     f->plan.log = f->inplane.log = f->full.log = NAN;
     if (!kind)
         return gonio_err_set(err, GONIO_EUSAGE, "unknown model '%s'", s->models[mi].name);
-    int censored = lower && fit_model_censors(kind, s->saturated);
-    struct fit_data data = {.rgb = samples,
-                            .n_rgb = n,
-                            .rgb_lower = censored ? lower : NULL,
-                            .material = material_spec,
-                            .domain_weights = chosen}; /* an adaptive policy's samples, as the capture fits them */
+    /* an adaptive policy's samples are fitted as the capture fits them */
+    struct fit_data data = fit_journal_data_for(jd, kind, s->saturated, material_spec, chosen);
     struct fit_model_options mo = fit_model_default_options();
     struct fit_model_report rep = {0};
-    struct fit_model_file *mf = NULL;
     struct gonio_err fe = {0};
-    double w0 = clock_s(CLOCK_MONOTONIC), c0 = clock_s(CLOCK_PROCESS_CPUTIME_ID);
-    int rc = kind->fit(&data, &mo, &mf, &rep, &fe);
-    f->wall_s = clock_s(CLOCK_MONOTONIC) - w0;
-    f->cpu_s = clock_s(CLOCK_PROCESS_CPUTIME_ID) - c0;
-    if (rc < 0) {
+    char path[4300];
+    snprintf(path, sizeof path, "%.4000s/%s.model", jobdir, f->model);
+    /* Assessed as written: what a reader of the model file gets. */
+    brdf_material *m = NULL;
+    int rc = fit_model_run(kind, &data, &mo, path, &rep, &m, &fe);
+    f->wall_s = rep.fit_s;
+    f->cpu_s = rep.cpu_s;
+    if (rc < 0 && !rep.fitted) {
         f->status = "fit-failed";
         snprintf(f->note, sizeof f->note, "%s", fe.msg[0] ? fe.msg : gonio_strerror(rc));
         clean_note(f->note);
         return 0;
     }
+    if (rc < 0) { /* the model file's failure, not the fit's */
+        if (err)
+            *err = fe;
+        return rc;
+    }
     f->converged = rep.converged;
     f->fit = rep.status;
     snprintf(f->note, sizeof f->note, "%s", rep.note);
     clean_note(f->note);
-    char path[4300], spec[4400];
-    snprintf(path, sizeof path, "%.4000s/%s.model", jobdir, f->model);
-    rc = fit_model_file_write(mf, path, err);
-    fit_model_file_free(mf);
-    if (rc < 0)
-        return rc;
-    /* Assess the model as it was written: what a reader of the file gets. */
-    snprintf(spec, sizeof spec, "model:%s", path);
-    brdf_material *m = fit_material_open(spec, err);
-    if (!m)
-        return -abs(err && err->code ? err->code : GONIO_EBADDATA);
-    rc = fit_sample_errors(m, samples, n, &f->plan, err);
+    rc = fit_sample_errors(m, jd->rgb, jd->n, &f->plan, err);
     if (rc == 0)
         rc = domain_errors(m, &t->inplane, t->v_inplane, &f->inplane, err);
     if (rc == 0)
@@ -293,12 +278,12 @@ static enum capture_control stop_control(void *user)
 /* cfg's budget: the named plan's rig time as a capture of it on cfg's
  * scene and material would estimate it (what that plan would cost this
  * job, for a budget "of DS4's rig time"). */
-static int budget_of(struct capture_config *cfg, const char *plan, struct gonio_err *err)
+static int budget_of(struct capture_config *cfg, const char *scene, const char *plan,
+                     struct gonio_err *err)
 {
-    struct capture_config c = {.plan = plan, .scene = cfg->scene, .material = cfg->material,
-                               .model = "abc"};
+    struct capture_config c = {.plan = plan, .material = cfg->material, .model = "abc"};
     struct plan_estimate est;
-    int rc = capture_check(&c, NULL, &est, err);
+    int rc = sim_source_check(scene, &c, &est, err);
     if (rc == 0)
         cfg->budget_min = est.total_s / 60;
     return rc;
@@ -324,14 +309,14 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
 
     /* The capture: a rerun resumes it from its journal (or finds it done). */
     struct capture_config cfg = {
-        .plan = plan->file, .scene = scene->spec, .material = mat->spec,
+        .plan = plan->file, .material = mat->spec,
         .model = plan->model ? plan->model : "abc", /* the adaptive policy's */
         .out_dir = jobdir, .order = plan->order, .stop = plan->stop, .quiet = 1,
         .measure_only = 1, .lazy_journal = 1, .budget_min = plan->budget_min,
     };
 
     struct capture_summary sum;
-    struct fit_sample *samples = NULL;
+    struct fit_journal_data jd = {0};
     struct journal_sample *js = NULL;
     size_t n = 0;
     brdf_material *truth = NULL;
@@ -340,24 +325,18 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
     char path[4200];
     struct stop_check sc = {stop};
     struct capture_hooks hooks = {.control = stop ? stop_control : NULL, .user = &sc};
-    rc = plan->budget_of ? budget_of(&cfg, plan->budget_of, err) : 0;
+    rc = plan->budget_of ? budget_of(&cfg, scene->spec, plan->budget_of, err) : 0;
     if (rc == 0)
-        rc = capture_run(&cfg, &hooks, &sum, err);
+        rc = sim_source_capture(scene->spec, &cfg, &hooks, &sum, err);
     if (rc == 0 && !strcmp(sum.stop_reason, "aborted"))
         rc = gonio_err_set(err, EINTR, "interrupted; its journal is kept for the rerun");
     if (rc == 0) {
         snprintf(path, sizeof path, "%s/samples.csv", jobdir);
         rc = journal_read(path, &js, &n, err);
     }
-    if (rc == 0 && !(samples = malloc((n ? n : 1) * sizeof *samples)))
-        rc = gonio_err_set(err, ENOMEM, "out of memory");
-    size_t saturated = rc == 0 ? fit_journal_samples(js, n, samples) : 0;
-    /* The saturated readings' flags, for the models that fit them as lower bounds. */
-    unsigned char *lower = NULL;
-    if (rc == 0 && saturated && !(lower = malloc(n)))
-        rc = gonio_err_set(err, ENOMEM, "out of memory");
-    for (size_t i = 0; lower && i < n; i++)
-        lower[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
+    if (rc == 0)
+        rc = fit_data_from_journal(js, n, &jd, err);
+    size_t saturated = jd.saturated;
     if (rc == 0 && !(truth = brdf_material_open(mat->spec, err)))
         rc = -abs(err && err->code ? err->code : GONIO_ENOTFOUND);
     if (rc == 0)
@@ -372,7 +351,7 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
         if (access(path, F_OK) == 0)
             continue; /* finished by an earlier run */
         struct row_fit f;
-        rc = fit_one(s, m, jobdir, samples, lower, n, sum.adaptive, mat->spec, &t, &f, err);
+        rc = fit_one(s, m, jobdir, &jd, sum.adaptive, mat->spec, &t, &f, err);
         if (rc < 0)
             break;
         if (sum.adaptive && !strcmp(f.model, sum.policy.model)) { /* its own prediction */
@@ -403,8 +382,7 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
     }
     truth_free(&t);
     brdf_material_free(truth);
-    free(samples);
-    free(lower);
+    fit_journal_data_free(&jd);
     free(js);
     close(lock_fd);
     return rc < 0 ? rc : written;

@@ -23,13 +23,14 @@ ALLOWED = {
     "adaptive": {"fit", "planner", "rig", "brdf", "journal", "common"},
     "sim": {"planner", "modbus_map", "rig", "brdf", "common"},
     "drivers": {"modbus_map", "sim", "rig", "brdf", "common"},
-    "capture": {"adaptive", "drivers", "sim", "fit", "journal", "planner", "rig", "brdf",
-                "common"},
-    "daemon": {"capture", "adaptive", "drivers", "sim", "fit", "journal", "planner", "rig",
-               "brdf", "common"},
+    "capture": {"adaptive", "drivers", "fit", "journal", "planner", "rig", "brdf", "common"},
+    "sim_source": {"capture", "adaptive", "drivers", "sim", "fit", "journal", "planner", "rig",
+                   "brdf", "common"},
+    "daemon": {"sim_source", "capture", "adaptive", "drivers", "sim", "fit", "journal",
+               "planner", "rig", "brdf", "common"},
     "render": {"fit", "planner", "rig", "brdf", "common"},
     "report": {"fit", "journal", "planner", "rig", "brdf", "common"},
-    "study": {"capture", "adaptive", "drivers", "sim", "fit", "journal", "planner", "rig",
+    "study": {"sim_source", "capture", "adaptive", "drivers", "sim", "fit", "journal", "planner", "rig",
               "brdf", "common"},
 }
 # Inside drivers/ the in-process simulator backend alone may see sim/: the
@@ -37,6 +38,11 @@ ALLOWED = {
 SIM_BACKEND = {"drv_sim.c", "drv_sim.h"}
 
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([a-z_]+)/')
+# CMake: the libraries a folder builds and the gonio_* targets it links.
+ADD_LIBRARY = re.compile(r'add_library\(\s*(gonio_[a-z_]+)')
+LINK = re.compile(r'target_link_libraries\(([^)]*)\)', re.S)
+TARGET = re.compile(r'\b(gonio_[a-z_]+)')
+VARIANT = "${variant}"
 
 
 def violations(root):
@@ -64,10 +70,37 @@ def violations(root):
     return found
 
 
+def cmake_text(root, lib):
+    path = os.path.join(root, lib, "CMakeLists.txt")
+    if not os.path.exists(path):
+        return ""
+    with open(path, encoding="utf-8") as f:
+        return f.read().replace(VARIANT, "")
+
+
+def link_violations(root):
+    """Each library folder links only the libraries of the folders it may
+    include (the test variant of a library counts as the library)."""
+    owner = {}
+    for lib in ALLOWED:
+        for target in ADD_LIBRARY.findall(cmake_text(root, lib)):
+            owner[target] = lib
+            owner[target + "_test_hooks"] = lib
+    found = []
+    for lib, allowed in sorted(ALLOWED.items()):
+        for args in LINK.findall(cmake_text(root, lib)):
+            for target in TARGET.findall(args):
+                used = owner.get(target)
+                if used and used != lib and used not in allowed:
+                    found.append(f"{lib}/CMakeLists.txt: links {target} of {used}/, which "
+                                 f"{lib}/ may not use")
+    return found
+
+
 def main():
     root = sys.argv[1] if len(sys.argv) > 1 else os.path.join(
         os.path.dirname(os.path.abspath(__file__)), "..", "..")
-    bad = violations(root)
+    bad = violations(root) + link_violations(root)
     for line in bad:
         print(line)
     print(f"layering: {len(bad)} violation(s) in {len(ALLOWED)} libraries")

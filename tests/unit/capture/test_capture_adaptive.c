@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "capture/capture.h"
+#include "sim_source/sim_source.h"
 #include "journal/journal.h"
 #include "tests/gonio_test.h"
 
@@ -37,7 +38,7 @@ static int teardown(void **state)
 
 static struct capture_config config(const char *out, const char *plan, double budget_min)
 {
-    return (struct capture_config){.plan = plan, .scene = "ideal", .model = "abc",
+    return (struct capture_config){.plan = plan, .model = "abc",
                                    .out_dir = out, .order = "adaptive", .stop = "all",
                                    .budget_min = budget_min, .quiet = 1,
                                    .assess_nodes = gonio_test_assess_nodes()};
@@ -66,7 +67,7 @@ static void test_completes_within_budget(void **state)
     struct capture_config cfg = config(out, "ds2", BUDGET_MIN);
     struct capture_summary s;
     struct gonio_err err = {0};
-    assert_int_equal(capture_run_offline(&cfg, &s, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &s, &err), 0);
     assert_string_equal(s.stop_reason, "budget");
     assert_true(s.adaptive);
     assert_string_equal(s.policy.stop, "budget");
@@ -134,7 +135,7 @@ static void test_resume_continues_the_same_sequence(void **state)
     cw.stop = cp.stop = "converge";
     struct capture_summary s;
     struct gonio_err err = {0};
-    assert_int_equal(capture_run_offline(&cw, &s, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cw, NULL, &s, &err), 0);
     assert_string_equal(s.stop_reason, "converged");
     size_t n_whole = s.samples;
     assert_true(n_whole > 8 && n_whole < 160);
@@ -143,20 +144,20 @@ static void test_resume_continues_the_same_sequence(void **state)
     /* Late, where the history decides the stop. */
     struct abort_after ab = {0, n_whole - 2};
     struct capture_hooks hooks = {.control = abort_after, .user = &ab};
-    assert_int_equal(capture_run(&cp, &hooks, &s, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cp, &hooks, &s, &err), 0);
     assert_string_equal(s.stop_reason, "aborted");
     assert_int_equal(s.samples, ab.points);
     /* A resume asking for another budget would decide otherwise: refused,
      * the journal as it was. */
     struct capture_config changed = cp;
     changed.budget_min = BUDGET_MIN;
-    assert_int_equal(capture_run_offline(&changed, &s, &err), -GONIO_EUSAGE);
+    assert_int_equal(sim_source_capture("ideal", &changed, NULL, &s, &err), -GONIO_EUSAGE);
     assert_non_null(strstr(err.msg, "setup.json has adaptive"));
     struct journal_sample *a;
     assert_int_equal(journal_of(part, &a), ab.points);
     free(a);
 
-    assert_int_equal(capture_run_offline(&cp, &s, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cp, NULL, &s, &err), 0);
     assert_string_equal(s.stop_reason, "converged");
     same_journals(whole, part, n_whole);
 }
@@ -176,18 +177,17 @@ static void test_resume_on_lab_within_budget(void **state)
     snprintf(whole, sizeof whole, "%s/lab-ref", dir);
     snprintf(part, sizeof part, "%s/lab-part", dir);
     struct capture_config cw = config(whole, "ds2", 1), cp = config(part, "ds2", 1);
-    cw.scene = cp.scene = "lab";
     struct capture_summary s;
     struct gonio_err err = {0};
-    assert_int_equal(capture_run_offline(&cw, &s, &err), 0);
+    assert_int_equal(sim_source_capture("lab", &cw, NULL, &s, &err), 0);
     assert_string_equal(s.stop_reason, "budget");
     size_t n_whole = s.samples;
     assert_true(n_whole > 8);
     struct abort_after ab = {0, n_whole / 2};
     struct capture_hooks hooks = {.control = abort_after, .user = &ab};
-    assert_int_equal(capture_run(&cp, &hooks, &s, &err), 0);
+    assert_int_equal(sim_source_capture("lab", &cp, &hooks, &s, &err), 0);
     assert_string_equal(s.stop_reason, "aborted");
-    assert_int_equal(capture_run_offline(&cp, &s, &err), 0);
+    assert_int_equal(sim_source_capture("lab", &cp, NULL, &s, &err), 0);
     assert_string_equal(s.stop_reason, "budget");
     assert_true(s.rig_time_s <= 60);
     struct journal_sample *a, *b;
@@ -212,10 +212,9 @@ static void test_budget_held_on_lab_and_bad_day(void **state)
             char out[300];
             snprintf(out, sizeof out, "%s/%s-%g", dir, scenes[i], budgets[k]);
             struct capture_config cfg = config(out, "ds2", budgets[k]);
-            cfg.scene = scenes[i];
             struct capture_summary s;
             struct gonio_err err = {0};
-            assert_int_equal(capture_run_offline(&cfg, &s, &err), 0);
+            assert_int_equal(sim_source_capture(scenes[i], &cfg, NULL, &s, &err), 0);
             assert_string_equal(s.stop_reason, "budget");
             printf("%s, %.2f min budget: %zu samples, rig time %.2f s\n", scenes[i],
                    budgets[k], s.samples, s.rig_time_s);
@@ -233,17 +232,17 @@ static void test_budget_needs_adaptive_order(void **state)
     cfg.order = "travel";
     struct capture_summary s;
     struct gonio_err err = {0};
-    assert_int_equal(capture_run_offline(&cfg, &s, &err), -GONIO_EUSAGE);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &s, &err), -GONIO_EUSAGE);
     assert_non_null(strstr(err.msg, "--budget"));
     assert_false(exists(out));
     cfg.budget_min = 0;
     cfg.stop_target = 0.05;
-    assert_int_equal(capture_run_offline(&cfg, &s, &err), -GONIO_EUSAGE);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &s, &err), -GONIO_EUSAGE);
     assert_non_null(strstr(err.msg, "--stop-target"));
     assert_false(exists(out));
     cfg.order = "adaptive";
     cfg.stop_target = -1;
-    assert_int_equal(capture_run_offline(&cfg, &s, &err), -GONIO_EUSAGE);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &s, &err), -GONIO_EUSAGE);
     assert_false(exists(out));
 }
 

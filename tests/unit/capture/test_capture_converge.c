@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "capture/capture.h"
+#include "sim_source/sim_source.h"
 #include "journal/journal.h"
 #include "planner/planner.h"
 #include "tests/gonio_test.h"
@@ -32,7 +33,7 @@ static int teardown(void **state)
 
 static struct capture_config config(const char *out, const char *plan, const char *stop)
 {
-    return (struct capture_config){.plan = plan, .scene = "ideal", .model = "abc",
+    return (struct capture_config){.plan = plan, .model = "abc",
                                    .out_dir = out, .order = "progressive", .stop = stop,
                                    .quiet = 1, .assess_nodes = gonio_test_assess_nodes()};
 }
@@ -85,7 +86,7 @@ static void test_converge_stops_early(void **state)
     struct capture_config cfg = config(out, name, "converge");
     struct capture_summary s;
     struct gonio_err err = {0};
-    assert_int_equal(capture_run_offline(&cfg, &s, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &s, &err), 0);
     assert_string_equal(s.stop_reason, "converged");
     assert_int_equal(s.converged, 1);
     assert_true(s.samples < total);
@@ -106,7 +107,7 @@ static void test_converge_stops_early(void **state)
 
     /* resuming replays the journal: same decision, nothing measured */
     struct capture_summary again;
-    assert_int_equal(capture_run_offline(&cfg, &again, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &again, &err), 0);
     assert_string_equal(again.stop_reason, "converged");
     assert_int_equal(again.samples, s.samples);
     assert_int_equal(journal_count(out, total), s.samples);
@@ -129,7 +130,7 @@ static void test_stop_all_measures_everything(void **state)
     /* the file asks for convergence; --stop all overrides it */
     assert_int_equal(plan_stop(plan)->kind, PLAN_STOP_CONVERGE);
     plan_free(plan);
-    assert_int_equal(capture_run_offline(&cfg, &s, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &s, &err), 0);
     assert_string_equal(s.stop_reason, "complete");
     assert_int_equal(s.samples, total);
     assert_int_equal(journal_count(out, total), total);
@@ -143,7 +144,7 @@ static void test_bad_stop_writes_nothing(void **state)
     struct capture_config cfg = config(out, "ds3", "sometimes");
     struct capture_summary s;
     struct gonio_err err = {0};
-    assert_int_equal(capture_run_offline(&cfg, &s, &err), -GONIO_EUSAGE);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &s, &err), -GONIO_EUSAGE);
     assert_non_null(strstr(err.msg, "sometimes"));
     struct stat st;
     assert_int_not_equal(stat(out, &st), 0);

@@ -86,9 +86,10 @@ static const struct drv_clock_ops opened_clock_ops = {
     .free_priv = free,
 };
 
-static int open_devices(void *user, const struct plan_rig *rig, struct capture_devices *d,
-                        struct gonio_err *err)
+static int open_devices(void *user, const struct plan_rig *rig, const char *out,
+                        struct capture_devices *d, struct gonio_err *err)
 {
+    (void)out;
     struct host *h = user;
     if (!h->sim) {
         h->rig = *rig;
@@ -155,14 +156,15 @@ static int run(const char *name, const char *truth, struct host *h, struct captu
     char out[300];
     snprintf(out, sizeof out, "%s/%s", dir, name);
     struct capture_config cfg = {.plan = "ds3", .rig = "default", .truth = truth,
-                                 .driver = "modbus-tcp", .detector = "modbus", .model = "abc",
+                                 .model = "abc",
                                  .out_dir = out, .quiet = 1, .prescan = prescan,
                                  .assess_nodes = gonio_test_assess_nodes()};
-    struct capture_hooks hooks = {.open_devices = open_devices, .close_devices = close_devices,
-                                  .control = control, .on_progress = on_progress, .user = h};
+    struct capture_rig devices = {.open = open_devices, .close = close_devices,
+                                  .driver = "modbus-tcp", .detector = "modbus", .user = h};
+    struct capture_hooks hooks = {.control = control, .on_progress = on_progress, .user = h};
     h->progressed = 0;
     h->calls = 0;
-    return capture_run(&cfg, &hooks, s, err);
+    return capture_run(&cfg, &devices, &hooks, s, err);
 }
 
 static json_t *load(const char *name, const char *file)

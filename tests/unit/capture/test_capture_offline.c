@@ -18,6 +18,7 @@
 #include "brdf/material.h"
 #include "common/paths.h"
 #include "capture/capture.h"
+#include "sim_source/sim_source.h"
 #include "journal/journal.h"
 #include "planner/planner.h"
 #include "tests/gonio_test.h"
@@ -45,7 +46,7 @@ static int exists(const char *path)
 static struct capture_config config(const char *out)
 {
     return (struct capture_config){
-        .plan = "ds3", .scene = "ideal", .model = "abc", .out_dir = out, .quiet = 1,
+        .plan = "ds3", .model = "abc", .out_dir = out, .quiet = 1,
         .assess_nodes = gonio_test_assess_nodes()};
 }
 
@@ -87,7 +88,7 @@ static void test_capture_matches_material_and_estimate(void **state)
     struct capture_config cfg = config(out);
     struct capture_summary s;
     struct gonio_err err = {0};
-    assert_int_equal(capture_run_offline(&cfg, &s, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &s, &err), 0);
     assert_int_equal(s.samples, 52);
     check_samples(out, 52);
 
@@ -126,7 +127,7 @@ static void test_resume_after_torn_journal(void **state)
     struct capture_config cfg = config(out);
     struct capture_summary first, second;
     struct gonio_err err = {0};
-    assert_int_equal(capture_run_offline(&cfg, &first, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &first, &err), 0);
 
     /* Keep the first 20 records and half of the 21st, as a crash would. */
     snprintf(path, sizeof path, "%s/samples.csv", out);
@@ -145,7 +146,7 @@ static void test_resume_after_torn_journal(void **state)
     snprintf(path, sizeof path, "%s/results.json", out);
     unlink(path);
 
-    assert_int_equal(capture_run_offline(&cfg, &second, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &second, &err), 0);
     assert_int_equal(second.samples, 52);
     check_samples(out, 52);
     assert_true(exists(path));
@@ -163,10 +164,9 @@ static void test_bad_scene_writes_nothing(void **state)
     fputs("material: default\nrig: default\nexposure: 3\n", f);
     fclose(f);
     struct capture_config cfg = config(out);
-    cfg.scene = scene;
     struct capture_summary s;
     struct gonio_err err = {0};
-    int rc = capture_run_offline(&cfg, &s, &err);
+    int rc = sim_source_capture(scene, &cfg, NULL, &s, &err);
     assert_int_equal(rc, -GONIO_EBADCONFIG);
     assert_non_null(strstr(err.msg, scene));
     assert_non_null(strstr(err.msg, "exposure"));
@@ -182,14 +182,14 @@ static void test_unknown_material_and_plan_write_nothing(void **state)
     cfg.material = "builtin:no-such-material";
     struct capture_summary s;
     struct gonio_err err = {0};
-    assert_true(capture_run_offline(&cfg, &s, &err) < 0);
+    assert_true(sim_source_capture("ideal", &cfg, NULL, &s, &err) < 0);
     assert_int_equal(gonio_exit_status(err.code), 2);
     assert_non_null(strstr(err.msg, "no-such-material"));
     assert_false(exists(out));
 
     cfg = config(out);
     cfg.plan = "no-such-plan";
-    assert_true(capture_run_offline(&cfg, &s, &err) < 0);
+    assert_true(sim_source_capture("ideal", &cfg, NULL, &s, &err) < 0);
     assert_int_equal(gonio_exit_status(err.code), 2);
     assert_false(exists(out));
 }
@@ -203,7 +203,7 @@ static void test_other_capture_in_directory_is_refused(void **state)
     cfg.plan = "ds4";
     struct capture_summary s;
     struct gonio_err err = {0};
-    assert_true(capture_run_offline(&cfg, &s, &err) < 0);
+    assert_true(sim_source_capture("ideal", &cfg, NULL, &s, &err) < 0);
     assert_non_null(strstr(err.msg, "another plan"));
     check_samples(out, 52); /* the DS3 capture is untouched */
 }
@@ -230,7 +230,8 @@ static void write_text(const char *path, const char *text)
 
 /* Resume `out` (the DS3 capture of scene ideal) with cfg: refused as bad
  * input, the message naming want, the journal and setup.json unchanged. */
-static void check_refused(const char *out, const struct capture_config *cfg, const char *want)
+static void check_refused(const char *out, const char *scene, const struct capture_config *cfg,
+                          const char *want)
 {
     char path[512], setup[512];
     snprintf(path, sizeof path, "%s/samples.csv", out);
@@ -239,7 +240,7 @@ static void check_refused(const char *out, const struct capture_config *cfg, con
     char *before = slurp(path, &len), *sbefore = slurp(setup, &slen);
     struct capture_summary s;
     struct gonio_err err = {0};
-    int rc = capture_run_offline(cfg, &s, &err);
+    int rc = sim_source_capture(scene, cfg, NULL, &s, &err);
     assert_int_equal(rc, -GONIO_EUSAGE);
     assert_int_equal(gonio_exit_status(rc), 2);
     if (!strstr(err.msg, want))
@@ -264,14 +265,13 @@ static void test_resume_of_another_setup_is_refused(void **state)
 
     snprintf(scene, sizeof scene, "%s/other.yaml", dir);
     write_text(scene, "name: other\nmaterial: default\nrig: default\n");
-    cfg.scene = scene;
     snprintf(msg, sizeof msg, "%s: setup.json has scene 'ideal', this capture asks for 'other'; "
              "use a new directory", out);
-    check_refused(out, &cfg, msg);
+    check_refused(out, scene, &cfg, msg);
 
     cfg = config(out);
     cfg.material = "builtin:red-plastic";
-    check_refused(out, &cfg, "setup.json has material 'builtin:nylon', this capture asks for "
+    check_refused(out, "ideal", &cfg, "setup.json has material 'builtin:nylon', this capture asks for "
                   "'builtin:red-plastic'");
 
     /* The same profile under another name is another rig. */
@@ -287,7 +287,7 @@ static void test_resume_of_another_setup_is_refused(void **state)
     free(text);
     cfg = config(out);
     cfg.rig = rig;
-    check_refused(out, &cfg, "setup.json has rig 'default', this capture asks for 'other'");
+    check_refused(out, "ideal", &cfg, "setup.json has rig 'default', this capture asks for 'other'");
 }
 
 /* While another process holds the directory, a capture is refused with
@@ -318,7 +318,7 @@ static void test_directory_in_use_is_refused(void **state)
     struct capture_config cfg = config(out);
     struct capture_summary s;
     struct gonio_err err = {0};
-    int rc = capture_run_offline(&cfg, &s, &err);
+    int rc = sim_source_capture("ideal", &cfg, NULL, &s, &err);
     kill(child, SIGKILL);
     waitpid(child, NULL, 0);
     close(ready[0]);
@@ -332,7 +332,7 @@ static void test_directory_in_use_is_refused(void **state)
     snprintf(path, sizeof path, "%s/samples.csv", out);
     assert_false(exists(path));
     /* The holder gone, the directory is free again. */
-    assert_int_equal(capture_run_offline(&cfg, &s, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &s, &err), 0);
     check_samples(out, 52);
 }
 
@@ -353,14 +353,14 @@ static void test_abort_keeps_data_and_resumes(void **state)
     struct capture_hooks hooks = {.control = abort_after_ten, .user = &calls};
     struct capture_summary s;
     struct gonio_err err = {0};
-    assert_int_equal(capture_run(&cfg, &hooks, &s, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cfg, &hooks, &s, &err), 0);
     assert_string_equal(s.stop_reason, "aborted");
     assert_int_equal(s.samples, 10);
     check_samples(out, 10);
     snprintf(path, sizeof path, "%s/results.json", out);
     assert_false(exists(path));
 
-    assert_int_equal(capture_run_offline(&cfg, &s, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &s, &err), 0);
     assert_string_equal(s.stop_reason, "complete");
     check_samples(out, 52);
     assert_true(exists(path));
@@ -391,11 +391,11 @@ static void estimate_and_capture(const char *plan, const char *scene, double *es
 {
     char out[400];
     snprintf(out, sizeof out, "%s/est-%s-%s", dir, plan, scene);
-    struct capture_config cfg = {.plan = plan, .scene = scene, .model = "abc", .out_dir = out,
+    struct capture_config cfg = {.plan = plan, .model = "abc", .out_dir = out,
                                  .quiet = 1, .measure_only = 1};
     struct gonio_err err = {0};
     struct plan_estimate est;
-    assert_int_equal(capture_check(&cfg, NULL, &est, &err), 0);
+    assert_int_equal(sim_source_check(scene, &cfg, &est, &err), 0);
     *est_s = est.total_s;
 
     struct plan_rig rig;
@@ -408,7 +408,7 @@ static void estimate_and_capture(const char *plan, const char *scene, double *es
 
     struct capture_hooks hooks = {.on_progress = on_progress, .user = seen};
     struct capture_summary s;
-    assert_int_equal(capture_run(&cfg, &hooks, &s, &err), 0);
+    assert_int_equal(sim_source_capture(scene, &cfg, &hooks, &s, &err), 0);
     *actual_s = s.rig_time_s;
 }
 

@@ -21,6 +21,7 @@
 #include "brdf/angles.h"
 #include "brdf/material.h"
 #include "capture/capture.h"
+#include "sim_source/sim_source.h"
 #include "drivers/drv_modbus.h"
 #include "planner/planner.h"
 #include "tests/gonio_test.h"
@@ -48,9 +49,10 @@ struct rig_host {
     double rig_times[8]; /* of the first samples */
 };
 
-static int open_devices(void *user, const struct plan_rig *rig, struct capture_devices *dev,
-                        struct gonio_err *err)
+static int open_devices(void *user, const struct plan_rig *rig, const char *dir,
+                        struct capture_devices *dev, struct gonio_err *err)
 {
+    (void)dir;
     struct rig_host *h = user;
     struct drv_modbus_bus_cfg cfg;
     drv_modbus_bus_cfg_default(&cfg);
@@ -137,7 +139,7 @@ static void capture_on_modbus(const char *plan_name, const char *scene, const ch
     assert_non_null(mkdtemp(dir));
     char out[128];
     snprintf(out, sizeof out, "%s/cap", dir);
-    struct capture_config cfg = {.plan = plan_name, .scene = scene, .model = "abc",
+    struct capture_config cfg = {.plan = plan_name, .model = "abc",
                                  .out_dir = out, .quiet = 1,
                                  .assess_nodes = gonio_test_assess_nodes()};
     struct rig_host host = {.pty = sim.pty, .truth = truth, .time_scale = atof(scale)};
@@ -147,12 +149,18 @@ static void capture_on_modbus(const char *plan_name, const char *scene, const ch
         host.baud = host_in->baud;
     }
     double wall0 = drv_test_wall();
-    struct capture_hooks hooks = {.open_devices = open_devices,
-                                  .close_devices = close_devices,
-                                  .on_sample = on_sample,
-                                  .user = &host};
+    /* The scene gonio-sim runs describes the rig in setup.json. */
+    sim_source *described = sim_source_describe(scene, &err);
+    assert_non_null(described);
+    struct capture_rig devices;
+    sim_source_rig(described, &devices);
+    devices.open = open_devices;
+    devices.close = close_devices;
+    devices.user = &host;
+    struct capture_hooks hooks = {.on_sample = on_sample, .user = &host};
     struct capture_summary sum;
-    int rc = capture_run(&cfg, &hooks, &sum, &err);
+    int rc = capture_run(&cfg, &devices, &hooks, &sum, &err);
+    sim_source_free(described);
     if (rc < 0)
         fail_msg("capture_run: %s", err.msg);
     double wall = drv_test_wall() - wall0;

@@ -83,10 +83,11 @@ static void test_overload(void **state)
     drv_axis_free(s);
 }
 
-static int open_devices(void *user, const struct plan_rig *r, struct capture_devices *dev,
-                        struct gonio_err *err)
+static int open_devices(void *user, const struct plan_rig *r, const char *dir,
+                        struct capture_devices *dev, struct gonio_err *err)
 {
     (void)user;
+    (void)dir;
     memset(dev, 0, sizeof *dev);
     dev->sample = drv_axis_new_modbus(bus, 1, &r->sample, NULL, "sample", err);
     dev->arm = drv_axis_new_modbus(bus, 2, &r->arm, NULL, "arm", err);
@@ -118,11 +119,11 @@ static void test_capture_stops_on_alarm(void **state)
     char out[128];
     snprintf(out, sizeof out, "%s/cap", dir);
     struct capture_config cfg = {
-        .plan = "ds4", .scene = "ideal", .model = "abc", .out_dir = out, .quiet = 1};
-    struct capture_hooks hooks = {.open_devices = open_devices, .close_devices = close_devices};
+        .plan = "ds4", .rig = "default", .model = "abc", .out_dir = out, .quiet = 1};
+    struct capture_rig devices = {.open = open_devices, .close = close_devices};
     struct capture_summary sum;
     struct gonio_err err = {0};
-    assert_int_equal(capture_run(&cfg, &hooks, &sum, &err), -GONIO_EDEVICE);
+    assert_int_equal(capture_run(&cfg, &devices, NULL, &sum, &err), -GONIO_EDEVICE);
     assert_non_null(strstr(err.msg, "drive alarm 0x30 (overload)"));
     /* The engine stopped the axes: the arm is not moving any more. */
     drv_axis *arm = drv_axis_new_modbus(bus, 2, &rig.arm, NULL, "arm", &err);

@@ -23,6 +23,7 @@
 
 #include "common/paths.h"
 #include "capture/capture.h"
+#include "sim_source/sim_source.h"
 #include "fit/journal_samples.h"
 #include "journal/journal.h"
 #include "fit/abc_model.h"
@@ -52,10 +53,10 @@ static int teardown(void **state)
 static int capture(const char *material, const char *model, const char *out,
                    struct capture_summary *s, struct gonio_err *err)
 {
-    struct capture_config cfg = {.plan = "ds4", .scene = "ideal", .material = material,
+    struct capture_config cfg = {.plan = "ds4", .material = material,
                                  .model = model, .out_dir = out, .quiet = 1,
                                  .assess_nodes = gonio_test_assess_nodes()};
-    return capture_run_offline(&cfg, s, err);
+    return sim_source_capture("ideal", &cfg, NULL, s, err);
 }
 
 static json_t *results(const char *cap)
@@ -254,12 +255,12 @@ static void test_abc_prior_capture_file(void **state)
     gonio_test_shared_or_skip();
     char cap[300];
     snprintf(cap, sizeof cap, "%s/tc-abc-prior", dir);
-    struct capture_config cfg = {.plan = "ds4", .scene = "ideal",
+    struct capture_config cfg = {.plan = "ds4",
                                  .material = "nbrdf:tungsten-carbide", .model = "abc-prior",
                                  .out_dir = cap, .quiet = 1, .assess_nodes = 20000};
     struct capture_summary s;
     struct gonio_err err = {0};
-    int rc = capture_run_offline(&cfg, &s, &err);
+    int rc = sim_source_capture("ideal", &cfg, NULL, &s, &err);
     if (rc)
         printf("capture: %s\n", err.msg);
     assert_int_equal(rc, 0);
@@ -425,12 +426,12 @@ static void saturated_capture(const char *model, char *cap, size_t cap_len, doub
 {
     char path[400];
     snprintf(cap, cap_len, "%s/saturated-%s", dir, model);
-    struct capture_config cfg = {.plan = "ds3", .scene = saturating_scene(), .model = model,
+    struct capture_config cfg = {.plan = "ds3", .model = model,
                                  .out_dir = cap, .quiet = 1,
                                  .assess_nodes = gonio_test_assess_nodes()};
     struct capture_summary s;
     struct gonio_err err = {0};
-    if (capture_run_offline(&cfg, &s, &err) < 0)
+    if (sim_source_capture(saturating_scene(), &cfg, NULL, &s, &err) < 0)
         fail_msg("%s", err.msg);
     assert_true(s.saturated >= 5);
 

@@ -18,6 +18,7 @@
 #include "brdf/domain.h"
 #include "brdf/metrics.h"
 #include "capture/capture.h"
+#include "sim_source/sim_source.h"
 #include "fit/journal_samples.h"
 #include "journal/journal.h"
 #include "fit/model_file.h"
@@ -56,12 +57,12 @@ static int teardown(void **state)
 /* The DS4 samples of a material, as an ideal-scene capture journals them. */
 static size_t capture_ds4(const char *spec, const char *out, struct fit_sample **s)
 {
-    struct capture_config cfg = {.plan = "ds4", .scene = "ideal", .material = spec,
+    struct capture_config cfg = {.plan = "ds4", .material = spec,
                                  .model = "abc", .out_dir = out, .quiet = 1,
                                  .measure_only = 1};
     struct capture_summary sum;
     struct gonio_err err = {0};
-    if (capture_run_offline(&cfg, &sum, &err))
+    if (sim_source_capture("ideal", &cfg, NULL, &sum, &err))
         print_error("%s: %s\n", spec, err.msg);
     assert_int_equal(sum.samples, 6);
     char path[400];
@@ -101,7 +102,7 @@ static void test_ds4_every_material(void **state)
             char path[400];
             snprintf(path, sizeof path, "%s/%s.model", cap, models[m]);
             brdf_material *fitted = NULL;
-            int rc = fit_model_run(kind, &data, &mo, path, &rep, NULL, &fitted, &err);
+            int rc = fit_model_run(kind, &data, &mo, path, &rep, &fitted, &err);
             if (rc)
                 print_error("%s %s: %s\n", docs[i].name, models[m], err.msg);
             assert_int_equal(rc, 0);

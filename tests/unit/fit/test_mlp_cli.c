@@ -1,5 +1,5 @@
 /* gonio fit (cli/cmd_fit.c, compiled in) on a capture directory made with
- * capture_run_offline (ideal scene, plan ds2): the model files it writes
+ * sim_source_capture (ideal scene, plan ds2): the model files it writes
  * open as materials that match the samples, abc equals fit_abc called
  * directly, abc-pseudo writes an abc file, the spectral CSV route, and bad
  * input gives exit status 2 with one message; gonio export merl of a
@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "capture/capture.h"
+#include "sim_source/sim_source.h"
 #include "journal/journal.h"
 #include "fit/fit.h"
 #include "fit/abc_model.h"
@@ -33,11 +34,11 @@ static int setup(void **state)
         return -1;
     snprintf(cap, sizeof cap, "%s/cap", dir);
     struct capture_config cfg = {
-        .plan = "ds2", .scene = "ideal", .model = "abc", .out_dir = cap, .quiet = 1,
+        .plan = "ds2", .model = "abc", .out_dir = cap, .quiet = 1,
         .assess_nodes = gonio_test_assess_nodes()};
     struct capture_summary s;
     struct gonio_err err = {0};
-    if (capture_run_offline(&cfg, &s, &err) != 0) {
+    if (sim_source_capture("ideal", &cfg, NULL, &s, &err) != 0) {
         fprintf(stderr, "capture: %s\n", err.msg);
         return -1;
     }

@@ -18,6 +18,7 @@
 
 #include "brdf/spectral.h"
 #include "capture/capture.h"
+#include "sim_source/sim_source.h"
 #include "journal/journal.h"
 #include "planner/planner.h"
 #include "sim/scene.h"
@@ -37,10 +38,10 @@ static int teardown(void **state)
     return gonio_test_dir_remove(dir);
 }
 
-static struct capture_config config(const char *scene, const char *plan, const char *out)
+static struct capture_config config(const char *plan, const char *out)
 {
     return (struct capture_config){
-        .plan = plan, .scene = scene, .model = "abc", .out_dir = out, .quiet = 1,
+        .plan = plan, .model = "abc", .out_dir = out, .quiet = 1,
         .assess_nodes = gonio_test_assess_nodes()};
 }
 
@@ -98,10 +99,10 @@ static void test_bad_day_recovers_the_stall(void **state)
     (void)state;
     char out[300], path[512];
     snprintf(out, sizeof out, "%s/bad-day", dir);
-    struct capture_config cfg = config("bad-day", "ds3", out);
+    struct capture_config cfg = config("ds3", out);
     struct capture_summary sum;
     struct gonio_err err = {0};
-    int rc = capture_run_offline(&cfg, &sum, &err);
+    int rc = sim_source_capture("bad-day", &cfg, NULL, &sum, &err);
     if (rc)
         print_error("%s\n", err.msg);
     assert_int_equal(rc, 0);
@@ -170,10 +171,10 @@ static void test_fatal_alarm_fails_and_resumes(void **state)
           "  - {name: alarm, axes: [arm], at_moves: [80], code: 112}\n",
           f);
     fclose(f);
-    struct capture_config cfg = config(scene, "ds3", out);
+    struct capture_config cfg = config("ds3", out);
     struct capture_summary sum;
     struct gonio_err err = {0};
-    int rc = capture_run_offline(&cfg, &sum, &err);
+    int rc = sim_source_capture(scene, &cfg, NULL, &sum, &err);
     assert_int_equal(rc, -GONIO_EDEVICE);
     /* not retried: the drive refused the command itself */
     assert_non_null(strstr(err.msg, ": axis arm: drive alarm 0x70 (abnormal operation data)"));
@@ -195,7 +196,7 @@ static void test_fatal_alarm_fails_and_resumes(void **state)
     /* Resume: a new rig (alarm cleared, moves counted afresh) measures the
      * missing points; the first ones stay as they were. */
     memset(&err, 0, sizeof err);
-    rc = capture_run_offline(&cfg, &sum, &err);
+    rc = sim_source_capture(scene, &cfg, NULL, &sum, &err);
     if (rc)
         print_error("%s\n", err.msg);
     assert_int_equal(rc, 0);
@@ -221,10 +222,10 @@ static void test_lab_exposure_follows_the_signal(void **state)
     (void)state;
     char out[300];
     snprintf(out, sizeof out, "%s/lab", dir);
-    struct capture_config cfg = config("lab", "ds3", out);
+    struct capture_config cfg = config("ds3", out);
     struct capture_summary sum;
     struct gonio_err err = {0};
-    assert_int_equal(capture_run_offline(&cfg, &sum, &err), 0);
+    assert_int_equal(sim_source_capture("lab", &cfg, NULL, &sum, &err), 0);
     struct journal_sample *s;
     size_t n;
     read_journal(out, &s, &n);
@@ -254,10 +255,10 @@ static void test_spectral_capture_writes_spectra(void **state)
     (void)state;
     char out[300], path[512];
     snprintf(out, sizeof out, "%s/cyan", dir);
-    struct capture_config cfg = config("spectral-cyan", "ds4", out);
+    struct capture_config cfg = config("ds4", out);
     struct capture_summary sum;
     struct gonio_err err = {0};
-    int rc = capture_run_offline(&cfg, &sum, &err);
+    int rc = sim_source_capture("spectral-cyan", &cfg, NULL, &sum, &err);
     if (rc)
         print_error("%s\n", err.msg);
     assert_int_equal(rc, 0);
