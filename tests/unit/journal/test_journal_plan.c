@@ -10,6 +10,7 @@
 #include <zlib.h>
 
 #include "capture/capture.h"
+#include "sim_source/sim_source.h"
 #include "capture/journal_plan.h"
 #include "journal/journal.h"
 #include "tests/gonio_test.h"
@@ -23,7 +24,7 @@ static int n_lines;
 
 static struct capture_config config(const char *out)
 {
-    return (struct capture_config){.plan = "ds3", .scene = "ideal", .model = "abc",
+    return (struct capture_config){.plan = "ds3", .model = "abc",
                                    .out_dir = out, .quiet = 1, .measure_only = 1};
 }
 
@@ -47,7 +48,7 @@ static int setup(void **state)
     struct capture_config cfg = config(base);
     struct capture_summary sum;
     struct gonio_err err = {0};
-    if (capture_run_offline(&cfg, &sum, &err) != 0) {
+    if (sim_source_capture("ideal", &cfg, NULL, &sum, &err) != 0) {
         fprintf(stderr, "capture: %s\n", err.msg);
         return -1;
     }
@@ -144,7 +145,7 @@ static void expect_refused(const char *tag, char text[][512], int count, int lin
     struct capture_config cfg = config(capdir);
     struct capture_summary sum;
     struct gonio_err err = {0};
-    assert_int_equal(capture_run_offline(&cfg, &sum, &err), -GONIO_EBADDATA);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &sum, &err), -GONIO_EBADDATA);
     snprintf(where, sizeof where, "%s:%d: ", path, line);
     if (strncmp(err.msg, where, strlen(where)) || !strstr(err.msg, what))
         fail_msg("resume: expected '%s...%s', got '%s'", where, what, err.msg);
@@ -172,7 +173,7 @@ static void test_intact_journal_resumes_and_checks(void **state)
     struct capture_config cfg = config(capdir);
     struct capture_summary sum;
     struct gonio_err err = {0};
-    if (capture_run_offline(&cfg, &sum, &err) != 0)
+    if (sim_source_capture("ideal", &cfg, NULL, &sum, &err) != 0)
         fail_msg("%s", err.msg);
     assert_int_equal(sum.samples, (size_t)(n_lines - 1));
 }

@@ -27,6 +27,7 @@
 #include <unistd.h>
 
 #include "capture/capture.h"
+#include "sim_source/sim_source.h"
 #include "journal/journal.h"
 #include "tests/gonio_test.h"
 
@@ -130,7 +131,7 @@ static void on_sample(void *user, const struct journal_sample *s, size_t done, s
 
 static struct capture_config config(const char *out)
 {
-    return (struct capture_config){.plan = "ds3", .scene = "ideal", .model = "abc",
+    return (struct capture_config){.plan = "ds3", .model = "abc",
                                    .out_dir = out, .quiet = 1, .measure_only = 1};
 }
 
@@ -186,7 +187,7 @@ static int capture_child(const char *capdir, const char *image, const char *repo
         struct capture_hooks hooks = {.on_sample = on_sample};
         struct capture_summary sum;
         struct gonio_err err = {0};
-        int rc = capture_run(&cfg, &hooks, &sum, &err);
+        int rc = sim_source_capture("ideal", &cfg, &hooks, &sum, &err);
         if (rc != 0)
             fprintf(stderr, "capture: %s\n", err.msg);
         if (syscall(SYS_write, pipefd[1], &calls, sizeof calls) != sizeof calls)
