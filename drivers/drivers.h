@@ -101,8 +101,19 @@ int drv_detector_acquire(drv_detector *d, double integration_s, struct drv_readi
 double drv_detector_lag(const drv_detector *d);
 void drv_detector_free(drv_detector *d);
 
+/* The rig time, seconds: monotonic by construction (a device's reading
+ * that would take it back is held at the last value and counted). */
 double drv_clock_now(drv_clock *c);
 int drv_clock_sleep(drv_clock *c, double seconds);
+/* What a clock read from a device went through: times the rig time would
+ * have gone back by more than the device's resolution and was held
+ * instead, and restarts of the device seen on its clock (its register
+ * going back), across which the rig time carries on. Each is also warned
+ * of on stderr (the first few). */
+struct drv_clock_stats {
+    long backward, restarts;
+};
+void drv_clock_stats(const drv_clock *c, struct drv_clock_stats *out);
 void drv_clock_free(drv_clock *c);
 
 /* Wall time (monotonic, seconds since creation): the clock of hardware

@@ -32,7 +32,7 @@ struct drv_modbus_bus {
     struct { /* drv_modbus_note_clock */
         int slave;
         uint32_t ms;
-        double wall;
+        double lo, hi;
         long requests; /* stats.requests when noted */
     } clock;
 };
@@ -161,20 +161,22 @@ double drv_modbus_timeout(const drv_modbus_bus *bus)
     return bus->timeout_s;
 }
 
-void drv_modbus_note_clock(drv_modbus_bus *bus, int slave, uint32_t ms, double wall)
+void drv_modbus_note_clock(drv_modbus_bus *bus, int slave, uint32_t ms)
 {
     bus->clock.slave = slave;
     bus->clock.ms = ms;
-    bus->clock.wall = wall;
+    drv_modbus_acted(bus, &bus->clock.lo, &bus->clock.hi);
     bus->clock.requests = bus->stats.requests;
 }
 
-int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, double *wall)
+int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, double *lo,
+                          double *hi)
 {
     if (bus->clock.slave != slave || bus->clock.requests != bus->stats.requests)
         return 0;
     *ms = bus->clock.ms;
-    *wall = bus->clock.wall;
+    *lo = bus->clock.lo;
+    *hi = bus->clock.hi;
     return 1;
 }
 

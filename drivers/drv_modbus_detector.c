@@ -44,15 +44,13 @@ static int read_state(struct mb_detector *d, struct det_state *s, struct gonio_e
     int rc = drv_modbus_read(d->bus, d->slave, R_INTEGRATION, R_NREGS, r, d->who, err);
     if (rc < 0)
         return rc;
-    double wall, hi; /* the clock as the detector took it: no earlier than wall */
-    drv_modbus_acted(d->bus, &wall, &hi);
     s->used_us = drv_modbus_get32(r);
     s->st = drv_modbus_get32(r + R_STATUS);
     s->count = drv_modbus_get32(r + R_COUNT);
     s->seq = drv_modbus_get32(r + R_SEQUENCE);
     for (int k = 0; k < 3; k++)
         s->rgb[k] = drv_modbus_get_float(r + R_CHANNELS + 2 * k);
-    drv_modbus_note_clock(d->bus, d->slave, drv_modbus_get32(r + R_CLOCK), wall);
+    drv_modbus_note_clock(d->bus, d->slave, drv_modbus_get32(r + R_CLOCK));
     return 0;
 }
 

@@ -117,20 +117,21 @@ double drv_modbus_timeout(const drv_modbus_bus *bus)
     return bus->timeout;
 }
 
-void drv_modbus_note_clock(drv_modbus_bus *bus, int slave, uint32_t ms, double wall)
+void drv_modbus_note_clock(drv_modbus_bus *bus, int slave, uint32_t ms)
 {
     bus->clock_slave = slave;
     bus->clock_ms = ms;
-    bus->clock_wall = wall;
+    bus->clock_wall = bus->answered;
     bus->clock_exchanges = bus->exchanges;
 }
 
-int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, double *wall)
+int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, double *lo,
+                          double *hi)
 {
     if (bus->clock_slave != slave || bus->clock_exchanges != bus->exchanges)
         return 0;
     *ms = bus->clock_ms;
-    *wall = bus->clock_wall;
+    *lo = *hi = bus->clock_wall;
     return 1;
 }
 
