@@ -39,6 +39,7 @@ struct mb_axis {
      * have left the drive otherwise. */
     int block, staged;
     int32_t staged_pos;
+    long block_faults; /* drv_modbus_faults when the block was written */
     /* The leg after the one under way (mb_next_leg): to stage. */
     int next;
     int32_t next_pos;
@@ -119,6 +120,8 @@ static int mb_start_leg(void *priv, double from, double to, struct gonio_err *er
         drv_modbus_put32(r + 2 * i, v[i]);
     a->leg_target = pos / a->spd;
     a->leg_time = plan_axis_time(fabs(a->leg_target - from), speed / a->spd, accel / a->spd);
+    if (a->block && a->block_faults != drv_modbus_faults(a->bus))
+        a->block = 0; /* the drive may have restarted since: write it all */
     int rc, head = a->block ? R_POSITION - R_DIRECT : 0;
     if (a->block && a->staged && a->staged_pos == pos)
         rc = drv_modbus_write(a->bus, a->slave, R_TRIGGER + 1, 1, r + 15, a->who, err);
@@ -126,6 +129,7 @@ static int mb_start_leg(void *priv, double from, double to, struct gonio_err *er
         rc = drv_modbus_write(a->bus, a->slave, R_DIRECT + head, 16 - head, r + head, a->who,
                               err);
     a->block = rc == 0;
+    a->block_faults = drv_modbus_faults(a->bus);
     a->staged = a->next = 0;
     leg_started(a);
     return rc;

@@ -151,6 +151,11 @@ void drv_modbus_bus_set_trace(drv_modbus_bus *bus, int on)
     bus->trace = on;
 }
 
+long drv_modbus_faults(const drv_modbus_bus *bus)
+{
+    return bus->stats.retries + bus->stats.failed;
+}
+
 double drv_modbus_time_scale(const drv_modbus_bus *bus)
 {
     return bus->time_scale;
@@ -292,19 +297,41 @@ static int connection_lost(const drv_modbus_bus *bus, int e)
  * timeout), so a device that is coming back is not hammered. A failed
  * connect leaves the context closed: the next attempt fails at once with
  * EBADF and comes back here. */
-static void reconnect(drv_modbus_bus *bus, int attempt)
+static int reconnect(drv_modbus_bus *bus, int attempt)
 {
     modbus_close(bus->ctx);
     drv_modbus_sleep(fmin(0.05 * (double)(1 << attempt), bus->timeout_s));
     bus->stats.reconnects++;
-    if (modbus_connect(bus->ctx) < 0 && bus->trace)
-        fprintf(stderr, "modbus %s: reconnect failed: %s\n", bus->where, modbus_strerror(errno));
+    if (modbus_connect(bus->ctx) == 0)
+        return 0;
+    int e = errno;
+    if (bus->trace)
+        fprintf(stderr, "modbus %s: reconnect failed: %s\n", bus->where, modbus_strerror(e));
+    return e;
+}
+
+/* Why a request on a lost TCP connection failed: how the connection was
+ * lost (lost: its errno; 0 when it was found closed) and what the last
+ * reconnection said (0: it succeeded). */
+static int lost_error(const drv_modbus_bus *bus, int slave, const char *who, int lost,
+                      int refused, struct gonio_err *err)
+{
+    const char *how = lost == ECONNRESET || lost == EPIPE ? "the device closed the connection"
+                      : lost == ECONNREFUSED ? "the device refused the connection"
+                      : lost ? modbus_strerror(lost)
+                             : "the connection was closed (an earlier reconnection failed)";
+    if (refused)
+        return gonio_err_set(err, GONIO_EDEVICE, "%s (slave %d) on %s: %s; reconnecting: %s "
+                             "(%d attempts)", who, slave, bus->where, how,
+                             modbus_strerror(refused), bus->retries + 1);
+    return gonio_err_set(err, GONIO_EDEVICE, "%s (slave %d) on %s: %s (%d attempts)", who,
+                         slave, bus->where, how, bus->retries + 1);
 }
 
 static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, uint16_t *regs,
                     const char *who, struct gonio_err *err)
 {
-    int e = 0;
+    int e = 0, lost = 0, refused = 0;
     bus->stats.requests++;
     for (int attempt = 0; attempt <= bus->retries; attempt++) {
         if (attempt > 0)
@@ -336,9 +363,12 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
                                  e - MODBUS_ENOBASE, exception_name(e - MODBUS_ENOBASE));
         }
         if (connection_lost(bus, e)) {
-            reconnect(bus, attempt);
+            if (e != EBADF)
+                lost = e;
+            refused = reconnect(bus, attempt);
             continue;
         }
+        lost = refused = 0;
         if (e == ETIMEDOUT)
             bus->stats.timeouts++;
         else
@@ -346,6 +376,8 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
         drain(bus);
     }
     bus->stats.failed++;
+    if (connection_lost(bus, e))
+        return lost_error(bus, slave, who, lost, refused, err);
     if (e == ETIMEDOUT)
         return gonio_err_set(err, ETIMEDOUT,
                              "%s (slave %d) on %s: no answer within %g s (%d attempts)", who,

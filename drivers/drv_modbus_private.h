@@ -37,6 +37,11 @@ double drv_modbus_request_s(const drv_modbus_bus *bus, int write, int n);
  * they time their polls, never what they count on. */
 double drv_modbus_gap_s(const drv_modbus_bus *bus);
 
+/* Failed attempts on the bus so far (no answer, a bad one, a lost
+ * connection). A device may have restarted across any of them and lost
+ * what the drivers stored on it: they store it again when this changed. */
+long drv_modbus_faults(const drv_modbus_bus *bus);
+
 /* Simulated seconds per wall second on this bus (1 on hardware). */
 double drv_modbus_time_scale(const drv_modbus_bus *bus);
 /* The response timeout, wall seconds. */
