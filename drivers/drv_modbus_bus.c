@@ -284,15 +284,18 @@ static void drain(drv_modbus_bus *bus)
 }
 
 /* A TCP connection the peer closed or reset (a restarted device or
- * gateway, a dropped network), or that a failed reconnection left closed:
- * no retry on the same socket can succeed. */
+ * gateway, a dropped network), a serial port that hung up (an unplugged
+ * adapter, a simulator's pseudo-terminal gone), or either left closed by a
+ * failed reconnection: no retry on the same descriptor can succeed. */
 static int connection_lost(const drv_modbus_bus *bus, int e)
 {
-    return bus->tcp && (e == ECONNRESET || e == EPIPE || e == ENOTCONN || e == ECONNREFUSED ||
-                        e == ECONNABORTED || e == EBADF);
+    if (!bus->tcp)
+        return e == EIO || e == ENXIO || e == ENODEV || e == EBADF;
+    return e == ECONNRESET || e == EPIPE || e == ENOTCONN || e == ECONNREFUSED ||
+           e == ECONNABORTED || e == EBADF;
 }
 
-/* Re-open the TCP connection after a pause that doubles with each
+/* Re-open the TCP connection (the serial port) after a pause that doubles with each
  * attempt of the request (0.05 s, 0.1 s, ... at most the response
  * timeout), so a device that is coming back is not hammered. A failed
  * connect leaves the context closed: the next attempt fails at once with
@@ -310,13 +313,14 @@ static int reconnect(drv_modbus_bus *bus, int attempt)
     return e;
 }
 
-/* Why a request on a lost TCP connection failed: how the connection was
+/* Why a request on a lost connection failed: how the connection was
  * lost (lost: its errno; 0 when it was found closed) and what the last
  * reconnection said (0: it succeeded). */
 static int lost_error(const drv_modbus_bus *bus, int slave, const char *who, int lost,
                       int refused, struct gonio_err *err)
 {
-    const char *how = lost == ECONNRESET || lost == EPIPE ? "the device closed the connection"
+    const char *how = !bus->tcp && lost ? "the serial port hung up"
+                      : lost == ECONNRESET || lost == EPIPE ? "the device closed the connection"
                       : lost == ECONNREFUSED ? "the device refused the connection"
                       : lost ? modbus_strerror(lost)
                              : "the connection was closed (an earlier reconnection failed)";

@@ -8,6 +8,7 @@
 #include <errno.h>
 #include <math.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "common/clock.h"
 #include "drivers/drv_modbus.h"
@@ -20,12 +21,16 @@
 static struct sim_proc sim;
 static drv_modbus_bus *bus;
 static struct plan_rig rig;
+/* RTU: the bus is on a link to the pty, which a restarted gonio-sim points
+ * at its new pty (as a serial adapter plugged in again). */
+static char link_dir[64], link_path[96];
 
 static int start_sim(int port)
 {
     char where[64];
     snprintf(where, sizeof where, "127.0.0.1:%d", port);
-    const char *const args[] = {"--time-scale", "50", "--tcp", where, NULL};
+    const char *const args[] = {"--time-scale", "50", "--tcp", where, "--link", link_path,
+                                NULL};
     return sim_proc_start(&sim, args);
 }
 
@@ -34,15 +39,21 @@ static int setup(void **state)
 {
     (void)state;
     struct gonio_err err = {0};
+    snprintf(link_dir, sizeof link_dir, "/tmp/gonio-restart-XXXXXX");
+    if (!mkdtemp(link_dir))
+        return -1;
+    snprintf(link_path, sizeof link_path, "%s/rig", link_dir);
     if (plan_rig_load("default", &rig, &err) < 0 || start_sim(0) < 0)
         return -1;
     struct drv_modbus_bus_cfg cfg;
     drv_modbus_bus_cfg_default(&cfg);
     cfg.host = "127.0.0.1";
     cfg.port = sim.port;
+    cfg.device = link_path;
     cfg.time_scale = SCALE;
     cfg.timeout_s = 0.2 * gonio_test_time_factor();
-    bus = drv_modbus_bus_new_tcp(&cfg, &err);
+    bus = *(const int *)*state ? drv_modbus_bus_new_rtu(&cfg, &err)
+                               : drv_modbus_bus_new_tcp(&cfg, &err);
     if (!bus)
         fprintf(stderr, "%s\n", err.msg);
     return bus ? 0 : -1;
@@ -55,6 +66,8 @@ static int teardown(void **state)
     bus = NULL;
     if (sim.pid > 0)
         sim_proc_stop(&sim);
+    unlink(link_path);
+    rmdir(link_dir);
     return 0;
 }
 
@@ -120,7 +133,7 @@ static void test_clock_carries_on(void **state)
 }
 
 /* The drive restarts between the move's command and its end: the fresh
- * drive rests at 0 with IN-POS (its own target). */
+ * drive rests at 0 with IN-POS (its own target). On TCP, and on RTU. */
 static void test_inpos_checked(void **state)
 {
     (void)state;
@@ -198,14 +211,19 @@ static void test_vanished_device_named(void **state)
     drv_axis_free(ax);
 }
 
+static const int tcp = 0, rtu = 1;
+
+#define ON(test, kind) \
+    {#test " (" #kind ")", test, setup, teardown, (void *)&kind}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test_setup_teardown(test_clock_carries_on, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_inpos_checked, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_inpos_miss_named, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_detector_refuses_across_restart, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_vanished_device_named, setup, teardown),
+        ON(test_clock_carries_on, tcp),       ON(test_clock_carries_on, rtu),
+        ON(test_inpos_checked, tcp),          ON(test_inpos_checked, rtu),
+        ON(test_inpos_miss_named, tcp),       ON(test_detector_refuses_across_restart, tcp),
+        ON(test_detector_refuses_across_restart, rtu),
+        ON(test_vanished_device_named, tcp),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
