@@ -5,9 +5,14 @@ started again on the same TCP port and pty link 0-0.5 s later, a power cycle
 of the whole rig, over Modbus TCP and over RTU. Whatever the capture does
 (carries on, or fails naming the restart, then `resume`), the journal ends
 with every plan point measured once, every sample's axes within the
-in-position band of its plan point, a rig clock that never goes back, and
-no rig time beyond twice the estimate. A capture on a scene whose devices
-answer late journals no backward rig-clock step.
+in-position band of its plan point, a rig clock that never goes back and
+never had to be held back, and no rig time beyond what gonio-sim's clock
+can have run during the capture (its wall time at the time scale: a
+wrapped 32-bit clock difference reads 4.29e6 s). The rig time's ratio to
+the plan's estimate is reported, not asserted: at time scale 50 the host's
+own time counts 50 times over, so on a loaded machine it says more about
+the load than about the drivers. A capture on a scene whose devices answer
+late journals no backward rig-clock step.
 
 RESTARTS_TCP / RESTARTS_RTU (environment) set how many captures with a
 restart each; scripts/restart_matrix.sh runs 20 and 10."""
@@ -81,9 +86,9 @@ def journal(capdir):
     return [dict(zip(names, line.split(","))) for line in lines[1:]]
 
 
-def check_journal(capdir, estimate_s=None):
-    """The journal's promises (with estimate_s: no rig time beyond twice
-    it); returns (samples, worst axis error, rig time)."""
+def check_journal(capdir, most_s):
+    """The journal's promises (no rig time beyond most_s); returns
+    (samples, worst axis error, rig time)."""
     with open(os.path.join(capdir, "plan.json")) as f:
         pairs = json.load(f)["pairs"]
     rows = journal(capdir)
@@ -98,7 +103,7 @@ def check_journal(capdir, estimate_s=None):
         assert t >= last_t, "rig time %g after %g (point %s)" % (t, last_t, row["point"])
         last_t = t
     assert sorted(int(r["point"]) for r in rows) == list(range(len(pairs)))
-    assert estimate_s is None or last_t <= 2 * estimate_s, "rig time %g s, estimate %g s" % (last_t, estimate_s)
+    assert last_t <= most_s, "rig time %g s, at most %g s can have passed" % (last_t, most_s)
     return len(rows), worst, last_t
 
 
@@ -122,6 +127,7 @@ def capture_with_restart(transport, seed):
         d.start()
         c = d.connect()
         c.request("watch")
+        t0 = time.monotonic()
         assert c.request("capture", plan=PLAN, name="r")["class"] == "OK"
         at, down = rnd.randint(1, 30), rnd.uniform(0.0, 0.5)
         estimate, cycled, docs = None, False, []
@@ -141,9 +147,11 @@ def capture_with_restart(transport, seed):
                 assert len(fails) <= RESUMES, fails
                 assert c.request("resume", capture_id="r")["class"] == "OK"
         assert cycled, "the capture ended before the restart"
-        n, worst, rig_t = check_journal(os.path.join(d.root, "r"), estimate)
+        n, worst, rig_t = check_journal(os.path.join(d.root, "r"),
+                                        (time.monotonic() - t0) * SCALE * 1.01 + 1)
         assert clock_held(d) == []
         return {"samples": n, "worst_deg": worst, "rig_time_s": rig_t, "estimate_s": estimate,
+                "over_estimate": rig_t / estimate,
                 "failures": fails, "at": at, "down_s": down}
     finally:
         d.stop()
@@ -180,13 +188,13 @@ def test_late_replies_never_take_the_clock_back():
         d.start()
         c = d.connect()
         c.request("watch")
+        t0 = time.monotonic()
         assert c.request("capture", plan=PLAN, name="l")["class"] == "OK"
         docs = c.until_stop("l")
+        most = (time.monotonic() - t0) * SCALE * 1.01 + 1
         start = next(x for x in docs if x.get("class") == "start")
         assert docs[-1]["reason"] == "complete", docs[-1]
-        # Late answers cost rig time (each waits 0.05 s of wall time, 2.5 s of
-        # rig time): no bound from the estimate here.
-        n, _, rig_t = check_journal(os.path.join(d.root, "l"))
+        n, _, rig_t = check_journal(os.path.join(d.root, "l"), most)
         print("late: %d samples, rig time %.1f s, estimate %.1f s, comm %s" % (
             n, rig_t, start["estimate_s"], json.dumps(docs[-1]["comm"])))
         assert clock_held(d) == []
