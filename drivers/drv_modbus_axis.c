@@ -144,7 +144,7 @@ static int mb_start_leg(void *priv, double from, double to, struct gonio_err *er
     else
         rc = drv_modbus_write(a->bus, a->slave, R_DIRECT + head, 16 - head, r + head, a->who,
                               err);
-    if (a->block && drv_modbus_faults(a->bus) != faults)
+    if (rc == 0 && a->block && drv_modbus_faults(a->bus) != faults)
         rc = rewrite_block(a, r, err);
     a->block = rc == 0;
     a->block_faults = drv_modbus_faults(a->bus);
