@@ -35,6 +35,9 @@ struct drv_axis {
      * when asked: while the axes settle, not before the settle starts. */
     int at_rest, rest_known;
     double rest_deg;
+    /* The move ended on the drive's IN-POS, its encoder not yet compared
+     * with the target (drv_axis_position does). */
+    int unverified;
     struct drv_axis_stats stats;
 };
 
@@ -137,8 +140,9 @@ static int alarm_error(const drv_axis *ax, unsigned code, struct gonio_err *err)
 }
 
 /* The drive rests at pos outside the band: overshoot or short (along the
- * last leg), by how much, and what was tried. */
-static int miss_error(const drv_axis *ax, double pos, struct gonio_err *err)
+ * last leg), by how much, and what was tried; in_pos: though it reported
+ * IN-POS. */
+static int miss_error(const drv_axis *ax, double pos, int in_pos, struct gonio_err *err)
 {
     char t[128];
     tried(ax, t, sizeof t);
@@ -147,7 +151,7 @@ static int miss_error(const drv_axis *ax, double pos, struct gonio_err *err)
                                                  : (double)ax->mech.approach;
     double over = (pos - ax->target) * dir;
     return gonio_err_set(err, GONIO_EDEVICE, "%s: %s at %g deg, %.3g deg %s %g deg%s", ax->who,
-                         ax->stopped ? "stopped (STOP)" : "stopped", pos, fabs(over),
+                         ax->stopped ? "stopped (STOP)" : in_pos ? "reported IN-POS" : "stopped", pos, fabs(over),
                          over > 0 ? "past (overshoot)" : "short of", ax->target, t);
 }
 
@@ -203,14 +207,20 @@ int drv_axis_start_move(drv_axis *ax, double target_deg, struct gonio_err *err)
                              target_deg, ax->mech.min_deg, ax->mech.max_deg);
     ax->target = target_deg;
     ax->tries = ax->recommands = ax->resets = ax->rehomes = 0;
-    ax->stopped = ax->final_pending = ax->moving = 0;
+    ax->stopped = ax->final_pending = ax->moving = ax->unverified = 0;
     double here;
     int rc = drv_axis_position(ax, &here, err);
     if (rc < 0)
         return rc;
-    /* Already resting there: nothing to send, nothing to wait for. */
-    if (ax->at_rest && in_band(ax, here))
+    /* Already resting there: nothing to send, nothing to wait for; but
+     * the encoder is read again when the position is asked for (a drive
+     * that restarted since the last move has lost it), and the move made
+     * then if it is not there. */
+    if (ax->at_rest && in_band(ax, here)) {
+        ax->rest_known = 0;
+        ax->unverified = 1;
         return 0;
+    }
     ax->moving = 1;
     return send_approach(ax, here, 0, err);
 }
@@ -271,6 +281,18 @@ static int recover_alarm(drv_axis *ax, unsigned code, struct gonio_err *err)
     return rc < 0 ? rc : send_approach(ax, here, 1, err);
 }
 
+/* The drive rests at pos outside the band: come again while tries are
+ * left. */
+static int recommand(drv_axis *ax, double pos, int in_pos, struct gonio_err *err)
+{
+    if (ax->stopped || ax->tries >= ax->mech.move_retries)
+        return miss_error(ax, pos, in_pos, err);
+    ax->tries++;
+    ax->recommands++;
+    ax->stats.recommands++;
+    return send_approach(ax, pos, 1, err);
+}
+
 /* Until the move is done: the drive reports IN-POS (the feedback can
  * wait: drv_axis_position), or rests inside the band. A drive resting
  * outside is re-commanded, one in alarm recovered, while tries are left. */
@@ -297,7 +319,7 @@ static int come_to_rest(drv_axis *ax, struct gonio_err *err)
             continue;
         }
         if (in_pos) {
-            ax->at_rest = 1;
+            ax->at_rest = ax->unverified = 1;
             return 0;
         }
         if ((rc = ax->ops->feedback(ax->priv, &pos, err)) < 0)
@@ -307,12 +329,7 @@ static int come_to_rest(drv_axis *ax, struct gonio_err *err)
             ax->rest_deg = pos;
             return 0;
         }
-        if (ax->stopped || ax->tries >= ax->mech.move_retries)
-            return miss_error(ax, pos, err);
-        ax->tries++;
-        ax->recommands++;
-        ax->stats.recommands++;
-        if ((rc = send_approach(ax, pos, 1, err)) < 0)
+        if ((rc = recommand(ax, pos, 0, err)) < 0)
             return rc;
     }
 }
@@ -322,9 +339,19 @@ double drv_axis_leg_deg(const drv_axis *ax)
     return ax->moving ? fabs(ax->leg_target - ax->leg_from) : 0;
 }
 
+/* An axis that had no move to make: its encoder, read while the others
+ * still move (the caller waits for their legs after its, drivers.h). */
+static int verify_resting(drv_axis *ax, struct gonio_err *err)
+{
+    double deg;
+    return !ax->moving && ax->unverified ? drv_axis_position(ax, &deg, err) : 0;
+}
+
 int drv_axis_wait_leg(drv_axis *ax, struct gonio_err *err)
 {
-    if (!ax->moving || !ax->final_pending)
+    if (!ax->moving)
+        return verify_resting(ax, err);
+    if (!ax->final_pending)
         return 0;
     int in_pos = 0;
     unsigned alarm = 0;
@@ -342,9 +369,28 @@ int drv_axis_wait_leg(drv_axis *ax, struct gonio_err *err)
 int drv_axis_wait(drv_axis *ax, struct gonio_err *err)
 {
     if (!ax->moving)
-        return 0;
+        return verify_resting(ax, err);
     int rc = come_to_rest(ax, err);
     ax->moving = 0;
+    return rc;
+}
+
+/* The encoder of a move that ended on IN-POS is outside the band (a
+ * drive that restarted reports IN-POS for its own target, not ours):
+ * re-command, wait, and read the encoder again, while tries are left. */
+static int verify(drv_axis *ax, double *deg, struct gonio_err *err)
+{
+    int rc = 0;
+    while (rc == 0 && ax->at_rest && !in_band(ax, *deg)) {
+        if ((rc = recommand(ax, *deg, 1, err)) < 0 || (rc = come_to_rest(ax, err)) < 0)
+            break;
+        ax->unverified = 0;
+        if (!ax->rest_known && (rc = ax->ops->feedback(ax->priv, deg, err)) == 0) {
+            ax->rest_known = 1;
+            ax->rest_deg = *deg;
+        }
+        *deg = ax->rest_deg;
+    }
     return rc;
 }
 
@@ -358,6 +404,11 @@ int drv_axis_position(drv_axis *ax, double *deg, struct gonio_err *err)
     if (rc == 0 && ax->at_rest) {
         ax->rest_known = 1;
         ax->rest_deg = *deg;
+    }
+    if (rc == 0 && ax->unverified) {
+        ax->unverified = 0;
+        if ((rc = verify(ax, deg, err)) < 0)
+            ax->at_rest = ax->rest_known = 0;
     }
     return rc;
 }

@@ -63,6 +63,13 @@ int drv_clock_sleep(drv_clock *c, double seconds)
     return c->ops->sleep(c->priv, seconds);
 }
 
+void drv_clock_stats(const drv_clock *c, struct drv_clock_stats *out)
+{
+    memset(out, 0, sizeof *out);
+    if (c && c->ops->stats)
+        c->ops->stats(c->priv, out);
+}
+
 void drv_clock_free(drv_clock *c)
 {
     if (!c)

@@ -22,9 +22,12 @@ typedef struct drv_clock drv_clock;
  * profile's mechanics (rig/rig.h struct plan_mechanics, docs/plans.md).
  *
  * A move to a target beyond the limits is refused before anything is sent
- * (-GONIO_EUNREACHABLE). A move is done when the drive reports IN-POS or
- * rests within in_position_deg of the target; a move to where the axis
- * already rests inside the band sends nothing. With backlash_deg, every
+ * (-GONIO_EUNREACHABLE). A move is done when the axis rests with its
+ * encoder within in_position_deg of the target: a drive's IN-POS is taken
+ * for rest, and its encoder compared with the target when the position is
+ * asked for (a restarted drive reports IN-POS for its own target). A move
+ * to where the axis already rests inside the band sends nothing, and its
+ * encoder is read again in drv_axis_wait_leg or drv_axis_wait. With backlash_deg, every
  * target is approached from the reference side (approach +1: from below,
  * -1: from above) through a point backlash_deg beyond it when the axis
  * would arrive from the other side. A drive resting outside the band is
@@ -42,7 +45,10 @@ typedef struct drv_clock drv_clock;
  * read once the last move ended, while the axis rests: the drivers are
  * the drives' only master. A move the drive reported IN-POS for is done
  * without reading the feedback: the first drv_axis_position reads it, so a
- * caller can do so while the axes settle. */
+ * caller can do so while the axes settle; outside the band it re-commands
+ * the axis and waits (drawing on move_retries), or fails naming the axis,
+ * position and target ("axis arm (slave 2): reported IN-POS at 0 deg, 30
+ * deg short of 30 deg"). */
 struct drv_axis_mechanics {
     double min_deg, max_deg; /* soft limits */
     double in_position_deg;  /* > 0 */
@@ -59,7 +65,9 @@ double drv_axis_leg_deg(const drv_axis *ax);
  * that at once without waiting for it: a caller moving several axes sends
  * each one's approach leg as soon as its first leg ends, taking the axes
  * whose first legs end first first. 0 when no approach leg was pending (an
- * alarm or a stop is left to drv_axis_wait). */
+ * alarm or a stop is left to drv_axis_wait). An axis with no move to make
+ * reads its encoder here (while the others move) and comes back to the
+ * target if it is not there. */
 int drv_axis_wait_leg(drv_axis *ax, struct gonio_err *err);
 int drv_axis_wait(drv_axis *ax, struct gonio_err *err);
 int drv_axis_position(drv_axis *ax, double *deg, struct gonio_err *err);
@@ -101,8 +109,19 @@ int drv_detector_acquire(drv_detector *d, double integration_s, struct drv_readi
 double drv_detector_lag(const drv_detector *d);
 void drv_detector_free(drv_detector *d);
 
+/* The rig time, seconds: monotonic by construction (a device's reading
+ * that would take it back is held at the last value and counted). */
 double drv_clock_now(drv_clock *c);
 int drv_clock_sleep(drv_clock *c, double seconds);
+/* What a clock read from a device went through: times the rig time would
+ * have gone back by more than the device's resolution and was held
+ * instead, and restarts of the device seen on its clock (its register
+ * going back), across which the rig time carries on. Each is also warned
+ * of on stderr (the first few). */
+struct drv_clock_stats {
+    long backward, restarts;
+};
+void drv_clock_stats(const drv_clock *c, struct drv_clock_stats *out);
 void drv_clock_free(drv_clock *c);
 
 /* Wall time (monotonic, seconds since creation): the clock of hardware

@@ -55,6 +55,8 @@ struct drv_clock_ops {
     const char *name;
     double (*now)(void *priv);
     int (*sleep)(void *priv, double seconds);
+    /* Optional (NULL: nothing to count): drv_clock_stats's figures. */
+    void (*stats)(const void *priv, struct drv_clock_stats *out);
     void (*free_priv)(void *priv);
 };
 

@@ -11,7 +11,11 @@
  * On TCP, a connection the peer closed or reset (a restarted device or
  * gateway, a network drop) is re-opened, after a pause doubling from
  * 0.05 s, and the request sent again; each reconnection is one of the
- * request's attempts below. A write may thus reach a device twice: the
+ * request's attempts below. So is a serial port that hung up (an adapter
+ * unplugged, a restarted gonio-sim's pty behind its --link): the device
+ * path is opened again. A request that still fails says how the
+ * connection was lost ("the device closed the connection; reconnecting:
+ * Connection refused (5 attempts)"). A write may thus reach a device twice: the
  * drivers' writes are stored values, triggers that restart the same
  * operation, or input edges, which bear it.
  *
@@ -75,7 +79,7 @@ struct drv_modbus_stats {
     long bad_replies; /* a garbled, foreign or mismatched answer */
     long exceptions;  /* the device refused (not retried) */
     long failed;      /* requests that gave up after every attempt */
-    long reconnects;  /* TCP: connections re-opened after the peer dropped one */
+    long reconnects;  /* connections (serial ports) re-opened after they were lost */
 };
 void drv_modbus_bus_stats(const drv_modbus_bus *bus, struct drv_modbus_stats *out);
 
@@ -107,12 +111,16 @@ drv_axis *drv_axis_new_modbus(drv_modbus_bus *bus, int slave, const struct plan_
                               const struct drv_modbus_axis_opts *opts, const char *name,
                               struct gonio_err *err);
 
-/* The detector at slave id `slave`. */
+/* The detector at slave id `slave`. An acquisition whose reads show the
+ * sequence or clock register gone back (a restarted device) fails with
+ * -GONIO_EDEVICE, "detector (slave 3): the device restarted ...". */
 drv_detector *drv_detector_new_modbus(drv_modbus_bus *bus, int slave, struct gonio_err *err);
 
 /* The rig clock: seconds since the clock was created, read from the
  * detector's rig-clock register when it is non-zero (a simulator), else
- * wall time. Sleeping waits seconds / time_scale of wall time (bus cfg).
+ * wall time; monotonic across late answers and restarts of the device
+ * (docs/protocol-modbus.md, "The rig clock"; drv_clock_stats counts
+ * them). Sleeping waits seconds / time_scale of wall time (bus cfg).
  * A simulator's clock whose measured rate is not the bus's time_scale
  * (beyond a factor 1.5) is refused: NULL, GONIO_EBADCONFIG naming both. */
 drv_clock *drv_clock_new_modbus(drv_modbus_bus *bus, int detector_slave, struct gonio_err *err);

@@ -39,6 +39,7 @@ struct mb_axis {
      * have left the drive otherwise. */
     int block, staged;
     int32_t staged_pos;
+    long block_faults; /* drv_modbus_faults when the block was written */
     /* The leg after the one under way (mb_next_leg): to stage. */
     int next;
     int32_t next_pos;
@@ -51,6 +52,8 @@ struct mb_axis {
  * stale status can never pass for a position (the soak saw a status word
  * 0x4020 read as 164.16 deg); it fails the size check and is retried.
  * The map has no block holding both (0x82-0xCB are unmapped). */
+static int pulse_input(struct mb_axis *a, uint32_t bit, struct gonio_err *err);
+
 static int read_status(struct mb_axis *a, uint32_t *st, uint32_t *alarm,
                        struct gonio_err *err)
 {
@@ -96,6 +99,19 @@ static void leg_started(struct mb_axis *a)
     a->leg_start = fmax(lo, hi - drv_modbus_gap_s(a->bus));
 }
 
+/* A part of the block went out through a failed attempt: a drive that
+ * restarted across it took the part as a whole block with no speed and
+ * raised alarm 0x70 (abnormal operation data), which only that part can
+ * have raised. Reset it, and write the block whole. */
+static int rewrite_block(struct mb_axis *a, const uint16_t *r, struct gonio_err *err)
+{
+    uint32_t st = 0, code = 0;
+    int rc = read_status(a, &st, &code, err);
+    if (rc == 0 && (st & ST_ALM_A) && code == MB_ALARM_DATA)
+        rc = pulse_input(a, IN_ALM_RST, err);
+    return rc < 0 ? rc : drv_modbus_write(a->bus, a->slave, R_DIRECT, 16, r, a->who, err);
+}
+
 /* Write the direct-data block with the trigger in one transaction: the
  * drive stores the block, then acts on the trigger. Only the position
  * changes from leg to leg: once the drive holds the rest of the block, a
@@ -119,13 +135,19 @@ static int mb_start_leg(void *priv, double from, double to, struct gonio_err *er
         drv_modbus_put32(r + 2 * i, v[i]);
     a->leg_target = pos / a->spd;
     a->leg_time = plan_axis_time(fabs(a->leg_target - from), speed / a->spd, accel / a->spd);
+    if (a->block && a->block_faults != drv_modbus_faults(a->bus))
+        a->block = 0; /* the drive may have restarted since: write it all */
     int rc, head = a->block ? R_POSITION - R_DIRECT : 0;
+    long faults = drv_modbus_faults(a->bus);
     if (a->block && a->staged && a->staged_pos == pos)
         rc = drv_modbus_write(a->bus, a->slave, R_TRIGGER + 1, 1, r + 15, a->who, err);
     else
         rc = drv_modbus_write(a->bus, a->slave, R_DIRECT + head, 16 - head, r + head, a->who,
                               err);
+    if (rc == 0 && a->block && drv_modbus_faults(a->bus) != faults)
+        rc = rewrite_block(a, r, err);
     a->block = rc == 0;
+    a->block_faults = drv_modbus_faults(a->bus);
     a->staged = a->next = 0;
     leg_started(a);
     return rc;

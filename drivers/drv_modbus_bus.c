@@ -32,7 +32,7 @@ struct drv_modbus_bus {
     struct { /* drv_modbus_note_clock */
         int slave;
         uint32_t ms;
-        double wall;
+        double lo, hi;
         long requests; /* stats.requests when noted */
     } clock;
 };
@@ -151,6 +151,11 @@ void drv_modbus_bus_set_trace(drv_modbus_bus *bus, int on)
     bus->trace = on;
 }
 
+long drv_modbus_faults(const drv_modbus_bus *bus)
+{
+    return bus->stats.retries + bus->stats.failed;
+}
+
 double drv_modbus_time_scale(const drv_modbus_bus *bus)
 {
     return bus->time_scale;
@@ -161,20 +166,22 @@ double drv_modbus_timeout(const drv_modbus_bus *bus)
     return bus->timeout_s;
 }
 
-void drv_modbus_note_clock(drv_modbus_bus *bus, int slave, uint32_t ms, double wall)
+void drv_modbus_note_clock(drv_modbus_bus *bus, int slave, uint32_t ms)
 {
     bus->clock.slave = slave;
     bus->clock.ms = ms;
-    bus->clock.wall = wall;
+    drv_modbus_acted(bus, &bus->clock.lo, &bus->clock.hi);
     bus->clock.requests = bus->stats.requests;
 }
 
-int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, double *wall)
+int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, double *lo,
+                          double *hi)
 {
     if (bus->clock.slave != slave || bus->clock.requests != bus->stats.requests)
         return 0;
     *ms = bus->clock.ms;
-    *wall = bus->clock.wall;
+    *lo = bus->clock.lo;
+    *hi = bus->clock.hi;
     return 1;
 }
 
@@ -277,32 +284,58 @@ static void drain(drv_modbus_bus *bus)
 }
 
 /* A TCP connection the peer closed or reset (a restarted device or
- * gateway, a dropped network), or that a failed reconnection left closed:
- * no retry on the same socket can succeed. */
+ * gateway, a dropped network), a serial port that hung up (an unplugged
+ * adapter, a simulator's pseudo-terminal gone), or either left closed by a
+ * failed reconnection: no retry on the same descriptor can succeed. */
 static int connection_lost(const drv_modbus_bus *bus, int e)
 {
-    return bus->tcp && (e == ECONNRESET || e == EPIPE || e == ENOTCONN || e == ECONNREFUSED ||
-                        e == ECONNABORTED || e == EBADF);
+    if (!bus->tcp)
+        return e == EIO || e == ENXIO || e == ENODEV || e == EBADF;
+    return e == ECONNRESET || e == EPIPE || e == ENOTCONN || e == ECONNREFUSED ||
+           e == ECONNABORTED || e == EBADF;
 }
 
-/* Re-open the TCP connection after a pause that doubles with each
+/* Re-open the TCP connection (the serial port) after a pause that doubles with each
  * attempt of the request (0.05 s, 0.1 s, ... at most the response
  * timeout), so a device that is coming back is not hammered. A failed
  * connect leaves the context closed: the next attempt fails at once with
  * EBADF and comes back here. */
-static void reconnect(drv_modbus_bus *bus, int attempt)
+static int reconnect(drv_modbus_bus *bus, int attempt)
 {
     modbus_close(bus->ctx);
     drv_modbus_sleep(fmin(0.05 * (double)(1 << attempt), bus->timeout_s));
     bus->stats.reconnects++;
-    if (modbus_connect(bus->ctx) < 0 && bus->trace)
-        fprintf(stderr, "modbus %s: reconnect failed: %s\n", bus->where, modbus_strerror(errno));
+    if (modbus_connect(bus->ctx) == 0)
+        return 0;
+    int e = errno;
+    if (bus->trace)
+        fprintf(stderr, "modbus %s: reconnect failed: %s\n", bus->where, modbus_strerror(e));
+    return e;
+}
+
+/* Why a request on a lost connection failed: how the connection was
+ * lost (lost: its errno; 0 when it was found closed) and what the last
+ * reconnection said (0: it succeeded). */
+static int lost_error(const drv_modbus_bus *bus, int slave, const char *who, int lost,
+                      int refused, struct gonio_err *err)
+{
+    const char *how = !bus->tcp && lost ? "the serial port hung up"
+                      : lost == ECONNRESET || lost == EPIPE ? "the device closed the connection"
+                      : lost == ECONNREFUSED ? "the device refused the connection"
+                      : lost ? modbus_strerror(lost)
+                             : "the connection was closed (an earlier reconnection failed)";
+    if (refused)
+        return gonio_err_set(err, GONIO_EDEVICE, "%s (slave %d) on %s: %s; reconnecting: %s "
+                             "(%d attempts)", who, slave, bus->where, how,
+                             modbus_strerror(refused), bus->retries + 1);
+    return gonio_err_set(err, GONIO_EDEVICE, "%s (slave %d) on %s: %s (%d attempts)", who,
+                         slave, bus->where, how, bus->retries + 1);
 }
 
 static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, uint16_t *regs,
                     const char *who, struct gonio_err *err)
 {
-    int e = 0;
+    int e = 0, lost = 0, refused = 0;
     bus->stats.requests++;
     for (int attempt = 0; attempt <= bus->retries; attempt++) {
         if (attempt > 0)
@@ -334,9 +367,12 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
                                  e - MODBUS_ENOBASE, exception_name(e - MODBUS_ENOBASE));
         }
         if (connection_lost(bus, e)) {
-            reconnect(bus, attempt);
+            if (e != EBADF)
+                lost = e;
+            refused = reconnect(bus, attempt);
             continue;
         }
+        lost = refused = 0;
         if (e == ETIMEDOUT)
             bus->stats.timeouts++;
         else
@@ -344,6 +380,8 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
         drain(bus);
     }
     bus->stats.failed++;
+    if (connection_lost(bus, e))
+        return lost_error(bus, slave, who, lost, refused, err);
     if (e == ETIMEDOUT)
         return gonio_err_set(err, ETIMEDOUT,
                              "%s (slave %d) on %s: no answer within %g s (%d attempts)", who,

@@ -7,6 +7,7 @@
  * measures the simulator's rate when it is created and refuses another. */
 #include <errno.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 #include "drivers/drivers_private.h"
@@ -14,13 +15,21 @@
 
 enum { R_CLOCK = MB_DET_CLOCK }; /* modbus_map/modbus_map.h */
 
+/* The rig time is kept as the last register reading taken (ms), the rig
+ * seconds it stands for (rig) and the wall time by which the device had
+ * surely taken it (wall: the answer's arrival less its line time), so the
+ * time carried forward from it is never ahead of the device's. */
 struct mb_clock {
     drv_modbus_bus *bus;
     int slave;
     int simulated;
-    uint32_t ms0;             /* rig clock register at creation */
-    double wall0;             /* wall time at creation */
-    double last, last_wall;   /* last rig time read, and when */
+    double wall0;  /* wall time at creation (hardware) */
+    uint32_t ms;   /* last register reading */
+    double rig;    /* rig seconds it stands for */
+    double wall;   /* wall time it was taken by */
+    double wall_lo; /* and no sooner than */
+    double last;   /* last rig time returned: the clamp */
+    struct drv_clock_stats stats;
 };
 
 static int read_ms(struct mb_clock *c, uint32_t *ms, struct gonio_err *err)
@@ -71,28 +80,73 @@ static int check_rate(struct mb_clock *c, struct gonio_err *err)
     return rc;
 }
 
-/* The rig time now: the detector's reading of the clock when it is the
- * bus's latest exchange (nothing happened on the rig since that the
- * register would show otherwise), carried forward from when its request
- * was sent (at most that request's frame time over: never flattering);
- * else a read of the register. */
+/* Warnings on stderr stop after this many of each kind; the counts go on
+ * (drv_clock_stats). */
+#define WARN_MAX 5
+
+/* Take a register reading ms the device took between wall times lo and
+ * hi. Forward, it advances the rig time by the difference modulo 2^32 (a
+ * wrap after 49.7 days is forward), as far as the device's clock can have
+ * run since the previous reading (its rate within the tolerance, and a
+ * millisecond each for the rounding). Beyond that, or back, the register
+ * started again: the device restarted, and the rig time carries on from
+ * the previous reading by the wall time that surely passed since. */
+static void take_reading(struct mb_clock *c, uint32_t ms, double lo, double hi)
+{
+    double scale = drv_modbus_time_scale(c->bus);
+    uint32_t fwd = ms - c->ms;
+    double most = fmax(hi - c->wall_lo, 0) * scale * RATE_TOLERANCE + 2e-3;
+    if (fwd * 1e-3 <= most) {
+        c->rig += fwd * 1e-3;
+    } else {
+        c->stats.restarts++;
+        c->rig += fmax(lo - c->wall, 0) * scale;
+        if (c->stats.restarts <= WARN_MAX)
+            fprintf(stderr, "warning: detector clock (slave %d): the register went from %u to "
+                    "%u ms: the device restarted; the rig time carries on at %.3f s\n",
+                    c->slave, c->ms, ms, c->rig);
+    }
+    c->ms = ms;
+    c->wall = hi;
+    c->wall_lo = lo;
+}
+
+/* The rig time now: carried forward from the latest reading of the
+ * register. The detector's read along with its reading serves while it is
+ * the bus's latest exchange (nothing happened on the rig since that the
+ * register would show otherwise); else the register is read. A reading is
+ * carried forward from when the device had surely taken it (the answer's
+ * arrival, less its line time), never from when it was asked for: a late
+ * answer then never puts the rig time ahead of the device's. A rig time
+ * that would still go back (a device whose clock runs slower than the
+ * bus's time scale) is held at the last one returned, and counted. */
 static double mb_now(void *priv)
 {
     struct mb_clock *c = priv;
-    double wall = gonio_monotonic_s(), seen;
+    if (!c->simulated)
+        return c->last = fmax(c->last, gonio_monotonic_s() - c->wall0);
+    double lo, hi;
     uint32_t ms;
-    if (c->simulated && drv_modbus_last_clock(c->bus, c->slave, &ms, &seen)) {
-        c->last = (uint32_t)(ms - c->ms0) * 1e-3 + (wall - seen) * drv_modbus_time_scale(c->bus);
-        c->last_wall = wall;
-    } else if (c->simulated && read_ms(c, &ms, NULL) == 0) {
-        c->last = (uint32_t)(ms - c->ms0) * 1e-3; /* unsigned: survives a wrap */
-        c->last_wall = wall;
-    } else if (c->simulated) { /* the bus failed: extrapolate */
-        return c->last + (wall - c->last_wall) * drv_modbus_time_scale(c->bus);
-    } else {
-        c->last = wall - c->wall0;
+    if (drv_modbus_last_clock(c->bus, c->slave, &ms, &lo, &hi)) {
+        take_reading(c, ms, lo, hi);
+    } else if (read_ms(c, &ms, NULL) == 0) {
+        drv_modbus_acted(c->bus, &lo, &hi);
+        take_reading(c, ms, lo, hi);
+    } /* else the bus failed: carry the last reading forward */
+    double now = c->rig + (gonio_monotonic_s() - c->wall) * drv_modbus_time_scale(c->bus);
+    if (now < c->last - 1e-3) {
+        c->stats.backward++;
+        if (c->stats.backward <= WARN_MAX)
+            fprintf(stderr, "warning: detector clock (slave %d): the rig time would go back "
+                    "%.3f s, from %.3f s; held\n", c->slave, c->last - now, c->last);
     }
-    return c->last;
+    return c->last = fmax(c->last, now);
+}
+
+static void mb_stats(const void *priv, struct drv_clock_stats *out)
+{
+    const struct mb_clock *c = priv;
+    *out = c->stats;
 }
 
 static int mb_sleep(void *priv, double seconds)
@@ -106,6 +160,7 @@ static const struct drv_clock_ops mb_clock_ops = {
     .name = "modbus",
     .now = mb_now,
     .sleep = mb_sleep,
+    .stats = mb_stats,
     .free_priv = free,
 };
 
@@ -122,17 +177,18 @@ drv_clock *drv_clock_new_modbus(drv_modbus_bus *bus, int detector_slave, struct 
     }
     c->bus = bus;
     c->slave = detector_slave;
-    c->wall0 = c->last_wall = gonio_monotonic_s();
-    int rc = read_ms(c, &c->ms0, err);
-    if (rc == 0 && c->ms0 == 0) { /* a simulator that just started reads 0 too */
+    c->wall0 = gonio_monotonic_s();
+    int rc = read_ms(c, &c->ms, err);
+    if (rc == 0 && c->ms == 0) { /* a simulator that just started reads 0 too */
         drv_modbus_sleep(0.005);
-        rc = read_ms(c, &c->ms0, err);
+        rc = read_ms(c, &c->ms, err);
     }
     if (rc < 0) {
         free(c);
         return NULL;
     }
-    c->simulated = c->ms0 != 0;
+    drv_modbus_acted(bus, &c->wall_lo, &c->wall);
+    c->simulated = c->ms != 0;
     if (c->simulated && (rc = check_rate(c, err)) < 0) {
         free(c);
         return NULL;

@@ -25,6 +25,11 @@ struct mb_detector {
      * the integration register as it read back. */
     int seq_known;
     uint32_t seq, used_us;
+    long faults; /* drv_modbus_faults then: a device may restart across one */
+    /* The sequence and clock registers as the last read saw them (seen):
+     * a device that restarted shows them gone back. */
+    int seen;
+    uint32_t seen_seq, seen_clock;
 };
 
 /* Integration, trigger, status, channel count, sequence, rig clock and
@@ -44,15 +49,29 @@ static int read_state(struct mb_detector *d, struct det_state *s, struct gonio_e
     int rc = drv_modbus_read(d->bus, d->slave, R_INTEGRATION, R_NREGS, r, d->who, err);
     if (rc < 0)
         return rc;
-    double wall, hi; /* the clock as the detector took it: no earlier than wall */
-    drv_modbus_acted(d->bus, &wall, &hi);
     s->used_us = drv_modbus_get32(r);
     s->st = drv_modbus_get32(r + R_STATUS);
     s->count = drv_modbus_get32(r + R_COUNT);
     s->seq = drv_modbus_get32(r + R_SEQUENCE);
     for (int k = 0; k < 3; k++)
         s->rgb[k] = drv_modbus_get_float(r + R_CHANNELS + 2 * k);
-    drv_modbus_note_clock(d->bus, d->slave, drv_modbus_get32(r + R_CLOCK), wall);
+    uint32_t clock = drv_modbus_get32(r + R_CLOCK);
+    drv_modbus_note_clock(d->bus, d->slave, clock);
+    /* Differences modulo 2^32: a wrap is forward, a restart back. */
+    int restarted = d->seen && ((int32_t)(s->seq - d->seen_seq) < 0 ||
+                                (clock && (int32_t)(clock - d->seen_clock) < 0));
+    uint32_t seq_was = d->seen_seq, clock_was = d->seen_clock;
+    d->seen = 1;
+    d->seen_seq = s->seq;
+    d->seen_clock = clock;
+    if (restarted) {
+        d->seq_known = 0;
+        return gonio_err_set(err, GONIO_EDEVICE,
+                             "%s (slave %d): the device restarted (sequence %u after %u, clock "
+                             "%.3f s after %.3f s): the reading and the axes' positions since "
+                             "are in doubt; measure the point again", d->who, d->slave, s->seq,
+                             seq_was, clock * 1e-3, clock_was * 1e-3);
+    }
     return 0;
 }
 
@@ -64,7 +83,8 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
     if (!(us >= 0) || us > 4294967295.0)
         return gonio_err_set(err, EINVAL, "%s: integration time %g s", d->who, integration_s);
     struct det_state s = {.count = 3, .seq = d->seq, .used_us = d->used_us};
-    int rc = d->seq_known ? 0 : read_state(d, &s, err);
+    int known = d->seq_known && d->faults == drv_modbus_faults(d->bus);
+    int rc = known ? 0 : read_state(d, &s, err);
     if (rc < 0)
         return rc;
     uint32_t seq0 = s.seq;
@@ -116,6 +136,7 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
                                  d->who, d->slave, "RGB"[k], out->rgb[k]);
     }
     d->seq_known = 1;
+    d->faults = drv_modbus_faults(d->bus);
     d->seq = s.seq;
     d->used_us = s.used_us;
     out->integration_s = s.used_us * 1e-6;

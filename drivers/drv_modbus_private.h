@@ -37,18 +37,25 @@ double drv_modbus_request_s(const drv_modbus_bus *bus, int write, int n);
  * they time their polls, never what they count on. */
 double drv_modbus_gap_s(const drv_modbus_bus *bus);
 
+/* Failed attempts on the bus so far (no answer, a bad one, a lost
+ * connection). A device may have restarted across any of them and lost
+ * what the drivers stored on it: they store it again when this changed. */
+long drv_modbus_faults(const drv_modbus_bus *bus);
+
 /* Simulated seconds per wall second on this bus (1 on hardware). */
 double drv_modbus_time_scale(const drv_modbus_bus *bus);
 /* The response timeout, wall seconds. */
 double drv_modbus_timeout(const drv_modbus_bus *bus);
 
 /* The detector's rig-clock register (MB_DET_CLOCK) of slave as the
- * detector read it along with its reading, the request sent at wall time
- * (gonio_monotonic_s): the clock (drv_modbus_clock.c) takes it instead of
- * reading the register again while it is the bus's latest exchange.
- * drv_modbus_last_clock returns 1 and the reading then, else 0. */
-void drv_modbus_note_clock(drv_modbus_bus *bus, int slave, uint32_t ms, double wall);
-int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, double *wall);
+ * detector read it along with its reading, in the bus's last answered
+ * exchange: the clock (drv_modbus_clock.c) takes it instead of reading the
+ * register again while it is the bus's latest exchange.
+ * drv_modbus_last_clock returns 1, the reading and when the device took it
+ * (drv_modbus_acted's lo and hi, wall seconds) then, else 0. */
+void drv_modbus_note_clock(drv_modbus_bus *bus, int slave, uint32_t ms);
+int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, double *lo,
+                          double *hi);
 
 /* Sleep, wall seconds (time is read with gonio_monotonic_s, common/clock.h). */
 void drv_modbus_sleep(double seconds);

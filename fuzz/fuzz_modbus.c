@@ -28,6 +28,7 @@ struct drv_modbus_bus {
     double steps_per_deg;
     double min_deg, max_deg; /* soft limits of the axis on slave 1 */
     long exchanges;           /* as the real bus's request count */
+    long faults;              /* failed transactions (drv_modbus_faults) */
     int clock_slave;          /* drv_modbus_note_clock, as the real bus keeps it */
     uint32_t clock_ms;
     double clock_wall;
@@ -50,9 +51,16 @@ static int transaction(drv_modbus_bus *bus, const char *who, struct gonio_err *e
     bus->sent = bus->now;
     bus->now += 0.001; /* a round trip takes time on the virtual clock */
     bus->answered = bus->now;
-    if (next_byte(bus, &b) < 0 || b == 0xFF)
+    if (next_byte(bus, &b) < 0 || b == 0xFF) {
+        bus->faults++;
         return gonio_err_set(err, ETIMEDOUT, "%s: no answer (fuzz)", who);
+    }
     return 0;
+}
+
+long drv_modbus_faults(const drv_modbus_bus *bus)
+{
+    return bus->faults;
 }
 
 int drv_modbus_read(drv_modbus_bus *bus, int slave, int addr, int n, uint16_t *out,
@@ -117,20 +125,21 @@ double drv_modbus_timeout(const drv_modbus_bus *bus)
     return bus->timeout;
 }
 
-void drv_modbus_note_clock(drv_modbus_bus *bus, int slave, uint32_t ms, double wall)
+void drv_modbus_note_clock(drv_modbus_bus *bus, int slave, uint32_t ms)
 {
     bus->clock_slave = slave;
     bus->clock_ms = ms;
-    bus->clock_wall = wall;
+    bus->clock_wall = bus->answered;
     bus->clock_exchanges = bus->exchanges;
 }
 
-int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, double *wall)
+int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, double *lo,
+                          double *hi)
 {
     if (bus->clock_slave != slave || bus->clock_exchanges != bus->exchanges)
         return 0;
     *ms = bus->clock_ms;
-    *wall = bus->clock_wall;
+    *lo = *hi = bus->clock_wall;
     return 1;
 }
 
