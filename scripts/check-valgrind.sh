@@ -18,7 +18,7 @@ ctest -T memcheck -L unit -j "$jobs" --output-on-failure \
     --overwrite MemoryCheckCommand="$(command -v valgrind)" \
     --overwrite MemoryCheckCommandOptions="$opts" || rc=1
 # The daemon and rig tests with goniod and gonio-sim under memcheck: the
-# tests start them through GONIO_WRAP (tests/daemon/test_goniod.py, wrap)
+# tests start them through GONIO_WRAP (tests/daemon/goniod_harness.py, wrap)
 # and fail a test whose valgrind report shows an error.
 GONIO_WRAP="valgrind $opts" ctest -L 'daemon|rig' -j "$jobs" --output-on-failure || rc=1
 exit $rc

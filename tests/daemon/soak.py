@@ -28,7 +28,7 @@ import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import test_goniod as tg  # noqa: E402
+import goniod_harness as tg  # noqa: E402
 import torture  # noqa: E402  (truth, read_journal)
 
 SIM = os.path.join(tg.BIN, "gonio-sim")

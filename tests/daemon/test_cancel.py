@@ -26,7 +26,7 @@ import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from test_goniod import (GONIO, START_S, SLOW, Daemon, journal_points, plan_total,  # noqa: E402
+from goniod_harness import (GONIO, START_S, SLOW, Daemon, journal_points, plan_total,  # noqa: E402
                          tmpdir, wrap, assert_valgrind_clean)
 
 STOP_S = 2.0 * SLOW  # from the signal or the abort to the end of the capture

@@ -21,7 +21,7 @@ import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from test_goniod import BIN, SOURCE, START_S, Conn, assert_valgrind_clean, tmpdir, wrap  # noqa: E402
+from goniod_harness import BIN, SOURCE, START_S, Conn, assert_valgrind_clean, tmpdir, wrap  # noqa: E402
 
 README = os.path.join(SOURCE, "README.md")
 

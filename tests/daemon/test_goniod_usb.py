@@ -3,7 +3,8 @@
 the config keys, and a capture on gonio-sim's axes (Modbus TCP) with the
 spectrometer replayed by umockdev-run from the driver tests' recording.
 
-Run from ctest, or by hand like test_goniod.py (whose helpers it uses).
+Run from ctest, or by hand like test_goniod.py (its helpers are goniod_harness.py's;
+its fixtures, test_goniod.py's CheckTests and test_goniod_modbus.py's ModbusRig).
 """
 import math
 import os
@@ -14,7 +15,9 @@ import sys
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import test_goniod as g  # noqa: E402
+import goniod_harness as g  # noqa: E402
+import test_goniod  # noqa: E402  (CheckTests)
+import test_goniod_modbus  # noqa: E402  (ModbusRig)
 
 USB_DATA = os.path.join(g.SOURCE, "tests", "unit", "drivers", "usb")
 UMOCKDEV_RUN = shutil.which("umockdev-run")
@@ -28,10 +31,10 @@ class UsbConfigTests(unittest.TestCase):
               "capture_root: caps\n"
               "socket:\n  path: g.sock\n")
 
-    setUp = g.CheckTests.setUp
-    tearDown = g.CheckTests.tearDown
-    check = g.CheckTests.check
-    bad = g.CheckTests.bad
+    setUp = test_goniod.CheckTests.setUp
+    tearDown = test_goniod.CheckTests.tearDown
+    check = test_goniod.CheckTests.check
+    bad = test_goniod.CheckTests.bad
 
     def test_resolved_and_round_trip(self):
         path, r = self.check(self.DRIVER)
@@ -73,16 +76,16 @@ class UsbConfigTests(unittest.TestCase):
 class UsbCaptureTests(unittest.TestCase):
     """A 4-point capture: axes on gonio-sim, every reading from the replayed
     USB2000+ (the recording answers each spectrum request the same way)."""
-    SIM = g.ModbusTests.SIM
-    SIM_SCALE = g.ModbusTests.SIM_SCALE
-    setUp = g.ModbusTests.setUp
-    stop_sim = g.ModbusTests.stop_sim
+    SIM = test_goniod_modbus.ModbusRig.SIM
+    SIM_SCALE = test_goniod_modbus.ModbusRig.SIM_SCALE
+    setUp = test_goniod_modbus.ModbusRig.setUp
+    stop_sim = test_goniod_modbus.ModbusRig.stop_sim
 
     def tearDown(self):
         if self.d and self.d.alive():
             self.d.proc.kill()
             self.d.proc.wait()
-        g.ModbusTests.tearDown(self)
+        test_goniod_modbus.ModbusRig.tearDown(self)
 
     def start(self, recording):
         cap = os.path.join(self.folder, "cap")

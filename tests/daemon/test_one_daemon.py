@@ -4,7 +4,7 @@ configured with the socket or the capture root of a running one is refused
 - exit 1, a message naming the lock and the first daemon's pid, the first
 daemon's socket untouched - however busy, stopped or backlogged the first
 one is; a socket left by a daemon that died is still replaced. Each test
-starts its own daemon on the simulated rig (test_goniod.py's helpers).
+starts its own daemon on the simulated rig (goniod_harness.py's helpers).
 """
 import errno
 import os
@@ -16,7 +16,7 @@ import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from test_goniod import GONIOD, START_S, Daemon, DaemonTest, run_wrapped, tmpdir  # noqa: E402
+from goniod_harness import GONIOD, START_S, Daemon, DaemonTest, run_wrapped, tmpdir  # noqa: E402
 
 
 class OneDaemonTests(DaemonTest):

@@ -3,8 +3,8 @@
 mode, folder mode, peer credentials), what one client may cost the others
 (rate limit, output limit, slow and silent clients) and where a request's
 paths may lead (the capture root, symbolic links included). Each test starts
-its own daemon on the simulated rig, like test_goniod.py, whose helpers it
-uses.
+its own daemon on the simulated rig, like test_goniod.py, with the helpers
+of goniod_harness.py.
 """
 import grp
 import json
@@ -20,7 +20,7 @@ import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from test_goniod import GONIOD, SOURCE, START_S, Conn, Daemon, DaemonTest, journal_points, plan_total, tmpdir  # noqa: E402
+from goniod_harness import GONIOD, SOURCE, START_S, Conn, Daemon, DaemonTest, journal_points, plan_total, tmpdir  # noqa: E402
 
 DS3 = os.path.join(SOURCE, "configs", "plans", "ds3.yaml")
 

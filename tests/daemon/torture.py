@@ -40,7 +40,7 @@ import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import test_goniod as tg  # noqa: E402  (Daemon, Conn, journal_points)
+import goniod_harness as tg  # noqa: E402  (Daemon, Conn, journal_points)
 
 # Aimed at in turn; "fit" alternates between the streaming fit's rounds
 # (logged with their sample count) and the engine's final fit (logged -1).

@@ -15,7 +15,7 @@ import pytest
 # goniod's test helpers: under make check-valgrind (GONIO_WRAP) gonio-sim
 # runs on memcheck too, and its report fails the test that started it.
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "daemon"))
-import test_goniod as tg  # noqa: E402
+import goniod_harness as tg  # noqa: E402
 
 TIME_SCALE = 50.0
 

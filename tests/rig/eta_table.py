@@ -8,7 +8,7 @@ material in advance; the pre-scan's detours included), the total the ETA gives r
 (the rig time so far plus the ETA), the same halfway through the points,
 and the rig time the capture took (results.json).
 
-A measurement on the rig tests' harness (test_goniod, test_matrix), kept
+A measurement on the rig tests' harness (goniod_harness, test_matrix), kept
 beside them (Python is for tests only in gonio).
 
 Usage: tests/rig/eta_table.py [BIN_DIR] (default build/bin); env PLANS
@@ -28,7 +28,7 @@ BIN = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "
 os.environ["GONIO_BIN"] = BIN
 sys.path.insert(0, os.path.join(ROOT, "tests", "daemon"))
 sys.path.insert(0, HERE)
-import test_goniod as tg  # noqa: E402
+import goniod_harness as tg  # noqa: E402
 import test_matrix as tm  # noqa: E402
 
 tg.BIN = BIN

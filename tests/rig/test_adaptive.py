@@ -20,7 +20,7 @@ import sys
 import pytest
 
 import test_matrix as tm
-import test_goniod as tg
+import goniod_harness as tg
 
 BUDGET_MIN = 2
 POOL = 12322  # inplane-1deg on the default rig

@@ -19,7 +19,7 @@ import sys
 import pytest
 
 import test_matrix as tm
-import test_goniod as tg
+import goniod_harness as tg
 
 PLAN = "ds3"
 POINTS = 52

@@ -23,7 +23,7 @@ from conftest import crc16, frame, reply_length
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "daemon"))
-import test_goniod as tg  # noqa: E402  (Daemon, Conn, read_samples)
+import goniod_harness as tg  # noqa: E402  (Daemon, Conn, read_samples)
 
 BIN = os.environ.get("GONIO_BIN", "build/bin")
 SIM = os.path.join(BIN, "gonio-sim")

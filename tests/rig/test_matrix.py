@@ -30,7 +30,7 @@ import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "daemon"))
-import test_goniod as tg  # noqa: E402  (Daemon, wrap, valgrind checks)
+import goniod_harness as tg  # noqa: E402  (Daemon, wrap, valgrind checks)
 
 SCALE = 1000
 PLAN = "ds3"
