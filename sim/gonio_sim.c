@@ -1,6 +1,6 @@
 /* gonio-sim: the simulated gonioreflectometer as its own process, serving
  * the rig's Modbus bus (docs/gonio-sim.md). A thin shell: options, scene,
- * signals; sim/modbus_server.c does the rest. */
+ * signals; the server of sim/modbus_server.h does the rest. */
 #include <getopt.h>
 #include <math.h>
 #include <signal.h>
@@ -63,7 +63,64 @@ static int parse_positive(const char *opt, const char *s, double *out)
     return 0;
 }
 
-int main(int argc, char **argv)
+/* What the command line asked for. Faults are kept until the server
+ * exists: --stall, --overload, and --delay (kind NONE, deg holding the ms). */
+struct sim_opts {
+    const char *scene_name, *material_spec, *rig_name, *link, *tcp, *stats;
+    struct msim_cfg cfg;
+    int check, n_jams;
+    struct {
+        enum msim_jam_kind kind;
+        int slave;
+        double deg;
+    } jams[4];
+};
+
+/* What the options resolved to: the scene, the rig profile and the
+ * material the server simulates. */
+struct sim_setup {
+    struct sim_scene scene;
+    struct plan_rig rig;
+    brdf_material *material;
+};
+
+enum { GO_ON = -1 }; /* a step's return when the program goes on, else its exit status */
+
+/* --stall, --overload or --delay (c 'S', 'O', 'D'): SLAVE:DEG or SLAVE:MS. */
+static int parse_fault(int c, const char *arg, struct sim_opts *o)
+{
+    char *end;
+    long slave = strtol(arg, &end, 10);
+    double deg = *end == ':' ? strtod(end + 1, &end) : NAN;
+    if (*end || !isfinite(deg) || o->n_jams == 4) {
+        fprintf(stderr, "gonio-sim: --%s '%s': expected SLAVE:%s\n",
+                c == 'S' ? "stall" : c == 'O' ? "overload" : "delay", arg,
+                c == 'D' ? "MS" : "DEG");
+        return -1;
+    }
+    o->jams[o->n_jams].kind = c == 'S' ? MSIM_JAM_STALL
+                              : c == 'O' ? MSIM_JAM_OVERLOAD
+                                         : MSIM_JAM_NONE; /* NONE: a delay */
+    o->jams[o->n_jams].slave = (int)slave;
+    o->jams[o->n_jams++].deg = deg;
+    return 0;
+}
+
+static int parse_baud(const char *arg, long *baud)
+{
+    double v;
+    if (parse_positive("--baud", arg, &v) < 0)
+        return -1;
+    if (v != floor(v)) {
+        fprintf(stderr, "gonio-sim: --baud '%s': expected a whole number\n", arg);
+        return -1;
+    }
+    *baud = (long)v;
+    return 0;
+}
+
+/* GO_ON, or the exit status: 0 after --help or --version, 2 on a bad option. */
+static int parse_options(int argc, char **argv, struct sim_opts *o)
 {
     static const struct option opts[] = {
         {"baud", required_argument, NULL, 'b'},      {"tcp-latency", required_argument, NULL, 'L'},
@@ -78,174 +135,189 @@ int main(int argc, char **argv)
         {"version", no_argument, NULL, 'V'},
         {NULL, 0, NULL, 0},
     };
-    const char *scene_name = "ideal", *material_spec = NULL, *rig_name = NULL, *link = NULL,
-               *tcp = NULL, *stats = NULL;
-    /* IN-POS band: the AZ's initial 1.8 deg at the motor (docs/gonio-sim.md)
-     * through the 36:1 reduction that 100 steps/deg at 1000 steps/rev means. */
-    struct msim_cfg cfg = {.time_scale = 1.0, .steps_per_deg = 100.0, .in_pos_deg = 0.05};
-    int check = 0, c, n_jams = 0;
-    struct {
-        enum msim_jam_kind kind;
-        int slave;
-        double deg;
-    } jams[4]; /* faults: --stall, --overload, --delay (kind NONE) */
-    while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+    int c, bad = 0;
+    while (!bad && (c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (c) {
-        case 's': scene_name = optarg; break;
-        case 'm': material_spec = optarg; break;
-        case 'r': rig_name = optarg; break;
-        case 'k':
-            if (parse_positive("--time-scale", optarg, &cfg.time_scale) < 0)
-                return 2;
-            break;
-        case 'n':
-            if (parse_positive("--steps-per-deg", optarg, &cfg.steps_per_deg) < 0)
-                return 2;
-            break;
-        case 'i':
-            if (parse_positive("--in-pos-deg", optarg, &cfg.in_pos_deg) < 0)
-                return 2;
-            break;
-        case 'l': link = optarg; break;
-        case 't': tcp = optarg; break;
-        case 'T': cfg.trace = 1; break;
-        case 'X': stats = optarg; break;
-        case 'b': {
-            double baud;
-            if (parse_positive("--baud", optarg, &baud) < 0)
-                return 2;
-            if (baud != floor(baud)) {
-                fprintf(stderr, "gonio-sim: --baud '%s': expected a whole number\n", optarg);
-                return 2;
-            }
-            cfg.baud = (long)baud;
-            break;
-        }
+        case 's': o->scene_name = optarg; break;
+        case 'm': o->material_spec = optarg; break;
+        case 'r': o->rig_name = optarg; break;
+        case 'k': bad = parse_positive("--time-scale", optarg, &o->cfg.time_scale) < 0; break;
+        case 'n': bad = parse_positive("--steps-per-deg", optarg, &o->cfg.steps_per_deg) < 0; break;
+        case 'i': bad = parse_positive("--in-pos-deg", optarg, &o->cfg.in_pos_deg) < 0; break;
+        case 'l': o->link = optarg; break;
+        case 't': o->tcp = optarg; break;
+        case 'T': o->cfg.trace = 1; break;
+        case 'X': o->stats = optarg; break;
+        case 'b': bad = parse_baud(optarg, &o->cfg.baud) < 0; break;
         case 'L':
-            if (parse_positive("--tcp-latency", optarg, &cfg.tcp_latency_s) < 0)
-                return 2;
-            cfg.tcp_latency_s *= 1e-3;
+            bad = parse_positive("--tcp-latency", optarg, &o->cfg.tcp_latency_s) < 0;
+            o->cfg.tcp_latency_s *= 1e-3;
             break;
-        case 'c': check = 1; break;
+        case 'c': o->check = 1; break;
         case 'S':
         case 'D':
-        case 'O': {
-            char *end;
-            long slave = strtol(optarg, &end, 10);
-            double deg = *end == ':' ? strtod(end + 1, &end) : NAN;
-            if (*end || !isfinite(deg) || n_jams == 4) {
-                fprintf(stderr, "gonio-sim: --%s '%s': expected SLAVE:%s\n",
-                        c == 'S' ? "stall" : c == 'O' ? "overload" : "delay", optarg,
-                        c == 'D' ? "MS" : "DEG");
-                return 2;
-            }
-            jams[n_jams].kind = c == 'S' ? MSIM_JAM_STALL
-                                : c == 'O' ? MSIM_JAM_OVERLOAD
-                                           : MSIM_JAM_NONE; /* NONE: a delay */
-            jams[n_jams].slave = (int)slave;
-            jams[n_jams++].deg = deg;
-            break;
-        }
+        case 'O': bad = parse_fault(c, optarg, o) < 0; break;
         case 'h': usage(stdout); return 0;
         case 'V': gonio_print_version(stdout, "gonio-sim"); return 0;
         default: usage(stderr); return 2;
         }
     }
+    if (bad)
+        return 2;
     if (optind < argc) {
         fprintf(stderr, "gonio-sim: unexpected argument '%s'\n", argv[optind]);
         return 2;
     }
+    return GO_ON;
+}
 
+/* Load the scene, the rig (--rig, else the scene's) and the material
+ * (--material, else the scene's). GO_ON, or the exit status. */
+static int load_setup(const struct sim_opts *o, struct sim_setup *su)
+{
     struct gonio_err err = {0};
-    struct sim_scene scene;
-    struct plan_rig rig;
-    int rc = sim_scene_load(scene_name, &scene, &err);
+    int rc = sim_scene_load(o->scene_name, &su->scene, &err);
     if (rc == 0)
-        rc = plan_rig_load(rig_name ? rig_name : scene.rig, &rig, &err);
+        rc = plan_rig_load(o->rig_name ? o->rig_name : su->scene.rig, &su->rig, &err);
     if (rc < 0) {
         fprintf(stderr, "gonio-sim: %s\n", err.msg);
         return gonio_exit_status(rc);
     }
-    const char *spec = material_spec ? material_spec : scene.material;
+    const char *spec = o->material_spec ? o->material_spec : su->scene.material;
     if (!strcmp(spec, "default"))
         spec = brdf_material_default_spec();
-    brdf_material *material = brdf_material_open(spec, &err);
-    if (!material) {
+    su->material = brdf_material_open(spec, &err);
+    if (!su->material) {
         fprintf(stderr, "gonio-sim: %s\n", err.msg);
         return 2;
     }
-    if (check) {
-        printf("scene %s (%s)\nmaterial %s\nrig %s%s\ntime scale %g\nsteps per degree %g\n"
-               "IN-POS band %g deg\n", scene.name, scene.path, brdf_material_name(material),
-               rig.name, rig.out_of_plane ? " (out of plane: azimuth slave 4)" : "",
-               cfg.time_scale, cfg.steps_per_deg, cfg.in_pos_deg);
-        const struct plan_axis *ax[3] = {&rig.sample, &rig.arm, &rig.azimuth};
-        static const char *names[3] = {"sample (slave 1)", "arm (slave 2)", "azimuth (slave 4)"};
-        for (int i = 0; i < (rig.out_of_plane ? 3 : 2); i++)
-            printf("axis %s: limits [%g, %g] deg, profile %g deg/s, %g deg/s^2\n", names[i],
-                   ax[i]->min, ax[i]->max, ax[i]->speed, ax[i]->accel);
-        printf("detector (slave 3): rgb\n");
-        if (cfg.baud > 0)
-            printf("RTU line %ld baud\n", cfg.baud);
-        if (cfg.tcp_latency_s > 0)
-            printf("TCP latency %g ms\n", cfg.tcp_latency_s * 1e3);
-        brdf_material_free(material);
-        return 0;
-    }
+    return GO_ON;
+}
 
+/* --check: the resolved setup, on stdout. */
+static void print_setup(const struct sim_opts *o, const struct sim_setup *su)
+{
+    const struct msim_cfg *cfg = &o->cfg;
+    const struct plan_rig *rig = &su->rig;
+    printf("scene %s (%s)\nmaterial %s\nrig %s%s\ntime scale %g\nsteps per degree %g\n"
+           "IN-POS band %g deg\n", su->scene.name, su->scene.path,
+           brdf_material_name(su->material), rig->name,
+           rig->out_of_plane ? " (out of plane: azimuth slave 4)" : "", cfg->time_scale,
+           cfg->steps_per_deg, cfg->in_pos_deg);
+    const struct plan_axis *ax[3] = {&rig->sample, &rig->arm, &rig->azimuth};
+    static const char *names[3] = {"sample (slave 1)", "arm (slave 2)", "azimuth (slave 4)"};
+    for (int i = 0; i < (rig->out_of_plane ? 3 : 2); i++)
+        printf("axis %s: limits [%g, %g] deg, profile %g deg/s, %g deg/s^2\n", names[i],
+               ax[i]->min, ax[i]->max, ax[i]->speed, ax[i]->accel);
+    printf("detector (slave 3): rgb\n");
+    if (cfg->baud > 0)
+        printf("RTU line %ld baud\n", cfg->baud);
+    if (cfg->tcp_latency_s > 0)
+        printf("TCP latency %g ms\n", cfg->tcp_latency_s * 1e3);
+}
+
+static void install_signals(void)
+{
     struct sigaction sa = {.sa_handler = on_signal}; /* no SA_RESTART: poll returns */
     sigemptyset(&sa.sa_mask);
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
     sigaction(SIGUSR1, &sa, NULL);
     signal(SIGPIPE, SIG_IGN);
+}
 
-    msim *m = msim_new(&rig, material, &scene, &cfg, &err);
+static int inject_faults(msim *m, const struct sim_opts *o, struct gonio_err *err)
+{
+    int rc = 0;
+    for (int i = 0; i < o->n_jams && rc == 0; i++)
+        rc = o->jams[i].kind == MSIM_JAM_NONE
+                 ? msim_delay(m, o->jams[i].slave, o->jams[i].deg, err)
+                 : msim_jam(m, o->jams[i].slave, o->jams[i].kind, o->jams[i].deg, err);
+    return rc;
+}
+
+/* Open the pseudo-terminal (and the TCP port), say what is served, and
+ * answer requests until a signal stops the server. */
+static int serve(msim *m, const struct sim_opts *o, const struct sim_setup *su,
+                 struct gonio_err *err)
+{
     char path[256];
     int port = 0;
-    rc = m ? 0 : -1;
-    for (int i = 0; i < n_jams && rc == 0; i++)
-        rc = jams[i].kind == MSIM_JAM_NONE
-                 ? msim_delay(m, jams[i].slave, jams[i].deg, &err)
-                 : msim_jam(m, jams[i].slave, jams[i].kind, jams[i].deg, &err);
+    const char *tcp = o->tcp;
+    int rc = msim_open_pty(m, o->link, path, sizeof path, err);
+    if (rc == 0 && tcp)
+        rc = msim_open_tcp(m, tcp, &port, err);
+    if (rc < 0)
+        return rc;
+    printf("%s\n", path);
+    if (tcp)
+        printf("tcp %.*s:%d\n", (int)(strrchr(tcp, ':') - tcp), tcp, port);
+    fflush(stdout);
+    /* stdout is for programs (its first line is the path); a person who
+     * started it by hand learns on stderr what is served and how to stop. */
+    fprintf(stderr, "gonio-sim: Modbus RTU on %s", path);
+    if (tcp)
+        fprintf(stderr, " and Modbus TCP on %.*s:%d", (int)(strrchr(tcp, ':') - tcp), tcp, port);
+    fprintf(stderr, " (scene %s, material %s, rig %s, time scale %g); Ctrl-C stops\n",
+            su->scene.name, brdf_material_name(su->material), su->rig.name, o->cfg.time_scale);
+    return msim_serve(m, &stop_flag, &hangup_flag, err);
+}
+
+/* Written at exit: what the rig saw over its life. */
+static void write_stats(const msim *m, const char *path)
+{
+    FILE *f = fopen(path, "w");
+    if (f) {
+        msim_write_stats(m, f);
+        fclose(f);
+    } else {
+        fprintf(stderr, "gonio-sim: --stats %s: cannot write\n", path);
+    }
+}
+
+/* The server's life: made, faults injected, served, stats written,
+ * freed. Takes the material. The exit status. */
+static int run_server(const struct sim_opts *o, struct sim_setup *su)
+{
+    struct gonio_err err = {0};
+    msim *m = msim_new(&su->rig, su->material, &su->scene, &o->cfg, &err);
+    int rc = m ? inject_faults(m, o, &err) : -1;
     if (rc < 0 && m) {
         fprintf(stderr, "gonio-sim: %s\n", err.msg);
         msim_free(m);
-        brdf_material_free(material);
+        brdf_material_free(su->material);
         return 2;
     }
-    rc = m ? msim_open_pty(m, link, path, sizeof path, &err) : -1;
-    if (rc == 0 && tcp)
-        rc = msim_open_tcp(m, tcp, &port, &err);
-    if (rc == 0) {
-        printf("%s\n", path);
-        if (tcp)
-            printf("tcp %.*s:%d\n", (int)(strrchr(tcp, ':') - tcp), tcp, port);
-        fflush(stdout);
-        /* stdout is for programs (its first line is the path); a person who
-         * started it by hand learns on stderr what is served and how to stop. */
-        fprintf(stderr, "gonio-sim: Modbus RTU on %s", path);
-        if (tcp)
-            fprintf(stderr, " and Modbus TCP on %.*s:%d", (int)(strrchr(tcp, ':') - tcp), tcp,
-                    port);
-        fprintf(stderr, " (scene %s, material %s, rig %s, time scale %g); Ctrl-C stops\n",
-                scene.name, brdf_material_name(material), rig.name, cfg.time_scale);
-        rc = msim_serve(m, &stop_flag, &hangup_flag, &err);
-    }
+    rc = m ? serve(m, o, su, &err) : -1;
     if (rc < 0 || !m)
         fprintf(stderr, "gonio-sim: %s\n", err.msg);
-    if (m && stats) { /* written at exit: what the rig saw over its life */
-        FILE *f = fopen(stats, "w");
-        if (f) {
-            msim_write_stats(m, f);
-            fclose(f);
-        } else {
-            fprintf(stderr, "gonio-sim: --stats %s: cannot write\n", stats);
-        }
-    }
-    if (link)
-        remove(link);
+    if (m && o->stats)
+        write_stats(m, o->stats);
+    if (o->link)
+        remove(o->link);
     msim_free(m);
-    brdf_material_free(material);
+    brdf_material_free(su->material);
     return !m ? 1 : rc < 0 ? gonio_exit_status(rc) : 0;
+}
+
+int main(int argc, char **argv)
+{
+    /* IN-POS band: the AZ's initial 1.8 deg at the motor (docs/gonio-sim.md)
+     * through the 36:1 reduction that 100 steps/deg at 1000 steps/rev means. */
+    struct sim_opts o = {.scene_name = "ideal",
+                         .cfg = {.time_scale = 1.0, .steps_per_deg = 100.0, .in_pos_deg = 0.05}};
+    int status = parse_options(argc, argv, &o);
+    if (status != GO_ON)
+        return status;
+    struct sim_setup su;
+    status = load_setup(&o, &su);
+    if (status != GO_ON)
+        return status;
+    if (o.check) {
+        print_setup(&o, &su);
+        brdf_material_free(su.material);
+        return 0;
+    }
+    install_signals();
+    return run_server(&o, &su);
 }
