@@ -111,7 +111,16 @@ static int spectral_errors(const char *model_path, const struct fit_spectral_sam
     return 0;
 }
 
-int cmd_fit(int argc, char **argv)
+/* The command line of gonio fit. */
+struct fit_args {
+    const char *model, *out, *truth_spec;
+    struct fit_model_options mo;
+    enum fit_saturated how;
+    int weights; /* -1: as the capture's setup.json says */
+};
+
+/* Options into a; -1 to go on, else the exit status. */
+static int parse_args(int argc, char **argv, struct fit_args *a)
 {
     static const struct option opts[] = {
         {"model", required_argument, NULL, 'm'}, {"output", required_argument, NULL, 'o'},
@@ -120,22 +129,21 @@ int cmd_fit(int argc, char **argv)
         {"saturated", required_argument, NULL, 'S'}, {"weights", required_argument, NULL, 'w'},
         {"help", no_argument, NULL, 'h'},        {NULL, 0, NULL, 0},
     };
-    const char *model = NULL, *out = NULL, *truth_spec = NULL;
-    struct fit_model_options mo = fit_model_default_options();
-    mo.quiet = 0; /* progress lines on stderr unless --quiet */
+    *a = (struct fit_args){.mo = fit_model_default_options(),
+                           .how = FIT_SATURATED_DEFAULT,
+                           .weights = -1};
+    a->mo.quiet = 0; /* progress lines on stderr unless --quiet */
     optind = 1;
     int c;
-    enum fit_saturated how = FIT_SATURATED_DEFAULT;
-    int weights = -1; /* -1: as the capture's setup.json says */
     while ((c = getopt_long(argc, argv, "m:o:s:e:t:qh", opts, NULL)) != -1) {
         char *end;
         switch (c) {
-        case 'm': model = optarg; break;
-        case 'o': out = optarg; break;
-        case 't': truth_spec = optarg; break;
-        case 'q': mo.quiet = 1; break;
+        case 'm': a->model = optarg; break;
+        case 'o': a->out = optarg; break;
+        case 't': a->truth_spec = optarg; break;
+        case 'q': a->mo.quiet = 1; break;
         case 'S':
-            if (fit_saturated_parse(optarg, &how) < 0) {
+            if (fit_saturated_parse(optarg, &a->how) < 0) {
                 fprintf(stderr, "gonio fit: --saturated '%s': use clipped or censored\n", optarg);
                 return 2;
             }
@@ -145,18 +153,18 @@ int cmd_fit(int argc, char **argv)
                 fprintf(stderr, "gonio fit: --weights '%s': use domain or none\n", optarg);
                 return 2;
             }
-            weights = !strcmp(optarg, "domain");
+            a->weights = !strcmp(optarg, "domain");
             break;
         case 's':
-            mo.seed = strtoull(optarg, &end, 10);
+            a->mo.seed = strtoull(optarg, &end, 10);
             if (end == optarg || *end || optarg[0] == '-') {
                 fprintf(stderr, "gonio fit: --seed '%s' is not a non-negative integer\n", optarg);
                 return 2;
             }
             break;
         case 'e':
-            mo.max_epochs = (int)strtol(optarg, &end, 10);
-            if (end == optarg || *end || mo.max_epochs < 1) {
+            a->mo.max_epochs = (int)strtol(optarg, &end, 10);
+            if (end == optarg || *end || a->mo.max_epochs < 1) {
                 fprintf(stderr, "gonio fit: --epochs '%s' is not a positive integer\n", optarg);
                 return 2;
             }
@@ -165,80 +173,136 @@ int cmd_fit(int argc, char **argv)
         default: usage(stderr); return 2;
         }
     }
-    if (optind != argc - 1 || !model) {
+    if (optind != argc - 1 || !a->model) {
         fprintf(stderr, "gonio fit: one SAMPLES argument and --model are required\n");
         usage(stderr);
         return 2;
     }
-    const struct fit_model_kind *kind = fit_model_find(model);
-    if (!kind) {
-        fprintf(stderr, "gonio fit: unknown model '%s' (see gonio fit --help)\n", model);
-        return 2;
-    }
-    /* SAMPLES: a directory means its samples.csv, for a spectral model its
-     * spectra.csv (a spectral capture writes both). */
-    const char *arg = argv[optind];
-    char samples_path[4096], dir[4096], out_buf[4200];
+    return -1;
+}
+
+/* Where the samples are read from and the model written to. */
+struct fit_paths {
+    char samples[4096], dir[4096], out_buf[4200];
+    const char *out;
+};
+
+/* SAMPLES: a directory means its samples.csv, for a spectral model its
+ * spectra.csv (a spectral capture writes both). */
+static void resolve_paths(const char *arg, const struct fit_model_kind *kind,
+                          const struct fit_args *a, struct fit_paths *p)
+{
     struct stat st;
     int is_dir = stat(arg, &st) == 0 && S_ISDIR(st.st_mode);
     if (is_dir) {
-        snprintf(samples_path, sizeof samples_path, "%s/%s", arg,
+        snprintf(p->samples, sizeof p->samples, "%s/%s", arg,
                  kind->spectral ? "spectra.csv" : "samples.csv");
-        snprintf(dir, sizeof dir, "%s", arg);
+        snprintf(p->dir, sizeof p->dir, "%s", arg);
     } else {
-        snprintf(samples_path, sizeof samples_path, "%s", arg);
+        snprintf(p->samples, sizeof p->samples, "%s", arg);
         const char *slash = strrchr(arg, '/');
-        snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - arg) : 1, slash ? arg : ".");
+        snprintf(p->dir, sizeof p->dir, "%.*s", slash ? (int)(slash - arg) : 1,
+                 slash ? arg : ".");
     }
-    if (!out) {
-        snprintf(out_buf, sizeof out_buf, "%.4000s/%.64s.model", dir, model);
-        out = out_buf;
+    p->out = a->out;
+    if (!p->out) {
+        snprintf(p->out_buf, sizeof p->out_buf, "%.4000s/%.64s.model", p->dir, a->model);
+        p->out = p->out_buf;
     }
+}
+
+/* The captured material, so that abc-prior leaves it out of its prior:
+ * --truth, else the capture's setup.json (simulated captures name it),
+ * into material (empty when neither). An adaptive policy chose the samples
+ * when setup.json says so: fitted as the capture fitted them, weighted by
+ * their share of the domain (fit/models.h), unless --weights says
+ * otherwise. The weights to use: 1 or 0. */
+static int read_setup(const char *dir, const struct fit_args *a, char *material, size_t size)
+{
+    char setup_path[4200];
+    snprintf(setup_path, sizeof setup_path, "%.4000s/setup.json", dir);
+    json_t *setup = json_load_file(setup_path, 0, NULL);
+    if (!a->truth_spec && json_is_string(json_object_get(setup, "material")))
+        snprintf(material, size, "%s", json_string_value(json_object_get(setup, "material")));
+    int weights = a->weights;
+    if (weights < 0)
+        weights = json_is_object(json_object_get(setup, "adaptive"));
+    json_decref(setup);
+    return weights;
+}
+
+/* The fit's summary on stdout, then its errors on its own samples. */
+static int report_fit(const struct fit_model_kind *kind, const struct fit_args *a,
+                      const struct fit_paths *p, const struct fit_model_report *rep,
+                      const struct fit_journal_data *jd, const struct fit_spectral_sample *spec,
+                      size_t n, const brdf_material *m, struct gonio_err *err)
+{
+    int censored = fit_model_censors(kind, a->how);
+    printf("%-10s %s\n", "model", a->model);
+    printf("%-10s %zu (%s)\n", "samples", n, p->samples);
+    if (rep->weighted)
+        printf("%-10s %s (%s)\n", "weights", FIT_DOMAIN_WEIGHTS_NOTE,
+               a->weights >= 0 ? "--weights domain" : "an adaptive capture's samples");
+    if (jd->saturated)
+        printf("%-10s %zu readings, lower bounds: %s\n", "saturated", jd->saturated,
+               censored ? "fitted one-sided (censored)" : "fitted at their clipped values");
+    char line[400];
+    fit_status_line(&rep->status, line, sizeof line);
+    printf("%-10s %.3f s, %s\n", "fit", rep->fit_s, fit_status_name(fit_status_code(&rep->status)));
+    printf("%-10s %s\n", "status", line);
+    printf("%-10s %s\n", "details", rep->note);
+    if (kind->spectral)
+        return spectral_errors(p->out, spec, n, err);
+    struct brdf_errors e;
+    int rc = fit_sample_errors(m, jd->rgb, n, &e, err);
+    if (!rc)
+        print_errors("samples", &e);
+    return rc;
+}
+
+int cmd_fit(int argc, char **argv)
+{
+    struct fit_args a;
+    int rc = parse_args(argc, argv, &a);
+    if (rc >= 0)
+        return rc;
+    const struct fit_model_kind *kind = fit_model_find(a.model);
+    if (!kind) {
+        fprintf(stderr, "gonio fit: unknown model '%s' (see gonio fit --help)\n", a.model);
+        return 2;
+    }
+    struct fit_paths p;
+    resolve_paths(argv[optind], kind, &a, &p);
     struct gonio_err err = {0};
     struct fit_journal_data jd = {0};
     struct fit_spectral_sample *spec = NULL;
     size_t n_spectral = 0;
-    int rc = kind->spectral ? fit_spectral_samples_read(samples_path, &spec, &n_spectral, &err)
-                            : read_rgb(samples_path, &jd, &err);
+    rc = kind->spectral ? fit_spectral_samples_read(p.samples, &spec, &n_spectral, &err)
+                        : read_rgb(p.samples, &jd, &err);
     if (rc < 0) {
         fprintf(stderr, "gonio fit: %s\n", err.msg);
         return gonio_exit_status(err.code);
     }
-    int censored = fit_model_censors(kind, how);
-    size_t saturated = jd.saturated;
-    struct fit_sample *rgb = jd.rgb;
+    int censored = fit_model_censors(kind, a.how);
     for (size_t i = 0; !censored && i < n_spectral; i++)
         spec[i].saturated = 0; /* spectra.csv's flags, as rgb_lower */
-    /* The captured material, so that abc-prior leaves it out of its prior:
-     * --truth, else the capture's setup.json (simulated captures name it).
-     * An adaptive policy chose the samples when setup.json says so: fitted
-     * as the capture fitted them, weighted by their share of the domain
-     * (fit/models.h), unless --weights says otherwise. */
-    char setup_path[4200], material_buf[512] = "";
-    snprintf(setup_path, sizeof setup_path, "%.4000s/setup.json", dir);
-    json_t *setup = json_load_file(setup_path, 0, NULL);
-    if (!truth_spec && json_is_string(json_object_get(setup, "material")))
-        snprintf(material_buf, sizeof material_buf, "%s",
-                 json_string_value(json_object_get(setup, "material")));
-    int asked = weights >= 0;
-    if (!asked)
-        weights = json_is_object(json_object_get(setup, "adaptive"));
-    json_decref(setup);
+    char material_buf[512] = "";
+    int weights = read_setup(p.dir, &a, material_buf, sizeof material_buf);
     struct fit_data data =
-        fit_journal_data_for(&jd, kind, how,
-                             truth_spec ? truth_spec : material_buf[0] ? material_buf : NULL,
+        fit_journal_data_for(&jd, kind, a.how,
+                             a.truth_spec ? a.truth_spec : material_buf[0] ? material_buf : NULL,
                              weights > 0);
     data.spectral = spec;
     data.n_spectral = n_spectral;
     size_t n = kind->spectral ? data.n_spectral : data.n_rgb;
     if (!n) {
-        fprintf(stderr, "gonio fit: %s: no samples\n", samples_path);
+        fprintf(stderr, "gonio fit: %s: no samples\n", p.samples);
         fit_journal_data_free(&jd);
         free(spec);
         return 2;
     }
     brdf_material *truth = NULL, *m = NULL;
-    if (truth_spec && !(truth = fit_material_open(truth_spec, &err))) {
+    if (a.truth_spec && !(truth = fit_material_open(a.truth_spec, &err))) {
         fprintf(stderr, "gonio fit: %s\n", err.msg);
         fit_journal_data_free(&jd);
         free(spec);
@@ -247,38 +311,16 @@ int cmd_fit(int argc, char **argv)
     struct fit_model_report rep = {0};
     /* RGB models are assessed as read back from their file; the spectral
      * MLP on its own samples (spectral_errors). */
-    rc = fit_model_run(kind, &data, &mo, out, &rep, kind->spectral ? NULL : &m, &err);
-    double fit_s = rep.fit_s;
-    if (!rc) {
-        printf("%-10s %s\n", "model", model);
-        printf("%-10s %zu (%s)\n", "samples", n, samples_path);
-        if (rep.weighted)
-            printf("%-10s %s (%s)\n", "weights", FIT_DOMAIN_WEIGHTS_NOTE,
-                   asked ? "--weights domain" : "an adaptive capture's samples");
-        if (saturated)
-            printf("%-10s %zu readings, lower bounds: %s\n", "saturated", saturated,
-                   censored ? "fitted one-sided (censored)" : "fitted at their clipped values");
-        char line[400];
-        fit_status_line(&rep.status, line, sizeof line);
-        printf("%-10s %.3f s, %s\n", "fit", fit_s, fit_status_name(fit_status_code(&rep.status)));
-        printf("%-10s %s\n", "status", line);
-        printf("%-10s %s\n", "details", rep.note);
-        if (kind->spectral) {
-            rc = spectral_errors(out, spec, n, &err);
-        } else {
-            struct brdf_errors e;
-            rc = fit_sample_errors(m, rgb, n, &e, &err);
-            if (!rc)
-                print_errors("samples", &e);
-        }
-    }
+    rc = fit_model_run(kind, &data, &a.mo, p.out, &rep, kind->spectral ? NULL : &m, &err);
+    if (!rc)
+        rc = report_fit(kind, &a, &p, &rep, &jd, spec, n, m, &err);
     if (!rc && truth && m) {
         rc = truth_errors("inplane", truth, m, 0, &err);
         if (!rc)
             rc = truth_errors("full", truth, m, 1, &err);
     }
     if (!rc)
-        printf("%-10s %s\n", "wrote", out);
+        printf("%-10s %s\n", "wrote", p.out);
     brdf_material_free(m);
     brdf_material_free(truth);
     fit_journal_data_free(&jd);

@@ -252,6 +252,180 @@ static char *read_all(const char *path, size_t *len, struct gonio_err *err)
     return buf;
 }
 
+/* What a decoder file's header has said so far: its shape, its training
+ * options and, from its 'materials' line on, the decoder they describe. */
+struct decoder_header {
+    const char *path;
+    long nin, nz, layers, width, nout, nmat;
+    unsigned long long seed;
+    long steps, sps;
+    double lr, lr_z, lambda_z, z_noise, inplane;
+    latent_decoder *d;
+    size_t m; /* material names read */
+};
+
+/* A shape or training-option line: 1 when key is one (and its value
+ * valid), 0 when it is not one, < 0 for a bad value. */
+static int header_setting(struct decoder_header *h, const char *key, const char *val,
+                          struct gonio_err *err)
+{
+    const char *path = h->path;
+    long *slot = !strcmp(key, "nin") ? &h->nin : !strcmp(key, "nz") ? &h->nz
+               : !strcmp(key, "layers") ? &h->layers : !strcmp(key, "width") ? &h->width
+               : !strcmp(key, "nout") ? &h->nout : !strcmp(key, "steps") ? &h->steps
+               : !strcmp(key, "samples_per_step") ? &h->sps : NULL;
+    if (slot) {
+        if (parse_long(val, 0, 100000000, slot) < 0)
+            return gonio_err_set(err, GONIO_EBADDATA, "%s: %s '%s' is not a valid count", path,
+                                 key, val);
+    } else if (!strcmp(key, "seed")) {
+        char *end;
+        errno = 0;
+        unsigned long long s = strtoull(val, &end, 10);
+        if (errno || end == val || *end)
+            return gonio_err_set(err, GONIO_EBADDATA, "%s: seed '%s' is not an integer", path,
+                                 val);
+        h->seed = s;
+    } else if (!strcmp(key, "lr") || !strcmp(key, "lr_z") || !strcmp(key, "lambda_z") ||
+               !strcmp(key, "z_noise") || !strcmp(key, "inplane")) {
+        double v;
+        if (parse_double(val, &v) < 0)
+            return gonio_err_set(err, GONIO_EBADDATA, "%s: %s '%s' is not a finite number",
+                                 path, key, val);
+        *(!strcmp(key, "lr") ? &h->lr : !strcmp(key, "lr_z") ? &h->lr_z
+          : !strcmp(key, "lambda_z") ? &h->lambda_z : !strcmp(key, "z_noise") ? &h->z_noise
+                                                  : &h->inplane) = v;
+    } else if (!strcmp(key, "heldout")) {
+        /* informational: the held-out list of the build that trained it */
+    } else {
+        return 0;
+    }
+    return 1;
+}
+
+/* The 'materials N' line: the shape read so far becomes the decoder. */
+static int header_materials(struct decoder_header *h, const char *val, struct gonio_err *err)
+{
+    const char *path = h->path;
+    if (h->d) /* a second shape would replace (and leak) the first */
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: 'materials' given twice", path);
+    if (parse_long(val, 1, 100000, &h->nmat) < 0)
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: materials '%s' is not a valid count",
+                             path, val);
+    if (h->nin != LATENT_NIN || h->nout != LATENT_NOUT)
+        return gonio_err_set(err, GONIO_EBADDATA,
+                             "%s: nin %ld / nout %ld: this build needs %d / %d", path, h->nin,
+                             h->nout, LATENT_NIN, LATENT_NOUT);
+    h->d = latent_decoder_alloc((int)h->nz, (int)h->layers, (int)h->width, (size_t)h->nmat);
+    if (!h->d)
+        return gonio_err_set(err, GONIO_EBADDATA,
+                             "%s: shape nz %ld, layers %ld, width %ld out of range (nz 1..%d, "
+                             "layers 1..%d, width %d..%d)",
+                             path, h->nz, h->layers, h->width, LATENT_MAX_NZ, LATENT_MAX_LAYERS,
+                             LATENT_NOUT, LATENT_MAX_WIDTH);
+    return 0;
+}
+
+/* A 'material NAME' line: the next training material's name. */
+static int header_material(struct decoder_header *h, const char *val, struct gonio_err *err)
+{
+    const char *path = h->path;
+    if (!h->d || h->m >= h->d->n_materials)
+        return gonio_err_set(err, GONIO_EBADDATA,
+                             "%s: 'material %s' outside the declared materials list", path, val);
+    if (strlen(val) >= LATENT_NAME_MAX || strchr(val, ' '))
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: material name '%s' invalid", path, val);
+    strcpy(h->d->names[h->m++], val);
+    return 0;
+}
+
+/* The 'data N CRC' line and the weights and latents after it, bytes
+ * [pos, len) of buf: exactly N little-endian doubles, all finite. */
+static int read_data(struct decoder_header *h, const char *val, const char *buf, size_t len,
+                     size_t pos, struct gonio_err *err)
+{
+    const char *path = h->path;
+    latent_decoder *d = h->d;
+    if (!d || h->m != d->n_materials)
+        return gonio_err_set(err, GONIO_EBADDATA,
+                             "%s: data before the full materials list (%zu of %ld names)", path,
+                             h->m, h->nmat);
+    unsigned long long n;
+    unsigned crc;
+    char tail;
+    if (sscanf(val, "%llu %8x%c", &n, &crc, &tail) != 2)
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: malformed data line '%s'", path, val);
+    size_t want = d->n_params + d->n_materials * (size_t)d->nz;
+    if (n != want)
+        return gonio_err_set(err, GONIO_EBADDATA,
+                             "%s: data holds %llu values, the shape needs %zu", path, n, want);
+    if (len - pos != 8 * want)
+        return gonio_err_set(err, GONIO_EBADDATA,
+                             "%s: %zu data bytes after the header, expected %zu (truncated or "
+                             "extended file)",
+                             path, len - pos, 8 * want);
+    const unsigned char *b = (const unsigned char *)buf + pos;
+    if (crc_of(b, 8 * want) != crc)
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: data CRC mismatch (file damaged)", path);
+    for (size_t i = 0; i < want; i++) {
+        double v = get_le64(b + 8 * i);
+        if (!isfinite(v))
+            return gonio_err_set(err, GONIO_EBADDATA, "%s: data value %zu is not finite", path,
+                                 i);
+        if (i < d->n_params)
+            d->params[i] = v;
+        else
+            d->latents[i - d->n_params] = v;
+    }
+    return 0;
+}
+
+/* The training options the header recorded, on the loaded decoder. */
+static void set_training(latent_decoder *d, const struct decoder_header *h)
+{
+    d->train = latent_train_default_options();
+    d->train.nz = d->nz;
+    d->train.layers = d->layers;
+    d->train.width = d->width;
+    d->train.seed = (uint64_t)h->seed;
+    d->train.steps = h->steps;
+    d->train.samples_per_step = (int)h->sps;
+    d->train.lr = h->lr;
+    d->train.lr_z = h->lr_z;
+    d->train.lambda_z = h->lambda_z;
+    d->train.z_noise = h->z_noise;
+    d->train.inplane = h->inplane;
+}
+
+/* The header lines after the magic one, up to and including 'data' and
+ * the binary block it announces. */
+static int read_header(struct decoder_header *h, const char *buf, size_t len, size_t pos,
+                       struct gonio_err *err)
+{
+    char key[64], val[1024];
+    for (;;) {
+        size_t line_start = pos;
+        if (next_line(buf, len, &pos, key, sizeof key, val, sizeof val) < 0)
+            return gonio_err_set(err, GONIO_EBADDATA, "%s: malformed header line at byte %zu",
+                                 h->path, line_start);
+        int rc = header_setting(h, key, val, err);
+        if (rc < 0)
+            return rc;
+        if (rc > 0)
+            continue;
+        if (!strcmp(key, "materials"))
+            rc = header_materials(h, val, err);
+        else if (!strcmp(key, "material"))
+            rc = header_material(h, val, err);
+        else if (!strcmp(key, "data"))
+            return read_data(h, val, buf, len, pos, err);
+        else
+            rc = gonio_err_set(err, GONIO_EBADDATA, "%s: unknown header key '%s'", h->path, key);
+        if (rc < 0)
+            return rc;
+    }
+}
+
 latent_decoder *latent_decoder_load(const char *path, struct gonio_err *err)
 {
     size_t len = 0, pos = 0;
@@ -259,123 +433,24 @@ latent_decoder *latent_decoder_load(const char *path, struct gonio_err *err)
     if (!buf)
         return NULL;
     char key[64], val[1024];
-    latent_decoder *d = NULL;
-    long nin = -1, nz = -1, layers = -1, width = -1, nout = -1, nmat = -1;
-    unsigned long long seed = 0;
-    long steps = 0, sps = 0;
-    double lr = 0, lr_z = 0, lambda_z = 0, z_noise = 0, inplane = 0;
-    size_t m = 0;
-#define BAD(...)                                                                            \
-    do {                                                                                    \
-        gonio_err_set(err, GONIO_EBADDATA, __VA_ARGS__);                                    \
-        goto fail;                                                                          \
-    } while (0)
+    struct decoder_header h = {.path = path, .nin = -1, .nz = -1, .layers = -1, .width = -1,
+                               .nout = -1, .nmat = -1};
     if (next_line(buf, len, &pos, key, sizeof key, val, sizeof val) < 0 ||
         strcmp(key, LATENT_MAGIC) != 0)
-        BAD("%s: not a gonio latent decoder file (first line must be '%s %d')", path,
-            LATENT_MAGIC, LATENT_FILE_VERSION);
-    if (strcmp(val, "1") != 0)
-        BAD("%s: decoder file version '%s' not supported (this build reads %d)", path, val,
-            LATENT_FILE_VERSION);
-    for (;;) {
-        size_t line_start = pos;
-        if (next_line(buf, len, &pos, key, sizeof key, val, sizeof val) < 0)
-            BAD("%s: malformed header line at byte %zu", path, line_start);
-        long *slot = !strcmp(key, "nin") ? &nin : !strcmp(key, "nz") ? &nz
-                   : !strcmp(key, "layers") ? &layers : !strcmp(key, "width") ? &width
-                   : !strcmp(key, "nout") ? &nout : !strcmp(key, "steps") ? &steps
-                   : !strcmp(key, "samples_per_step") ? &sps : NULL;
-        if (slot) {
-            if (parse_long(val, 0, 100000000, slot) < 0)
-                BAD("%s: %s '%s' is not a valid count", path, key, val);
-        } else if (!strcmp(key, "seed")) {
-            char *end;
-            errno = 0;
-            unsigned long long s = strtoull(val, &end, 10);
-            if (errno || end == val || *end)
-                BAD("%s: seed '%s' is not an integer", path, val);
-            seed = s;
-        } else if (!strcmp(key, "lr") || !strcmp(key, "lr_z") || !strcmp(key, "lambda_z") ||
-                   !strcmp(key, "z_noise") || !strcmp(key, "inplane")) {
-            double v;
-            if (parse_double(val, &v) < 0)
-                BAD("%s: %s '%s' is not a finite number", path, key, val);
-            *(!strcmp(key, "lr") ? &lr : !strcmp(key, "lr_z") ? &lr_z
-              : !strcmp(key, "lambda_z") ? &lambda_z : !strcmp(key, "z_noise") ? &z_noise
-                                                    : &inplane) = v;
-        } else if (!strcmp(key, "heldout")) {
-            /* informational: the held-out list of the build that trained it */
-        } else if (!strcmp(key, "materials")) {
-            if (d) /* a second shape would replace (and leak) the first */
-                BAD("%s: 'materials' given twice", path);
-            if (parse_long(val, 1, 100000, &nmat) < 0)
-                BAD("%s: materials '%s' is not a valid count", path, val);
-            if (nin != LATENT_NIN || nout != LATENT_NOUT)
-                BAD("%s: nin %ld / nout %ld: this build needs %d / %d", path, nin, nout,
-                    LATENT_NIN, LATENT_NOUT);
-            d = latent_decoder_alloc((int)nz, (int)layers, (int)width, (size_t)nmat);
-            if (!d)
-                BAD("%s: shape nz %ld, layers %ld, width %ld out of range (nz 1..%d, layers "
-                    "1..%d, width %d..%d)",
-                    path, nz, layers, width, LATENT_MAX_NZ, LATENT_MAX_LAYERS, LATENT_NOUT,
-                    LATENT_MAX_WIDTH);
-        } else if (!strcmp(key, "material")) {
-            if (!d || m >= d->n_materials)
-                BAD("%s: 'material %s' outside the declared materials list", path, val);
-            if (strlen(val) >= LATENT_NAME_MAX || strchr(val, ' '))
-                BAD("%s: material name '%s' invalid", path, val);
-            strcpy(d->names[m++], val);
-        } else if (!strcmp(key, "data")) {
-            if (!d || m != d->n_materials)
-                BAD("%s: data before the full materials list (%zu of %ld names)", path, m,
-                    nmat);
-            unsigned long long n;
-            unsigned crc;
-            char tail;
-            if (sscanf(val, "%llu %8x%c", &n, &crc, &tail) != 2)
-                BAD("%s: malformed data line '%s'", path, val);
-            size_t want = d->n_params + d->n_materials * (size_t)d->nz;
-            if (n != want)
-                BAD("%s: data holds %llu values, the shape needs %zu", path, n, want);
-            if (len - pos != 8 * want)
-                BAD("%s: %zu data bytes after the header, expected %zu (truncated or extended "
-                    "file)",
-                    path, len - pos, 8 * want);
-            const unsigned char *b = (const unsigned char *)buf + pos;
-            if (crc_of(b, 8 * want) != crc)
-                BAD("%s: data CRC mismatch (file damaged)", path);
-            for (size_t i = 0; i < want; i++) {
-                double v = get_le64(b + 8 * i);
-                if (!isfinite(v))
-                    BAD("%s: data value %zu is not finite", path, i);
-                if (i < d->n_params)
-                    d->params[i] = v;
-                else
-                    d->latents[i - d->n_params] = v;
-            }
-            break;
-        } else {
-            BAD("%s: unknown header key '%s'", path, key);
-        }
+        gonio_err_set(err, GONIO_EBADDATA,
+                      "%s: not a gonio latent decoder file (first line must be '%s %d')", path,
+                      LATENT_MAGIC, LATENT_FILE_VERSION);
+    else if (strcmp(val, "1") != 0)
+        gonio_err_set(err, GONIO_EBADDATA,
+                      "%s: decoder file version '%s' not supported (this build reads %d)", path,
+                      val, LATENT_FILE_VERSION);
+    else if (read_header(&h, buf, len, pos, err) == 0) {
+        set_training(h.d, &h);
+        latent_decoder_refresh(h.d);
+        free(buf);
+        return h.d;
     }
-#undef BAD
-    d->train = latent_train_default_options();
-    d->train.nz = d->nz;
-    d->train.layers = d->layers;
-    d->train.width = d->width;
-    d->train.seed = (uint64_t)seed;
-    d->train.steps = steps;
-    d->train.samples_per_step = (int)sps;
-    d->train.lr = lr;
-    d->train.lr_z = lr_z;
-    d->train.lambda_z = lambda_z;
-    d->train.z_noise = z_noise;
-    d->train.inplane = inplane;
-    latent_decoder_refresh(d);
-    free(buf);
-    return d;
-fail:
-    latent_decoder_free(d);
+    latent_decoder_free(h.d);
     free(buf);
     return NULL;
 }

@@ -202,18 +202,16 @@ static double heldout_rms(const latent_decoder *d, const double *z0, size_t n, c
     return r;
 }
 
-/* fit_latent on samples in canonical order (fit/sample_order.h). */
-static int fit_latent_canonical(const latent_decoder *d, const struct fit_sample *samples,
-                                size_t n, struct latent_fit_options o, double *z,
-                                struct latent_fit_info *info, struct gonio_err *err)
+/* The samples a fit uses, in canonical order: their indices, finite and
+ * inside the log's domain once the data's scale (fit/fit.h fit_data_scale)
+ * is divided out, since the decoder knows materials in 1/sr. *idx (n + 1
+ * slots) is the caller's to free; -1 when out of memory. */
+static int usable_samples(const struct fit_sample *samples, size_t n, size_t **idx_out,
+                          size_t *used_out, double *scale_out)
 {
-    if (o.max_iter < 1)
-        o.max_iter = 1;
-    if (o.max_samples < 3)
-        o.max_samples = 3;
     size_t *idx = malloc((n + 1) * sizeof *idx);
     if (!idx)
-        return gonio_err_set(err, ENOMEM, "fit_latent: out of memory");
+        return -1;
     size_t used = 0;
     for (size_t i = 0; i < n; i++) {
         const struct fit_sample *s = &samples[i];
@@ -225,8 +223,6 @@ static int fit_latent_canonical(const latent_decoder *d, const struct fit_sample
         if (ok)
             idx[used++] = i;
     }
-    /* The data's scale divided out (fit/fit.h fit_data_scale) before the
-     * log's domain is checked: the decoder knows materials in 1/sr. */
     double scale = used ? fit_data_scale(samples, idx, used) : 1.0;
     size_t kept = 0;
     for (size_t k = 0; k < used; k++) {
@@ -237,87 +233,99 @@ static int fit_latent_canonical(const latent_decoder *d, const struct fit_sample
         if (ok)
             idx[kept++] = idx[k];
     }
-    used = kept;
-    size_t dropped = n - used;
-    if (used < 3) {
-        free(idx);
-        return gonio_err_set(err, GONIO_EFIT,
-                             "fit_latent: %zu usable samples of %zu (need at least 3)", used, n);
+    *idx_out = idx;
+    *used_out = kept;
+    *scale_out = scale;
+    return 0;
+}
+
+/* A seeded subset of max indices of idx[0..*used) for large inputs:
+ * partial Fisher-Yates, kept in (canonical) input order. */
+static void subsample(size_t *idx, size_t *used, size_t max, uint64_t seed)
+{
+    if (*used <= max)
+        return;
+    uint64_t s = seed ^ 0x243f6a8885a308d3ULL;
+    for (size_t k = 0; k < max; k++) {
+        size_t j = k + (size_t)(brdf_splitmix64(&s) % (uint64_t)(*used - k));
+        size_t tmp = idx[k];
+        idx[k] = idx[j];
+        idx[j] = tmp;
     }
-    /* A seeded subset for large inputs: partial Fisher-Yates, kept in (canonical) input order. */
-    if (used > o.max_samples) {
-        uint64_t s = o.seed ^ 0x243f6a8885a308d3ULL;
-        for (size_t k = 0; k < o.max_samples; k++) {
-            size_t j = k + (size_t)(brdf_splitmix64(&s) % (uint64_t)(used - k));
-            size_t tmp = idx[k];
-            idx[k] = idx[j];
-            idx[j] = tmp;
+    *used = max;
+    for (size_t a = 1; a < max; a++) /* insertion sort: back in canonical order */
+        for (size_t b = a; b > 0 && idx[b - 1] > idx[b]; b--) {
+            size_t tmp = idx[b];
+            idx[b] = idx[b - 1];
+            idx[b - 1] = tmp;
         }
-        used = o.max_samples;
-        for (size_t a = 1; a < used; a++) /* insertion sort: back in canonical order */
-            for (size_t b = a; b > 0 && idx[b - 1] > idx[b]; b--) {
-                size_t tmp = idx[b];
-                idx[b] = idx[b - 1];
-                idx[b - 1] = tmp;
-            }
-    }
-    double *x = malloc(used * LATENT_NIN * sizeof *x), *c = malloc(used * sizeof *c),
-           *t = malloc(used * 3 * sizeof *t);
-    unsigned char *lw = o.lower ? malloc(used) : NULL;
-    /* each sample's share of the full domain (fit/domain_weights.h), as the
-     * weighted ABC fit's: the loss then estimates the full-domain error */
-    int weigh = o.domain_weights && used >= FIT_DOMAIN_WEIGHTS_MIN_SAMPLES;
-    if (weigh && o.weighted_iter > 0)
-        o.max_iter = o.weighted_iter;
-    if (weigh && o.weighted_starts > 0)
-        o.n_starts = o.weighted_starts;
-    double *w = weigh ? malloc(used * sizeof *w) : NULL;
-    if (!x || !c || !t || (o.lower && !lw) || (weigh && !w) ||
-        (w && fit_domain_weights(samples, idx, used, w) < 0)) {
-        free(idx);
-        free(x);
-        free(c);
-        free(t);
-        free(lw);
-        free(w);
-        return gonio_err_set(err, ENOMEM, "fit_latent: out of memory");
-    }
+}
+
+/* The used samples as the objective takes them: encoded geometries,
+ * cosines, log targets, lower-bound flags and domain weights (or NULL). */
+struct encoded {
+    size_t n;
+    double *x, *c, *t;
+    unsigned char *lw;
+    double *w;
+};
+
+static void encoded_free(struct encoded *e)
+{
+    free(e->x);
+    free(e->c);
+    free(e->t);
+    free(e->lw);
+    free(e->w);
+}
+
+/* e for samples idx[0..used) divided by scale; -1 (e freed by the caller)
+ * when out of memory. */
+static int encode_samples(const struct fit_sample *samples, const size_t *idx, size_t used,
+                          double scale, const unsigned char *lower, int weigh, struct encoded *e)
+{
+    e->n = used;
+    e->x = malloc(used * LATENT_NIN * sizeof *e->x);
+    e->c = malloc(used * sizeof *e->c);
+    e->t = malloc(used * 3 * sizeof *e->t);
+    e->lw = lower ? malloc(used) : NULL;
+    e->w = weigh ? malloc(used * sizeof *e->w) : NULL;
+    if (!e->x || !e->c || !e->t || (lower && !e->lw) || (weigh && !e->w) ||
+        (e->w && fit_domain_weights(samples, idx, used, e->w) < 0))
+        return -1;
     for (size_t k = 0; k < used; k++) {
         const struct fit_sample *s = &samples[idx[k]];
-        latent_encode(&s->g, x + LATENT_NIN * k);
-        c[k] = s->g.wi[2];
+        latent_encode(&s->g, e->x + LATENT_NIN * k);
+        e->c[k] = s->g.wi[2];
         for (int ch = 0; ch < 3; ch++)
-            t[3 * k + ch] = log1p(s->rgb[ch] / scale * c[k]);
-        if (lw)
-            lw[k] = o.lower[idx[k]] != 0;
+            e->t[3 * k + ch] = log1p(s->rgb[ch] / scale * e->c[k]);
+        if (e->lw)
+            e->lw[k] = lower[idx[k]] != 0;
     }
-    /* Priors. The data term is a mean over 3 used residuals, so Laplace noise
-     * of scale b puts the prior's -log density at b / (3 used): decisive for
-     * six samples, 1e-5 for DS1's 912. */
-    struct fit_prior pr = {
-        .lambda = o.lambda_z >= 0 ? o.lambda_z : d->train.lambda_z,
-        .w = o.prior_scale > 0 ? o.prior_scale / (3.0 * (double)used) : 0.0,
-        .h = o.bandwidth > 0 ? o.bandwidth : d->prior_h,
-    };
-    /* Starts: score every training latent and the mean on (a subset of) the
-     * samples, keep the n_starts best. */
-    const int nz = d->nz;
+    return 0;
+}
+
+/* Training latent m of the decoder, or its mean for m == n_materials. */
+static const double *candidate(const latent_decoder *d, size_t m)
+{
+    return m < d->n_materials ? d->latents + m * (size_t)d->nz : d->mean;
+}
+
+/* Starts: score every training latent and the mean on (a subset of) the
+ * samples, keep the best ns (at most 16) in best_i, best first. */
+static void best_starts(const latent_decoder *d, const struct encoded *e,
+                        const struct fit_prior *pr, int ns, size_t *best_i)
+{
     size_t ncand = d->n_materials + 1;
-    size_t nscore = used < 1024 ? used : 1024;
-    int ns = o.n_starts < 1 ? 1 : o.n_starts;
-    if ((size_t)ns > ncand)
-        ns = (int)ncand;
-    size_t best_i[16];
+    size_t nscore = e->n < 1024 ? e->n : 1024;
     double best_s[16];
-    if (ns > 16)
-        ns = 16;
     for (int k = 0; k < ns; k++) {
         best_i[k] = 0;
         best_s[k] = INFINITY;
     }
     for (size_t m = 0; m < ncand; m++) {
-        const double *zc = m < d->n_materials ? d->latents + m * (size_t)nz : d->mean;
-        double sc = objective(d, zc, nscore, x, c, t, lw, w, &pr, NULL);
+        double sc = objective(d, candidate(d, m), nscore, e->x, e->c, e->t, e->lw, e->w, pr,
+                              NULL);
         for (int k = 0; k < ns; k++)
             if (sc < best_s[k]) {
                 for (int q = ns - 1; q > k; q--) {
@@ -329,52 +337,124 @@ static int fit_latent_canonical(const latent_decoder *d, const struct fit_sample
                 break;
             }
     }
-    double zbest[LATENT_MAX_NZ], fbest = INFINITY, start_loss = NAN, gain = 0;
+}
+
+/* The outcome of the fit from its best start. */
+struct best_fit {
+    double z[LATENT_MAX_NZ];
+    double f, start_loss, gain;
+};
+
+/* Adam from each start; the one with the lowest objective wins. */
+static void fit_from_starts(const latent_decoder *d, const struct encoded *e,
+                            const struct fit_prior *pr, const struct latent_fit_options *o,
+                            const size_t *best_i, int ns, struct best_fit *b)
+{
+    const int nz = d->nz;
+    b->f = INFINITY;
+    b->start_loss = NAN;
+    b->gain = 0;
     for (int k = 0; k < ns; k++) {
         double zk[LATENT_MAX_NZ];
-        size_t m = best_i[k];
-        memcpy(zk, m < d->n_materials ? d->latents + m * (size_t)nz : d->mean,
-               (size_t)nz * sizeof *zk);
-        double s0 = data_loss(d, zk, used, x, c, t, lw, w);
+        memcpy(zk, candidate(d, best_i[k]), (size_t)nz * sizeof *zk);
+        double s0 = data_loss(d, zk, e->n, e->x, e->c, e->t, e->lw, e->w);
         double gk;
-        double f = adam_z(d, zk, used, x, c, t, lw, w, &pr, &o, &gk);
-        if (f < fbest) {
-            fbest = f;
-            gain = gk;
-            start_loss = s0;
-            memcpy(zbest, zk, (size_t)nz * sizeof *zk);
+        double f = adam_z(d, zk, e->n, e->x, e->c, e->t, e->lw, e->w, pr, o, &gk);
+        if (f < b->f) {
+            b->f = f;
+            b->gain = gk;
+            b->start_loss = s0;
+            memcpy(b->z, zk, (size_t)nz * sizeof *zk);
         }
     }
-    memcpy(z, zbest, (size_t)nz * sizeof *z);
-    if (info) {
-        info->loss = data_loss(d, zbest, used, x, c, t, lw, w);
-        info->start_loss = start_loss;
-        info->iterations = o.max_iter;
-        info->starts = ns;
-        info->used = used;
-        info->dropped = dropped;
-        info->prior_weight = pr.w;
-        info->bandwidth = pr.h;
-        info->scale = scale;
-        info->gain = gain;
-        info->domain_weights = w != NULL;
-        struct fit_status *st = &info->status;
-        *st = fit_status_init();
-        st->geometries = fit_status_geometries(samples, idx, used);
-        st->params = nz;
-        st->insample = rms_log(d, zbest, used, x, c, t, lw, w);
-        st->heldout = heldout_rms(d, zbest, used, x, c, t, lw, w, &pr, &o);
-        if (gain > LATENT_FIT_GAIN_TOL)
-            st->findings |= 1u << FIT_STATUS_NOT_CONVERGED;
-        fit_status_decide(st);
+}
+
+/* What fit_latent reports of a fit: losses, counts and its status. */
+static void fill_info(const latent_decoder *d, const struct fit_sample *samples,
+                      const size_t *idx, const struct encoded *e, const struct best_fit *b,
+                      const struct fit_prior *pr, const struct latent_fit_options *o, int ns,
+                      size_t dropped, double scale, struct latent_fit_info *info)
+{
+    size_t used = e->n;
+    info->loss = data_loss(d, b->z, used, e->x, e->c, e->t, e->lw, e->w);
+    info->start_loss = b->start_loss;
+    info->iterations = o->max_iter;
+    info->starts = ns;
+    info->used = used;
+    info->dropped = dropped;
+    info->prior_weight = pr->w;
+    info->bandwidth = pr->h;
+    info->scale = scale;
+    info->gain = b->gain;
+    info->domain_weights = e->w != NULL;
+    struct fit_status *st = &info->status;
+    *st = fit_status_init();
+    st->geometries = fit_status_geometries(samples, idx, used);
+    st->params = d->nz;
+    st->insample = rms_log(d, b->z, used, e->x, e->c, e->t, e->lw, e->w);
+    st->heldout = heldout_rms(d, b->z, used, e->x, e->c, e->t, e->lw, e->w, pr, o);
+    if (b->gain > LATENT_FIT_GAIN_TOL)
+        st->findings |= 1u << FIT_STATUS_NOT_CONVERGED;
+    fit_status_decide(st);
+}
+
+/* fit_latent on samples in canonical order (fit/sample_order.h). */
+static int fit_latent_canonical(const latent_decoder *d, const struct fit_sample *samples,
+                                size_t n, struct latent_fit_options o, double *z,
+                                struct latent_fit_info *info, struct gonio_err *err)
+{
+    if (o.max_iter < 1)
+        o.max_iter = 1;
+    if (o.max_samples < 3)
+        o.max_samples = 3;
+    size_t *idx, used;
+    double scale;
+    if (usable_samples(samples, n, &idx, &used, &scale) < 0)
+        return gonio_err_set(err, ENOMEM, "fit_latent: out of memory");
+    size_t dropped = n - used;
+    if (used < 3) {
+        free(idx);
+        return gonio_err_set(err, GONIO_EFIT,
+                             "fit_latent: %zu usable samples of %zu (need at least 3)", used, n);
     }
+    subsample(idx, &used, o.max_samples, o.seed);
+    /* each sample's share of the full domain (fit/domain_weights.h), as the
+     * weighted ABC fit's: the loss then estimates the full-domain error */
+    int weigh = o.domain_weights && used >= FIT_DOMAIN_WEIGHTS_MIN_SAMPLES;
+    if (weigh && o.weighted_iter > 0)
+        o.max_iter = o.weighted_iter;
+    if (weigh && o.weighted_starts > 0)
+        o.n_starts = o.weighted_starts;
+    struct encoded e = {0};
+    if (encode_samples(samples, idx, used, scale, o.lower, weigh, &e) < 0) {
+        free(idx);
+        encoded_free(&e);
+        return gonio_err_set(err, ENOMEM, "fit_latent: out of memory");
+    }
+    /* Priors. The data term is a mean over 3 used residuals, so Laplace noise
+     * of scale b puts the prior's -log density at b / (3 used): decisive for
+     * six samples, 1e-5 for DS1's 912. */
+    struct fit_prior pr = {
+        .lambda = o.lambda_z >= 0 ? o.lambda_z : d->train.lambda_z,
+        .w = o.prior_scale > 0 ? o.prior_scale / (3.0 * (double)used) : 0.0,
+        .h = o.bandwidth > 0 ? o.bandwidth : d->prior_h,
+    };
+    size_t ncand = d->n_materials + 1;
+    int ns = o.n_starts < 1 ? 1 : o.n_starts;
+    if ((size_t)ns > ncand)
+        ns = (int)ncand;
+    if (ns > 16)
+        ns = 16;
+    size_t best_i[16];
+    best_starts(d, &e, &pr, ns, best_i);
+    struct best_fit b;
+    fit_from_starts(d, &e, &pr, &o, best_i, ns, &b);
+    memcpy(z, b.z, (size_t)d->nz * sizeof *z);
+    if (info)
+        fill_info(d, samples, idx, &e, &b, &pr, &o, ns, dropped, scale, info);
     free(idx);
-    free(x);
-    free(c);
-    free(t);
-    free(lw);
-    free(w);
-    if (!isfinite(fbest))
+    encoded_free(&e);
+    if (!isfinite(b.f))
         return gonio_err_set(err, GONIO_EFIT, "fit_latent: objective not finite");
     return 0;
 }

@@ -233,18 +233,17 @@ static double schedule(double lr, long step, long steps)
     return lr * (0.02 + 0.98 * 0.5 * (1 + cos(LT_PI * q)));
 }
 
-int latent_train(const char *const *materials, size_t n, const struct latent_train_options *opt,
-                 latent_decoder **out, struct gonio_err *err)
+/* A request latent_train refuses before it reads any data. */
+static int check_request(const char *const *materials, size_t n,
+                         const struct latent_train_options *o, struct gonio_err *err)
 {
-    struct latent_train_options o = opt ? *opt : latent_train_default_options();
-    *out = NULL;
     if (n == 0)
         return gonio_err_set(err, GONIO_EUSAGE, "latent_train: no training materials");
-    if (o.samples_per_step < 1 || o.steps < 1 || o.threads < 1 || o.threads > 64)
+    if (o->samples_per_step < 1 || o->steps < 1 || o->threads < 1 || o->threads > 64)
         return gonio_err_set(err, GONIO_EUSAGE,
                              "latent_train: steps %ld, samples_per_step %d, threads %d: each "
                              "must be >= 1 (threads <= 64)",
-                             o.steps, o.samples_per_step, o.threads);
+                             o->steps, o->samples_per_step, o->threads);
     for (size_t m = 0; m < n; m++) {
         if (is_heldout(materials[m]))
             return gonio_err_set(err, GONIO_EUSAGE,
@@ -254,6 +253,161 @@ int latent_train(const char *const *materials, size_t n, const struct latent_tra
             return gonio_err_set(err, GONIO_EUSAGE, "latent_train: bad material name '%s'",
                                  materials[m]);
     }
+    return 0;
+}
+
+/* A training run's state besides the decoder: the per-material gradients
+ * (ctx), the summed ones, the Adam moments and the workers. */
+struct trainer {
+    struct train_ctx ctx;
+    struct brdf_nbrdf *nets; /* [M], ctx.nets */
+    size_t nl;           /* number of latent coordinates: M nz */
+    double *g, *m1, *m2; /* decoder weights: gradient, Adam moments */
+    double *gzr, *z1, *z2; /* latents: regularised gradient, Adam moments */
+    struct worker *wk;   /* [threads] */
+};
+
+static void trainer_free(struct trainer *tr)
+{
+    if (tr->wk)
+        for (int t = 0; t < tr->ctx.threads; t++) {
+            free(tr->wk[t].b.x);
+            free(tr->wk[t].b.c);
+            free(tr->wk[t].b.t);
+            free(tr->wk[t].b.f);
+            free(tr->wk[t].b.pairs);
+        }
+    free(tr->wk);
+    free(tr->nets);
+    free(tr->ctx.gw);
+    free(tr->ctx.gz);
+    free(tr->ctx.loss);
+    free(tr->g);
+    free(tr->m1);
+    free(tr->m2);
+    free(tr->gzr);
+    free(tr->z1);
+    free(tr->z2);
+}
+
+/* Every buffer of a run for decoder d on n materials; tr is freed by
+ * trainer_free whether or not this succeeds. */
+static int trainer_alloc(struct trainer *tr, latent_decoder *d, size_t n,
+                         const struct latent_train_options *o, struct gonio_err *err)
+{
+    struct brdf_nbrdf *nets = tr->nets = calloc(n, sizeof *nets);
+    tr->ctx = (struct train_ctx){.d = d, .nets = nets, .M = n, .S = o->samples_per_step,
+                                 .seed = o->seed, .threads = o->threads};
+    tr->ctx.gw = calloc(n * d->n_params, sizeof *tr->ctx.gw);
+    tr->ctx.gz = calloc(n * (size_t)d->nz, sizeof *tr->ctx.gz);
+    tr->ctx.loss = calloc(n, sizeof *tr->ctx.loss);
+    size_t nl = tr->nl = n * (size_t)d->nz;
+    tr->g = calloc(d->n_params, sizeof *tr->g);
+    tr->m1 = calloc(d->n_params, sizeof *tr->m1);
+    tr->m2 = calloc(d->n_params, sizeof *tr->m2);
+    tr->gzr = calloc(nl, sizeof *tr->gzr);
+    tr->z1 = calloc(nl, sizeof *tr->z1);
+    tr->z2 = calloc(nl, sizeof *tr->z2);
+    tr->wk = calloc((size_t)o->threads, sizeof *tr->wk);
+    if (!nets || !tr->ctx.gw || !tr->ctx.gz || !tr->ctx.loss || !tr->g || !tr->m1 || !tr->m2 ||
+        !tr->gzr || !tr->z1 || !tr->z2 || !tr->wk)
+        return gonio_err_set(err, ENOMEM, "latent_train: out of memory");
+    for (int t = 0; t < o->threads; t++) {
+        size_t S = (size_t)o->samples_per_step;
+        struct worker *w = &tr->wk[t];
+        w->ctx = &tr->ctx;
+        w->id = t;
+        w->b.x = malloc(S * LATENT_NIN * sizeof(double));
+        w->b.c = malloc(S * sizeof(double));
+        w->b.t = malloc(S * 3 * sizeof(double));
+        w->b.f = malloc(S * 3 * sizeof(double));
+        w->b.pairs = malloc(S * sizeof(struct brdf_pair));
+        if (!w->b.x || !w->b.c || !w->b.t || !w->b.f || !w->b.pairs)
+            return gonio_err_set(err, ENOMEM, "latent_train: out of memory");
+    }
+    return 0;
+}
+
+/* Each material's NBRDF network from the shared data, its name into d. */
+static int load_nets(const char *const *materials, size_t n, const char *shared,
+                     struct brdf_nbrdf *nets, latent_decoder *d, struct gonio_err *err)
+{
+    for (size_t m = 0; m < n; m++) {
+        char path[4200];
+        snprintf(path, sizeof path, "%s/data/merl/nbrdf_f32/%s.nbrdf", shared, materials[m]);
+        int rc = brdf_nbrdf_load(path, &nets[m], err);
+        if (rc < 0)
+            return rc;
+        snprintf(d->names[m], LATENT_NAME_MAX, "%s", materials[m]);
+    }
+    return 0;
+}
+
+/* He initialisation; latents small (DeepSDF: N(0, 0.01^2)). */
+static void init_decoder(latent_decoder *d, size_t nl, uint64_t seed)
+{
+    uint64_t rs = seed ^ 0x6a09e667f3bcc908ULL;
+    for (int l = 0; l <= d->layers; l++) {
+        double sd = sqrt(2.0 / d->din[l]);
+        size_t cnt = (size_t)d->din[l] * (size_t)d->dout[l];
+        for (size_t i = 0; i < cnt; i++)
+            d->params[d->off_w[l] + i] = sd * gauss(&rs);
+    }
+    for (size_t i = 0; i < nl; i++)
+        d->latents[i] = 0.01 * gauss(&rs);
+}
+
+/* Every material's gradient, on the workers' threads (or on this one for
+ * a thread that could not start: same work, same result). */
+static void gradients(struct trainer *tr)
+{
+    pthread_t tid[64];
+    int threads = tr->ctx.threads, started = 0;
+    for (int t = 1; t < threads; t++) {
+        if (pthread_create(&tid[t], NULL, work, &tr->wk[t]) != 0)
+            break;
+        started = t;
+    }
+    work(&tr->wk[0]);
+    for (int t = 1; t <= started; t++)
+        pthread_join(tid[t], NULL);
+    for (int t = started + 1; t < threads; t++)
+        work(&tr->wk[t]);
+}
+
+/* One training step: the gradients summed in material order, one Adam
+ * step each for the weights and the latents. The step's loss. */
+static double train_step(struct trainer *tr, const struct latent_train_options *o, long step)
+{
+    latent_decoder *d = tr->ctx.d;
+    size_t n = tr->ctx.M;
+    tr->ctx.step = step;
+    gradients(tr);
+    memset(tr->g, 0, d->n_params * sizeof *tr->g);
+    double loss = 0;
+    for (size_t m = 0; m < n; m++) {
+        const double *gm = tr->ctx.gw + m * d->n_params;
+        for (size_t i = 0; i < d->n_params; i++)
+            tr->g[i] += gm[i];
+        loss += tr->ctx.loss[m];
+    }
+    for (size_t i = 0; i < tr->nl; i++)
+        tr->gzr[i] = tr->ctx.gz[i] + 2.0 * o->lambda_z / (d->nz * (double)n) * d->latents[i];
+    adam(d->params, tr->g, tr->m1, tr->m2, d->n_params, schedule(o->lr, step, o->steps),
+         step + 1);
+    adam(d->latents, tr->gzr, tr->z1, tr->z2, tr->nl, schedule(o->lr_z, step, o->steps),
+         step + 1);
+    return loss * tr->ctx.scale;
+}
+
+int latent_train(const char *const *materials, size_t n, const struct latent_train_options *opt,
+                 latent_decoder **out, struct gonio_err *err)
+{
+    struct latent_train_options o = opt ? *opt : latent_train_default_options();
+    *out = NULL;
+    int rc = check_request(materials, n, &o, err);
+    if (rc < 0)
+        return rc;
     /* After the names: a wrong request is refused as such with or without
      * the data. */
     const char *shared = gonio_shared_dir();
@@ -266,87 +420,19 @@ int latent_train(const char *const *materials, size_t n, const struct latent_tra
                              "latent_train: shape nz %d, layers %d, width %d out of range", o.nz,
                              o.layers, o.width);
     d->train = o;
-    struct brdf_nbrdf *nets = calloc(n, sizeof *nets);
-    struct train_ctx ctx = {.d = d, .nets = nets, .M = n, .S = o.samples_per_step,
-                            .seed = o.seed, .threads = o.threads};
-    ctx.gw = calloc(n * d->n_params, sizeof *ctx.gw);
-    ctx.gz = calloc(n * (size_t)d->nz, sizeof *ctx.gz);
-    ctx.loss = calloc(n, sizeof *ctx.loss);
-    size_t nl = n * (size_t)d->nz;
-    double *g = calloc(d->n_params, sizeof *g), *m1 = calloc(d->n_params, sizeof *m1),
-           *m2 = calloc(d->n_params, sizeof *m2);
-    double *gzr = calloc(nl, sizeof *gzr), *z1 = calloc(nl, sizeof *z1),
-           *z2 = calloc(nl, sizeof *z2);
-    struct worker *wk = calloc((size_t)o.threads, sizeof *wk);
-    int rc = 0;
-    if (!nets || !ctx.gw || !ctx.gz || !ctx.loss || !g || !m1 || !m2 || !gzr || !z1 || !z2 ||
-        !wk) {
-        rc = gonio_err_set(err, ENOMEM, "latent_train: out of memory");
+    struct trainer tr = {0};
+    if ((rc = trainer_alloc(&tr, d, n, &o, err)) < 0)
         goto done;
-    }
-    for (int t = 0; t < o.threads; t++) {
-        size_t S = (size_t)o.samples_per_step;
-        wk[t].ctx = &ctx;
-        wk[t].id = t;
-        wk[t].b.x = malloc(S * LATENT_NIN * sizeof(double));
-        wk[t].b.c = malloc(S * sizeof(double));
-        wk[t].b.t = malloc(S * 3 * sizeof(double));
-        wk[t].b.f = malloc(S * 3 * sizeof(double));
-        wk[t].b.pairs = malloc(S * sizeof(struct brdf_pair));
-        if (!wk[t].b.x || !wk[t].b.c || !wk[t].b.t || !wk[t].b.f || !wk[t].b.pairs) {
-            rc = gonio_err_set(err, ENOMEM, "latent_train: out of memory");
-            goto done;
-        }
-    }
-    for (size_t m = 0; m < n; m++) {
-        char path[4200];
-        snprintf(path, sizeof path, "%s/data/merl/nbrdf_f32/%s.nbrdf", shared, materials[m]);
-        if ((rc = brdf_nbrdf_load(path, &nets[m], err)) < 0)
-            goto done;
-        snprintf(d->names[m], LATENT_NAME_MAX, "%s", materials[m]);
-    }
-    /* He initialisation; latents small (DeepSDF: N(0, 0.01^2)). */
-    uint64_t rs = o.seed ^ 0x6a09e667f3bcc908ULL;
-    for (int l = 0; l <= d->layers; l++) {
-        double sd = sqrt(2.0 / d->din[l]);
-        size_t cnt = (size_t)d->din[l] * (size_t)d->dout[l];
-        for (size_t i = 0; i < cnt; i++)
-            d->params[d->off_w[l] + i] = sd * gauss(&rs);
-    }
-    for (size_t i = 0; i < nl; i++)
-        d->latents[i] = 0.01 * gauss(&rs);
+    if ((rc = load_nets(materials, n, shared, tr.nets, d, err)) < 0)
+        goto done;
+    init_decoder(d, tr.nl, o.seed);
 
     /* Loss = (1/M) sum_m [ mean |r| over its S x 3 residuals + lambda_z mean(z_m^2) ]. */
-    ctx.scale = 1.0 / ((double)n * 3.0 * o.samples_per_step);
+    tr.ctx.scale = 1.0 / ((double)n * 3.0 * o.samples_per_step);
     double run_loss = 0;
     long report_every = o.steps / 20 > 0 ? o.steps / 20 : 1;
-    pthread_t tid[64];
     for (long step = 0; step < o.steps; step++) {
-        ctx.step = step;
-        int started = 0;
-        for (int t = 1; t < o.threads; t++) {
-            if (pthread_create(&tid[t], NULL, work, &wk[t]) != 0)
-                break;
-            started = t;
-        }
-        work(&wk[0]);
-        for (int t = 1; t <= started; t++)
-            pthread_join(tid[t], NULL);
-        for (int t = started + 1; t < o.threads; t++)
-            work(&wk[t]); /* a thread that could not start: same work, same result */
-        memset(g, 0, d->n_params * sizeof *g);
-        double loss = 0;
-        for (size_t m = 0; m < n; m++) {
-            const double *gm = ctx.gw + m * d->n_params;
-            for (size_t i = 0; i < d->n_params; i++)
-                g[i] += gm[i];
-            loss += ctx.loss[m];
-        }
-        for (size_t i = 0; i < nl; i++)
-            gzr[i] = ctx.gz[i] + 2.0 * o.lambda_z / (d->nz * (double)n) * d->latents[i];
-        adam(d->params, g, m1, m2, d->n_params, schedule(o.lr, step, o.steps), step + 1);
-        adam(d->latents, gzr, z1, z2, nl, schedule(o.lr_z, step, o.steps), step + 1);
-        loss *= ctx.scale;
+        double loss = train_step(&tr, &o, step);
         run_loss = step == 0 ? loss : 0.98 * run_loss + 0.02 * loss;
         if (o.on_progress && ((step + 1) % report_every == 0 || step + 1 == o.steps))
             o.on_progress(o.progress_ctx, step + 1, o.steps, run_loss);
@@ -360,25 +446,7 @@ int latent_train(const char *const *materials, size_t n, const struct latent_tra
     *out = d;
     d = NULL;
 done:
-    if (wk)
-        for (int t = 0; t < o.threads; t++) {
-            free(wk[t].b.x);
-            free(wk[t].b.c);
-            free(wk[t].b.t);
-            free(wk[t].b.f);
-            free(wk[t].b.pairs);
-        }
-    free(wk);
-    free(nets);
-    free(ctx.gw);
-    free(ctx.gz);
-    free(ctx.loss);
-    free(g);
-    free(m1);
-    free(m2);
-    free(gzr);
-    free(z1);
-    free(z2);
+    trainer_free(&tr);
     latent_decoder_free(d);
     return rc;
 }

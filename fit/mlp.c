@@ -427,17 +427,11 @@ static int stratify(struct work *w, size_t n, int nout, size_t *n_val_io, const 
     return 0;
 }
 
-int fit_mlp_train(struct fit_mlp *net, const double *u, const double *f, const double *c,
-                  size_t n, const struct fit_mlp_train_options *opt,
-                  struct fit_mlp_train_report *rep, struct gonio_err *err)
+/* Every training row finite, its cosine in [0, 1] and its log target defined. */
+static int check_rows(const struct fit_mlp *net, const double *u, const double *f,
+                      const double *c, size_t n, struct gonio_err *err)
 {
-    struct fit_mlp_train_options o = opt ? *opt : fit_mlp_default_train_options();
-    struct fit_mlp_train_report r = {0};
-    int L = net->n_layers, nin = net->width[0], nout = net->width[L];
-    if (n < 1)
-        return gonio_err_set(err, GONIO_EFIT, "mlp: no training rows");
-    if (o.batch < 1 || !(o.lr > 0) || o.patience < 1 || !(o.holdout >= 0 && o.holdout < 1))
-        return gonio_err_set(err, GONIO_EUSAGE, "mlp: bad training options");
+    int nin = net->width[0], nout = net->width[net->n_layers];
     for (size_t i = 0; i < n; i++) {
         int ok = isfinite(c[i]) && c[i] >= 0 && c[i] <= 1;
         for (int k = 0; k < nin; k++)
@@ -450,8 +444,13 @@ int fit_mlp_train(struct fit_mlp *net, const double *u, const double *f, const d
                                  "mlp: training row %zu has a non-finite or out-of-range value",
                                  i);
     }
-    uint64_t rng = o.seed;
-    /* Input normalisation: each input's range onto [-1, 1]. */
+    return 0;
+}
+
+/* Input normalisation: each input's range onto [-1, 1]. */
+static void set_normalisation(struct fit_mlp *net, const double *u, size_t n)
+{
+    int nin = net->width[0];
     for (int k = 0; k < nin; k++) {
         double lo = INFINITY, hi = -INFINITY;
         for (size_t i = 0; i < n; i++) {
@@ -462,109 +461,123 @@ int fit_mlp_train(struct fit_mlp *net, const double *u, const double *f, const d
         net->offset[k] = 0.5 * (lo + hi);
         net->scale[k] = hi > lo ? 2.0 / (hi - lo) : 1.0;
     }
-    /* He-uniform weights (ReLU layers; the linear output layer the same,
-     * which keeps the initial outputs small), zero biases. */
-    {
-        double *p = net->params;
-        for (int l = 0; l < L; l++) {
-            int wi = net->width[l], wo = net->width[l + 1];
-            double lim = sqrt(6.0 / wi);
-            for (size_t k = 0; k < (size_t)wo * (size_t)wi; k++)
-                p[k] = lim * (2.0 * uniform01(&rng) - 1.0);
-            memset(p + (size_t)wo * (size_t)wi, 0, (size_t)wo * sizeof(double));
-            p += (size_t)wo * (size_t)(wi + 1);
-        }
+}
+
+/* He-uniform weights (ReLU layers; the linear output layer the same,
+ * which keeps the initial outputs small), zero biases. */
+static void init_weights(struct fit_mlp *net, uint64_t *rng)
+{
+    double *p = net->params;
+    for (int l = 0; l < net->n_layers; l++) {
+        int wi = net->width[l], wo = net->width[l + 1];
+        double lim = sqrt(6.0 / wi);
+        for (size_t k = 0; k < (size_t)wo * (size_t)wi; k++)
+            p[k] = lim * (2.0 * uniform01(rng) - 1.0);
+        memset(p + (size_t)wo * (size_t)wi, 0, (size_t)wo * sizeof(double));
+        p += (size_t)wo * (size_t)(wi + 1);
     }
-    struct work w = {0};
+}
+
+/* The work buffers for n rows in batches of B; -1 (all freed) when out of memory. */
+static int work_alloc(struct work *w, const struct fit_mlp *net, size_t n, size_t B)
+{
+    int L = net->n_layers, nin = net->width[0], nout = net->width[L];
     int maxw = 0;
     for (int l = 0; l <= L; l++)
         maxw = net->width[l] > maxw ? net->width[l] : maxw;
-    w.B = (size_t)o.batch;
+    w->B = B;
     int oom = 0;
     for (int l = 0; l <= L; l++)
-        oom |= !(w.act[l] = malloc(w.B * (size_t)net->width[l] * sizeof(double)));
-    oom |= !(w.d0 = malloc(w.B * (size_t)maxw * sizeof(double)));
-    oom |= !(w.d1 = malloc(w.B * (size_t)maxw * sizeof(double)));
-    oom |= !(w.grad = calloc(net->n_params, sizeof(double)));
-    oom |= !(w.m = calloc(net->n_params, sizeof(double)));
-    oom |= !(w.v = calloc(net->n_params, sizeof(double)));
-    oom |= !(w.best = malloc(net->n_params * sizeof(double)));
-    oom |= !(w.wt = malloc(net->n_params * sizeof(double)));
-    oom |= !(w.X = malloc(n * (size_t)nin * sizeof(double)));
-    oom |= !(w.T = malloc(n * (size_t)nout * sizeof(double)));
-    oom |= !(w.C = malloc(n * sizeof(double)));
-    oom |= !(w.idx = malloc(n * sizeof(size_t)));
-    w.lower = o.lower;
+        oom |= !(w->act[l] = malloc(w->B * (size_t)net->width[l] * sizeof(double)));
+    oom |= !(w->d0 = malloc(w->B * (size_t)maxw * sizeof(double)));
+    oom |= !(w->d1 = malloc(w->B * (size_t)maxw * sizeof(double)));
+    oom |= !(w->grad = calloc(net->n_params, sizeof(double)));
+    oom |= !(w->m = calloc(net->n_params, sizeof(double)));
+    oom |= !(w->v = calloc(net->n_params, sizeof(double)));
+    oom |= !(w->best = malloc(net->n_params * sizeof(double)));
+    oom |= !(w->wt = malloc(net->n_params * sizeof(double)));
+    oom |= !(w->X = malloc(n * (size_t)nin * sizeof(double)));
+    oom |= !(w->T = malloc(n * (size_t)nout * sizeof(double)));
+    oom |= !(w->C = malloc(n * sizeof(double)));
+    oom |= !(w->idx = malloc(n * sizeof(size_t)));
     if (oom) {
-        work_free(&w);
-        return gonio_err_set(err, ENOMEM, "mlp: out of memory for %zu rows", n);
+        work_free(w);
+        return -1;
     }
+    return 0;
+}
+
+/* The rows as training sees them: normalised inputs, log targets, cosines. */
+static void work_load(struct work *w, const struct fit_mlp *net, const double *u,
+                      const double *f, const double *c, size_t n)
+{
+    int nin = net->width[0], nout = net->width[net->n_layers];
     for (size_t i = 0; i < n; i++) {
         for (int k = 0; k < nin; k++)
-            w.X[i * (size_t)nin + (size_t)k] =
+            w->X[i * (size_t)nin + (size_t)k] =
                 (u[i * (size_t)nin + (size_t)k] - net->offset[k]) * net->scale[k];
         for (int k = 0; k < nout; k++)
-            w.T[i * (size_t)nout + (size_t)k] = log1p(f[i * (size_t)nout + (size_t)k] * c[i]);
-        w.C[i] = c[i];
-        w.idx[i] = i;
+            w->T[i * (size_t)nout + (size_t)k] = log1p(f[i * (size_t)nout + (size_t)k] * c[i]);
+        w->C[i] = c[i];
+        w->idx[i] = i;
     }
-    /* Held-out rows, stratified by value: rows sorted by their summed log
-     * target, cut into n_val strata, one seeded pick from each. A plain
-     * random split of a sparse capture can miss every specular row, and a
-     * held-out set without peaks rewards a network that ignores them. */
-    size_t n_val = n >= 8 ? (size_t)floor(o.holdout * (double)n + 0.5) : 0;
-    if (n_val >= n)
-        n_val = n - 1;
-    if (n_val && stratify(&w, n, nout, &n_val, o.twin, &rng)) {
-        work_free(&w);
-        return gonio_err_set(err, ENOMEM, "mlp: out of memory for %zu rows", n);
-    }
-    size_t *val = w.idx, *tr = w.idx + n_val;
-    size_t n_tr = n - n_val;
-    r.n_train = n_tr;
-    r.n_val = n_val;
-    r.train_loss0 = batch_loss(net, &w, tr, n_tr) / ((double)n_tr * nout);
-    size_t per_epoch = (n_tr + w.B - 1) / w.B;
-    long max_epochs = o.max_epochs > 0 ? o.max_epochs
-                                       : (long)((o.max_steps + (long)per_epoch - 1) /
-                                                (long)per_epoch);
+}
+
+/* The rows of one training run: the training rows and the held-out ones. */
+struct split {
+    size_t *tr, *val;
+    size_t n_tr, n_val;
+};
+
+/* The epochs: Adam steps over shuffled batches, the best parameters (by
+ * held-out loss, else training loss) kept in w->best, early stopping and
+ * step halving. Fills r's epochs, best_epoch and early_stopped. */
+static void train_epochs(struct fit_mlp *net, struct work *w, const struct split *sp,
+                         const struct fit_mlp_train_options *o, uint64_t *rng,
+                         struct fit_mlp_train_report *r)
+{
+    int nout = net->width[net->n_layers];
+    size_t *tr = sp->tr, *val = sp->val, n_tr = sp->n_tr, n_val = sp->n_val;
+    size_t per_epoch = (n_tr + w->B - 1) / w->B;
+    long max_epochs = o->max_epochs > 0 ? o->max_epochs
+                                        : (long)((o->max_steps + (long)per_epoch - 1) /
+                                                 (long)per_epoch);
     if (max_epochs < 1)
         max_epochs = 1;
     /* Patience in epochs, but never fewer than min_patience_steps steps:
      * with a few hundred samples an epoch is a handful of steps, and a
      * small held-out set that misses the specular peak looks flat long
      * before the network has learnt the peak. */
-    long patience = o.patience;
-    long min_pat = (long)((o.min_patience_steps + (long)per_epoch - 1) / (long)per_epoch);
+    long patience = o->patience;
+    long min_pat = (long)((o->min_patience_steps + (long)per_epoch - 1) / (long)per_epoch);
     patience = patience > min_pat ? patience : min_pat;
     long cut_after = (patience + 2) / 3;
-    double best = INFINITY, best_train = INFINITY, lr = o.lr;
+    double best = INFINITY, best_train = INFINITY, lr = o->lr;
     long since_best = 0, since_cut = 0;
     long t = 0;
-    memcpy(w.best, net->params, net->n_params * sizeof(double));
-    double t0 = gonio_monotonic_s();
+    memcpy(w->best, net->params, net->n_params * sizeof(double));
     for (long ep = 1; ep <= max_epochs; ep++) {
-        shuffle(tr, n_tr, &rng);
+        shuffle(tr, n_tr, rng);
         double epoch_loss = 0;
-        for (size_t s = 0; s < n_tr; s += w.B) {
-            size_t nb = n_tr - s < w.B ? n_tr - s : w.B;
-            epoch_loss += train_step(net, &w, tr + s, nb, &o, lr, ++t);
+        for (size_t s = 0; s < n_tr; s += w->B) {
+            size_t nb = n_tr - s < w->B ? n_tr - s : w->B;
+            epoch_loss += train_step(net, w, tr + s, nb, o, lr, ++t);
         }
-        r.epochs = (int)ep;
+        r->epochs = (int)ep;
         /* Without a held-out split, the training loss decides. */
-        double score = n_val ? batch_loss(net, &w, val, n_val) : batch_loss(net, &w, tr, n_tr);
+        double score = n_val ? batch_loss(net, w, val, n_val) : batch_loss(net, w, tr, n_tr);
         if (!isfinite(score) || !isfinite(epoch_loss))
             break;
         if (score < best) {
             best = score;
-            r.best_epoch = (int)ep;
-            memcpy(w.best, net->params, net->n_params * sizeof(double));
+            r->best_epoch = (int)ep;
+            memcpy(w->best, net->params, net->n_params * sizeof(double));
             since_best = 0;
         } else {
             since_best++;
         }
         if (n_val && since_best >= patience) {
-            r.early_stopped = ep < max_epochs;
+            r->early_stopped = ep < max_epochs;
             break;
         }
         /* The step is halved when the training loss (mean over the epoch's
@@ -576,15 +589,56 @@ int fit_mlp_train(struct fit_mlp *net, const double *u, const double *f, const d
             lr *= 0.5;
             since_cut = 0;
         }
-        if (!o.quiet && ep % 500 == 0)
+        if (!o->quiet && ep % 500 == 0)
             fprintf(stderr, "mlp: epoch %ld, loss %.3g, best %.3g at %d\n", ep,
                     score / ((double)(n_val ? n_val : n_tr) * nout),
-                    best / ((double)(n_val ? n_val : n_tr) * nout), r.best_epoch);
+                    best / ((double)(n_val ? n_val : n_tr) * nout), r->best_epoch);
     }
+}
+
+int fit_mlp_train(struct fit_mlp *net, const double *u, const double *f, const double *c,
+                  size_t n, const struct fit_mlp_train_options *opt,
+                  struct fit_mlp_train_report *rep, struct gonio_err *err)
+{
+    struct fit_mlp_train_options o = opt ? *opt : fit_mlp_default_train_options();
+    struct fit_mlp_train_report r = {0};
+    int nout = net->width[net->n_layers];
+    if (n < 1)
+        return gonio_err_set(err, GONIO_EFIT, "mlp: no training rows");
+    if (o.batch < 1 || !(o.lr > 0) || o.patience < 1 || !(o.holdout >= 0 && o.holdout < 1))
+        return gonio_err_set(err, GONIO_EUSAGE, "mlp: bad training options");
+    int rc = check_rows(net, u, f, c, n, err);
+    if (rc < 0)
+        return rc;
+    uint64_t rng = o.seed;
+    set_normalisation(net, u, n);
+    init_weights(net, &rng);
+    struct work w = {0};
+    if (work_alloc(&w, net, n, (size_t)o.batch) < 0)
+        return gonio_err_set(err, ENOMEM, "mlp: out of memory for %zu rows", n);
+    w.lower = o.lower;
+    work_load(&w, net, u, f, c, n);
+    /* Held-out rows, stratified by value: rows sorted by their summed log
+     * target, cut into n_val strata, one seeded pick from each. A plain
+     * random split of a sparse capture can miss every specular row, and a
+     * held-out set without peaks rewards a network that ignores them. */
+    size_t n_val = n >= 8 ? (size_t)floor(o.holdout * (double)n + 0.5) : 0;
+    if (n_val >= n)
+        n_val = n - 1;
+    if (n_val && stratify(&w, n, nout, &n_val, o.twin, &rng)) {
+        work_free(&w);
+        return gonio_err_set(err, ENOMEM, "mlp: out of memory for %zu rows", n);
+    }
+    struct split sp = {.val = w.idx, .tr = w.idx + n_val, .n_tr = n - n_val, .n_val = n_val};
+    r.n_train = sp.n_tr;
+    r.n_val = n_val;
+    r.train_loss0 = batch_loss(net, &w, sp.tr, sp.n_tr) / ((double)sp.n_tr * nout);
+    double t0 = gonio_monotonic_s();
+    train_epochs(net, &w, &sp, &o, &rng, &r);
     r.seconds = gonio_monotonic_s() - t0;
     memcpy(net->params, w.best, net->n_params * sizeof(double));
-    r.train_loss = batch_loss(net, &w, tr, n_tr) / ((double)n_tr * nout);
-    r.val_loss = n_val ? batch_loss(net, &w, val, n_val) / ((double)n_val * nout) : NAN;
+    r.train_loss = batch_loss(net, &w, sp.tr, sp.n_tr) / ((double)sp.n_tr * nout);
+    r.val_loss = n_val ? batch_loss(net, &w, sp.val, n_val) / ((double)n_val * nout) : NAN;
     work_free(&w);
     if (rep)
         *rep = r;
