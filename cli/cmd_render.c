@@ -81,7 +81,19 @@ static int bad(const char *msg, const char *value)
     return 2;
 }
 
-int cmd_render(int argc, char **argv)
+/* The command line, as parsed: with --grid, specs and labels are filled
+ * from --truth and the --model/--label pairs once the mode is checked. */
+struct render_args {
+    const char *specs[MAX_ITEMS], *labels[MAX_ITEMS];
+    const char *models[MAX_ITEMS], *model_labels[MAX_ITEMS];
+    const char *truth, *scene, *out, *study, *study_scene;
+    int n_specs, n_models, n_labels, grid, quiet;
+    long size, columns;
+};
+
+/* Parses the options into *a. Returns -1 to go on, or the exit status
+ * (--help, or a usage error already reported). */
+static int parse_args(int argc, char **argv, struct render_args *a)
 {
     static const struct option opts[] = {
         {"material", required_argument, NULL, 'm'}, {"truth", required_argument, NULL, 't'},
@@ -92,47 +104,41 @@ int cmd_render(int argc, char **argv)
         {"study", required_argument, NULL, 'S'},    {"study-scene", required_argument, NULL, 'C'},
         {"help", no_argument, NULL, 'h'},           {NULL, 0, NULL, 0},
     };
-    const char *specs[MAX_ITEMS], *labels[MAX_ITEMS] = {0}, *truth = NULL, *scene_arg = NULL,
-                                  *out = NULL;
-    const char *models[MAX_ITEMS], *model_labels[MAX_ITEMS] = {0}, *study = NULL,
-               *study_scene = NULL;
-    int n_specs = 0, n_models = 0, n_labels = 0, grid = 0, quiet = 0;
-    long size = 256, columns = 0;
     char *end;
     optind = 1;
     int c;
     while ((c = getopt_long(argc, argv, "m:o:h", opts, NULL)) != -1) {
         switch (c) {
         case 'm':
-            if (n_specs == MAX_ITEMS)
+            if (a->n_specs == MAX_ITEMS)
                 return bad("too many --material (at most 64)", optarg);
-            specs[n_specs++] = optarg;
+            a->specs[a->n_specs++] = optarg;
             break;
         case 'M':
-            if (n_models == MAX_ITEMS - 1)
+            if (a->n_models == MAX_ITEMS - 1)
                 return bad("too many --model (at most 63)", optarg);
-            models[n_models++] = optarg;
+            a->models[a->n_models++] = optarg;
             break;
         case 'l':
-            if (n_labels == MAX_ITEMS - 1)
+            if (a->n_labels == MAX_ITEMS - 1)
                 return bad("too many --label (at most 63)", optarg);
-            model_labels[n_labels++] = optarg;
+            a->model_labels[a->n_labels++] = optarg;
             break;
-        case 't': truth = optarg; break;
-        case 'S': study = optarg; break;
-        case 'C': study_scene = optarg; break;
-        case 'g': grid = 1; break;
-        case 's': scene_arg = optarg; break;
-        case 'o': out = optarg; break;
-        case 'q': quiet = 1; break;
+        case 't': a->truth = optarg; break;
+        case 'S': a->study = optarg; break;
+        case 'C': a->study_scene = optarg; break;
+        case 'g': a->grid = 1; break;
+        case 's': a->scene = optarg; break;
+        case 'o': a->out = optarg; break;
+        case 'q': a->quiet = 1; break;
         case 'n':
-            size = strtol(optarg, &end, 10);
-            if (*end || end == optarg || size < RENDER_MIN_SIZE || size > RENDER_MAX_SIZE)
+            a->size = strtol(optarg, &end, 10);
+            if (*end || end == optarg || a->size < RENDER_MIN_SIZE || a->size > RENDER_MAX_SIZE)
                 return bad("--size must be an integer in 8..4096, not", optarg);
             break;
         case 'c':
-            columns = strtol(optarg, &end, 10);
-            if (*end || end == optarg || columns < 1 || columns > MAX_ITEMS)
+            a->columns = strtol(optarg, &end, 10);
+            if (*end || end == optarg || a->columns < 1 || a->columns > MAX_ITEMS)
                 return bad("--columns must be an integer in 1..64, not", optarg);
             break;
         case 'h': usage(stdout); return 0;
@@ -141,68 +147,93 @@ int cmd_render(int argc, char **argv)
     }
     if (optind != argc)
         return bad("unexpected argument", argv[optind]);
-    if (study) {
-        if (grid || truth || n_models || n_labels || n_specs || out)
+    return -1;
+}
+
+/* Checks that the options make one of the three modes (--material,
+ * --grid, --study); for --grid, lists the truth then the models as the
+ * images to draw. Returns 0, or 2 with the mistake reported. */
+static int check_mode(struct render_args *a)
+{
+    if (a->study) {
+        if (a->grid || a->truth || a->n_models || a->n_labels || a->n_specs || a->out)
             return bad("--study DIR goes alone (it writes DIR/renders/MATERIAL/)", NULL);
-    } else if (study_scene) {
-        return bad("--study-scene needs --study", NULL);
-    } else if (!out) {
-        return bad("--out DIR is required", NULL);
+        return 0; /* the study's folder is checked with the scene */
     }
-    if (study) {
-        /* checked below, with the scene */
-    } else if (grid) {
-        if (!truth || !n_models)
+    if (a->study_scene)
+        return bad("--study-scene needs --study", NULL);
+    if (!a->out)
+        return bad("--out DIR is required", NULL);
+    if (a->grid) {
+        if (!a->truth || !a->n_models)
             return bad("--grid needs --truth SPEC and at least one --model SPEC", NULL);
-        if (n_specs)
+        if (a->n_specs)
             return bad("--material does not go with --grid (use --truth and --model)", NULL);
-        if (n_labels > n_models)
-            return bad("more --label than --model", model_labels[n_labels - 1]);
-        specs[0] = truth;
-        labels[0] = "truth";
-        for (int i = 0; i < n_models; i++) {
-            specs[1 + i] = models[i];
-            labels[1 + i] = model_labels[i];
+        if (a->n_labels > a->n_models)
+            return bad("more --label than --model", a->model_labels[a->n_labels - 1]);
+        a->specs[0] = a->truth;
+        a->labels[0] = "truth";
+        for (int i = 0; i < a->n_models; i++) {
+            a->specs[1 + i] = a->models[i];
+            a->labels[1 + i] = a->model_labels[i];
         }
-        n_specs = 1 + n_models;
+        a->n_specs = 1 + a->n_models;
     } else {
-        if (truth || n_models || n_labels || columns)
+        if (a->truth || a->n_models || a->n_labels || a->columns)
             return bad("--truth, --model, --label and --columns need --grid or --study", NULL);
-        if (!n_specs)
+        if (!a->n_specs)
             return bad("name at least one --material SPEC", NULL);
     }
+    return 0;
+}
 
+/* Opens every material (all of them before anything is written) and
+ * renders the set, with the grid if asked. Returns the exit status. */
+static int render_materials(const struct render_args *a, const struct render_scene *sc)
+{
     struct gonio_err err = {0};
-    struct render_scene sc;
-    int rc = render_scene_load(scene_arg ? scene_arg : "default", &sc, &err);
-    if (rc < 0) {
-        fprintf(stderr, "gonio render: %s\n", err.msg);
-        return gonio_exit_status(err.code);
-    }
-    if (study)
-        return render_study(study, study_scene, &sc, (int)size, (int)columns, quiet);
     struct render_item items[MAX_ITEMS];
     brdf_material *mats[MAX_ITEMS] = {0};
     int status = 0;
-    for (int i = 0; i < n_specs; i++) {
-        mats[i] = fit_material_open(specs[i], &err); /* model:FILE too */
+    for (int i = 0; i < a->n_specs; i++) {
+        mats[i] = fit_material_open(a->specs[i], &err); /* model:FILE too */
         if (!mats[i]) {
             fprintf(stderr, "gonio render: %s\n", err.msg);
             status = gonio_exit_status(err.code);
             goto done;
         }
-        items[i] = (struct render_item){specs[i], labels[i], mats[i]};
+        items[i] = (struct render_item){a->specs[i], a->labels[i], mats[i]};
     }
-    struct render_set_options o = {(int)size, grid, (int)columns, quiet ? NULL : stderr};
-    if (render_write_set(out, &sc, items, n_specs, &o, &err) < 0) {
+    struct render_set_options o = {(int)a->size, a->grid, (int)a->columns,
+                                   a->quiet ? NULL : stderr};
+    if (render_write_set(a->out, sc, items, a->n_specs, &o, &err) < 0) {
         fprintf(stderr, "gonio render: %s\n", err.msg);
         status = gonio_exit_status(err.code);
         goto done;
     }
-    printf("wrote %d image%s%s to %s (scene %s)\n", n_specs, n_specs == 1 ? "" : "s",
-           grid ? " and grid.exr/grid.png" : "", out, sc.name);
+    printf("wrote %d image%s%s to %s (scene %s)\n", a->n_specs, a->n_specs == 1 ? "" : "s",
+           a->grid ? " and grid.exr/grid.png" : "", a->out, sc->name);
 done:
-    for (int i = 0; i < n_specs; i++)
+    for (int i = 0; i < a->n_specs; i++)
         brdf_material_free(mats[i]);
     return status;
+}
+
+int cmd_render(int argc, char **argv)
+{
+    struct render_args a = {.size = 256};
+    int rc = parse_args(argc, argv, &a);
+    if (rc >= 0)
+        return rc;
+    if ((rc = check_mode(&a)) != 0)
+        return rc;
+    struct gonio_err err = {0};
+    struct render_scene sc;
+    if (render_scene_load(a.scene ? a.scene : "default", &sc, &err) < 0) {
+        fprintf(stderr, "gonio render: %s\n", err.msg);
+        return gonio_exit_status(err.code);
+    }
+    if (a.study)
+        return render_study(a.study, a.study_scene, &sc, (int)a.size, (int)a.columns, a.quiet);
+    return render_materials(&a, &sc);
 }

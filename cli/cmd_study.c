@@ -174,130 +174,180 @@ static void pass_on_interrupt(const struct running *run, int n_workers, int *pas
             kill(run[w].pid, SIGTERM);
 }
 
-static int run_jobs(const struct study_spec *s, const char *dir, int n_workers, int quiet)
+/* One run of a study's jobs: the jobs of the shard still to run, the
+ * workers running them, and the counts the progress and the summary
+ * report. */
+struct study_run {
+    const struct study_spec *s;
+    const char *dir;
+    int n_workers;
+    struct pending *p; /* the jobs to run, in by_weight order */
+    size_t n;
+    size_t total;    /* jobs in the shard */
+    size_t finished; /* of those, done before this run */
+    size_t started;  /* of those to run, interrupted before (journal kept) */
+    double weight_all, weight_done;
+    struct running *run; /* a slot per worker; pid 0 when free */
+    struct progress bar;
+    double t_start;
+    size_t next, done, failed, stopped;
+    int active, passed;
+};
+
+/* The shard's jobs still to run into r->p, heaviest first per material
+ * (by_weight), counting those finished and started before. Returns 0, or
+ * -1 when out of memory. */
+static int list_pending(struct study_run *r)
 {
-    size_t total = 0, finished = 0, started = 0, n = 0;
+    const struct study_spec *s = r->s;
     struct pending *p = malloc((study_job_count(s) + 1) * sizeof *p);
-    if (!p) {
-        fprintf(stderr, "gonio study: out of memory\n");
-        return 1;
-    }
+    if (!p)
+        return -1;
     for (size_t k = 0; k < study_job_count(s); k++) {
         if (!study_job_in_shard(s, k))
             continue;
-        total++;
-        study_job_at(s, k, &p[n].job);
-        if (study_job_rows_done(s, &p[n].job, dir) == s->n_models) {
-            finished++;
+        r->total++;
+        study_job_at(s, k, &p[r->n].job);
+        if (study_job_rows_done(s, &p[r->n].job, r->dir) == s->n_models) {
+            r->finished++;
             continue;
         }
-        p[n].weight = study_job_weight(s, &p[n].job);
+        p[r->n].weight = study_job_weight(s, &p[r->n].job);
         char journal[4200];
         struct stat st;
-        snprintf(journal, sizeof journal, "%s/jobs/%s/samples.csv", dir, p[n].job.id);
-        started += stat(journal, &st) == 0; /* an interrupted job: its capture resumes */
-        n++;
+        snprintf(journal, sizeof journal, "%s/jobs/%s/samples.csv", r->dir, p[r->n].job.id);
+        r->started += stat(journal, &st) == 0; /* an interrupted job: its capture resumes */
+        r->n++;
     }
-    qsort(p, n, sizeof *p, by_weight);
-    double weight_all = 0, weight_done = 0;
-    for (size_t i = 0; i < n; i++)
-        weight_all += p[i].weight;
-    fprintf(stderr,
-            "study: %zu jobs (%zu rows) in shard %d/%d: %zu finished, %zu to run on %d "
-            "workers\n",
-            total, total * s->n_models, s->shard_i, s->shard_n, finished, n, n_workers);
-    if (finished || started)
-        fprintf(stderr, "study: resuming: %zu of %zu jobs done, %zu started (their journals are "
-                        "resumed) in %s\n",
-                finished, total, started, dir);
-    struct progress bar;
-    progress_init(&bar, "study", quiet);
-    progress_show(&bar, &(struct progress_state){.done = finished, .total = total,
-                                                 .unit = "jobs", .rig_time_s = NAN,
-                                                 .estimate_s = NAN, .eta_s = NAN,
-                                                 .fit_error = NAN});
-    struct running *run = calloc((size_t)n_workers, sizeof *run);
-    if (!run) {
-        free(p);
-        fprintf(stderr, "gonio study: out of memory\n");
-        return 1;
-    }
-    double t_start = gonio_monotonic_s();
-    size_t next = 0, done = 0, failed = 0, stopped = 0;
-    int active = 0, passed = 0;
-    while (done < n) {
-        while (active < n_workers && next < n && !interrupt_signal()) {
-            fflush(stdout);
-            fflush(stderr);
-            pid_t pid = fork();
-            if (pid < 0) {
-                fprintf(stderr, "gonio study: fork: %s\n", strerror(errno));
+    qsort(p, r->n, sizeof *p, by_weight);
+    for (size_t i = 0; i < r->n; i++)
+        r->weight_all += p[i].weight;
+    r->p = p;
+    return 0;
+}
+
+/* Fork workers for the next jobs while a worker is free and no
+ * interrupt came. */
+static void start_workers(struct study_run *r)
+{
+    while (r->active < r->n_workers && r->next < r->n && !interrupt_signal()) {
+        fflush(stdout);
+        fflush(stderr);
+        pid_t pid = fork();
+        if (pid < 0) {
+            fprintf(stderr, "gonio study: fork: %s\n", strerror(errno));
+            break;
+        }
+        if (pid == 0)
+            child_run(r->s, &r->p[r->next].job, r->dir);
+        for (int w = 0; w < r->n_workers; w++)
+            if (r->run[w].pid == 0) {
+                r->run[w] = (struct running){pid, r->next, gonio_monotonic_s()};
                 break;
             }
-            if (pid == 0)
-                child_run(s, &p[next].job, dir);
-            for (int w = 0; w < n_workers; w++)
-                if (run[w].pid == 0) {
-                    run[w] = (struct running){pid, next, gonio_monotonic_s()};
-                    break;
-                }
-            active++;
-            next++;
+        r->active++;
+        r->next++;
+    }
+}
+
+/* Worker pid ended with status: count its job done, failed or stopped
+ * (interrupted), and show the progress. */
+static void job_ended(struct study_run *r, pid_t pid, int status)
+{
+    for (int w = 0; w < r->n_workers; w++) {
+        if (r->run[w].pid != pid)
+            continue;
+        const struct pending *q = &r->p[r->run[w].job];
+        int ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+        r->run[w].pid = 0;
+        r->active--;
+        if (WIFEXITED(status) && WEXITSTATUS(status) == INTERRUPT_EXIT) {
+            r->stopped++; /* its journal is kept: the rerun resumes it */
+            continue;
         }
-        if (active == 0) { /* fork failed, or interrupted, with nothing running */
+        r->done++;
+        r->failed += !ok;
+        r->weight_done += q->weight;
+        double elapsed = gonio_monotonic_s() - r->t_start;
+        if (!ok)
+            progress_note(&r->bar, "study: %s %s after %.1f s", q->job.id,
+                          WIFSIGNALED(status) ? "killed" : "FAILED",
+                          gonio_monotonic_s() - r->run[w].t0);
+        /* Wall time: the jobs' relative weights, scaled by the time
+         * the finished ones took. */
+        progress_show(&r->bar,
+                      &(struct progress_state){
+                          .done = r->finished + r->done, .total = r->total, .unit = "jobs",
+                          .rig_time_s = NAN, .estimate_s = NAN,
+                          .eta_s = elapsed * (r->weight_all - r->weight_done) / r->weight_done,
+                          .fit_error = NAN});
+    }
+}
+
+/* Keep n_workers jobs running until all are done, a fork or wait fails,
+ * or an interrupt lets the running ones stop. */
+static void run_workers(struct study_run *r)
+{
+    r->t_start = gonio_monotonic_s();
+    while (r->done < r->n) {
+        start_workers(r);
+        if (r->active == 0) { /* fork failed, or interrupted, with nothing running */
             if (!interrupt_signal())
-                failed += n - done;
+                r->failed += r->n - r->done;
             break;
         }
         int status;
         pid_t pid = wait(&status);
-        pass_on_interrupt(run, n_workers, &passed);
+        pass_on_interrupt(r->run, r->n_workers, &r->passed);
         if (pid < 0) {
             if (errno == EINTR)
                 continue;
             fprintf(stderr, "gonio study: wait: %s\n", strerror(errno));
             break;
         }
-        for (int w = 0; w < n_workers; w++) {
-            if (run[w].pid != pid)
-                continue;
-            const struct pending *q = &p[run[w].job];
-            int ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
-            run[w].pid = 0;
-            active--;
-            if (WIFEXITED(status) && WEXITSTATUS(status) == INTERRUPT_EXIT) {
-                stopped++; /* its journal is kept: the rerun resumes it */
-                continue;
-            }
-            done++;
-            failed += !ok;
-            weight_done += q->weight;
-            double elapsed = gonio_monotonic_s() - t_start;
-            if (!ok)
-                progress_note(&bar, "study: %s %s after %.1f s", q->job.id,
-                              WIFSIGNALED(status) ? "killed" : "FAILED",
-                              gonio_monotonic_s() - run[w].t0);
-            /* Wall time: the jobs' relative weights, scaled by the time
-             * the finished ones took. */
-            progress_show(&bar, &(struct progress_state){
-                                    .done = finished + done, .total = total, .unit = "jobs",
-                                    .rig_time_s = NAN, .estimate_s = NAN,
-                                    .eta_s = elapsed * (weight_all - weight_done) / weight_done,
-                                    .fit_error = NAN});
-        }
+        job_ended(r, pid, status);
     }
-    progress_end(&bar);
-    free(run);
-    free(p);
+}
+
+static int run_jobs(const struct study_spec *s, const char *dir, int n_workers, int quiet)
+{
+    struct study_run r = {.s = s, .dir = dir, .n_workers = n_workers};
+    if (list_pending(&r) < 0) {
+        fprintf(stderr, "gonio study: out of memory\n");
+        return 1;
+    }
+    fprintf(stderr,
+            "study: %zu jobs (%zu rows) in shard %d/%d: %zu finished, %zu to run on %d "
+            "workers\n",
+            r.total, r.total * s->n_models, s->shard_i, s->shard_n, r.finished, r.n, n_workers);
+    if (r.finished || r.started)
+        fprintf(stderr, "study: resuming: %zu of %zu jobs done, %zu started (their journals are "
+                        "resumed) in %s\n",
+                r.finished, r.total, r.started, dir);
+    progress_init(&r.bar, "study", quiet);
+    progress_show(&r.bar, &(struct progress_state){.done = r.finished, .total = r.total,
+                                                   .unit = "jobs", .rig_time_s = NAN,
+                                                   .estimate_s = NAN, .eta_s = NAN,
+                                                   .fit_error = NAN});
+    r.run = calloc((size_t)n_workers, sizeof *r.run);
+    if (!r.run) {
+        free(r.p);
+        fprintf(stderr, "gonio study: out of memory\n");
+        return 1;
+    }
+    run_workers(&r);
+    progress_end(&r.bar);
+    free(r.run);
+    free(r.p);
     if (interrupt_signal()) {
         fprintf(stderr,
                 "study: %s: %zu of %zu jobs done, %zu stopped at a point with their journals "
                 "kept; run the same command again to resume\n",
-                interrupt_signal() == SIGTERM ? "SIGTERM" : "SIGINT", finished + done, total,
-                stopped);
+                interrupt_signal() == SIGTERM ? "SIGTERM" : "SIGINT", r.finished + r.done,
+                r.total, r.stopped);
         return INTERRUPT_EXIT;
     }
-    return failed ? 1 : 0;
+    return r.failed ? 1 : 0;
 }
 
 int cmd_study(int argc, char **argv)

@@ -138,64 +138,87 @@ static void extend(double v, double *lo, double *hi)
 
 static const char *dashes[] = {NULL, "7 3", "2 2.5", "9 3 2 3"};
 
-int report_plot_slices(const struct report_slices *in, const char *id_prefix, char **svg,
-                       size_t *len, struct gonio_err *err)
-{
+/* What the panels of one figure share: the input, its incidences, every
+ * curve evaluated once (a row of N_GRID values per panel and curve: the
+ * truth first if there is one, then the models) and the scratch buffers
+ * the evaluation and the drawing reuse. */
+struct slices_fig {
+    const struct report_slices *in;
     double ti[REPORT_SLICES_MAX_PANELS];
-    int np = report_slices_theta_i(in, ti, err);
-    if (np < 0)
-        return np;
-    if (!in->truth && !in->n_models && !in->n_samples)
-        return gonio_err_set(err, GONIO_EUSAGE, "slices: nothing to draw (no material, model "
-                                                "or samples)");
-    size_t n_curves = (in->truth ? 1 : 0) + in->n_models;
-    size_t ng = 0;
-    double *tr = malloc(N_GRID * sizeof *tr);
-    double *vals = malloc((size_t)np * (n_curves ? n_curves : 1) * N_GRID * sizeof *vals);
-    double *rgb = malloc(3 * N_GRID * sizeof *rgb);
-    struct brdf_pair *pairs = malloc(N_GRID * sizeof *pairs);
-    double *px = malloc(N_GRID * sizeof *px), *py = malloc(N_GRID * sizeof *py);
-    int rc = 0;
-    svg_doc *s = NULL;
-    if (!tr || !vals || !rgb || !pairs || !px || !py) {
-        rc = gonio_err_set(err, GONIO_EFIT, "slices: out of memory");
-        goto out;
-    }
-    /* Evaluate every curve; the y range comes from the truth and the
-     * samples (models that run wild are clipped, not allowed to squash the
-     * axis), or from the models when there is nothing else. */
-    double lo = INFINITY, hi = 0, mlo = INFINITY, mhi = 0;
-    for (int p = 0; p < np; p++) {
-        ng = theta_r_grid(ti[p], tr);
-        for (size_t c = 0; c < n_curves; c++) {
+    int np;
+    size_t n_curves;
+    double *tr, *vals, *rgb, *px, *py;
+    struct brdf_pair *pairs;
+};
+
+static int fig_alloc(struct slices_fig *f, struct gonio_err *err)
+{
+    size_t rows = (size_t)f->np * (f->n_curves ? f->n_curves : 1);
+    f->tr = malloc(N_GRID * sizeof *f->tr);
+    f->vals = malloc(rows * N_GRID * sizeof *f->vals);
+    f->rgb = malloc(3 * N_GRID * sizeof *f->rgb);
+    f->pairs = malloc(N_GRID * sizeof *f->pairs);
+    f->px = malloc(N_GRID * sizeof *f->px);
+    f->py = malloc(N_GRID * sizeof *f->py);
+    if (!f->tr || !f->vals || !f->rgb || !f->pairs || !f->px || !f->py)
+        return gonio_err_set(err, GONIO_EFIT, "slices: out of memory");
+    return 0;
+}
+
+static void fig_free(struct slices_fig *f)
+{
+    free(f->tr);
+    free(f->vals);
+    free(f->rgb);
+    free(f->pairs);
+    free(f->px);
+    free(f->py);
+}
+
+static double *curve_values(const struct slices_fig *f, int p, size_t c)
+{
+    return f->vals + ((size_t)p * f->n_curves + c) * N_GRID;
+}
+
+/* Evaluates every curve and returns the y range in *lo..*hi: it comes from
+ * the truth and the samples (models that run wild are clipped, not allowed
+ * to squash the axis), or from the models when there is nothing else. */
+static int evaluate_curves(struct slices_fig *f, double *lo, double *hi, struct gonio_err *err)
+{
+    const struct report_slices *in = f->in;
+    double mlo = INFINITY, mhi = 0;
+    *lo = INFINITY;
+    *hi = 0;
+    for (int p = 0; p < f->np; p++) {
+        size_t ng = theta_r_grid(f->ti[p], f->tr);
+        for (size_t c = 0; c < f->n_curves; c++) {
             const brdf_material *m = in->truth ? (c ? in->models[c - 1] : in->truth)
                                                : in->models[c];
-            double *v = vals + ((size_t)p * n_curves + c) * N_GRID;
-            eval_slice(m, ti[p], tr, ng, in->channel, pairs, rgb, v);
+            double *v = curve_values(f, p, c);
+            eval_slice(m, f->ti[p], f->tr, ng, in->channel, f->pairs, f->rgb, v);
             for (size_t i = 0; i < ng; i++)
-                extend(v[i], in->truth && !c ? &lo : &mlo, in->truth && !c ? &hi : &mhi);
+                extend(v[i], in->truth && !c ? lo : &mlo, in->truth && !c ? hi : &mhi);
         }
     }
     for (size_t i = 0; i < in->n_samples; i++)
-        extend(report_channel_value(in->channel, in->samples[i].rgb), &lo, &hi);
-    if (!(hi > 0)) {
-        lo = mlo;
-        hi = mhi;
+        extend(report_channel_value(in->channel, in->samples[i].rgb), lo, hi);
+    if (!(*hi > 0)) {
+        *lo = mlo;
+        *hi = mhi;
     }
-    if (!(hi > 0)) {
-        rc = gonio_err_set(err, GONIO_EBADDATA, "slices: no positive value to plot");
-        goto out;
-    }
-    if (lo < hi / DYNAMIC_RANGE)
-        lo = hi / DYNAMIC_RANGE;
-    struct plot_axis ax, ay;
-    plot_axis_fixed(&ax, PLOT_LINEAR, -THETA_R_MAX, THETA_R_MAX, 9);
-    plot_axis_fit(&ay, PLOT_LOG, lo, hi, 7);
+    if (!(*hi > 0))
+        return gonio_err_set(err, GONIO_EBADDATA, "slices: no positive value to plot");
+    if (*lo < *hi / DYNAMIC_RANGE)
+        *lo = *hi / DYNAMIC_RANGE;
+    return 0;
+}
 
-    /* Legend entries: truth, samples, models. */
-    struct plot_legend_entry le[2 + 16];
+/* Legend entries: truth, samples, models (at most 16, named in names[]).
+ * Returns their number. */
+static size_t slices_legend(const struct report_slices *in, struct plot_legend_entry *le,
+                            char names[][96])
+{
     size_t nl = 0;
-    char model_names[16][96];
     if (in->truth)
         le[nl++] = (struct plot_legend_entry){
             in->truth_label ? in->truth_label : "ground truth", {"#000000", 1.6, NULL, 0, 0, 0}};
@@ -206,12 +229,104 @@ int report_plot_slices(const struct report_slices *in, const char *id_prefix, ch
         const char *name = in->model_labels && in->model_labels[k]
                                ? in->model_labels[k]
                                : brdf_material_name(in->models[k]);
-        snprintf(model_names[k], sizeof model_names[k], "%s", name);
+        snprintf(names[k], 96, "%s", name);
         le[nl++] = (struct plot_legend_entry){
-            model_names[k], {plot_color(k), 1.5, dashes[k % 4], 0, 0, 0}};
+            names[k], {plot_color(k), 1.5, dashes[k % 4], 0, 0, 0}};
     }
+    return nl;
+}
+
+static const char *channel_ylabel(enum report_channel c)
+{
+    return c == REPORT_Y   ? "BRDF (luminance), 1/sr"
+           : c == REPORT_R ? "BRDF (red), 1/sr"
+           : c == REPORT_G ? "BRDF (green), 1/sr"
+                           : "BRDF (blue), 1/sr";
+}
+
+/* The curves of panel p, models under the truth so the truth stays
+ * readable. */
+static void draw_curves(svg_doc *s, const struct slices_fig *f, int p,
+                        const struct plot_panel *pn)
+{
+    const struct report_slices *in = f->in;
+    size_t ng = theta_r_grid(f->ti[p], f->tr);
+    double *px = f->px, *py = f->py;
+    for (size_t c = f->n_curves; c-- > 0;) {
+        const double *v = curve_values(f, p, c);
+        for (size_t i = 0; i < ng; i++) {
+            px[i] = plot_px(pn, f->tr[i]);
+            py[i] = plot_py(pn, v[i]);
+            /* Far outside the area: cut, so a runaway model draws no
+             * giant coordinates. */
+            if (py[i] < pn->y - 4 * pn->h || py[i] > pn->y + 5 * pn->h)
+                py[i] = py[i] < pn->y ? pn->y - 4 * pn->h : pn->y + 5 * pn->h;
+        }
+        int is_truth = in->truth && c == 0;
+        size_t k = in->truth ? c - 1 : c;
+        svg_polyline(s, px, py, ng, is_truth ? "#000000" : plot_color(k),
+                     is_truth ? 1.6 : 1.5, is_truth ? NULL : dashes[k % 4]);
+    }
+}
+
+/* The samples measured at (about) the panel's incidence ti. */
+static void draw_samples(svg_doc *s, const struct report_slices *in, double ti,
+                         const struct plot_panel *pn)
+{
+    struct plot_style sst = {"#000000", 0, NULL, SVG_CIRCLE, 5.5, 1};
+    for (size_t i = 0; i < in->n_samples; i++) {
+        const struct report_sample *sm = &in->samples[i];
+        if (!(fabs(sm->theta_i - ti) <= SAMPLE_TOL_DEG))
+            continue;
+        double v = report_channel_value(in->channel, sm->rgb);
+        char tip[128];
+        snprintf(tip, sizeof tip, "θi %.2f°, θr %.2f°: %.4g 1/sr", sm->theta_i, sm->theta_r, v);
+        plot_draw_marker(s, &sst, plot_px(pn, sm->theta_r), plot_py(pn, v), tip);
+    }
+}
+
+/* Panel p: frame, mirror direction, curves and samples, clipped to its area. */
+static void draw_panel(svg_doc *s, const struct slices_fig *f, int p,
+                       const struct plot_panel *pn, const char *ylabel)
+{
+    char title[64];
+    snprintf(title, sizeof title, "θi = %g°", f->ti[p]);
+    plot_draw_frame(s, pn, title, "θr, degrees", ylabel);
+    svg_clip_begin(s, pn->x, pn->y, pn->w, pn->h);
+    double xm = plot_px(pn, f->ti[p]);
+    svg_line(s, xm, pn->y, xm, pn->y + pn->h, "#9a9a9a", 0.8, "3 3"); /* mirror direction */
+    draw_curves(s, f, p, pn);
+    draw_samples(s, f->in, f->ti[p], pn);
+    svg_group_end(s);
+}
+
+int report_plot_slices(const struct report_slices *in, const char *id_prefix, char **svg,
+                       size_t *len, struct gonio_err *err)
+{
+    struct slices_fig f = {.in = in};
+    f.np = report_slices_theta_i(in, f.ti, err);
+    if (f.np < 0)
+        return f.np;
+    if (!in->truth && !in->n_models && !in->n_samples)
+        return gonio_err_set(err, GONIO_EUSAGE, "slices: nothing to draw (no material, model "
+                                                "or samples)");
+    f.n_curves = (in->truth ? 1 : 0) + in->n_models;
+    svg_doc *s = NULL;
+    double lo, hi;
+    int rc = fig_alloc(&f, err);
+    if (rc == 0)
+        rc = evaluate_curves(&f, &lo, &hi, err);
+    if (rc < 0)
+        goto out;
+    struct plot_axis ax, ay;
+    plot_axis_fixed(&ax, PLOT_LINEAR, -THETA_R_MAX, THETA_R_MAX, 9);
+    plot_axis_fit(&ay, PLOT_LOG, lo, hi, 7);
+    struct plot_legend_entry le[2 + 16];
+    char model_names[16][96];
+    size_t nl = slices_legend(in, le, model_names);
+
     size_t cols, rows;
-    plot_grid((size_t)np, MAX_COLS, &cols, &rows);
+    plot_grid((size_t)f.np, MAX_COLS, &cols, &rows);
     double width = LEFT + (double)cols * PANEL_W + (double)(cols - 1) * GAP_X + RIGHT;
     if (in->title && width < 0.62 * 14 * (double)strlen(in->title) + 40)
         width = 0.62 * 14 * (double)strlen(in->title) + 40; /* the title fits */
@@ -227,49 +342,11 @@ int report_plot_slices(const struct report_slices *in, const char *id_prefix, ch
     if (in->title)
         svg_text(s, width / 2, 22, SVG_MIDDLE, 14, 0, 1, "#222222", in->title);
     plot_draw_legend(s, LEFT, top, width - LEFT - RIGHT, le, nl);
-    const char *ylabel = in->channel == REPORT_Y   ? "BRDF (luminance), 1/sr"
-                         : in->channel == REPORT_R ? "BRDF (red), 1/sr"
-                         : in->channel == REPORT_G ? "BRDF (green), 1/sr"
-                                                   : "BRDF (blue), 1/sr";
-    for (int p = 0; p < np; p++) {
+    for (int p = 0; p < f.np; p++) {
         struct plot_panel pn = {LEFT + (double)((size_t)p % cols) * (PANEL_W + GAP_X),
                                 first + (double)((size_t)p / cols) * (PANEL_H + GAP_Y),
                                 PANEL_W, PANEL_H, ax, ay};
-        char title[64];
-        snprintf(title, sizeof title, "θi = %g°", ti[p]);
-        plot_draw_frame(s, &pn, title, "θr, degrees", (size_t)p % cols == 0 ? ylabel : NULL);
-        svg_clip_begin(s, pn.x, pn.y, pn.w, pn.h);
-        double xm = plot_px(&pn, ti[p]);
-        svg_line(s, xm, pn.y, xm, pn.y + pn.h, "#9a9a9a", 0.8, "3 3"); /* mirror direction */
-        ng = theta_r_grid(ti[p], tr);
-        /* Models under the truth, so the truth stays readable. */
-        for (size_t c = n_curves; c-- > 0;) {
-            const double *v = vals + ((size_t)p * n_curves + c) * N_GRID;
-            for (size_t i = 0; i < ng; i++) {
-                px[i] = plot_px(&pn, tr[i]);
-                py[i] = plot_py(&pn, v[i]);
-                /* Far outside the area: cut, so a runaway model draws no
-                 * giant coordinates. */
-                if (py[i] < pn.y - 4 * pn.h || py[i] > pn.y + 5 * pn.h)
-                    py[i] = py[i] < pn.y ? pn.y - 4 * pn.h : pn.y + 5 * pn.h;
-            }
-            int is_truth = in->truth && c == 0;
-            size_t k = in->truth ? c - 1 : c;
-            svg_polyline(s, px, py, ng, is_truth ? "#000000" : plot_color(k),
-                         is_truth ? 1.6 : 1.5, is_truth ? NULL : dashes[k % 4]);
-        }
-        struct plot_style sst = {"#000000", 0, NULL, SVG_CIRCLE, 5.5, 1};
-        for (size_t i = 0; i < in->n_samples; i++) {
-            const struct report_sample *sm = &in->samples[i];
-            if (!(fabs(sm->theta_i - ti[p]) <= SAMPLE_TOL_DEG))
-                continue;
-            double v = report_channel_value(in->channel, sm->rgb);
-            char tip[128];
-            snprintf(tip, sizeof tip, "θi %.2f°, θr %.2f°: %.4g 1/sr", sm->theta_i, sm->theta_r,
-                     v);
-            plot_draw_marker(s, &sst, plot_px(&pn, sm->theta_r), plot_py(&pn, v), tip);
-        }
-        svg_group_end(s);
+        draw_panel(s, &f, p, &pn, (size_t)p % cols == 0 ? channel_ylabel(in->channel) : NULL);
     }
     *svg = svg_finish(s, len);
     s = NULL;
@@ -277,11 +354,6 @@ int report_plot_slices(const struct report_slices *in, const char *id_prefix, ch
         rc = gonio_err_set(err, GONIO_EFIT, "slices: out of memory");
 out:
     svg_free(s);
-    free(tr);
-    free(vals);
-    free(rgb);
-    free(pairs);
-    free(px);
-    free(py);
+    fig_free(&f);
     return rc;
 }

@@ -68,44 +68,173 @@ static struct plot_style plan_style(size_t p, const char *colour)
     return (struct plot_style){colour, 0, NULL, plan_markers[p % 8], 8, 0};
 }
 
-int report_plot_pareto(const struct report_results *r, const struct report_plot_opts *o,
-                       const char *id_prefix, char **svg, size_t *len, struct gonio_err *err)
+/* What the panels of a Pareto figure share: the results, the options, the
+ * scene, and scratch sized for every row (a panel's points, the row of
+ * each, those on the front, and the front's staircase). */
+struct pareto_fig {
+    const struct report_results *r;
+    const struct report_plot_opts *o;
+    const char *scene;
+    double *x, *y, *sx, *sy;
+    size_t *which, *front;
+};
+
+static int pareto_alloc(struct pareto_fig *f, struct gonio_err *err)
 {
-    const char *scene = scene_of(r, o);
-    /* Axes shared by every panel, so materials compare at a glance. */
+    size_t n = f->r->n_rows;
+    f->x = malloc(n * sizeof *f->x);
+    f->y = malloc(n * sizeof *f->y);
+    f->which = malloc(n * sizeof *f->which);
+    f->front = malloc(n * sizeof *f->front);
+    f->sx = malloc((2 * n + 2) * sizeof *f->sx);
+    f->sy = malloc((2 * n + 2) * sizeof *f->sy);
+    if (!f->x || !f->y || !f->which || !f->front || !f->sx || !f->sy)
+        return gonio_err_set(err, GONIO_EFIT, "pareto: out of memory");
+    return 0;
+}
+
+static void pareto_free(struct pareto_fig *f)
+{
+    free(f->x);
+    free(f->y);
+    free(f->which);
+    free(f->front);
+    free(f->sx);
+    free(f->sy);
+}
+
+/* The materials with a plottable row (their indices in mat_idx), and axes
+ * shared by every panel, so materials compare at a glance. Returns their
+ * number; the axes are set only when it is not 0. */
+static size_t pareto_materials(const struct pareto_fig *f, size_t *mat_idx,
+                               struct plot_axis *ax, struct plot_axis *ay)
+{
+    const struct report_results *r = f->r;
     double xlo = INFINITY, xhi = 0, ylo = INFINITY, yhi = 0;
-    size_t n_mat = 0, mat_idx[REPORT_LIST_MAX];
+    size_t n_mat = 0;
     for (size_t m = 0; m < r->materials.n; m++) {
         int any = 0;
         for (size_t i = 0; i < r->n_rows; i++) {
             const struct report_row *w = &r->rows[i];
-            if (strcmp(w->material, r->materials.name[m]) || !usable(w, scene, o, 1))
+            if (strcmp(w->material, r->materials.name[m]) || !usable(w, f->scene, f->o, 1))
                 continue;
             any = 1;
             xlo = fmin(xlo, w->rig_time_s);
             xhi = fmax(xhi, w->rig_time_s);
-            ylo = fmin(ylo, value(w, o));
-            yhi = fmax(yhi, value(w, o));
+            ylo = fmin(ylo, value(w, f->o));
+            yhi = fmax(yhi, value(w, f->o));
         }
         if (any)
             mat_idx[n_mat++] = m;
     }
-    if (!n_mat)
-        return gonio_err_set(err, GONIO_EUSAGE,
-                             "pareto: no row of scene '%s' has a %s on the %s domain and a "
-                             "rig time",
-                             scene, report_metric_name(o->metric), report_domain_name(o->domain));
-    struct plot_axis ax, ay;
-    plot_axis_fit(&ax, PLOT_DURATION, xlo, xhi, 8);
-    plot_axis_fit(&ay, PLOT_LOG, ylo, yhi, 6);
+    if (n_mat) {
+        plot_axis_fit(ax, PLOT_DURATION, xlo, xhi, 8);
+        plot_axis_fit(ay, PLOT_LOG, ylo, yhi, 6);
+    }
+    return n_mat;
+}
 
-    struct plot_legend_entry le[2 * REPORT_LIST_MAX + 1];
+/* Legend entries: a colour per model, a marker per plan, the front. */
+static size_t pareto_legend(const struct report_results *r, struct plot_legend_entry *le)
+{
     size_t nl = 0;
     for (size_t k = 0; k < r->models.n && nl < 16; k++)
         le[nl++] = (struct plot_legend_entry){r->models.name[k], model_style(k)};
     for (size_t p = 0; p < r->plans.n && nl < 32; p++)
         le[nl++] = (struct plot_legend_entry){r->plans.name[p], plan_style(p, "#555555")};
     le[nl++] = (struct plot_legend_entry){"Pareto front", {"#888888", 2.5, NULL, 0, 0, 0}};
+    return nl;
+}
+
+/* The plottable rows of a material into f->x (rig time), f->y (error) and
+ * f->which (row index). Returns their number. */
+static size_t pareto_points(struct pareto_fig *f, const char *mat)
+{
+    size_t n = 0;
+    for (size_t i = 0; i < f->r->n_rows; i++) {
+        const struct report_row *w = &f->r->rows[i];
+        if (!strcmp(w->material, mat) && usable(w, f->scene, f->o, 1)) {
+            f->x[n] = w->rig_time_s;
+            f->y[n] = value(w, f->o);
+            f->which[n++] = i;
+        }
+    }
+    return n;
+}
+
+/* The staircase of the nf front points (f->front): from each front point
+ * right to the next one's rig time, then down to its error; the last runs
+ * to the right edge. Returns its number of vertices, in f->sx, f->sy. */
+static size_t pareto_staircase(struct pareto_fig *f, const struct plot_panel *pn, size_t nf)
+{
+    size_t ns = 0;
+    for (size_t j = 0; j < nf; j++) {
+        if (j) {
+            f->sx[ns] = plot_px(pn, f->x[f->front[j]]);
+            f->sy[ns++] = plot_py(pn, f->y[f->front[j - 1]]);
+        }
+        f->sx[ns] = plot_px(pn, f->x[f->front[j]]);
+        f->sy[ns++] = plot_py(pn, f->y[f->front[j]]);
+    }
+    if (nf) {
+        f->sx[ns] = pn->x + pn->w;
+        f->sy[ns] = f->sy[ns - 1];
+        ns++;
+    }
+    return ns;
+}
+
+/* The n points, marker by plan and colour by model; the nf on the front
+ * filled. */
+static void pareto_markers(svg_doc *s, const struct pareto_fig *f, const struct plot_panel *pn,
+                           size_t n, size_t nf)
+{
+    const struct report_results *r = f->r;
+    for (size_t j = 0; j < n; j++) {
+        const struct report_row *w = &r->rows[f->which[j]];
+        size_t pi = index_of(&r->plans, w->plan), mi = index_of(&r->models, w->model);
+        struct plot_style st = plan_style(pi, plot_color(mi));
+        int on_front = 0;
+        for (size_t k = 0; k < nf; k++)
+            on_front |= f->front[k] == j;
+        st.hollow = !on_front; /* the front's points stand out filled */
+        char tip[512];
+        snprintf(tip, sizeof tip, "%s: %g samples, rig time %.0f s, %s %.4g%s", w->row_id,
+                 w->samples, w->rig_time_s, report_metric_name(f->o->metric), f->y[j],
+                 on_front ? " (on the Pareto front)" : "");
+        plot_draw_marker(s, &st, plot_px(pn, f->x[j]), plot_py(pn, f->y[j]), tip);
+    }
+}
+
+/* One material's panel: frame, front and points. */
+static void pareto_panel(svg_doc *s, struct pareto_fig *f, const char *mat,
+                         const struct plot_panel *pn, const char *ylabel)
+{
+    plot_draw_frame(s, pn, mat, "rig time", ylabel);
+    size_t n = pareto_points(f, mat);
+    size_t nf = report_pareto_front(f->x, f->y, n, f->front);
+    size_t ns = pareto_staircase(f, pn, nf);
+    svg_clip_begin(s, pn->x - 6, pn->y - 6, pn->w + 12, pn->h + 12);
+    svg_polyline(s, f->sx, f->sy, ns, "#888888", 2.5, NULL);
+    pareto_markers(s, f, pn, n, nf);
+    svg_group_end(s);
+}
+
+int report_plot_pareto(const struct report_results *r, const struct report_plot_opts *o,
+                       const char *id_prefix, char **svg, size_t *len, struct gonio_err *err)
+{
+    struct pareto_fig f = {.r = r, .o = o, .scene = scene_of(r, o)};
+    size_t mat_idx[REPORT_LIST_MAX];
+    struct plot_axis ax, ay;
+    size_t n_mat = pareto_materials(&f, mat_idx, &ax, &ay);
+    if (!n_mat)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "pareto: no row of scene '%s' has a %s on the %s domain and a "
+                             "rig time",
+                             f.scene, report_metric_name(o->metric),
+                             report_domain_name(o->domain));
+    struct plot_legend_entry le[2 * REPORT_LIST_MAX + 1];
+    size_t nl = pareto_legend(r, le);
 
     double pw = 270, ph = 210;
     size_t cols, rows;
@@ -120,68 +249,19 @@ int report_plot_pareto(const struct report_results *r, const struct report_plot_
     if (!s)
         return gonio_err_set(err, GONIO_EFIT, "pareto: out of memory");
     char title[256], ylabel[96];
-    make_title(title, sizeof title, "Accuracy against rig time", scene, o);
+    make_title(title, sizeof title, "Accuracy against rig time", f.scene, o);
     svg_text(s, width / 2, 22, SVG_MIDDLE, 14, 0, 1, "#222222", title);
     plot_draw_legend(s, LEFT, 34, width - LEFT - RIGHT, le, nl);
     snprintf(ylabel, sizeof ylabel, "%s (%s)", report_metric_name(o->metric),
              report_domain_name(o->domain));
 
-    double *x = malloc(r->n_rows * sizeof *x), *y = malloc(r->n_rows * sizeof *y);
-    size_t *which = malloc(r->n_rows * sizeof *which), *front = malloc(r->n_rows * sizeof *front);
-    double *sx = malloc((2 * r->n_rows + 2) * sizeof *sx), *sy = malloc((2 * r->n_rows + 2) * sizeof *sy);
-    int rc = 0;
-    if (!x || !y || !which || !front || !sx || !sy) {
-        rc = gonio_err_set(err, GONIO_EFIT, "pareto: out of memory");
+    int rc = pareto_alloc(&f, err);
+    if (rc < 0)
         goto out;
-    }
     for (size_t k = 0; k < n_mat; k++) {
-        const char *mat = r->materials.name[mat_idx[k]];
         struct plot_panel pn = {LEFT + (double)(k % cols) * (pw + GAP_X),
                                 first + (double)(k / cols) * (ph + GAP_Y), pw, ph, ax, ay};
-        plot_draw_frame(s, &pn, mat, "rig time", k % cols == 0 ? ylabel : NULL);
-        size_t n = 0;
-        for (size_t i = 0; i < r->n_rows; i++) {
-            const struct report_row *w = &r->rows[i];
-            if (!strcmp(w->material, mat) && usable(w, scene, o, 1)) {
-                x[n] = w->rig_time_s;
-                y[n] = value(w, o);
-                which[n++] = i;
-            }
-        }
-        size_t nf = report_pareto_front(x, y, n, front);
-        /* The staircase: from each front point right to the next one's rig
-         * time, then down to its error; the last runs to the right edge. */
-        size_t ns = 0;
-        for (size_t j = 0; j < nf; j++) {
-            if (j) {
-                sx[ns] = plot_px(&pn, x[front[j]]);
-                sy[ns++] = plot_py(&pn, y[front[j - 1]]);
-            }
-            sx[ns] = plot_px(&pn, x[front[j]]);
-            sy[ns++] = plot_py(&pn, y[front[j]]);
-        }
-        if (nf) {
-            sx[ns] = pn.x + pn.w;
-            sy[ns] = sy[ns - 1];
-            ns++;
-        }
-        svg_clip_begin(s, pn.x - 6, pn.y - 6, pn.w + 12, pn.h + 12);
-        svg_polyline(s, sx, sy, ns, "#888888", 2.5, NULL);
-        for (size_t j = 0; j < n; j++) {
-            const struct report_row *w = &r->rows[which[j]];
-            size_t pi = index_of(&r->plans, w->plan), mi = index_of(&r->models, w->model);
-            struct plot_style st = plan_style(pi, plot_color(mi));
-            int on_front = 0;
-            for (size_t f = 0; f < nf; f++)
-                on_front |= front[f] == j;
-            st.hollow = !on_front; /* the front's points stand out filled */
-            char tip[512];
-            snprintf(tip, sizeof tip, "%s: %g samples, rig time %.0f s, %s %.4g%s", w->row_id,
-                     w->samples, w->rig_time_s, report_metric_name(o->metric), y[j],
-                     on_front ? " (on the Pareto front)" : "");
-            plot_draw_marker(s, &st, plot_px(&pn, x[j]), plot_py(&pn, y[j]), tip);
-        }
-        svg_group_end(s);
+        pareto_panel(s, &f, r->materials.name[mat_idx[k]], &pn, k % cols == 0 ? ylabel : NULL);
     }
     svg_text(s, LEFT, height - 10, SVG_START, PLOT_FONT_SMALL, 0, 0, "#555555",
              "Filled markers lie on the Pareto front; hollow ones are beaten on both rig time "
@@ -192,12 +272,7 @@ int report_plot_pareto(const struct report_results *r, const struct report_plot_
         rc = gonio_err_set(err, GONIO_EFIT, "pareto: out of memory");
 out:
     svg_free(s);
-    free(x);
-    free(y);
-    free(which);
-    free(front);
-    free(sx);
-    free(sy);
+    pareto_free(&f);
     return rc;
 }
 
