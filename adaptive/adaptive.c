@@ -80,7 +80,7 @@ static const double seed_pairs[][2] = {
 
 struct adaptive {
     const struct plan *pool;
-    const struct plan_rig *rig;
+    const struct rig_profile *rig;
     struct adaptive_options opt;
     char model[32];
     size_t n_pool;
@@ -179,7 +179,7 @@ static double dom_dist(const struct brdf_pair *a, const struct brdf_pair *b)
     return sqrt((ua - ub) * (ua - ub) + (va - vb) * (va - vb));
 }
 
-adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
+adaptive *adaptive_new(const struct plan *pool, const struct rig_profile *rig,
                        const double *integration_s, const struct adaptive_options *opt,
                        struct gonio_err *err)
 {
@@ -293,9 +293,9 @@ int adaptive_add(adaptive *a, size_t point, const struct fit_sample *s, int satu
     return 0;
 }
 
-static double move_time(const adaptive *a, const struct plan_axes *from, size_t i)
+static double move_time(const adaptive *a, const struct rig_axes *from, size_t i)
 {
-    return plan_move_time_backlash(a->rig, from, &plan_point(a->pool, i)->ax);
+    return rig_move_time_backlash(a->rig, from, &plan_point(a->pool, i)->ax);
 }
 
 /* Point i's cost once its move to it takes move_s. */
@@ -304,7 +304,7 @@ static double cost_after(const adaptive *a, double move_s, size_t i)
     return move_s + a->rig->settle_s + plan_meter_integration(a->meter, i);
 }
 
-double adaptive_point_cost(const adaptive *a, const struct plan_axes *from, size_t i)
+double adaptive_point_cost(const adaptive *a, const struct rig_axes *from, size_t i)
 {
     return cost_after(a, move_time(a, from, i), i);
 }
@@ -324,8 +324,8 @@ int adaptive_observe(adaptive *a, size_t point, double integration_s, double poi
                              point, integration_s, point_rig_s);
     /* The cost as a decision would have put it, before this point's own
      * integration is known. */
-    static const struct plan_axes home = {0, 0, 0};
-    const struct plan_axes *from = a->last_obs >= 0 ? &plan_point(a->pool, (size_t)a->last_obs)->ax
+    static const struct rig_axes home = {0, 0, 0};
+    const struct rig_axes *from = a->last_obs >= 0 ? &plan_point(a->pool, (size_t)a->last_obs)->ax
                                                     : &home;
     double cost = adaptive_point_cost(a, from, point);
     a->ratio[a->n_obs++ % MARGIN_WINDOW] = cost > 0 ? point_rig_s / cost : 1;
@@ -349,7 +349,7 @@ static double margin(const adaptive *a, double move_s)
 
 /* Point i's cost from the axes at from (*cost), and that cost as the
  * budget counts it: times the margin for its move. */
-static double budget_cost(const adaptive *a, const struct plan_axes *from, size_t i,
+static double budget_cost(const adaptive *a, const struct rig_axes *from, size_t i,
                           double *cost)
 {
     double move = move_time(a, from, i);
@@ -359,7 +359,7 @@ static double budget_cost(const adaptive *a, const struct plan_axes *from, size_
 
 /* Point i's cost from the axes at from (*cost), and whether it fits the
  * budget when the rig clock, with what is pending, stands at clock. */
-static int affordable(const adaptive *a, const struct plan_axes *from, size_t i, double clock,
+static int affordable(const adaptive *a, const struct rig_axes *from, size_t i, double clock,
                       double *cost)
 {
     double counted = budget_cost(a, from, i, cost);
@@ -565,10 +565,10 @@ static void seeds_done(const adaptive *a, long pending, unsigned char *done)
 /* The seeds not done, nearest first from the axes at from: *first
  * receives the first of them (-1: none left), and the function returns the
  * rig time of them all. */
-static double seed_route(const adaptive *a, const struct plan_axes *from, unsigned char *done,
+static double seed_route(const adaptive *a, const struct rig_axes *from, unsigned char *done,
                          long *first)
 {
-    struct plan_axes at = *from;
+    struct rig_axes at = *from;
     double total = 0;
     *first = -1;
     for (;;) {
@@ -600,7 +600,7 @@ static double seed_route(const adaptive *a, const struct plan_axes *from, unsign
  * nearest-first route counts them: the margin is the budget's check of
  * each next point when its turn comes (affordable). Exhaustive: six seeds
  * are 720 routes at most. */
-static void seeds_within(const adaptive *a, const struct plan_axes *at, unsigned char *done,
+static void seeds_within(const adaptive *a, const struct rig_axes *at, unsigned char *done,
                          double left, int *count, double *time, long *first)
 {
     *count = 0;
@@ -632,7 +632,7 @@ static void seeds_within(const adaptive *a, const struct plan_axes *at, unsigned
  * all the seeds on that route: then the first of the route that measures
  * the most of them within it (DS4's own order when DS4's rig time is the
  * budget), the quickest such. -1: none left, or none fits. */
-static long next_seed(const adaptive *a, const struct plan_axes *from, long pending,
+static long next_seed(const adaptive *a, const struct rig_axes *from, long pending,
                       double clock)
 {
     unsigned char done[N_SEEDS], route_done[N_SEEDS];
@@ -657,7 +657,7 @@ static double now_s(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, long pending,
+long adaptive_next(adaptive *a, const struct rig_axes *at, double rig_time_s, long pending,
                    struct adaptive_status *st, struct gonio_err *err)
 {
     double t0 = now_s();
@@ -668,7 +668,7 @@ long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, l
     refit(a, rig_time_s);
     /* While pending is measured, the next move starts from its axes and
      * the rig clock runs on by its move, settle and integration. */
-    struct plan_axes from = *at;
+    struct rig_axes from = *at;
     double clock = rig_time_s + a->reserve;
     if (pending >= 0) {
         double cost;

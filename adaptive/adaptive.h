@@ -71,7 +71,7 @@ typedef struct adaptive adaptive;
  * on rig; integration_s[i] is the integration the host expects at point i
  * (NULL: rig->integration_s everywhere; adaptive_observe corrects it). The pool and rig must outlive the
  * policy. Returns NULL with err filled on bad options or out of memory. */
-adaptive *adaptive_new(const struct plan *pool, const struct plan_rig *rig,
+adaptive *adaptive_new(const struct plan *pool, const struct rig_profile *rig,
                        const double *integration_s, const struct adaptive_options *opt,
                        struct gonio_err *err);
 void adaptive_free(adaptive *a);
@@ -103,7 +103,7 @@ int adaptive_observe(adaptive *a, size_t point, double integration_s, double poi
  * or -1. Returns the pool index, -1 when the policy stops (st->stop says
  * why), or another negative code with err filled. st may be NULL. Safe to
  * run in another thread than adaptive_add's, never at the same time. */
-long adaptive_next(adaptive *a, const struct plan_axes *at, double rig_time_s, long pending,
+long adaptive_next(adaptive *a, const struct rig_axes *at, double rig_time_s, long pending,
                    struct adaptive_status *st, struct gonio_err *err);
 
 #endif

@@ -21,7 +21,7 @@ void adaptive_evidence(const adaptive *a, struct adaptive_evidence *ev);
 /* The rig time the policy expects pool point i to take with the axes at
  * `from`, before any margin: the move, the settle and the integration
  * (adaptive_observe's corrections in). */
-double adaptive_point_cost(const adaptive *a, const struct plan_axes *from, size_t i);
+double adaptive_point_cost(const adaptive *a, const struct rig_axes *from, size_t i);
 
 /* The status's predicted_next from the prediction and the gain per
  * minute: NAN unless both are positive, the minute's drop at most half

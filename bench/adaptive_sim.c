@@ -118,7 +118,7 @@ static struct fit_sample *sample_plan(const struct plan *p, const brdf_material 
     return s;
 }
 
-static int run_material(const struct cfg *c, const char *name, const struct plan_rig *rig,
+static int run_material(const struct cfg *c, const char *name, const struct rig_profile *rig,
                         const struct plan *pool, const struct plan *ref,
                         const latent_decoder *dec, const struct brdf_domain *dom)
 {
@@ -160,7 +160,7 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
         fprintf(stderr, "adaptive_sim: %s\n", err.msg);
         return -1;
     }
-    struct plan_axes at = {0, 0, 0};
+    struct rig_axes at = {0, 0, 0};
     struct adaptive_status st = {0};
     double clock = 0, dec_sum = 0, dec_max = 0;
     size_t n = 0;
@@ -186,7 +186,7 @@ static int run_material(const struct cfg *c, const char *name, const struct plan
             break;
         const struct plan_point *pt = plan_point(pool, (size_t)i);
         double took =
-            plan_move_time_backlash(rig, &at, &pt->ax) + rig->settle_s + rig->integration_s;
+            rig_move_time_backlash(rig, &at, &pt->ax) + rig->settle_s + rig->integration_s;
         clock += took;
         at = pt->ax;
         got[n++] = pool_s[i];
@@ -261,10 +261,10 @@ int main(int argc, char **argv)
             return usage();
     }
     struct gonio_err err = {0};
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = NULL, *ref = NULL;
     struct brdf_domain dom = {0};
-    if (plan_rig_load("default", &rig, &err) < 0 || plan_load(c.pool, &rig, &pool, &err) < 0 ||
+    if (rig_profile_load("default", &rig, &err) < 0 || plan_load(c.pool, &rig, &pool, &err) < 0 ||
         plan_load(c.reference, &rig, &ref, &err) < 0 ||
         brdf_domain_oop_random(&dom, c.nodes, 20030727, &err) < 0) {
         fprintf(stderr, "adaptive_sim: %s\n", err.msg);

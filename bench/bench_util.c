@@ -21,9 +21,9 @@ double bench_now_s(void)
 int bench_plan_pairs(const char *name, struct brdf_pair **out, size_t *n)
 {
     struct gonio_err err = {0};
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *p = NULL;
-    if (plan_rig_load("default", &rig, &err) < 0 || plan_load(name, &rig, &p, &err) < 0) {
+    if (rig_profile_load("default", &rig, &err) < 0 || plan_load(name, &rig, &p, &err) < 0) {
         fprintf(stderr, "bench: %s\n", err.msg);
         return -1;
     }

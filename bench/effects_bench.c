@@ -102,7 +102,7 @@ static double bench_faults(const struct sim_scene *sc, long n)
     return 1e9 * t / (double)n;
 }
 
-static double bench_rig(const struct sim_scene *sc, const struct plan_rig *rig,
+static double bench_rig(const struct sim_scene *sc, const struct rig_profile *rig,
                         const brdf_material *m, long n)
 {
     sim_rig *r = sim_rig_new_scene(rig, m, sc, NULL, NULL);
@@ -151,8 +151,8 @@ int main(int argc, char **argv)
     one_effect(&sc, SIM_FX_COMM_FAULTS);
     printf("| comm_faults (per exchange) | %.1f | |\n", bench_faults(&sc, n));
 
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     brdf_material *m = brdf_material_open("default", NULL);
     if (!m)
         return 1;

@@ -23,8 +23,8 @@ int main(int argc, char **argv)
     int np = argc > 1 ? argc - 1 : 3;
     static const enum plan_order_mode modes[] = {PLAN_ORDER_GREEDY, PLAN_ORDER_TRAVEL,
                                                  PLAN_ORDER_AS_WRITTEN, PLAN_ORDER_PROGRESSIVE};
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     printf("%-6s %-12s %6s %9s %9s %9s %9s %9s\n", "plan", "order", "points", "move_s",
            "total_s", "/greedy", "/bound", "cpu_s");
     for (int p = 0; p < np; p++) {

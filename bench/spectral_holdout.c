@@ -81,8 +81,8 @@ int main(int argc, char **argv)
     uint64_t seed = argc > 2 ? strtoull(argv[2], NULL, 10) : 1;
     const char *capture = argc > 3 ? argv[3] : NULL;
     struct gonio_err err = {0};
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     struct plan *plan = NULL;
     if (plan_load("ds2", &rig, &plan, &err) < 0) {
         fprintf(stderr, "spectral_holdout: %s\n", err.msg);

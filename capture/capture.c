@@ -66,7 +66,7 @@ static void rig_clock_paused(struct rig_clock *rc)
  * (drv_axis_rested); the encoders are read while it runs, so that their
  * reads add nothing to the point's time where the bus is slow. */
 static int measure_point(struct capture_devices *d, struct rig_clock *clk,
-                         const struct capture_hooks *hooks, const struct plan_rig *rig,
+                         const struct capture_hooks *hooks, const struct rig_profile *rig,
                          const struct plan_point *pt, int index, struct journal_sample *s,
                          struct gonio_err *err)
 {
@@ -82,11 +82,11 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
      * target, then comes back: each such approach leg is sent as its first
      * leg ends, the axes whose first legs end first first, so the move
      * lasts as long as its slowest axis (rig/motion.h). */
-    const struct plan_axis *prof[3] = {&rig->sample, &rig->arm, &rig->azimuth};
+    const struct rig_axis *prof[3] = {&rig->sample, &rig->arm, &rig->azimuth};
     int by_leg[3] = {0, 1, 2};
     double leg[3];
     for (int i = 0; i < n; i++)
-        leg[i] = plan_axis_time(drv_axis_leg_deg(axes[i]), prof[i]->speed, prof[i]->accel);
+        leg[i] = rig_axis_time(drv_axis_leg_deg(axes[i]), prof[i]->speed, prof[i]->accel);
     for (int i = 1; i < n; i++)
         for (int k = i; k > 0 && leg[by_leg[k]] < leg[by_leg[k - 1]]; k--) {
             int tmp = by_leg[k];

@@ -134,7 +134,7 @@ struct capture_rig {
     /* Open the devices for a capture on the rig profile rig (valid until
      * close) into the capture directory dir (where a backend may keep its
      * own records, the simulator's spectra.csv). */
-    int (*open)(void *user, const struct plan_rig *rig, const char *dir,
+    int (*open)(void *user, const struct rig_profile *rig, const char *dir,
                 struct capture_devices *dev, struct gonio_err *err);
     void (*close)(void *user, struct capture_devices *dev);
     /* The integration the detector will choose at pt, known before it is

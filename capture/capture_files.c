@@ -57,7 +57,7 @@ static char *slurp(const char *path)
     return buf;
 }
 
-static json_t *axis_json(const struct plan_axis *ax)
+static json_t *axis_json(const struct rig_axis *ax)
 {
     return json_pack("{s:f,s:f,s:f,s:f}", "speed", ax->speed, "accel", ax->accel, "min",
                      ax->min, "max", ax->max);
@@ -65,7 +65,7 @@ static json_t *axis_json(const struct plan_axis *ax)
 
 static json_t *setup_json(const struct capture_setup *su)
 {
-    const struct plan_rig *rig = su->rig;
+    const struct rig_profile *rig = su->rig;
     json_t *root = json_pack("{s:s,s:s,s:{s:s,s:{s:o,s:o,s:o},s:b,s:f,s:f,s:f,s:f,s:f}}",
                              "driver", su->driver, "detector", su->detector, "rig", "name",
                              rig->name, "axes", "sample", axis_json(&rig->sample), "arm",

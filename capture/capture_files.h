@@ -14,7 +14,7 @@
  * adaptive order's options (NULL in other orders). */
 struct capture_setup {
     const struct plan *plan;
-    const struct plan_rig *rig;
+    const struct rig_profile *rig;
     const char *source;
     const char *material;
     const char *driver, *detector;

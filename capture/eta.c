@@ -14,7 +14,7 @@
 
 struct capture_eta {
     const struct plan *plan;
-    const struct plan_rig *rig;
+    const struct rig_profile *rig;
     size_t n;
     plan_meter *meter;
     double *move;          /* point i's move from its predecessor in the order */
@@ -30,11 +30,11 @@ struct capture_eta {
     double left;       /* the points left, as last counted and counted off */
 };
 
-static const struct plan_axes home = {0, 0, 0};
+static const struct rig_axes home = {0, 0, 0};
 
 static double count_left(const capture_eta *e);
 
-capture_eta *capture_eta_new(const struct plan *plan, const struct plan_rig *rig,
+capture_eta *capture_eta_new(const struct plan *plan, const struct rig_profile *rig,
                              const long *order, const double *expected_s,
                              struct gonio_err *err)
 {
@@ -54,11 +54,11 @@ capture_eta *capture_eta_new(const struct plan *plan, const struct plan_rig *rig
     e->rig = rig;
     e->n = n;
     e->last = -1;
-    const struct plan_axes *at = &home;
+    const struct rig_axes *at = &home;
     for (size_t k = 0; k < n; k++) {
         size_t i = order ? (size_t)order[k] : k;
-        const struct plan_axes *to = &plan_point(plan, i)->ax;
-        e->move[i] = plan_move_time_backlash(rig, at, to);
+        const struct rig_axes *to = &plan_point(plan, i)->ax;
+        e->move[i] = rig_move_time_backlash(rig, at, to);
         at = to;
     }
     e->stride = n / METER_RECORDS + 1;
@@ -81,9 +81,9 @@ void capture_eta_observe(capture_eta *e, const struct journal_sample *s)
     if (s->point < 0 || (size_t)s->point >= e->n)
         return;
     size_t i = (size_t)s->point;
-    const struct plan_axes *from = e->last >= 0 ? &plan_point(e->plan, (size_t)e->last)->ax
+    const struct rig_axes *from = e->last >= 0 ? &plan_point(e->plan, (size_t)e->last)->ax
                                                 : &home;
-    double move = plan_move_time_backlash(e->rig, from, &plan_point(e->plan, i)->ax);
+    double move = rig_move_time_backlash(e->rig, from, &plan_point(e->plan, i)->ax);
     double share = e->done[i] ? 0
                               : e->move[i] + capture_eta_overhead(e) +
                                     plan_meter_integration(e->meter, i);

@@ -28,7 +28,7 @@ typedef struct capture_eta capture_eta;
  * order); expected_s: each point's integration as the host expects it, or
  * NULL (the rig's fixed integration until measured). NULL with err filled
  * when out of memory. */
-capture_eta *capture_eta_new(const struct plan *plan, const struct plan_rig *rig,
+capture_eta *capture_eta_new(const struct plan *plan, const struct rig_profile *rig,
                              const long *order, const double *expected_s,
                              struct gonio_err *err);
 void capture_eta_free(capture_eta *e);

@@ -129,7 +129,7 @@ static int resolve_inputs(const struct capture_config *cfg, const struct capture
     const char *rig = cfg->rig ? cfg->rig : src->profile;
     if (!rig)
         return gonio_err_set(err, GONIO_EUSAGE, "no rig profile: name one (--rig NAME|FILE)");
-    if ((rc = plan_rig_load(rig, &in->rig, err)) < 0 ||
+    if ((rc = rig_profile_load(rig, &in->rig, err)) < 0 ||
         (rc = plan_load(cfg->plan, &in->rig, &in->plan, err)) < 0)
         return rc;
     if (cfg->order) {

@@ -16,7 +16,7 @@ struct capture_job {
     struct capture_config cfg;
     char *text;
     const struct capture_rig *src; /* the host's rig source, borrowed */
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *plan;
     brdf_material *truth_own; /* a named reference (cfg.truth), opened here */
     const brdf_material *truth; /* the truth errors' reference, NULL: none */

@@ -114,12 +114,12 @@ static int read_pair(const char *file, size_t i, json_t *pair, struct plan_point
         pt->phi_i = v[1];
         pt->theta_o = v[2];
         pt->phi_o = v[3];
-        pt->ax = (struct plan_axes){v[4], v[5], v[6]};
+        pt->ax = (struct rig_axes){v[4], v[5], v[6]};
     } else {
         pt->theta_r = v[1];
         pt->theta_o = fabs(v[1]);
         pt->phi_o = v[1] >= 0 ? 180.0 : 0.0;
-        pt->ax = (struct plan_axes){v[2], v[3], 0.0};
+        pt->ax = (struct rig_axes){v[2], v[3], 0.0};
     }
     return 0;
 }

@@ -15,7 +15,7 @@ struct decision {
     const struct journal_sample *add; /* NULL: nothing new */
     double add_rig_s; /* the rig time add took, from the record before it */
     long pending;
-    struct plan_axes at;
+    struct rig_axes at;
     double rig_time_s;
     long next; /* the answer: a point, -1 (stop), or a negative code */
     struct adaptive_status st;
@@ -25,7 +25,7 @@ struct decision {
 
 struct sequence {
     const struct plan *plan;
-    const struct plan_rig *rig;
+    const struct rig_profile *rig;
     size_t count;
     unsigned char *done; /* journalled points */
     adaptive *policy;    /* NULL: plan order */
@@ -49,7 +49,7 @@ struct sequence {
     double decision_sum_s;
 };
 
-static const struct plan_axes home = {0, 0, 0};
+static const struct rig_axes home = {0, 0, 0};
 
 /* The sample, and what the rig did to take it: what the policy learns
  * of the rig's time comes from the journal only, so a replay learns the
@@ -147,12 +147,12 @@ static int prescan_points(sequence *q, size_t n, struct gonio_err *err)
         return 0;
     if (!(q->prescan = malloc(n * sizeof *q->prescan)))
         return gonio_err_set(err, ENOMEM, "out of memory");
-    struct plan_axes at = home;
+    struct rig_axes at = home;
     for (size_t j = 0; j < n; j++) {
         size_t lo = j * q->count / n, hi = (j + 1) * q->count / n;
         double best = INFINITY;
         for (size_t i = lo; i < hi; i++) {
-            double t = plan_move_time_backlash(q->rig, &at, &plan_point(q->plan, i)->ax);
+            double t = rig_move_time_backlash(q->rig, &at, &plan_point(q->plan, i)->ax);
             if (t < best) {
                 best = t;
                 q->prescan[j] = (long)i;
@@ -189,7 +189,7 @@ int sequence_new(const struct sequence_setup *su, const struct journal_sample *j
                  sequence **out, long *first, struct gonio_err *err)
 {
     const struct plan *plan = su->plan;
-    const struct plan_rig *rig = su->rig;
+    const struct rig_profile *rig = su->rig;
     *out = NULL;
     sequence *q = calloc(1, sizeof *q);
     size_t count = plan_count(plan);

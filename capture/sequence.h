@@ -44,7 +44,7 @@ struct sequence_report {
  * was interrupted in it). dir names the capture in messages. */
 struct sequence_setup {
     const struct plan *plan;
-    const struct plan_rig *rig;
+    const struct rig_profile *rig;
     const double *integration_s;
     const struct adaptive_options *opt;
     size_t prescan;

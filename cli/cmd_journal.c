@@ -31,25 +31,25 @@ static void usage(FILE *out)
 
 /* The rig profile for the band: --rig, else setup.json's rig by name when
  * such a profile exists, else the default. *from says which. */
-static int band_rig(const char *dir, const char *opt, struct plan_rig *rig, const char **from,
+static int band_rig(const char *dir, const char *opt, struct rig_profile *rig, const char **from,
                     struct gonio_err *err)
 {
     if (opt) {
         *from = "--rig";
-        return plan_rig_load(opt, rig, err);
+        return rig_profile_load(opt, rig, err);
     }
     char path[4096];
     snprintf(path, sizeof path, "%s/setup.json", dir);
     json_t *setup = json_load_file(path, 0, NULL);
     const char *name = json_string_value(json_object_get(json_object_get(setup, "rig"), "name"));
     struct gonio_err ignored;
-    int rc = name && !strchr(name, '/') ? plan_rig_load(name, rig, &ignored) : -1;
+    int rc = name && !strchr(name, '/') ? rig_profile_load(name, rig, &ignored) : -1;
     json_decref(setup);
     *from = "setup.json's rig";
     if (rc == 0)
         return 0;
     *from = "the default rig profile";
-    plan_rig_default(rig);
+    rig_profile_default(rig);
     return 0;
 }
 
@@ -63,7 +63,7 @@ static int check(const char *dir, const char *rig_opt)
     struct plan_point *points = NULL;
     size_t n = 0, count = 0;
     struct journal_info info;
-    struct plan_rig rig;
+    struct rig_profile rig;
     const char *from;
     int rc = journal_read_info(journal_path, &s, &n, &info, &err);
     if (rc == 0)

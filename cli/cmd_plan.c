@@ -44,7 +44,7 @@ static int report_failure(const struct gonio_err *err, int rc)
 /* How the rig is named to the operator: a file by its path (a copied
  * profile keeps the name inside it, which would hide which file was read),
  * a name by its name. */
-static const char *rig_label(const char *rig_arg, const struct plan_rig *rig)
+static const char *rig_label(const char *rig_arg, const struct rig_profile *rig)
 {
     return gonio_ref_is_file(rig_arg) ? rig_arg : rig->name;
 }
@@ -53,11 +53,11 @@ static const char *rig_label(const char *rig_arg, const struct plan_rig *rig)
  * the file read) and, inside "estimate", the lower bound on the move time
  * of any order (null when the plan is too large to bound). Capture
  * directories keep plan_json_text as is. */
-static int print_json(const struct plan *plan, const char *rig_arg, const struct plan_rig *rig,
+static int print_json(const struct plan *plan, const char *rig_arg, const struct rig_profile *rig,
                       const struct plan_estimate *est)
 {
     char rig_file[4096];
-    if (plan_resolve_path(rig_arg, "rigs", rig_file, sizeof rig_file) < 0)
+    if (gonio_config_path(rig_arg, "rigs", rig_file, sizeof rig_file) < 0)
         return -ENAMETOOLONG;
     char *text = plan_json_text(plan, est);
     json_t *root = text ? json_loads(text, 0, NULL) : NULL;
@@ -81,7 +81,7 @@ static int print_json(const struct plan *plan, const char *rig_arg, const struct
 /* What the operator needs first: which plan on which rig, how many pairs
  * and how long; the table follows (912 rows for DS1). */
 static void print_summary(const struct plan *plan, const char *rig_arg,
-                          const struct plan_rig *rig, const struct plan_estimate *est)
+                          const struct rig_profile *rig, const struct plan_estimate *est)
 {
     printf("plan %s (%s), rig %s, order %s\n", plan_name(plan), plan_path(plan),
            rig_label(rig_arg, rig), plan_order_name(plan_current_order(plan)));
@@ -179,8 +179,8 @@ int cmd_plan(int argc, char **argv)
         return report_failure(&err, rc);
     if (!rig_arg)
         rig_arg = scene_arg ? scene.rig : "default";
-    struct plan_rig rig;
-    rc = plan_rig_load(rig_arg, &rig, &err);
+    struct rig_profile rig;
+    rc = rig_profile_load(rig_arg, &rig, &err);
     if (rc < 0)
         return report_failure(&err, rc);
     struct plan *plan;

@@ -65,6 +65,14 @@ int gonio_ref_is_file(const char *ref)
            (n > 4 && !strcmp(ref + n - 4, ".yml"));
 }
 
+int gonio_config_path(const char *path_or_name, const char *sub, char *out, size_t size)
+{
+    int n = gonio_ref_is_file(path_or_name)
+                ? snprintf(out, size, "%s", path_or_name)
+                : snprintf(out, size, "%s/%s/%s.yaml", gonio_config_dir(), sub, path_or_name);
+    return n < 0 || (size_t)n >= size ? -ENAMETOOLONG : 0;
+}
+
 int gonio_write_file_atomic(const char *path, const void *data, size_t len,
                             struct gonio_err *err)
 {

@@ -17,9 +17,14 @@ const char *gonio_config_dir(void);
 
 /* Whether a plan, scene, rig or render reference names a file (it holds a
  * '/' or ends in .yaml or .yml) rather than a name in the configs folder.
- * One rule, so that the loaders (rig/rig.h plan_resolve_path), goniod's
- * config and goniod's requests agree on what a reference means. */
+ * One rule, so that the loaders (gonio_config_path), goniod's config and
+ * goniod's requests agree on what a reference means. */
 int gonio_ref_is_file(const char *ref);
+
+/* The file a reference names: itself when it is a file, else
+ * <config>/<sub>/NAME.yaml (sub: "plans", "rigs", "scenes", "render").
+ * Returns 0, or -ENAMETOOLONG. */
+int gonio_config_path(const char *path_or_name, const char *sub, char *out, size_t size);
 
 /* Write len bytes to path atomically: a temporary file beside it, fsync,
  * rename, then fsync of the directory, so a reader never sees half a file,

@@ -313,9 +313,9 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
                                           : load_modbus(d, drv, cfg, err);
     if (rc < 0)
         goto out;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct gonio_err e2 = {0};
-    if (plan_rig_load(cfg->rig, &rig, &e2) < 0) {
+    if (rig_profile_load(cfg->rig, &rig, &e2) < 0) {
         const struct cfg_node *at = cfg_get(d, root, "rig");
         rc = cfg_error(d, at ? at : root, "rig", err, "%s", e2.msg);
         goto out;

@@ -78,7 +78,7 @@ static json_t *sample_doc(const control *c, const struct worker_msg_sample *m)
     return d;
 }
 
-static json_t *axis_doc(const struct plan_axis *a)
+static json_t *axis_doc(const struct rig_axis *a)
 {
     return json_pack("{s:o, s:o, s:o, s:o}", "speed", control_json_number(a->speed), "accel",
                      control_json_number(a->accel), "min", control_json_number(a->min), "max",
@@ -116,9 +116,9 @@ static json_t *descriptor_doc(const control *c, const struct worker_msg_start *m
     json_object_set_new(d, "class", json_string("descriptor"));
     json_object_set_new(d, "capture_id", json_string(m->req.id));
     json_object_set_new(d, "driver", drv);
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct gonio_err err = {0};
-    if (plan_rig_load(m->req.rig, &rig, &err) == 0) {
+    if (rig_profile_load(m->req.rig, &rig, &err) == 0) {
         json_t *r = json_object();
         json_object_set_new(r, "name", json_string(rig.name));
         json_object_set_new(r, "sample", axis_doc(&rig.sample));

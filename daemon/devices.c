@@ -40,7 +40,7 @@ static int open_usb_detector(const struct goniod_config *cfg, struct capture_dev
 #endif
 }
 
-int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *rig,
+int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profile *rig,
                         struct capture_devices *dev, void **bus_out, struct gonio_err *err)
 {
     memset(dev, 0, sizeof *dev);
@@ -119,7 +119,7 @@ void goniod_devices_close(struct capture_devices *dev, void *bus)
 
 #else /* the Modbus backend is not in this build */
 
-int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *rig,
+int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profile *rig,
                         struct capture_devices *dev, void **bus_out, struct gonio_err *err)
 {
     (void)rig;

@@ -13,7 +13,7 @@
 /* Open the bus and the devices on it; *bus receives the bus handle for
  * goniod_devices_close. The azimuth axis is opened when the configuration
  * names its slave and the rig profile is out-of-plane. */
-int goniod_devices_open(const struct goniod_config *cfg, const struct plan_rig *rig,
+int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profile *rig,
                         struct capture_devices *dev, void **bus, struct gonio_err *err);
 
 /* The bus's exchange counts so far (drivers/drv_modbus.h), for the stop

@@ -234,7 +234,7 @@ static enum capture_control hook_control(void *user)
     return c;
 }
 
-static int hook_open(void *user, const struct plan_rig *rig, const char *dir,
+static int hook_open(void *user, const struct rig_profile *rig, const char *dir,
                      struct capture_devices *dev, struct gonio_err *err)
 {
     (void)dir;

@@ -19,7 +19,7 @@ typedef struct drv_detector drv_detector;
 typedef struct drv_clock drv_clock;
 
 /* How an axis's drive comes to rest: its soft limits and the rig
- * profile's mechanics (rig/rig.h struct plan_mechanics, docs/plans.md).
+ * profile's mechanics (rig/rig.h struct rig_mechanics, docs/plans.md).
  *
  * A move to a target beyond the limits is refused before anything is sent
  * (-GONIO_EUNREACHABLE). A move is done when the axis rests with its

@@ -84,7 +84,7 @@ struct drv_modbus_stats {
 void drv_modbus_bus_stats(const drv_modbus_bus *bus, struct drv_modbus_stats *out);
 
 /* Axis options beyond the rig profile: the drive's steps and the rig's
- * mechanics (rig/rig.h struct plan_mechanics, docs/plans.md), as
+ * mechanics (rig/rig.h struct rig_mechanics, docs/plans.md), as
  * drivers.h's struct drv_axis_mechanics takes them. */
 struct drv_modbus_axis_opts {
     double steps_per_deg;   /* drive steps per degree; 0: 100 */
@@ -107,7 +107,7 @@ struct drv_modbus_axis_opts {
  * (drv_axis_rested). A leg with no progress for 0.5 s of rig time and no
  * alarm is a stall. drv_axis_home raises ZHOME and waits for HOME-END.
  * docs/protocol-modbus.md, "Mechanics" (its bus cost per move), says what each costs. */
-drv_axis *drv_axis_new_modbus(drv_modbus_bus *bus, int slave, const struct plan_axis *profile,
+drv_axis *drv_axis_new_modbus(drv_modbus_bus *bus, int slave, const struct rig_axis *profile,
                               const struct drv_modbus_axis_opts *opts, const char *name,
                               struct gonio_err *err);
 

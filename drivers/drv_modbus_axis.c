@@ -24,7 +24,7 @@ enum { ST_HOME_END = MB_ST_HOME_END, ST_READY = MB_ST_READY, ST_ALM_A = MB_ST_AL
 struct mb_axis {
     drv_modbus_bus *bus;
     int slave;
-    struct plan_axis prof;
+    struct rig_axis prof;
     double spd;
     char who[48]; /* "axis arm" */
     /* The leg under way: its target, when the drive likely started it
@@ -134,7 +134,7 @@ static int mb_start_leg(void *priv, double from, double to, struct gonio_err *er
     for (int i = 0; i < 8; i++)
         drv_modbus_put32(r + 2 * i, v[i]);
     a->leg_target = pos / a->spd;
-    a->leg_time = plan_axis_time(fabs(a->leg_target - from), speed / a->spd, accel / a->spd);
+    a->leg_time = rig_axis_time(fabs(a->leg_target - from), speed / a->spd, accel / a->spd);
     if (a->block && a->block_faults != drv_modbus_faults(a->bus))
         a->block = 0; /* the drive may have restarted since: write it all */
     int rc, head = a->block ? R_POSITION - R_DIRECT : 0;
@@ -279,7 +279,7 @@ static int mb_home(void *priv, double here, unsigned *alarm, struct gonio_err *e
 {
     struct mb_axis *a = priv;
     a->leg_target = 0;
-    a->leg_time = plan_axis_time(fabs(here), a->prof.speed, a->prof.accel);
+    a->leg_time = rig_axis_time(fabs(here), a->prof.speed, a->prof.accel);
     a->block = a->staged = 0;
     int rc = pulse_input(a, IN_ZHOME, err);
     leg_started(a);
@@ -314,7 +314,7 @@ static const struct drv_axis_ops mb_axis_ops = {
     .free_priv = free,
 };
 
-drv_axis *drv_axis_new_modbus(drv_modbus_bus *bus, int slave, const struct plan_axis *profile,
+drv_axis *drv_axis_new_modbus(drv_modbus_bus *bus, int slave, const struct rig_axis *profile,
                               const struct drv_modbus_axis_opts *opts, const char *name,
                               struct gonio_err *err)
 {

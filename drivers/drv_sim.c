@@ -168,8 +168,8 @@ static const struct drv_axis_ops sim_axis_faulty_ops = {
 drv_axis *drv_axis_new_sim(sim_rig *rig, enum sim_axis_id axis)
 {
     static const char *names[SIM_N_AXES] = {"sample", "arm", "azimuth"};
-    const struct plan_rig *prof = sim_rig_profile(rig);
-    const struct plan_axis *lim[SIM_N_AXES] = {&prof->sample, &prof->arm, &prof->azimuth};
+    const struct rig_profile *prof = sim_rig_profile(rig);
+    const struct rig_axis *lim[SIM_N_AXES] = {&prof->sample, &prof->arm, &prof->azimuth};
     const struct drv_axis_mechanics mech = {
         .min_deg = lim[axis]->min, .max_deg = lim[axis]->max,
         .in_position_deg = prof->mech.in_position_deg, .backlash_deg = prof->mech.backlash_deg,

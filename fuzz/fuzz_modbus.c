@@ -170,7 +170,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                           .scale = scales[data[0] & 3], .timeout = 0.05,
                           .steps_per_deg = 100.0, .min_deg = -5.0, .max_deg = 95.0};
     the_bus = &bus;
-    struct plan_axis prof = {.speed = 20, .accel = 40, .min = bus.min_deg, .max = bus.max_deg};
+    struct rig_axis prof = {.speed = 20, .accel = 40, .min = bus.min_deg, .max = bus.max_deg};
     struct drv_modbus_axis_opts opts = {.steps_per_deg = bus.steps_per_deg,
                                         .backlash_deg = (data[0] & 4) ? 0.5 : 0.0,
                                         .move_retries = (data[0] & 16) ? 3 : 0,

@@ -8,8 +8,8 @@
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     const char *path = fuzz_file("plan.yaml", data, size);
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     struct plan *plan = NULL;
     struct gonio_err err = {0};
     int n = plan_load(path, &rig, &plan, &err);

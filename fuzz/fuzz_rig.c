@@ -4,7 +4,7 @@
 #include "fuzz/fuzz.h"
 #include "rig/rig.h"
 
-static int axis_ok(const struct plan_axis *a)
+static int axis_ok(const struct rig_axis *a)
 {
     return a->speed > 0 && a->accel > 0 && isfinite(a->speed) && isfinite(a->accel) &&
            a->min <= a->max && isfinite(a->min) && isfinite(a->max);
@@ -13,9 +13,9 @@ static int axis_ok(const struct plan_axis *a)
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     const char *path = fuzz_file("rig.yaml", data, size);
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct gonio_err err = {0};
-    if (plan_rig_load(path, &rig, &err) < 0) {
+    if (rig_profile_load(path, &rig, &err) < 0) {
         FUZZ_CHECK(err.msg[0]);
         return 0;
     }
@@ -25,7 +25,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FUZZ_CHECK(rig.blind_deg >= 0 && rig.settle_s >= 0 && rig.integration_s >= 0);
     FUZZ_CHECK(isfinite(rig.blind_deg) && isfinite(rig.settle_s) && isfinite(rig.integration_s));
     /* ... and by the axis mechanics (drivers/drivers.h). */
-    const struct plan_mechanics *m = &rig.mech;
+    const struct rig_mechanics *m = &rig.mech;
     FUZZ_CHECK(m->in_position_deg > 0 && isfinite(m->in_position_deg));
     FUZZ_CHECK(m->backlash_deg >= 0 && isfinite(m->backlash_deg));
     FUZZ_CHECK((m->approach == 1 || m->approach == -1) && m->move_retries >= 0);

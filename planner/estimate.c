@@ -3,15 +3,15 @@
  * and the integration of each point. */
 #include "planner/plan_private.h"
 
-void plan_estimate_points(const struct plan *plan, const struct plan_rig *rig,
+void plan_estimate_points(const struct plan *plan, const struct rig_profile *rig,
                           plan_integration_fn integration, void *user, double *point_s,
                           struct plan_estimate *est)
 {
-    struct plan_axes at = {0, 0, 0};
+    struct rig_axes at = {0, 0, 0};
     est->move_s = est->integration_s = 0;
     for (size_t i = 0; i < plan->n; i++) {
         const struct plan_point *pt = plan_point(plan, i);
-        double move = plan_move_time_backlash(rig, &at, &pt->ax);
+        double move = rig_move_time_backlash(rig, &at, &pt->ax);
         double t = integration ? integration(user, pt) : rig->integration_s;
         est->move_s += move;
         est->integration_s += t;
@@ -23,7 +23,7 @@ void plan_estimate_points(const struct plan *plan, const struct plan_rig *rig,
     est->total_s = est->move_s + est->settle_s + est->integration_s;
 }
 
-void plan_estimate(const struct plan *plan, const struct plan_rig *rig,
+void plan_estimate(const struct plan *plan, const struct rig_profile *rig,
                    struct plan_estimate *est)
 {
     plan_estimate_points(plan, rig, NULL, NULL, NULL, est);

@@ -14,7 +14,7 @@
 
 /* Prim's algorithm over home + points: any path from home through all
  * points is a spanning tree, so it costs at least the minimum one. */
-static double mst_bound(const struct plan *plan, const struct plan_rig *rig)
+static double mst_bound(const struct plan *plan, const struct rig_profile *rig)
 {
     size_t n = plan->n;
     double *key = malloc((n ? n : 1) * sizeof *key);
@@ -24,9 +24,9 @@ static double mst_bound(const struct plan *plan, const struct plan_rig *rig)
         free(in);
         return NAN;
     }
-    struct plan_axes home = {0, 0, 0};
+    struct rig_axes home = {0, 0, 0};
     for (size_t i = 0; i < n; i++)
-        key[i] = plan_move_time(rig, &home, &plan->pts[i].ax);
+        key[i] = rig_move_time(rig, &home, &plan->pts[i].ax);
     double total = 0;
     for (size_t step = 0; step < n; step++) {
         size_t u = 0;
@@ -41,7 +41,7 @@ static double mst_bound(const struct plan *plan, const struct plan_rig *rig)
         for (size_t i = 0; i < n; i++) {
             if (in[i])
                 continue;
-            double c = plan_move_time(rig, &plan->pts[u].ax, &plan->pts[i].ax);
+            double c = rig_move_time(rig, &plan->pts[u].ax, &plan->pts[i].ax);
             if (c < key[i])
                 key[i] = c;
         }
@@ -118,7 +118,7 @@ static double one_tree(struct hk *h)
  * greedy path, halved when the bound stalls). Every 1-tree value is a lower
  * bound, so stopping early only loosens it; at zero penalties it is the
  * spanning-tree bound, so it is never weaker. */
-static double held_karp_bound(const struct plan *plan, const struct plan_rig *rig)
+static double held_karp_bound(const struct plan *plan, const struct rig_profile *rig)
 {
     size_t n = plan->n, m = n + 1;
     struct hk h = {0};
@@ -131,11 +131,11 @@ static double held_karp_bound(const struct plan *plan, const struct plan_rig *ri
     double best = NAN;
     if (!c || !h.pi || !h.key || !h.parent || !h.deg || !h.in)
         goto out;
-    struct plan_axes home = {0, 0, 0};
+    struct rig_axes home = {0, 0, 0};
     for (size_t i = 0; i < m; i++)
         for (size_t j = 0; j < m; j++)
-            c[i * m + j] = plan_move_time(rig, i ? &plan->pts[i - 1].ax : &home,
-                                          j ? &plan->pts[j - 1].ax : &home);
+            c[i * m + j] = rig_move_time(rig, i ? &plan->pts[i - 1].ax : &home,
+                                         j ? &plan->pts[j - 1].ax : &home);
     h.c = c;
     h.m = m;
     /* upper bound: the greedy path from home (h.in as visited flags) */
@@ -186,7 +186,7 @@ out:
     return best;
 }
 
-double plan_move_lower_bound(const struct plan *plan, const struct plan_rig *rig)
+double plan_move_lower_bound(const struct plan *plan, const struct rig_profile *rig)
 {
     if (plan->n > 20000)
         return NAN;

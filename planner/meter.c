@@ -7,7 +7,7 @@
 #include "brdf/angles.h"
 
 struct plan_meter {
-    const struct plan_rig *rig;
+    const struct rig_profile *rig;
     size_t n;
     double (*dir)[6];  /* point i's wi and wo */
     double *expected;  /* the host's expectation at i (the fixed integration: none) */
@@ -30,7 +30,7 @@ static void point_dir(const struct plan_point *pt, double d[6])
     }
 }
 
-plan_meter *plan_meter_new(const struct plan *plan, const struct plan_rig *rig,
+plan_meter *plan_meter_new(const struct plan *plan, const struct rig_profile *rig,
                            const double *expected_s, struct gonio_err *err)
 {
     size_t n = plan_count(plan);

@@ -26,7 +26,7 @@ typedef struct plan_meter plan_meter;
  * expected_s: plan_count entries, each finite and >= 0 (copied), or NULL
  * (the rig's fixed integration everywhere, a fallback only). Returns NULL
  * with err filled (out of memory). */
-plan_meter *plan_meter_new(const struct plan *plan, const struct plan_rig *rig,
+plan_meter *plan_meter_new(const struct plan *plan, const struct rig_profile *rig,
                            const double *expected_s, struct gonio_err *err);
 void plan_meter_free(plan_meter *m);
 

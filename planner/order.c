@@ -1,6 +1,6 @@
 /* Execution orders.
  *
- * The metric is the true move time (plan_move_time), not an angular
+ * The metric is the true move time (rig_move_time), not an angular
  * distance: with a trapezoidal profile a 1-degree move costs a third of a
  * second while a 10-degree one costs barely twice that, so short-hop
  * heuristics on degrees mislead. Paths are open and start at home (all axes
@@ -26,19 +26,19 @@
 
 struct tour {
     const struct plan_point *pts;
-    const struct plan_rig *rig;
-    struct plan_axes start;
+    const struct rig_profile *rig;
+    struct rig_axes start;
     size_t n;
 };
 
 static double cost(const struct tour *t, size_t i, size_t j)
 {
-    return plan_move_time(t->rig, &t->pts[i].ax, &t->pts[j].ax);
+    return rig_move_time(t->rig, &t->pts[i].ax, &t->pts[j].ax);
 }
 
 static double cost_from_start(const struct tour *t, size_t j)
 {
-    return plan_move_time(t->rig, &t->start, &t->pts[j].ax);
+    return rig_move_time(t->rig, &t->start, &t->pts[j].ax);
 }
 
 /* Cost of the edge between sequence positions k and k+1 of seq[0..m), where
@@ -63,16 +63,16 @@ static double link(const struct tour *t, const size_t *seq, long m, long x, long
 }
 
 /* What the rig pays for the path: the moves with their approach legs
- * (plan_move_time_backlash), as the estimate counts them. The local search
+ * (rig_move_time_backlash), as the estimate counts them. The local search
  * works on the symmetric move time (a reversed run costs what it did);
  * the choice between its orders counts the legs, which on a dense grid
  * are most of a move against the approach direction. */
 static double path_cost(const struct tour *t, const size_t *seq, size_t m)
 {
     double c = 0;
-    const struct plan_axes *at = &t->start;
+    const struct rig_axes *at = &t->start;
     for (size_t k = 0; k < m; k++) {
-        c += plan_move_time_backlash(t->rig, at, &t->pts[seq[k]].ax);
+        c += rig_move_time_backlash(t->rig, at, &t->pts[seq[k]].ax);
         at = &t->pts[seq[k]].ax;
     }
     return c;
@@ -166,7 +166,7 @@ static int near_init(struct near *nr, const struct tour *t, const size_t *seq, s
     for (size_t i = 0; i < m; i++)
         by_s[i] = (struct by_s){t->pts[seq[i]].ax.s, seq[i]};
     qsort(by_s, m, sizeof *by_s, cmp_s);
-    const struct plan_axis *sample = &t->rig->sample;
+    const struct rig_axis *sample = &t->rig->sample;
     for (long r = 0; r < (long)m; r++) {
         size_t p = by_s[r].point, row = nr->k * (size_t)nr->slot[p];
         size_t *list = nr->list + row, have = 0;
@@ -175,8 +175,8 @@ static int near_init(struct near *nr, const struct tour *t, const size_t *seq, s
             for (long q = r + dir; q >= 0 && q < (long)m; q += dir) {
                 size_t o = by_s[q].point;
                 int full = have == nr->k;
-                if (full && plan_axis_time(t->pts[o].ax.s - t->pts[p].ax.s, sample->speed,
-                                           sample->accel) >= dist[have - 1])
+                if (full && rig_axis_time(t->pts[o].ax.s - t->pts[p].ax.s, sample->speed,
+                                          sample->accel) >= dist[have - 1])
                     break;
                 double d = cost(t, p, o);
                 if (full && (d > dist[have - 1] || (d == dist[have - 1] && o > list[have - 1])))
@@ -384,7 +384,7 @@ static void sweep_keys(const struct plan_point *pts, const size_t *seq, size_t m
                        struct sweep_key *key)
 {
     for (size_t k = 0; k < m; k++) {
-        const struct plan_axes *ax = &pts[seq[k]].ax;
+        const struct rig_axes *ax = &pts[seq[k]].ax;
         key[k] = (struct sweep_key){.row = band_of(ax->s, band), .band = band_of(ax->az, band),
                                     .a = ax->a, .point = seq[k], .pos = k};
     }
@@ -696,7 +696,7 @@ static int progressive(const struct tour *t, size_t *seq, size_t n)
 }
 
 int plan_order_indices(const struct plan_point *pts, size_t n, enum plan_order_mode mode,
-                       const struct plan_rig *rig, size_t *order)
+                       const struct rig_profile *rig, size_t *order)
 {
     struct tour t = {pts, rig, {0, 0, 0}, n};
     for (size_t i = 0; i < n; i++)

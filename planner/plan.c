@@ -8,6 +8,7 @@
 #include "brdf/angles.h"
 #include "brdf/domain.h"
 #include "common/cfg.h"
+#include "common/paths.h"
 #include "planner/plan_private.h"
 
 static const char *const order_names[] = {"travel", "progressive", "as-written", "greedy",
@@ -120,12 +121,12 @@ static double wrap180(double deg)
     return w - 180.0; /* (-180, 180] */
 }
 
-static int in_limits(double v, const struct plan_axis *ax)
+static int in_limits(double v, const struct rig_axis *ax)
 {
     return v >= ax->min - 1e-9 && v <= ax->max + 1e-9;
 }
 
-int plan_point_place(struct plan_point *pt, const struct plan_rig *rig, char *reason,
+int plan_point_place(struct plan_point *pt, const struct rig_profile *rig, char *reason,
                      size_t size)
 {
     if (!pt->out_of_plane) {
@@ -359,7 +360,7 @@ static void to_spherical(const double w[3], double *theta, double *phi)
  * blind zone, the generator drops nodes inside the rig's blind zone and
  * counts them; every other unreachable node is refused as usual. */
 static int load_domain(const struct cfg_doc *d, const struct cfg_node *dn,
-                       const struct plan_rig *rig, struct plan *p, struct gonio_err *err)
+                       const struct rig_profile *rig, struct plan *p, struct gonio_err *err)
 {
     static const char *const keys[] = {"set", "n", "seed", NULL};
     static const char *const sets[] = {"full", "inplane", "oop-random", NULL};
@@ -423,10 +424,10 @@ static int load_domain(const struct cfg_doc *d, const struct cfg_node *dn,
 /* Mark each point with the first ladder plan (coarse to fine) holding the
  * same pair; points in none get the last level. */
 static int load_ladder(const struct cfg_doc *d, const struct cfg_node *root,
-                       const struct plan_rig *rig, int depth, struct plan *p,
+                       const struct rig_profile *rig, int depth, struct plan *p,
                        struct gonio_err *err);
 
-static int load_file(const char *path_or_name, const struct plan_rig *rig, int depth,
+static int load_file(const char *path_or_name, const struct rig_profile *rig, int depth,
                      struct plan **out, struct gonio_err *err)
 {
     static const char *const keys[] = {"name", "description", "grid", "pairs", "domain",
@@ -435,7 +436,7 @@ static int load_file(const char *path_or_name, const struct plan_rig *rig, int d
     struct plan *p = calloc(1, sizeof *p);
     if (!p)
         return gonio_err_set(err, ENOMEM, "%s: out of memory", path_or_name);
-    if (plan_resolve_path(path_or_name, "plans", p->path, sizeof p->path) < 0) {
+    if (gonio_config_path(path_or_name, "plans", p->path, sizeof p->path) < 0) {
         free(p);
         return gonio_err_set(err, GONIO_EBADCONFIG, "%s: path too long", path_or_name);
     }
@@ -530,7 +531,7 @@ fail:
 }
 
 static int load_ladder(const struct cfg_doc *d, const struct cfg_node *root,
-                       const struct plan_rig *rig, int depth, struct plan *p,
+                       const struct rig_profile *rig, int depth, struct plan *p,
                        struct gonio_err *err)
 {
     const struct cfg_node *seq;
@@ -560,7 +561,7 @@ static int load_ladder(const struct cfg_doc *d, const struct cfg_node *root,
     return 0;
 }
 
-int plan_load(const char *path_or_name, const struct plan_rig *rig, struct plan **out,
+int plan_load(const char *path_or_name, const struct rig_profile *rig, struct plan **out,
               struct gonio_err *err)
 {
     int rc = load_file(path_or_name, rig, 0, out, err);
@@ -583,7 +584,7 @@ void plan_free(struct plan *plan)
     free(plan);
 }
 
-int plan_order(struct plan *plan, enum plan_order_mode mode, const struct plan_rig *rig)
+int plan_order(struct plan *plan, enum plan_order_mode mode, const struct rig_profile *rig)
 {
     int rc = plan_order_indices(plan->pts, plan->n, mode, rig, plan->order);
     if (rc == 0)

@@ -19,6 +19,6 @@ struct plan {
 
 /* planner/order.c */
 int plan_order_indices(const struct plan_point *pts, size_t n, enum plan_order_mode mode,
-                       const struct plan_rig *rig, size_t *order);
+                       const struct rig_profile *rig, size_t *order);
 
 #endif

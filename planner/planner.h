@@ -61,7 +61,7 @@ struct plan_point {
     double theta_i, theta_r;
     double phi_i, theta_o, phi_o;
     int out_of_plane;
-    struct plan_axes ax;
+    struct rig_axes ax;
     int level;     /* progressive level: 0 is the coarsest */
     int line, col; /* where the pair is written in the plan file (0: generated) */
 };
@@ -77,7 +77,7 @@ struct plan;
  * Returns the point count, or -GONIO_EBADCONFIG (bad file),
  * -GONIO_EUNREACHABLE (a pair the rig cannot reach), -GONIO_ENOTFOUND;
  * err says "path:line:col: ..." in every case. */
-int plan_load(const char *path_or_name, const struct plan_rig *rig, struct plan **out,
+int plan_load(const char *path_or_name, const struct rig_profile *rig, struct plan **out,
               struct gonio_err *err);
 void plan_free(struct plan *plan);
 
@@ -88,11 +88,11 @@ int plan_grid_generate(const struct plan_grid *grid, struct plan_point **out);
 
 /* Reorder the points (always starting from the written order). Returns 0
  * or -ENOMEM. */
-int plan_order(struct plan *plan, enum plan_order_mode mode, const struct plan_rig *rig);
+int plan_order(struct plan *plan, enum plan_order_mode mode, const struct rig_profile *rig);
 
 /* Rig time from home (all axes at 0) through every point in the current
  * order: move + settle + fixed integration per point. */
-void plan_estimate(const struct plan *plan, const struct plan_rig *rig,
+void plan_estimate(const struct plan *plan, const struct rig_profile *rig,
                    struct plan_estimate *est);
 
 /* The integration a detector will choose at a point (an auto-exposing
@@ -102,7 +102,7 @@ typedef double (*plan_integration_fn)(void *user, const struct plan_point *pt);
 /* plan_estimate with each point's integration from integration (NULL: the
  * rig's fixed one); point_s (plan_count entries, or NULL) receives each
  * point's share: the move to it, settle and integration. */
-void plan_estimate_points(const struct plan *plan, const struct plan_rig *rig,
+void plan_estimate_points(const struct plan *plan, const struct rig_profile *rig,
                           plan_integration_fn integration, void *user, double *point_s,
                           struct plan_estimate *est);
 
@@ -111,7 +111,7 @@ void plan_estimate_points(const struct plan *plan, const struct plan_rig *rig,
  * about 0.6 s for DS1), else the weight of a minimum spanning tree over home
  * and the points, in the move-time metric. NAN for plans too large for the
  * O(n^2) computation. */
-double plan_move_lower_bound(const struct plan *plan, const struct plan_rig *rig);
+double plan_move_lower_bound(const struct plan *plan, const struct rig_profile *rig);
 
 /* Accessors. plan_point(i) is the i-th point in execution order. */
 size_t plan_count(const struct plan *plan);
@@ -135,7 +135,7 @@ int plan_order_parse(const char *name);
 /* Check one point against the rig and fill its axes. Returns 0, or
  * -GONIO_EUNREACHABLE with why (e.g. "detector arm at a = 2 deg is inside
  * the 5 deg blind zone") written to reason. */
-int plan_point_place(struct plan_point *pt, const struct plan_rig *rig, char *reason,
+int plan_point_place(struct plan_point *pt, const struct rig_profile *rig, char *reason,
                      size_t size);
 
 /* The plan in the stable JSON form of DESIGN.md section 8 (pairs in

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "common/cfg.h"
+#include "common/paths.h"
 #include "rig/rig.h"
 
 #define RS_PI 3.14159265358979323846
@@ -179,7 +180,7 @@ int render_scene_load(const char *path_or_name, struct render_scene *sc, struct 
     static const char *const keys[] = {"name", "description", "effects", "background", "tonemap",
                                        NULL};
     defaults(sc);
-    if (plan_resolve_path(path_or_name, "render", sc->path, sizeof sc->path) < 0)
+    if (gonio_config_path(path_or_name, "render", sc->path, sizeof sc->path) < 0)
         return gonio_err_set(err, GONIO_EBADCONFIG, "%s: scene path too long", path_or_name);
     struct cfg_doc *doc;
     int rc = cfg_load(sc->path, &doc, err);

@@ -2,7 +2,7 @@
 
 #include <math.h>
 
-double plan_axis_time(double dist_deg, double speed, double accel)
+double rig_axis_time(double dist_deg, double speed, double accel)
 {
     double d = fabs(dist_deg);
     if (d == 0.0)
@@ -17,21 +17,21 @@ double plan_axis_time(double dist_deg, double speed, double accel)
  * move arriving from the side opposite the approach goes first to a point
  * backlash_deg beyond the target (within the limits), then to the target,
  * as the drivers move it (drivers/axis_mechanics.c, send_approach). */
-static double axis_move_time(const struct plan_axis *ax, const struct plan_mechanics *mech,
+static double axis_move_time(const struct rig_axis *ax, const struct rig_mechanics *mech,
                              double from, double to)
 {
     if (mech && mech->backlash_deg > 0) {
         double dir = mech->approach < 0 ? -1.0 : 1.0;
         double via = fmin(fmax(to - dir * mech->backlash_deg, ax->min), ax->max);
         if (dir * (to - from) < 0 && via != to)
-            return plan_axis_time(via - from, ax->speed, ax->accel) +
-                   plan_axis_time(to - via, ax->speed, ax->accel);
+            return rig_axis_time(via - from, ax->speed, ax->accel) +
+                   rig_axis_time(to - via, ax->speed, ax->accel);
     }
-    return plan_axis_time(to - from, ax->speed, ax->accel);
+    return rig_axis_time(to - from, ax->speed, ax->accel);
 }
 
-static double move_time(const struct plan_rig *rig, const struct plan_mechanics *mech,
-                        const struct plan_axes *from, const struct plan_axes *to)
+static double move_time(const struct rig_profile *rig, const struct rig_mechanics *mech,
+                        const struct rig_axes *from, const struct rig_axes *to)
 {
     double t = axis_move_time(&rig->sample, mech, from->s, to->s);
     double ta = axis_move_time(&rig->arm, mech, from->a, to->a);
@@ -45,14 +45,14 @@ static double move_time(const struct plan_rig *rig, const struct plan_mechanics 
     return t;
 }
 
-double plan_move_time(const struct plan_rig *rig, const struct plan_axes *from,
-                      const struct plan_axes *to)
+double rig_move_time(const struct rig_profile *rig, const struct rig_axes *from,
+                     const struct rig_axes *to)
 {
     return move_time(rig, NULL, from, to);
 }
 
-double plan_move_time_backlash(const struct plan_rig *rig, const struct plan_axes *from,
-                               const struct plan_axes *to)
+double rig_move_time_backlash(const struct rig_profile *rig, const struct rig_axes *from,
+                              const struct rig_axes *to)
 {
     return move_time(rig, &rig->mech, from, to);
 }

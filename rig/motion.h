@@ -7,28 +7,28 @@
 #include "rig/rig.h"
 
 /* Axis positions, degrees: sample s, arm a, azimuth az (0 when in-plane). */
-struct plan_axes {
+struct rig_axes {
     double s, a, az;
 };
 
 /* Time to travel dist degrees from rest to rest with a trapezoidal velocity
  * profile (accelerate at accel, cruise at speed, decelerate at accel); a
  * move too short to reach speed is triangular. 0 for dist 0. */
-double plan_axis_time(double dist_deg, double speed, double accel);
+double rig_axis_time(double dist_deg, double speed, double accel);
 
 /* Time of a move between two positions: all axes start together, so the
  * move lasts as long as the slowest axis. The same either way: the
  * planner's ordering (tours, bounds) assumes a symmetric cost. */
-double plan_move_time(const struct plan_rig *rig, const struct plan_axes *from,
-                      const struct plan_axes *to);
+double rig_move_time(const struct rig_profile *rig, const struct rig_axes *from,
+                     const struct rig_axes *to);
 
 /* The move as the drivers make it on the rig's mechanics: an axis with
  * backlash arriving against its approach direction takes the leg beyond
- * the target and the approach leg back (rig.h, struct plan_mechanics),
+ * the target and the approach leg back (rig.h, struct rig_mechanics),
  * sent as the first leg ends (capture/capture.c, measure_point). What the
  * plan's estimate counts, and the simulated clock on a scene without
  * effects. */
-double plan_move_time_backlash(const struct plan_rig *rig, const struct plan_axes *from,
-                               const struct plan_axes *to);
+double rig_move_time_backlash(const struct rig_profile *rig, const struct rig_axes *from,
+                              const struct rig_axes *to);
 
 #endif

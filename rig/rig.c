@@ -7,33 +7,25 @@
 #include "common/cfg.h"
 #include "common/paths.h"
 
-void plan_rig_default(struct plan_rig *rig)
+void rig_profile_default(struct rig_profile *rig)
 {
     memset(rig, 0, sizeof *rig);
     snprintf(rig->name, sizeof rig->name, "default");
-    rig->sample = (struct plan_axis){20, 40, -90, 90};
-    rig->arm = (struct plan_axis){15, 30, -170, 170};
-    rig->azimuth = (struct plan_axis){30, 60, -180, 180};
+    rig->sample = (struct rig_axis){20, 40, -90, 90};
+    rig->arm = (struct rig_axis){15, 30, -170, 170};
+    rig->azimuth = (struct rig_axis){30, 60, -180, 180};
     rig->out_of_plane = 1;
     rig->blind_deg = 5;
     rig->settle_s = 0.3;
     rig->integration_s = 0.05;
     rig->auto_min_s = 0.001;
     rig->auto_max_s = 2;
-    rig->mech = (struct plan_mechanics){.in_position_deg = 0.1, .approach = 1,
+    rig->mech = (struct rig_mechanics){.in_position_deg = 0.1, .approach = 1,
                                         .move_retries = 3};
 }
 
-int plan_resolve_path(const char *path_or_name, const char *sub, char *out, size_t size)
-{
-    int n = gonio_ref_is_file(path_or_name)
-                ? snprintf(out, size, "%s", path_or_name)
-                : snprintf(out, size, "%s/%s/%s.yaml", gonio_config_dir(), sub, path_or_name);
-    return n < 0 || (size_t)n >= size ? -ENAMETOOLONG : 0;
-}
-
 static int load_axis(const struct cfg_doc *d, const struct cfg_node *axes, const char *key,
-                     double limit, struct plan_axis *ax, struct gonio_err *err)
+                     double limit, struct rig_axis *ax, struct gonio_err *err)
 {
     static const char *const keys[] = {"speed", "accel", "min", "max", NULL};
     const struct cfg_node *m;
@@ -53,9 +45,9 @@ static int load_axis(const struct cfg_doc *d, const struct cfg_node *axes, const
     return 1;
 }
 
-/* The optional mechanics section (defaults: plan_rig_default). */
+/* The optional mechanics section (defaults: rig_profile_default). */
 static int load_mechanics(const struct cfg_doc *d, const struct cfg_node *root,
-                          struct plan_mechanics *m, struct gonio_err *err)
+                          struct rig_mechanics *m, struct gonio_err *err)
 {
     static const char *const keys[] = {"in_position_deg", "backlash_deg", "approach",
                                        "move_retries", NULL};
@@ -79,7 +71,7 @@ static int load_mechanics(const struct cfg_doc *d, const struct cfg_node *root,
     return 0;
 }
 
-int plan_rig_load(const char *path_or_name, struct plan_rig *rig, struct gonio_err *err)
+int rig_profile_load(const char *path_or_name, struct rig_profile *rig, struct gonio_err *err)
 {
     /* driver/drivers/detector belong to the drivers and the simulator, which
      * check them; the planner only reads motion and timing. */
@@ -89,9 +81,9 @@ int plan_rig_load(const char *path_or_name, struct plan_rig *rig, struct gonio_e
     static const char *const int_keys[] = {"fixed_s", "auto_min_s", "auto_max_s", NULL};
     static const char *const axis_keys[] = {"sample", "arm", "azimuth", NULL};
     char path[4096];
-    if (plan_resolve_path(path_or_name, "rigs", path, sizeof path) < 0)
+    if (gonio_config_path(path_or_name, "rigs", path, sizeof path) < 0)
         return gonio_err_set(err, GONIO_EBADCONFIG, "%s: path too long", path_or_name);
-    plan_rig_default(rig);
+    rig_profile_default(rig);
     struct cfg_doc *d;
     int rc = cfg_load(path, &d, err);
     if (rc < 0)

@@ -9,7 +9,7 @@
 #include "common/err.h"
 
 /* One motor axis: degrees, degrees/s, degrees/s^2. */
-struct plan_axis {
+struct rig_axis {
     double speed, accel;
     double min, max;
 };
@@ -19,39 +19,35 @@ struct plan_axis {
  * resting outside is re-commanded up to move_retries times, approaching
  * from the reference side (approach: +1 from below, -1 from above) through
  * a point backlash_deg beyond the target when the rig has backlash. The
- * plan's estimate counts the approach legs (plan_move_time_backlash), not
+ * plan's estimate counts the approach legs (rig_move_time_backlash), not
  * re-commands. */
-struct plan_mechanics {
+struct rig_mechanics {
     double in_position_deg;
     double backlash_deg; /* 0: direct approach from either side */
     int approach;        /* +1 positive (from below), -1 negative */
     int move_retries;
 };
 
-struct plan_rig {
+struct rig_profile {
     char name[64];
-    struct plan_axis sample;  /* s = theta_i */
-    struct plan_axis arm;     /* a = theta_i + theta_r, from the source */
-    struct plan_axis azimuth; /* out-of-plane axis; used when out_of_plane */
+    struct rig_axis sample;  /* s = theta_i */
+    struct rig_axis arm;     /* a = theta_i + theta_r, from the source */
+    struct rig_axis azimuth; /* out-of-plane axis; used when out_of_plane */
     int out_of_plane;
     double blind_deg;        /* detector within this of the source: unreachable */
     double settle_s;         /* wait after each move */
     double integration_s;    /* fixed integration (no noise in the scene) */
     double auto_min_s, auto_max_s; /* auto-exposure bounds */
-    struct plan_mechanics mech;
+    struct rig_mechanics mech;
 };
 
 /* The design's default profile (DESIGN.md section 9), without a file. */
-void plan_rig_default(struct plan_rig *rig);
+void rig_profile_default(struct rig_profile *rig);
 
 /* Load a profile: a path (contains '/' or ends in .yaml) or a bare name
  * resolved to <gonio_config_dir()>/rigs/NAME.yaml. Every value is
  * range-checked; unknown keys are errors. Returns 0, or -GONIO_EBADCONFIG /
  * -GONIO_ENOTFOUND with err = "path:line:col: key 'x': problem". */
-int plan_rig_load(const char *path_or_name, struct plan_rig *rig, struct gonio_err *err);
-
-/* Resolve NAME to <config>/<sub>/NAME.yaml unless it already is a path.
- * Returns 0, or -ENAMETOOLONG. Shared by plans and rigs. */
-int plan_resolve_path(const char *path_or_name, const char *sub, char *out, size_t size);
+int rig_profile_load(const char *path_or_name, struct rig_profile *rig, struct gonio_err *err);
 
 #endif

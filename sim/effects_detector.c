@@ -60,7 +60,7 @@ static int open_csv(sim_detector *d, const char *path, struct gonio_err *err)
     return fflush(d->csv) == 0 ? 0 : gonio_err_set(err, EIO, "%s: write failed", path);
 }
 
-sim_detector *sim_detector_new(const struct plan_rig *rig, const brdf_material *material,
+sim_detector *sim_detector_new(const struct rig_profile *rig, const brdf_material *material,
                                const struct sim_scene *scene, sim_effects *fx,
                                const char *spectra_csv, struct gonio_err *err)
 {

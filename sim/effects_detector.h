@@ -29,7 +29,7 @@ typedef struct sim_detector sim_detector;
 
 /* fx is borrowed (may be NULL: no effects); material too. spectra_csv:
  * where to append the spectra of a spectral detector, or NULL. */
-sim_detector *sim_detector_new(const struct plan_rig *rig, const brdf_material *material,
+sim_detector *sim_detector_new(const struct rig_profile *rig, const brdf_material *material,
                                const struct sim_scene *scene, sim_effects *fx,
                                const char *spectra_csv, struct gonio_err *err);
 void sim_detector_free(sim_detector *d);

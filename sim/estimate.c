@@ -17,7 +17,7 @@ static double point_integration(void *user, const struct plan_point *pt)
 }
 
 int sim_estimate_plan(const struct sim_scene *scene, const brdf_material *material,
-                      const struct plan *plan, const struct plan_rig *rig, double *point_s,
+                      const struct plan *plan, const struct rig_profile *rig, double *point_s,
                       double *integration_s, struct plan_estimate *est, struct gonio_err *err)
 {
     sim_effects *fx = sim_effects_new(scene, err);

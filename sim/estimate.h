@@ -19,7 +19,7 @@
  * a negative code with err (out of memory; a spectral material outside the
  * detector's bands). */
 int sim_estimate_plan(const struct sim_scene *scene, const brdf_material *material,
-                      const struct plan *plan, const struct plan_rig *rig, double *point_s,
+                      const struct plan *plan, const struct rig_profile *rig, double *point_s,
                       double *integration_s, struct plan_estimate *est, struct gonio_err *err);
 
 #endif

@@ -2,7 +2,7 @@
 
 #include <math.h>
 
-void sim_exposure_init(struct sim_exposure *x, const struct plan_rig *rig,
+void sim_exposure_init(struct sim_exposure *x, const struct rig_profile *rig,
                        const struct sim_scene *scene, int noisy)
 {
     x->automatic = noisy;

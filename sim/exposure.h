@@ -21,7 +21,7 @@ struct sim_exposure {
     double responsivity; /* e-/s per 1/sr at normal incidence */
 };
 
-void sim_exposure_init(struct sim_exposure *x, const struct plan_rig *rig,
+void sim_exposure_init(struct sim_exposure *x, const struct rig_profile *rig,
                        const struct sim_scene *scene, int noisy);
 
 /* The integration time for a signal v[n] (1/sr) lit at cos_i. */

@@ -80,7 +80,7 @@ struct sim_opts {
  * material the server simulates. */
 struct sim_setup {
     struct sim_scene scene;
-    struct plan_rig rig;
+    struct rig_profile rig;
     brdf_material *material;
 };
 
@@ -178,7 +178,7 @@ static int load_setup(const struct sim_opts *o, struct sim_setup *su)
     struct gonio_err err = {0};
     int rc = sim_scene_load(o->scene_name, &su->scene, &err);
     if (rc == 0)
-        rc = plan_rig_load(o->rig_name ? o->rig_name : su->scene.rig, &su->rig, &err);
+        rc = rig_profile_load(o->rig_name ? o->rig_name : su->scene.rig, &su->rig, &err);
     if (rc < 0) {
         fprintf(stderr, "gonio-sim: %s\n", err.msg);
         return gonio_exit_status(rc);
@@ -198,13 +198,13 @@ static int load_setup(const struct sim_opts *o, struct sim_setup *su)
 static void print_setup(const struct sim_opts *o, const struct sim_setup *su)
 {
     const struct msim_cfg *cfg = &o->cfg;
-    const struct plan_rig *rig = &su->rig;
+    const struct rig_profile *rig = &su->rig;
     printf("scene %s (%s)\nmaterial %s\nrig %s%s\ntime scale %g\nsteps per degree %g\n"
            "IN-POS band %g deg\n", su->scene.name, su->scene.path,
            brdf_material_name(su->material), rig->name,
            rig->out_of_plane ? " (out of plane: azimuth slave 4)" : "", cfg->time_scale,
            cfg->steps_per_deg, cfg->in_pos_deg);
-    const struct plan_axis *ax[3] = {&rig->sample, &rig->arm, &rig->azimuth};
+    const struct rig_axis *ax[3] = {&rig->sample, &rig->arm, &rig->azimuth};
     static const char *names[3] = {"sample (slave 1)", "arm (slave 2)", "azimuth (slave 4)"};
     for (int i = 0; i < (rig->out_of_plane ? 3 : 2); i++)
         printf("axis %s: limits [%g, %g] deg, profile %g deg/s, %g deg/s^2\n", names[i],

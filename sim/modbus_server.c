@@ -27,7 +27,7 @@
 
 /* ---- Lifecycle ------------------------------------------------------------- */
 
-msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
+msim *msim_new(const struct rig_profile *profile, const brdf_material *material,
                const struct sim_scene *scene, const struct msim_cfg *cfg,
                struct gonio_err *err)
 {
@@ -51,7 +51,7 @@ msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
         free(m);
         return NULL;
     }
-    const struct plan_axis *profs[SIM_N_AXES] = {&profile->sample, &profile->arm,
+    const struct rig_axis *profs[SIM_N_AXES] = {&profile->sample, &profile->arm,
                                                  &profile->azimuth};
     m->n_axes = profile->out_of_plane ? 3 : 2;
     for (int i = 0; i < SIM_N_AXES; i++) {

@@ -45,7 +45,7 @@ struct sim_scene;
  * effects (jitter, backlash, stall) act on the axes, and comm_faults drops,
  * corrupts or delays exchanges. The azimuth slave exists only when the
  * profile is out_of_plane. */
-msim *msim_new(const struct plan_rig *profile, const brdf_material *material,
+msim *msim_new(const struct rig_profile *profile, const brdf_material *material,
                const struct sim_scene *scene, const struct msim_cfg *cfg,
                struct gonio_err *err);
 void msim_free(msim *m);

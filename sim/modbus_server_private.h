@@ -45,7 +45,7 @@ enum { MSIM_ALARM_OVERLOAD = MB_ALARM_OVERLOAD, MSIM_ALARM_DEVIATION = MB_ALARM_
 struct msim_axis {
     modbus_mapping_t *map;
     enum sim_axis_id id;
-    const struct plan_axis *prof;
+    const struct rig_axis *prof;
     uint32_t input_prev; /* input command as last written: commands act on edges */
     double target_deg;
     int alarm, homing, home_end;
@@ -73,7 +73,7 @@ struct msim_detector {
 
 struct msim {
     struct msim_cfg cfg;
-    const struct plan_rig *profile;
+    const struct rig_profile *profile;
     sim_rig *rig;
     double wall0;
     struct msim_axis axis[SIM_N_AXES];

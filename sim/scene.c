@@ -8,6 +8,7 @@
 
 #include "brdf/spectral.h"
 #include "common/cfg.h"
+#include "common/paths.h"
 #include "rig/rig.h"
 
 /* Default detector: a white diffuser (1/pi per sr) gives about 3.2e5 e-/s
@@ -371,7 +372,7 @@ int sim_scene_load(const char *path_or_name, struct sim_scene *scene, struct gon
 
     sim_scene_ideal(scene, NULL);
     scene->name[0] = '\0';
-    if (plan_resolve_path(path_or_name, "scenes", scene->path, sizeof scene->path) < 0)
+    if (gonio_config_path(path_or_name, "scenes", scene->path, sizeof scene->path) < 0)
         return gonio_err_set(err, ENAMETOOLONG, "%s: scene path too long", path_or_name);
     struct cfg_doc *doc;
     int rc = cfg_load(scene->path, &doc, err);

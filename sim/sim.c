@@ -12,7 +12,7 @@
 #include "sim/effects_detector.h"
 
 struct sim_axis {
-    const struct plan_axis *prof;
+    const struct rig_axis *prof;
     const char *name;
     double from, to;  /* current move: positions */
     double t0, t1;    /* and its start and end on the simulated clock */
@@ -27,7 +27,7 @@ struct sim_axis {
 };
 
 struct sim_rig {
-    const struct plan_rig *profile;
+    const struct rig_profile *profile;
     const brdf_material *material;
     double now;
     struct sim_axis axis[SIM_N_AXES];
@@ -35,7 +35,7 @@ struct sim_rig {
     sim_detector *det;
 };
 
-static sim_rig *rig_alloc(const struct plan_rig *profile, const brdf_material *material,
+static sim_rig *rig_alloc(const struct rig_profile *profile, const brdf_material *material,
                           struct gonio_err *err)
 {
     sim_rig *rig = calloc(1, sizeof *rig);
@@ -51,7 +51,7 @@ static sim_rig *rig_alloc(const struct plan_rig *profile, const brdf_material *m
     return rig;
 }
 
-sim_rig *sim_rig_new_scene(const struct plan_rig *profile, const brdf_material *material,
+sim_rig *sim_rig_new_scene(const struct rig_profile *profile, const brdf_material *material,
                            const struct sim_scene *scene, const char *out_dir,
                            struct gonio_err *err)
 {
@@ -79,7 +79,7 @@ sim_rig *sim_rig_new_scene(const struct plan_rig *profile, const brdf_material *
     return rig;
 }
 
-sim_rig *sim_rig_new(const struct plan_rig *profile, const brdf_material *material,
+sim_rig *sim_rig_new(const struct rig_profile *profile, const brdf_material *material,
                      struct gonio_err *err)
 {
     return sim_rig_new_scene(profile, material, NULL, NULL, err);
@@ -94,7 +94,7 @@ void sim_rig_free(sim_rig *rig)
     free(rig);
 }
 
-const struct plan_rig *sim_rig_profile(const sim_rig *rig)
+const struct rig_profile *sim_rig_profile(const sim_rig *rig)
 {
     return rig->profile;
 }
@@ -111,10 +111,10 @@ void sim_rig_advance(sim_rig *rig, double seconds)
 }
 
 /* Distance covered t seconds into a rest-to-rest trapezoidal move of length
- * dist (the profile whose duration plan_axis_time gives). */
+ * dist (the profile whose duration rig_axis_time gives). */
 static double trapezoid_distance(double dist, double speed, double accel, double t)
 {
-    double total = plan_axis_time(dist, speed, accel);
+    double total = rig_axis_time(dist, speed, accel);
     if (t >= total)
         return dist;
     if (t <= 0)
@@ -146,7 +146,7 @@ double sim_rig_position(const sim_rig *rig, enum sim_axis_id id)
 int sim_rig_start_move(sim_rig *rig, enum sim_axis_id id, double target_deg,
                        struct gonio_err *err)
 {
-    const struct plan_axis *prof = rig->axis[id].prof;
+    const struct rig_axis *prof = rig->axis[id].prof;
     return sim_rig_start_move_at(rig, id, target_deg, prof->speed, prof->accel, err);
 }
 
@@ -195,7 +195,7 @@ int sim_rig_start_move_at(sim_rig *rig, enum sim_axis_id id, double target_deg, 
     ax->speed = speed;
     ax->accel = accel;
     ax->t0 = rig->now;
-    ax->t1 = rig->now + plan_axis_time(fabs(to - here), speed, accel);
+    ax->t1 = rig->now + rig_axis_time(fabs(to - here), speed, accel);
     return 0;
 }
 

@@ -27,7 +27,7 @@ typedef struct sim_rig sim_rig;
 
 /* The rig keeps pointers to profile and material: both must outlive it.
  * A rig of no scene: the material's exact values, fixed integration. */
-sim_rig *sim_rig_new(const struct plan_rig *profile, const brdf_material *material,
+sim_rig *sim_rig_new(const struct rig_profile *profile, const brdf_material *material,
                      struct gonio_err *err);
 void sim_rig_free(sim_rig *rig);
 
@@ -36,12 +36,12 @@ void sim_rig_free(sim_rig *rig);
  * kind, and with out_dir (may be NULL) a spectral detector's spectra
  * appended to out_dir/spectra.csv. Profile and material must outlive the
  * rig; the scene is copied. */
-sim_rig *sim_rig_new_scene(const struct plan_rig *profile, const brdf_material *material,
+sim_rig *sim_rig_new_scene(const struct rig_profile *profile, const brdf_material *material,
                            const struct sim_scene *scene, const char *out_dir,
                            struct gonio_err *err);
 
 /* The rig profile the rig runs (its axes and mechanics). */
-const struct plan_rig *sim_rig_profile(const sim_rig *rig);
+const struct rig_profile *sim_rig_profile(const sim_rig *rig);
 
 /* Simulated time, seconds since the rig was created. */
 double sim_rig_now(const sim_rig *rig);

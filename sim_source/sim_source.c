@@ -16,7 +16,7 @@
 
 struct sim_source {
     struct sim_scene scene;
-    struct plan_rig rig;          /* the profile the meter and the description use */
+    struct rig_profile rig;          /* the profile the meter and the description use */
     brdf_material *material;      /* what the rig measures; NULL for a description */
     sim_effects *fx;              /* the meter: the scene's effects and detector */
     sim_detector *meter;
@@ -78,7 +78,7 @@ sim_source *sim_source_new(const char *scene, const char *material, const char *
     if (!src)
         return NULL;
     const char *spec = material_spec(material ? material : src->scene.material);
-    if (plan_rig_load(rig ? rig : src->scene.rig, &src->rig, err) < 0 ||
+    if (rig_profile_load(rig ? rig : src->scene.rig, &src->rig, err) < 0 ||
         !(src->material = brdf_material_open(spec, err)) ||
         !(src->fx = sim_effects_new(&src->scene, err)) ||
         !(src->meter = sim_detector_new(&src->rig, src->material, &src->scene, src->fx, NULL,
@@ -126,7 +126,7 @@ static void close_devices(void *user, struct capture_devices *d)
 
 /* Devices over a fresh sim_rig reading the source's material; a spectral
  * detector appends its spectra to dir/spectra.csv. */
-static int open_devices(void *user, const struct plan_rig *rig, const char *dir,
+static int open_devices(void *user, const struct rig_profile *rig, const char *dir,
                         struct capture_devices *d, struct gonio_err *err)
 {
     sim_source *src = user;

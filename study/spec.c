@@ -146,9 +146,9 @@ static int item_check(enum study_list which, const char *token, struct study_ite
             snprintf(it->spec, sizeof it->spec, "%s", abs);
             free(abs);
             item_name(token, it->name, sizeof it->name);
-            struct plan_rig rig;
+            struct rig_profile rig;
             struct plan *p;
-            plan_rig_default(&rig);
+            rig_profile_default(&rig);
             if (plan_load(it->spec, &rig, &p, &e) < 0)
                 return gonio_err_set(err, GONIO_EUSAGE, "%s: plan '%s': %s", opt, token, e.msg);
             plan_free(p);

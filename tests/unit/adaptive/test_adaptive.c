@@ -33,11 +33,11 @@ struct run {
     int switches;     /* times the status's model changed */
 };
 
-static struct plan *load(const char *name, struct plan_rig *rig)
+static struct plan *load(const char *name, struct rig_profile *rig)
 {
     struct gonio_err err = {0};
     struct plan *p = NULL;
-    plan_rig_default(rig);
+    rig_profile_default(rig);
     if (plan_load(name, rig, &p, &err) <= 0) {
         print_error("plan %s: %s\n", name, err.msg);
         fail();
@@ -86,13 +86,13 @@ static double fault_s;
 
 /* Measure what the policy asks, one point at a time, on the rig clock,
  * telling it what each point took, until it stops or max picks. */
-static void run_policy(const struct plan *pool, const struct plan_rig *rig,
+static void run_policy(const struct plan *pool, const struct rig_profile *rig,
                        const struct adaptive_options *o, size_t max, struct run *r)
 {
     struct gonio_err err = {0};
     adaptive *a = adaptive_new(pool, rig, NULL, o, &err);
     assert_non_null(a);
-    struct plan_axes at = {0, 0, 0};
+    struct rig_axes at = {0, 0, 0};
     memset(r, 0, sizeof *r);
     while (r->n < max) {
         char was[sizeof r->st.model];
@@ -105,7 +105,7 @@ static void run_policy(const struct plan *pool, const struct plan_rig *rig,
         const struct plan_point *pt = plan_point(pool, (size_t)i);
         double integration = rig->integration_s * (detector ? detector(pt) : 1);
         double took =
-            plan_move_time_backlash(rig, &at, &pt->ax) + rig->settle_s + integration + overhead_s;
+            rig_move_time_backlash(rig, &at, &pt->ax) + rig->settle_s + integration + overhead_s;
         if (fault_every && (r->n + 1) % fault_every == 0)
             took += fault_s;
         r->clock += took;
@@ -122,7 +122,7 @@ static void run_policy(const struct plan *pool, const struct plan_rig *rig,
 static void test_deterministic(void **state)
 {
     (void)state;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds1", &rig);
     struct adaptive_options o = adaptive_default_options();
     static struct run r1, r2;
@@ -139,7 +139,7 @@ static void test_deterministic(void **state)
 static void test_budget_never_exceeded(void **state)
 {
     (void)state;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds1", &rig);
     struct adaptive_options o = adaptive_default_options();
     o.budget_s = 15;
@@ -158,7 +158,7 @@ static void test_budget_never_exceeded(void **state)
 static void test_seeds_fill_ds4_time(void **state)
 {
     (void)state;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds1", &rig), *ds4 = load("ds4", &rig);
     struct plan_estimate est;
     plan_estimate(ds4, &rig, &est);
@@ -185,7 +185,7 @@ static void test_seeds_fill_ds4_time(void **state)
 static void test_budget_held_on_a_slower_rig(void **state)
 {
     (void)state;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds1", &rig);
     struct adaptive_options o = adaptive_default_options();
     static struct run r;
@@ -209,7 +209,7 @@ static void test_budget_held_on_a_slower_rig(void **state)
 static void test_budget_held_through_rare_faults(void **state)
 {
     (void)state;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds1", &rig);
     struct adaptive_options o = adaptive_default_options();
     static struct run r;
@@ -233,10 +233,10 @@ static void test_budget_held_through_rare_faults(void **state)
 static void test_cost_learns_integration(void **state)
 {
     (void)state;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds1", &rig);
     struct gonio_err err = {0};
-    const struct plan_axes home = {0, 0, 0};
+    const struct rig_axes home = {0, 0, 0};
     /* j, the pool point nearest it and the one farthest from it */
     size_t j = 11, i = j, far = j;
     double near_d = INFINITY, far_d = 0;
@@ -252,7 +252,7 @@ static void test_cost_learns_integration(void **state)
             far = k;
         }
     }
-    double move_settle = plan_move_time_backlash(&rig, &home, &plan_point(pool, j)->ax) +
+    double move_settle = rig_move_time_backlash(&rig, &home, &plan_point(pool, j)->ax) +
                          rig.settle_s;
     adaptive *a = adaptive_new(pool, &rig, NULL, NULL, &err);
     assert_non_null(a);
@@ -300,7 +300,7 @@ static void test_predicted_next_sensible(void **state)
 static void test_exhausted_no_repeat(void **state)
 {
     (void)state;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds3", &rig);
     struct adaptive_options o = adaptive_default_options();
     static struct run r;
@@ -319,12 +319,12 @@ static void test_exhausted_no_repeat(void **state)
 static void test_pending_excluded(void **state)
 {
     (void)state;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds1", &rig);
     struct gonio_err err = {0};
     adaptive *a = adaptive_new(pool, &rig, NULL, NULL, &err);
     assert_non_null(a);
-    struct plan_axes at = {0, 0, 0};
+    struct rig_axes at = {0, 0, 0};
     long pending = -1;
     for (int k = 0; k < 20; k++) {
         long i = adaptive_next(a, &at, 0, pending, NULL, &err);
@@ -344,7 +344,7 @@ static void test_pending_excluded(void **state)
 static void test_bad_input(void **state)
 {
     (void)state;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds1", &rig);
     struct gonio_err err = {0};
     struct adaptive_options o = adaptive_default_options();
@@ -382,7 +382,7 @@ static void test_bad_input(void **state)
     assert_int_equal(adaptive_observe(a, 3, 0.1, -1, &err), -GONIO_EUSAGE);
     assert_non_null(strstr(err.msg, "point 3 observed with integration 0.1 s in -1 s"));
     assert_int_equal(adaptive_observe(a, 3, NAN, 1, &err), -GONIO_EUSAGE);
-    struct plan_axes at = {0, 0, 0};
+    struct rig_axes at = {0, 0, 0};
     assert_int_equal(adaptive_next(a, &at, 0, (long)plan_count(pool), NULL, &err),
                      -GONIO_EUSAGE);
     adaptive_free(a);
@@ -406,7 +406,7 @@ static void test_concentrates_on_specular(void **state)
                           "  diffuse_step: 4\n  glossy_step: 4\n  glossy_half_width: 12\n"
                           "  theta_r_min: -80\n  theta_r_max: 80\n  blind: 5\norder: travel\n"
                           "stop: all\n");
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load(path, &rig);
     struct adaptive_options o = adaptive_default_options();
     static struct run r;
@@ -474,7 +474,7 @@ static void test_predicted_finite_early_and_grazing(void **state)
                 fprintf(f, "  - [%d, %d]\n", ti, tr);
     fputs("order: travel\nstop: all\n", f);
     fclose(f);
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load(path, &rig);
     struct adaptive_options o = adaptive_default_options();
     static struct run r;
@@ -496,7 +496,7 @@ static void test_predicted_finite_early_and_grazing(void **state)
 static void test_target_stop(void **state)
 {
     (void)state;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds1", &rig);
     struct adaptive_options o = adaptive_default_options();
     o.target = 0.01;
@@ -514,7 +514,7 @@ static void test_target_stop(void **state)
 static void test_converge_stop(void **state)
 {
     (void)state;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds1", &rig);
     struct adaptive_options o = adaptive_default_options();
     o.converge = 1;
@@ -539,7 +539,7 @@ static void test_converge_stop(void **state)
 static void test_auto_refuses_foreign_prior(void **state)
 {
     (void)state;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds1", &rig);
     struct adaptive_options o = adaptive_default_options();
     o.model = "auto";
@@ -560,7 +560,7 @@ static void test_auto_check_does_not_swing(void **state)
     struct gonio_err err = {0};
     truth = brdf_material_open("analytic:rough-diffuse", &err);
     assert_non_null(truth);
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds1", &rig);
     struct adaptive_options o = adaptive_default_options();
     o.model = "auto";
@@ -584,7 +584,7 @@ static void test_auto_follows_latent_on_merl(void **state)
     struct gonio_err err = {0};
     truth = brdf_material_open("nbrdf:red-plastic", &err);
     assert_non_null(truth);
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *pool = load("ds1", &rig);
     struct adaptive_options o = adaptive_default_options();
     o.model = "auto";

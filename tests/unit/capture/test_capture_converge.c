@@ -73,8 +73,8 @@ static void test_converge_stops_early(void **state)
 {
     (void)state;
     const char *name = gonio_test_small() ? "ds2" : "ds1";
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     struct plan *plan;
     assert_true(plan_load(name, &rig, &plan, NULL) > 0);
     size_t total = plan_count(plan);
@@ -122,8 +122,8 @@ static void test_stop_all_measures_everything(void **state)
     struct capture_config cfg = config(out, "example-custom", "all");
     struct capture_summary s;
     struct gonio_err err = {0};
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     struct plan *plan;
     assert_true(plan_load("example-custom", &rig, &plan, NULL) > 0);
     size_t total = plan_count(plan);

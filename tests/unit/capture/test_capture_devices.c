@@ -47,7 +47,7 @@ static int teardown(void **state)
  * clock run and report the pause. */
 struct host {
     brdf_material *material;
-    struct plan_rig rig; /* the sim keeps a pointer: the host's own copy */
+    struct rig_profile rig; /* the sim keeps a pointer: the host's own copy */
     sim_rig *sim;
     size_t calls, abort_at, pause_at;
     double pause_s;
@@ -86,7 +86,7 @@ static const struct drv_clock_ops opened_clock_ops = {
     .free_priv = free,
 };
 
-static int open_devices(void *user, const struct plan_rig *rig, const char *out,
+static int open_devices(void *user, const struct rig_profile *rig, const char *out,
                         struct capture_devices *d, struct gonio_err *err)
 {
     (void)out;

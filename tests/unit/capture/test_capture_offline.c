@@ -95,9 +95,9 @@ static void test_capture_matches_material_and_estimate(void **state)
     /* The simulated clock runs the same motion as the planner's estimate,
      * backlash approach legs included: the default rig has backlash, and
      * DS3 moves its axes both ways. */
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *plan;
-    assert_int_equal(plan_rig_load("default", &rig, &err), 0);
+    assert_int_equal(rig_profile_load("default", &rig, &err), 0);
     assert_true(rig.mech.backlash_deg > 0);
     assert_int_equal(plan_load("ds3", &rig, &plan, &err), 52);
     struct plan_estimate est;
@@ -398,9 +398,9 @@ static void estimate_and_capture(const char *plan, const char *scene, double *es
     assert_int_equal(sim_source_check(scene, &cfg, &est, &err), 0);
     *est_s = est.total_s;
 
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *p;
-    assert_int_equal(plan_rig_load("default", &rig, &err), 0);
+    assert_int_equal(rig_profile_load("default", &rig, &err), 0);
     assert_true(plan_load(plan, &rig, &p, &err) > 0);
     plan_estimate(p, &rig, &est);
     *fixed_s = est.total_s;

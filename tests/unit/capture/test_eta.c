@@ -13,14 +13,14 @@
 #include "planner/meter.h"
 #include "planner/planner.h"
 
-static struct plan_rig rig;
+static struct rig_profile rig;
 static struct plan *ds3;
 
 static int setup(void **state)
 {
     (void)state;
     struct gonio_err err = {0};
-    if (plan_rig_load("default", &rig, &err) < 0 || plan_load("ds3", &rig, &ds3, &err) <= 0)
+    if (rig_profile_load("default", &rig, &err) < 0 || plan_load("ds3", &rig, &ds3, &err) <= 0)
         return -1;
     return 0;
 }
@@ -46,7 +46,7 @@ static void test_first_eta_is_the_estimate(void **state)
     capture_eta_free(e);
 }
 
-static const struct plan_axes home = {0, 0, 0};
+static const struct rig_axes home = {0, 0, 0};
 
 /* A journal record of point i measured after point `prev` (-1: from home)
  * ending at rig time `end`, integrating `integ`, with `extra` seconds
@@ -54,8 +54,8 @@ static const struct plan_axes home = {0, 0, 0};
 static struct journal_sample record(long prev, size_t i, double integ, double extra,
                                     double *end)
 {
-    const struct plan_axes *from = prev >= 0 ? &plan_point(ds3, (size_t)prev)->ax : &home;
-    *end += plan_move_time_backlash(&rig, from, &plan_point(ds3, i)->ax) + rig.settle_s +
+    const struct rig_axes *from = prev >= 0 ? &plan_point(ds3, (size_t)prev)->ax : &home;
+    *end += rig_move_time_backlash(&rig, from, &plan_point(ds3, i)->ax) + rig.settle_s +
             integ + extra;
     struct journal_sample s;
     memset(&s, 0, sizeof s);
@@ -71,11 +71,11 @@ static struct journal_sample record(long prev, size_t i, double integ, double ex
 static double expected_left(const unsigned char *done, const plan_meter *m, double overhead)
 {
     double left = 0;
-    const struct plan_axes *at = &home;
+    const struct rig_axes *at = &home;
     for (size_t i = 0; i < plan_count(ds3); i++) {
-        const struct plan_axes *to = &plan_point(ds3, i)->ax;
+        const struct rig_axes *to = &plan_point(ds3, i)->ax;
         if (!done[i])
-            left += plan_move_time_backlash(&rig, at, to) + overhead +
+            left += rig_move_time_backlash(&rig, at, to) + overhead +
                     plan_meter_integration(m, i);
         at = to;
     }
@@ -144,10 +144,10 @@ static void test_order_counts_the_moves(void **state)
     capture_eta *e = capture_eta_new(ds3, &rig, order, NULL, &err);
     assert_non_null(e);
     double want = 0;
-    const struct plan_axes *at = &home;
+    const struct rig_axes *at = &home;
     for (size_t k = 0; k < n; k++) {
-        const struct plan_axes *to = &plan_point(ds3, (size_t)order[k])->ax;
-        want += plan_move_time_backlash(&rig, at, to) + rig.settle_s + rig.integration_s;
+        const struct rig_axes *to = &plan_point(ds3, (size_t)order[k])->ax;
+        want += rig_move_time_backlash(&rig, at, to) + rig.settle_s + rig.integration_s;
         at = to;
     }
     assert_close(capture_eta_left(e), want, 1e-9);
@@ -177,16 +177,16 @@ static void test_large_plan_counts_off(void **state)
     assert_non_null(exact);
     exact[n - 1] = 0;
     for (size_t j = n - 1; j > 0; j--)
-        exact[j - 1] = exact[j] + plan_move_time_backlash(&rig, &plan_point(full, j - 1)->ax,
-                                                          &plan_point(full, j)->ax) +
+        exact[j - 1] = exact[j] + rig_move_time_backlash(&rig, &plan_point(full, j - 1)->ax,
+                                                         &plan_point(full, j)->ax) +
                        rig.settle_s + 0.3;
     capture_eta *e = capture_eta_new(full, &rig, NULL, NULL, &err);
     assert_non_null(e);
     double end = 0, worst = 0;
-    const struct plan_axes *at = &home;
+    const struct rig_axes *at = &home;
     for (size_t i = 0; i < n; i++) {
-        const struct plan_axes *to = &plan_point(full, i)->ax;
-        end += plan_move_time_backlash(&rig, at, to) + rig.settle_s + 0.2 + 0.1;
+        const struct rig_axes *to = &plan_point(full, i)->ax;
+        end += rig_move_time_backlash(&rig, at, to) + rig.settle_s + 0.2 + 0.1;
         at = to;
         struct journal_sample s;
         memset(&s, 0, sizeof s);

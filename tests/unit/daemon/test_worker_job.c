@@ -16,13 +16,13 @@
 static size_t orderings;
 
 int __real_plan_order_indices(const struct plan_point *pts, size_t n,
-                              enum plan_order_mode mode, const struct plan_rig *rig,
+                              enum plan_order_mode mode, const struct rig_profile *rig,
                               size_t *order);
 int __wrap_plan_order_indices(const struct plan_point *pts, size_t n,
-                              enum plan_order_mode mode, const struct plan_rig *rig,
+                              enum plan_order_mode mode, const struct rig_profile *rig,
                               size_t *order);
 int __wrap_plan_order_indices(const struct plan_point *pts, size_t n,
-                              enum plan_order_mode mode, const struct plan_rig *rig,
+                              enum plan_order_mode mode, const struct rig_profile *rig,
                               size_t *order)
 {
     orderings++;

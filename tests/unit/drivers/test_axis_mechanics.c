@@ -64,11 +64,11 @@ static int group_teardown(void **state)
 }
 
 /* A rig whose drives come to rest within band, with tries, no backlash. */
-static sim_rig *rig_of(const struct sim_scene *sc, struct plan_rig *prof, double band,
+static sim_rig *rig_of(const struct sim_scene *sc, struct rig_profile *prof, double band,
                        int retries)
 {
-    plan_rig_default(prof);
-    prof->mech = (struct plan_mechanics){.in_position_deg = band, .approach = 1,
+    rig_profile_default(prof);
+    prof->mech = (struct rig_mechanics){.in_position_deg = band, .approach = 1,
                                          .move_retries = retries};
     struct gonio_err err = {0};
     sim_rig *rig = sim_rig_new_scene(prof, material, sc, NULL, &err);
@@ -80,7 +80,7 @@ static sim_rig *rig_of(const struct sim_scene *sc, struct plan_rig *prof, double
 static void test_recommand(void **state)
 {
     (void)state;
-    struct plan_rig prof;
+    struct rig_profile prof;
     sim_rig *rig = rig_of(&scene, &prof, 0.05, 0);
     drv_axis *once = drv_axis_new_sim(rig, SIM_AXIS_AZIMUTH);
     struct gonio_err err = {0};
@@ -151,7 +151,7 @@ static void test_recommand(void **state)
 static void test_alarms(void **state)
 {
     (void)state;
-    struct plan_rig prof;
+    struct rig_profile prof;
     sim_rig *rig = rig_of(&scene, &prof, 0.05, 0);
     drv_axis *once = drv_axis_new_sim(rig, SIM_AXIS_ARM);
     struct gonio_err err = {0};
@@ -190,7 +190,7 @@ static void test_alarms(void **state)
 static void test_sensor_alarm_rehomes(void **state)
 {
     (void)state;
-    struct plan_rig prof;
+    struct rig_profile prof;
     sim_rig *rig = rig_of(&sensor_scene, &prof, 0.05, 1);
     drv_axis *s = drv_axis_new_sim(rig, SIM_AXIS_SAMPLE);
     struct gonio_err err = {0};

@@ -49,7 +49,7 @@ struct rig_host {
     double rig_times[8]; /* of the first samples */
 };
 
-static int open_devices(void *user, const struct plan_rig *rig, const char *dir,
+static int open_devices(void *user, const struct rig_profile *rig, const char *dir,
                         struct capture_devices *dev, struct gonio_err *err)
 {
     (void)dir;
@@ -166,9 +166,9 @@ static void capture_on_modbus(const char *plan_name, const char *scene, const ch
     double wall = drv_test_wall() - wall0;
 
     /* The planner's estimate for the same plan on the same rig profile. */
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *plan;
-    assert_int_equal(plan_rig_load("default", &rig, &err), 0);
+    assert_int_equal(rig_profile_load("default", &rig, &err), 0);
     assert_true(plan_load(plan_name, &rig, &plan, &err) > 0);
     struct plan_estimate est;
     plan_estimate(plan, &rig, &est);
@@ -268,9 +268,9 @@ static void test_capture_slow_line(void **state)
     struct rig_host h = {.baud = 1800};
     capture_on_modbus("ds4", "ideal", "4", 0, &h);
     struct gonio_err err = {0};
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *plan;
-    assert_int_equal(plan_rig_load("default", &rig, &err), 0);
+    assert_int_equal(rig_profile_load("default", &rig, &err), 0);
     assert_true(plan_load("ds4", &rig, &plan, &err) > 0);
     double point_s[6];
     struct plan_estimate est;

@@ -19,7 +19,7 @@
 
 static struct sim_proc sim;
 static drv_modbus_bus *rtu, *tcp;
-static struct plan_rig rig;
+static struct rig_profile rig;
 static brdf_material *material;
 
 static int group_setup(void **state)
@@ -29,7 +29,7 @@ static int group_setup(void **state)
     if (sim_proc_start(&sim, args) < 0)
         return -1;
     struct gonio_err err = {0};
-    if (plan_rig_load("default", &rig, &err) < 0) {
+    if (rig_profile_load("default", &rig, &err) < 0) {
         fprintf(stderr, "%s\n", err.msg);
         return -1;
     }
@@ -60,7 +60,7 @@ static int group_teardown(void **state)
     return sim_proc_stop(&sim) == 0 ? 0 : -1;
 }
 
-static drv_axis *axis(drv_modbus_bus *bus, int slave, const struct plan_axis *prof,
+static drv_axis *axis(drv_modbus_bus *bus, int slave, const struct rig_axis *prof,
                       const char *name)
 {
     struct gonio_err err = {0};
@@ -208,7 +208,7 @@ static void test_soft_limits(void **state)
     assert_int_equal(drv_axis_start_move(s, 95, &err), -GONIO_EUNREACHABLE);
     assert_close(position(s), 0, 0);
 
-    struct plan_axis wide = rig.sample;
+    struct rig_axis wide = rig.sample;
     wide.min = -120;
     wide.max = 120;
     drv_axis *w = axis(rtu, 1, &wide, "sample");

@@ -16,7 +16,7 @@
 
 static struct sim_proc sim;
 static drv_modbus_bus *bus;
-static struct plan_rig rig;
+static struct rig_profile rig;
 
 static int group_setup(void **state)
 {
@@ -25,7 +25,7 @@ static int group_setup(void **state)
     static const char *const args[] = {"--time-scale", "50", "--stall", "2:18",
                                        "--overload", "1:25", NULL};
     struct gonio_err err = {0};
-    if (sim_proc_start(&sim, args) < 0 || plan_rig_load("default", &rig, &err) < 0)
+    if (sim_proc_start(&sim, args) < 0 || rig_profile_load("default", &rig, &err) < 0)
         return -1;
     bus = sim_proc_rtu(&sim, 50);
     return bus ? 0 : -1;
@@ -83,7 +83,7 @@ static void test_overload(void **state)
     drv_axis_free(s);
 }
 
-static int open_devices(void *user, const struct plan_rig *r, const char *dir,
+static int open_devices(void *user, const struct rig_profile *r, const char *dir,
                         struct capture_devices *dev, struct gonio_err *err)
 {
     (void)user;

@@ -19,14 +19,14 @@
 
 static struct sim_proc sim;
 static drv_modbus_bus *bus;
-static struct plan_rig rig;
+static struct rig_profile rig;
 static char dir[64] = "/tmp/gonio-late-XXXXXX", scene[96];
 
 static int group_setup(void **state)
 {
     (void)state;
     struct gonio_err err = {0};
-    if (plan_rig_load("default", &rig, &err) < 0 || !mkdtemp(dir))
+    if (rig_profile_load("default", &rig, &err) < 0 || !mkdtemp(dir))
         return -1;
     snprintf(scene, sizeof scene, "%s/late.yaml", dir);
     FILE *f = fopen(scene, "w");

@@ -20,14 +20,14 @@
 
 static struct sim_proc sim;
 static drv_modbus_bus *bus;
-static struct plan_rig rig;
+static struct rig_profile rig;
 
 static int group_setup(void **state)
 {
     (void)state;
     static const char *const args[] = {"--time-scale", "10", "--baud", "19200", NULL};
     struct gonio_err err = {0};
-    if (sim_proc_start(&sim, args) < 0 || plan_rig_load("default", &rig, &err) < 0)
+    if (sim_proc_start(&sim, args) < 0 || rig_profile_load("default", &rig, &err) < 0)
         return -1;
     struct drv_modbus_bus_cfg cfg;
     drv_modbus_bus_cfg_default(&cfg);

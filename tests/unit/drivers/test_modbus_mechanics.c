@@ -18,7 +18,7 @@
 
 static struct sim_proc sim;
 static drv_modbus_bus *bus;
-static struct plan_rig rig;
+static struct rig_profile rig;
 static char scene_dir[64], scene_path[96];
 
 static int group_setup(void **state)
@@ -41,7 +41,7 @@ static int group_setup(void **state)
     const char *const args[] = {"--scene", scene_path, "--time-scale", "50", "--in-pos-deg",
                                 "0.01", NULL};
     struct gonio_err err = {0};
-    if (sim_proc_start(&sim, args) < 0 || plan_rig_load("default", &rig, &err) < 0)
+    if (sim_proc_start(&sim, args) < 0 || rig_profile_load("default", &rig, &err) < 0)
         return -1;
     bus = sim_proc_rtu(&sim, 50);
     return bus ? 0 : -1;
@@ -56,7 +56,7 @@ static int group_teardown(void **state)
     return sim_proc_stop(&sim) == 0 ? 0 : -1;
 }
 
-static drv_axis *axis(int slave, const struct plan_axis *prof, const char *name, double band,
+static drv_axis *axis(int slave, const struct rig_axis *prof, const char *name, double band,
                       int retries)
 {
     struct drv_modbus_axis_opts opts = {.in_position_deg = band, .move_retries = retries};
@@ -68,7 +68,7 @@ static drv_axis *axis(int slave, const struct plan_axis *prof, const char *name,
 }
 
 /* The encoder, read by a handle that knows nothing of the last move. */
-static double encoder(int slave, const struct plan_axis *prof)
+static double encoder(int slave, const struct rig_axis *prof)
 {
     drv_axis *r = axis(slave, prof, "reader", 0, 0);
     struct gonio_err err = {0};

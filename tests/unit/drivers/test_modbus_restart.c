@@ -20,7 +20,7 @@
 
 static struct sim_proc sim;
 static drv_modbus_bus *bus;
-static struct plan_rig rig;
+static struct rig_profile rig;
 /* RTU: the bus is on a link to the pty, which a restarted gonio-sim points
  * at its new pty (as a serial adapter plugged in again). */
 static char link_dir[64], link_path[96];
@@ -43,7 +43,7 @@ static int setup(void **state)
     if (!mkdtemp(link_dir))
         return -1;
     snprintf(link_path, sizeof link_path, "%s/rig", link_dir);
-    if (plan_rig_load("default", &rig, &err) < 0 || start_sim(0) < 0)
+    if (rig_profile_load("default", &rig, &err) < 0 || start_sim(0) < 0)
         return -1;
     struct drv_modbus_bus_cfg cfg;
     drv_modbus_bus_cfg_default(&cfg);

@@ -47,9 +47,9 @@ static int half(double deg)
 
 static void check_plan(const char *name, const struct rule *r, int expected)
 {
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct gonio_err err = {0};
-    assert_int_equal(plan_rig_load("default", &rig, &err), 0);
+    assert_int_equal(rig_profile_load("default", &rig, &err), 0);
     struct plan *p;
     int n = plan_load(name, &rig, &p, &err);
     if (n < 0)
@@ -102,8 +102,8 @@ static void test_ds4(void **state)
 {
     (void)state;
     static const double tr[] = {-60, -20, 20, 28, 36, 60};
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     struct plan *p;
     struct gonio_err err = {0};
     assert_int_equal(plan_load("ds4", &rig, &p, &err), 6);

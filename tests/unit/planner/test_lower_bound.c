@@ -15,13 +15,13 @@
 #include "common/paths.h"
 #include "planner/planner.h"
 
-static struct plan_rig rig;
+static struct rig_profile rig;
 
 static int setup(void **state)
 {
     (void)state;
     struct gonio_err err = {0};
-    return plan_rig_load("default", &rig, &err);
+    return rig_profile_load("default", &rig, &err);
 }
 
 /* Trapezoidal move time written out from the design (default rig). */
@@ -31,7 +31,7 @@ static double axis_time(double d, double v, double a)
     return d >= v * v / a ? d / v + v / a : 2 * sqrt(d / a);
 }
 
-static double move(const struct plan_axes *p, const struct plan_axes *q)
+static double move(const struct rig_axes *p, const struct rig_axes *q)
 {
     return fmax(axis_time(q->s - p->s, 20, 40), axis_time(q->a - p->a, 15, 30));
 }
@@ -39,10 +39,10 @@ static double move(const struct plan_axes *p, const struct plan_axes *q)
 #define NMAX 11
 
 /* Exact: cheapest open path from home (node n) through all n points. */
-static double optimum(const struct plan_axes *ax, size_t n)
+static double optimum(const struct rig_axes *ax, size_t n)
 {
     static double dp[1 << NMAX][NMAX];
-    struct plan_axes home = {0, 0, 0};
+    struct rig_axes home = {0, 0, 0};
     size_t full = ((size_t)1 << n) - 1;
     for (size_t s = 1; s <= full; s++)
         for (size_t j = 0; j < n; j++)
@@ -68,9 +68,9 @@ static double optimum(const struct plan_axes *ax, size_t n)
 }
 
 /* Prim over home + the points, written independently. */
-static double mst(const struct plan_axes *ax, size_t n)
+static double mst(const struct rig_axes *ax, size_t n)
 {
-    struct plan_axes nodes[2000 + 1] = {{0, 0, 0}};
+    struct rig_axes nodes[2000 + 1] = {{0, 0, 0}};
     memcpy(nodes + 1, ax, n * sizeof *ax);
     size_t m = n + 1;
     double key[2000 + 1], total = 0;
@@ -95,7 +95,7 @@ static double mst(const struct plan_axes *ax, size_t n)
 
 static double path(const struct plan *p)
 {
-    struct plan_axes at = {0, 0, 0};
+    struct rig_axes at = {0, 0, 0};
     double sum = 0;
     for (size_t i = 0; i < plan_count(p); i++) {
         sum += move(&at, &plan_point(p, i)->ax);
@@ -135,7 +135,7 @@ static void test_small_plans(void **state)
         if (rc < 0) /* a duplicate pair: draw again */
             continue;
         size_t m = plan_count(p);
-        struct plan_axes ax[NMAX];
+        struct rig_axes ax[NMAX];
         for (size_t i = 0; i < m; i++)
             ax[i] = plan_point(p, i)->ax;
         double lb = plan_move_lower_bound(p, &rig);
@@ -161,7 +161,7 @@ static void test_ds1(void **state)
     assert_true(plan_load(gonio_test_small() ? "ds2" : "ds1", &rig, &p, &err) > 0);
     assert_int_equal(plan_order(p, PLAN_ORDER_TRAVEL, &rig), 0);
     size_t n = plan_count(p);
-    struct plan_axes *ax = malloc(n * sizeof *ax);
+    struct rig_axes *ax = malloc(n * sizeof *ax);
     for (size_t i = 0; i < n; i++)
         ax[i] = plan_point(p, i)->ax;
     double lb = plan_move_lower_bound(p, &rig), tree = mst(ax, n), travel = path(p);

@@ -9,14 +9,14 @@
 #include "planner/meter.h"
 #include "planner/planner.h"
 
-static struct plan_rig rig;
+static struct rig_profile rig;
 static struct plan *ds3;
 
 static int setup(void **state)
 {
     (void)state;
     struct gonio_err err = {0};
-    if (plan_rig_load("default", &rig, &err) < 0 || plan_load("ds3", &rig, &ds3, &err) <= 0)
+    if (rig_profile_load("default", &rig, &err) < 0 || plan_load("ds3", &rig, &ds3, &err) <= 0)
         return -1;
     return 0;
 }

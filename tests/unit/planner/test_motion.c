@@ -27,16 +27,16 @@ static void test_closed_forms(void **state)
      * 7.5 deg), half the distance in sqrt(d/a) each way */
     double d = 2, v = 15, a = 30;
     double half_t = sqrt(2 * (d / 2) / a);
-    assert_close(plan_axis_time(d, v, a), 2 * half_t, 1e-12);
+    assert_close(rig_axis_time(d, v, a), 2 * half_t, 1e-12);
     /* long move: v/a to accelerate, v/a to brake, the rest at speed */
     d = 60;
     double t_acc = v / a, d_acc = 0.5 * a * t_acc * t_acc;
-    assert_close(plan_axis_time(d, v, a), 2 * t_acc + (d - 2 * d_acc) / v, 1e-12);
-    assert_close(plan_axis_time(-60, v, a), plan_axis_time(60, v, a), 0);
-    assert_close(plan_axis_time(0, v, a), 0, 0);
+    assert_close(rig_axis_time(d, v, a), 2 * t_acc + (d - 2 * d_acc) / v, 1e-12);
+    assert_close(rig_axis_time(-60, v, a), rig_axis_time(60, v, a), 0);
+    assert_close(rig_axis_time(0, v, a), 0, 0);
     /* the two branches meet where the triangle just reaches speed */
-    assert_close(plan_axis_time(v * v / a, v, a), 2 * v / a, 1e-12);
-    assert_close(plan_axis_time(v * v / a + 1e-9, v, a), 2 * v / a, 1e-9);
+    assert_close(rig_axis_time(v * v / a, v, a), 2 * v / a, 1e-12);
+    assert_close(rig_axis_time(v * v / a + 1e-9, v, a), 2 * v / a, 1e-9);
 }
 
 static void test_simulated(void **state)
@@ -45,26 +45,26 @@ static void test_simulated(void **state)
     static const double cases[][3] = {{1, 15, 30}, {5, 15, 30}, {7.5, 15, 30},
                                       {40, 20, 40}, {170, 15, 30}, {3, 30, 60}};
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
-        assert_close(plan_axis_time(cases[i][0], cases[i][1], cases[i][2]),
+        assert_close(rig_axis_time(cases[i][0], cases[i][1], cases[i][2]),
                      simulate(cases[i][0], cases[i][1], cases[i][2]), 1e-4);
 }
 
 static void test_axes_together(void **state)
 {
     (void)state;
-    struct plan_rig rig;
-    plan_rig_default(&rig);
-    struct plan_axes from = {0, 0, 0}, to = {30, 10, 0};
+    struct rig_profile rig;
+    rig_profile_default(&rig);
+    struct rig_axes from = {0, 0, 0}, to = {30, 10, 0};
     /* sample 30 deg at 20/40: 30/20 + 20/40 = 2.0 s; arm 10 deg at 15/30:
      * 10/15 + 15/30 = 1.1667 s; the move lasts as long as the slower axis */
-    assert_close(plan_move_time(&rig, &from, &to), 2.0, 1e-12);
-    to = (struct plan_axes){1, 40, 0};
-    assert_close(plan_move_time(&rig, &from, &to), 40.0 / 15 + 0.5, 1e-12);
+    assert_close(rig_move_time(&rig, &from, &to), 2.0, 1e-12);
+    to = (struct rig_axes){1, 40, 0};
+    assert_close(rig_move_time(&rig, &from, &to), 40.0 / 15 + 0.5, 1e-12);
     /* the azimuth axis counts only on a rig that has it */
-    to = (struct plan_axes){0, 0, 170};
-    assert_close(plan_move_time(&rig, &from, &to), 170.0 / 30 + 0.5, 1e-12);
+    to = (struct rig_axes){0, 0, 170};
+    assert_close(rig_move_time(&rig, &from, &to), 170.0 / 30 + 0.5, 1e-12);
     rig.out_of_plane = 0;
-    assert_close(plan_move_time(&rig, &from, &to), 0, 0);
+    assert_close(rig_move_time(&rig, &from, &to), 0, 0);
 }
 
 int main(void)

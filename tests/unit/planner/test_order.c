@@ -8,13 +8,13 @@
 
 #include "planner/planner.h"
 
-static struct plan_rig rig;
+static struct rig_profile rig;
 
 static int setup(void **state)
 {
     (void)state;
     struct gonio_err err = {0};
-    return plan_rig_load("default", &rig, &err);
+    return rig_profile_load("default", &rig, &err);
 }
 
 /* Trapezoidal time written out independently of the planner. */
@@ -39,21 +39,21 @@ static double axis_move(double x, double y, double v, double a, double lo, doubl
     return axis_time(y - x, v, a);
 }
 
-static double move_backlash(const struct plan_axes *p, const struct plan_axes *q, double back)
+static double move_backlash(const struct rig_axes *p, const struct rig_axes *q, double back)
 {
     double t = fmax(axis_move(p->s, q->s, 20, 40, -90, back),
                     axis_move(p->a, q->a, 15, 30, -170, back));
     return fmax(t, axis_move(p->az, q->az, 30, 60, -180, back));
 }
 
-static double move(const struct plan_axes *p, const struct plan_axes *q)
+static double move(const struct rig_axes *p, const struct rig_axes *q)
 {
     return move_backlash(p, q, 0);
 }
 
 static double path_move(const struct plan *p, double back)
 {
-    struct plan_axes at = {0, 0, 0};
+    struct rig_axes at = {0, 0, 0};
     double sum = 0;
     for (size_t i = 0; i < plan_count(p); i++) {
         sum += move_backlash(&at, &plan_point(p, i)->ax, back);
@@ -110,7 +110,7 @@ static void check_orders(const char *name)
         assert_rel_close(est.total_s, est.move_s + est.settle_s + est.integration_s, 1e-12);
         if (mode == PLAN_ORDER_GREEDY) {
             /* each step goes to a nearest remaining point */
-            struct plan_axes at = {0, 0, 0};
+            struct rig_axes at = {0, 0, 0};
             for (size_t i = 0; i < n; i++) {
                 double here = move(&at, &plan_point(p, i)->ax);
                 for (size_t j = i + 1; j < n; j++)
@@ -254,7 +254,7 @@ static void test_sweep_alternates(void **state)
     assert_int_equal(plan_order(p, PLAN_ORDER_GREEDY, &rig), 0);
     size_t rows = 0;
     for (size_t i = 1; i < plan_count(p); i++) {
-        const struct plan_axes *a = &plan_point(p, i - 1)->ax, *b = &plan_point(p, i)->ax;
+        const struct rig_axes *a = &plan_point(p, i - 1)->ax, *b = &plan_point(p, i)->ax;
         if (a->s != b->s) {
             rows++;
             assert_true(fabs(b->a - a->a) < 20);

@@ -37,8 +37,8 @@ static void remove_plan(char *dir, char *path)
 static void test_inplane_full(void **state)
 {
     (void)state;
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     struct plan *p;
     struct gonio_err err = {0};
     char dir[] = "/tmp/gonio-domainXXXXXX", path[64];
@@ -80,8 +80,8 @@ static void test_oop_random(void **state)
     char dir[] = "/tmp/gonio-domainXXXXXX", path[64];
     write_plan(dir, path, sizeof path, "domain: {set: oop-random, n: 3000, seed: 7}\n"
                                        "order: as-written\n");
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     struct plan *p;
     struct gonio_err err = {0};
     assert_true(plan_load(path, &rig, &p, &err) > 0);

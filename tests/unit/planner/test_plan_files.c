@@ -66,8 +66,8 @@ static void check_msg(const struct gonio_err *err, const char *path, int line, i
 static void expect_plan_error(const char *text, int code, int line, int col, const char *f1,
                               const char *f2)
 {
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     const char *path = write_yaml("plan.yaml", text);
     struct plan *p = (struct plan *)1;
     struct gonio_err err = {0};
@@ -98,9 +98,9 @@ static void test_unreachable_refused(void **state)
                                       "axes:\n"
                                       "  sample: {speed: 20, accel: 40, min: -40, max: 40}\n"
                                       "  arm: {speed: 15, accel: 30, min: -60, max: 60}\n");
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct gonio_err err = {0};
-    assert_int_equal(plan_rig_load(rig_path, &rig, &err), 0);
+    assert_int_equal(rig_profile_load(rig_path, &rig, &err), 0);
     assert_string_equal(rig.name, "small");
     struct plan *p;
     char ds4[4200];
@@ -122,7 +122,7 @@ static void test_unreachable_refused(void **state)
     const char *oop = write_yaml("oop.yaml", "pairs:\n  - [30, 0, 40, 90]\n");
     assert_int_equal(plan_load(oop, &rig, &p, &err), -GONIO_EUNREACHABLE);
     assert_non_null(strstr(err.msg, "out-of-plane axis"));
-    plan_rig_default(&rig);
+    rig_profile_default(&rig);
     assert_int_equal(plan_load(oop, &rig, &p, &err), 1);
     assert_true(plan_is_out_of_plane(p));
     const struct plan_point *pt = plan_point(p, 0);
@@ -146,10 +146,10 @@ static void test_wider_blind_zone(void **state)
                                       "axes:\n"
                                       "  sample: {speed: 20, accel: 40, min: -90, max: 90}\n"
                                       "  arm: {speed: 15, accel: 30, min: -170, max: 170}\n");
-    struct plan_rig rig, def;
+    struct rig_profile rig, def;
     struct gonio_err err = {0};
-    assert_int_equal(plan_rig_load(rig_path, &rig, &err), 0);
-    plan_rig_default(&def);
+    assert_int_equal(rig_profile_load(rig_path, &rig, &err), 0);
+    rig_profile_default(&def);
     for (int k = 0; k < 2; k++) {
         const char *name = k ? "ds3" : "ds1";
         struct plan *wide, *narrow;
@@ -246,9 +246,9 @@ static void test_bad_rig(void **state)
         char text[1024];
         snprintf(text, sizeof text, "%s%s", base, cases[i].tail);
         const char *path = write_yaml("rig.yaml", text);
-        struct plan_rig rig;
+        struct rig_profile rig;
         struct gonio_err err = {0};
-        assert_int_equal(plan_rig_load(path, &rig, &err), -GONIO_EBADCONFIG);
+        assert_int_equal(rig_profile_load(path, &rig, &err), -GONIO_EBADCONFIG);
         check_msg(&err, path, cases[i].line, cases[i].col, cases[i].f1, cases[i].f2);
     }
     /* an out-of-plane rig needs its azimuth axis */
@@ -256,9 +256,9 @@ static void test_bad_rig(void **state)
     snprintf(text, sizeof text, "%s%s", "out_of_plane: true\n", strchr(base, '\n') + 1);
     strcat(text, "  arm: {speed: 15, accel: 30, min: -170, max: 170}\n");
     const char *path = write_yaml("rig.yaml", text);
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct gonio_err err = {0};
-    assert_int_equal(plan_rig_load(path, &rig, &err), -GONIO_EBADCONFIG);
+    assert_int_equal(rig_profile_load(path, &rig, &err), -GONIO_EBADCONFIG);
     check_msg(&err, path, 1, 15, "key 'out_of_plane'", "azimuth");
 }
 
@@ -266,9 +266,9 @@ static void test_bad_rig(void **state)
 static void test_default_rig(void **state)
 {
     (void)state;
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct gonio_err err = {0};
-    assert_int_equal(plan_rig_load("default", &rig, &err), 0);
+    assert_int_equal(rig_profile_load("default", &rig, &err), 0);
     assert_close(rig.sample.speed, 20, 0);
     assert_close(rig.sample.accel, 40, 0);
     assert_close(rig.arm.speed, 15, 0);
@@ -295,7 +295,7 @@ static void test_default_rig(void **state)
                                   "auto_max_s: 2}\naxes:\n"
                                   "  sample: {speed: 20, accel: 40, min: -90, max: 90}\n"
                                   "  arm: {speed: 15, accel: 30, min: -170, max: 170}\n");
-    assert_int_equal(plan_rig_load(path, &rig, &err), 0);
+    assert_int_equal(rig_profile_load(path, &rig, &err), 0);
     assert_close(rig.mech.in_position_deg, 0.1, 0);
     assert_close(rig.mech.backlash_deg, 0, 0);
     assert_int_equal(rig.mech.move_retries, 3);
@@ -303,7 +303,7 @@ static void test_default_rig(void **state)
     assert_non_null(f);
     fputs("mechanics: {approach: negative, in_position_deg: 0.02}\n", f);
     fclose(f);
-    assert_int_equal(plan_rig_load(path, &rig, &err), 0);
+    assert_int_equal(rig_profile_load(path, &rig, &err), 0);
     assert_int_equal(rig.mech.approach, -1);
     assert_close(rig.mech.in_position_deg, 0.02, 0);
 }
@@ -311,8 +311,8 @@ static void test_default_rig(void **state)
 static void test_declared_fields(void **state)
 {
     (void)state;
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     struct plan *p;
     struct gonio_err err = {0};
     assert_int_equal(plan_load("example-custom", &rig, &p, &err), 9);

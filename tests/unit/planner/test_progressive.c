@@ -9,13 +9,13 @@
 
 #include "planner/planner.h"
 
-static struct plan_rig rig;
+static struct rig_profile rig;
 
 static int setup(void **state)
 {
     (void)state;
     struct gonio_err err = {0};
-    return plan_rig_load("default", &rig, &err);
+    return rig_profile_load("default", &rig, &err);
 }
 
 static int holds(const struct plan *p, double ti, double tr)

@@ -12,13 +12,13 @@
 #include "sim/sim.h"
 #include "tests/gonio_test.h"
 
-static struct plan_rig rig_profile;
+static struct rig_profile rig_profile;
 static brdf_material *material;
 
 static int setup(void **state)
 {
     (void)state;
-    plan_rig_default(&rig_profile);
+    rig_profile_default(&rig_profile);
     material = brdf_material_open("default", NULL);
     return material ? 0 : -1;
 }
@@ -488,7 +488,7 @@ static void test_stall_fails_the_wait_naming_the_alarm(void **state)
     st->axes = 1u << SIM_AXIS_ARM;
     st->at_moves[st->n_at_moves++] = 3;
     st->code = 0x10;
-    struct plan_rig no_tries = rig_profile; /* recovery: tests/unit/drivers/test_axis_mechanics.c */
+    struct rig_profile no_tries = rig_profile; /* recovery: tests/unit/drivers/test_axis_mechanics.c */
     no_tries.mech.move_retries = 0;
     sim_rig *rig = sim_rig_new_scene(&no_tries, material, &sc, NULL, NULL);
     drv_axis *arm = drv_axis_new_sim(rig, SIM_AXIS_ARM);

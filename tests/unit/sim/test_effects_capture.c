@@ -57,7 +57,7 @@ static void read_journal(const char *out, struct journal_sample **s, size_t *n)
  * and flagged saturated exactly when its brightest channel holds the full
  * well (60000 e- at 1e6 e-/s per 1/sr; 1% for the hidden backlash). */
 static void check_valid(const struct journal_sample *s, const struct plan *plan,
-                        const struct plan_rig *rig)
+                        const struct rig_profile *rig)
 {
     const struct plan_point *pt = plan_point(plan, (size_t)s->point);
     assert_close(s->s, pt->ax.s, 0.6);
@@ -88,9 +88,9 @@ static void same_sample(const struct journal_sample *a, const struct journal_sam
     assert_memory_equal(da, db, sizeof da);
 }
 
-static void load_plan(struct plan_rig *rig, struct plan **plan)
+static void load_plan(struct rig_profile *rig, struct plan **plan)
 {
-    assert_int_equal(plan_rig_load("default", rig, NULL), 0);
+    assert_int_equal(rig_profile_load("default", rig, NULL), 0);
     assert_int_equal(plan_load("ds3", rig, plan, NULL), 52);
 }
 
@@ -122,7 +122,7 @@ static void test_bad_day_recovers_the_stall(void **state)
     text[len] = '\0';
     assert_non_null(strstr(text, "\"alarms_recovered\": 1"));
 
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *plan;
     load_plan(&rig, &plan);
     struct journal_sample *s;
@@ -181,7 +181,7 @@ static void test_fatal_alarm_fails_and_resumes(void **state)
     snprintf(path, sizeof path, "%s/results.json", out);
     assert_int_equal(access(path, F_OK), -1);
 
-    struct plan_rig rig;
+    struct rig_profile rig;
     struct plan *plan;
     load_plan(&rig, &plan);
     struct journal_sample *first;

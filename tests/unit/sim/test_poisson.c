@@ -132,8 +132,8 @@ static void test_shot_noise_at_the_top_of_the_scene_ranges(void **state)
 static void test_rig_reads_at_responsivity_1e15(void **state)
 {
     (void)state;
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     brdf_material *m = brdf_material_open("default", NULL);
     assert_non_null(m);
     struct sim_scene sc;
@@ -183,8 +183,8 @@ static void read_scene(const char *text, int read_noise)
     unlink(path);
     if (rc != 0)
         fail_msg("%s", err.msg);
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     rig.auto_max_s = 600; /* the longest a rig profile allows */
     brdf_material *m = brdf_material_open("default", NULL);
     sim_rig *r = sim_rig_new_scene(&rig, m, &sc, NULL, &err);

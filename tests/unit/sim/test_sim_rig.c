@@ -27,8 +27,8 @@ static double closed_form(double dist, double v, double a, double t)
 static void test_move_at_speed(void **state)
 {
     (void)state;
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     struct gonio_err err = {0};
     brdf_material *m = brdf_material_open(brdf_material_default_spec(), &err);
     assert_non_null(m);
@@ -62,8 +62,8 @@ static void test_move_at_speed(void **state)
 static void test_sample_does_not_advance(void **state)
 {
     (void)state;
-    struct plan_rig rig;
-    plan_rig_default(&rig);
+    struct rig_profile rig;
+    rig_profile_default(&rig);
     struct gonio_err err = {0};
     brdf_material *m = brdf_material_open(brdf_material_default_spec(), &err);
     sim_rig *r = sim_rig_new(&rig, m, &err);
