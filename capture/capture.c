@@ -324,8 +324,10 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
         return rc;
 
     struct capture_devices dev;
-    if ((rc = open_devices(r, &dev, err)) < 0)
-        return rc;
+    if ((rc = open_devices(r, &dev, err)) < 0) {
+        r->aborted = rc == -ECANCELED; /* the host stopped it while the devices opened */
+        return r->aborted ? 0 : rc;
+    }
     struct rig_clock clk;
     rig_clock_start(&clk, dev.clock, r->n > 0 ? all[r->n - 1].rig_time_s : 0);
     for (long k = first; k >= 0 && rc == 0;) {
@@ -338,6 +340,11 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
         if (c == CAPTURE_PAUSED)
             rig_clock_paused(&clk);
         rc = measure_one(r, &dev, &clk, k, &k, err);
+        if (rc == -ECANCELED) { /* the host's abort ended the point's waits: nothing journalled */
+            r->aborted = 1;
+            rc = 0;
+            break;
+        }
         if (rc > 0) {
             r->converged = 1;
             rc = 0;

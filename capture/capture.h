@@ -253,7 +253,9 @@ const struct plan_estimate *capture_job_estimate(const capture_job *job);
  * the journal lacks (in the adaptive order: those the policy chooses,
  * capture/sequence.h), fit and write results.json. An aborted capture
  * keeps its samples, stops the axes and returns 0 with stop_reason
- * "aborted" (no fit, no results.json). hooks may be NULL. Returns a
+ * "aborted" (no fit, no results.json); so does one whose devices fail with
+ * -ECANCELED (a host that cancels their waits, drv_modbus_bus_set_cancel),
+ * journalling nothing of the point they interrupted. hooks may be NULL. Returns a
  * negative code with err filled on failure. */
 int capture_job_run(capture_job *job, const struct capture_hooks *hooks,
                     struct capture_summary *out, struct gonio_err *err);

@@ -41,6 +41,7 @@ static int open_usb_detector(const struct goniod_config *cfg, struct capture_dev
 }
 
 int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profile *rig,
+                        int (*cancelled)(void *user), void *user,
                         struct capture_devices *dev, void **bus_out, struct gonio_err *err)
 {
     memset(dev, 0, sizeof *dev);
@@ -65,6 +66,7 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profil
     }
     if (!bus)
         return -(err && err->code ? err->code : GONIO_EDEVICE);
+    drv_modbus_bus_set_cancel(bus, cancelled, user);
     /* The rig profile's mechanics (docs/plans.md): band, backlash, tries. */
     struct drv_modbus_axis_opts opts = {.steps_per_deg = cfg->steps_per_deg,
                                         .in_position_deg = rig->mech.in_position_deg,
@@ -120,9 +122,12 @@ void goniod_devices_close(struct capture_devices *dev, void *bus)
 #else /* the Modbus backend is not in this build */
 
 int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profile *rig,
+                        int (*cancelled)(void *user), void *user,
                         struct capture_devices *dev, void **bus_out, struct gonio_err *err)
 {
     (void)rig;
+    (void)cancelled;
+    (void)user;
     memset(dev, 0, sizeof *dev);
     *bus_out = NULL;
     return gonio_err_set(err, GONIO_EDEVICE,

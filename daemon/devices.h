@@ -12,8 +12,11 @@
 
 /* Open the bus and the devices on it; *bus receives the bus handle for
  * goniod_devices_close. The azimuth axis is opened when the configuration
- * names its slave and the rig profile is out-of-plane. */
+ * names its slave and the rig profile is out-of-plane. cancelled (with
+ * user; may be NULL) is the bus's cancel check (drv_modbus_bus_set_cancel):
+ * once it says so, the devices' waits end and fail with -ECANCELED. */
 int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profile *rig,
+                        int (*cancelled)(void *user), void *user,
                         struct capture_devices *dev, void **bus, struct gonio_err *err);
 
 /* The bus's exchange counts so far (drivers/drv_modbus.h), for the stop

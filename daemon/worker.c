@@ -234,12 +234,24 @@ static enum capture_control hook_control(void *user)
     return c;
 }
 
+/* The drivers' cancel check, asked while they wait on the bus: an abort
+ * (a client's, or SIGTERM's shutdown) ends the point under way, not only
+ * the next point boundary. */
+static int hook_cancelled(void *user)
+{
+    worker *w = user;
+    pthread_mutex_lock(&w->mu);
+    int abort = w->abort;
+    pthread_mutex_unlock(&w->mu);
+    return abort;
+}
+
 static int hook_open(void *user, const struct rig_profile *rig, const char *dir,
                      struct capture_devices *dev, struct gonio_err *err)
 {
     (void)dir;
     worker *w = user;
-    return goniod_devices_open(w->cfg, rig, dev, &w->bus, err);
+    return goniod_devices_open(w->cfg, rig, hook_cancelled, w, dev, &w->bus, err);
 }
 
 static void hook_close(void *user, struct capture_devices *dev)

@@ -70,6 +70,15 @@ void drv_modbus_bus_free(drv_modbus_bus *bus);
 /* Switch the per-transaction trace (stderr) on or off. */
 void drv_modbus_bus_set_trace(drv_modbus_bus *bus, int on);
 
+/* The host's cancel check (NULL: none), asked with user at least every
+ * 50 ms while the devices on the bus wait: for an integration, a move, a
+ * settle or a poll. Once it returns non-zero, the wait under way and every
+ * later one end at once and the call that waited fails with -ECANCELED,
+ * naming the device ("detector: cancelled"); requests are still sent (a
+ * stop goes through), but without the pauses before reconnecting. It is
+ * asked from the thread driving the bus. */
+void drv_modbus_bus_set_cancel(drv_modbus_bus *bus, int (*cancelled)(void *user), void *user);
+
 /* What the bus has been through since it was opened: requests made,
  * attempts sent (requests + retries), and why attempts failed. A fault
  * soak reports these next to the faults the rig injected. */

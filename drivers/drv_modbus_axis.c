@@ -199,9 +199,9 @@ static int wait_status(struct mb_axis *a, uint32_t *st, uint32_t *alarm, struct 
     int rc = stage_next(a, due, err);
     if (rc < 0)
         return rc;
-    drv_modbus_sleep(due - drv_modbus_request_s(a->bus, 0, 4) - drv_modbus_gap_s(a->bus) -
-                     gonio_monotonic_s());
-    for (;;) {
+    rc = drv_modbus_sleep(a->bus, due - drv_modbus_request_s(a->bus, 0, 4) -
+                                      drv_modbus_gap_s(a->bus) - gonio_monotonic_s(), a->who, err);
+    while (rc == 0) {
         if ((rc = read_status(a, st, alarm, err)) < 0)
             return rc;
         if (*st & ST_ALM_A)
@@ -229,8 +229,9 @@ static int wait_status(struct mb_axis *a, uint32_t *st, uint32_t *alarm, struct 
                                  "%s (slave %d): not in position %.3g s (rig) after the move "
                                  "started, expected %.3g s", a->who, a->slave,
                                  (now - a->leg_start) * scale, a->leg_time);
-        drv_modbus_sleep(poll);
+        rc = drv_modbus_sleep(a->bus, poll, a->who, err);
     }
+    return rc;
 }
 
 /* Rig seconds since the drive last said it rests (the generic layer asks

@@ -19,6 +19,8 @@ struct drv_modbus_bus {
     double timeout_s, time_scale;
     int retries, trace, tcp;
     struct drv_modbus_stats stats;
+    int (*cancelled)(void *user); /* drv_modbus_bus_set_cancel */
+    void *cancel_user;
     /* The line (drv_modbus_acted): wall seconds a character takes on it
      * and the silence that ends a frame (drv_modbus_gap_s); both 0 on TCP,
      * and from the first exchange faster than its frames could travel at
@@ -226,14 +228,31 @@ static void note_exchange(drv_modbus_bus *bus, int write, int n, double sent, do
         bus->char_s = bus->gap_s = 0;
 }
 
-void drv_modbus_sleep(double seconds)
+void drv_modbus_bus_set_cancel(drv_modbus_bus *bus, int (*cancelled)(void *user), void *user)
 {
-    if (!(seconds > 0))
-        return;
-    struct timespec ts = {.tv_sec = (time_t)seconds};
-    ts.tv_nsec = (long)((seconds - (double)ts.tv_sec) * 1e9);
-    while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
-        ;
+    bus->cancelled = cancelled;
+    bus->cancel_user = user;
+}
+
+/* Slices of at most CANCEL_SLICE_S, the host's check before each: a stop
+ * request waits no longer than one slice for a wait to end. */
+#define CANCEL_SLICE_S 0.05
+
+int drv_modbus_sleep(drv_modbus_bus *bus, double seconds, const char *who,
+                     struct gonio_err *err)
+{
+    double end = gonio_monotonic_s() + (seconds > 0 ? seconds : 0);
+    for (;;) {
+        if (bus->cancelled && bus->cancelled(bus->cancel_user))
+            return gonio_err_set(err, ECANCELED, "%s: cancelled", who);
+        double left = end - gonio_monotonic_s();
+        if (!(left > 0))
+            return 0;
+        double slice = fmin(left, CANCEL_SLICE_S);
+        struct timespec ts = {.tv_sec = 0, .tv_nsec = (long)(slice * 1e9)};
+        while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
+            ;
+    }
 }
 
 static const char *exception_name(int code)
@@ -297,13 +316,14 @@ static int connection_lost(const drv_modbus_bus *bus, int e)
 
 /* Re-open the TCP connection (the serial port) after a pause that doubles with each
  * attempt of the request (0.05 s, 0.1 s, ... at most the response
- * timeout), so a device that is coming back is not hammered. A failed
+ * timeout), so a device that is coming back is not hammered; a cancelled
+ * host cuts the pause short, so that a stop still gets through. A failed
  * connect leaves the context closed: the next attempt fails at once with
  * EBADF and comes back here. */
 static int reconnect(drv_modbus_bus *bus, int attempt)
 {
     modbus_close(bus->ctx);
-    drv_modbus_sleep(fmin(0.05 * (double)(1 << attempt), bus->timeout_s));
+    drv_modbus_sleep(bus, fmin(0.05 * (double)(1 << attempt), bus->timeout_s), bus->where, NULL);
     bus->stats.reconnects++;
     if (modbus_connect(bus->ctx) == 0)
         return 0;

@@ -59,7 +59,8 @@ static int check_rate(struct mb_clock *c, struct gonio_err *err)
     int rc = read_ms(c, &ms0, err);
     double a1 = gonio_monotonic_s();
     while (rc == 0) {
-        drv_modbus_sleep(wait);
+        if ((rc = drv_modbus_sleep(c->bus, wait, "detector clock", err)) < 0)
+            break;
         wait *= 2;
         double b0 = gonio_monotonic_s();
         if ((rc = read_ms(c, &ms, err)) < 0)
@@ -152,8 +153,7 @@ static void mb_stats(const void *priv, struct drv_clock_stats *out)
 static int mb_sleep(void *priv, double seconds)
 {
     struct mb_clock *c = priv;
-    drv_modbus_sleep(seconds / drv_modbus_time_scale(c->bus));
-    return 0;
+    return drv_modbus_sleep(c->bus, seconds / drv_modbus_time_scale(c->bus), "settle", NULL);
 }
 
 static const struct drv_clock_ops mb_clock_ops = {
@@ -180,7 +180,7 @@ drv_clock *drv_clock_new_modbus(drv_modbus_bus *bus, int detector_slave, struct 
     c->wall0 = gonio_monotonic_s();
     int rc = read_ms(c, &c->ms, err);
     if (rc == 0 && c->ms == 0) { /* a simulator that just started reads 0 too */
-        drv_modbus_sleep(0.005);
+        drv_modbus_sleep(bus, 0.005, "detector clock", NULL);
         rc = read_ms(c, &c->ms, err);
     }
     if (rc < 0) {

@@ -113,9 +113,10 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
     double started = fmax(lo, hi - gap);
     double deadline = t0 + (1.5 * integration_s + 2.0) / scale + 0.5 + 4 * drv_modbus_timeout(d->bus);
     double poll = fmin(fmax(0.01 / scale, 0.0002), 0.01);
-    drv_modbus_sleep(started + integration_s / scale - drv_modbus_request_s(d->bus, 0, R_NREGS) -
-                     gap - gonio_monotonic_s());
-    for (;;) {
+    rc = drv_modbus_sleep(d->bus, started + integration_s / scale -
+                                      drv_modbus_request_s(d->bus, 0, R_NREGS) - gap -
+                                      gonio_monotonic_s(), d->who, err);
+    while (rc == 0) {
         if ((rc = read_state(d, &s, err)) < 0)
             return rc;
         if ((s.st & ST_READY) && !(s.st & ST_BUSY) && s.seq != seq0)
@@ -125,8 +126,10 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
                                  "%s (slave %d): no fresh reading %.3g s after the trigger "
                                  "(status 0x%x, sequence %u)", d->who, d->slave,
                                  gonio_monotonic_s() - t0, s.st, s.seq);
-        drv_modbus_sleep(poll);
+        rc = drv_modbus_sleep(d->bus, poll, d->who, err);
     }
+    if (rc < 0)
+        return rc;
     for (int k = 0; k < 3; k++) {
         out->rgb[k] = s.rgb[k];
         /* A NaN or infinite reading would be journalled and fitted as a

@@ -57,8 +57,12 @@ void drv_modbus_note_clock(drv_modbus_bus *bus, int slave, uint32_t ms);
 int drv_modbus_last_clock(const drv_modbus_bus *bus, int slave, uint32_t *ms, double *lo,
                           double *hi);
 
-/* Sleep, wall seconds (time is read with gonio_monotonic_s, common/clock.h). */
-void drv_modbus_sleep(double seconds);
+/* Sleep, wall seconds (time is read with gonio_monotonic_s, common/clock.h),
+ * asking the bus's cancel check (drv_modbus_bus_set_cancel) at the start
+ * and every 50 ms: 0 when the time passed, -ECANCELED ("WHO: cancelled")
+ * as soon as the check says so. */
+int drv_modbus_sleep(drv_modbus_bus *bus, double seconds, const char *who,
+                     struct gonio_err *err);
 
 /* 32-bit values and floats: the register map's codec (upper word first),
  * under the drivers' names. */

@@ -13,6 +13,12 @@ point of the in-process rig is computed in microseconds of CPU, so 2 s (the
 limit the operator is promised) leaves the whole margin to a loaded
 machine; under valgrind every limit stretches by SLOW.
 
+Over Modbus TCP (goniod on gonio-sim at time scale 1, as on hardware) a
+point waits out its integration in wall time: the drivers ask goniod's
+abort flag every 50 ms while they wait, so an abort or SIGTERM during an
+integration of several seconds ends the capture within the same 2 s,
+journalling nothing of the point under way, and the capture resumes.
+
 Run from ctest, or by hand as tests/daemon/test_goniod.py says.
 """
 import csv
@@ -27,7 +33,8 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from goniod_harness import (GONIO, START_S, SLOW, Daemon, journal_points, plan_total,  # noqa: E402
-                         tmpdir, wrap, assert_valgrind_clean)
+                            tmpdir, wrap, assert_valgrind_clean)
+from test_goniod_modbus import ModbusRig  # noqa: E402
 
 STOP_S = 2.0 * SLOW  # from the signal or the abort to the end of the capture
 
@@ -198,6 +205,102 @@ class DaemonTests(unittest.TestCase):
         pts = journal_points(os.path.join(self.d.root, "long", "samples.csv"))
         self.assertEqual(len(pts), stop["samples"])
         sys.stderr.write("SIGTERM on dark: goniod ended %.3f s after it\n" % took)
+
+
+# The default rig with an integration far longer than STOP_S: on the ideal
+# scene (no noise) every point integrates fixed_s of rig time, which at
+# time scale 1 is as many wall seconds.
+LONG_INTEGRATION_S = 8
+SLOW_RIG = """name: slow
+out_of_plane: true
+blind_deg: 5
+settle_s: 0.3
+integration: {fixed_s: %g, auto_min_s: 0.001, auto_max_s: 2}
+axes:
+  sample:  {speed: 20, accel: 40, min: -90, max: 90}
+  arm:     {speed: 15, accel: 30, min: -170, max: 170}
+  azimuth: {speed: 30, accel: 60, min: -180, max: 180}
+mechanics: {in_position_deg: 0.1, backlash_deg: 0.05, approach: positive, move_retries: 5}
+""" % LONG_INTEGRATION_S
+
+
+class ModbusTests(ModbusRig):
+    """goniod on the Modbus drivers over TCP to gonio-sim at time scale 1,
+    each point integrating LONG_INTEGRATION_S wall seconds."""
+    SIM_SCALE = 1
+
+    def start_long(self):
+        """A capture on the slow rig, from its first sample into the next
+        point's integration (settle 0.3 s and a move of a degree or two
+        come before it)."""
+        self.d = Daemon(self.folder, driver=self.tcp_driver(1)).start()
+        with open(os.path.join(self.d.root, "slow.yaml"), "w") as f:
+            f.write(SLOW_RIG)  # a request's rig path is taken in the capture root
+        self.c = self.d.connect()
+        self.c.request("watch")
+        r = self.c.request("capture", plan="ds3", name="long", rig="slow.yaml")
+        self.assertEqual(r["class"], "OK", r)
+        while True:
+            d = self.c.read()
+            self.assertIsNotNone(d, "the stream ended before the first sample")
+            self.assertNotEqual(d.get("class"), "stop", d)
+            if d.get("class") == "event":
+                break
+        time.sleep(LONG_INTEGRATION_S / 4)
+        return d["done"]
+
+    def check_journal(self, stop, done):
+        """The journal holds what the stop document says, the points before
+        the stop request and nothing of the one it interrupted."""
+        capdir = os.path.join(self.d.root, "long")
+        pts = journal_points(os.path.join(capdir, "samples.csv"))
+        self.assertEqual(len(pts), stop["samples"])
+        self.assertEqual(len(pts), done)
+        self.assertFalse(os.path.exists(os.path.join(capdir, "results.json")))
+        return len(pts)
+
+    def resume_then_abort(self, done):
+        r = self.c.request("resume", capture_id="long")
+        self.assertEqual(r["class"], "OK", r)
+        while True:
+            d = self.c.read()
+            self.assertIsNotNone(d, "the stream ended before the resumed start")
+            if d.get("class") == "start":
+                break
+        self.assertTrue(d["resume"])
+        self.assertEqual(d["already_done"], done)
+        self.assertEqual(self.c.request("abort")["class"], "OK")
+        self.assertEqual(self.c.until_stop("long")[-1]["reason"], "aborted")
+
+    def test_abort_ends_an_integration(self):
+        done = self.start_long()
+        sent = time.monotonic()
+        self.assertEqual(self.c.request("abort")["class"], "OK")
+        stop = self.c.until_stop("long")[-1]
+        took = time.monotonic() - sent
+        self.assertEqual(stop["reason"], "aborted")
+        self.assertLess(took, STOP_S, "abort took %.2f s to end the capture" % took)
+        self.assertNotEqual(self.c.request("status")["state"], "running")
+        self.check_journal(stop, done)
+        sys.stderr.write("abort over Modbus: the capture ended %.3f s after it\n" % took)
+        self.resume_then_abort(done)
+
+    def test_sigterm_ends_goniod_during_an_integration(self):
+        done = self.start_long()
+        sent = time.monotonic()
+        self.d.proc.send_signal(signal.SIGTERM)
+        stop = self.c.until_stop("long")[-1]
+        rc = self.d.proc.wait(timeout=3 * START_S)
+        took = time.monotonic() - sent
+        self.assertEqual(stop["reason"], "shutdown")
+        self.assertEqual(rc, 0)
+        self.assertLess(took, STOP_S, "goniod took %.2f s to end on SIGTERM" % took)
+        self.check_journal(stop, done)
+        sys.stderr.write("SIGTERM over Modbus: goniod ended %.3f s after it\n" % took)
+        self.d.start()
+        self.c = self.d.connect()
+        self.c.request("watch")
+        self.resume_then_abort(done)
 
 
 if __name__ == "__main__":
