@@ -11,9 +11,10 @@
 #include "drivers/drv_usbspec.h"
 #endif
 
-/* The USB spectrometer as the rig's detector; its clock is wall time. */
-static int open_usb_detector(const struct goniod_config *cfg, struct capture_devices *dev,
-                             struct gonio_err *err)
+/* The USB spectrometer as the rig's detector, its transfers cancellable
+ * like the bus's waits; its clock is wall time. */
+static int open_usb_detector(const struct goniod_config *cfg, int (*cancelled)(void *user),
+                             void *user, struct capture_devices *dev, struct gonio_err *err)
 {
 #ifdef GONIOD_HAVE_USB
     struct drv_usbspec_cfg uc;
@@ -28,12 +29,17 @@ static int open_usb_detector(const struct goniod_config *cfg, struct capture_dev
         uc.n_bands = 35;
     }
     drv_usbspec *s = drv_usbspec_open(&uc, err);
-    if (!s || !(dev->detector = drv_detector_new_usbspec(s, &uc, err)))
+    if (!s)
+        return -GONIO_EDEVICE;
+    drv_usbspec_set_cancel(s, cancelled, user);
+    if (!(dev->detector = drv_detector_new_usbspec(s, &uc, err)))
         return -GONIO_EDEVICE;
     if (!(dev->clock = drv_clock_new_wall()))
         return gonio_err_set(err, ENOMEM, "wall clock: out of memory");
     return 0;
 #else
+    (void)cancelled;
+    (void)user;
     (void)dev;
     return gonio_err_set(err, GONIO_EDEVICE, "%s: detector 'usb-spectrometer': this goniod was "
                          "built without the USB backend (drivers/drv_usbspec.c)", cfg->path);
@@ -82,7 +88,7 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profil
                                            "azimuth", err);
     int axes_ok = dev->arm && (dev->azimuth || !cfg->slaves.azimuth || !rig->out_of_plane);
     if (axes_ok && cfg->detector == GONIOD_DETECTOR_USB) {
-        open_usb_detector(cfg, dev, err);
+        open_usb_detector(cfg, cancelled, user, dev, err);
     } else if (axes_ok) {
         dev->detector = drv_detector_new_modbus(bus, cfg->slaves.detector, err);
         if (dev->detector)

@@ -35,6 +35,8 @@ struct drv_usbspec {
     double coef[4];
     int packet;         /* spectrum packet size: 512 high speed, 64 full speed */
     int lost;           /* unplugged, or a transfer libusb never gave back */
+    int (*cancelled)(void *user); /* the host's cancel check, or NULL */
+    void *cancel_user;
     struct xfer_state xs;      /* outlives a transfer libusb keeps */
     unsigned char buf[512];    /* the same */
 };
@@ -59,10 +61,20 @@ static void LIBUSB_CALL on_done(struct libusb_transfer *t)
     xs->done = 1;
 }
 
-/* Run events until the transfer completes or the deadline passes. */
-static int wait_done(drv_usbspec *s, double deadline)
+void drv_usbspec_set_cancel(drv_usbspec *s, int (*cancelled)(void *user), void *user)
+{
+    s->cancelled = cancelled;
+    s->cancel_user = user;
+}
+
+/* Run events until the transfer completes or the deadline passes; asks the
+ * host's cancel check every 0.1 s when cancellable, so that a stop does
+ * not wait out an integration of up to 655 s. */
+static int wait_done(drv_usbspec *s, double deadline, int cancellable)
 {
     while (!s->xs.done) {
+        if (cancellable && s->cancelled && s->cancelled(s->cancel_user))
+            return -ECANCELED;
         double left = deadline - gonio_monotonic_s();
         if (left <= 0)
             return LIBUSB_ERROR_TIMEOUT;
@@ -120,10 +132,18 @@ static int bulk(drv_usbspec *s, unsigned char ep, unsigned char *data, int len, 
                                  : libusb_error_name(rc));
     }
     /* libusb's own timer ends the transfer at ms; ours is the backstop */
-    int wrc = wait_done(s, gonio_monotonic_s() + timeout_s + 0.5);
+    int wrc = wait_done(s, gonio_monotonic_s() + timeout_s + 0.5, 1);
     if (!s->xs.done) {
         libusb_cancel_transfer(t);
-        wait_done(s, gonio_monotonic_s() + 0.5);
+        wait_done(s, gonio_monotonic_s() + 0.5, 0);
+        if (wrc == -ECANCELED) {
+            /* The device may still send what was asked: out of step until
+             * it is opened again (a capture's devices are, per capture). */
+            s->lost = 1;
+            if (s->xs.done)
+                libusb_free_transfer(t);
+            return gonio_err_set(err, ECANCELED, "%s: %s: cancelled", s->who, step);
+        }
         if (!s->xs.done) { /* libusb still owns it: never free or reuse it */
             s->lost = 1;
             return gonio_err_set(err, GONIO_EDEVICE, "%s: %s: no completion within %.3g s (%s)",

@@ -76,6 +76,12 @@ int drv_usbspec_set_integration(drv_usbspec *s, uint32_t us, struct gonio_err *e
 /* Request a spectrum (0x09) and read it: counts[DRV_USBSPEC_PIXELS]. */
 int drv_usbspec_read_raw(drv_usbspec *s, uint16_t *counts, struct gonio_err *err);
 
+/* The host's cancel check (NULL: none), asked at least every 0.1 s while a
+ * transfer is pending: once it says so, the transfer is cancelled and the
+ * call fails with -ECANCELED ("...: cancelled"); the device is then out of
+ * step and refuses further use until it is opened again. */
+void drv_usbspec_set_cancel(drv_usbspec *s, int (*cancelled)(void *user), void *user);
+
 /* Pixel wavelengths lambda[n] = c0 + c1 p + c2 p^2 + c3 p^3. */
 void drv_usbspec_wavelengths(const double c[4], size_t n, double *lambda_nm);
 

@@ -23,6 +23,7 @@
 #include "tests/gonio_test.h"
 
 #include "brdf/colour.h"
+#include "common/clock.h"
 #include "drivers/drv_usbspec.h"
 
 #define DEVNODE "/dev/bus/usb/001/005"
@@ -488,6 +489,58 @@ static void test_timeout_waiting_for_sync_byte(void **state)
     check_timeout(8, "sync byte");
 }
 
+/* The host's stop, while the device integrates for as long as its timeout
+ * allows (30 s here, 655 s at most): asked every 0.1 s, it cancels the
+ * pending transfer and the read fails as cancelled within a fraction of a
+ * second of the request, the device refusing further use until reopened. */
+static double stop_at;
+
+static int stop_requested(void *user)
+{
+    (void)user;
+    return gonio_monotonic_s() >= stop_at;
+}
+
+static void test_cancel_while_integrating(void **state)
+{
+    (void)state;
+    UMockdevTestbed *tb = testbed(NULL);
+    struct silent_dev dev = {.packets = 0};
+    g_queue_init(&dev.done);
+    UMockdevIoctlBase *handler = umockdev_ioctl_base_new();
+    g_signal_connect(handler, "handle-ioctl", G_CALLBACK(silent_ioctl), &dev);
+    GError *e = NULL;
+    if (!umockdev_testbed_attach_ioctl(tb, DEVNODE, handler, &e))
+        fail_msg("attach: %s", e->message);
+    timeout_s = 30.0;
+    struct drv_usbspec_cfg cfg = cfg_default();
+    timeout_s = 2.0;
+    struct gonio_err err = {0};
+    drv_usbspec *s = drv_usbspec_open(&cfg, &err);
+    if (!s)
+        fail_msg("open: %s", err.msg);
+    drv_usbspec_set_cancel(s, stop_requested, NULL);
+    drv_detector *det = drv_detector_new_usbspec(s, &cfg, &err);
+    assert_non_null(det);
+    struct drv_reading r;
+    double t0 = gonio_monotonic_s();
+    stop_at = t0 + 0.3;
+    assert_int_equal(drv_detector_acquire(det, 0.1, &r, &err), -ECANCELED);
+    double took = gonio_monotonic_s() - t0;
+    fprintf(stderr, "  cancelled after %.3f s: %s\n", took, err.msg);
+    assert_non_null(strstr(err.msg, "cancelled"));
+    /* 0.3 s to the request, then one 0.1 s slice and the discard; far
+     * below the 30 s the transfer would have waited */
+    assert_true(took < 0.3 + 2.0 * gonio_test_time_factor());
+    assert_int_equal(drv_detector_acquire(det, 0.1, &r, &err), -GONIO_EDEVICE);
+    assert_non_null(strstr(err.msg, "lost"));
+    drv_detector_free(det);
+    g_object_unref(tb);
+    g_object_unref(handler);
+    while (!g_queue_is_empty(&dev.done))
+        g_object_unref(g_queue_pop_head(&dev.done));
+}
+
 /* ---- resampling alone -------------------------------------------------- */
 
 static void test_resample_flat_and_bounds(void **state)
@@ -536,6 +589,7 @@ int main(void)
         cmocka_unit_test(test_bad_calibration_reply),
         cmocka_unit_test(test_timeout_before_first_packet),
         cmocka_unit_test(test_timeout_waiting_for_sync_byte),
+        cmocka_unit_test(test_cancel_while_integrating),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
