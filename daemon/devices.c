@@ -34,7 +34,7 @@ static int open_usb_detector(const struct goniod_config *cfg, int (*cancelled)(v
     drv_usbspec_set_cancel(s, cancelled, user);
     if (!(dev->detector = drv_detector_new_usbspec(s, &uc, err)))
         return -GONIO_EDEVICE;
-    if (!(dev->clock = drv_clock_new_wall()))
+    if (!(dev->clock = drv_clock_new_wall(cancelled, user)))
         return gonio_err_set(err, ENOMEM, "wall clock: out of memory");
     return 0;
 #else

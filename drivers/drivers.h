@@ -125,7 +125,9 @@ void drv_clock_stats(const drv_clock *c, struct drv_clock_stats *out);
 void drv_clock_free(drv_clock *c);
 
 /* Wall time (monotonic, seconds since creation): the clock of hardware
- * whose devices keep no rig time. NULL when out of memory. */
-drv_clock *drv_clock_new_wall(void);
+ * whose devices keep no rig time. Its sleeps ask cancelled (with user;
+ * NULL: none) every 50 ms and fail with -ECANCELED once it says so. NULL
+ * when out of memory. */
+drv_clock *drv_clock_new_wall(int (*cancelled)(void *user), void *user);
 
 #endif
