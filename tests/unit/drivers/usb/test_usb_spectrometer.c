@@ -458,23 +458,37 @@ static gboolean silent_ioctl(UMockdevIoctlBase *base, UMockdevIoctlClient *clien
     return TRUE;
 }
 
-static void check_timeout(int packets, const char *step)
+/* A testbed whose USB2000+ is the scripted dev. */
+static UMockdevTestbed *silent_testbed(struct silent_dev *dev, UMockdevIoctlBase **handler)
 {
     UMockdevTestbed *tb = testbed(NULL);
-    struct silent_dev dev = {.packets = packets};
-    g_queue_init(&dev.done);
-    UMockdevIoctlBase *handler = umockdev_ioctl_base_new();
-    g_signal_connect(handler, "handle-ioctl", G_CALLBACK(silent_ioctl), &dev);
+    g_queue_init(&dev->done);
+    *handler = umockdev_ioctl_base_new();
+    g_signal_connect(*handler, "handle-ioctl", G_CALLBACK(silent_ioctl), dev);
     GError *e = NULL;
-    if (!umockdev_testbed_attach_ioctl(tb, DEVNODE, handler, &e))
+    if (!umockdev_testbed_attach_ioctl(tb, DEVNODE, *handler, &e))
         fail_msg("attach: %s", e->message);
+    return tb;
+}
+
+static void silent_testbed_free(UMockdevTestbed *tb, struct silent_dev *dev,
+                                UMockdevIoctlBase *handler)
+{
+    g_object_unref(tb);
+    g_object_unref(handler);
+    while (!g_queue_is_empty(&dev->done))
+        g_object_unref(g_queue_pop_head(&dev->done));
+}
+
+static void check_timeout(int packets, const char *step)
+{
+    struct silent_dev dev = {.packets = packets};
+    UMockdevIoctlBase *handler;
+    UMockdevTestbed *tb = silent_testbed(&dev, &handler);
     timeout_s = 0.5;
     expect_acquire_failure("silent device", step, "timed out", NULL);
     timeout_s = 2.0;
-    g_object_unref(tb);
-    g_object_unref(handler);
-    while (!g_queue_is_empty(&dev.done))
-        g_object_unref(g_queue_pop_head(&dev.done));
+    silent_testbed_free(tb, &dev, handler);
 }
 
 static void test_timeout_before_first_packet(void **state)
@@ -504,14 +518,9 @@ static int stop_requested(void *user)
 static void test_cancel_while_integrating(void **state)
 {
     (void)state;
-    UMockdevTestbed *tb = testbed(NULL);
     struct silent_dev dev = {.packets = 0};
-    g_queue_init(&dev.done);
-    UMockdevIoctlBase *handler = umockdev_ioctl_base_new();
-    g_signal_connect(handler, "handle-ioctl", G_CALLBACK(silent_ioctl), &dev);
-    GError *e = NULL;
-    if (!umockdev_testbed_attach_ioctl(tb, DEVNODE, handler, &e))
-        fail_msg("attach: %s", e->message);
+    UMockdevIoctlBase *handler;
+    UMockdevTestbed *tb = silent_testbed(&dev, &handler);
     timeout_s = 30.0;
     struct drv_usbspec_cfg cfg = cfg_default();
     timeout_s = 2.0;
@@ -535,10 +544,7 @@ static void test_cancel_while_integrating(void **state)
     assert_int_equal(drv_detector_acquire(det, 0.1, &r, &err), -GONIO_EDEVICE);
     assert_non_null(strstr(err.msg, "lost"));
     drv_detector_free(det);
-    g_object_unref(tb);
-    g_object_unref(handler);
-    while (!g_queue_is_empty(&dev.done))
-        g_object_unref(g_queue_pop_head(&dev.done));
+    silent_testbed_free(tb, &dev, handler);
 }
 
 /* ---- resampling alone -------------------------------------------------- */
