@@ -73,6 +73,11 @@ static json_t *setup_json(const struct capture_setup *su)
                              "out_of_plane", rig->out_of_plane, "blind_deg", rig->blind_deg,
                              "settle_s", rig->settle_s, "integration_s", rig->integration_s,
                              "auto_min_s", rig->auto_min_s, "auto_max_s", rig->auto_max_s);
+    /* The band the journal's records were checked in: a resume and `gonio
+     * journal check` hold them to it (capture/journal_plan.h). */
+    if (root)
+        json_object_set_new(json_object_get(root, "rig"), "in_position_deg",
+                            json_real(rig->mech.in_position_deg));
     if (root && su->source) {
         json_error_t jerr;
         json_t *more = json_loads(su->source, 0, &jerr);
@@ -110,6 +115,8 @@ static int same_value(json_t *a, json_t *b)
     json_t *ca = json_deep_copy(a), *cb = json_deep_copy(b);
     json_object_del(ca, "path");
     json_object_del(cb, "path");
+    if (!json_object_get(ca, "in_position_deg")) /* a setup.json from before the band */
+        json_object_del(cb, "in_position_deg");
     int same = json_equal(ca, cb);
     json_decref(ca);
     json_decref(cb);

@@ -26,11 +26,12 @@ static void usage(FILE *out)
             "  axes within the rig's in-position band. Exit 0 when a resume would take\n"
             "  the journal, 2 with the line and what is wrong otherwise.\n"
             "  --rig NAME|PATH: the rig profile whose in-position band applies (default:\n"
-            "  the profile named by setup.json's rig, else the default profile)\n");
+            "  the band setup.json recorded, else the profile it names, else the default)\n");
 }
 
-/* The rig profile for the band: --rig, else setup.json's rig by name when
- * such a profile exists, else the default. *from says which. */
+/* The rig profile for the band: --rig, else setup.json's rig (the band it
+ * recorded, else its profile by name when such a profile exists), else the
+ * default. *from says which. */
 static int band_rig(const char *dir, const char *opt, struct rig_profile *rig, const char **from,
                     struct gonio_err *err)
 {
@@ -41,9 +42,17 @@ static int band_rig(const char *dir, const char *opt, struct rig_profile *rig, c
     char path[4096];
     snprintf(path, sizeof path, "%s/setup.json", dir);
     json_t *setup = json_load_file(path, 0, NULL);
-    const char *name = json_string_value(json_object_get(json_object_get(setup, "rig"), "name"));
+    json_t *was = json_object_get(setup, "rig");
+    const char *name = json_string_value(json_object_get(was, "name"));
+    double band = json_number_value(json_object_get(was, "in_position_deg"));
     struct gonio_err ignored;
     int rc = name && !strchr(name, '/') ? rig_profile_load(name, rig, &ignored) : -1;
+    if (band > 0) {
+        if (rc < 0)
+            rig_profile_default(rig);
+        rig->mech.in_position_deg = band;
+        rc = 0;
+    }
     json_decref(setup);
     *from = "setup.json's rig";
     if (rc == 0)
