@@ -81,6 +81,33 @@ def wait_for_samples(path, n, proc, limit_s):
     raise AssertionError("no %d samples in %g s: a point does not return" % (n, limit_s))
 
 
+def abort_timed(t):
+    """Abort t's capture "long" through its connection t.c: it must end,
+    aborted, within STOP_S and leave goniod idle; (stop document, seconds)."""
+    sent = time.monotonic()
+    t.assertEqual(t.c.request("abort")["class"], "OK")
+    stop = t.c.until_stop("long")[-1]
+    took = time.monotonic() - sent
+    t.assertEqual(stop["reason"], "aborted")
+    t.assertLess(took, STOP_S, "abort took %.2f s to end the capture" % took)
+    t.assertNotEqual(t.c.request("status")["state"], "running")
+    return stop, took
+
+
+def sigterm_timed(t):
+    """SIGTERM to t's goniod t.d during capture "long": goniod must end it
+    (shutdown) and exit 0 within STOP_S; (stop document, seconds)."""
+    sent = time.monotonic()
+    t.d.proc.send_signal(signal.SIGTERM)
+    stop = t.c.until_stop("long")[-1]
+    rc = t.d.proc.wait(timeout=3 * START_S)
+    took = time.monotonic() - sent
+    t.assertEqual(stop["reason"], "shutdown")
+    t.assertEqual(rc, 0)
+    t.assertLess(took, STOP_S, "goniod took %.2f s to end on SIGTERM" % took)
+    return stop, took
+
+
 class OfflineTests(unittest.TestCase):
     def setUp(self):
         self.folder = tmpdir()
@@ -181,27 +208,14 @@ class DaemonTests(unittest.TestCase):
 
     def test_abort_ends_a_capture_on_the_hot_scene(self):
         self.start("hot")
-        sent = time.monotonic()
-        self.assertEqual(self.c.request("abort")["class"], "OK")
-        stop = self.c.until_stop("long")[-1]
-        took = time.monotonic() - sent
-        self.assertEqual(stop["reason"], "aborted")
-        self.assertLess(took, STOP_S, "abort took %.2f s to end the capture" % took)
-        self.assertNotEqual(self.c.request("status")["state"], "running")
+        stop, took = abort_timed(self)
         pts = journal_points(os.path.join(self.d.root, "long", "samples.csv"))
         self.assertEqual(len(pts), stop["samples"])
         sys.stderr.write("abort on hot: the capture ended %.3f s after it\n" % took)
 
     def test_sigterm_ends_goniod_on_the_dark_scene(self):
         self.start("dark")
-        sent = time.monotonic()
-        self.d.proc.send_signal(signal.SIGTERM)
-        stop = self.c.until_stop("long")[-1]
-        rc = self.d.proc.wait(timeout=3 * START_S)
-        took = time.monotonic() - sent
-        self.assertEqual(stop["reason"], "shutdown")
-        self.assertEqual(rc, 0)
-        self.assertLess(took, STOP_S, "goniod took %.2f s to end on SIGTERM" % took)
+        stop, took = sigterm_timed(self)
         pts = journal_points(os.path.join(self.d.root, "long", "samples.csv"))
         self.assertEqual(len(pts), stop["samples"])
         sys.stderr.write("SIGTERM on dark: goniod ended %.3f s after it\n" % took)
@@ -274,27 +288,14 @@ class ModbusTests(ModbusRig):
 
     def test_abort_ends_an_integration(self):
         done = self.start_long()
-        sent = time.monotonic()
-        self.assertEqual(self.c.request("abort")["class"], "OK")
-        stop = self.c.until_stop("long")[-1]
-        took = time.monotonic() - sent
-        self.assertEqual(stop["reason"], "aborted")
-        self.assertLess(took, STOP_S, "abort took %.2f s to end the capture" % took)
-        self.assertNotEqual(self.c.request("status")["state"], "running")
+        stop, took = abort_timed(self)
         self.check_journal(stop, done)
         sys.stderr.write("abort over Modbus: the capture ended %.3f s after it\n" % took)
         self.resume_then_abort(done)
 
     def test_sigterm_ends_goniod_during_an_integration(self):
         done = self.start_long()
-        sent = time.monotonic()
-        self.d.proc.send_signal(signal.SIGTERM)
-        stop = self.c.until_stop("long")[-1]
-        rc = self.d.proc.wait(timeout=3 * START_S)
-        took = time.monotonic() - sent
-        self.assertEqual(stop["reason"], "shutdown")
-        self.assertEqual(rc, 0)
-        self.assertLess(took, STOP_S, "goniod took %.2f s to end on SIGTERM" % took)
+        stop, took = sigterm_timed(self)
         self.check_journal(stop, done)
         sys.stderr.write("SIGTERM over Modbus: goniod ended %.3f s after it\n" % took)
         self.d.start()
