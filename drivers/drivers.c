@@ -3,6 +3,7 @@
 #include "drivers/drivers_private.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,7 +24,16 @@ drv_detector *drv_detector_alloc(const struct drv_detector_ops *ops, void *priv)
 int drv_detector_acquire(drv_detector *d, double integration_s, struct drv_reading *out,
                          struct gonio_err *err)
 {
+    memset(out, 0, sizeof *out);
+    out->monitor = NAN;
     return d->ops->acquire(d->priv, integration_s, out, err);
+}
+
+int drv_detector_shutter(drv_detector *d, int closed, struct gonio_err *err)
+{
+    if (!d->ops->shutter)
+        return gonio_err_set(err, ENOTSUP, "detector %s has no shutter", d->ops->name);
+    return d->ops->shutter(d->priv, closed, err);
 }
 
 double drv_detector_lag(const drv_detector *d)

@@ -92,16 +92,30 @@ struct drv_axis_stats {
 void drv_axis_stats(const drv_axis *ax, struct drv_axis_stats *out);
 void drv_axis_free(drv_axis *ax);
 
-#define DRV_READING_SATURATED 0x1u
+#define DRV_READING_SATURATED 0x1u /* a channel clipped (at full_scale, or the device says so) */
+
+/* What a reading's values are: BRDF from a detector that reduces them itself
+ * (the ideal simulated scenes), or counts as a real detector's ADC gives
+ * them, dark offset included, which a calibration turns into BRDF. */
+enum drv_unit { DRV_UNIT_BRDF = 0, DRV_UNIT_COUNTS = 1 };
 
 struct drv_reading {
-    double rgb[3];        /* BRDF, 1/sr (calibrated) */
+    double rgb[3];        /* BRDF 1/sr, or counts (ADU): see unit */
     double integration_s; /* integration time actually used */
     unsigned flags;       /* DRV_READING_* */
+    enum drv_unit unit;
+    double full_scale;    /* DRV_UNIT_COUNTS: the largest count the ADC gives; else 0 */
+    double monitor;       /* the lamp monitor's counts over the integration; NAN: no monitor */
+    int gain_state;       /* the detector's gain setting, 0 where it has none */
 };
 
+/* Zeroes *out (monitor NAN) before the backend fills it. */
 int drv_detector_acquire(drv_detector *d, double integration_s, struct drv_reading *out,
                          struct gonio_err *err);
+/* Close (closed 1) or open the light path: the shutter in front of the
+ * detector, or the lamp switched off, for dark frames. -ENOTSUP (err says
+ * so) where the rig has none: the operator is asked to cover it instead. */
+int drv_detector_shutter(drv_detector *d, int closed, struct gonio_err *err);
 /* Rig seconds that surely pass between a call of drv_detector_acquire and
  * the start of its integration (the trigger's time on a slow line; 0 where
  * nothing bounds it): a caller that must not integrate before a moment

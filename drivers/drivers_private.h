@@ -43,6 +43,8 @@ struct drv_detector_ops {
                    struct gonio_err *err);
     /* Optional (NULL: 0): drv_detector_lag's figure. */
     double (*lag)(const void *priv);
+    /* Optional (NULL: no shutter, -ENOTSUP): drv_detector_shutter. */
+    int (*shutter)(void *priv, int closed, struct gonio_err *err);
     void (*free_priv)(void *priv);
 };
 
