@@ -105,6 +105,10 @@ struct drv_reading {
     unsigned flags;       /* DRV_READING_* */
     enum drv_unit unit;
     double full_scale;    /* DRV_UNIT_COUNTS: the largest count the ADC gives; else 0 */
+    /* DRV_UNIT_COUNTS: the detector's nonlinearity as it states it, k: a
+     * signal of x counts above the offset reads x - k x^2 / full_scale
+     * (0: linear, or not stated). */
+    double nonlinearity;
     double monitor;       /* the lamp monitor's counts over the integration; NAN: no monitor */
     int gain_state;       /* the detector's gain setting, 0 where it has none */
 };
