@@ -14,7 +14,7 @@
  * L^T): the MAP estimate for log-space data residuals of noise sigma. The
  * data cost grows with the sample count and the prior's does not, so the
  * prior's pull shrinks as 9 / (3 n): decisive at n = 6, negligible on DS1
- * (912 samples). See docs/fitting.md for the choice of sigma. */
+ * (912 samples). See docs/model-choice.md for the choice of sigma. */
 #ifndef GONIO_FIT_ABC_PRIOR_H
 #define GONIO_FIT_ABC_PRIOR_H
 
@@ -25,7 +25,7 @@
 
 /* Noise level of one log-space residual the prior assumes, i.e. its
  * strength: sigma^2 per unit of squared Mahalanobis distance. Chosen on the
- * DS4 fits of the 10 evaluation materials (leave-one-out, docs/fitting.md):
+ * DS4 fits of the 10 evaluation materials (leave-one-out, docs/model-choice.md):
  * 0.05 (the ABC misfit level) let six samples pull the lobe anywhere;
  * 0.002 gave the lowest errors (8 of 10 within 0.12) and still moves the
  * DS1-DS3 fits by less than 1e-3 in full-domain log error: the prior's cost
@@ -39,7 +39,7 @@
 /* Warning threshold on the fit's predictive uncertainty (fit_info.sd.pred_log:
  * mean posterior sd of the predicted log(1 + f cos) over an in-plane grid):
  * above it the samples do not pin the BRDF, "these pairs are not enough
- * here". Measured (docs/fitting.md): DS1-DS3 fits of the 10 evaluation
+ * here". Measured (docs/model-choice.md): DS1-DS3 fits of the 10 evaluation
  * materials 0.000-0.013; abc-prior on DS4 0.023-0.17 for tungsten-carbide,
  * specular-black-phenolic and brass, <= 0.008 for the others. It cannot
  * flag a fit that is confidently wrong (blue-acrylic, alum-bronze on DS4:

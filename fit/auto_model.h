@@ -14,7 +14,7 @@
  * fit_data.domain_weights each held-out sample counts by its share of the
  * domain (fit/domain_weights.h, over all the samples), as in the weighted
  * candidates' own losses. The lowest wins; a tie goes to the earlier
- * candidate. docs/fitting.md "auto" says why K = 5.
+ * candidate. docs/model-choice.md "auto" says why K = 5.
  *
  * The file written is the chosen model's own (kind abc or latent), so
  * reading it needs nothing new; it carries the choice as keys `auto` (the

@@ -1,5 +1,5 @@
 #!/bin/sh
-# docs/fitting.md "Measured": the ABC fit of ten NBRDF materials on DS1-DS4
+# docs/fit-measured.md "Measured": the ABC fit of ten NBRDF materials on DS1-DS4
 # and the oop200k nodes, full-domain log error and fit time, from
 # bench/abc_fit_bench.c (under a minute; times depend on the machine's load).
 # Usage: scripts/abc_bench_table.sh [BIN_DIR] (default build/bin).

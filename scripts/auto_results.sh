@@ -80,7 +80,7 @@ done
     echo "and auto (seed 1). Errors: full-domain log error against the material (mean |log(1 + fhat"
     echo "cos) - log(1 + f cos)| over the 923,870 MERL nodes with both directions within 80°)."
     echo "auto's CV figures are its 5-fold cross-validated log errors on the captured samples"
-    echo "(docs/fitting.md \"auto\"). best = the better of abc and latent; the criterion is"
+    echo "(docs/model-choice.md \"auto\"). best = the better of abc and latent; the criterion is"
     echo "auto ≤ 1.1 × best. \"abc vs table\" is the abc fit's full-domain error against the"
     echo "material's MERL export read back (\`gonio export merl\`, then \`merl:PATH\`): equal to the abc"
     echo "column when the table holds the material at its nodes."
