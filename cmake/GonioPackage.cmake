@@ -1,7 +1,8 @@
 # make package: a .deb of the make install tree (CPack DEB, docs/install.md).
 # Its postinst creates the gonio user and group and goniod's folders with
 # systemd's own tools, as debhelper's dh_installsysusers/dh_installtmpfiles
-# would; files under /etc are conffiles, so an upgrade keeps a lab's edits.
+# would, and restarts a running goniod on upgrade; prerm stops it on removal.
+# Files under /etc are conffiles, so an upgrade keeps a lab's edits.
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME gonio)
 set(CPACK_PACKAGE_VENDOR "gonio project")
@@ -18,9 +19,11 @@ set(CPACK_DEBIAN_PACKAGE_DEPENDS "systemd | systemd-standalone-sysusers")
 
 set(GONIO_DEB_DIR ${PROJECT_BINARY_DIR}/deb)
 file(MAKE_DIRECTORY ${GONIO_DEB_DIR})
-configure_file(${PROJECT_SOURCE_DIR}/cmake/postinst.in ${GONIO_DEB_DIR}/postinst
-               @ONLY FILE_PERMISSIONS OWNER_READ OWNER_WRITE OWNER_EXECUTE GROUP_READ
-               GROUP_EXECUTE WORLD_READ WORLD_EXECUTE)
+foreach(script postinst prerm postrm)
+  configure_file(${PROJECT_SOURCE_DIR}/cmake/${script}.in ${GONIO_DEB_DIR}/${script}
+                 @ONLY FILE_PERMISSIONS OWNER_READ OWNER_WRITE OWNER_EXECUTE GROUP_READ
+                 GROUP_EXECUTE WORLD_READ WORLD_EXECUTE)
+endforeach()
 # Every regular file make install puts under /etc (the models link is a
 # link, not a conffile).
 file(GLOB_RECURSE GONIO_ETC_FILES RELATIVE ${PROJECT_SOURCE_DIR}/configs
@@ -31,6 +34,7 @@ foreach(f ${GONIO_ETC_FILES})
   string(APPEND conffiles "${GONIO_INSTALL_CONFIG_DIR}/${f}\n")
 endforeach()
 file(WRITE ${GONIO_DEB_DIR}/conffiles "${conffiles}")
-set(CPACK_DEBIAN_PACKAGE_CONTROL_EXTRA "${GONIO_DEB_DIR}/postinst;${GONIO_DEB_DIR}/conffiles")
+set(CPACK_DEBIAN_PACKAGE_CONTROL_EXTRA
+    "${GONIO_DEB_DIR}/postinst;${GONIO_DEB_DIR}/prerm;${GONIO_DEB_DIR}/postrm;${GONIO_DEB_DIR}/conffiles")
 set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 include(CPack)

@@ -14,13 +14,6 @@ static int is_dir(const char *path)
     return path && stat(path, &st) == 0 && S_ISDIR(st.st_mode);
 }
 
-const char *gonio_shared_dir(void)
-{
-    const char *env = getenv("GONIO_SHARED");
-    const char *dir = env && *env ? env : GONIO_SHARED_DEFAULT;
-    return is_dir(dir) ? dir : NULL;
-}
-
 /* The configs an installed binary was installed with: GONIO_CONFIG_FROM_BIN
  * from the executable's folder (/usr/bin/../../etc/gonio), when it exists.
  * Found from /proc/self/exe rather than compiled in as an absolute path, so
@@ -47,6 +40,18 @@ static const char *installed_config_dir(void)
     if (snprintf(dir, sizeof dir, "%s/%s", exe, rel) >= (int)sizeof dir)
         return NULL;
     return is_dir(dir) ? dir : NULL;
+}
+
+const char *gonio_shared_dir(void)
+{
+    const char *env = getenv("GONIO_SHARED");
+    if (env && *env)
+        return is_dir(env) ? env : NULL;
+    /* An installed binary knows no source tree: the build's path compiled
+     * in may name any folder on the machine it was built on. */
+    if (installed_config_dir())
+        return NULL;
+    return is_dir(GONIO_SHARED_DEFAULT) ? GONIO_SHARED_DEFAULT : NULL;
 }
 
 const char *gonio_config_dir(void)

@@ -6,8 +6,9 @@
 
 #include "common/err.h"
 
-/* The shared data folder: $GONIO_SHARED, else ../shared beside the source
- * tree. Returns NULL when the folder does not exist. */
+/* The shared data folder: $GONIO_SHARED, else (a binary run from its build
+ * tree, not an installed one) ../shared beside the source tree. Returns
+ * NULL when the folder does not exist. */
 const char *gonio_shared_dir(void);
 
 /* The configs folder: $GONIO_CONFIG, else the configs an installed binary

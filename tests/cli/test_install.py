@@ -102,6 +102,29 @@ def test_installed_gonio_without_the_source_tree(dest):
     assert os.path.exists(os.path.join(out, "latent.model"))
 
 
+def build_shared():
+    """The shared data folder the build tree's binaries fall back to."""
+    cache = open(os.path.join(BUILD, "CMakeCache.txt")).read()
+    m = re.search(r"(?m)^GONIO_SHARED_DEFAULT:PATH=(.*)$", cache)
+    return os.path.realpath(m.group(1)) if m else None
+
+
+def test_installed_gonio_finds_shared_data_only_through_the_environment(dest):
+    """The build's ../shared is compiled in for the build tree: the
+    installed gonio must not use it (docs/install.md), only $GONIO_SHARED."""
+    shared = build_shared()
+    if not shared or not os.path.isdir(shared):
+        pytest.skip("shared data folder not found beside the source tree")
+    gonio = os.path.join(dest, "usr/bin/gonio")
+    args = (gonio, "capture", "--offline", "--scene", "ideal", "--material", "nbrdf:nylon",
+            "--plan", "ds4", "--quiet", "--out")
+    r = run(*args, os.path.join(dest, "cap-noshared"), env=clean_env())
+    assert r.returncode == 2 and "shared data folder not found (set GONIO_SHARED)" in r.stderr, \
+        r.stderr
+    r = run(*args, os.path.join(dest, "cap-shared"), env=dict(clean_env(), GONIO_SHARED=shared))
+    assert r.returncode == 0, r.stderr
+
+
 def test_readme_goniod_command(dest, tmp_path):
     """The README's goniod command, on the installed config. Without the
     gonio group (made by the package's postinst) --check says so; with a
@@ -149,6 +172,8 @@ def test_package(tmp_path):
     assert run("dpkg-deb", "-x", str(debs[0]), str(root)).returncode == 0
     control = tmp_path / "control"
     assert run("dpkg-deb", "-e", str(debs[0]), str(control)).returncode == 0
+    for script in ("postinst", "prerm", "postrm"):
+        assert (control / script).read_text() == open(os.path.join(BUILD, "deb", script)).read()
     conffiles = (control / "conffiles").read_text().split()
     assert "/etc/gonio/goniod.yaml" in conffiles and "/etc/gonio/plans/ds1.yaml" in conffiles
     (root / "etc" / "passwd").write_text("")
@@ -159,3 +184,57 @@ def test_package(tmp_path):
     assert re.search(r"(?m)^gonio:x:\d+:", (root / "etc" / "group").read_text())
     assert re.search(r"(?m)^gonio:x:\d+:\d+:.*:/var/lib/gonio:",
                      (root / "etc" / "passwd").read_text())
+
+
+MAINTAINER_SCRIPT = """
+set -e
+mount -t tmpfs tmpfs /run
+mkdir -p /run/systemd/system
+for step in "$@"; do
+    echo "== $step" >> "$LOG"
+    set -- $step
+    script=$1
+    shift
+    sh "$DEB/$script" "$@"
+done
+"""
+
+
+def test_maintainer_scripts(tmp_path):
+    """What the maintainer scripts ask of systemd on an install, an upgrade
+    and a removal (purge too), where systemd runs: a private mount
+    namespace with /run/systemd/system, systemctl a recorder on PATH. Only
+    systemd-sysusers and systemd-tmpfiles stay the machine's own (they are
+    recorded too: the install must not touch this machine's users)."""
+    if os.geteuid() != 0 or not shutil.which("unshare"):
+        pytest.skip("needs root and unshare for a private /run")
+    probe = run("unshare", "-m", "--propagation", "private", "true")
+    if probe.returncode != 0:
+        pytest.skip("no mount namespace here: " + probe.stderr.strip()[:100])
+    bindir = tmp_path / "bin"
+    bindir.mkdir()
+    log = tmp_path / "log"
+    for tool in ("systemctl", "systemd-sysusers", "systemd-tmpfiles"):
+        (bindir / tool).write_text('#!/bin/sh\necho "%s $*" >> "$LOG"\n' % tool)
+        (bindir / tool).chmod(0o755)
+    env = {k: v for k, v in os.environ.items() if k != "DPKG_ROOT"}
+    env.update(PATH="%s:%s" % (bindir, os.environ["PATH"]), LOG=str(log),
+               DEB=os.path.join(BUILD, "deb"))
+    steps = ["postinst configure", "prerm upgrade 0.2.0", "postinst configure 0.1.0",
+             "prerm remove", "postrm remove", "postrm purge"]
+    r = run("unshare", "-m", "--propagation", "private", "sh", "-c", MAINTAINER_SCRIPT, "sh",
+            *steps, env=env)
+    assert r.returncode == 0, r.stderr
+    calls = {}
+    for block in log.read_text().split("== ")[1:]:
+        step, *lines = block.strip().split("\n")
+        calls[step] = lines
+    assert calls["postinst configure"] == ["systemd-sysusers gonio.conf",
+                                           "systemd-tmpfiles --create gonio.conf",
+                                           "systemctl daemon-reload"]
+    assert calls["prerm upgrade 0.2.0"] == []
+    assert calls["postinst configure 0.1.0"][-2:] == ["systemctl daemon-reload",
+                                                      "systemctl try-restart goniod.service"]
+    assert calls["prerm remove"] == ["systemctl stop goniod.service"]
+    assert calls["postrm remove"] == ["systemctl daemon-reload"]
+    assert calls["postrm purge"] == ["systemctl daemon-reload"]
