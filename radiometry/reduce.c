@@ -298,31 +298,50 @@ static int reduce_one(const struct rad_calibration *cal, const struct rad_raw *s
     return 0;
 }
 
+/* Neighbours further apart than this resolve no slope: a 12 deg wide lobe
+ * read every 25 deg of incidence has no measured slope along theta_i. */
+#define SLOPE_MAX_SPAN_DEG 12.0
+
 /* ln BRDF's slope along one angle at sample k from its nearest neighbours
- * on either side with the other angle equal (one-sided at an edge, 0 with
- * no neighbour: a lone point has no measured slope). */
+ * on either side with the other angle equal (one-sided at an edge). NAN
+ * when no neighbour lies within SLOPE_MAX_SPAN_DEG. */
 static double neighbour_slope(const struct rad_raw *raw, const struct rad_value *v, size_t n,
                               size_t k, int c, int along_r)
 {
-    double x0 = along_r ? raw[k].theta_r : raw[k].theta_i;
-    double y0 = along_r ? raw[k].theta_i : raw[k].theta_r;
+#define ALONG(j) (along_r ? raw[j].theta_r : raw[j].theta_i)
+#define ACROSS(j) (along_r ? raw[j].theta_i : raw[j].theta_r)
+    double x0 = ALONG(k);
     long lo = -1, hi = -1;
     for (size_t j = 0; j < n; j++) {
-        double x = along_r ? raw[j].theta_r : raw[j].theta_i;
-        double y = along_r ? raw[j].theta_i : raw[j].theta_r;
-        if (j == k || fabs(y - y0) > GEOM_TOL_DEG || !(v[j].brdf[c] > 0))
+        if (j == k || fabs(ACROSS(j) - ACROSS(k)) > GEOM_TOL_DEG || !(v[j].brdf[c] > 0))
             continue;
-        if (x < x0 - GEOM_TOL_DEG && (lo < 0 || x > (along_r ? raw[lo].theta_r : raw[lo].theta_i)))
+        double x = ALONG(j);
+        if (x < x0 - GEOM_TOL_DEG && x >= x0 - SLOPE_MAX_SPAN_DEG && (lo < 0 || x > ALONG(lo)))
             lo = (long)j;
-        if (x > x0 + GEOM_TOL_DEG && (hi < 0 || x < (along_r ? raw[hi].theta_r : raw[hi].theta_i)))
+        if (x > x0 + GEOM_TOL_DEG && x <= x0 + SLOPE_MAX_SPAN_DEG && (hi < 0 || x < ALONG(hi)))
             hi = (long)j;
     }
     long a = lo >= 0 ? lo : (long)k, b = hi >= 0 ? hi : (long)k;
     if (a == b || !(v[a].brdf[c] > 0) || !(v[b].brdf[c] > 0))
-        return 0.0;
-    double xa = along_r ? raw[a].theta_r : raw[a].theta_i;
-    double xb = along_r ? raw[b].theta_r : raw[b].theta_i;
-    return log(v[b].brdf[c] / v[a].brdf[c]) / (xb - xa);
+        return NAN;
+    return log(v[b].brdf[c] / v[a].brdf[c]) / (ALONG(b) - ALONG(a));
+#undef ALONG
+#undef ACROSS
+}
+
+/* The sample's slopes along theta_i and theta_r. Where the capture does
+ * not resolve the slope along theta_i, it is taken as a mirror lobe's,
+ * -d/dtheta_r (a lobe that follows theta_r - theta_i): the larger of the
+ * two usual cases, a diffuse material's 0 being the other. */
+static void sample_slopes(const struct rad_raw *raw, const struct rad_value *v, size_t n,
+                          size_t k, int c, double sl[2])
+{
+    double dr = neighbour_slope(raw, v, n, k, c, 1);
+    double di = neighbour_slope(raw, v, n, k, c, 0);
+    if (isnan(dr))
+        dr = 0.0; /* a lone point along theta_r: nothing measured to go by */
+    sl[0] = isnan(di) ? -dr : di;
+    sl[1] = dr;
 }
 
 int rad_reduce(const struct rad_calibration *cal, const struct rad_raw *raw, size_t n,
@@ -338,8 +357,8 @@ int rad_reduce(const struct rad_calibration *cal, const struct rad_raw *raw, siz
             struct rad_value *v = &out[k];
             if (!isfinite(v->brdf[c]))
                 continue;
-            double sl[2] = {neighbour_slope(raw, out, n, k, c, 0),
-                            neighbour_slope(raw, out, n, k, c, 1)};
+            double sl[2];
+            sample_slopes(raw, out, n, k, c, sl);
             double ref_a = v->rel[RAD_U_ANGLE][c];
             v->rel[RAD_U_ANGLE][c] =
                 sqrt(ref_a * ref_a + angle_var(sl, cal->setup.in_position_deg));

@@ -43,9 +43,12 @@ static void test_shipped_spectralon(void **state)
     assert_true(brdf_standard_shape(&s, 60, 70) > brdf_standard_shape(&s, 60, -70) + 0.05);
     /* Between grid nodes the shape is bilinear. */
     double mid = brdf_standard_shape(&s, 7.5, 52.5);
-    double corners = (brdf_standard_shape(&s, 0, 45) + brdf_standard_shape(&s, 0, 60) +
-                      brdf_standard_shape(&s, 15, 45) + brdf_standard_shape(&s, 15, 60)) / 4;
+    /* view_deg 45 and 60 are columns 9 and 10, incidence 0 and 15 rows 0 and 1. */
+    double corners = (s.shape[0][9] + s.shape[0][10] + s.shape[1][9] + s.shape[1][10]) / 4;
     assert_close(mid, corners, 1e-12);
+    /* On a node, the file's value: incidence 45, view 60 reads 0.943. */
+    assert_close(brdf_standard_shape(&s, 45, 60), 0.943, 1e-12);
+    assert_close(brdf_standard_shape(&s, -45, 60), 0.943, 1e-12);
 }
 
 static void test_material_follows_the_file(void **state)

@@ -21,22 +21,26 @@ struct stats {
     double term_sum[RAD_N_TERMS], total_sum; /* relative u, summed for the mean */
 };
 
-static size_t plan(double (*geo)[2])
+static size_t plan(double (*geo)[2], int step)
 {
     size_t n = 0;
     for (int ti = 0; ti <= 50; ti += 25)
-        for (int tr = -60; tr <= 70; tr += 10)
+        for (int tr = -60; tr <= 70; tr += step)
             geo[n][0] = ti, geo[n][1] = tr, n++;
     return n;
 }
 
-static void one_repeat(uint64_t seed, struct stats *st)
+/* band_deg 0: the rig as synth.h makes it; else axes that rest anywhere in
+ * a wide band, read on a finer grid: the angle term dominates. */
+static void one_repeat(uint64_t seed, double band_deg, struct stats *st)
 {
     struct syn_rig r;
     syn_rig_init(&r, seed, 1);
     r.responsivity = 6e5;
+    if (band_deg > 0)
+        r.band_deg = band_deg;
     double geo[SYN_MAX][2];
-    size_t n = plan(geo);
+    size_t n = plan(geo, band_deg > 0 ? 5 : 10);
     struct rad_dark darks[2];
     static struct rad_ref refs[SYN_MAX];
     syn_dark(&r, 0.1, 16, &darks[0]);
@@ -87,7 +91,7 @@ static void test_z_scores_and_coverage(void **state)
     (void)state;
     struct stats st = {0};
     for (uint64_t seed = 1; seed <= REPEATS; seed++)
-        one_repeat(seed, &st);
+        one_repeat(seed, 0.0, &st);
     double mean = st.z_sum / (double)st.n;
     double sd = sqrt(st.z2_sum / (double)st.n - mean * mean);
     double cover = (double)st.covered / (double)st.n;
@@ -115,10 +119,27 @@ static void test_z_scores_and_coverage(void **state)
     assert_true(sys_sd >= 0.8 && sys_sd <= 1.25);
 }
 
+static void test_angle_term_honest(void **state)
+{
+    (void)state;
+    struct stats st = {0};
+    for (uint64_t seed = 1; seed <= REPEATS; seed++)
+        one_repeat(1000 + seed, 0.4, &st);
+    double mean = st.z_sum / (double)st.n;
+    double sd = sqrt(st.z2_sum / (double)st.n - mean * mean);
+    double cover = (double)st.covered / (double)st.n;
+    fprintf(stderr, "0.4 deg band: z sd %.3f, k=2 coverage %.1f %%, angle term %.3f %% of "
+            "%.3f %% combined\n", sd, 100 * cover, 100 * st.term_sum[RAD_U_ANGLE] / (double)st.n,
+            100 * st.total_sum / (double)st.n);
+    assert_true(sd >= 0.85 && sd <= 1.15);
+    assert_true(cover >= 0.92 && cover <= 0.98);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_z_scores_and_coverage),
+        cmocka_unit_test(test_angle_term_honest),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
