@@ -88,6 +88,11 @@ struct cal_need {
 int cal_select(const char *root, const char *id, const struct cal_need *need,
                struct cal_meta *meta_out, struct gonio_err *err);
 
+/* The dark calibration a reference is taken with: id, or the newest valid
+ * one for the rig and detector covering the integration. */
+int cal_select_dark(const char *root, const char *id, const struct cal_need *need,
+                    struct cal_meta *meta_out, struct gonio_err *err);
+
 /* A loaded calibration: the reduction's inputs, owning their arrays. */
 struct cal_loaded {
     struct cal_meta meta, dark_meta;

@@ -226,33 +226,26 @@ static int check_pair(const char *root, const struct cal_meta *m, const struct c
     return 0;
 }
 
-int cal_select(const char *root, const char *id, const struct cal_need *need,
-               struct cal_meta *meta_out, struct gonio_err *err)
+/* The newest calibration of kind in root that serves need. */
+static int newest(const char *root, enum cal_kind kind, const struct cal_need *need,
+                  struct cal_meta *out, struct gonio_err *err)
 {
-    struct cal_meta m;
-    int rc;
-    if (id) {
-        if ((rc = cal_read(root, id, &m, NULL, NULL, err)) < 0 ||
-            (rc = check_pair(root, &m, need, err)) < 0)
-            return rc;
-        if (meta_out)
-            *meta_out = m;
-        return 0;
-    }
     DIR *d = opendir(root);
     if (!d)
         return gonio_err_set(err, GONIO_EBADCONFIG, "no calibrations: %s: %s (run gonio "
                              "calibrate dark, then reference)", root, strerror(errno));
-    struct cal_meta best = {0};
+    struct cal_meta m, best = {0};
     char why[GONIO_ERR_MSG_MAX] = "";
     int found = 0;
     struct dirent *e;
     while ((e = readdir(d))) {
         struct gonio_err inner = {0};
         if (e->d_name[0] == '.' || cal_read(root, e->d_name, &m, NULL, NULL, &inner) < 0 ||
-            m.kind != CAL_REFERENCE)
+            m.kind != kind)
             continue;
-        if (check_pair(root, &m, need, &inner) < 0) {
+        int bad = kind == CAL_REFERENCE ? check_pair(root, &m, need, &inner)
+                                        : check(root, &m, need, &inner);
+        if (bad < 0) {
             snprintf(why, sizeof why, "%s", inner.msg);
             continue;
         }
@@ -262,10 +255,47 @@ int cal_select(const char *root, const char *id, const struct cal_need *need,
     }
     closedir(d);
     if (!found)
-        return gonio_err_set(err, GONIO_EBADCONFIG, "no valid reference calibration in %s for "
-                             "rig '%s', detector '%s'%s%s", root, need->rig, need->detector,
-                             *why ? ": " : "", why);
+        return gonio_err_set(err, GONIO_EBADCONFIG, "no valid %s calibration in %s for rig "
+                             "'%s', detector '%s'%s%s", kind == CAL_DARK ? "dark" : "reference",
+                             root, need->rig, need->detector, *why ? ": " : "", why);
+    *out = best;
+    return 0;
+}
+
+int cal_select(const char *root, const char *id, const struct cal_need *need,
+               struct cal_meta *meta_out, struct gonio_err *err)
+{
+    struct cal_meta m;
+    int rc;
+    if (id) {
+        if ((rc = cal_read(root, id, &m, NULL, NULL, err)) < 0 ||
+            (rc = check_pair(root, &m, need, err)) < 0)
+            return rc;
+    } else if ((rc = newest(root, CAL_REFERENCE, need, &m, err)) < 0) {
+        return rc;
+    }
     if (meta_out)
-        *meta_out = best;
+        *meta_out = m;
+    return 0;
+}
+
+int cal_select_dark(const char *root, const char *id, const struct cal_need *need,
+                    struct cal_meta *meta_out, struct gonio_err *err)
+{
+    struct cal_meta m;
+    int rc;
+    if (id) {
+        if ((rc = cal_read(root, id, &m, NULL, NULL, err)) < 0)
+            return rc;
+        if (m.kind != CAL_DARK)
+            return gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s is not a dark "
+                                 "calibration", id);
+        if ((rc = check(root, &m, need, err)) < 0)
+            return rc;
+    } else if ((rc = newest(root, CAL_DARK, need, &m, err)) < 0) {
+        return rc;
+    }
+    if (meta_out)
+        *meta_out = m;
     return 0;
 }
