@@ -38,6 +38,7 @@ struct cal_meta {
     size_t n_integrations;
     int gain_state;     /* the gain state the frames were read at */
     double in_position_deg;
+    enum rad_spot spot; /* how the rig's detector sees the lit spot */
 };
 
 /* One raw reading of a calibration (a frames.csv row). */

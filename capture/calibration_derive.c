@@ -152,6 +152,7 @@ int cal_load(const char *root, const char *id, struct cal_loaded *out, struct go
     if (rc >= 0)
         rc = brdf_standard_load(out->meta.standard, &out->cal.standard, err);
     out->cal.setup.in_position_deg = out->meta.in_position_deg;
+    out->cal.setup.spot = out->meta.spot;
     free(rf);
     free(df);
     if (rc < 0)

@@ -111,6 +111,9 @@ int cal_write(const char *root, const struct cal_meta *m, const struct cal_frame
                           "detector", m->detector, "integrations_s", ints, "gain_states",
                           m->gain_state, "in_position_deg", m->in_position_deg, "frames",
                           (json_int_t)n);
+    if (j)
+        json_object_set_new(j, "spot", json_string(m->spot == RAD_SPOT_OVERFILLED
+                                                       ? "overfilled" : "underfilled"));
     if (j && m->kind == CAL_REFERENCE) {
         json_object_set_new(j, "standard", json_string(m->standard));
         json_object_set_new(j, "dark", json_string(m->dark));
@@ -130,7 +133,7 @@ int cal_write(const char *root, const struct cal_meta *m, const struct cal_frame
 static int meta_from_json(const char *path, json_t *j, struct cal_meta *m,
                           struct gonio_err *err)
 {
-    const char *id, *kind, *rig, *det, *std = "", *dark = "";
+    const char *id, *kind, *rig, *det, *std = "", *dark = "", *spot = "underfilled";
     json_int_t created;
     json_t *ints, *gains;
     double valid, band;
@@ -138,6 +141,7 @@ static int meta_from_json(const char *path, json_t *j, struct cal_meta *m,
                     "kind", &kind, "created_unix", &created, "valid_s", &valid, "rig", &rig,
                     "detector", &det, "integrations_s", &ints, "gain_states", &gains,
                     "in_position_deg", &band, "standard", &std, "dark", &dark) != 0 ||
+        json_unpack(j, "{s?s}", "spot", &spot) != 0 ||
         !json_is_array(ints) || !json_is_array(gains) || json_array_size(gains) != 1)
         return gonio_err_set(err, GONIO_EBADDATA, "%s: not a calibration (a member is missing "
                              "or of the wrong type)", path);
@@ -145,6 +149,7 @@ static int meta_from_json(const char *path, json_t *j, struct cal_meta *m,
     snprintf(m->id, sizeof m->id, "%s", id);
     m->kind = strcmp(kind, "dark") == 0 ? CAL_DARK : CAL_REFERENCE;
     m->created = (time_t)created, m->valid_s = valid, m->in_position_deg = band;
+    m->spot = strcmp(spot, "overfilled") == 0 ? RAD_SPOT_OVERFILLED : RAD_SPOT_UNDERFILLED;
     snprintf(m->rig, sizeof m->rig, "%s", rig);
     snprintf(m->detector, sizeof m->detector, "%s", det);
     snprintf(m->standard, sizeof m->standard, "%s", std);

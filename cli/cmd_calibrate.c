@@ -22,13 +22,16 @@ static void usage(FILE *out)
             "       gonio calibrate reference --offline --scene NAME|FILE --plan NAME|FILE\n"
             "                       --out ROOT [--standard NAME|FILE] [--repeats N] [--dark ID]\n"
             "                       [--rig NAME|FILE] [--valid MINUTES]\n"
+            "                       [--spot overfilled|underfilled]\n"
             "  dark: the shutter closed, N frames (default 16) at the rig profile's\n"
             "  integration and at each --integration; valid 60 minutes by default.\n"
             "  reference: the standard (default spectralon-99, configs/standards/) in the\n"
             "  sample's place, read --repeats times (default 4) at each of the plan's\n"
             "  points, with the dark --dark ID or the newest valid one in ROOT; valid 480\n"
             "  minutes by default. Writes ROOT/ID (calibration.json, frames.csv) and prints\n"
-            "  the id; a capture names it with --calibration ID.\n");
+            "  the id; a capture names it with --calibration ID. --spot: how the detector\n"
+            "  sees the lit spot, for a reference interpolated between its geometries\n"
+            "  (default overfilled: the simulated rig's signal goes with cos theta_i).\n");
 }
 
 struct opts {
@@ -38,6 +41,7 @@ struct opts {
     long frames, repeats;
     double valid_min;
     int offline;
+    int underfilled;
 };
 
 static int parse(int argc, char **argv, struct opts *o)
@@ -49,6 +53,7 @@ static int parse(int argc, char **argv, struct opts *o)
         {"dark", required_argument, NULL, 'D'}, {"integration", required_argument, NULL, 'i'},
         {"frames", required_argument, NULL, 'f'}, {"repeats", required_argument, NULL, 'n'},
         {"valid", required_argument, NULL, 'v'}, {"help", no_argument, NULL, 'h'},
+        {"spot", required_argument, NULL, 'F'},
         {NULL, 0, NULL, 0},
     };
     int c;
@@ -85,6 +90,14 @@ static int parse(int argc, char **argv, struct opts *o)
         case 'f': o->frames = (long)x; break;
         case 'n': o->repeats = (long)x; break;
         case 'v': o->valid_min = x; break;
+        case 'F':
+            if (strcmp(optarg, "overfilled") != 0 && strcmp(optarg, "underfilled") != 0) {
+                fprintf(stderr, "gonio calibrate: --spot: overfilled or underfilled, not "
+                                "'%s'\n", optarg);
+                return -1;
+            }
+            o->underfilled = strcmp(optarg, "underfilled") == 0;
+            break;
         case 'h': usage(stdout); return 1;
         default: usage(stderr); return -1;
         }
@@ -174,6 +187,7 @@ int cmd_calibrate(int argc, char **argv)
         return 2;
     }
     struct cal_meta m = {.kind = kind, .created = time(NULL)};
+    m.spot = o.underfilled ? RAD_SPOT_UNDERFILLED : RAD_SPOT_OVERFILLED;
     m.valid_s = 60 * (o.valid_min > 0 ? o.valid_min : kind == CAL_DARK ? 60 : 480);
     snprintf(m.standard, sizeof m.standard, "%s", kind == CAL_REFERENCE ? o.standard : "");
     struct gonio_err err = {0};

@@ -70,7 +70,8 @@ static size_t run(const char *material, enum cal_kind kind, int repeats, struct 
     crig.close(crig.user, &dev);
     *m = (struct cal_meta){.kind = kind, .created = 1, .valid_s = 3600,
                            .integrations = {t}, .n_integrations = 1,
-                           .in_position_deg = prof.mech.in_position_deg};
+                           .in_position_deg = prof.mech.in_position_deg,
+                           .spot = RAD_SPOT_OVERFILLED}; /* the simulator: cos theta_i */
     snprintf(m->rig, sizeof m->rig, "%s", prof.name);
     snprintf(m->detector, sizeof m->detector, "%s", crig.detector);
     sim_source_free(src);
