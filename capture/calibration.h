@@ -107,6 +107,15 @@ struct cal_loaded {
 int cal_load(const char *root, const char *id, struct cal_loaded *out, struct gonio_err *err);
 void cal_loaded_free(struct cal_loaded *c);
 
+/* results.json's "calibration" member: the calibration's id, dark,
+ * standard and its warning, and the budget table, per term its kind
+ * (systematic or per sample) and median relative u per channel over the
+ * reduced values, with the combined one. A new JSON object (jansson's
+ * json_t; NULL when out of memory). */
+struct json_t;
+struct json_t *cal_budget_json(const struct cal_loaded *cl, const struct rad_value *v,
+                               size_t n);
+
 /* The derivation alone, from frames (tests, recalibration). */
 int cal_derive(const struct cal_frame *dark, size_t n_dark, const struct cal_frame *ref,
                size_t n_ref, struct cal_loaded *out, struct gonio_err *err);

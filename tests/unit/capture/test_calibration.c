@@ -4,6 +4,8 @@
  * from a synthetic rig's readings); and the lookup that picks the newest
  * valid reference and refuses, naming the difference, one that is missing,
  * expired, of another rig or detector, or without the integration. */
+#include <jansson.h>
+
 #include "capture/calibration.h"
 #include "tests/gonio_test.h"
 #include "tests/unit/radiometry/synth.h"
@@ -167,11 +169,51 @@ static void test_select_and_refusals(void **state)
     expect(NULL, &need, "expired");
 }
 
+static void test_budget_table(void **state)
+{
+    (void)state;
+    struct cal_loaded cl;
+    memset(&cl, 0, sizeof cl);
+    snprintf(cl.meta.id, sizeof cl.meta.id, "reference-b");
+    snprintf(cl.meta.dark, sizeof cl.meta.dark, "dark-b");
+    syn_standard(&cl.cal.standard);
+    snprintf(cl.cal.standard.warning, sizeof cl.cal.standard.warning, "as rho/pi");
+    struct rad_value v[3];
+    memset(v, 0, sizeof v);
+    const double counting[3] = {0.03, 0.01, 0.02};
+    for (int k = 0; k < 3; k++)
+        for (int c = 0; c < 3; c++) {
+            v[k].brdf[c] = 0.5;
+            v[k].rel[RAD_U_COUNTING][c] = counting[k];
+            v[k].rel[RAD_U_REFERENCE][c] = 0.006;
+            v[k].u[c] = 0.5 * (k + 1) * 0.01;
+        }
+    v[0].rel[RAD_U_COUNTING][2] = NAN; /* a clipped value has no term */
+    json_t *j = cal_budget_json(&cl, v, 3);
+    assert_non_null(j);
+    json_t *terms = json_object_get(j, "budget");
+    assert_int_equal(json_array_size(terms), RAD_N_TERMS);
+    json_t *row = json_array_get(terms, RAD_U_COUNTING);
+    assert_string_equal(json_string_value(json_object_get(row, "term")), "counting");
+    assert_string_equal(json_string_value(json_object_get(row, "kind")), "per sample");
+    json_t *med = json_object_get(row, "median_relative_u");
+    assert_close(json_real_value(json_array_get(med, 0)), 0.02, 1e-15);
+    assert_close(json_real_value(json_array_get(med, 2)), 0.015, 1e-15);
+    row = json_array_get(terms, RAD_U_REFERENCE);
+    assert_string_equal(json_string_value(json_object_get(row, "kind")), "systematic");
+    med = json_object_get(j, "combined_median_relative_u");
+    assert_close(json_real_value(json_array_get(med, 1)), 0.02, 1e-15);
+    assert_string_equal(json_string_value(json_object_get(j, "warning")), "as rho/pi");
+    assert_string_equal(json_string_value(json_object_get(j, "dark")), "dark-b");
+    json_decref(j);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_write_read_derive),
         cmocka_unit_test(test_select_and_refusals),
+        cmocka_unit_test(test_budget_table),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
