@@ -68,6 +68,13 @@ static int derive_refs(const struct cal_frame *f, size_t n, struct cal_loaded *o
         while (e < n && f[e].theta_i == f[k].theta_i && f[e].theta_r == f[k].theta_r &&
                same(f[e].integration_s, f[k].integration_s) && f[e].gain_state == f[k].gain_state)
             e++;
+        for (size_t j = k; j < e; j++)
+            for (int c = 0; c < 3; c++)
+                if (f[j].full_scale > 0 && f[j].counts[c] >= f[j].full_scale)
+                    return gonio_err_set(err, GONIO_EBADDATA, "calibration: the reference at "
+                                         "(%g, %g) deg clipped (%g counts, full scale %g): "
+                                         "calibrate at a shorter integration", f[j].theta_i,
+                                         f[j].theta_r, f[j].counts[c], f[j].full_scale);
         struct rad_ref *r = &out->refs[nr];
         r->theta_i = f[k].theta_i, r->theta_r = f[k].theta_r;
         r->integration_s = f[k].integration_s, r->gain_state = f[k].gain_state;
@@ -108,6 +115,7 @@ int cal_derive(const struct cal_frame *dark, size_t n_dark, const struct cal_fra
     struct rad_setup *su = &out->cal.setup;
     /* Photon transfer: a repeat's variance is g x + sd_dark^2, so g is the
      * least-squares slope of (variance - sd_dark^2) on x through 0. */
+    double knl = n_ref ? ref[0].nonlinearity : 0, fsc = n_ref ? ref[0].full_scale : 0;
     for (int c = 0; rc >= 0 && c < 3; c++) {
         double num = 0, den = 0;
         for (size_t k = 0; k < out->cal.n_refs; k++) {
@@ -115,8 +123,11 @@ int cal_derive(const struct cal_frame *dark, size_t n_dark, const struct cal_fra
             const struct rad_dark *d = rad_find_dark(&out->cal, r->integration_s, r->gain_state);
             if (!d || r->n < 2)
                 continue;
-            double x = r->counts[c] - d->mean[c];
-            num += (var[k][c] - d->sd[c] * d->sd[c]) * x;
+            /* On the linear scale: the nonlinearity's slope 1 - 2 k x / fs
+             * shrinks the spread the readings show. */
+            double x = rad_linearise(r->counts[c] - d->mean[c], knl, fsc);
+            double slope = fsc > 0 ? 1.0 - 2.0 * knl * x / fsc : 1.0;
+            num += (var[k][c] / (slope * slope) - d->sd[c] * d->sd[c]) * x;
             den += x * x;
         }
         su->adu_per_electron[c] = den > 0 ? fmax(0.0, num / den) : 0.0;
