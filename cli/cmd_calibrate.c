@@ -29,7 +29,7 @@ static void usage(FILE *out)
             "  sample's place, read --repeats times (default 4) at each of the plan's\n"
             "  points, with the dark --dark ID or the newest valid one in ROOT; valid 480\n"
             "  minutes by default. Writes ROOT/ID (calibration.json, frames.csv) and prints\n"
-            "  the id; a capture names it with --calibration ID. --spot: how the detector\n"
+            "  the id, by which a capture names it. --spot: how the detector\n"
             "  sees the lit spot, for a reference interpolated between its geometries\n"
             "  (default overfilled: the simulated rig's signal goes with cos theta_i).\n");
 }
