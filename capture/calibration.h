@@ -97,6 +97,7 @@ int cal_select_dark(const char *root, const char *id, const struct cal_need *nee
 /* A loaded calibration: the reduction's inputs, owning their arrays. */
 struct cal_loaded {
     struct cal_meta meta, dark_meta;
+    double full_scale, nonlinearity; /* the detector's, as its reference frames said */
     struct rad_dark *darks;
     struct rad_ref *refs;
     struct rad_calibration cal;
@@ -115,6 +116,15 @@ void cal_loaded_free(struct cal_loaded *c);
 struct json_t;
 struct json_t *cal_budget_json(const struct cal_loaded *cl, const struct rad_value *v,
                                size_t n);
+
+/* Reduce a counts record of the capture (journal.h) as it is measured:
+ * s->rgb and s->u from its raw counts at its plan point's angles, the
+ * angle term's slopes from the records done so far on its lines; the
+ * budget in *v. A record without counts is left as it is. */
+struct journal_sample;
+int cal_reduce_sample(const struct cal_loaded *cl, const struct plan *plan,
+                      const struct journal_sample *done, size_t n_done,
+                      struct journal_sample *s, struct rad_value *v, struct gonio_err *err);
 
 /* The derivation alone, from frames (tests, recalibration). */
 int cal_derive(const struct cal_frame *dark, size_t n_dark, const struct cal_frame *ref,

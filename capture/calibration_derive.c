@@ -116,6 +116,7 @@ int cal_derive(const struct cal_frame *dark, size_t n_dark, const struct cal_fra
     /* Photon transfer: a repeat's variance is g x + sd_dark^2, so g is the
      * least-squares slope of (variance - sd_dark^2) on x through 0. */
     double knl = n_ref ? ref[0].nonlinearity : 0, fsc = n_ref ? ref[0].full_scale : 0;
+    out->nonlinearity = knl, out->full_scale = fsc;
     for (int c = 0; rc >= 0 && c < 3; c++) {
         double num = 0, den = 0;
         for (size_t k = 0; k < out->cal.n_refs; k++) {
