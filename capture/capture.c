@@ -113,7 +113,7 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
     struct drv_reading r;
     if ((rc = drv_detector_acquire(d->detector, rig->integration_s, &r, err)) < 0)
         return rc;
-    memset(s, 0, sizeof *s);
+    journal_sample_clear(s);
     s->point = index;
     s->s = at[0];
     s->a = at[1];
@@ -122,8 +122,16 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
     s->theta_o = fabs(s->theta_r);
     s->phi_i = 0.0;
     s->phi_o = fmod(at[2] + (s->theta_r >= 0 ? 180.0 : 0.0) + 360.0, 360.0);
-    memcpy(s->rgb, r.rgb, sizeof s->rgb);
+    if (r.unit == DRV_UNIT_COUNTS) { /* the record is the counts; BRDF is derived */
+        s->counts = 1;
+        memcpy(s->raw, r.rgb, sizeof s->raw);
+        s->gain_state = r.gain_state;
+    } else {
+        memcpy(s->rgb, r.rgb, sizeof s->rgb);
+    }
+    s->monitor = r.monitor;
     s->integration_s = r.integration_s;
+    s->integration_total_s = r.integration_s;
     s->flags = (r.flags & DRV_READING_SATURATED) ? JOURNAL_FLAG_SATURATED : 0;
     s->rig_time_s = rig_clock_now(clk);
     return 0;

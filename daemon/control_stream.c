@@ -64,6 +64,14 @@ static json_t *sample_doc(const control *c, const struct worker_msg_sample *m)
                         json_pack("[o,o,o]", control_json_number(s->rgb[0]),
                                   control_json_number(s->rgb[1]),
                                   control_json_number(s->rgb[2])));
+    if (s->counts) { /* what the detector gave; rgb null until a calibration reduces it */
+        json_object_set_new(d, "unit", json_string("counts"));
+        json_object_set_new(d, "raw", json_pack("[o,o,o]", control_json_number(s->raw[0]),
+                                                control_json_number(s->raw[1]),
+                                                control_json_number(s->raw[2])));
+        json_object_set_new(d, "integration_total_s",
+                            control_json_number(s->integration_total_s));
+    }
     json_object_set_new(d, "integration_s", control_json_number(s->integration_s));
     json_object_set_new(d, "rig_time_s", control_json_number(s->rig_time_s));
     json_object_set_new(d, "saturated", json_boolean(s->flags & JOURNAL_FLAG_SATURATED));
