@@ -76,7 +76,7 @@ int cal_read(const char *root, const char *id, struct cal_meta *meta, struct cal
 struct cal_need {
     const char *rig, *detector;
     double integration_s;
-    int gain_state;
+    int gain_state; /* -1: not known yet (the detector says at its first reading) */
     time_t now;
 };
 
@@ -125,6 +125,12 @@ struct journal_sample;
 int cal_reduce_sample(const struct cal_loaded *cl, const struct plan *plan,
                       const struct journal_sample *done, size_t n_done,
                       struct journal_sample *s, struct rad_value *v, struct gonio_err *err);
+
+/* Add the budget table (cal_budget_json) of the capture's counts records,
+ * reduced together, to DIR/results.json as its "calibration" member. */
+int cal_results_budget(const struct cal_loaded *cl, const struct plan *plan,
+                       const struct journal_sample *samples, size_t n, const char *dir,
+                       struct gonio_err *err);
 
 /* The derivation alone, from frames (tests, recalibration). */
 int cal_derive(const struct cal_frame *dark, size_t n_dark, const struct cal_frame *ref,

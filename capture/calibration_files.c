@@ -197,7 +197,7 @@ static int check(const char *root, const struct cal_meta *m, const struct cal_ne
     if (strcmp(m->detector, need->detector) != 0)
         return gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s is of detector '%s', the "
                              "capture's detector is '%s'", m->id, m->detector, need->detector);
-    if (m->gain_state != need->gain_state)
+    if (need->gain_state >= 0 && m->gain_state != need->gain_state)
         return gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s covers gain state %d, not "
                              "the capture's %d", m->id, m->gain_state, need->gain_state);
     for (size_t k = 0; k < m->n_integrations; k++)

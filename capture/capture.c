@@ -284,6 +284,10 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
                           pt->theta_i, pt->theta_r, msg);
         }
     }
+    if (rc == 0 && job->cal) { /* counts to BRDF and u before the record is written */
+        struct rad_value v;
+        rc = cal_reduce_sample(job->cal, job->plan, r->samples, r->n, &s, &v, err);
+    }
     if (rc == 0) {
         capture_phase_enter(hooks, CAPTURE_PHASE_JOURNAL, (int)k);
         rc = journal_append(r->j, &s, err);
@@ -445,6 +449,8 @@ static int finish(struct run *r, struct gonio_err *err)
         rc = capture_assess_truth(job->truth, fitted, job->cfg.assess_nodes, out, err);
     if (rc == 0)
         rc = capture_files_results(job->cfg.out_dir, out, err);
+    if (rc == 0 && job->cal)
+        rc = cal_results_budget(job->cal, job->plan, r->samples, r->n, job->cfg.out_dir, err);
     brdf_material_free(fitted);
     return rc;
 }
