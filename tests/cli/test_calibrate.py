@@ -7,6 +7,7 @@ import json
 import os
 import subprocess
 import tempfile
+import time
 
 import pytest
 
@@ -58,3 +59,84 @@ def test_refusals(root):
     r = gonio("calibrate", "white", "--offline")
     assert r.returncode == 2 and "dark or reference" in r.stderr
     assert os.listdir(root) == []
+
+
+def rig(folder, name, integration):
+    """The default rig profile under another name and integration."""
+    src = os.path.join(os.environ.get("GONIO_CONFIG", "configs"), "rigs", "default.yaml")
+    text = open(src).read().replace("fixed_s: 0.05", "fixed_s: %g" % integration)
+    text = text.replace("name: default", "name: %s" % name)
+    path = os.path.join(folder, "%s.yaml" % name)
+    with open(path, "w") as f:
+        f.write(text)
+    return path
+
+
+def calibrate(root, rig_path, *extra):
+    d = gonio("calibrate", "dark", "--offline", "--scene", "lab-raw", "--rig", rig_path,
+              "--out", root)
+    assert d.returncode == 0, d.stderr
+    r = gonio("calibrate", "reference", "--offline", "--scene", "lab-raw", "--rig", rig_path,
+              "--plan", "ds3", "--out", root, "--repeats", "2", *extra)
+    assert r.returncode == 0, r.stderr
+    return r.stdout.strip()
+
+
+def capture(root, rig_path, out, cal="newest"):
+    return gonio("capture", "--offline", "--scene", "lab-raw", "--rig", rig_path, "--plan",
+                 "ds3", "--material", "analytic:rough-diffuse", "--out", out, "--quiet",
+                 "--calibration", cal, "--calibrations", root)
+
+
+def test_capture_reduced_with_its_calibration(root):
+    lab = rig(root, "lab", 0.25)
+    cal_id = calibrate(os.path.join(root, "cal"), lab)
+    out = os.path.join(root, "cap")
+    c = capture(os.path.join(root, "cal"), lab, out)
+    assert c.returncode == 0, c.stderr
+    rows = list(csv.DictReader(open(os.path.join(out, "samples.csv"))))
+    assert len(rows) == 52
+    for r in rows:
+        assert r["unit"] == "counts" and float(r["raw_g"]) > 1000
+        g, u = float(r["g"]), float(r["u_g"])
+        assert 0.05 < g < 0.3 and 0 < u < 0.02 * g, r  # BRDF with a ~1 % u
+    res = json.load(open(os.path.join(out, "results.json")))
+    cal = res["calibration"]
+    assert cal["id"] == cal_id and cal["standard"] == "spectralon-99"
+    terms = {t["term"]: t for t in cal["budget"]}
+    assert terms["reference"]["kind"] == "systematic"
+    assert 0.005 < terms["reference"]["median_relative_u"][1] < 0.01
+    assert 0.002 < terms["counting"]["median_relative_u"][1] < 0.02
+
+
+def test_capture_refuses_a_calibration_it_cannot_use(root):
+    cal = os.path.join(root, "cal")
+    lab = rig(root, "lab", 0.25)
+    calibrate(cal, lab)
+    cases = [
+        (rig(root, "bench", 0.25), "newest", "for rig 'bench'"),
+        (lab, "reference-none", "calibration reference-none: not found"),
+        (rig(root, "lab-long", 0.5), "newest", "rig 'lab'"),
+    ]
+    # The same rig name, another integration: not covered.
+    slow = rig(os.path.join(root), "lab", 0.5)
+    for rig_path, cal_id, needle in cases:
+        out = os.path.join(root, "cap")
+        c = capture(cal, rig_path, out, cal_id)
+        assert c.returncode == 2 and needle in c.stderr, (needle, c.stderr)
+        assert not os.path.exists(out), "refused before anything was written"
+    c = capture(cal, slow, os.path.join(root, "cap"))
+    assert c.returncode == 2 and "does not cover integration 0.5 s (it has 0.25 s)" in c.stderr, \
+        c.stderr
+    r = gonio("capture", "--offline", "--scene", "lab-raw", "--plan", "ds3", "--out",
+              os.path.join(root, "cap"), "--calibration", "x")
+    assert r.returncode == 2 and "--calibration needs --calibrations ROOT" in r.stderr
+
+
+def test_expired_calibration_refused(root):
+    cal = os.path.join(root, "cal")
+    lab = rig(root, "lab", 0.25)
+    calibrate(cal, lab, "--valid", "0.02")  # the reference for 1.2 s
+    time.sleep(2.5)
+    c = capture(cal, lab, os.path.join(root, "cap"))
+    assert c.returncode == 2 and "expired at" in c.stderr, c.stderr
