@@ -31,6 +31,13 @@ struct drv_modbus_bus {
         double sent, answered;
         int req_chars, reply_chars;
     } last;
+    /* The line in rig time (drv_modbus_line_rig): a character and the
+     * silence at the configured rate, unscaled and never learned away; the
+     * line time of the answered exchanges so far, in all and up to when
+     * the last one's device acted. And whether the rig's clock is
+     * simulated (drv_modbus_set_simulated_clock). */
+    double char_rig, gap_rig, line_total, line_acted;
+    int simulated_clock;
     struct { /* drv_modbus_note_clock */
         int slave;
         uint32_t ms;
@@ -94,6 +101,8 @@ static drv_modbus_bus *bus_finish(modbus_t *ctx, const struct drv_modbus_bus_cfg
     bus->time_scale = scale;
     bus->retries = cfg->retries > 0 ? cfg->retries : 0;
     bus->trace = cfg->trace;
+    bus->char_rig = char_s;
+    bus->gap_rig = gap_s;
     bus->char_s = char_s / scale; /* a simulator's line is as much faster in wall time */
     bus->gap_s = gap_s / scale;
     return bus;
@@ -158,9 +167,42 @@ long drv_modbus_faults(const drv_modbus_bus *bus)
     return bus->stats.retries + bus->stats.failed;
 }
 
+static int request_chars(int write, int n);
+
 double drv_modbus_time_scale(const drv_modbus_bus *bus)
 {
     return bus->time_scale;
+}
+
+void drv_modbus_set_simulated_clock(drv_modbus_bus *bus, int line_timed)
+{
+    bus->simulated_clock = 1;
+    if (!line_timed) { /* a line that charges no time on the rig */
+        bus->char_rig = bus->gap_rig = 0;
+        bus->line_total = bus->line_acted = 0;
+    }
+}
+
+int drv_modbus_simulated_clock(const drv_modbus_bus *bus)
+{
+    return bus->simulated_clock;
+}
+
+void drv_modbus_line_rig(const drv_modbus_bus *bus, double *acted, double *total)
+{
+    *acted = bus->line_acted;
+    *total = bus->line_total;
+}
+
+void drv_modbus_line_rig_restore(drv_modbus_bus *bus, double acted, double total)
+{
+    bus->line_acted = acted;
+    bus->line_total = total;
+}
+
+double drv_modbus_request_rig_s(const drv_modbus_bus *bus, int write, int n)
+{
+    return request_chars(write, n) * bus->char_rig;
 }
 
 double drv_modbus_timeout(const drv_modbus_bus *bus)
@@ -224,6 +266,9 @@ static void note_exchange(drv_modbus_bus *bus, int write, int n, double sent, do
     bus->last.answered = answered;
     bus->last.req_chars = request_chars(write, n);
     bus->last.reply_chars = reply_chars(write, n);
+    bus->line_total += (bus->last.req_chars + bus->last.reply_chars) * bus->char_rig +
+                       2 * bus->gap_rig;
+    bus->line_acted = bus->line_total - bus->last.reply_chars * bus->char_rig - bus->gap_rig;
     if (answered - sent < (bus->last.req_chars + bus->last.reply_chars) * bus->char_s)
         bus->char_s = bus->gap_s = 0;
 }

@@ -1,10 +1,12 @@
 /* gonio-sim's devices: the drives' and the detector's state machines
  * behind their register banks (docs/protocol-modbus.md), the faults that
  * can be injected into them, and what they saw (msim_write_stats). */
+#include <errno.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
 
 #include "common/clock.h"
 #include "sim/effects_detector.h"
@@ -15,16 +17,75 @@
 
 /* ---- The devices' state machines ---------------------------------------- */
 
-/* Bring the simulated clock to the wall clock's scaled time. */
 void msim_sync_clock(msim *m)
 {
+    if (m->cfg.simulated_clock)
+        return; /* host time is never rig time */
     double target = (gonio_monotonic_s() - m->wall0) * m->cfg.time_scale;
     sim_rig_advance(m->rig, target - sim_rig_now(m->rig));
+}
+
+/* Sleep for wall seconds, whatever signal arrives meanwhile. */
+static void wait_wall(double s)
+{
+    if (!(s > 0))
+        return;
+    struct timespec ts = {.tv_sec = (time_t)s, .tv_nsec = (long)((s - (double)(time_t)s) * 1e9)};
+    while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
+        ;
+}
+
+void msim_bus_time(msim *m, double seconds)
+{
+    if (!(seconds > 0))
+        return;
+    if (m->cfg.simulated_clock)
+        sim_rig_advance(m->rig, seconds);
+    else
+        wait_wall(seconds / m->cfg.time_scale);
+}
+
+void msim_wait_late(msim *m, double seconds)
+{
+    if (!(seconds > 0))
+        return;
+    wait_wall(seconds);
+    if (m->cfg.simulated_clock)
+        sim_rig_advance(m->rig, seconds);
 }
 
 static int axis_moving(const msim *m, const struct msim_axis *ax)
 {
     return sim_rig_move_end(m->rig, ax->id) > sim_rig_now(m->rig);
+}
+
+static int covers(int addr, int n, int reg)
+{
+    return addr <= reg + 1 && reg < addr + n;
+}
+
+/* What the master waits for has happened by the time it looks: the clock
+ * passes to the end of the move (the halt at a jam, which a stalled drive
+ * then sits at, MOVE on, without the clock running on) or of the
+ * integration. The other axes move on meanwhile, as they would. */
+void msim_poll_jump(msim *m, struct msim_axis *ax, int addr, int n)
+{
+    if (!m->cfg.simulated_clock)
+        return;
+    double now = sim_rig_now(m->rig), end = now;
+    if (ax && covers(addr, n, AX_STATUS) && axis_moving(m, ax))
+        end = sim_rig_move_end(m->rig, ax->id);
+    else if (!ax && covers(addr, n, DET_STATUS) && m->det.busy)
+        end = m->det.busy_until;
+    if (end > now)
+        sim_rig_advance(m->rig, end - now);
+}
+
+void msim_det_wait(msim *m)
+{
+    uint16_t *r = m->det.map->tab_registers;
+    sim_rig_advance(m->rig, get32(r, DET_WAIT) * 1e-6);
+    put32(r, DET_WAIT, 0);
 }
 
 /* Refresh the read-only registers from the simulation. */
@@ -174,7 +235,9 @@ void msim_det_refresh(msim *m)
         d->flags = d->pending_flags;
     }
     put32(r, DET_STATUS, (d->busy ? DST_BUSY : 0u) | (d->ready ? DST_READY : 0u) |
-                             (d->ready && (d->flags & SIM_SIGNAL_SATURATED) ? DST_SATURATED : 0u));
+                             (d->ready && (d->flags & SIM_SIGNAL_SATURATED) ? DST_SATURATED : 0u) |
+                             (m->cfg.simulated_clock ? DST_CLOCK_SIMULATED : 0u) |
+                             (m->cfg.simulated_clock && m->cfg.baud > 0 ? DST_LINE_TIMED : 0u));
     put32(r, DET_SEQUENCE, d->sequence);
     put32(r, DET_CLOCK, (uint32_t)llround(sim_rig_now(m->rig) * 1000.0));
 }
