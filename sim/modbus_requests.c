@@ -193,7 +193,8 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
     if (m->cfg.trace)
         fprintf(stderr, "gonio-sim: %.4f s: slave %d fn 0x%02x addr 0x%04x n %d%s%s\n",
                 sim_rig_now(m->rig), slave, fn, addr < 0 ? 0 : addr, n,
-                exc ? " -> exception " : "", exc == 1 ? "01" : exc == 2 ? "02" : exc == 3 ? "03" : "");
+                exc ? " -> exception " : "",
+                exc == 1 ? "01" : exc == 2 ? "02" : exc == 3 ? "03" : "");
     m->exchanges++;
     m->slave_exchanges[slave]++;
     double late_s = m->delay_ms[slave] * 1e-3;

@@ -42,7 +42,8 @@ def test_check_prints_the_simulated_clock():
 
 def test_bad_input_exits_2():
     for args in (["--time-scale", "0"], ["--clock", "fast"],
-                 ["--clock", "simulated", "--time-scale", "20"], ["--steps-per-deg", "x"], ["--tcp", "localhost"],
+                 ["--clock", "simulated", "--time-scale", "20"],
+                 ["--steps-per-deg", "x"], ["--tcp", "localhost"],
                  ["--scene", "no-such-scene"], ["--stall", "9:10"], ["--overload", "1:500"],
                  ["--baud", "0"], ["--baud", "9600.5"], ["--tcp-latency", "-1"],
                  ["--bogus"], ["extra"]):
