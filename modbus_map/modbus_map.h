@@ -43,9 +43,9 @@ enum mb_det_reg {
     MB_DET_SEQUENCE = 0x08, MB_DET_CLOCK = 0x0A, MB_DET_CHANNELS = 0x0C,
     /* A simulated clock's wait (write only; mapped only while the status
      * says MB_DET_CLOCK_SIMULATED): writing N lets N us of rig time pass.
-     * Far above the channels (64 at most: up to 0x8B) and what may follow
-     * them. */
-    MB_DET_WAIT = 0xF0,
+     * A page of its own, clear of the channels (64 at most: up to 0x8B)
+     * and of the blocks a detector keeps above them. */
+    MB_DET_WAIT = 0x0200,
 };
 /* Detector status bits (MB_DET_STATUS). CLOCK_SIMULATED: the clock
  * register counts simulated time that advances only by what the simulator

@@ -40,10 +40,7 @@ static const struct reg_range axis_ranges[] = {
 static const struct reg_range det_ranges[] = {
     {DET_INTEGRATION, DET_TRIGGER + 1, 1}, {DET_STATUS, DET_NREGS - 1, 0}, {-1, -1, 0}};
 /* A simulated clock's detector has its wait register too. */
-static const struct reg_range det_sim_ranges[] = {{DET_INTEGRATION, DET_TRIGGER + 1, 1},
-                                                  {DET_STATUS, DET_NREGS - 1, 0},
-                                                  {DET_WAIT, DET_WAIT + 1, 1},
-                                                  {-1, -1, 0}};
+static const struct reg_range det_wait_range[] = {{DET_WAIT, DET_WAIT + 1, 1}, {-1, -1, 0}};
 
 /* 0 when every register of [addr, addr + n) is mapped (and writable when
  * asked), else the Modbus exception code. */
@@ -186,10 +183,10 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
         exc = MODBUS_EXCEPTION_ILLEGAL_FUNCTION;
     }
     if (!exc)
-        exc = check_range(ax                      ? axis_ranges
-                          : m->cfg.simulated_clock ? det_sim_ranges
-                                                   : det_ranges,
-                          addr, n, write);
+        exc = check_range(ax ? axis_ranges : det_ranges, addr, n, write);
+    if (exc == MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS && is_det && m->cfg.simulated_clock &&
+        check_range(det_wait_range, addr, n, write) == 0)
+        exc = 0;
     if (m->cfg.trace)
         fprintf(stderr, "gonio-sim: %.4f s: slave %d fn 0x%02x addr 0x%04x n %d%s%s\n",
                 sim_rig_now(m->rig), slave, fn, addr < 0 ? 0 : addr, n,
