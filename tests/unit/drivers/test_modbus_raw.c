@@ -77,6 +77,15 @@ static void test_modbus_equals_in_process(void **state)
     drv_detector *d = drv_detector_new_modbus(bus, MB_SLAVE_DETECTOR, &err);
     assert_non_null(d);
     take(d, t, &mb);
+    /* A retried trigger (its answer lost under load) may have started an
+     * integration more, which draws from the streams: then the two paths
+     * agree in distribution only. */
+    struct drv_modbus_stats st;
+    drv_modbus_bus_stats(bus, &st);
+    int exact = st.retries == 0;
+    if (!exact)
+        fprintf(stderr, "# %ld retries on the bus: counts compared in distribution\n",
+                st.retries);
     drv_detector_free(d);
     drv_modbus_bus_free(bus);
     assert_int_equal(sim_proc_stop(&sim), 0);
@@ -96,28 +105,34 @@ static void test_modbus_equals_in_process(void **state)
     brdf_material_free(m);
     unlink(scene_path);
 
-    double dark_sum = 0;
+    double dark_sum = 0, in_dark_sum = 0;
     for (int i = 0; i < N_OPEN + N_CLOSED; i++) {
         const struct drv_reading *a = &mb.r[i], *b = &in.r[i];
         assert_int_equal(a->unit, DRV_UNIT_COUNTS);
         assert_int_equal(b->unit, DRV_UNIT_COUNTS);
-        for (int c = 0; c < 3; c++)
+        for (int c = 0; c < 3 && exact; c++)
             assert_close(a->rgb[c], b->rgb[c], 0);
-        assert_close(a->monitor, b->monitor, 0);
+        if (exact)
+            assert_close(a->monitor, b->monitor, 0);
+        else /* 62500 counts, Poisson */
+            assert_close(a->monitor, b->monitor, 6 * sqrt(2 * 62500.0));
         assert_close(a->full_scale, 65535, 0);
         assert_close(b->full_scale, 65535, 0);
         assert_close(a->nonlinearity, b->nonlinearity, 0);
         assert_close(a->integration_s, t, 1e-12);
         assert_int_equal(a->gain_state, 0);
         assert_int_equal(a->flags, b->flags);
-        if (i >= N_OPEN)
+        if (i >= N_OPEN) {
             dark_sum += a->rgb[0] + a->rgb[1] + a->rgb[2];
+            in_dark_sum += b->rgb[0] + b->rgb[1] + b->rgb[2];
+        }
         else /* the material's light, well above the dark and below the clip */
             assert_true(a->rgb[1] > 2000 && a->flags == 0);
     }
     /* closed: offset + gain x dark (125 e-), sd 0.8 sqrt(125 + 225) = 15 ADU */
     double want = 1000 + 0.8 * 2000 * t;
     assert_close(dark_sum / (3 * N_CLOSED), want, 4 * 15 / sqrt(3 * N_CLOSED));
+    assert_close(in_dark_sum / (3 * N_CLOSED), want, 4 * 15 / sqrt(3 * N_CLOSED));
 }
 
 /* ---- a device that publishes what it is told ------------------------------ */
