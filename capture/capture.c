@@ -383,6 +383,7 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
         .driver = src->driver ? src->driver : "unknown",
         .detector = src->detector ? src->detector : "unknown",
         .policy = job->adaptive ? &job->policy : NULL,
+        .calibration = job->cal ? job->cal->meta.id : NULL,
     };
     const char *dir = job->cfg.out_dir;
     int rc = capture_files_prepare(dir, &setup, &r->lock_fd, err);

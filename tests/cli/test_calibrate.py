@@ -140,3 +140,22 @@ def test_expired_calibration_refused(root):
     time.sleep(2.5)
     c = capture(cal, lab, os.path.join(root, "cap"))
     assert c.returncode == 2 and "expired at" in c.stderr, c.stderr
+
+
+def test_resume_keeps_its_calibration(root):
+    """setup.json names the calibration: a capture resumed with another is
+    refused, naming both."""
+    cal = os.path.join(root, "cal")
+    lab = rig(root, "lab", 0.25)
+    first = calibrate(cal, lab)
+    out = os.path.join(root, "cap")
+    c = capture(cal, lab, out, first)
+    assert c.returncode == 0, c.stderr
+    assert json.load(open(os.path.join(out, "setup.json")))["calibration"] == first
+    time.sleep(1.1)  # a new id: ids are to the second
+    second = calibrate(cal, lab)
+    assert second != first
+    c = capture(cal, lab, out, second)
+    assert c.returncode == 2, c.stderr
+    assert "setup.json has calibration '%s', this capture asks for '%s'" % (first, second) \
+        in c.stderr, c.stderr
