@@ -27,7 +27,7 @@ ALLOWED = {
     "sim_source": {"capture", "adaptive", "drivers", "sim", "fit", "journal", "planner", "rig",
                    "brdf", "common"},
     "daemon": {"sim_source", "capture", "adaptive", "drivers", "sim", "fit", "journal",
-               "planner", "rig", "brdf", "common"},
+               "planner", "rig", "brdf", "modbus_map", "common"},
     "render": {"fit", "planner", "rig", "brdf", "common"},
     "report": {"fit", "journal", "planner", "rig", "brdf", "common"},
     "study": {"sim_source", "capture", "adaptive", "drivers", "sim", "fit", "journal", "planner", "rig",
