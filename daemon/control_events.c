@@ -116,6 +116,20 @@ static void source_text(const control *c, enum source src, char *out, size_t siz
              regs[src].what);
 }
 
+/* The device a source belongs to, as object_keys and object_name name it
+ * (no '.' or '/': event-model's key pattern). */
+static const char *object_of(enum source src)
+{
+    switch (src) {
+    case SRC_SAMPLE: return "sample_axis";
+    case SRC_ARM: return "arm_axis";
+    case SRC_CHANNELS:
+    case SRC_INTEGRATION:
+    case SRC_STATUS: return "detector";
+    default: return "goniod";
+    }
+}
+
 /* The fields of the primary stream's events, in the order the data holds
  * them. */
 static const struct field {
@@ -347,11 +361,11 @@ static json_t *primary_descriptor_doc(control *c, const struct worker_msg_start 
             continue;
         source_text(c, f->src, source, sizeof source);
         json_t *k = data_key(f->dtype, f->dim, f->units, source);
-        json_object_set_new(k, "object_name", json_string(source));
+        json_object_set_new(k, "object_name", json_string(object_of(f->src)));
         json_object_set_new(keys, f->name, k);
-        json_t *names = json_object_get(objects, source);
+        json_t *names = json_object_get(objects, object_of(f->src));
         if (!names)
-            json_object_set_new(objects, source, names = json_array());
+            json_object_set_new(objects, object_of(f->src), names = json_array());
         json_array_append_new(names, json_string(f->name));
     }
     json_t *conf = json_object();

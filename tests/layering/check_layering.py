@@ -29,6 +29,7 @@ ALLOWED = {
     "daemon": {"sim_source", "capture", "adaptive", "drivers", "sim", "fit", "journal",
                "planner", "rig", "brdf", "modbus_map", "common"},
     "render": {"fit", "planner", "rig", "brdf", "common"},
+    "python": {"fit", "journal", "brdf", "common"},
     "report": {"fit", "journal", "planner", "rig", "brdf", "common"},
     "study": {"sim_source", "capture", "adaptive", "drivers", "sim", "fit", "journal", "planner", "rig",
               "brdf", "common"},
