@@ -62,7 +62,7 @@ def read_run(conn):
 
 
 class EventModelTests(DaemonTest):
-    pace_s = 0.01
+    pace_s = 0.02
 
     def setUp(self):
         self.validators, why = load_validators()
@@ -229,8 +229,10 @@ class EventModelTests(DaemonTest):
         c.request("watch", format="event-model")
         c.send({"cmd": "capture", "plan": "ds3", "name": "lw"})
         head = until_event(c)
+        c.send({"cmd": "pause"})  # held while the late watcher joins
         late = self.d.connect()
         late.request("watch", format="event-model")
+        self.assertEqual(self.d.connect().request("resume")["class"], "OK")
         pairs = read_run(late)
         self.assertEqual([n for n, _ in pairs[:2]], ["start", "descriptor"])
         self.assertEqual(pairs[0][1], head[0][1])

@@ -18,7 +18,7 @@ import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from goniod_harness import BIN, SOURCE, Daemon, DaemonTest, read_samples
+from goniod_harness import BIN, SOURCE, START_S, Daemon, DaemonTest, read_samples
 import test_goniod_events
 from test_goniod_modbus import ModbusRig
 
@@ -81,10 +81,10 @@ class Checks:
 
 
 class ClientTests(Checks, DaemonTest):
-    pace_s = 0.01
+    pace_s = 0.02
 
     def client(self):
-        return gonio.Client(self.d.sock)
+        return gonio.Client(self.d.sock, timeout=2 * START_S)
 
     def test_capture_follow_read_evaluate(self):
         """Every capture field sent (two captures between them), the run
@@ -118,7 +118,9 @@ class ClientTests(Checks, DaemonTest):
             client.pause()
             self.assertEqual(client.status()["state"], "paused")
             client.resume()
-            self.assertEqual(client.status()["state"], "running")
+            pairs.append(next(events))  # it goes on
+            self.assertEqual(pairs[-1][0], "event")
+            client.pause()
             client.abort()
             _, _, stop = self.check_run(pairs + list(events))
             self.assertEqual(stop["exit_status"], "abort")
@@ -178,7 +180,7 @@ class ClientListTests(Checks, DaemonTest):
     where it has not)."""
 
     def client(self):
-        return gonio.Client(self.d.sock)
+        return gonio.Client(self.d.sock, timeout=2 * START_S)
 
     def test_list(self):
         with self.client() as client:
