@@ -226,6 +226,7 @@ class EventModelTests(DaemonTest):
         r = c.request("watch", format="xml")
         self.assertEqual((r["class"], r["code"]), ("ERROR", "bad-value"), r)
         self.assertIn("'xml'", r["message"])
+        self.assertEqual(c.request("watch", format=1)["code"], "bad-type")
         c.request("watch", format="event-model")
         c.send({"cmd": "capture", "plan": "ds3", "name": "lw"})
         head = until_event(c)
