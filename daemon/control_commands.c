@@ -183,12 +183,12 @@ static int cmd_status(control *c, struct control_client *cl, json_t *req, json_t
 static int cmd_watch(control *c, struct control_client *cl, json_t *req, json_t *reply,
                      const char **code, struct gonio_err *err)
 {
-    (void)reply;
+    (void)c, (void)reply;
+    /* The running capture's first documents follow the OK
+     * (control_handle_line). */
     const char *format = jstr(req, "format");
     if (!format || !strcmp(format, "stream")) {
         cl->watching |= CONTROL_WATCH_STREAM;
-        /* A watcher that subscribes mid-capture still gets the capture's
-         * start and descriptor first (after the OK: control_handle_line). */
         return 0;
     }
     if (strcmp(format, "event-model") != 0) {
@@ -196,7 +196,6 @@ static int cmd_watch(control *c, struct control_client *cl, json_t *req, json_t 
         return gonio_err_set(err, GONIO_EUSAGE,
                              "watch: field 'format' '%s': use stream or event-model", format);
     }
-    (void)c;
     cl->watching |= CONTROL_WATCH_EVENTS;
     return 0;
 }
