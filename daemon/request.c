@@ -35,8 +35,8 @@ static const struct arg_spec capture_args[] = {
     {.name = NULL},
 };
 static const struct arg_spec resume_args[] = {STRING_ARG("capture_id"), {.name = NULL}};
-static const struct arg_spec watch_args[] = {STRING_ARG("format"), {.name = NULL}};
 static const struct arg_spec no_args[] = {{.name = NULL}};
+static const struct arg_spec watch_args[] = {STRING_ARG("format"), {.name = NULL}};
 
 /* The fields each command takes besides cmd and id, indexed by enum control_cmd. */
 static const struct {
