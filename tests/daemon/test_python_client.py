@@ -191,7 +191,7 @@ class ClientListTests(Checks, DaemonTest):
                     raise
                 self.skipTest("goniod has no list command (SKIPPED: Client.list)")
             list(self.follow(client, "ds4", name="ls")[1])
-            ids = [c.get("capture_id") for c in client.list()]
+            ids = [c.get("id", c.get("capture_id")) for c in client.list()]
             self.assertIn("ls", ids)
 
 
