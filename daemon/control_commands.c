@@ -57,6 +57,8 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
     } else {
         snprintf(r.rig, sizeof r.rig, "%s", c->cfg->rig);
     }
+    if ((rc = goniod_config_rig_check(c->cfg, r.rig, err)) < 0)
+        return rc;
     if (material &&
         (rc = control_resolve_material(c, material, r.material, sizeof r.material, err)) < 0)
         return rc;
@@ -250,6 +252,9 @@ static int cmd_resume(control *c, struct control_client *cl, json_t *req, json_t
         *code = "not-found";
         return rc;
     }
+    *code = "bad-value";
+    if ((rc = goniod_config_rig_check(c->cfg, r.rig, err)) < 0)
+        return rc;
     r.resume = 1;
     *code = "busy";
     if ((rc = worker_start(c->w, &r, err)) < 0)

@@ -52,6 +52,11 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profil
 {
     memset(dev, 0, sizeof *dev);
     *bus_out = NULL;
+    /* Checked at start and at each request; again here, where a missing
+     * drive would silently leave an axis the plan moves where it stands. */
+    char why[700];
+    if (goniod_config_rig_gap(cfg, rig, rig->name, why, sizeof why) < 0)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "%s: %s", cfg->path, why);
     struct drv_modbus_bus_cfg bc;
     drv_modbus_bus_cfg_default(&bc);
     bc.timeout_s = cfg->timeout_s;
@@ -83,10 +88,10 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profil
                                       err);
     if (dev->sample)
         dev->arm = drv_axis_new_modbus(bus, cfg->slaves.arm, &rig->arm, &opts, "arm", err);
-    if (dev->arm && cfg->slaves.azimuth && rig->out_of_plane)
+    if (dev->arm && rig->out_of_plane)
         dev->azimuth = drv_axis_new_modbus(bus, cfg->slaves.azimuth, &rig->azimuth, &opts,
                                            "azimuth", err);
-    int axes_ok = dev->arm && (dev->azimuth || !cfg->slaves.azimuth || !rig->out_of_plane);
+    int axes_ok = dev->arm && (dev->azimuth || !rig->out_of_plane);
     if (axes_ok && cfg->detector == GONIOD_DETECTOR_USB) {
         open_usb_detector(cfg, cancelled, user, dev, err);
     } else if (axes_ok) {

@@ -1,0 +1,183 @@
+#!/usr/bin/python3
+"""goniod on a new rig: the configuration checked against the hardware it
+names (a rig profile's axes the driver does not have, at --check, at start,
+at a capture request and at resume), --check --probe, and an out-of-plane
+capture over gonio-sim's Modbus drives (goniod_harness.py; gonio-sim through
+test_goniod_modbus.ModbusRig).
+
+Run from ctest (the environment names the binaries), or by hand:
+  GONIO_BIN=build/bin GONIO_TESTS_BIN=build/tests GONIO_CONFIG=configs \
+      python3 tests/daemon/test_goniod_bringup.py -v
+"""
+import glob
+import os
+import shutil
+import sys
+import unittest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from goniod_harness import (GONIOD, SOURCE, Daemon, run_wrapped, shipped_config,  # noqa: E402
+                            tmpdir)
+import test_goniod_modbus  # noqa: E402  (ModbusRig)
+
+# configs/rigs/default.yaml with the azimuth axis taken away: an in-plane rig.
+with open(os.path.join(SOURCE, "configs", "rigs", "default.yaml")) as _f:
+    DEFAULT_RIG = _f.read()
+INPLANE_RIG = (DEFAULT_RIG.replace("out_of_plane: true", "out_of_plane: false")
+               .replace("name: default", "name: inplane"))
+assert "out_of_plane: false" in INPLANE_RIG
+
+# Three out-of-plane pairs [theta_i, phi_i, theta_o, phi_o]: the azimuth
+# drive turns to phi_o - phi_i - 180 = -90, -60 and -120 deg.
+OOP_PLAN = ("name: oop-mini\ndescription: three out-of-plane pairs\n"
+            "pairs:\n  - [30, 0, 40, 90]\n  - [30, 0, 40, 120]\n  - [20, 0, 50, 60]\n"
+            "order: as-written\n")
+OOP_PHI_O = {0: 90.0, 1: 120.0, 2: 60.0}
+
+
+def samples_phi(path):
+    """samples.csv's recorded phi_o (column 5) by point."""
+    with open(path) as f:
+        rows = [l.split(",") for l in f.read().splitlines()[1:]]
+    return {int(r[0]): float(r[5]) for r in rows}
+
+
+class ConfigRigTests(unittest.TestCase):
+    """The rig profile against the driver's axes, at --check and at start."""
+    TCP = ("rig: %s\ndriver:\n  kind: modbus-tcp\n  host: 127.0.0.1\n  port: 1502\n"
+           "  slaves:\n    sample: 1\n    arm: 2\n    detector: 3\n%s"
+           "capture_root: caps\nsocket:\n  path: g.sock\n")
+
+    def setUp(self):
+        self.folder = tmpdir()
+        with open(os.path.join(self.folder, "inplane.yaml"), "w") as f:
+            f.write(INPLANE_RIG)
+
+    def tearDown(self):
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def write(self, rig, azimuth):
+        path = os.path.join(self.folder, "c.yaml")
+        with open(path, "w") as f:
+            f.write(self.TCP % (rig, "    azimuth: %d\n" % azimuth if azimuth else ""))
+        return path
+
+    def test_out_of_plane_rig_without_azimuth_refused(self):
+        path = self.write("default", 0)
+        r = run_wrapped([GONIOD, "--config", path, "--check"], self.folder)
+        self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+        self.assertEqual(r.stdout, "")
+        # The file, where (the slaves mapping, from line 7), the field, the value.
+        self.assertIn("%s:7:" % path, r.stderr)
+        self.assertIn("driver.slaves.azimuth is 0", r.stderr)
+        self.assertIn("rig profile 'default' is out of plane", r.stderr)
+        # And goniod does not start on it either (nothing created).
+        r = run_wrapped([GONIOD, "--config", path], self.folder, timeout=30)
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("driver.slaves.azimuth is 0", r.stderr)
+        self.assertFalse(os.path.exists(os.path.join(self.folder, "caps")))
+
+    def test_consistent_pairs_accepted(self):
+        for rig, az in (("default", 4), ("inplane.yaml", 0), ("inplane.yaml", 4)):
+            r = run_wrapped([GONIOD, "--config", self.write(rig, az), "--check"], self.folder)
+            self.assertEqual(r.returncode, 0, (rig, az, r.stderr))
+            self.assertIn("    azimuth: %d\n" % az, r.stdout)
+
+    def test_every_shipped_config(self):
+        """Every configs/goniod/*.yaml with the rig profile it names passes
+        --check (modbus-tcp.yaml once named the out-of-plane default rig
+        without an azimuth drive)."""
+        names = sorted(os.path.basename(p) for p in
+                       glob.glob(os.path.join(SOURCE, "configs", "goniod", "*.yaml")))
+        self.assertIn("modbus-tcp.yaml", names)
+        for name in names:
+            path = shipped_config(name, self.folder)
+            r = run_wrapped([GONIOD, "--config", path, "--check"], self.folder)
+            if r.returncode != 0 and "built without" in r.stderr:
+                continue  # a backend this build lacks (the USB spectrometer)
+            self.assertEqual(r.returncode, 0, name + ": " + r.stderr)
+        r = run_wrapped([GONIOD, "--config", shipped_config("modbus-tcp.yaml", self.folder),
+                         "--check"], self.folder)
+        self.assertIn("    azimuth: 4\n", r.stdout)
+
+
+class RequestRigTests(unittest.TestCase):
+    """A request whose rig or plan needs an axis the driver lacks: refused
+    before anything is created (no device is opened for it)."""
+
+    def setUp(self):
+        self.folder = tmpdir()
+        # A Modbus rig with no azimuth drive, in plane: valid as configured.
+        self.d = Daemon(self.folder, driver="  kind: modbus-tcp\n  host: 127.0.0.1\n"
+                        "  port: 1\n  slaves: {sample: 1, arm: 2, detector: 3}\n")
+        with open(self.d.config) as f:
+            text = f.read()
+        with open(self.d.config, "w") as f:
+            f.write(text.replace("rig: default", "rig: inplane.yaml"))
+        with open(os.path.join(self.folder, "inplane.yaml"), "w") as f:
+            f.write(INPLANE_RIG)
+        os.makedirs(self.d.root)
+        with open(os.path.join(self.d.root, "oop.yaml"), "w") as f:
+            f.write(OOP_PLAN)
+        self.d.start()
+
+    def tearDown(self):
+        self.d.stop()
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def test_out_of_plane_rig_refused_at_request(self):
+        c = self.d.connect()
+        r = c.request("capture", plan="ds3", rig="default", name="x")
+        self.assertEqual(r["class"], "ERROR", r)
+        self.assertIn(self.d.config, r["message"])
+        self.assertIn("driver.slaves.azimuth is 0", r["message"])
+        self.assertIn("'default' is out of plane", r["message"])
+        self.assertFalse(os.path.exists(os.path.join(self.d.root, "x")))
+
+    def test_out_of_plane_plan_refused_on_inplane_rig(self):
+        c = self.d.connect()
+        r = c.request("capture", plan="oop.yaml", name="y")
+        self.assertEqual(r["class"], "ERROR", r)
+        self.assertIn("needs an out-of-plane axis", r["message"])
+        self.assertFalse(os.path.exists(os.path.join(self.d.root, "y")))
+
+
+class OutOfPlaneTests(test_goniod_modbus.ModbusRig):
+    """An out-of-plane plan on the Modbus rig with its azimuth drive:
+    every sample's recorded phi_o within the in-position band of the plan;
+    a resume on a configuration that lost the drive is refused."""
+
+    def test_out_of_plane_capture_and_resume_refused(self):
+        self.d = Daemon(self.folder, driver=self.tcp_driver(self.SIM_SCALE))
+        os.makedirs(self.d.root)
+        with open(os.path.join(self.d.root, "oop.yaml"), "w") as f:
+            f.write(OOP_PLAN)
+        self.d.start()
+        c = self.d.connect()
+        c.request("watch")
+        self.assertEqual(c.request("capture", plan="oop.yaml", name="oop")["class"], "OK")
+        stop = c.until_stop("oop")[-1]
+        self.assertEqual(stop["reason"], "complete", stop)
+        band = float(DEFAULT_RIG.split("in_position_deg:")[1].split()[0])
+        phi = samples_phi(os.path.join(self.d.root, "oop", "samples.csv"))
+        self.assertEqual(sorted(phi), sorted(OOP_PHI_O))
+        for p, want in OOP_PHI_O.items():
+            self.assertLessEqual(abs(phi[p] - want), band + 1e-9, (p, phi[p], want))
+        # The same daemon's config without the azimuth drive: the capture
+        # (rig default, out of plane) is refused at resume, before it runs.
+        self.d.stop()
+        with open(self.d.config) as f:
+            text = f.read()
+        with open(self.d.config, "w") as f:
+            f.write(text.replace(", azimuth: 4", "").replace("rig: default",
+                                                            "rig: inplane.yaml"))
+        with open(os.path.join(self.folder, "inplane.yaml"), "w") as f:
+            f.write(INPLANE_RIG)
+        self.d.start()
+        r = self.d.connect().request("resume", capture_id="oop")
+        self.assertEqual(r["class"], "ERROR", r)
+        self.assertIn("driver.slaves.azimuth is 0", r["message"])
+
+
+if __name__ == "__main__":
+    unittest.main()
