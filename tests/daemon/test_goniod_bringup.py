@@ -12,12 +12,13 @@ Run from ctest (the environment names the binaries), or by hand:
 import glob
 import os
 import shutil
+import socket
 import sys
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from goniod_harness import (GONIOD, SOURCE, Daemon, run_wrapped, shipped_config,  # noqa: E402
-                            tmpdir)
+from goniod_harness import (GONIOD, SLOW, SOURCE, Daemon, run_wrapped,  # noqa: E402
+                            shipped_config, tmpdir)
 import test_goniod_modbus  # noqa: E402  (ModbusRig)
 
 # configs/rigs/default.yaml with the azimuth axis taken away: an in-plane rig.
@@ -177,6 +178,60 @@ class OutOfPlaneTests(test_goniod_modbus.ModbusRig):
         r = self.d.connect().request("resume", capture_id="oop")
         self.assertEqual(r["class"], "ERROR", r)
         self.assertIn("driver.slaves.azimuth is 0", r["message"])
+
+
+class ProbeTests(test_goniod_modbus.ModbusRig):
+    """goniod --check --probe against gonio-sim over its pty and TCP: a line
+    per device saying what it answered, exit 2 naming the first that did
+    not (a wrong slave id, a port nothing listens on)."""
+
+    def probe(self, driver):
+        path = os.path.join(self.folder, "probe.yaml")
+        with open(path, "w") as f:
+            f.write("rig: default\ndriver:\n%scapture_root: cap\nsocket:\n  path: p.sock\n"
+                    % driver)
+        return run_wrapped([GONIOD, "--config", path, "--check", "--probe"], self.folder,
+                           timeout=60)
+
+    def driver(self, rtu, slaves="sample: 1, arm: 2, detector: 3, azimuth: 4", port=None):
+        where = ("  kind: modbus-rtu\n  device: %s\n" % self.pty if rtu else
+                 "  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n" % (port or self.port))
+        return where + ("  time_scale: %g\n  timeout_s: %g\n  retries: 1\n  slaves: {%s}\n"
+                        % (self.SIM_SCALE, 0.1 * SLOW, slaves))
+
+    def test_every_device_answers(self):
+        for rtu in (False, True):
+            r = self.probe(self.driver(rtu))
+            self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+            lines = [l for l in r.stdout.splitlines() if l.startswith("# probe: ")]
+            self.assertEqual(len(lines), 4, r.stdout)
+            for who in ("axis sample (slave 1)", "axis arm (slave 2)",
+                        "axis azimuth (slave 4)"):
+                line = [l for l in lines if who in l]
+                self.assertEqual(len(line), 1, (who, lines))
+                self.assertIn("answered: at 0.00 deg, READY, alarm none", line[0])
+            self.assertIn("answered: 3 channels", [l for l in lines if "detector" in l][0])
+
+    def test_wrong_slave_and_port(self):
+        r = self.probe(self.driver(False, "sample: 1, arm: 2, detector: 3, azimuth: 9"))
+        self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+        self.assertIn("goniod: probe: axis azimuth (slave 9)", r.stderr)
+        self.assertRegex(r.stdout, r"# probe: axis arm \(slave 2\) +answered")
+        self.assertRegex(r.stdout, r"# probe: detector \(slave 3\) +answered: 3 channels")
+        # The detector's slave id given to an axis drive: not a detector.
+        r = self.probe(self.driver(True, "sample: 1, arm: 2, detector: 4, azimuth: 3"))
+        self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+        self.assertIn("goniod: probe: axis azimuth (slave 3)", r.stderr)
+        self.assertRegex(r.stdout, r"# probe: detector \(slave 4\) +did not answer")
+        # A port nothing listens on: the first device names it.
+        s = socket.socket()
+        s.bind(("127.0.0.1", 0))
+        free = s.getsockname()[1]
+        s.close()
+        r = self.probe(self.driver(False, port=free))
+        self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+        self.assertIn("goniod: probe: ", r.stderr)
+        self.assertIn(str(free), r.stderr)
 
 
 if __name__ == "__main__":
