@@ -169,6 +169,7 @@ static json_t *status_doc(control *c)
     else
         json_object_set_new(d, "fit_error", json_null());
     json_object_set_new(d, "capture", capture_doc(&st));
+    json_object_set_new(d, "bringup", st.bringup[0] ? json_string(st.bringup) : json_null());
     return d;
 }
 
@@ -281,6 +282,19 @@ static int cmd_shutdown(control *c, struct control_client *cl, json_t *req, json
     return 0;
 }
 
+/* bring-up: control_bringup.c */
+#define BRINGUP_CMD(fn, op)                                                                  \
+    static int fn(control *c, struct control_client *cl, json_t *req, json_t *reply,        \
+                  const char **code, struct gonio_err *err)                                  \
+    {                                                                                        \
+        (void)reply;                                                                         \
+        return control_cmd_bringup(c, op, req, code, err, cl);                               \
+    }
+BRINGUP_CMD(cmd_home, BRINGUP_HOME)
+BRINGUP_CMD(cmd_move, BRINGUP_MOVE)
+BRINGUP_CMD(cmd_where, BRINGUP_WHERE)
+BRINGUP_CMD(cmd_limits, BRINGUP_LIMITS)
+
 /* What each command does, indexed like request.c's table of names and
  * fields. */
 static const struct command commands[CONTROL_CMD_COUNT] = {
@@ -291,6 +305,10 @@ static const struct command commands[CONTROL_CMD_COUNT] = {
     [CONTROL_CMD_RESUME] = {cmd_resume, NEED_ANY},
     [CONTROL_CMD_ABORT] = {cmd_abort, NEED_ACTIVE},
     [CONTROL_CMD_SHUTDOWN] = {cmd_shutdown, NEED_ANY},
+    [CONTROL_CMD_HOME] = {cmd_home, NEED_IDLE},
+    [CONTROL_CMD_MOVE] = {cmd_move, NEED_IDLE},
+    [CONTROL_CMD_WHERE] = {cmd_where, NEED_IDLE},
+    [CONTROL_CMD_LIMITS] = {cmd_limits, NEED_IDLE},
 };
 
 int control_handle_line(control *c, struct control_client *cl, const char *line, size_t len)
@@ -315,6 +333,12 @@ int control_handle_line(control *c, struct control_client *cl, const char *line,
         control_request_free(&rq);
         return 1;
     }
+    if (cmd->need == NEED_IDLE && st.bringup[0]) {
+        control_send_error(cl, "busy", id, "%s: bring-up '%s' is running; wait for it to finish",
+                           name, st.bringup);
+        control_request_free(&rq);
+        return 1;
+    }
     if (cmd->need == NEED_ACTIVE && st.state == WORKER_IDLE) {
         control_send_error(cl, "not-running", id, "%s: no capture is running", name);
         control_request_free(&rq);
@@ -331,6 +355,8 @@ int control_handle_line(control *c, struct control_client *cl, const char *line,
     if (rc < 0) {
         json_decref(reply);
         control_send_error(cl, code, id, "%s", err.msg[0] ? err.msg : gonio_strerror(rc));
+    } else if (rc > 0) {
+        json_decref(reply); /* answered later (bring-up) */
     } else {
         control_client_send(cl, reply);
         /* A watcher that subscribes mid-capture still gets the capture's

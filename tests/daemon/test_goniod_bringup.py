@@ -234,5 +234,114 @@ class ProbeTests(test_goniod_modbus.ModbusRig):
         self.assertIn(str(free), r.stderr)
 
 
+def axes_by_name(reply):
+    return {a["axis"]: a for a in reply["axes"]}
+
+
+class BringupTests(test_goniod_modbus.ModbusRig):
+    """gonio home, move, where, limits through goniod on gonio-sim's drives
+    (TCP): positions within the in-position band, soft limits refused by
+    name, and refusals while a capture runs."""
+    BAND = float(DEFAULT_RIG.split("in_position_deg:")[1].split()[0])
+
+    def start(self):
+        self.d = Daemon(self.folder, driver=self.tcp_driver(self.SIM_SCALE)).start()
+        return self.d.connect()
+
+    def test_move_where_limits_home(self):
+        c = self.start()
+        r = c.request("where")
+        self.assertEqual(r["class"], "OK", r)
+        ax = axes_by_name(r)
+        self.assertEqual(sorted(ax), ["arm", "azimuth", "sample"])
+        self.assertEqual([ax[n]["slave"] for n in ("sample", "arm", "azimuth")], [1, 2, 4])
+        for a in ax.values():
+            self.assertEqual((a["position_deg"], a["ready"], a["alarm"]), (0, True, 0), a)
+        r = c.request("move", axis="arm", deg=140)
+        self.assertEqual(r["class"], "OK", r)
+        self.assertLessEqual(abs(axes_by_name(r)["arm"]["position_deg"] - 140), self.BAND)
+        self.assertLessEqual(abs(axes_by_name(c.request("where"))["arm"]["position_deg"] - 140),
+                             self.BAND)
+        # Beyond a soft limit: refused before anything moves, naming it.
+        r = c.request("move", axis="arm", deg=175)
+        self.assertEqual((r["class"], r["code"]), ("ERROR", "bad-value"), r)
+        self.assertIn("axes.arm.max 170 deg of rig profile 'default'", r["message"])
+        r = c.request("move", axis="sample", deg=-91)
+        self.assertIn("axes.sample.min -90 deg", r["message"])
+        # limits: each soft limit reached, and back where it started.
+        r = c.request("limits", axis="sample")
+        self.assertEqual(r["class"], "OK", r)
+        lim = r["limits"]
+        self.assertLessEqual(abs(lim["reached_min_deg"] + 90), self.BAND, lim)
+        self.assertLessEqual(abs(lim["reached_max_deg"] - 90), self.BAND, lim)
+        self.assertLessEqual(abs(lim["back_at_deg"]), self.BAND, lim)
+        # home: every axis at 0 with HOME-END.
+        r = c.request("home")
+        self.assertEqual(r["class"], "OK", r)
+        for a in r["axes"]:
+            self.assertEqual((a["position_deg"], a["home_end"]), (0, True), a)
+        # The CLI prints the table, and refuses a limit with exit 2.
+        g = self.d.gonio("move", "azimuth", "-45")
+        self.assertEqual(g.returncode, 0, g.stderr)
+        row = [l for l in g.stdout.splitlines() if l.startswith("azimuth")][0]
+        self.assertLessEqual(abs(float(row.split()[2]) + 45), self.BAND, row)
+        g = self.d.gonio("move", "azimuth", "181")
+        self.assertEqual(g.returncode, 2, g.stdout + g.stderr)
+        self.assertIn("axes.azimuth.max 180 deg", g.stderr)
+
+    def test_refused_while_a_capture_runs(self):
+        c = self.start()
+        self.assertEqual(c.request("capture", plan="ds3", name="busy")["class"], "OK")
+        for cmd, args in (("move", {"axis": "arm", "deg": 10}), ("home", {}), ("where", {}),
+                          ("limits", {"axis": "arm"})):
+            r = c.request(cmd, **args)
+            self.assertEqual((r["class"], r["code"]), ("ERROR", "busy"), r)
+            self.assertIn("capture 'busy' is running", r["message"])
+        c.request("abort")
+
+
+class BringupSlowTests(test_goniod_modbus.ModbusRig):
+    """A limits run long enough to watch (gonio-sim at 20 x): the socket
+    serves other clients meanwhile, and refuses a capture and another
+    bring-up command by name."""
+    SIM_SCALE = 20
+
+    def test_socket_served_while_limits_runs(self):
+        self.d = Daemon(self.folder, driver=self.tcp_driver(self.SIM_SCALE)).start()
+        c = self.d.connect()
+        # 360 deg at a quarter of 20 deg/s: 72 s of rig time, 3.6 s here.
+        c.send(dict(cmd="limits", axis="sample", id="lim"))
+        other = self.d.connect()
+        st = other.request("status")
+        self.assertEqual(st["bringup"], "limits sample", st)
+        r = other.request("capture", plan="ds3", name="x")
+        self.assertEqual((r["class"], r["code"]), ("ERROR", "busy"), r)
+        # goniod's own check before the capture is prepared (the worker
+        # would refuse it too, after creating and removing its directory).
+        self.assertTrue(r["message"].startswith("capture: bring-up 'limits sample' is "
+                                                "running"), r)
+        r = other.request("move", axis="arm", deg=5)
+        self.assertEqual((r["class"], r["code"]), ("ERROR", "busy"), r)
+        self.assertFalse(os.path.exists(os.path.join(self.d.root, "x")))
+        r = c.read()
+        self.assertEqual((r["class"], r["id"]), ("OK", "lim"), r)
+        self.assertIsNone(other.request("status")["bringup"])
+
+
+class BringupSimTests(unittest.TestCase):
+    """The in-process rig has no drives: bring-up is refused, saying so."""
+
+    def test_sim_driver_refuses(self):
+        folder = tmpdir()
+        d = Daemon(folder).start()
+        try:
+            r = d.connect().request("where")
+            self.assertEqual((r["class"], r["code"]), ("ERROR", "bad-value"), r)
+            self.assertIn("driver 'sim' has no drives", r["message"])
+        finally:
+            d.stop()
+            shutil.rmtree(folder, ignore_errors=True)
+
+
 if __name__ == "__main__":
     unittest.main()
