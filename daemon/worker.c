@@ -251,12 +251,44 @@ static int hook_cancelled(void *user)
     return abort;
 }
 
+/* Every axis where the rig profile allows it before the first move: an
+ * axis left beyond the limits (by an earlier rig profile, or by hand)
+ * would otherwise be driven from where the profile says it cannot be. */
+static int check_start(const struct rig_profile *rig, struct capture_devices *dev,
+                       struct gonio_err *err)
+{
+    drv_axis *axes[] = {dev->sample, dev->arm, dev->azimuth};
+    const struct rig_axis *prof[] = {&rig->sample, &rig->arm, &rig->azimuth};
+    for (int i = 0; i < 3; i++) {
+        double at;
+        if (!axes[i])
+            continue;
+        int rc = drv_axis_position(axes[i], &at, err);
+        if (rc < 0)
+            return rc;
+        double slack = rig->mech.in_position_deg;
+        if (at < prof[i]->min - slack || at > prof[i]->max + slack) {
+            const char *name = drv_axis_name(axes[i]);
+            return gonio_err_set(err, GONIO_EUNREACHABLE,
+                                 "axis %s is at %.2f deg, outside rig profile '%s''s limits "
+                                 "axes.%s %g..%g deg; bring it inside first: gonio home %s",
+                                 name, at, rig->name, name, prof[i]->min, prof[i]->max, name);
+        }
+    }
+    return 0;
+}
+
 static int hook_open(void *user, const struct rig_profile *rig, const char *dir,
                      struct capture_devices *dev, struct gonio_err *err)
 {
     (void)dir;
     worker *w = user;
-    return goniod_devices_open(w->cfg, rig, hook_cancelled, w, dev, &w->bus, err);
+    int rc = goniod_devices_open(w->cfg, rig, hook_cancelled, w, dev, &w->bus, err);
+    if (rc == 0 && (rc = check_start(rig, dev, err)) < 0) {
+        goniod_devices_close(dev, w->bus);
+        w->bus = NULL;
+    }
+    return rc;
 }
 
 static void hook_close(void *user, struct capture_devices *dev)

@@ -289,6 +289,33 @@ class BringupTests(test_goniod_modbus.ModbusRig):
         self.assertEqual(g.returncode, 2, g.stdout + g.stderr)
         self.assertIn("axes.azimuth.max 180 deg", g.stderr)
 
+    def test_capture_refused_outside_the_limits(self):
+        """An arm left at 160 deg (an earlier profile allowed it) and a rig
+        profile limiting it to 150 (DS3 reaches 140): the capture fails before any move,
+        saying where the arm is and what to do; after gonio home it runs."""
+        c = self.start()
+        self.assertEqual(c.request("move", axis="arm", deg=160)["class"], "OK")
+        self.d.stop()
+        with open(os.path.join(self.folder, "arm150.yaml"), "w") as f:
+            f.write(DEFAULT_RIG.replace("min: -170, max: 170", "min: -150, max: 150")
+                    .replace("name: default", "name: arm150"))
+        with open(self.d.config) as f:
+            text = f.read()
+        with open(self.d.config, "w") as f:
+            f.write(text.replace("rig: default", "rig: arm150.yaml"))
+        self.d.start()
+        c = self.d.connect()
+        c.request("watch")
+        self.assertEqual(c.request("capture", plan="ds3", name="far")["class"], "OK")
+        stop = c.until_stop("far")[-1]
+        self.assertEqual(stop["exit_status"], "fail", stop)
+        self.assertIn("axis arm is at 160.00 deg, outside rig profile 'arm150''s limits "
+                      "axes.arm -150..150 deg", stop["message"])
+        self.assertIn("gonio home arm", stop["message"])
+        self.assertEqual(c.request("home", axis="arm")["class"], "OK")
+        self.assertEqual(c.request("capture", plan="ds3", name="near")["class"], "OK")
+        self.assertEqual(c.until_stop("near")[-1]["reason"], "complete")
+
     def test_refused_while_a_capture_runs(self):
         c = self.start()
         self.assertEqual(c.request("capture", plan="ds3", name="busy")["class"], "OK")
