@@ -144,6 +144,7 @@ void control_free(control *c)
     free(c->start_doc);
     free(c->descriptor_doc);
     json_decref(c->bringup_id);
+    control_events_free(c);
     free(c);
 }
 
