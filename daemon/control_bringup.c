@@ -57,8 +57,10 @@ int control_cmd_bringup(control *c, enum bringup_op op, json_t *req, const char 
     c->bringup_client = cl;
     json_decref(c->bringup_id);
     c->bringup_id = json_incref(json_object_get(req, "id"));
-    fprintf(stderr, "goniod: bring-up %s %s%s\n", bringup_op_name(op), job.axis,
-            op == BRINGUP_MOVE ? "" : "");
+    if (op == BRINGUP_MOVE)
+        fprintf(stderr, "goniod: bring-up move %s to %g deg\n", job.axis, job.deg);
+    else
+        fprintf(stderr, "goniod: bring-up %s %s\n", bringup_op_name(op), job.axis);
     return 1; /* answered by control_bringup_reply */
 }
 
