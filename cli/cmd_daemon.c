@@ -16,26 +16,18 @@
 
 #include "capture/capture.h"
 #include "cli/commands.h"
+#include "cli/daemon_client.h"
 #include "cli/progress.h"
 #include "fit/models.h"
 
-#define GONIO_SOCKET_DEFAULT "/run/goniod/goniod.sock"
-
-struct conn {
-    int fd;
-    FILE *in;
-    long next_id;
-    const char *path;
-};
-
-static const char *socket_path(const char *opt)
+const char *socket_path(const char *opt)
 {
     const char *env = getenv("GONIO_SOCKET");
     return opt ? opt : env && env[0] ? env : GONIO_SOCKET_DEFAULT;
 }
 
 /* The next document from the daemon, or NULL when the connection ends. */
-static json_t *conn_read(struct conn *c)
+json_t *conn_read(struct conn *c)
 {
     char *line = NULL;
     size_t cap = 0;
@@ -55,7 +47,7 @@ static json_t *conn_read(struct conn *c)
     return d;
 }
 
-static int conn_open(struct conn *c, const char *path)
+int conn_open(struct conn *c, const char *path)
 {
     memset(c, 0, sizeof *c);
     c->path = path;
@@ -97,14 +89,14 @@ static int conn_open(struct conn *c, const char *path)
     return 0;
 }
 
-static void conn_close(struct conn *c)
+void conn_close(struct conn *c)
 {
     fclose(c->in);
     close(c->fd);
 }
 
 /* Send a request (stolen) and return its reply: OK, STATUS or ERROR. */
-static json_t *conn_request(struct conn *c, json_t *req)
+json_t *conn_request(struct conn *c, json_t *req)
 {
     long id = c->next_id++;
     json_object_set_new(req, "id", json_integer(id));
@@ -140,7 +132,7 @@ static json_t *conn_request(struct conn *c, json_t *req)
 /* Print a daemon error as given. 0 if d is no error; 2 if goniod refused
  * what was asked as bad input (bad-value: an unknown plan, a name outside
  * the capture root...), 1 for any other error or a missing reply. */
-static int reply_failed(json_t *d)
+int reply_failed(json_t *d)
 {
     if (!d)
         return 1;

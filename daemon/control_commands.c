@@ -57,6 +57,8 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
     } else {
         snprintf(r.rig, sizeof r.rig, "%s", c->cfg->rig);
     }
+    if ((rc = goniod_config_rig_check(c->cfg, r.rig, err)) < 0)
+        return rc;
     if (material &&
         (rc = control_resolve_material(c, material, r.material, sizeof r.material, err)) < 0)
         return rc;
@@ -167,6 +169,7 @@ static json_t *status_doc(control *c)
     else
         json_object_set_new(d, "fit_error", json_null());
     json_object_set_new(d, "capture", capture_doc(&st));
+    json_object_set_new(d, "bringup", st.bringup[0] ? json_string(st.bringup) : json_null());
     return d;
 }
 
@@ -261,6 +264,9 @@ static int cmd_resume(control *c, struct control_client *cl, json_t *req, json_t
         *code = "not-found";
         return rc;
     }
+    *code = "bad-value";
+    if ((rc = goniod_config_rig_check(c->cfg, r.rig, err)) < 0)
+        return rc;
     r.resume = 1;
     *code = "busy";
     if ((rc = worker_start(c->w, &r, err)) < 0)
@@ -287,6 +293,19 @@ static int cmd_shutdown(control *c, struct control_client *cl, json_t *req, json
     return 0;
 }
 
+/* bring-up: control_bringup.c */
+#define BRINGUP_CMD(fn, op)                                                                  \
+    static int fn(control *c, struct control_client *cl, json_t *req, json_t *reply,        \
+                  const char **code, struct gonio_err *err)                                  \
+    {                                                                                        \
+        (void)reply;                                                                         \
+        return control_cmd_bringup(c, op, req, code, err, cl);                               \
+    }
+BRINGUP_CMD(cmd_home, BRINGUP_HOME)
+BRINGUP_CMD(cmd_move, BRINGUP_MOVE)
+BRINGUP_CMD(cmd_where, BRINGUP_WHERE)
+BRINGUP_CMD(cmd_limits, BRINGUP_LIMITS)
+
 /* What each command does, indexed like request.c's table of names and
  * fields. */
 static const struct command commands[CONTROL_CMD_COUNT] = {
@@ -297,6 +316,10 @@ static const struct command commands[CONTROL_CMD_COUNT] = {
     [CONTROL_CMD_RESUME] = {cmd_resume, NEED_ANY},
     [CONTROL_CMD_ABORT] = {cmd_abort, NEED_ACTIVE},
     [CONTROL_CMD_SHUTDOWN] = {cmd_shutdown, NEED_ANY},
+    [CONTROL_CMD_HOME] = {cmd_home, NEED_IDLE},
+    [CONTROL_CMD_MOVE] = {cmd_move, NEED_IDLE},
+    [CONTROL_CMD_WHERE] = {cmd_where, NEED_IDLE},
+    [CONTROL_CMD_LIMITS] = {cmd_limits, NEED_IDLE},
 };
 
 int control_handle_line(control *c, struct control_client *cl, const char *line, size_t len)
@@ -321,6 +344,12 @@ int control_handle_line(control *c, struct control_client *cl, const char *line,
         control_request_free(&rq);
         return 1;
     }
+    if (cmd->need == NEED_IDLE && st.bringup[0]) {
+        control_send_error(cl, "busy", id, "%s: bring-up '%s' is running; wait for it to finish",
+                           name, st.bringup);
+        control_request_free(&rq);
+        return 1;
+    }
     if (cmd->need == NEED_ACTIVE && st.state == WORKER_IDLE) {
         control_send_error(cl, "not-running", id, "%s: no capture is running", name);
         control_request_free(&rq);
@@ -337,6 +366,8 @@ int control_handle_line(control *c, struct control_client *cl, const char *line,
     if (rc < 0) {
         json_decref(reply);
         control_send_error(cl, code, id, "%s", err.msg[0] ? err.msg : gonio_strerror(rc));
+    } else if (rc > 0) {
+        json_decref(reply); /* answered later (bring-up) */
     } else {
         control_client_send(cl, reply);
         /* A watcher that subscribes mid-capture still gets the capture's

@@ -250,6 +250,8 @@ void control_dispatch(control *c, struct worker_msg *msgs)
             c->seq++;
             doc = sample_doc(c, (const struct worker_msg_sample *)m);
             control_events_sample(c, (const struct worker_msg_sample *)m);
+        } else if (m->kind == WORKER_MSG_BRINGUP) {
+            control_bringup_reply(c, (const struct worker_msg_bringup *)m);
         } else {
             const struct worker_msg_stop *ms = (const struct worker_msg_stop *)m;
             if (ms->rc < 0)

@@ -36,6 +36,12 @@ static const struct arg_spec capture_args[] = {
 };
 static const struct arg_spec resume_args[] = {STRING_ARG("capture_id"), {.name = NULL}};
 static const struct arg_spec no_args[] = {{.name = NULL}};
+/* bring-up: an axis (home: optional), a move's target in degrees */
+static const struct arg_spec axis_args[] = {STRING_ARG("axis"), {.name = NULL}};
+static const struct arg_spec move_args[] = {
+    STRING_ARG("axis"),
+    {.name = "deg", .type = ARG_NUMBER, .min = -360, .max = 360, .unit = "degrees"},
+    {.name = NULL}};
 static const struct arg_spec watch_args[] = {STRING_ARG("format"), {.name = NULL}};
 
 /* The fields each command takes besides cmd and id, indexed by enum control_cmd. */
@@ -50,6 +56,10 @@ static const struct {
     [CONTROL_CMD_RESUME] = {"resume", resume_args},
     [CONTROL_CMD_ABORT] = {"abort", no_args},
     [CONTROL_CMD_SHUTDOWN] = {"shutdown", no_args},
+    [CONTROL_CMD_HOME] = {"home", axis_args},
+    [CONTROL_CMD_MOVE] = {"move", move_args},
+    [CONTROL_CMD_WHERE] = {"where", no_args},
+    [CONTROL_CMD_LIMITS] = {"limits", axis_args},
 };
 
 const char *control_cmd_name(enum control_cmd cmd)

@@ -47,6 +47,11 @@ struct worker {
     char end_state[16], end_message[GONIO_ERR_MSG_MAX];
     struct worker_msg *head, *tail;
     void *bus; /* the Modbus bus while a capture holds it */
+    /* A bring-up command under way in the thread (bringup_active), its
+     * job and ticket. */
+    int bringup_active;
+    struct bringup_job bringup;
+    unsigned long bringup_ticket;
     int has_comm; /* the last capture's bus counts, taken as it closed */
     struct goniod_comm_stats comm;
     int has_fit;
@@ -246,12 +251,44 @@ static int hook_cancelled(void *user)
     return abort;
 }
 
+/* Every axis where the rig profile allows it before the first move: an
+ * axis left beyond the limits (by an earlier rig profile, or by hand)
+ * would otherwise be driven from where the profile says it cannot be. */
+static int check_start(const struct rig_profile *rig, struct capture_devices *dev,
+                       struct gonio_err *err)
+{
+    drv_axis *axes[] = {dev->sample, dev->arm, dev->azimuth};
+    const struct rig_axis *prof[] = {&rig->sample, &rig->arm, &rig->azimuth};
+    for (int i = 0; i < 3; i++) {
+        double at;
+        if (!axes[i])
+            continue;
+        int rc = drv_axis_position(axes[i], &at, err);
+        if (rc < 0)
+            return rc;
+        double slack = rig->mech.in_position_deg;
+        if (at < prof[i]->min - slack || at > prof[i]->max + slack) {
+            const char *name = drv_axis_name(axes[i]);
+            return gonio_err_set(err, GONIO_EUNREACHABLE,
+                                 "axis %s is at %.2f deg, outside rig profile '%s''s limits "
+                                 "axes.%s %g..%g deg; bring it inside first: gonio home %s",
+                                 name, at, rig->name, name, prof[i]->min, prof[i]->max, name);
+        }
+    }
+    return 0;
+}
+
 static int hook_open(void *user, const struct rig_profile *rig, const char *dir,
                      struct capture_devices *dev, struct gonio_err *err)
 {
     (void)dir;
     worker *w = user;
-    return goniod_devices_open(w->cfg, rig, hook_cancelled, w, dev, &w->bus, err);
+    int rc = goniod_devices_open(w->cfg, rig, hook_cancelled, w, dev, &w->bus, err);
+    if (rc == 0 && (rc = check_start(rig, dev, err)) < 0) {
+        goniod_devices_close(dev, w->bus);
+        w->bus = NULL;
+    }
+    return rc;
 }
 
 static void hook_close(void *user, struct capture_devices *dev)
@@ -460,7 +497,7 @@ oom:
 static void join_if_finished(worker *w)
 {
     pthread_mutex_lock(&w->mu);
-    int join = w->thread_live && !w->running;
+    int join = w->thread_live && !w->running && !w->bringup_active;
     pthread_mutex_unlock(&w->mu);
     if (join) {
         pthread_join(w->thread, NULL);
@@ -474,6 +511,9 @@ void worker_free(worker *w)
         return;
     if (w->thread_live) {
         worker_abort(w, "shutdown", NULL);
+        pthread_mutex_lock(&w->mu);
+        w->abort = 1; /* a bring-up command's waits end too */
+        pthread_mutex_unlock(&w->mu);
         pthread_join(w->thread, NULL);
     }
     for (struct worker_msg *m = w->head, *next; m; m = next) {
@@ -502,10 +542,14 @@ int worker_start(worker *w, const struct worker_request *req, struct gonio_err *
     join_if_finished(w);
     pthread_mutex_lock(&w->mu);
     if (w->running || w->thread_live) {
-        int rc = gonio_err_set(err, GONIO_EUSAGE,
-                               "capture '%s' is running; abort it or wait for it to finish "
-                               "before starting another",
-                               w->req.id);
+        int rc = w->bringup_active
+                     ? gonio_err_set(err, GONIO_EUSAGE, "bring-up '%s %s' is running; wait for "
+                                     "it to finish", bringup_op_name(w->bringup.op),
+                                     w->bringup.axis)
+                     : gonio_err_set(err, GONIO_EUSAGE,
+                                     "capture '%s' is running; abort it or wait for it to "
+                                     "finish before starting another",
+                                     w->req.id);
         pthread_mutex_unlock(&w->mu);
         return rc;
     }
@@ -606,6 +650,9 @@ void worker_get_status(worker *w, struct worker_status *st)
     st->fit_log_error = w->fit_log;
     st->fit_rel_rmse = w->fit_rmse;
     st->fit_samples = w->fit_n;
+    if (w->bringup_active)
+        snprintf(st->bringup, sizeof st->bringup, "%s%s%s", bringup_op_name(w->bringup.op),
+                 w->bringup.axis[0] ? " " : "", w->bringup.axis);
     pthread_mutex_unlock(&w->mu);
 }
 
@@ -619,7 +666,62 @@ struct worker_msg *worker_take(worker *w)
     w->head = w->tail = NULL;
     pthread_mutex_unlock(&w->mu);
     for (struct worker_msg *p = m; p; p = p->next)
-        if (p->kind == WORKER_MSG_STOP)
+        if (p->kind == WORKER_MSG_STOP || p->kind == WORKER_MSG_BRINGUP)
             join_if_finished(w);
     return m;
+}
+
+/* ---- bring-up (daemon/bringup.h) ------------------------------------- */
+
+static void *run_bringup(void *arg)
+{
+    worker *w = arg;
+    struct worker_msg_bringup *m = calloc(1, sizeof *m);
+    struct bringup_result res;
+    struct rig_profile rig;
+    memset(&res, 0, sizeof res);
+    if ((res.rc = rig_profile_load(w->cfg->rig, &rig, &res.err)) == 0)
+        bringup_run(w->cfg, &rig, &w->bringup, hook_cancelled, w, &res);
+    pthread_mutex_lock(&w->mu);
+    w->bringup_active = 0;
+    pthread_mutex_unlock(&w->mu);
+    if (m) {
+        m->base.kind = WORKER_MSG_BRINGUP;
+        m->ticket = w->bringup_ticket;
+        m->job = w->bringup;
+        m->result = res;
+        push(w, &m->base);
+    }
+    return NULL;
+}
+
+int worker_bringup(worker *w, const struct bringup_job *job, unsigned long ticket,
+                   struct gonio_err *err)
+{
+    join_if_finished(w);
+    pthread_mutex_lock(&w->mu);
+    if (w->running || w->thread_live) {
+        int rc = w->bringup_active
+                     ? gonio_err_set(err, GONIO_EUSAGE, "bring-up '%s %s' is running; wait "
+                                     "for it to finish", bringup_op_name(w->bringup.op),
+                                     w->bringup.axis)
+                     : gonio_err_set(err, GONIO_EUSAGE, "capture '%s' is running; abort it "
+                                     "or wait for it to finish", w->req.id);
+        pthread_mutex_unlock(&w->mu);
+        return rc;
+    }
+    w->bringup = *job;
+    w->bringup_ticket = ticket;
+    w->bringup_active = 1;
+    w->abort = 0;
+    pthread_mutex_unlock(&w->mu);
+    int rc = pthread_create(&w->thread, NULL, run_bringup, w);
+    if (rc != 0) {
+        pthread_mutex_lock(&w->mu);
+        w->bringup_active = 0;
+        pthread_mutex_unlock(&w->mu);
+        return gonio_err_set(err, rc, "bring-up thread: %s", strerror(rc));
+    }
+    w->thread_live = 1;
+    return 0;
 }

@@ -536,7 +536,7 @@ def test_check_group_must_exist(tmp):
 
 def test_check_tcp_host_must_be_an_address(tmp):
     tcp = ("rig: default\ndriver:\n  kind: modbus-tcp\n  host: localhost\n  port: 1502\n"
-           "  slaves: {sample: 1, arm: 2, detector: 3}\n"
+           "  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
            "capture_root: caps\nsocket:\n  path: run/g.sock\n")
     path, r = check(tmp, tcp)
     assert r.returncode == 2

@@ -129,7 +129,8 @@ class ModbusTests(ModbusRig):
     def test_no_rig_answering(self):
         self.stop_sim()
         c = self.capture("  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n"
-                         "  timeout_s: 0.05\n" % self.port, "gone")
+                         "  timeout_s: 0.05\n  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
+                         % self.port, "gone")
         stop = c.until_stop("gone")[-1]
         self.assertEqual(stop["exit_status"], "fail")
         self.assertTrue(stop["message"])
