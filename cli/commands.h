@@ -25,6 +25,7 @@ int cmd_pause(int argc, char **argv);
 int cmd_resume(int argc, char **argv);
 int cmd_abort(int argc, char **argv);
 int cmd_shutdown(int argc, char **argv);
+int cmd_list(int argc, char **argv);
 
 /* --budget MINUTES, --stop-target LOG_ERR (opt) of both capture commands:
  * a positive number, else a message on stderr and -1. */

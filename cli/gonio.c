@@ -21,6 +21,7 @@ static const struct {
     {"resume", cmd_resume, "continue a paused capture, or resume an interrupted one by id"},
     {"abort", cmd_abort, "stop the running capture, keeping its samples"},
     {"shutdown", cmd_shutdown, "stop goniod"},
+    {"list", cmd_list, "goniod's captures: state, samples, rig time, the resumable ones"},
     {"fit", cmd_fit, "fit a model to a capture's samples and write its model file"},
     {"export", cmd_export, "export a material as a MERL .binary table"},
     {"results", cmd_results, "tabulate the results of capture directories"},

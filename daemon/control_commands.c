@@ -10,6 +10,7 @@
 
 #include "common/paths.h"
 #include "common/version.h"
+#include "daemon/captures.h"
 #include "daemon/control_private.h"
 #include "daemon/request.h"
 
@@ -250,6 +251,17 @@ static int cmd_resume(control *c, struct control_client *cl, json_t *req, json_t
         *code = "not-found";
         return rc;
     }
+    /* A complete capture has nothing left to measure: resuming it would
+     * only fit again and rewrite its results, which only refit asks for. */
+    char ended[16];
+    captures_end_state(r.dir, ended, sizeof ended);
+    if (!strcmp(ended, "complete") && !json_is_true(json_object_get(req, "refit"))) {
+        *code = "complete";
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "capture '%s' is complete; nothing was changed (a resume with "
+                             "refit, gonio resume --refit, fits its samples again)",
+                             id);
+    }
     r.resume = 1;
     *code = "busy";
     if ((rc = worker_start(c->w, &r, err)) < 0)
@@ -263,9 +275,36 @@ static int cmd_resume(control *c, struct control_client *cl, json_t *req, json_t
 static int cmd_abort(control *c, struct control_client *cl, json_t *req, json_t *reply,
                      const char **code, struct gonio_err *err)
 {
-    (void)cl, (void)req, (void)reply;
+    (void)cl, (void)req;
     *code = "not-running";
-    return worker_abort(c->w, "aborted", err);
+    struct worker_status st;
+    worker_get_status(c->w, &st);
+    int rc = worker_abort(c->w, "aborted", err);
+    if (rc == 0) /* what `resume` takes to continue it */
+        json_object_set_new(reply, "capture_id", json_string(st.id));
+    return rc;
+}
+
+static int cmd_list(control *c, struct control_client *cl, json_t *req, json_t *reply,
+                    const char **code, struct gonio_err *err)
+{
+    (void)cl, (void)req;
+    struct worker_status st;
+    worker_get_status(c->w, &st);
+    struct captures_live live = {
+        .id = st.state == WORKER_IDLE ? NULL : st.id,
+        .state = st.state == WORKER_PAUSED ? "paused" : "running",
+        .done = st.done,
+        .total = st.total,
+        .rig_time_s = st.rig_time_s,
+    };
+    json_t *list = captures_list(c->cfg->capture_root, &live);
+    if (!list) {
+        *code = "io";
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    }
+    json_object_set_new(reply, "captures", list);
+    return 0;
 }
 
 static int cmd_shutdown(control *c, struct control_client *cl, json_t *req, json_t *reply,
@@ -286,6 +325,7 @@ static const struct command commands[CONTROL_CMD_COUNT] = {
     [CONTROL_CMD_RESUME] = {cmd_resume, NEED_ANY},
     [CONTROL_CMD_ABORT] = {cmd_abort, NEED_ACTIVE},
     [CONTROL_CMD_SHUTDOWN] = {cmd_shutdown, NEED_ANY},
+    [CONTROL_CMD_LIST] = {cmd_list, NEED_ANY},
 };
 
 int control_handle_line(control *c, struct control_client *cl, const char *line, size_t len)

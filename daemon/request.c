@@ -34,7 +34,8 @@ static const struct arg_spec capture_args[] = {
     {.name = "prescan", .type = ARG_INT, .min = 0, .max = CAPTURE_PRESCAN_MAX, .unit = "points"},
     {.name = NULL},
 };
-static const struct arg_spec resume_args[] = {STRING_ARG("capture_id"), {.name = NULL}};
+static const struct arg_spec resume_args[] = {
+    STRING_ARG("capture_id"), {.name = "refit", .type = ARG_BOOL}, {.name = NULL}};
 static const struct arg_spec no_args[] = {{.name = NULL}};
 
 /* The fields each command takes besides cmd and id, indexed by enum control_cmd. */
@@ -49,6 +50,7 @@ static const struct {
     [CONTROL_CMD_RESUME] = {"resume", resume_args},
     [CONTROL_CMD_ABORT] = {"abort", no_args},
     [CONTROL_CMD_SHUTDOWN] = {"shutdown", no_args},
+    [CONTROL_CMD_LIST] = {"list", no_args},
 };
 
 const char *control_cmd_name(enum control_cmd cmd)

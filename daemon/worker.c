@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "brdf/metrics.h"
+#include "daemon/captures.h"
 #include "daemon/devices.h"
 #include "sim_source/sim_source.h"
 
@@ -354,6 +355,25 @@ int worker_check(worker *w, const struct worker_request *req, struct gonio_err *
     return prepare(w, req, &w->pending, err);
 }
 
+/* The run's end in the capture directory (daemon/captures.h), written
+ * before the stop is reported, so a list never shows a finished capture as
+ * interrupted. A shutdown interrupted the capture; the operator did not
+ * abort it. */
+static void record_stop(worker *w, int rc, const char *reason, const struct gonio_err *err,
+                        const struct capture_summary *sum)
+{
+    const char *state = rc < 0                       ? "failed"
+                        : !strcmp(reason, "shutdown") ? "interrupted"
+                        : !strcmp(reason, "aborted")  ? "aborted"
+                                                      : "complete";
+    struct captures_stop stop = {.state = state, .reason = reason,
+                                 .message = rc < 0 ? err->msg : "",
+                                 .summary = rc < 0 ? NULL : sum};
+    struct gonio_err werr = {0};
+    if (captures_record_stop(w->req.dir, &stop, &werr) < 0)
+        fprintf(stderr, "goniod: capture %s: %s\n", w->req.id, werr.msg);
+}
+
 static void *run(void *arg)
 {
     worker *w = arg;
@@ -372,6 +392,9 @@ static void *run(void *arg)
     };
     w->has_comm = 0;
     memset(&sum, 0, sizeof sum);
+    /* Until this run ends, the capture is running or, if goniod dies,
+     * interrupted: no earlier run's end record stands. */
+    captures_clear_stop(w->req.dir);
     /* A resume was not checked first: it is prepared here. */
     int rc = w->current ? 0 : prepare(w, &w->req, &w->current, &err);
     if (rc == 0)
@@ -407,6 +430,7 @@ static void *run(void *arg)
     snprintf(w->end_message, sizeof w->end_message, "%s", rc < 0 ? err.msg : "");
     if (rc == 0 && !aborted)
         w->eta_s = 0;
+    record_stop(w, rc, reason, &err, &sum);
     w->running = 0;
     w->paused = 0;
     pthread_mutex_unlock(&w->mu);

@@ -1,0 +1,150 @@
+#!/usr/bin/python3
+"""What an operator reads of goniod's captures, end to end on the simulated
+rig: the list of captures and their states (an interrupted one after a
+kill -9, an aborted one, a complete one), the command that resumes one,
+and a resume that leaves a complete capture alone (ListTests).
+
+Run from ctest (the environment names the binaries), or by hand:
+  GONIO_BIN=build/bin GONIO_TESTS_BIN=build/tests GONIO_CONFIG=configs \
+      python3 tests/daemon/test_operator.py -v
+"""
+import json
+import os
+import sys
+import time
+import unittest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from goniod_harness import (START_S, DaemonTest, journal_points, load_json,  # noqa: E402
+                            plan_total, rig_times)
+
+
+def wait_idle(t):
+    """Until goniod runs no capture (status), within START_S."""
+    deadline = time.monotonic() + 2 * START_S
+    while True:
+        st = json.loads(t.d.gonio("status", "--json").stdout)
+        if st["state"] == "idle":
+            return st
+        t.assertLess(time.monotonic(), deadline, "the capture did not end")
+        time.sleep(0.05)
+
+
+class ListTests(DaemonTest):
+    pace_s = 0.02
+
+    def listed(self):
+        r = self.d.gonio("list", "--json")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        doc = json.loads(r.stdout)
+        return {e["id"]: e for e in doc["captures"]}, [e["id"] for e in doc["captures"]]
+
+    def start_and_wait_for_samples(self, c, name):
+        c.request("watch")
+        self.assertEqual(c.request("capture", plan="ds3", name=name)["class"], "OK")
+        seen = 0
+        while seen < 3:
+            if c.read()["class"] == "event":
+                seen += 1
+
+    def test_interrupted_aborted_complete(self):
+        r = self.d.gonio("capture", "--plan", "ds4", "--name", "done", "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+
+        # Aborted by the operator: abort names the command that resumes it.
+        c = self.d.connect()
+        self.start_and_wait_for_samples(c, "ab")
+        caps, _ = self.listed()
+        self.assertEqual(caps["ab"]["state"], "running")
+        r = self.d.gonio("abort")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("gonio resume ab", r.stdout)
+        c.until_stop("ab")
+
+        # Interrupted: goniod killed mid-capture, then started again.
+        c = self.d.connect()
+        self.start_and_wait_for_samples(c, "cut")
+        self.d.kill9()
+        self.d.conns = []
+        self.d.start()
+
+        caps, order = self.listed()
+        self.assertEqual(order, ["cut", "ab", "done"])
+        for cid, state in (("cut", "interrupted"), ("ab", "aborted"), ("done", "complete")):
+            capdir = os.path.join(self.d.root, cid)
+            e = caps[cid]
+            self.assertEqual(e["state"], state, e)
+            self.assertEqual(e["plan"], "ds3" if cid != "done" else "ds4")
+            self.assertEqual(e["samples_done"],
+                             len(journal_points(os.path.join(capdir, "samples.csv"))))
+            self.assertEqual(e["samples_total"], plan_total(capdir))
+            self.assertAlmostEqual(e["rig_time_s"], rig_times(capdir)[-1], places=3)
+            self.assertRegex(e["last_change"], r"^\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ$")
+        self.assertLess(caps["cut"]["samples_done"], caps["cut"]["samples_total"])
+        self.assertEqual(caps["done"]["samples_done"], caps["done"]["samples_total"])
+
+        # The table names them too.
+        table = self.d.gonio("list").stdout.splitlines()
+        self.assertEqual([line.split()[:3] for line in table[1:]],
+                         [["cut", "ds3", "interrupted"], ["ab", "ds3", "aborted"],
+                          ["done", "ds4", "complete"]])
+
+        # status: idle, and the newest capture with the command that resumes it.
+        out = self.d.gonio("status").stdout
+        self.assertIn("newest capture cut: interrupted", out)
+        self.assertIn("resume it with: gonio resume cut", out)
+        self.assertEqual(self.d.gonio("resume", "cut").returncode, 0)
+        wait_idle(self)
+        self.check_complete("cut")
+        self.assertEqual(self.listed()[0]["cut"]["state"], "complete")
+
+    def test_resume_of_a_complete_capture_changes_nothing(self):
+        r = self.d.gonio("capture", "--plan", "ds4", "--name", "done", "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        capdir = os.path.join(self.d.root, "done")
+        files = {n: open(os.path.join(capdir, n), "rb").read() for n in os.listdir(capdir)
+                 if n != "lock"}
+        stamp = os.stat(os.path.join(capdir, "results.json")).st_mtime_ns
+        r = self.d.gonio("resume", "done")
+        self.assertEqual(r.returncode, 2, r.stdout)
+        self.assertIn("'done' is complete", r.stderr)
+        self.assertEqual(self.d.connect().request("resume", capture_id="done")["code"],
+                         "complete")
+        time.sleep(0.2)
+        self.assertEqual({n: open(os.path.join(capdir, n), "rb").read() for n in files}, files)
+        self.assertEqual(os.stat(os.path.join(capdir, "results.json")).st_mtime_ns, stamp)
+        # --refit fits again: results.json is written anew.
+        r = self.d.gonio("resume", "done", "--refit")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        wait_idle(self)
+        self.assertNotEqual(os.stat(os.path.join(capdir, "results.json")).st_mtime_ns, stamp)
+        self.assertEqual(load_json(os.path.join(capdir, "stop.json"))["state"], "complete")
+
+    def test_shutdown_interrupts(self):
+        c = self.d.connect()
+        self.start_and_wait_for_samples(c, "sd")
+        self.d.stop()
+        self.d.start()
+        caps, _ = self.listed()
+        self.assertEqual((caps["sd"]["state"], caps["sd"]["reason"]), ("interrupted", "shutdown"))
+        self.assertIn("gonio resume sd", self.d.gonio("status").stdout)
+
+    def test_resumed_then_killed_is_interrupted(self):
+        """A resume clears the earlier run's end: killed during it, the
+        capture is interrupted, not still aborted."""
+        c = self.d.connect()
+        self.start_and_wait_for_samples(c, "ra")
+        self.assertEqual(c.request("abort")["class"], "OK")
+        c.until_stop("ra")
+        self.assertEqual(self.listed()[0]["ra"]["state"], "aborted")
+        self.assertEqual(c.request("resume", capture_id="ra")["class"], "OK")
+        while c.read()["class"] != "event":
+            pass
+        self.d.kill9()
+        self.d.conns = []
+        self.d.start()
+        self.assertEqual(self.listed()[0]["ra"]["state"], "interrupted")
+
+
+if __name__ == "__main__":
+    unittest.main()
