@@ -152,8 +152,8 @@ class CaptureTests(DaemonTest):
         complete = c.until_stop("rt")[-1]
         self.assertEqual(complete["reason"], "complete")
         self.assertEqual(c.request("status")["capture"]["rig_time_s"], complete["rig_time_s"])
-        # Resumed again with every point journalled: the rig time stays.
-        self.assertEqual(c.request("resume", capture_id="rt")["class"], "OK")
+        # Resumed again (a refit) with every point journalled: the rig time stays.
+        self.assertEqual(c.request("resume", capture_id="rt", refit=True)["class"], "OK")
         again = c.until_stop("rt")[-1]
         self.assertEqual(again["rig_time_s"], complete["rig_time_s"])
         cap = c.request("status")["capture"]
