@@ -212,9 +212,13 @@ static void show_stop(struct progress *p, json_t *d)
     printf("\n");
     if (res) {
         json_t *ep = json_object_get(res, "err_plan");
-        printf("  fit %s%s: plan log error %.4f, relative RMSE %.4f\n",
+        /* the verdict first: an underdetermined fit's small error is no figure
+         * to trust (an older goniod says only whether it converged) */
+        const char *verdict = json_string_value(json_object_get(res, "fit_status"));
+        printf("  fit %s: %s, plan log error %.4f, relative RMSE %.4f\n",
                json_string_value(json_object_get(res, "model")),
-               json_is_true(json_object_get(res, "converged")) ? "" : " (did not converge)",
+               verdict ? verdict
+               : json_is_true(json_object_get(res, "converged")) ? "converged" : "not-converged",
                jreal(ep, "log_error"), jreal(ep, "rel_rmse"));
         json_t *ef = json_object_get(res, "err_full");
         const char *truth = json_string_value(json_object_get(res, "truth"));
@@ -348,6 +352,9 @@ static void show_newest(const char *sock, json_t *newest)
     printf("newest capture %s: %s, %zu/%zu samples, rig time %s, last change %s\n", id, state,
            jsize(newest, "samples_done"), jsize(newest, "samples_total"), rig,
            json_string_value(json_object_get(newest, "last_change")));
+    const char *verdict = json_string_value(json_object_get(newest, "fit_status"));
+    if (verdict)
+        printf("  fit %s, plan log error %.4f\n", verdict, jreal(newest, "plan_log_error"));
     if (!strcmp(state, "interrupted") || !strcmp(state, "aborted"))
         print_resume_hint(id, sock);
 }
@@ -365,11 +372,14 @@ static void show_status(json_t *rep, json_t *newest, const char *sock)
     printf("\n");
     show_capture(json_object_get(rep, "capture"));
     json_t *fe = json_object_get(rep, "fit_error");
-    if (json_is_object(fe))
-        printf("fit (%s, %lld samples): log error %.4f, relative RMSE %.4f\n",
+    if (json_is_object(fe)) {
+        const char *verdict = json_string_value(json_object_get(fe, "status"));
+        printf("fit (%s, %lld samples): log error %.4f, relative RMSE %.4f%s%s\n",
                json_string_value(json_object_get(fe, "capture_id")),
                (long long)json_integer_value(json_object_get(fe, "samples")),
-               jreal(fe, "log_error"), jreal(fe, "rel_rmse"));
+               jreal(fe, "log_error"), jreal(fe, "rel_rmse"), verdict ? ", " : "",
+               verdict ? verdict : "");
+    }
     show_newest(sock, newest);
     /* the daemon's release, as goniod --version prints it: the one that
      * answers may differ from this gonio's (an older one does not say) */

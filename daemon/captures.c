@@ -46,6 +46,11 @@ int captures_record_stop(const char *dir, const struct captures_stop *stop,
     if (s) {
         json_object_set_new(d, "samples", json_integer((json_int_t)s->samples));
         json_object_set_new(d, "rig_time_s", number_or_null(s->rig_time_s));
+        if (!strcmp(stop->state, "complete")) { /* the final fit's verdict */
+            json_object_set_new(d, "fit_status",
+                                json_string(fit_status_name(fit_status_code(&s->status))));
+            json_object_set_new(d, "plan_log_error", number_or_null(s->err_plan.log));
+        }
     }
     char *text = json_dumps(d, JSON_COMPACT);
     json_decref(d);
@@ -163,6 +168,9 @@ static json_t *entry(const char *root, const char *id, const struct captures_liv
     json_object_set_new(e, "samples_total", json_integer(total));
     json_object_set_new(e, "rig_time_s", number_or_null(rig_time_s));
     json_object_set_new(e, "last_change", json_string(when));
+    json_t *fs = json_object_get(stop, "fit_status"), *pe = json_object_get(stop, "plan_log_error");
+    json_object_set_new(e, "fit_status", json_is_string(fs) ? json_incref(fs) : json_null());
+    json_object_set_new(e, "plan_log_error", json_is_number(pe) ? json_incref(pe) : json_null());
     json_decref(stop);
     json_decref(plan);
     json_decref(req);

@@ -161,10 +161,12 @@ static json_t *status_doc(control *c)
     json_object_set_new(d, "rig_time_s", control_json_number(st.rig_time_s));
     if (st.has_fit)
         json_object_set_new(d, "fit_error",
-                            json_pack("{s:s, s:o, s:o, s:I}", "capture_id", st.fit_id,
+                            json_pack("{s:s, s:o, s:o, s:I, s:o}", "capture_id", st.fit_id,
                                       "log_error", control_json_number(st.fit_log_error),
                                       "rel_rmse", control_json_number(st.fit_rel_rmse),
-                                      "samples", (json_int_t)st.fit_samples));
+                                      "samples", (json_int_t)st.fit_samples, "status",
+                                      st.fit_status[0] ? json_string(st.fit_status)
+                                                       : json_null()));
     else
         json_object_set_new(d, "fit_error", json_null());
     json_object_set_new(d, "capture", capture_doc(&st));

@@ -8,6 +8,7 @@
 #include <time.h>
 
 #include "daemon/control_private.h"
+#include "fit/fit_status.h"
 #include "rig/rig.h"
 
 static json_t *string_or_null(const char *v)
@@ -177,6 +178,8 @@ static json_t *stop_doc(const struct worker_msg_stop *m)
         json_object_set_new(r, "truth", truth ? truth : json_null());
         json_object_set_new(r, "model", json_string(s->model));
         json_object_set_new(r, "converged", json_boolean(s->converged));
+        json_object_set_new(r, "fit_status",
+                            json_string(fit_status_name(fit_status_code(&s->status))));
         json_object_set_new(r, "fit_time_s", control_json_number(s->fit_time_s));
         json_object_set_new(
             r, "params",

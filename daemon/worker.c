@@ -13,6 +13,7 @@
 #include "brdf/metrics.h"
 #include "daemon/captures.h"
 #include "daemon/devices.h"
+#include "fit/fit_status.h"
 #include "sim_source/sim_source.h"
 
 /* A request's capture, prepared once: the job and the rig source it runs
@@ -50,7 +51,7 @@ struct worker {
     void *bus; /* the Modbus bus while a capture holds it */
     int has_comm; /* the last capture's bus counts, taken as it closed */
     struct goniod_comm_stats comm;
-    int has_fit;
+    int has_fit, fit_final; /* fit_final: the figures are done_fit's */
     char fit_id[128];
     double fit_log, fit_rmse;
     size_t fit_n;
@@ -61,6 +62,7 @@ struct worker {
         char id[128];
         double log, rmse;
         size_t n;
+        char status[24]; /* its verdict (fit_status_name) */
     } done_fit;
 #ifdef GONIO_TEST_HOOKS
     /* Crash torture (docs/torture.md): GONIOD_PHASE_LOG names a file that
@@ -120,6 +122,7 @@ static void hook_on_fit(void *user, const struct brdf_errors *e, size_t samples)
     worker *w = user;
     pthread_mutex_lock(&w->mu);
     w->has_fit = 1;
+    w->fit_final = 0;
     snprintf(w->fit_id, sizeof w->fit_id, "%s", w->req.id);
     w->fit_log = e->log;
     w->fit_rmse = e->rel_rmse;
@@ -412,14 +415,17 @@ static void *run(void *arg)
                          : aborted ? (w->abort_reason[0] ? w->abort_reason : "aborted")
                                    : sum.stop_reason;
     if (rc == 0 && !aborted) {
-        w->has_fit = w->done_fit.has = 1;
+        w->has_fit = w->done_fit.has = w->fit_final = 1;
         snprintf(w->fit_id, sizeof w->fit_id, "%s", w->req.id);
         snprintf(w->done_fit.id, sizeof w->done_fit.id, "%s", w->req.id);
         w->fit_log = w->done_fit.log = sum.err_plan.log;
         w->fit_rmse = w->done_fit.rmse = sum.err_plan.rel_rmse;
         w->fit_n = w->done_fit.n = sum.samples;
-    } else { /* the stopped capture's streaming fit goes with it */
-        w->has_fit = w->done_fit.has;
+        snprintf(w->done_fit.status, sizeof w->done_fit.status, "%s",
+                 fit_status_name(fit_status_code(&sum.status)));
+    } else {
+        /* the stopped capture's streaming fit goes with it */
+        w->has_fit = w->fit_final = w->done_fit.has;
         snprintf(w->fit_id, sizeof w->fit_id, "%s", w->done_fit.id);
         w->fit_log = w->done_fit.log;
         w->fit_rmse = w->done_fit.rmse;
@@ -630,6 +636,9 @@ void worker_get_status(worker *w, struct worker_status *st)
     st->fit_log_error = w->fit_log;
     st->fit_rel_rmse = w->fit_rmse;
     st->fit_samples = w->fit_n;
+    /* The verdict goes with the final fit's figures, not a streaming fit's. */
+    if (w->fit_final)
+        snprintf(st->fit_status, sizeof st->fit_status, "%s", w->done_fit.status);
     pthread_mutex_unlock(&w->mu);
 }
 

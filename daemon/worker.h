@@ -55,6 +55,8 @@ struct worker_status {
     char fit_id[128];
     double fit_log_error, fit_rel_rmse;
     size_t fit_samples;
+    /* The final fit's verdict (fit_status_name), "" for a streaming fit's. */
+    char fit_status[24];
 };
 
 enum worker_msg_kind { WORKER_MSG_START, WORKER_MSG_SAMPLE, WORKER_MSG_STOP };

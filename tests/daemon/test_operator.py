@@ -2,7 +2,9 @@
 """What an operator reads of goniod's captures, end to end on the simulated
 rig: the list of captures and their states (an interrupted one after a
 kill -9, an aborted one, a complete one), the command that resumes one,
-and a resume that leaves a complete capture alone (ListTests).
+and a resume that leaves a complete capture alone (ListTests); the final
+fit's verdict and plan-domain error wherever a capture's end is shown
+(VerdictTests).
 
 Run from ctest (the environment names the binaries), or by hand:
   GONIO_BIN=build/bin GONIO_TESTS_BIN=build/tests GONIO_CONFIG=configs \
@@ -10,12 +12,14 @@ Run from ctest (the environment names the binaries), or by hand:
 """
 import json
 import os
+import re
+import subprocess
 import sys
 import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from goniod_harness import (START_S, DaemonTest, journal_points, load_json,  # noqa: E402
+from goniod_harness import (GONIO, START_S, DaemonTest, journal_points, load_json,  # noqa: E402
                             plan_total, rig_times)
 
 
@@ -145,6 +149,55 @@ class ListTests(DaemonTest):
         self.d.start()
         self.assertEqual(self.listed()[0]["ra"]["state"], "interrupted")
 
+
+class VerdictTests(DaemonTest):
+    """DS4 is six pairs for ABC's nine parameters: the final fit is
+    underdetermined, however small its plan-domain error, and every place
+    that shows the error says so."""
+
+    pace_s = 0.1  # DS4's six points last long enough to pause the capture
+
+    def test_underdetermined_fit_is_said_everywhere(self):
+        # watch subscribes while the capture is held paused: its start line
+        # says it is following, and the stop is still to come.
+        c = self.d.connect()
+        c.request("watch")
+        self.assertEqual(c.request("capture", plan="ds4", name="few")["class"], "OK")
+        while c.read()["class"] != "start":  # the start a late watcher is sent
+            pass
+        self.assertEqual(c.request("pause")["class"], "OK")
+        env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
+        watch = subprocess.Popen([GONIO, "watch", "--quiet"], stdout=subprocess.PIPE,
+                                 stderr=subprocess.PIPE, text=True, env=env)
+        self.assertTrue(watch.stdout.readline().startswith("capture few: plan ds4"))
+        self.assertEqual(c.request("resume")["class"], "OK")
+        out, err = watch.communicate(timeout=2 * START_S)
+        results = load_json(os.path.join(self.d.root, "few", "results.json"))
+        verdict, plan_log = results["fit_status"]["status"], results["errors"]["plan"]["log"]
+        self.assertEqual(verdict, "underdetermined")
+        line = "fit abc: underdetermined, plan log error %.4f" % plan_log
+        self.assertIn(line, out, err)
+
+        st = json.loads(self.d.gonio("status", "--json").stdout)
+        self.assertEqual(st["fit_error"]["status"], verdict)
+        self.assertAlmostEqual(st["fit_error"]["log_error"], plan_log, places=9)
+        out = self.d.gonio("status").stdout
+        self.assertIn("log error %.4f, relative RMSE" % plan_log, out)
+        self.assertIn(", underdetermined\n", out)
+        self.assertIn("fit underdetermined, plan log error %.4f" % plan_log, out)
+        listed = json.loads(self.d.gonio("list", "--json").stdout)["captures"][0]
+        self.assertEqual(listed["fit_status"], verdict)
+        self.assertAlmostEqual(listed["plan_log_error"], plan_log, places=9)
+        table = self.d.gonio("results", os.path.join(self.d.root, "few")).stdout.splitlines()
+        cells = dict(zip(re.split(r"  +", table[0].strip()), re.split(r"  +", table[1].strip())))
+        self.assertEqual((cells["fit status"], cells["plan log"]), (verdict, "%.4f" % plan_log))
+
+        # --wait says the same of the next capture.
+        r = self.d.gonio("capture", "--plan", "ds4", "--name", "again", "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        again = load_json(os.path.join(self.d.root, "again", "results.json"))
+        self.assertIn("fit abc: underdetermined, plan log error %.4f"
+                      % again["errors"]["plan"]["log"], r.stdout)
 
 if __name__ == "__main__":
     unittest.main()
