@@ -391,8 +391,8 @@ static void show_status(json_t *rep, json_t *newest, const char *sock)
 /* gonio list's table: one line a capture, newest first. */
 static void show_list(json_t *list)
 {
-    printf("%-34s %-12s %-11s %13s %9s  %s\n", "ID", "PLAN", "STATE", "SAMPLES", "RIG TIME",
-           "LAST CHANGE");
+    printf("%-34s %-12s %-11s %13s %9s  %-20s  %s\n", "ID", "PLAN", "STATE", "SAMPLES",
+           "RIG TIME", "LAST CHANGE", "SAMPLE");
     size_t i;
     json_t *e;
     json_array_foreach(list, i, e) {
@@ -400,10 +400,12 @@ static void show_list(json_t *list)
         progress_hms(jreal(e, "rig_time_s"), rig, sizeof rig);
         snprintf(samples, sizeof samples, "%zu/%zu", jsize(e, "samples_done"),
                  jsize(e, "samples_total"));
-        printf("%-34s %-12s %-11s %13s %9s  %s\n", json_string_value(json_object_get(e, "id")),
+        const char *sample = json_string_value(json_object_get(e, "sample"));
+        printf("%-34s %-12s %-11s %13s %9s  %-20s  %s\n",
+               json_string_value(json_object_get(e, "id")),
                json_string_value(json_object_get(e, "plan")),
                json_string_value(json_object_get(e, "state")), samples, rig,
-               json_string_value(json_object_get(e, "last_change")));
+               json_string_value(json_object_get(e, "last_change")), sample ? sample : "-");
     }
 }
 
@@ -577,13 +579,17 @@ static void capture_usage(FILE *out)
             "                     [--rig NAME|FILE] [--model NAME] [--order ORDER]\n"
             "                     [--stop all|converge] [--budget MINUTES]\n"
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
-            "                     [--name ID] [--wait] [--quiet] [--socket PATH]\n"
+            "                     [--name ID] [--sample NAME] [--operator NAME] [--note TEXT]\n"
+            "                     [--wait] [--quiet] [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). Files are relative to goniod's capture\n"
             "  root. --model: the final fit's model, any RGB model of 'gonio fit --help'\n"
             "  (default abc). --truth SPEC: the reference material of the in-plane and\n"
             "  full-domain errors (on hardware there are none without it; on the simulator\n"
-            "  the default is the material it measures). --wait follows the capture to its\n"
+            "  the default is the material it measures). On a hardware rig --material is a\n"
+            "  spec that must resolve (nbrdf:, merl:, ...), not a label: name the sample with\n"
+            "  --sample. --sample, --operator, --note: kept with the capture (request.json,\n"
+            "  the start document, gonio list). --wait follows the capture to its\n"
             "  end, its progress on stderr (--quiet: none): exit 0 when it completes.\n"
             "  --order adaptive, --budget, --stop-target: as 'gonio capture --offline --help'\n"
             "  says.\n"
@@ -608,12 +614,14 @@ int cmd_capture_daemon(int argc, char **argv)
         {"truth", required_argument, NULL, 't'}, {"wait", no_argument, NULL, 'w'},
         {"quiet", no_argument, NULL, 'q'},       {"budget", required_argument, NULL, 'B'},
         {"stop-target", required_argument, NULL, 'T'},
-        {"prescan", required_argument, NULL, 'P'}, {NULL, 0, NULL, 0},
+        {"prescan", required_argument, NULL, 'P'}, {"sample", required_argument, NULL, 'A'},
+        {"operator", required_argument, NULL, 'O'}, {"note", required_argument, NULL, 'N'},
+        {NULL, 0, NULL, 0},
     };
-    static const char *const keys[] = {"plan", "scene", "material", "rig",
-                                       "model", "order", "stop", "name", "truth"};
-    static const char letters[] = "psmrMoxnt";
-    const char *vals[9] = {0}, *sock = NULL;
+    static const char *const keys[] = {"plan", "scene", "material", "rig", "model", "order",
+                                       "stop", "name", "truth", "sample", "operator", "note"};
+    static const char letters[] = "psmrMoxntAON";
+    const char *vals[12] = {0}, *sock = NULL;
     double budget = 0, target = 0;
     long long prescan = -1; /* -1: not given, goniod's default */
     int wait = 0, quiet = 0, ch, ignored;
@@ -669,7 +677,7 @@ int cmd_capture_daemon(int argc, char **argv)
     json_t *rep = NULL;
     if (!rc) {
         json_t *req = json_pack("{s:s}", "cmd", "capture");
-        for (int i = 0; i < 9; i++)
+        for (int i = 0; i < 12; i++)
             if (vals[i])
                 json_object_set_new(req, keys[i], json_string(vals[i]));
         if (budget > 0)

@@ -171,6 +171,12 @@ static json_t *entry(const char *root, const char *id, const struct captures_liv
     json_t *fs = json_object_get(stop, "fit_status"), *pe = json_object_get(stop, "plan_log_error");
     json_object_set_new(e, "fit_status", json_is_string(fs) ? json_incref(fs) : json_null());
     json_object_set_new(e, "plan_log_error", json_is_number(pe) ? json_incref(pe) : json_null());
+    static const char *const meta[] = {"sample", "operator", "note"}; /* request.json's */
+    for (int k = 0; k < 3; k++) {
+        json_t *v = json_object_get(req, meta[k]);
+        json_object_set_new(e, meta[k], json_is_string(v) && json_string_length(v)
+                                            ? json_incref(v) : json_null());
+    }
     json_decref(stop);
     json_decref(plan);
     json_decref(req);

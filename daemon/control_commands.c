@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 #include <time.h>
 
+#include "brdf/material.h"
 #include "common/paths.h"
 #include "common/version.h"
 #include "daemon/captures.h"
@@ -27,6 +28,23 @@ struct command {
 static const char *jstr(json_t *req, const char *key)
 {
     return json_string_value(json_object_get(req, key));
+}
+
+/* On hardware the material is what the sample is, a spec results are
+ * compared with, not a label: one that does not resolve is refused (the
+ * simulator's is resolved by its own check). */
+static int material_resolves(const char *spec, struct gonio_err *err)
+{
+    struct gonio_err why = {0};
+    brdf_material *m = brdf_material_open(spec, &why);
+    if (m) {
+        brdf_material_free(m);
+        return 0;
+    }
+    return gonio_err_set(err, GONIO_EUSAGE,
+                         "material '%s' does not resolve (%s); on a hardware rig it names a "
+                         "material spec, not a label",
+                         spec, why.msg);
 }
 
 static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_t *reply,
@@ -61,6 +79,28 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
     if (material &&
         (rc = control_resolve_material(c, material, r.material, sizeof r.material, err)) < 0)
         return rc;
+    if (material && c->cfg->driver != GONIOD_DRIVER_SIM &&
+        (rc = material_resolves(r.material, err)) < 0)
+        return rc;
+    /* What the operator says of the capture: kept, never interpreted. */
+    static const char *const meta_keys[] = {"sample", "operator", "note"};
+    char *meta_out[] = {r.sample, r.operator_name, r.note};
+    size_t meta_size[] = {sizeof r.sample, sizeof r.operator_name, sizeof r.note};
+    for (int k = 0; k < 3; k++) {
+        const char *v = jstr(req, meta_keys[k]);
+        if (!v)
+            continue;
+        size_t len = strlen(v);
+        int ctl = 0;
+        for (size_t i = 0; i < len; i++)
+            ctl |= (unsigned char)v[i] < 0x20 || v[i] == 0x7f;
+        if (len >= meta_size[k] || ctl)
+            return gonio_err_set(err, GONIO_EUSAGE,
+                                 "%s '%.60s': at most %zu bytes of text without control "
+                                 "characters",
+                                 meta_keys[k], v, meta_size[k] - 1);
+        memcpy(meta_out[k], v, len + 1);
+    }
     if (truth && (rc = control_resolve_material(c, truth, r.truth, sizeof r.truth, err)) < 0)
         return rc;
     snprintf(r.model, sizeof r.model, "%s", model ? model : "abc");

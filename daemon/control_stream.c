@@ -36,6 +36,9 @@ static json_t *start_doc(const struct worker_msg_start *m)
                                               ? json_real(m->req.stop_target)
                                               : json_null());
     json_object_set_new(s, "resume", json_boolean(m->req.resume));
+    json_object_set_new(s, "sample", string_or_null(m->req.sample));
+    json_object_set_new(s, "operator", string_or_null(m->req.operator_name));
+    json_object_set_new(s, "note", string_or_null(m->req.note));
     json_object_set_new(s, "total", json_integer((json_int_t)m->total));
     json_object_set_new(s, "already_done", json_integer((json_int_t)m->already_done));
     json_object_set_new(s, "estimate_s", control_json_number(m->estimate_s));

@@ -29,6 +29,9 @@ struct worker_request {
      * reference of the truth errors, "" for none (docs/protocol.md). */
     char plan[1024], scene[1024], rig[1024], material[1024], truth[1024], model[32], order[32];
     char stop[16]; /* "all", "converge" or "" (the plan's rule) */
+    /* The operator's metadata, "" when not given: the sample's name, who
+     * ran it, a note (docs/protocol.md). */
+    char sample[128], operator_name[128], note[1024];
     double budget_min, stop_target; /* the adaptive order's stops, 0: none */
     int prescan; /* capture_config.prescan: 0 the engine's default */
     int resume; /* the directory exists: continue from its journal */

@@ -4,7 +4,8 @@ rig: the list of captures and their states (an interrupted one after a
 kill -9, an aborted one, a complete one), the command that resumes one,
 and a resume that leaves a complete capture alone (ListTests); the final
 fit's verdict and plan-domain error wherever a capture's end is shown
-(VerdictTests).
+(VerdictTests); the sample's name, the operator and a note kept with a
+capture, and a hardware rig's material that must resolve (MetadataTests).
 
 Run from ctest (the environment names the binaries), or by hand:
   GONIO_BIN=build/bin GONIO_TESTS_BIN=build/tests GONIO_CONFIG=configs \
@@ -13,13 +14,14 @@ Run from ctest (the environment names the binaries), or by hand:
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
 import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from goniod_harness import (GONIO, START_S, DaemonTest, journal_points, load_json,  # noqa: E402
+from goniod_harness import (GONIO, START_S, Daemon, DaemonTest, tmpdir, journal_points, load_json,  # noqa: E402
                             plan_total, rig_times)
 
 
@@ -198,6 +200,59 @@ class VerdictTests(DaemonTest):
         again = load_json(os.path.join(self.d.root, "again", "results.json"))
         self.assertIn("fit abc: underdetermined, plan log error %.4f"
                       % again["errors"]["plan"]["log"], r.stdout)
+
+class MetadataTests(DaemonTest):
+    META = {"sample": "PTFE puck 3", "operator": "Ana Lima", "note": "after cleaning, 21 C"}
+
+    def test_metadata_kept_and_listed(self):
+        c = self.d.connect()
+        c.request("watch")
+        r = self.d.gonio("capture", "--plan", "ds4", "--name", "m1", "--sample",
+                         self.META["sample"], "--operator", self.META["operator"], "--note",
+                         self.META["note"], "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        start = next(d for d in c.until_stop("m1") if d["class"] == "start")
+        request = load_json(os.path.join(self.d.root, "m1", "request.json"))
+        listed = json.loads(self.d.gonio("list", "--json").stdout)["captures"][0]
+        for key, value in self.META.items():
+            self.assertEqual((start[key], request[key], listed[key]), (value, value, value))
+        self.assertIn(self.META["sample"], self.d.gonio("list").stdout.splitlines()[1])
+        # A resume keeps them (request.json is read back).
+        self.assertEqual(self.d.gonio("resume", "m1", "--refit").returncode, 0)
+        wait_idle(self)
+        self.assertEqual(load_json(os.path.join(self.d.root, "m1", "request.json"))["note"],
+                         self.META["note"])
+
+    def test_bad_metadata_is_refused(self):
+        for args in (["--note", "two\nlines"], ["--operator", "x" * 200]):
+            r = self.d.gonio("capture", "--plan", "ds4", "--name", "bad", *args)
+            self.assertEqual(r.returncode, 2, r.stderr)
+            self.assertIn(args[0][2:], r.stderr)
+        self.assertEqual(os.listdir(self.d.root) if os.path.isdir(self.d.root) else [], [])
+
+
+class HardwareMaterialTests(unittest.TestCase):
+    """On a Modbus rig goniod cannot measure a material it is told: a spec
+    that does not resolve is refused before anything is created or any
+    device is opened (no gonio-sim needed: nothing is opened)."""
+
+    def setUp(self):
+        self.folder = tmpdir()
+        driver = ("  kind: modbus-tcp\n  host: 127.0.0.1\n  port: 1\n"
+                  "  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n")
+        self.d = Daemon(self.folder, driver=driver).start()
+
+    def tearDown(self):
+        self.d.stop()
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def test_unresolved_material_is_refused(self):
+        for spec in ("foo", "nbrdf:unobtainium"):
+            r = self.d.gonio("capture", "--plan", "ds4", "--name", "hw", "--material", spec)
+            self.assertEqual(r.returncode, 2, (spec, r.stdout, r.stderr))
+            self.assertIn("material '%s' does not resolve" % spec, r.stderr)
+        self.assertEqual(os.listdir(self.d.root) if os.path.isdir(self.d.root) else [], [])
+
 
 if __name__ == "__main__":
     unittest.main()
