@@ -1,5 +1,5 @@
 /* The captures in goniod's capture root, as an operator finds them
- * (docs/goniod.md "Finding captures"): each directory's state, progress and
+ * (docs/protocol.md, "list"): each directory's state, progress and
  * last change, for the control socket's list command.
  *
  * A capture records its end in its directory as stop.json (written
