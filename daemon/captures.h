@@ -21,7 +21,8 @@
 /* The end of a capture's run, as stop.json records it. */
 struct captures_stop {
     const char *state;   /* "complete", "failed", "aborted", "interrupted" */
-    const char *reason;  /* the engine's or goniod's: complete, converged, aborted, shutdown, error */
+    /* the engine's or goniod's: complete, converged, aborted, shutdown, error */
+    const char *reason;
     const char *message; /* why it failed, or "" */
     /* The run's summary (NULL for a failed run): samples, rig time and the
      * final fit's verdict. */
