@@ -27,8 +27,6 @@ struct captures_stop {
     /* The run's summary (NULL for a failed run): samples, rig time and the
      * final fit's verdict. */
     const struct capture_summary *summary;
-    /* The request's metadata: the sample's name, the operator, a note ("" none). */
-    const char *sample, *operator_name, *note;
 };
 
 /* Write dir/stop.json atomically. */
@@ -53,7 +51,7 @@ struct captures_live {
 /* Every capture under root, newest change first: an array of objects
  * {id, plan, state, reason, message, samples_done, samples_total,
  * rig_time_s, last_change, fit_status, plan_log_error, sample, operator,
- * note} (docs/protocol.md "list"). NULL when out of memory; a root that
+ * note} (docs/protocol.md, "list"). NULL when out of memory; a root that
  * does not exist yet lists nothing. */
 json_t *captures_list(const char *root, const struct captures_live *live);
 
