@@ -31,6 +31,7 @@ int cmd_home(int argc, char **argv);
 int cmd_move(int argc, char **argv);
 int cmd_where(int argc, char **argv);
 int cmd_limits(int argc, char **argv);
+int cmd_list(int argc, char **argv);
 
 /* --budget MINUTES, --stop-target LOG_ERR (opt) of both capture commands:
  * a positive number, else a message on stderr and -1. */

@@ -25,6 +25,7 @@ static const struct {
     {"move", cmd_move, "move an axis to an angle within its soft limits"},
     {"where", cmd_where, "the axes' encoder positions, drive status and alarms"},
     {"limits", cmd_limits, "drive an axis slowly to its soft limits and back"},
+    {"list", cmd_list, "goniod's captures: state, samples, rig time, the resumable ones"},
     {"fit", cmd_fit, "fit a model to a capture's samples and write its model file"},
     {"export", cmd_export, "export a material as a MERL .binary table"},
     {"results", cmd_results, "tabulate the results of capture directories"},

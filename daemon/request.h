@@ -24,6 +24,7 @@ enum control_cmd {
     CONTROL_CMD_MOVE,
     CONTROL_CMD_WHERE,
     CONTROL_CMD_LIMITS,
+    CONTROL_CMD_LIST,
     CONTROL_CMD_COUNT
 };
 

@@ -11,7 +11,9 @@
 #include <unistd.h>
 
 #include "brdf/metrics.h"
+#include "daemon/captures.h"
 #include "daemon/devices.h"
+#include "fit/fit_status.h"
 #include "sim_source/sim_source.h"
 
 /* A request's capture, prepared once: the job and the rig source it runs
@@ -54,7 +56,7 @@ struct worker {
     unsigned long bringup_ticket;
     int has_comm; /* the last capture's bus counts, taken as it closed */
     struct goniod_comm_stats comm;
-    int has_fit;
+    int has_fit, fit_final; /* fit_final: the figures are done_fit's */
     char fit_id[128];
     double fit_log, fit_rmse;
     size_t fit_n;
@@ -65,6 +67,7 @@ struct worker {
         char id[128];
         double log, rmse;
         size_t n;
+        char status[24]; /* its verdict (fit_status_name) */
     } done_fit;
 #ifdef GONIO_TEST_HOOKS
     /* Crash torture (docs/torture.md): GONIOD_PHASE_LOG names a file that
@@ -124,6 +127,7 @@ static void hook_on_fit(void *user, const struct brdf_errors *e, size_t samples)
     worker *w = user;
     pthread_mutex_lock(&w->mu);
     w->has_fit = 1;
+    w->fit_final = 0;
     snprintf(w->fit_id, sizeof w->fit_id, "%s", w->req.id);
     w->fit_log = e->log;
     w->fit_rmse = e->rel_rmse;
@@ -391,6 +395,25 @@ int worker_check(worker *w, const struct worker_request *req, struct gonio_err *
     return prepare(w, req, &w->pending, err);
 }
 
+/* The run's end in the capture directory (daemon/captures.h), written
+ * before the stop is reported, so a list never shows a finished capture as
+ * interrupted. A shutdown interrupted the capture; the operator did not
+ * abort it. */
+static void record_stop(worker *w, int rc, const char *reason, const struct gonio_err *err,
+                        const struct capture_summary *sum)
+{
+    const char *state = rc < 0                       ? "failed"
+                        : !strcmp(reason, "shutdown") ? "interrupted"
+                        : !strcmp(reason, "aborted")  ? "aborted"
+                                                      : "complete";
+    struct captures_stop stop = {.state = state, .reason = reason,
+                                 .message = rc < 0 ? err->msg : "",
+                                 .summary = rc < 0 ? NULL : sum};
+    struct gonio_err werr = {0};
+    if (captures_record_stop(w->req.dir, &stop, &werr) < 0)
+        fprintf(stderr, "goniod: capture %s: %s\n", w->req.id, werr.msg);
+}
+
 static void *run(void *arg)
 {
     worker *w = arg;
@@ -409,6 +432,9 @@ static void *run(void *arg)
     };
     w->has_comm = 0;
     memset(&sum, 0, sizeof sum);
+    /* Until this run ends, the capture is running or, if goniod dies,
+     * interrupted: no earlier run's end record stands. */
+    captures_clear_stop(w->req.dir);
     /* A resume was not checked first: it is prepared here. */
     int rc = w->current ? 0 : prepare(w, &w->req, &w->current, &err);
     if (rc == 0)
@@ -426,14 +452,17 @@ static void *run(void *arg)
                          : aborted ? (w->abort_reason[0] ? w->abort_reason : "aborted")
                                    : sum.stop_reason;
     if (rc == 0 && !aborted) {
-        w->has_fit = w->done_fit.has = 1;
+        w->has_fit = w->done_fit.has = w->fit_final = 1;
         snprintf(w->fit_id, sizeof w->fit_id, "%s", w->req.id);
         snprintf(w->done_fit.id, sizeof w->done_fit.id, "%s", w->req.id);
         w->fit_log = w->done_fit.log = sum.err_plan.log;
         w->fit_rmse = w->done_fit.rmse = sum.err_plan.rel_rmse;
         w->fit_n = w->done_fit.n = sum.samples;
-    } else { /* the stopped capture's streaming fit goes with it */
-        w->has_fit = w->done_fit.has;
+        snprintf(w->done_fit.status, sizeof w->done_fit.status, "%s",
+                 fit_status_name(fit_status_code(&sum.status)));
+    } else {
+        /* the stopped capture's streaming fit goes with it */
+        w->has_fit = w->fit_final = w->done_fit.has;
         snprintf(w->fit_id, sizeof w->fit_id, "%s", w->done_fit.id);
         w->fit_log = w->done_fit.log;
         w->fit_rmse = w->done_fit.rmse;
@@ -444,6 +473,7 @@ static void *run(void *arg)
     snprintf(w->end_message, sizeof w->end_message, "%s", rc < 0 ? err.msg : "");
     if (rc == 0 && !aborted)
         w->eta_s = 0;
+    record_stop(w, rc, reason, &err, &sum);
     w->running = 0;
     w->paused = 0;
     pthread_mutex_unlock(&w->mu);
@@ -653,6 +683,9 @@ void worker_get_status(worker *w, struct worker_status *st)
     if (w->bringup_active)
         snprintf(st->bringup, sizeof st->bringup, "%s%s%s", bringup_op_name(w->bringup.op),
                  w->bringup.axis[0] ? " " : "", w->bringup.axis);
+    /* The verdict goes with the final fit's figures, not a streaming fit's. */
+    if (w->fit_final)
+        snprintf(st->fit_status, sizeof st->fit_status, "%s", w->done_fit.status);
     pthread_mutex_unlock(&w->mu);
 }
 

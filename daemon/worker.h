@@ -30,6 +30,9 @@ struct worker_request {
      * reference of the truth errors, "" for none (docs/protocol.md). */
     char plan[1024], scene[1024], rig[1024], material[1024], truth[1024], model[32], order[32];
     char stop[16]; /* "all", "converge" or "" (the plan's rule) */
+    /* The operator's metadata, "" when not given: the sample's name, who
+     * ran it, a note (docs/protocol.md). */
+    char sample[128], operator_name[128], note[1024];
     double budget_min, stop_target; /* the adaptive order's stops, 0: none */
     int prescan; /* capture_config.prescan: 0 the engine's default */
     int resume; /* the directory exists: continue from its journal */
@@ -58,6 +61,8 @@ struct worker_status {
     size_t fit_samples;
     /* A bring-up command under way ("move arm"), "" when none. */
     char bringup[48];
+    /* The final fit's verdict (fit_status_name), "" for a streaming fit's. */
+    char fit_status[24];
 };
 
 enum worker_msg_kind { WORKER_MSG_START, WORKER_MSG_SAMPLE, WORKER_MSG_STOP, WORKER_MSG_BRINGUP };
