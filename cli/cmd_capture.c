@@ -22,7 +22,7 @@ static void usage(FILE *out)
             "                     [--order travel|progressive|as-written|greedy|adaptive]\n"
             "                     [--stop all|converge] [--budget MINUTES]\n"
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
-            "                     [--quiet]\n"
+            "                     [--check isotropy] [--quiet]\n"
             "  --material overrides the scene's material: nbrdf:NAME, merl:FILE, abc:NAME,\n"
             "  sgd:NAME, builtin:NAME, spectral:NAME, analytic:NAME or default. DIR receives\n"
             "  plan.json, setup.json, samples.csv and results.json; running again on the same\n"
@@ -40,6 +40,10 @@ static void usage(FILE *out)
             "  its predicted full-domain log error of the model is at most --stop-target,\n"
             "  with --stop converge once more rig time would buy too little, or when the\n"
             "  pool is exhausted. A resume keeps the model, budget, target and stop rule.\n"
+            "  --check isotropy: after the last point, re-measure a few glossy pairs with\n"
+            "  the sample turned about its normal and say whether it is isotropic, as the\n"
+            "  in-plane premise assumes (docs/checks.md); needs a rig profile with a\n"
+            "  rotation axis (--rig rotating).\n"
             PRESCAN_HELP
             "  (default here: none, the scene's estimate knows its material).\n"
             "  Progress goes to stderr (a bar on a terminal) unless --quiet. SIGINT or\n"
@@ -133,7 +137,8 @@ int cmd_capture(int argc, char **argv)
         {"quiet", no_argument, NULL, 'q'},     {"help", no_argument, NULL, 'h'},
         {"stop", required_argument, NULL, 'S'}, {"truth", required_argument, NULL, 't'},
         {"budget", required_argument, NULL, 'B'}, {"stop-target", required_argument, NULL, 'T'},
-        {"prescan", required_argument, NULL, 'P'}, {NULL, 0, NULL, 0},
+        {"prescan", required_argument, NULL, 'P'}, {"check", required_argument, NULL, 'C'},
+        {NULL, 0, NULL, 0},
     };
     struct capture_config cfg = {.model = "abc"};
     long long points;
@@ -162,6 +167,14 @@ int cmd_capture(int argc, char **argv)
             if (cmd_capture_number(c == 'B' ? "--budget" : "--stop-target", optarg,
                              c == 'B' ? &cfg.budget_min : &cfg.stop_target) < 0)
                 return 2;
+            break;
+        case 'C':
+            if (strcmp(optarg, "isotropy")) {
+                fprintf(stderr, "gonio capture: --check '%s': the check is 'isotropy'\n",
+                        optarg);
+                return 2;
+            }
+            cfg.check_isotropy = 1;
             break;
         case 'h': usage(stdout); return 0;
         default: usage(stderr); return 2;
@@ -233,5 +246,10 @@ int cmd_capture(int argc, char **argv)
         print_errors("in-plane", &s.err_inplane);
         print_errors("full", &s.err_full);
     }
+    if (s.has_isotropy)
+        printf("  isotropy check: %s (%s; %zu pairs, %.0f s of rig time, %.1f%% of the "
+               "capture's)\n",
+               s.isotropy.verdict, s.isotropy.why, s.isotropy.pairs, s.isotropy.rig_time_s,
+               s.rig_time_s > 0 ? 100.0 * s.isotropy.rig_time_s / s.rig_time_s : 0.0);
     return 0;
 }
