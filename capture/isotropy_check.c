@@ -10,6 +10,12 @@
 
 #define WINDOW_DEG 15.0 /* the glossy half-width of the DS plans (DESIGN.md) */
 #define ROW_TOL_DEG 0.3 /* samples within this of an incidence are its row */
+/* The steepest a pair's reading may change, |d ln f / d theta_r| per
+ * degree to its row neighbours: beyond it a few hundredths of a degree of
+ * the axes' repeatability move the reading by more than the noise (a sharp
+ * lobe's flanks, or the peak of one narrower than the row's step), and the
+ * repeats would call the check too noisy. */
+#define MAX_SLOPE_PER_DEG 0.5
 
 const double iso_check_rotation_deg[ISO_CHECK_ROTATIONS + 1] = {60, 120, 0};
 
@@ -60,21 +66,35 @@ static double incidence_near(const struct journal_sample *s, size_t n, double wa
     return best;
 }
 
-/* The sample of the steepest step between k0..k1 (row indices, k0 < k1),
- * the brighter end of it. -1 when the span has no step. */
-static long steepest(const struct journal_sample *s, const size_t *row, size_t k0, size_t k1)
+/* How fast the reading of row sample k changes with theta_r: the steeper
+ * of its steps to its neighbours, |d ln f| per degree. */
+static double sensitivity(const struct journal_sample *s, const size_t *row, size_t len,
+                          size_t k)
+{
+    double g = 0;
+    for (int side = -1; side <= 1; side += 2) {
+        if ((side < 0 && k == 0) || (side > 0 && k + 1 >= len))
+            continue;
+        const struct journal_sample *a = &s[row[k]], *b = &s[row[(long)k + side]];
+        double dt = fabs(b->theta_r - a->theta_r);
+        if (dt > 1e-6)
+            g = fmax(g, fabs(log(value_of(b)) - log(value_of(a))) / dt);
+    }
+    return g;
+}
+
+/* The row sample in k0..k1 (inclusive) on the steepest flank that is no
+ * steeper than MAX_SLOPE_PER_DEG; -1 when there is none. */
+static long steepest(const struct journal_sample *s, const size_t *row, size_t len, size_t k0,
+                     size_t k1)
 {
     long best = -1;
     double slope = -1;
-    for (size_t k = k0; k < k1; k++) {
-        const struct journal_sample *a = &s[row[k]], *b = &s[row[k + 1]];
-        double dt = b->theta_r - a->theta_r;
-        if (!(dt > 1e-6))
-            continue;
-        double g = fabs(log(value_of(b)) - log(value_of(a))) / dt;
-        if (g > slope) {
+    for (size_t k = k0; k <= k1 && k < len; k++) {
+        double g = sensitivity(s, row, len, k);
+        if (g > slope && g <= MAX_SLOPE_PER_DEG) {
             slope = g;
-            best = (long)(value_of(a) > value_of(b) ? k : k + 1);
+            best = (long)k;
         }
     }
     return best;
@@ -103,18 +123,15 @@ size_t iso_check_choose(const struct journal_sample *s, size_t n, struct iso_che
         for (size_t k = 1; k < len; k++)
             if (value_of(&s[row[k]]) > value_of(&s[row[peak]]))
                 peak = k;
-        add_pair(&s[row[peak]], out, &m);
-        long left = peak > 0 ? steepest(s, row, 0, peak) : -1;
-        long right = peak + 1 < len ? steepest(s, row, peak, len - 1) : -1;
-        /* the brighter end of the steepest step may be the peak itself:
-         * then its other end */
-        if (left == (long)peak)
-            left = (long)peak - 1;
-        if (right == (long)peak)
-            right = (long)peak + 1;
+        /* a lobe too sharp for the row's sampling has no peak to re-measure:
+         * its reading hangs on hundredths of a degree */
+        if (sensitivity(s, row, len, peak) <= MAX_SLOPE_PER_DEG)
+            add_pair(&s[row[peak]], out, &m);
+        long left = peak > 0 ? steepest(s, row, len, 0, peak - 1) : -1;
+        long right = steepest(s, row, len, peak + 1, len - 1);
         if (left >= 0)
             add_pair(&s[row[left]], out, &m);
-        if (right >= 0 && right < (long)len)
+        if (right >= 0)
             add_pair(&s[row[right]], out, &m);
     }
     free(row);

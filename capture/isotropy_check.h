@@ -40,8 +40,10 @@ struct iso_check_pair {
 /* Up to ISO_CHECK_MAX_PAIRS pairs from the n journalled in-plane samples
  * (saturated and non-positive ones left out): at the two incidences
  * nearest 30 and 40 degrees among those with a glossy row, the row's peak
- * within 15 degrees of the mirror and the steepest sample on either side
- * (largest |d ln f / d theta_r|), sorted by incidence and theta_r (the
+ * within 15 degrees of the mirror and the steepest sample on either side,
+ * each no steeper than 0.5 per degree in |d ln f / d theta_r| to its row
+ * neighbours (where the axes' repeatability still moves the reading less
+ * than the noise; a peak narrower than the row's step is left out), sorted by incidence and theta_r (the
  * rig's shortest way through them). Returns the count (0: nothing
  * usable). */
 size_t iso_check_choose(const struct journal_sample *s, size_t n, struct iso_check_pair *out);
