@@ -1,6 +1,7 @@
 /* The isotropy check's library (capture/isotropy_check.h): it picks the
  * glossy peak and its steepest flanks at the incidences near 30 and 40
- * degrees (not a saturated reading), says "anisotropic" for a turned
+ * degrees (not a saturated reading, nor one on a lobe too sharp for the
+ * row's step), says "anisotropic" for a turned
  * reading far beyond the repeat noise and names it, "isotropic" for
  * readings within it, "undetermined" when too noisy or too few, keeps its
  * false-alarm rate at its nominal 1% on 20,000 seeded isotropic checks
@@ -13,9 +14,11 @@
 #include "capture/isotropy_check.h"
 #include "tests/gonio_test.h"
 
+static double width = 3.0; /* the lobe's sd, degrees */
+
 static double lobe(double ti, double tr)
 {
-    double x = (tr - ti) / 3.0;
+    double x = (tr - ti) / width;
     return 0.1 + 10.0 * exp(-0.5 * x * x);
 }
 
@@ -62,6 +65,21 @@ static void test_choose_peak_and_flanks(void **state)
     iso_check_choose(s, n, p);
     for (int k = 0; k < 3; k++)
         assert_true(p[k].theta_r != 30);
+    /* a lobe narrower than the row's 1 degree step: its peak and steep
+     * flanks hang on the axes' hundredths of a degree and are left out */
+    width = 0.4;
+    n = make_journal(s, 1000);
+    size_t m = iso_check_choose(s, n, p);
+    assert_true(m >= 2 && m < 6);
+    for (size_t k = 0; k < m; k++) {
+        assert_true(p[k].theta_r != p[k].theta_i);
+        double step = fabs(log(lobe(p[k].theta_i, p[k].theta_r + 1)) -
+                           log(lobe(p[k].theta_i, p[k].theta_r)));
+        double back = fabs(log(lobe(p[k].theta_i, p[k].theta_r - 1)) -
+                           log(lobe(p[k].theta_i, p[k].theta_r)));
+        assert_true(fmax(step, back) <= 0.5);
+    }
+    width = 3.0;
     /* an out-of-plane sample is no row */
     for (size_t i = 0; i < n; i++)
         s[i].phi_o = 90;
