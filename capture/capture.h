@@ -78,6 +78,11 @@ struct capture_config {
      * order); CAPTURE_PRESCAN_OFF: none; else
      * 1..CAPTURE_PRESCAN_MAX (refused in the adaptive order). */
     int prescan;
+    /* A detector that gives counts is captured without a calibration: its
+     * counts are journalled and nothing is fitted (results.json's
+     * not_fitted says why). Without it such a capture is refused before
+     * the first move (capture/calibration.h). */
+    int uncalibrated;
 };
 
 #define CAPTURE_PRESCAN_OFF (-1)
@@ -119,6 +124,10 @@ struct capture_summary {
     struct adaptive_status policy;
     size_t decisions;
     double decision_mean_s, decision_max_s, decision_wait_s;
+    /* Why no model was fitted ("" when one was): counts not reduced. */
+    char not_fitted[160];
+    size_t darks;   /* dark frames journalled (auto-ranging) */
+    size_t retakes; /* readings auto-ranging took again, this run */
 };
 
 /* The devices a capture runs on. */
@@ -151,6 +160,10 @@ struct capture_rig {
      * none, the driver kind and the detector (NULL: "unknown"), and
      * further members as a JSON object's text (the simulator's "scene"), compared on a resume as the rest is. */
     const char *profile, *driver, *detector, *setup_json;
+    /* 1: the detector gives counts, known before the first reading (the
+     * calibration check refuses before anything is written); 0: BRDF, or
+     * not known, then checked at the first reading. */
+    int counts;
     /* What the rig measures, when the source knows (the simulator): its
      * label, and the reference of the truth errors unless truth names one. */
     const brdf_material *material;

@@ -418,6 +418,13 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
                                                      : json_null());
     if (root)
         json_object_set_new(root, "fit_status", status_json(&s->status));
+    if (root) { /* why nothing was fitted (counts, uncalibrated); auto-ranging's cost */
+        json_object_set_new(root, "not_fitted",
+                            s->not_fitted[0] ? json_string(s->not_fitted) : json_null());
+        json_object_set_new(root, "ranging",
+                            json_pack("{s:I,s:I}", "darks", (json_int_t)s->darks, "retakes",
+                                      (json_int_t)s->retakes));
+    }
     if (root) {
         json_object_set_new(root, "stop_reason", json_string(s->stop_reason));
         json_object_set_new(root, "adaptive", s->adaptive ? adaptive_json(s) : json_null());

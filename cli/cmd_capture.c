@@ -22,7 +22,10 @@ static void usage(FILE *out)
             "                     [--order travel|progressive|as-written|greedy|adaptive]\n"
             "                     [--stop all|converge] [--budget MINUTES]\n"
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
-            "                     [--quiet]\n"
+            "                     [--uncalibrated] [--quiet]\n"
+            "  --uncalibrated: a detector that gives counts is captured without a\n"
+            "  calibration: the counts are journalled, nothing is fitted (without it such\n"
+            "  a capture is refused, exit 2, before the first move).\n"
             "  --material overrides the scene's material: nbrdf:NAME, merl:FILE, abc:NAME,\n"
             "  sgd:NAME, builtin:NAME, spectral:NAME, analytic:NAME or default. DIR receives\n"
             "  plan.json, setup.json, samples.csv and results.json; running again on the same\n"
@@ -133,7 +136,8 @@ int cmd_capture(int argc, char **argv)
         {"quiet", no_argument, NULL, 'q'},     {"help", no_argument, NULL, 'h'},
         {"stop", required_argument, NULL, 'S'}, {"truth", required_argument, NULL, 't'},
         {"budget", required_argument, NULL, 'B'}, {"stop-target", required_argument, NULL, 'T'},
-        {"prescan", required_argument, NULL, 'P'}, {NULL, 0, NULL, 0},
+        {"prescan", required_argument, NULL, 'P'},
+        {"uncalibrated", no_argument, NULL, 'U'}, {NULL, 0, NULL, 0},
     };
     struct capture_config cfg = {.model = "abc"};
     long long points;
@@ -153,6 +157,7 @@ int cmd_capture(int argc, char **argv)
         case 'S': cfg.stop = optarg; break;
         case 't': cfg.truth = optarg; break;
         case 'q': cfg.quiet = 1; break;
+        case 'U': cfg.uncalibrated = 1; break;
         case 'P':
             if (cmd_capture_prescan(optarg, &points, &cfg.prescan) < 0)
                 return 2;

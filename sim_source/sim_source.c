@@ -174,7 +174,10 @@ void sim_source_rig(sim_source *src, struct capture_rig *out)
         return; /* a description */
     out->open = open_devices;
     out->close = close_devices;
-    out->integration_s = integration_s;
+    /* A detector of counts integrates as auto-ranging asks: the meter knows
+     * nothing of it, and the calibration check must know before it reads. */
+    out->counts = sim_effects_adc(src->fx, NULL);
+    out->integration_s = out->counts ? NULL : integration_s;
     out->resume = resume;
     out->driver = "sim";
     out->material = src->material;
