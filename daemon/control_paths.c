@@ -161,11 +161,12 @@ static void request_path(const struct worker_request *r, char *out, size_t size)
 
 int control_save_request(const struct worker_request *r, struct gonio_err *err)
 {
-    json_t *d = json_pack("{s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:f, s:f, s:i}", "id",
-                          r->id, "plan", r->plan, "scene", r->scene, "rig", r->rig, "material",
-                          r->material, "truth", r->truth, "model", r->model, "order", r->order,
-                          "stop", r->stop, "budget", r->budget_min, "stop_target",
-                          r->stop_target, "prescan", r->prescan);
+    json_t *d = json_pack("{s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:f, s:f, s:i, s:b}",
+                          "id", r->id, "plan", r->plan, "scene", r->scene, "rig", r->rig,
+                          "material", r->material, "truth", r->truth, "model", r->model,
+                          "order", r->order, "stop", r->stop, "budget", r->budget_min,
+                          "stop_target", r->stop_target, "prescan", r->prescan,
+                          "uncalibrated", r->uncalibrated);
     char *text = d ? control_json_text(d) : NULL;
     if (!text)
         return gonio_err_set(err, ENOMEM, "out of memory");
@@ -188,12 +189,14 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
                              r->id, request_file, je.text);
     const char *plan, *scene, *rig, *material, *truth = "", *model, *order, *stop;
     double budget = 0, target = 0;
-    int prescan = 0;
-    /* truth, budget, stop_target, prescan: absent from the records of older goniods */
-    if (json_unpack(d, "{s:s, s:s, s:s, s:s, s?:s, s:s, s:s, s:s, s?:F, s?:F, s?:i}", "plan",
-                    &plan, "scene", &scene, "rig", &rig, "material", &material, "truth",
-                    &truth, "model", &model, "order", &order, "stop", &stop, "budget", &budget,
-                    "stop_target", &target, "prescan", &prescan) < 0) {
+    int prescan = 0, uncalibrated = 0;
+    /* truth, budget, stop_target, prescan, uncalibrated: absent from the
+     * records of older goniods */
+    if (json_unpack(d, "{s:s, s:s, s:s, s:s, s?:s, s:s, s:s, s:s, s?:F, s?:F, s?:i, s?:b}",
+                    "plan", &plan, "scene", &scene, "rig", &rig, "material", &material,
+                    "truth", &truth, "model", &model, "order", &order, "stop", &stop, "budget",
+                    &budget, "stop_target", &target, "prescan", &prescan, "uncalibrated",
+                    &uncalibrated) < 0) {
         json_decref(d);
         return gonio_err_set(err, GONIO_EBADDATA, "%s: lacks a field goniod writes", path);
     }
@@ -233,6 +236,7 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
     r->budget_min = budget;
     r->stop_target = target;
     r->prescan = prescan;
+    r->uncalibrated = uncalibrated;
     json_decref(d);
     return 0;
 }

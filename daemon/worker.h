@@ -31,6 +31,7 @@ struct worker_request {
     char stop[16]; /* "all", "converge" or "" (the plan's rule) */
     double budget_min, stop_target; /* the adaptive order's stops, 0: none */
     int prescan; /* capture_config.prescan: 0 the engine's default */
+    int uncalibrated; /* capture_config.uncalibrated */
     int resume; /* the directory exists: continue from its journal */
 };
 
