@@ -29,6 +29,19 @@ static double index_of(const struct autorange *a, double t)
     return log(t / a->fixed_s) / log(AUTORANGE_STEP);
 }
 
+size_t autorange_ladder(const struct autorange *a, double *out, size_t max)
+{
+    size_t n = 0;
+    for (double k = floor(index_of(a, a->min_s)); n < max; k++) {
+        double t = rung_of(a, k);
+        if (n == 0 || t > out[n - 1])
+            out[n++] = t;
+        if (t >= a->max_s)
+            break;
+    }
+    return n;
+}
+
 double autorange_rung(const struct autorange *a, double t, int dir)
 {
     return rung_of(a, round(index_of(a, t)) + dir);

@@ -68,6 +68,10 @@ typedef int (*autorange_dark_fn)(void *user, const struct drv_reading *r,
 int autorange_acquire(struct autorange *a, drv_detector *d, autorange_dark_fn dark,
                       void *user, struct autorange_take *out, struct gonio_err *err);
 
+/* The ladder's rungs, shortest first, into out (room for max): their
+ * count. What setup.json records of a detector of counts. */
+size_t autorange_ladder(const struct autorange *a, double *out, size_t max);
+
 /* The rung the ladder holds next above (dir 1) or below (dir -1) t, or t
  * itself (dir 0) snapped to the ladder; held to the bounds. */
 double autorange_rung(const struct autorange *a, double t, int dir);

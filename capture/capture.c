@@ -415,7 +415,16 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
         .driver = src->driver ? src->driver : "unknown",
         .detector = src->detector ? src->detector : "unknown",
         .policy = job->adaptive ? &job->policy : NULL,
+        .full_scale = src->counts_full_scale,
+        .nonlinearity = src->counts_nonlinearity,
     };
+    struct autorange ar;
+    double ladder[AUTORANGE_RUNGS];
+    autorange_init(&ar, &job->rig);
+    if (src->counts) {
+        setup.ladder = ladder;
+        setup.n_ladder = autorange_ladder(&ar, ladder, AUTORANGE_RUNGS);
+    }
     const char *dir = job->cfg.out_dir;
     int rc = capture_files_prepare(dir, &setup, &r->lock_fd, err);
     if (rc < 0)

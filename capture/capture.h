@@ -164,6 +164,9 @@ struct capture_rig {
      * calibration check refuses before anything is written); 0: BRDF, or
      * not known, then checked at the first reading. */
     int counts;
+    /* counts: what the detector states of its ADC (setup.json's "counts"):
+     * the largest count, and its nonlinearity k (drivers.h). */
+    double counts_full_scale, counts_nonlinearity;
     /* What the rig measures, when the source knows (the simulator): its
      * label, and the reference of the truth errors unless truth names one. */
     const brdf_material *material;

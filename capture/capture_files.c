@@ -89,6 +89,15 @@ static json_t *setup_json(const struct capture_setup *su)
     }
     if (root && su->material)
         json_object_set_new(root, "material", json_string(su->material));
+    if (root && su->ladder) { /* a detector of counts, auto-ranged */
+        json_t *ladder = json_array();
+        for (size_t i = 0; i < su->n_ladder; i++)
+            json_array_append_new(ladder, json_real(su->ladder[i]));
+        json_object_set_new(root, "counts",
+                            json_pack("{s:f,s:f,s:o}", "full_scale", su->full_scale,
+                                      "nonlinearity", su->nonlinearity, "integration_ladder",
+                                      ladder));
+    }
     /* A resumed adaptive capture must decide as it began (docs/formats.md). */
     const struct adaptive_options *po = su->policy;
     if (root && po)

@@ -209,6 +209,14 @@ int cmd_capture(int argc, char **argv)
     }
     printf("capture %s: plan %s, material %s, model %s\n", cfg.out_dir, s.plan, s.material,
            s.model);
+    if (s.not_fitted[0]) { /* --uncalibrated: counts journalled, no fit to show */
+        printf("  %zu samples, rig time %.1f s (move %.1f, settle %.1f, integration %.1f)\n"
+               "  auto-ranging: %zu readings taken again, %zu dark frames\n"
+               "  not fitted: %s\n",
+               s.samples, s.rig_time_s, s.move_s, s.settle_s, s.integration_s, s.retakes,
+               s.darks, s.not_fitted);
+        return 0;
+    }
     printf("  %zu samples, rig time %.1f s (move %.1f, settle %.1f, integration %.1f), fit "
            "%.3f s%s\n",
            s.samples, s.rig_time_s, s.move_s, s.settle_s, s.integration_s, s.fit_time_s,

@@ -176,7 +176,10 @@ void sim_source_rig(sim_source *src, struct capture_rig *out)
     out->close = close_devices;
     /* A detector of counts integrates as auto-ranging asks: the meter knows
      * nothing of it, and the calibration check must know before it reads. */
-    out->counts = sim_effects_adc(src->fx, NULL);
+    struct sim_adc_info adc = {0};
+    out->counts = sim_effects_adc(src->fx, &adc);
+    out->counts_full_scale = adc.full_scale;
+    out->counts_nonlinearity = adc.nonlinearity;
     out->integration_s = out->counts ? NULL : integration_s;
     out->resume = resume;
     out->driver = "sim";

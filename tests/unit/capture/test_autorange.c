@@ -145,6 +145,17 @@ static void test_uncalibrated_capture_ranges(void **state)
     assert_non_null(strstr(json_string_value(json_object_get(res, "not_fitted")),
                            "uncalibrated"));
     json_decref(res);
+    /* setup.json: the ADC as the detector states it, and the ladder used */
+    snprintf(path, sizeof path, "%s/setup.json", out);
+    json_t *setup = json_load_file(path, 0, NULL);
+    json_t *counts = json_object_get(setup, "counts");
+    assert_true(json_real_value(json_object_get(counts, "full_scale")) == fs);
+    assert_true(json_real_value(json_object_get(counts, "nonlinearity")) == 0.02);
+    json_t *ladder = json_object_get(counts, "integration_ladder");
+    assert_int_equal(json_array_size(ladder), 7); /* 2 s / 4^k held to 0.001..2 */
+    assert_true(json_real_value(json_array_get(ladder, 0)) == rig.auto_min_s);
+    assert_true(json_real_value(json_array_get(ladder, 6)) == rig.auto_max_s);
+    json_decref(setup);
 }
 
 int main(void)
