@@ -10,6 +10,7 @@
 #include "capture/journal_plan.h"
 #include "capture/autorange.h"
 #include "capture/calibration.h"
+#include "capture/calibration_check.h"
 #include "capture/eta.h"
 #include "capture/final_fit.h"
 #include "capture/job.h"
@@ -320,6 +321,10 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
                           pt->theta_i, pt->theta_r, msg);
         }
     }
+    if (rc == 0 && job->cal) { /* counts to BRDF and u before the record is written */
+        struct rad_value v;
+        rc = cal_reduce_sample(job->cal, job->plan, r->samples, r->n, &s, &v, err);
+    }
     if (rc == 0) {
         capture_phase_enter(hooks, CAPTURE_PHASE_JOURNAL, (int)k);
         rc = journal_append(r->j, &s, err);
@@ -417,6 +422,7 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
         .policy = job->adaptive ? &job->policy : NULL,
         .full_scale = src->counts_full_scale,
         .nonlinearity = src->counts_nonlinearity,
+        .calibration = job->cal ? job->cal->meta.id : NULL,
     };
     struct autorange ar;
     double ladder[AUTORANGE_RUNGS];
@@ -441,6 +447,8 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
         return rc;
     /* Dark frames are the ranging's, not samples of the plan. */
     autorange_init(&r->ranging.ar, &job->rig);
+    if (job->cal) /* a calibration covers the fixed integration: no ranging off it */
+        r->ranging.ar.min_s = r->ranging.ar.max_s = r->ranging.ar.fixed_s;
     r->ranging.j = r->j;
     size_t kept = 0;
     for (size_t i = 0; i < r->n; i++) {
@@ -511,6 +519,8 @@ static int finish(struct run *r, struct gonio_err *err)
         rc = capture_assess_truth(job->truth, fitted, job->cfg.assess_nodes, out, err);
     if (rc == 0)
         rc = capture_files_results(job->cfg.out_dir, out, err);
+    if (rc == 0 && job->cal)
+        rc = cal_results_budget(job->cal, job->plan, r->samples, r->n, job->cfg.out_dir, err);
     brdf_material_free(fitted);
     return rc;
 }

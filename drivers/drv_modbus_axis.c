@@ -31,8 +31,10 @@ struct mb_axis {
      * (wall) and how long it needs for it (rig seconds): when to look at
      * the drive. */
     double leg_target, leg_start, leg_time;
-    /* When the drive last said it rests, at the latest (wall; 0: never). */
-    double rest_wall;
+    /* When the drive last said it rests, at the latest (wall; 0: never),
+     * and on a simulated clock the line's rig time by then
+     * (drv_modbus_line_rig): what has passed since on the rig. */
+    double rest_wall, rest_line;
     /* What the drive holds of the direct-data block as we wrote it: all
      * but the position (block), and a position stored for the next leg
      * while the one under way runs (staged). Cleared by anything that may
@@ -168,9 +170,12 @@ static void mb_next_leg(void *priv, double to)
  * charges the frames' time: elsewhere the full write costs no more. */
 static int stage_next(struct mb_axis *a, double due, struct gonio_err *err)
 {
-    double line = drv_modbus_request_s(a->bus, 1, 2);
-    if (!a->next || !a->block || !(line > 0) ||
-        due - gonio_monotonic_s() < 2 * (2 * line + 0.001))
+    double line = drv_modbus_request_s(a->bus, 1, 2), left = due - gonio_monotonic_s();
+    if (drv_modbus_simulated_clock(a->bus)) { /* the leg's time on the rig, whole */
+        line = drv_modbus_request_rig_s(a->bus, 1, 2);
+        left = a->leg_time;
+    }
+    if (!a->next || !a->block || !(line > 0) || left < 2 * (2 * line + 0.001))
         return 0;
     uint16_t r[2];
     drv_modbus_put32(r, (uint32_t)a->next_pos);
@@ -187,11 +192,13 @@ static int stage_next(struct mb_axis *a, double due, struct gonio_err *err)
  * status read. The read that sees the drive rest dates the rest (at the
  * latest when the drive took its registers: the settle counts from
  * there). A leg overdue by 0.25 s of rig time is watched for progress on
- * the encoder. */
+ * the encoder. On a simulated clock the first read goes at once: it finds
+ * the move ended, the clock moved on to its end. */
 static int wait_status(struct mb_axis *a, uint32_t *st, uint32_t *alarm, struct gonio_err *err)
 {
     double scale = drv_modbus_time_scale(a->bus);
-    double due = a->leg_start + a->leg_time / scale;
+    /* On a simulated clock the leg takes no wall time: overdue at once. */
+    double due = a->leg_start + (drv_modbus_simulated_clock(a->bus) ? 0 : a->leg_time / scale);
     double deadline = due + (0.25 * a->leg_time + 2.0) / scale + 0.5 +
                       4 * drv_modbus_timeout(a->bus);
     double poll = fmin(fmax(0.01 / scale, 0.0002), 0.01);
@@ -199,8 +206,10 @@ static int wait_status(struct mb_axis *a, uint32_t *st, uint32_t *alarm, struct 
     int rc = stage_next(a, due, err);
     if (rc < 0)
         return rc;
-    rc = drv_modbus_sleep(a->bus, due - drv_modbus_request_s(a->bus, 0, 4) -
-                                      drv_modbus_gap_s(a->bus) - gonio_monotonic_s(), a->who, err);
+    if (!drv_modbus_simulated_clock(a->bus))
+        rc = drv_modbus_sleep(a->bus, due - drv_modbus_request_s(a->bus, 0, 4) -
+                                          drv_modbus_gap_s(a->bus) - gonio_monotonic_s(),
+                              a->who, err);
     while (rc == 0) {
         if ((rc = read_status(a, st, alarm, err)) < 0)
             return rc;
@@ -209,6 +218,7 @@ static int wait_status(struct mb_axis *a, uint32_t *st, uint32_t *alarm, struct 
         if (!(*st & ST_MOVE)) {
             double lo;
             drv_modbus_acted(a->bus, &lo, &a->rest_wall);
+            drv_modbus_line_rig(a->bus, &a->rest_line, &lo);
             return 0;
         }
         double now = gonio_monotonic_s(), pos = NAN;
@@ -235,10 +245,17 @@ static int wait_status(struct mb_axis *a, uint32_t *st, uint32_t *alarm, struct 
 }
 
 /* Rig seconds since the drive last said it rests (the generic layer asks
- * only while it does). */
+ * only while it does). On a simulated clock only the line's time has
+ * passed on the rig since (the exchanges after the one that saw the rest;
+ * at the configured rate, which charges no more than the simulator does). */
 static double mb_rested(const void *priv)
 {
     const struct mb_axis *a = priv;
+    if (drv_modbus_simulated_clock(a->bus)) {
+        double acted, total;
+        drv_modbus_line_rig(a->bus, &acted, &total);
+        return total - a->rest_line;
+    }
     return (gonio_monotonic_s() - a->rest_wall) * drv_modbus_time_scale(a->bus);
 }
 

@@ -19,6 +19,7 @@ struct drv_modbus_bus {
     double timeout_s, time_scale;
     int retries, trace, tcp;
     struct drv_modbus_stats stats;
+    int last_exception; /* of the last transaction: its exception code, 0 none */
     int (*cancelled)(void *user); /* drv_modbus_bus_set_cancel */
     void *cancel_user;
     /* The line (drv_modbus_acted): wall seconds a character takes on it
@@ -31,6 +32,13 @@ struct drv_modbus_bus {
         double sent, answered;
         int req_chars, reply_chars;
     } last;
+    /* The line in rig time (drv_modbus_line_rig): a character and the
+     * silence at the configured rate, unscaled and never learned away; the
+     * line time of the answered exchanges so far, in all and up to when
+     * the last one's device acted. And whether the rig's clock is
+     * simulated (drv_modbus_set_simulated_clock). */
+    double char_rig, gap_rig, line_total, line_acted;
+    int simulated_clock;
     struct { /* drv_modbus_note_clock */
         int slave;
         uint32_t ms;
@@ -38,6 +46,11 @@ struct drv_modbus_bus {
         long requests; /* stats.requests when noted */
     } clock;
 };
+
+int drv_modbus_last_exception(const drv_modbus_bus *bus)
+{
+    return bus->last_exception;
+}
 
 void drv_modbus_bus_stats(const drv_modbus_bus *bus, struct drv_modbus_stats *out)
 {
@@ -94,6 +107,8 @@ static drv_modbus_bus *bus_finish(modbus_t *ctx, const struct drv_modbus_bus_cfg
     bus->time_scale = scale;
     bus->retries = cfg->retries > 0 ? cfg->retries : 0;
     bus->trace = cfg->trace;
+    bus->char_rig = char_s;
+    bus->gap_rig = gap_s;
     bus->char_s = char_s / scale; /* a simulator's line is as much faster in wall time */
     bus->gap_s = gap_s / scale;
     return bus;
@@ -158,9 +173,42 @@ long drv_modbus_faults(const drv_modbus_bus *bus)
     return bus->stats.retries + bus->stats.failed;
 }
 
+static int request_chars(int write, int n);
+
 double drv_modbus_time_scale(const drv_modbus_bus *bus)
 {
     return bus->time_scale;
+}
+
+void drv_modbus_set_simulated_clock(drv_modbus_bus *bus, int line_timed)
+{
+    bus->simulated_clock = 1;
+    if (!line_timed) { /* a line that charges no time on the rig */
+        bus->char_rig = bus->gap_rig = 0;
+        bus->line_total = bus->line_acted = 0;
+    }
+}
+
+int drv_modbus_simulated_clock(const drv_modbus_bus *bus)
+{
+    return bus->simulated_clock;
+}
+
+void drv_modbus_line_rig(const drv_modbus_bus *bus, double *acted, double *total)
+{
+    *acted = bus->line_acted;
+    *total = bus->line_total;
+}
+
+void drv_modbus_line_rig_restore(drv_modbus_bus *bus, double acted, double total)
+{
+    bus->line_acted = acted;
+    bus->line_total = total;
+}
+
+double drv_modbus_request_rig_s(const drv_modbus_bus *bus, int write, int n)
+{
+    return request_chars(write, n) * bus->char_rig;
 }
 
 double drv_modbus_timeout(const drv_modbus_bus *bus)
@@ -224,6 +272,9 @@ static void note_exchange(drv_modbus_bus *bus, int write, int n, double sent, do
     bus->last.answered = answered;
     bus->last.req_chars = request_chars(write, n);
     bus->last.reply_chars = reply_chars(write, n);
+    bus->line_total += (bus->last.req_chars + bus->last.reply_chars) * bus->char_rig +
+                       2 * bus->gap_rig;
+    bus->line_acted = bus->line_total - bus->last.reply_chars * bus->char_rig - bus->gap_rig;
     if (answered - sent < (bus->last.req_chars + bus->last.reply_chars) * bus->char_s)
         bus->char_s = bus->gap_s = 0;
 }
@@ -357,6 +408,7 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
 {
     int e = 0, lost = 0, refused = 0;
     bus->stats.requests++;
+    bus->last_exception = 0;
     for (int attempt = 0; attempt <= bus->retries; attempt++) {
         if (attempt > 0)
             bus->stats.retries++;
@@ -381,6 +433,7 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
         /* An exception is the device's considered answer: no retry. */
         if (e > MODBUS_ENOBASE && e < EMBBADCRC) {
             bus->stats.exceptions++;
+            bus->last_exception = e - MODBUS_ENOBASE;
             return gonio_err_set(err, GONIO_EDEVICE,
                                  "%s (slave %d): %s register 0x%04x (%d): exception %d (%s)",
                                  who, slave, write ? "writing" : "reading", (unsigned)addr, n,

@@ -4,7 +4,11 @@
  * shortened by the bus's time scale, so an accelerated simulator does not
  * make the capture wait in wall time for what passes faster on the rig.
  * That only holds when the bus's time scale is the simulator's: the clock
- * measures the simulator's rate when it is created and refuses another. */
+ * measures the simulator's rate when it is created and refuses another.
+ * A simulator whose clock is simulated (status bit MB_DET_CLOCK_SIMULATED)
+ * has no rate: its register is the rig time, carried forward by nothing,
+ * and a sleep is a write of the wait register, which lets that much rig
+ * time pass on the device at once. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -13,7 +17,7 @@
 #include "drivers/drivers_private.h"
 #include "drivers/drv_modbus_private.h"
 
-enum { R_CLOCK = MB_DET_CLOCK }; /* modbus_map/modbus_map.h */
+enum { R_STATUS = MB_DET_STATUS, R_CLOCK = MB_DET_CLOCK, R_WAIT = MB_DET_WAIT };
 
 /* The rig time is kept as the last register reading taken (ms), the rig
  * seconds it stands for (rig) and the wall time by which the device had
@@ -22,7 +26,7 @@ enum { R_CLOCK = MB_DET_CLOCK }; /* modbus_map/modbus_map.h */
 struct mb_clock {
     drv_modbus_bus *bus;
     int slave;
-    int simulated;
+    int simulated; /* 0 hardware (wall time), 1 a simulator on wall time, 2 a simulated clock */
     double wall0;  /* wall time at creation (hardware) */
     uint32_t ms;   /* last register reading */
     double rig;    /* rig seconds it stands for */
@@ -96,12 +100,16 @@ static void take_reading(struct mb_clock *c, uint32_t ms, double lo, double hi)
 {
     double scale = drv_modbus_time_scale(c->bus);
     uint32_t fwd = ms - c->ms;
-    double most = fmax(hi - c->wall_lo, 0) * scale * RATE_TOLERANCE + 2e-3;
+    /* A simulated clock may jump by a whole move between readings (and
+     * no wall time passes on it): forward is half the register's range. */
+    double most = c->simulated > 1 ? 2147483.647
+                                   : fmax(hi - c->wall_lo, 0) * scale * RATE_TOLERANCE + 2e-3;
     if (fwd * 1e-3 <= most) {
         c->rig += fwd * 1e-3;
     } else {
         c->stats.restarts++;
-        c->rig += fmax(lo - c->wall, 0) * scale;
+        if (c->simulated < 2)
+            c->rig += fmax(lo - c->wall, 0) * scale;
         if (c->stats.restarts <= WARN_MAX)
             fprintf(stderr, "warning: detector clock (slave %d): the register went from %u to "
                     "%u ms: the device restarted; the rig time carries on at %.3f s\n",
@@ -134,7 +142,9 @@ static double mb_now(void *priv)
         drv_modbus_acted(c->bus, &lo, &hi);
         take_reading(c, ms, lo, hi);
     } /* else the bus failed: carry the last reading forward */
-    double now = c->rig + (gonio_monotonic_s() - c->wall) * drv_modbus_time_scale(c->bus);
+    double now = c->rig;
+    if (c->simulated < 2) /* a wall clock's time ran on since the reading */
+        now += (gonio_monotonic_s() - c->wall) * drv_modbus_time_scale(c->bus);
     if (now < c->last - 1e-3) {
         c->stats.backward++;
         if (c->stats.backward <= WARN_MAX)
@@ -150,10 +160,27 @@ static void mb_stats(const void *priv, struct drv_clock_stats *out)
     *out = c->stats;
 }
 
+/* The wait register takes whole microseconds, 32 bits of them: a longer
+ * wait is several writes. */
+#define WAIT_MAX_US 4000000000.0
+
 static int mb_sleep(void *priv, double seconds)
 {
     struct mb_clock *c = priv;
-    return drv_modbus_sleep(c->bus, seconds / drv_modbus_time_scale(c->bus), "settle", NULL);
+    if (c->simulated < 2)
+        return drv_modbus_sleep(c->bus, seconds / drv_modbus_time_scale(c->bus), "settle", NULL);
+    double us = nearbyint(seconds * 1e6), acted, total;
+    int rc = drv_modbus_sleep(c->bus, 0, "settle", NULL); /* the cancel check */
+    drv_modbus_line_rig(c->bus, &acted, &total);
+    while (rc == 0 && us > 0) {
+        double part = fmin(us, WAIT_MAX_US);
+        uint16_t r[2];
+        drv_modbus_put32(r, (uint32_t)part);
+        rc = drv_modbus_write(c->bus, c->slave, R_WAIT, 2, r, "detector clock", NULL);
+        us -= part;
+    }
+    drv_modbus_line_rig_restore(c->bus, acted, total); /* the wait's frames take no line time */
+    return rc;
 }
 
 static const struct drv_clock_ops mb_clock_ops = {
@@ -178,8 +205,17 @@ drv_clock *drv_clock_new_modbus(drv_modbus_bus *bus, int detector_slave, struct 
     c->bus = bus;
     c->slave = detector_slave;
     c->wall0 = gonio_monotonic_s();
-    int rc = read_ms(c, &c->ms, err);
-    if (rc == 0 && c->ms == 0) { /* a simulator that just started reads 0 too */
+    /* Status to clock in one read: whether the clock is simulated, and
+     * the register. */
+    uint16_t r[R_CLOCK + 2 - R_STATUS];
+    int rc = drv_modbus_read(bus, detector_slave, R_STATUS, R_CLOCK + 2 - R_STATUS, r,
+                             "detector clock", err);
+    c->ms = drv_modbus_get32(r + R_CLOCK - R_STATUS);
+    uint32_t st = drv_modbus_get32(r);
+    if (rc == 0 && (st & MB_DET_CLOCK_SIMULATED)) {
+        c->simulated = 2;
+        drv_modbus_set_simulated_clock(bus, (st & MB_DET_LINE_TIMED) != 0);
+    } else if (rc == 0 && c->ms == 0) { /* a simulator that just started reads 0 too */
         drv_modbus_sleep(bus, 0.005, "detector clock", NULL);
         rc = read_ms(c, &c->ms, err);
     }
@@ -188,8 +224,9 @@ drv_clock *drv_clock_new_modbus(drv_modbus_bus *bus, int detector_slave, struct 
         return NULL;
     }
     drv_modbus_acted(bus, &c->wall_lo, &c->wall);
-    c->simulated = c->ms != 0;
-    if (c->simulated && (rc = check_rate(c, err)) < 0) {
+    if (!c->simulated)
+        c->simulated = c->ms != 0;
+    if (c->simulated == 1 && (rc = check_rate(c, err)) < 0) {
         free(c);
         return NULL;
     }

@@ -15,6 +15,28 @@ int drv_modbus_read(drv_modbus_bus *bus, int slave, int addr, int n, uint16_t *o
                     const char *who, struct gonio_err *err);
 int drv_modbus_write(drv_modbus_bus *bus, int slave, int addr, int n, const uint16_t *regs,
                      const char *who, struct gonio_err *err);
+/* A raw reading's channels as the detector's state read gave them, and
+ * what the driver knows of it, for drv_modbus_read_raw. */
+struct mb_raw_channels {
+    uint32_t counts[3];
+    uint32_t seq;       /* the reading's sequence number */
+    int shutter_closed; /* as the driver last set it */
+    int saturated;      /* the status said SATURATED */
+};
+
+/* Read the detector's raw block (docs/protocol-modbus.md, "Raw mode") and
+ * fill out with the counts and what the block states (unit, full scale,
+ * nonlinearity, monitor, gain state, flags). A block out of range (of
+ * another reading, counts above its full scale, a nonlinearity outside
+ * 0..0.5, a shutter not where it was put) is refused with -GONIO_EDEVICE
+ * naming the register and its value. */
+int drv_modbus_read_raw(drv_modbus_bus *bus, int slave, const char *who,
+                        const struct mb_raw_channels *ch, struct drv_reading *out,
+                        struct gonio_err *err);
+
+/* The exception code the device answered the last read or write with (2:
+ * no such register), 0 when it answered normally or not at all. */
+int drv_modbus_last_exception(const drv_modbus_bus *bus);
 
 /* When the device acted on the bus's last answered request (took the
  * registers it read, carried out the write), wall seconds
@@ -44,6 +66,29 @@ long drv_modbus_faults(const drv_modbus_bus *bus);
 
 /* Simulated seconds per wall second on this bus (1 on hardware). */
 double drv_modbus_time_scale(const drv_modbus_bus *bus);
+/* The rig's clock is simulated (gonio-sim --clock simulated, the
+ * detector's status bit MB_DET_CLOCK_SIMULATED): it advances only by what
+ * the simulator models, and a poll for a move's or an integration's end
+ * finds it ended. The devices then wait for nothing in wall time before
+ * they look, and count rig time from the clock and the line's model, never
+ * from wall time. Set by the rig clock (drv_clock_new_modbus) when it sees
+ * the bit; line_timed when the simulator charges the line's frames too
+ * (MB_DET_LINE_TIMED: at the bus's baud, which must then be the
+ * simulator's), else the line's rig time below is 0. */
+void drv_modbus_set_simulated_clock(drv_modbus_bus *bus, int line_timed);
+int drv_modbus_simulated_clock(const drv_modbus_bus *bus);
+/* The line's time in rig seconds at the configured rate (RTU frames and
+ * their silences; 0 on TCP), summed over the answered exchanges so far:
+ * up to when the last one's device acted (*acted), and in all (*total). A
+ * simulated clock counts this time; the drivers date what they saw on it
+ * by these sums. */
+void drv_modbus_line_rig(const drv_modbus_bus *bus, double *acted, double *total);
+/* Put the sums back to what drv_modbus_line_rig said: the exchanges since
+ * took no line time (a simulated clock's wait, which is the master's
+ * sleep, not the rig's traffic). */
+void drv_modbus_line_rig_restore(drv_modbus_bus *bus, double acted, double total);
+/* A request's line time in rig seconds at the configured rate. */
+double drv_modbus_request_rig_s(const drv_modbus_bus *bus, int write, int n);
 /* The response timeout, wall seconds. */
 double drv_modbus_timeout(const drv_modbus_bus *bus);
 

@@ -34,6 +34,7 @@ struct drv_modbus_bus {
     double clock_wall;
     long clock_exchanges;
     double sent, answered; /* the last transaction (drv_modbus_acted) */
+    int simulated_clock;   /* a status read with MB_DET_CLOCK_SIMULATED set it */
 };
 
 static int next_byte(drv_modbus_bus *bus, uint8_t *b)
@@ -97,6 +98,12 @@ int drv_modbus_write(drv_modbus_bus *bus, int slave, int addr, int n, const uint
 
 /* A virtual line that bounds nothing: the device acted between the send
  * and the answer. */
+int drv_modbus_last_exception(const drv_modbus_bus *bus)
+{
+    (void)bus;
+    return 0; /* a scripted failure is no answer */
+}
+
 void drv_modbus_acted(const drv_modbus_bus *bus, double *lo, double *hi)
 {
     *lo = bus->sent;
@@ -118,6 +125,39 @@ double drv_modbus_gap_s(const drv_modbus_bus *bus)
 double drv_modbus_time_scale(const drv_modbus_bus *bus)
 {
     return bus->scale;
+}
+
+void drv_modbus_set_simulated_clock(drv_modbus_bus *bus, int line_timed)
+{
+    (void)line_timed;
+    bus->simulated_clock = 1;
+}
+
+int drv_modbus_simulated_clock(const drv_modbus_bus *bus)
+{
+    return bus->simulated_clock;
+}
+
+/* The scripted bus is no serial line: its frames take no rig time. */
+void drv_modbus_line_rig(const drv_modbus_bus *bus, double *acted, double *total)
+{
+    (void)bus;
+    *acted = *total = 0;
+}
+
+void drv_modbus_line_rig_restore(drv_modbus_bus *bus, double acted, double total)
+{
+    (void)bus;
+    (void)acted;
+    (void)total;
+}
+
+double drv_modbus_request_rig_s(const drv_modbus_bus *bus, int write, int n)
+{
+    (void)bus;
+    (void)write;
+    (void)n;
+    return 0;
 }
 
 double drv_modbus_timeout(const drv_modbus_bus *bus)

@@ -29,7 +29,8 @@ static void usage(FILE *out)
 {
     fprintf(out,
             "usage: gonio-sim [--scene NAME|FILE] [--material SPEC] [--rig NAME|FILE]\n"
-            "                 [--time-scale K] [--steps-per-deg N] [--in-pos-deg D]\n"
+            "                 [--time-scale K | --clock simulated] [--steps-per-deg N]\n"
+            "                 [--in-pos-deg D]\n"
             "                 [--link PATH]\n"
             "                 [--tcp 127.0.0.1:PORT] [--trace] [--check]\n"
             "                 [--stall SLAVE:DEG] [--overload SLAVE:DEG] [--delay SLAVE:MS]\n"
@@ -38,7 +39,10 @@ static void usage(FILE *out)
             "  Serves the rig's Modbus bus (docs/protocol-modbus.md) as RTU on a new\n"
             "  pseudo-terminal, whose path is the first line on stdout, and with --tcp\n"
             "  also as Modbus TCP (second line: 'tcp HOST:PORT'; PORT 0 picks one).\n"
-            "  Simulated time runs K times faster than wall time (default 1). The drives\n"
+            "  Simulated time runs K times faster than wall time (default 1); with\n"
+            "  --clock simulated it advances only by what the simulator models (moves,\n"
+            "  integrations, bus time, waits the master asks for), never by wall time,\n"
+            "  and a poll for a move's or an integration's end finds it ended. The drives\n"
             "  report IN-POS within D deg of their target (default 0.05).\n"
             "  --check prints the resolved setup and exits. --stall and --overload put an\n"
             "  obstacle on an axis: moves across it halt there, still moving (stall) or\n"
@@ -68,7 +72,7 @@ static int parse_positive(const char *opt, const char *s, double *out)
 struct sim_opts {
     const char *scene_name, *material_spec, *rig_name, *link, *tcp, *stats;
     struct msim_cfg cfg;
-    int check, n_jams;
+    int check, n_jams, scale_given;
     struct {
         enum msim_jam_kind kind;
         int slave;
@@ -119,6 +123,17 @@ static int parse_baud(const char *arg, long *baud)
     return 0;
 }
 
+/* --clock wall|simulated. */
+static int parse_clock(const char *arg, int *simulated)
+{
+    if (strcmp(arg, "wall") && strcmp(arg, "simulated")) {
+        fprintf(stderr, "gonio-sim: --clock '%s': expected wall or simulated\n", arg);
+        return -1;
+    }
+    *simulated = !strcmp(arg, "simulated");
+    return 0;
+}
+
 /* GO_ON, or the exit status: 0 after --help or --version, 2 on a bad option. */
 static int parse_options(int argc, char **argv, struct sim_opts *o)
 {
@@ -131,7 +146,7 @@ static int parse_options(int argc, char **argv, struct sim_opts *o)
         {"check", no_argument, NULL, 'c'},            {"help", no_argument, NULL, 'h'},
         {"stall", required_argument, NULL, 'S'},      {"overload", required_argument, NULL, 'O'},
         {"delay", required_argument, NULL, 'D'},     {"stats", required_argument, NULL, 'X'},
-        {"in-pos-deg", required_argument, NULL, 'i'},
+        {"in-pos-deg", required_argument, NULL, 'i'}, {"clock", required_argument, NULL, 'C'},
         {"version", no_argument, NULL, 'V'},
         {NULL, 0, NULL, 0},
     };
@@ -141,7 +156,11 @@ static int parse_options(int argc, char **argv, struct sim_opts *o)
         case 's': o->scene_name = optarg; break;
         case 'm': o->material_spec = optarg; break;
         case 'r': o->rig_name = optarg; break;
-        case 'k': bad = parse_positive("--time-scale", optarg, &o->cfg.time_scale) < 0; break;
+        case 'k':
+            bad = parse_positive("--time-scale", optarg, &o->cfg.time_scale) < 0;
+            o->scale_given = 1;
+            break;
+        case 'C': bad = parse_clock(optarg, &o->cfg.simulated_clock) < 0; break;
         case 'n': bad = parse_positive("--steps-per-deg", optarg, &o->cfg.steps_per_deg) < 0; break;
         case 'i': bad = parse_positive("--in-pos-deg", optarg, &o->cfg.in_pos_deg) < 0; break;
         case 'l': o->link = optarg; break;
@@ -164,6 +183,11 @@ static int parse_options(int argc, char **argv, struct sim_opts *o)
     }
     if (bad)
         return 2;
+    if (o->scale_given && o->cfg.simulated_clock) {
+        fprintf(stderr, "gonio-sim: --time-scale with --clock simulated: a simulated clock "
+                "follows no wall time, so it has no scale; give one or the other\n");
+        return 2;
+    }
     if (optind < argc) {
         fprintf(stderr, "gonio-sim: unexpected argument '%s'\n", argv[optind]);
         return 2;
@@ -199,11 +223,14 @@ static void print_setup(const struct sim_opts *o, const struct sim_setup *su)
 {
     const struct msim_cfg *cfg = &o->cfg;
     const struct rig_profile *rig = &su->rig;
-    printf("scene %s (%s)\nmaterial %s\nrig %s%s\ntime scale %g\nsteps per degree %g\n"
-           "IN-POS band %g deg\n", su->scene.name, su->scene.path,
+    printf("scene %s (%s)\nmaterial %s\nrig %s%s\n", su->scene.name, su->scene.path,
            brdf_material_name(su->material), rig->name,
-           rig->out_of_plane ? " (out of plane: azimuth slave 4)" : "", cfg->time_scale,
-           cfg->steps_per_deg, cfg->in_pos_deg);
+           rig->out_of_plane ? " (out of plane: azimuth slave 4)" : "");
+    if (cfg->simulated_clock)
+        printf("clock simulated\n");
+    else
+        printf("time scale %g\n", cfg->time_scale);
+    printf("steps per degree %g\nIN-POS band %g deg\n", cfg->steps_per_deg, cfg->in_pos_deg);
     const struct rig_axis *ax[3] = {&rig->sample, &rig->arm, &rig->azimuth};
     static const char *names[3] = {"sample (slave 1)", "arm (slave 2)", "azimuth (slave 4)"};
     for (int i = 0; i < (rig->out_of_plane ? 3 : 2); i++)
@@ -258,8 +285,12 @@ static int serve(msim *m, const struct sim_opts *o, const struct sim_setup *su,
     fprintf(stderr, "gonio-sim: Modbus RTU on %s", path);
     if (tcp)
         fprintf(stderr, " and Modbus TCP on %.*s:%d", (int)(strrchr(tcp, ':') - tcp), tcp, port);
-    fprintf(stderr, " (scene %s, material %s, rig %s, time scale %g); Ctrl-C stops\n",
-            su->scene.name, brdf_material_name(su->material), su->rig.name, o->cfg.time_scale);
+    fprintf(stderr, " (scene %s, material %s, rig %s, ", su->scene.name,
+            brdf_material_name(su->material), su->rig.name);
+    if (o->cfg.simulated_clock)
+        fprintf(stderr, "simulated clock); Ctrl-C stops\n");
+    else
+        fprintf(stderr, "time scale %g); Ctrl-C stops\n", o->cfg.time_scale);
     return msim_serve(m, &stop_flag, &hangup_flag, err);
 }
 

@@ -1,10 +1,12 @@
 /* gonio-sim's devices: the drives' and the detector's state machines
  * behind their register banks (docs/protocol-modbus.md), the faults that
  * can be injected into them, and what they saw (msim_write_stats). */
+#include <errno.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
 
 #include "common/clock.h"
 #include "sim/effects_detector.h"
@@ -15,16 +17,75 @@
 
 /* ---- The devices' state machines ---------------------------------------- */
 
-/* Bring the simulated clock to the wall clock's scaled time. */
 void msim_sync_clock(msim *m)
 {
+    if (m->cfg.simulated_clock)
+        return; /* host time is never rig time */
     double target = (gonio_monotonic_s() - m->wall0) * m->cfg.time_scale;
     sim_rig_advance(m->rig, target - sim_rig_now(m->rig));
+}
+
+/* Sleep for wall seconds, whatever signal arrives meanwhile. */
+static void wait_wall(double s)
+{
+    if (!(s > 0))
+        return;
+    struct timespec ts = {.tv_sec = (time_t)s, .tv_nsec = (long)((s - (double)(time_t)s) * 1e9)};
+    while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
+        ;
+}
+
+void msim_bus_time(msim *m, double seconds)
+{
+    if (!(seconds > 0))
+        return;
+    if (m->cfg.simulated_clock)
+        sim_rig_advance(m->rig, seconds);
+    else
+        wait_wall(seconds / m->cfg.time_scale);
+}
+
+void msim_wait_late(msim *m, double seconds)
+{
+    if (!(seconds > 0))
+        return;
+    wait_wall(seconds);
+    if (m->cfg.simulated_clock)
+        sim_rig_advance(m->rig, seconds);
 }
 
 static int axis_moving(const msim *m, const struct msim_axis *ax)
 {
     return sim_rig_move_end(m->rig, ax->id) > sim_rig_now(m->rig);
+}
+
+static int covers(int addr, int n, int reg)
+{
+    return addr <= reg + 1 && reg < addr + n;
+}
+
+/* What the master waits for has happened by the time it looks: the clock
+ * passes to the end of the move (the halt at a jam, which a stalled drive
+ * then sits at, MOVE on, without the clock running on) or of the
+ * integration. The other axes move on meanwhile, as they would. */
+void msim_poll_jump(msim *m, struct msim_axis *ax, int addr, int n)
+{
+    if (!m->cfg.simulated_clock)
+        return;
+    double now = sim_rig_now(m->rig), end = now;
+    if (ax && covers(addr, n, AX_STATUS) && axis_moving(m, ax))
+        end = sim_rig_move_end(m->rig, ax->id);
+    else if (!ax && covers(addr, n, DET_STATUS) && m->det.busy)
+        end = m->det.busy_until;
+    if (end > now)
+        sim_rig_advance(m->rig, end - now);
+}
+
+void msim_det_wait(msim *m)
+{
+    uint16_t *r = m->det.map->tab_registers;
+    sim_rig_advance(m->rig, get32(r, DET_WAIT) * 1e-6);
+    put32(r, DET_WAIT, 0);
 }
 
 /* Refresh the read-only registers from the simulation. */
@@ -157,6 +218,26 @@ void msim_axis_input(msim *m, struct msim_axis *ax)
     }
 }
 
+/* A count as a uint32 register: the ADC's counts are whole and within 32
+ * bits (sim/effects.c, fx_adc); the clamp only guards the cast. */
+static uint32_t count32(double v)
+{
+    return (uint32_t)fmin(fmax(nearbyint(v), 0), 4294967294.0);
+}
+
+/* A raw reading's channels as uint32 counts and its raw block. */
+static void publish_raw(struct msim_detector *d, uint16_t *r)
+{
+    for (int k = 0; k < DET_NCHANNELS; k++)
+        put32(r, DET_CHANNELS + 2 * k, count32(d->pending[k]));
+    put32(r, DET_RAW_SEQUENCE, d->sequence);
+    put32(r, DET_GAIN_STATE, 0);
+    put32(r, DET_FULL_SCALE, count32(d->pending_full_scale));
+    mb_put_float(r + DET_NONLINEARITY, (float)d->pending_nonlinearity);
+    put32(r, DET_MONITOR,
+          isnan(d->pending_monitor) ? MB_DET_MONITOR_NONE : count32(d->pending_monitor));
+}
+
 /* Completing an integration publishes its data and bumps the sequence. */
 void msim_det_refresh(msim *m)
 {
@@ -166,15 +247,22 @@ void msim_det_refresh(msim *m)
         d->busy = 0;
         d->ready = 1;
         d->sequence++;
-        for (int k = 0; k < DET_NCHANNELS; k++)
-            mb_put_float(r + DET_CHANNELS + 2 * k, (float)d->pending[k]);
+        d->raw = d->pending_raw;
+        if (d->raw)
+            publish_raw(d, r);
+        else
+            for (int k = 0; k < DET_NCHANNELS; k++)
+                mb_put_float(r + DET_CHANNELS + 2 * k, (float)d->pending[k]);
         /* The integration register reads back what was actually used
          * (auto-exposure may have chosen another). */
         put32(r, DET_INTEGRATION, d->pending_us);
         d->flags = d->pending_flags;
     }
     put32(r, DET_STATUS, (d->busy ? DST_BUSY : 0u) | (d->ready ? DST_READY : 0u) |
-                             (d->ready && (d->flags & SIM_SIGNAL_SATURATED) ? DST_SATURATED : 0u));
+                             (d->ready && (d->flags & SIM_SIGNAL_SATURATED) ? DST_SATURATED : 0u) |
+                             (d->ready && d->raw ? DST_RAW : 0u) |
+                             (m->cfg.simulated_clock ? DST_CLOCK_SIMULATED : 0u) |
+                             (m->cfg.simulated_clock && m->cfg.baud > 0 ? DST_LINE_TIMED : 0u));
     put32(r, DET_SEQUENCE, d->sequence);
     put32(r, DET_CLOCK, (uint32_t)llround(sim_rig_now(m->rig) * 1000.0));
 }
@@ -188,10 +276,15 @@ void msim_det_trigger(msim *m)
     struct sim_reading rd;
     double used = us * 1e-6;
     d->pending_flags = 0;
+    d->pending_raw = 0;
     if (us > 0 && sim_rig_read(m->rig, used, &rd, NULL) == 0) {
         memcpy(d->pending, rd.rgb, sizeof d->pending);
         used = rd.integration_s;
         d->pending_flags = rd.flags;
+        d->pending_raw = rd.counts;
+        d->pending_full_scale = rd.full_scale;
+        d->pending_nonlinearity = rd.nonlinearity;
+        d->pending_monitor = rd.monitor;
     } else {
         sim_rig_sample(m->rig, d->pending);
     }
@@ -200,6 +293,14 @@ void msim_det_trigger(msim *m)
     d->ready = 0;
     d->busy_until = sim_rig_now(m->rig) + used;
     msim_det_refresh(m);
+}
+
+void msim_det_shutter(msim *m)
+{
+    uint16_t *r = m->det.map->tab_registers;
+    int closed = get32(r, DET_SHUTTER) != 0;
+    put32(r, DET_SHUTTER, (uint32_t)closed);
+    sim_rig_shutter(m->rig, closed);
 }
 
 int msim_jam(msim *m, int slave, enum msim_jam_kind kind, double deg, struct gonio_err *err)

@@ -38,7 +38,10 @@ static const struct reg_range axis_ranges[] = {
     {AX_DATA_NO, AX_TRIGGER + 1, 1}, {AX_INPUT, AX_INPUT + 1, 1},
     {AX_STATUS, AX_ALARM + 1, 0},     {AX_FEEDBACK, AX_FEEDBACK + 1, 0}, {-1, -1, 0}};
 static const struct reg_range det_ranges[] = {
-    {DET_INTEGRATION, DET_TRIGGER + 1, 1}, {DET_STATUS, DET_NREGS - 1, 0}, {-1, -1, 0}};
+    {DET_INTEGRATION, DET_TRIGGER + 1, 1}, {DET_STATUS, DET_NREGS - 1, 0},
+    {DET_RAW_SEQUENCE, DET_SHUTTER - 1, 0}, {DET_SHUTTER, DET_SHUTTER + 1, 1}, {-1, -1, 0}};
+/* A simulated clock's detector has its wait register too. */
+static const struct reg_range det_wait_range[] = {{DET_WAIT, DET_WAIT + 1, 1}, {-1, -1, 0}};
 
 /* 0 when every register of [addr, addr + n) is mapped (and writable when
  * asked), else the Modbus exception code. */
@@ -69,16 +72,6 @@ static struct msim_axis *axis_of(msim *m, int slave)
     }
 }
 
-/* Sleep for wall seconds, whatever signal arrives meanwhile. */
-static void wait_wall(double s)
-{
-    if (!(s > 0))
-        return;
-    struct timespec ts = {.tv_sec = (time_t)s, .tv_nsec = (long)((s - (double)(time_t)s) * 1e9)};
-    while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
-        ;
-}
-
 /* Seconds a frame of n bytes holds an RTU line at baud, with the silence
  * that must follow it (t3.5 of the Modbus serial line guide: 3.5
  * characters, fixed at 1.75 ms above 19200 baud). RTU characters are 11
@@ -90,15 +83,16 @@ static double rtu_frame_s(long baud, int n)
 }
 
 /* What a frame carrying pdu_len bytes of PDU costs on the bus, in rig
- * time, waited in wall time (time_scale times shorter), with the server
- * held up meanwhile as a line is: its time on the RTU line (request and
- * reply), or the TCP latency (replies only). */
-static void bus_wait(const msim *m, int hdr, int pdu_len, int reply)
+ * time (msim_bus_time: waited in wall time, time_scale times shorter, with
+ * the server held up meanwhile as a line is; or counted on a simulated
+ * clock): its time on the RTU line (request and reply), or the TCP latency
+ * (replies only). */
+static void bus_wait(msim *m, int hdr, int pdu_len, int reply)
 {
     double s = hdr != 1                ? (reply ? m->cfg.tcp_latency_s : 0.0)
                : m->cfg.baud > 0 ? rtu_frame_s(m->cfg.baud, 1 + pdu_len + 2)
                                  : 0.0;
-    wait_wall(s / m->cfg.time_scale);
+    msim_bus_time(m, s);
 }
 
 /* Send a PDU framed for the transport the request came on (hdr 1: RTU, 7:
@@ -138,7 +132,7 @@ static void send_pdu(modbus_t *ctx, const uint8_t *req, int hdr, const uint8_t *
 }
 
 /* The exception answer: the function code with its top bit set. */
-static void send_exception(const msim *m, modbus_t *ctx, const uint8_t *req, int hdr, int exc,
+static void send_exception(msim *m, modbus_t *ctx, const uint8_t *req, int hdr, int exc,
                            int garbled)
 {
     uint8_t pdu[2] = {(uint8_t)(req[hdr] | 0x80), (uint8_t)exc};
@@ -153,14 +147,19 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
                          int len)
 {
     int slave = req[hdr - 1];
-    bus_wait(m, hdr, len, 0); /* the request is on the line, whoever it is for */
     struct msim_axis *ax = axis_of(m, slave);
     int is_det = slave == MB_SLAVE_DETECTOR;
-    if (!ax && !is_det)
-        return;
     const uint8_t *pdu = req + hdr;
     int fn = pdu[0];
     int addr = len >= 3 ? (pdu[1] << 8) | pdu[2] : -1;
+    /* A simulated clock's wait is the master's sleep, not the rig's
+     * traffic: its frames take no line time. */
+    int wait = m->cfg.simulated_clock && is_det && fn == MODBUS_FC_WRITE_MULTIPLE_REGISTERS &&
+               addr == DET_WAIT;
+    if (!wait)
+        bus_wait(m, hdr, len, 0); /* the request is on the line, whoever it is for */
+    if (!ax && !is_det)
+        return;
     int n = 0, write = 0, exc = 0;
     switch (fn) {
     case MODBUS_FC_READ_HOLDING_REGISTERS:
@@ -186,9 +185,13 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
     }
     if (!exc)
         exc = check_range(ax ? axis_ranges : det_ranges, addr, n, write);
+    if (exc == MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS && is_det && m->cfg.simulated_clock &&
+        check_range(det_wait_range, addr, n, write) == 0)
+        exc = 0;
     if (m->cfg.trace)
-        fprintf(stderr, "gonio-sim: slave %d fn 0x%02x addr 0x%04x n %d%s%s\n", slave, fn,
-                addr < 0 ? 0 : addr, n, exc ? " -> exception " : "",
+        fprintf(stderr, "gonio-sim: %.4f s: slave %d fn 0x%02x addr 0x%04x n %d%s%s\n",
+                sim_rig_now(m->rig), slave, fn, addr < 0 ? 0 : addr, n,
+                exc ? " -> exception " : "",
                 exc == 1 ? "01" : exc == 2 ? "02" : exc == 3 ? "03" : "");
     m->exchanges++;
     m->slave_exchanges[slave]++;
@@ -208,19 +211,24 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
     }
     if (fault == SIM_FAULT_LATE)
         late_s += sim_faults_timeout(faults);
-    wait_wall(late_s);
+    /* Late in wall time, where the master's timeout runs; a simulated
+     * clock counts the lateness as rig time too (the line was held). */
+    msim_wait_late(m, late_s);
     if (exc) {
         send_exception(m, ctx, req, hdr, exc, 0);
         return;
     }
     msim_sync_clock(m);
+    if (!write)
+        msim_poll_jump(m, ax, addr, n);
     if (ax)
         msim_axis_refresh(m, ax);
     else
         msim_det_refresh(m);
     /* The registers are read as the request arrived; the reply then takes
      * its time on the bus: 2 + 2n bytes of PDU for a read, 5 for a write. */
-    bus_wait(m, hdr, write ? 5 : 2 + 2 * n, 1);
+    if (!wait)
+        bus_wait(m, hdr, write ? 5 : 2 + 2 * n, 1);
     modbus_reply(ctx, req, req_len, ax ? ax->map : m->det.map);
     if (!write)
         return;
@@ -237,9 +245,15 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
         msim_axis_refresh(m, ax);
     } else {
         uint16_t *r = m->det.map->tab_registers;
+        if (overlaps(addr, n, DET_SHUTTER))
+            msim_det_shutter(m);
         if (overlaps(addr, n, DET_TRIGGER) && get32(r, DET_TRIGGER) == 1) {
             put32(r, DET_TRIGGER, 0);
             msim_det_trigger(m);
+        }
+        if (overlaps(addr, n, DET_WAIT)) {
+            msim_det_wait(m);
+            msim_det_refresh(m);
         }
     }
 }

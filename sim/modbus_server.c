@@ -63,7 +63,7 @@ msim *msim_new(const struct rig_profile *profile, const brdf_material *material,
         if (!m->axis[i].map)
             break;
     }
-    m->det.map = modbus_mapping_new_start_address(0, 0, 0, 0, 0, DET_NREGS, 0, 0);
+    m->det.map = modbus_mapping_new_start_address(0, 0, 0, 0, 0, DET_MAP_NREGS, 0, 0);
     if (!m->det.map || !m->axis[SIM_N_AXES - 1].map) {
         msim_free(m);
         gonio_err_set(err, ENOMEM, "gonio-sim: out of memory");

@@ -3,9 +3,12 @@
  * over Modbus RTU on a pseudo-terminal and/or Modbus TCP on loopback.
  *
  * Slave ids, registers and alarm codes: modbus_map/modbus_map.h. The
- * simulated clock follows wall time scaled by time_scale: every request
- * first brings the rig to now, so motion, homing and integration advance
- * between requests exactly as they would on a real rig, only faster. */
+ * rig's clock follows wall time scaled by time_scale: every request first
+ * brings the rig to now, so motion, homing and integration advance between
+ * requests exactly as they would on a real rig, only faster. Or it is
+ * simulated (msim_cfg.simulated_clock): it advances only by what the
+ * simulator models, and a read that polls for a move's or an
+ * integration's end finds it ended, the clock moved on to that end. */
 #ifndef GONIO_SIM_MODBUS_SERVER_H
 #define GONIO_SIM_MODBUS_SERVER_H
 
@@ -26,6 +29,11 @@ struct msim_cfg {
     long baud;
     double tcp_latency_s;
     double time_scale;    /* simulated seconds per wall second, > 0 */
+    /* The clock: 0 follows wall time scaled by time_scale; 1 (simulated)
+     * advances only by what the simulator models: moves, integrations,
+     * the bus's time above, late answers and the wait register
+     * (docs/gonio-sim.md "The simulated clock"). */
+    int simulated_clock;
     double steps_per_deg; /* drive steps per degree, > 0 */
     /* The drives' positioning completion band, load degrees: IN-POS turns
      * on when an operation has ended with the motor this close to its

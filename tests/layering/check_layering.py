@@ -18,21 +18,26 @@ ALLOWED = {
     "rig": {"common"},
     "modbus_map": set(),
     "journal": {"brdf", "common"},
+    "radiometry": {"brdf", "common"},
     "planner": {"rig", "brdf", "common"},
     "fit": {"journal", "brdf", "common"},
     "adaptive": {"fit", "planner", "rig", "brdf", "journal", "common"},
     "sim": {"planner", "modbus_map", "rig", "brdf", "common"},
     "drivers": {"modbus_map", "sim", "rig", "brdf", "common"},
-    "capture": {"adaptive", "drivers", "fit", "journal", "planner", "rig", "brdf", "common"},
-    "sim_source": {"capture", "adaptive", "drivers", "sim", "fit", "journal", "planner", "rig",
+    "capture": {"radiometry", "adaptive", "drivers", "fit", "journal", "planner", "rig", "brdf", "common"},
+    "sim_source": {"radiometry", "capture", "adaptive", "drivers", "sim", "fit", "journal", "planner", "rig",
                    "brdf", "common"},
-    "daemon": {"sim_source", "capture", "adaptive", "drivers", "sim", "fit", "journal",
+    "daemon": {"radiometry", "sim_source", "capture", "adaptive", "drivers", "sim", "fit", "journal",
                "planner", "rig", "brdf", "common"},
     "render": {"fit", "planner", "rig", "brdf", "common"},
+    "python": {"fit", "journal", "brdf", "common"},
     "report": {"fit", "journal", "planner", "rig", "brdf", "common"},
-    "study": {"sim_source", "capture", "adaptive", "drivers", "sim", "fit", "journal", "planner", "rig",
+    "study": {"radiometry", "sim_source", "capture", "adaptive", "drivers", "sim", "fit", "journal", "planner", "rig",
               "brdf", "common"},
 }
+# goniod names the Modbus registers its event-model documents' data come
+# from (daemon/control_events.c).
+ALLOWED["daemon"].add("modbus_map")
 # Inside drivers/ the in-process simulator backend alone may see sim/: the
 # core and the Modbus and USB backends must not.
 SIM_BACKEND = {"drv_sim.c", "drv_sim.h"}

@@ -34,8 +34,16 @@ def test_check_prints_the_line_costs():
     assert "RTU line 19200 baud" in r.stdout and "TCP latency 2.5 ms" in r.stdout
 
 
+def test_check_prints_the_simulated_clock():
+    r = run("--check", "--clock", "simulated")
+    assert r.returncode == 0, r.stderr
+    assert "clock simulated" in r.stdout and "time scale" not in r.stdout
+
+
 def test_bad_input_exits_2():
-    for args in (["--time-scale", "0"], ["--steps-per-deg", "x"], ["--tcp", "localhost"],
+    for args in (["--time-scale", "0"], ["--clock", "fast"],
+                 ["--clock", "simulated", "--time-scale", "20"],
+                 ["--steps-per-deg", "x"], ["--tcp", "localhost"],
                  ["--scene", "no-such-scene"], ["--stall", "9:10"], ["--overload", "1:500"],
                  ["--baud", "0"], ["--baud", "9600.5"], ["--tcp-latency", "-1"],
                  ["--bogus"], ["extra"]):

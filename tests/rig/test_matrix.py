@@ -56,16 +56,19 @@ def read_rows(path):
 
 
 class Sim:
-    """gonio-sim on a scene, RTU on its pty and TCP on loopback."""
+    """gonio-sim on a scene, RTU on its pty and TCP on loopback; on wall time
+    at a time scale, or with scale=None on its simulated clock (the drivers
+    then pace nothing by a scale: theirs is 1)."""
 
     def __init__(self, folder, scene, scale=SCALE):
         self.folder = folder
         self.scale = scale
         self.stats = os.path.join(folder, "sim-stats.json")
         out = os.path.join(folder, "sim.out")
+        clock = (["--clock", "simulated"] if scale is None else ["--time-scale", str(scale)])
         self.proc = subprocess.Popen(
-            tg.wrap([os.path.join(tg.BIN, "gonio-sim"), "--scene", scene, "--time-scale",
-                     str(scale), "--tcp", "127.0.0.1:0", "--stats", self.stats], folder),
+            tg.wrap([os.path.join(tg.BIN, "gonio-sim"), "--scene", scene] + clock +
+                    ["--tcp", "127.0.0.1:0", "--stats", self.stats], folder),
             stdout=open(out, "w"), stderr=open(os.path.join(folder, "sim.err"), "w"))
         deadline = time.time() + tg.START_S
         text = ""
@@ -82,7 +85,7 @@ class Sim:
                  if transport == "rtu" else
                  "  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n" % self.port)
         return where + ("  time_scale: %d\n  timeout_s: %g\n  slaves: {sample: 1, arm: 2, "
-                        "detector: 3, azimuth: 4}\n" % (self.scale, 0.1 * tg.SLOW))
+                        "detector: 3, azimuth: 4}\n" % (self.scale or 1, 0.1 * tg.SLOW))
 
     def stop(self):
         """SIGTERM; gonio-sim's stats (it writes them at exit)."""

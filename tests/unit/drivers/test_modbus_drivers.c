@@ -168,6 +168,8 @@ static void detector_reads_material(drv_modbus_bus *bus)
         struct drv_reading r;
         assert_int_equal(drv_detector_acquire(d, 0.05, &r, &err), 0);
         assert_close(r.integration_s, 0.05, 1e-9);
+        assert_int_equal(r.unit, DRV_UNIT_BRDF); /* no adc: calibrated, no raw block read */
+        assert_true(isnan(r.monitor));
         double ps = position(s), pa = position(a);
         struct brdf_pair p;
         brdf_pair_inplane(ps, pa - ps, &p);
@@ -293,34 +295,57 @@ static long requests(const drv_modbus_bus *bus)
     return st.requests;
 }
 
-/* The detector's reading carries the rig clock: right after it, the clock
- * reads nothing and carries that reading forward in rig time; once
- * anything else was said on the bus, it reads the register again. */
+/* On a simulated clock (a gonio-sim of its own, --clock simulated) the
+ * rig time is the device's, whatever the host does meanwhile. The
+ * detector's reading carries the clock: right after it the clock reads
+ * nothing, and the integration (from 0) is all the rig time there is; a
+ * settle is one write of the wait register and passes exactly; an
+ * exchange that models no time (a position read on a free line) adds
+ * none, though the clock reads the register again after it. */
+static struct sim_proc simclk;
+
+static int stop_simclk(void **state)
+{
+    (void)state;
+    return simclk.pid > 0 && sim_proc_stop(&simclk) != 0 ? -1 : 0;
+}
+
 static void test_clock_from_detector(void **state)
 {
     (void)state;
+    static const char *const args[] = {"--clock", "simulated", NULL};
+    assert_int_equal(sim_proc_start(&simclk, args), 0);
+    drv_modbus_bus *bus = sim_proc_rtu(&simclk, 1);
+    assert_non_null(bus);
     struct gonio_err err = {0};
-    drv_clock *c = drv_clock_new_modbus(rtu, 3, &err);
-    drv_detector *d = drv_detector_new_modbus(rtu, 3, &err);
-    drv_axis *s = axis(rtu, 1, &rig.sample, "sample");
+    drv_clock *c = drv_clock_new_modbus(bus, 3, &err);
+    drv_detector *d = drv_detector_new_modbus(bus, 3, &err);
+    drv_axis *s = axis(bus, 1, &rig.sample, "sample");
     assert_non_null(c);
     assert_non_null(d);
     struct drv_reading r;
     assert_int_equal(drv_detector_acquire(d, 0.05, &r, &err), 0);
-    long n = requests(rtu);
+    long n = requests(bus);
     double t0 = drv_clock_now(c);
-    assert_int_equal(drv_clock_sleep(c, 5.0), 0); /* 0.1 s of wall time */
+    assert_int_equal(requests(bus), n);
+    assert_close(t0, 0.05, 1e-9); /* the register's 50 ms */
+    assert_int_equal(drv_clock_sleep(c, 5.0), 0);
+    assert_int_equal(requests(bus), n + 1); /* the wait */
     double t1 = drv_clock_now(c);
-    assert_int_equal(requests(rtu), n);
-    assert_true(t1 - t0 >= 4.99);
+    assert_int_equal(requests(bus), n + 2);
+    assert_close(t1 - t0, 5.0, 1e-9);
     position(s); /* another exchange: the detector's clock reading is old news */
-    n = requests(rtu);
+    n = requests(bus);
     double t2 = drv_clock_now(c);
-    assert_int_equal(requests(rtu), n + 1);
-    assert_true(t2 >= t1);
+    assert_int_equal(requests(bus), n + 1);
+    assert_close(t2, t1, 0);
+    struct drv_clock_stats st;
+    drv_clock_stats(c, &st);
+    assert_int_equal(st.backward + st.restarts, 0);
     drv_axis_free(s);
     drv_detector_free(d);
     drv_clock_free(c);
+    drv_modbus_bus_free(bus);
 }
 
 int main(void)
@@ -331,7 +356,7 @@ int main(void)
         cmocka_unit_test(test_detector_rtu), cmocka_unit_test(test_detector_tcp),
         cmocka_unit_test(test_soft_limits),  cmocka_unit_test(test_absent_slave),
         cmocka_unit_test(test_backlash),     cmocka_unit_test(test_clock),
-        cmocka_unit_test(test_clock_from_detector),
+        cmocka_unit_test_teardown(test_clock_from_detector, stop_simclk),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }
