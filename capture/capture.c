@@ -8,6 +8,9 @@
 
 #include "capture/capture_files.h"
 #include "capture/journal_plan.h"
+#include "capture/autorange.h"
+#include "capture/calibration.h"
+#include "capture/calibration_check.h"
 #include "capture/eta.h"
 #include "capture/final_fit.h"
 #include "capture/isotropy_check.h"
@@ -61,6 +64,34 @@ static void rig_clock_paused(struct rig_clock *rc)
     rc->last = now;
 }
 
+/* Auto-ranging across a run's points, and where its dark frames go: the
+ * journal, as records of the point being measured (at). */
+struct ranging {
+    struct autorange ar;
+    journal *j;
+    struct rig_clock *clk;
+    const struct journal_sample *at;
+    size_t darks; /* journalled by this run */
+};
+
+static int journal_dark(void *user, const struct drv_reading *r, struct gonio_err *err)
+{
+    struct ranging *rg = user;
+    struct journal_sample s = *rg->at;
+    s.counts = 1;
+    memcpy(s.raw, r->rgb, sizeof s.raw);
+    for (int c = 0; c < 3; c++)
+        s.rgb[c] = NAN;
+    s.integration_s = s.integration_total_s = r->integration_s;
+    s.gain_state = r->gain_state;
+    s.monitor = r->monitor;
+    s.flags = JOURNAL_FLAG_DARK | ((r->flags & DRV_READING_SATURATED) ? JOURNAL_FLAG_SATURATED : 0);
+    s.rig_time_s = rig_clock_now(rg->clk);
+    int rc = journal_append(rg->j, &s, err);
+    rg->darks += rc == 0;
+    return rc;
+}
+
 /* Move the axes together, settle, integrate, and record where the axes
  * actually were: the sample is what the rig measured, not what was asked.
  * The settle runs from when the last axis came to rest, as its drive said
@@ -69,7 +100,7 @@ static void rig_clock_paused(struct rig_clock *rc)
 static int measure_point(struct capture_devices *d, struct rig_clock *clk,
                          const struct capture_hooks *hooks, const struct rig_profile *rig,
                          const struct plan_point *pt, double rotation_deg, int index,
-                         struct journal_sample *s, struct gonio_err *err)
+                         struct ranging *rg, struct journal_sample *s, struct gonio_err *err)
 {
     /* the axes the rig has: sample, arm, then azimuth and rotation if any */
     drv_axis *axes[4] = {d->sample, d->arm};
@@ -122,9 +153,6 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
     double left = rig->settle_s - rested - drv_detector_lag(d->detector);
     if (left > 0 && (rc = drv_clock_sleep(d->clock, left)) < 0)
         return gonio_err_set(err, -rc, "settle: %s", gonio_strerror(rc));
-    struct drv_reading r;
-    if ((rc = drv_detector_acquire(d->detector, rig->integration_s, &r, err)) < 0)
-        return rc;
     journal_sample_clear(s);
     s->point = index;
     s->s = at[0];
@@ -134,6 +162,12 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
     s->theta_o = fabs(s->theta_r);
     s->phi_i = 0.0;
     s->phi_o = fmod((d->azimuth ? at[2] : 0.0) + (s->theta_r >= 0 ? 180.0 : 0.0) + 360.0, 360.0);
+    rg->clk = clk;
+    rg->at = s;
+    struct autorange_take take;
+    if ((rc = autorange_acquire(&rg->ar, d->detector, journal_dark, rg, &take, err)) < 0)
+        return rc;
+    const struct drv_reading r = take.r;
     if (r.unit == DRV_UNIT_COUNTS) { /* the record is the counts; BRDF is derived */
         s->counts = 1;
         memcpy(s->raw, r.rgb, sizeof s->raw);
@@ -143,7 +177,7 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
     }
     s->monitor = r.monitor;
     s->integration_s = r.integration_s;
-    s->integration_total_s = r.integration_s;
+    s->integration_total_s = take.total_s;
     s->flags = (r.flags & DRV_READING_SATURATED) ? JOURNAL_FLAG_SATURATED : 0;
     s->rig_time_s = rig_clock_now(clk);
     return 0;
@@ -241,6 +275,7 @@ struct run {
     struct sequence_setup order;
     sequence *seq;
     struct journal_sample *samples; /* the journal's, then this run's (room for the plan) */
+    struct ranging ranging;         /* its dark frames are journalled, not samples */
     size_t n, already;              /* samples, of which journalled by earlier runs */
     struct live_fit fit;
     capture_eta *eta;
@@ -290,7 +325,9 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
     /* The adaptive order decides the point after k meanwhile. */
     int rc = sequence_begin(r->seq, k, err);
     if (rc == 0)
-        rc = measure_point(dev, clk, hooks, &job->rig, pt, 0.0, (int)k, &s, err);
+        rc = measure_point(dev, clk, hooks, &job->rig, pt, 0.0, (int)k, &r->ranging, &s, err);
+    if (rc == 0) /* a source that could not say so before: its first reading tells */
+        rc = capture_calibration_check(&job->cfg, s.counts, err);
     if (rc < 0) {
         stop_axes(dev); /* a failed point leaves no axis moving */
         if (err) { /* name the point the operator will find in plan.json */
@@ -345,7 +382,7 @@ static int check_measure(void *user, const struct iso_check_pair *p, double rota
     brdf_inplane_to_axes(p->theta_i, p->theta_r, &pt.ax.s, &pt.ax.a);
     struct journal_sample s;
     int rc = measure_point(c->dev, c->clk, &no_hooks, &c->r->job->rig, &pt, rotation_deg, -1,
-                           &s, err);
+                           &c->r->ranging, &s, err);
     if (rc < 0) {
         stop_axes(c->dev);
         return rc;
@@ -445,8 +482,17 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
         .driver = src->driver ? src->driver : "unknown",
         .detector = src->detector ? src->detector : "unknown",
         .policy = job->adaptive ? &job->policy : NULL,
+        .full_scale = src->counts_full_scale,
+        .nonlinearity = src->counts_nonlinearity,
         .calibration = job->cal ? job->cal->meta.id : NULL,
     };
+    struct autorange ar;
+    double ladder[AUTORANGE_RUNGS];
+    autorange_init(&ar, &job->rig);
+    if (src->counts) {
+        setup.ladder = ladder;
+        setup.n_ladder = autorange_ladder(&ar, ladder, AUTORANGE_RUNGS);
+    }
     const char *dir = job->cfg.out_dir;
     int rc = capture_files_prepare(dir, &setup, &r->lock_fd, err);
     if (rc < 0)
@@ -461,6 +507,18 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
         (rc = journal_plan_check(path, r->samples, r->n, &jp, job->rig.mech.in_position_deg,
                                  err)) < 0)
         return rc;
+    /* Dark frames are the ranging's, not samples of the plan. */
+    autorange_init(&r->ranging.ar, &job->rig);
+    if (job->cal) /* a calibration covers the fixed integration: no ranging off it */
+        r->ranging.ar.min_s = r->ranging.ar.max_s = r->ranging.ar.fixed_s;
+    r->ranging.j = r->j;
+    size_t kept = 0;
+    for (size_t i = 0; i < r->n; i++) {
+        autorange_note(&r->ranging.ar, &r->samples[i]);
+        if (!(r->samples[i].flags & JOURNAL_FLAG_DARK))
+            r->samples[kept++] = r->samples[i];
+    }
+    r->n = kept;
     if (job->cfg.lazy_journal)
         journal_set_lazy(r->j);
     r->order = (struct sequence_setup){.plan = job->plan,
@@ -476,6 +534,8 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
 static void summarize(const struct run *r, struct capture_summary *out)
 {
     out->samples = r->n;
+    out->darks = r->ranging.darks;
+    out->retakes = r->ranging.ar.retakes;
     out->rig_time_s = r->n ? r->samples[r->n - 1].rig_time_s : 0;
     for (size_t i = 0; i < r->n; i++)
         out->integration_s += r->samples[i].integration_s;
@@ -498,6 +558,15 @@ static int finish(struct run *r, struct gonio_err *err)
     struct capture_summary *out = r->out;
     const struct live_fit *lf = &r->fit;
     brdf_material *fitted = NULL; /* the final fit, as a material */
+    size_t valued = 0;
+    for (size_t i = 0; i < r->n; i++)
+        valued += journal_sample_has_brdf(&r->samples[i]);
+    if (r->n > 0 && valued == 0) { /* --uncalibrated: counts, nothing to fit */
+        snprintf(out->not_fitted, sizeof out->not_fitted,
+                 "uncalibrated: the detector gave counts and no calibration reduced them "
+                 "to BRDF (%zu samples of counts in samples.csv)", r->n);
+        return capture_files_results(job->cfg.out_dir, out, err);
+    }
     capture_phase_enter(r->hooks, CAPTURE_PHASE_FIT, -1);
     int rc = capture_fit_samples(
         r->samples, r->n, lf->fs && !lf->progress ? fit_stream_params(lf->fs) : NULL,

@@ -90,6 +90,11 @@ struct capture_config {
      * docs/checks.md) on the rig's rotation axis; refused on a rig
      * profile without one. */
     int check_isotropy;
+    /* A detector that gives counts is captured without a calibration: its
+     * counts are journalled and nothing is fitted (results.json's
+     * not_fitted says why). Without it such a capture is refused before
+     * the first move (capture/calibration.h). */
+    int uncalibrated;
 };
 
 #define CAPTURE_PRESCAN_OFF (-1)
@@ -133,6 +138,10 @@ struct capture_summary {
     double decision_mean_s, decision_max_s, decision_wait_s;
     int has_isotropy; /* the isotropy check ran: its verdict and rig time */
     struct iso_check_result isotropy;
+    /* Why no model was fitted ("" when one was): counts not reduced. */
+    char not_fitted[160];
+    size_t darks;   /* dark frames journalled (auto-ranging) */
+    size_t retakes; /* readings auto-ranging took again, this run */
 };
 
 /* The devices a capture runs on. */
@@ -166,6 +175,13 @@ struct capture_rig {
      * none, the driver kind and the detector (NULL: "unknown"), and
      * further members as a JSON object's text (the simulator's "scene"), compared on a resume as the rest is. */
     const char *profile, *driver, *detector, *setup_json;
+    /* 1: the detector gives counts, known before the first reading (the
+     * calibration check refuses before anything is written); 0: BRDF, or
+     * not known, then checked at the first reading. */
+    int counts;
+    /* counts: what the detector states of its ADC (setup.json's "counts"):
+     * the largest count, and its nonlinearity k (drivers.h). */
+    double counts_full_scale, counts_nonlinearity;
     /* What the rig measures, when the source knows (the simulator): its
      * label, and the reference of the truth errors unless truth names one. */
     const brdf_material *material;

@@ -89,6 +89,15 @@ static json_t *setup_json(const struct capture_setup *su)
     }
     if (root && su->material)
         json_object_set_new(root, "material", json_string(su->material));
+    if (root && su->ladder) { /* a detector of counts, auto-ranged */
+        json_t *ladder = json_array();
+        for (size_t i = 0; i < su->n_ladder; i++)
+            json_array_append_new(ladder, json_real(su->ladder[i]));
+        json_object_set_new(root, "counts",
+                            json_pack("{s:f,s:f,s:o}", "full_scale", su->full_scale,
+                                      "nonlinearity", su->nonlinearity, "integration_ladder",
+                                      ladder));
+    }
     /* A resume reduces with the calibration the capture began with. */
     if (root && su->calibration)
         json_object_set_new(root, "calibration", json_string(su->calibration));
@@ -446,6 +455,13 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
                                                      : json_null());
     if (root)
         json_object_set_new(root, "fit_status", status_json(&s->status));
+    if (root) { /* why nothing was fitted (counts, uncalibrated); auto-ranging's cost */
+        json_object_set_new(root, "not_fitted",
+                            s->not_fitted[0] ? json_string(s->not_fitted) : json_null());
+        json_object_set_new(root, "ranging",
+                            json_pack("{s:I,s:I}", "darks", (json_int_t)s->darks, "retakes",
+                                      (json_int_t)s->retakes));
+    }
     if (root) {
         json_object_set_new(root, "stop_reason", json_string(s->stop_reason));
         json_object_set_new(root, "adaptive", s->adaptive ? adaptive_json(s) : json_null());

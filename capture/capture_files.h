@@ -19,6 +19,11 @@ struct capture_setup {
     const char *material;
     const char *driver, *detector;
     const struct adaptive_options *policy;
+    /* A detector of counts: its ADC (capture_rig.counts_*) and the
+     * integrations auto-ranging may use; ladder NULL for none. */
+    double full_scale, nonlinearity;
+    const double *ladder;
+    size_t n_ladder;
     const char *calibration; /* the calibration's id counts are reduced with, or NULL */
 };
 

@@ -7,7 +7,8 @@
  * (planner/meter.h: the host's expectation until then) and the overhead
  * the run has shown: each measured point's rig time beyond its move
  * estimate and its integration (settle, its spread, retried moves, the
- * bus), as a mean over the journal. Before the first point the overhead is
+ * bus; auto-ranging's retakes and dark frames: capture/autorange.h), as a
+ * mean over the journal. Before the first point the overhead is
  * the rig profile's settle, so the first ETA is the plan's estimate.
  * Everything is learnt from the journal's records, so a resumed capture,
  * which observes the journal first, goes on with the same figures. */

@@ -6,6 +6,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "capture/calibration_check.h"
 #include "capture/sequence.h"
 
 static void job_inputs_free(struct capture_job *in)
@@ -234,6 +235,8 @@ int capture_prepare(const struct capture_config *cfg, const struct capture_rig *
     if (!job)
         return gonio_err_set(err, ENOMEM, "out of memory");
     int rc = copy_config(cfg, job, err);
+    if (rc == 0) /* before anything is written or moved */
+        rc = capture_calibration_check(&job->cfg, rig->counts, err);
     if (rc == 0)
         rc = resolve_inputs(&job->cfg, rig, job, err);
     if (rc == 0)

@@ -81,7 +81,7 @@ int journal_plan_check(const char *path, const struct journal_sample *s, size_t 
                                line, s[i].point, first[k]);
         else if (mismatch(&s[i], point_at(plan, k), band_deg, why, sizeof why))
             rc = gonio_err_set(err, GONIO_EBADDATA, "%s:%zu: %s", path, line, why);
-        else
+        else if (!(s[i].flags & JOURNAL_FLAG_DARK)) /* a dark frame names its sample's point */
             first[k] = (uint32_t)line;
     }
     free(first);

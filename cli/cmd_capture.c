@@ -22,8 +22,11 @@ static void usage(FILE *out)
             "                     [--order travel|progressive|as-written|greedy|adaptive]\n"
             "                     [--stop all|converge] [--budget MINUTES]\n"
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
-            "                     [--calibration ID|newest --calibrations ROOT] [--quiet]\n"
-            "                     [--check isotropy]\n"
+            "                     [--calibration ID|newest --calibrations ROOT]\n"
+            "                     [--uncalibrated] [--check isotropy] [--quiet]\n"
+            "  --uncalibrated: a detector that gives counts is captured without a\n"
+            "  calibration: the counts are journalled, nothing is fitted (without it such\n"
+            "  a capture is refused, exit 2, before the first move).\n"
             "  --material overrides the scene's material: nbrdf:NAME, merl:FILE, abc:NAME,\n"
             "  sgd:NAME, builtin:NAME, spectral:NAME, analytic:NAME, standard:NAME (a\n"
             "  reflectance standard, docs/radiometry.md) or default. DIR receives\n"
@@ -146,6 +149,7 @@ int cmd_capture(int argc, char **argv)
         {"stop", required_argument, NULL, 'S'}, {"truth", required_argument, NULL, 't'},
         {"budget", required_argument, NULL, 'B'}, {"stop-target", required_argument, NULL, 'T'},
         {"prescan", required_argument, NULL, 'P'},
+        {"uncalibrated", no_argument, NULL, 'U'},
         {"calibration", required_argument, NULL, 'C'},
         {"calibrations", required_argument, NULL, 'R'}, {"check", required_argument, NULL, 'K'},
         {NULL, 0, NULL, 0},
@@ -168,6 +172,7 @@ int cmd_capture(int argc, char **argv)
         case 'S': cfg.stop = optarg; break;
         case 't': cfg.truth = optarg; break;
         case 'q': cfg.quiet = 1; break;
+        case 'U': cfg.uncalibrated = 1; break;
         case 'C':
             cfg.calibration = strcmp(optarg, "newest") ? optarg : NULL;
             cal_named = 1;
@@ -237,6 +242,14 @@ int cmd_capture(int argc, char **argv)
     }
     printf("capture %s: plan %s, material %s, model %s\n", cfg.out_dir, s.plan, s.material,
            s.model);
+    if (s.not_fitted[0]) { /* --uncalibrated: counts journalled, no fit to show */
+        printf("  %zu samples, rig time %.1f s (move %.1f, settle %.1f, integration %.1f)\n"
+               "  auto-ranging: %zu readings taken again, %zu dark frames\n"
+               "  not fitted: %s\n",
+               s.samples, s.rig_time_s, s.move_s, s.settle_s, s.integration_s, s.retakes,
+               s.darks, s.not_fitted);
+        return 0;
+    }
     printf("  %zu samples, rig time %.1f s (move %.1f, settle %.1f, integration %.1f), fit "
            "%.3f s%s\n",
            s.samples, s.rig_time_s, s.move_s, s.settle_s, s.integration_s, s.fit_time_s,

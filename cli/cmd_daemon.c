@@ -572,7 +572,7 @@ static void capture_usage(FILE *out)
             "                     [--stop all|converge] [--budget MINUTES]\n"
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
             "                     [--name ID] [--sample NAME] [--operator NAME] [--note TEXT]\n"
-            "                     [--wait] [--quiet] [--socket PATH]\n"
+            "                     [--uncalibrated] [--wait] [--quiet] [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). Files are relative to goniod's capture\n"
             "  root. --model: the final fit's model, any RGB model of 'gonio fit --help'\n"
@@ -608,7 +608,7 @@ int cmd_capture_daemon(int argc, char **argv)
         {"stop-target", required_argument, NULL, 'T'},
         {"prescan", required_argument, NULL, 'P'}, {"sample", required_argument, NULL, 'A'},
         {"operator", required_argument, NULL, 'O'}, {"note", required_argument, NULL, 'N'},
-        {NULL, 0, NULL, 0},
+        {"uncalibrated", no_argument, NULL, 'U'}, {NULL, 0, NULL, 0},
     };
     static const char *const keys[] = {"plan", "scene", "material", "rig", "model", "order",
                                        "stop", "name", "truth", "sample", "operator", "note"};
@@ -616,7 +616,7 @@ int cmd_capture_daemon(int argc, char **argv)
     const char *vals[12] = {0}, *sock = NULL;
     double budget = 0, target = 0;
     long long prescan = -1; /* -1: not given, goniod's default */
-    int wait = 0, quiet = 0, ch, ignored;
+    int wait = 0, quiet = 0, uncalibrated = 0, ch, ignored;
     optind = 1;
     while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         const char *at = ch ? strchr(letters, ch) : NULL;
@@ -628,6 +628,7 @@ int cmd_capture_daemon(int argc, char **argv)
         case 'S': sock = optarg; break;
         case 'w': wait = 1; break;
         case 'q': quiet = 1; break;
+        case 'U': uncalibrated = 1; break;
         case 'P':
             if (cmd_capture_prescan(optarg, &prescan, &ignored) < 0)
                 return 2;
@@ -678,6 +679,8 @@ int cmd_capture_daemon(int argc, char **argv)
             json_object_set_new(req, "stop_target", json_real(target));
         if (prescan >= 0)
             json_object_set_new(req, "prescan", json_integer((json_int_t)prescan));
+        if (uncalibrated)
+            json_object_set_new(req, "uncalibrated", json_true());
         rep = conn_request(&c, req);
         rc = reply_failed(rep);
     }

@@ -112,6 +112,7 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
      * engine's check. */
     r.budget_min = json_number_value(json_object_get(req, "budget"));
     r.stop_target = json_number_value(json_object_get(req, "stop_target"));
+    r.uncalibrated = json_is_true(json_object_get(req, "uncalibrated"));
     json_t *prescan = json_object_get(req, "prescan");
     if (prescan && (rc = capture_prescan_option("prescan", json_integer_value(prescan),
                                                 &r.prescan, err)) < 0)

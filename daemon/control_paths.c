@@ -167,7 +167,7 @@ int control_save_request(const struct worker_request *r, struct gonio_err *err)
                           r->material, "truth", r->truth, "model", r->model, "order", r->order,
                           "stop", r->stop, "budget", r->budget_min, "stop_target",
                           r->stop_target, "prescan", r->prescan, "sample", r->sample,
-                          "operator", r->operator_name, "note", r->note);
+                          "operator", r->operator_name, "note", r->note, "uncalibrated", r->uncalibrated);
     char *text = d ? control_json_text(d) : NULL;
     if (!text)
         return gonio_err_set(err, ENOMEM, "out of memory");
@@ -190,12 +190,14 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
                              r->id, request_file, je.text);
     const char *plan, *scene, *rig, *material, *truth = "", *model, *order, *stop;
     double budget = 0, target = 0;
-    int prescan = 0;
-    /* truth, budget, stop_target, prescan: absent from the records of older goniods */
-    if (json_unpack(d, "{s:s, s:s, s:s, s:s, s?:s, s:s, s:s, s:s, s?:F, s?:F, s?:i}", "plan",
-                    &plan, "scene", &scene, "rig", &rig, "material", &material, "truth",
-                    &truth, "model", &model, "order", &order, "stop", &stop, "budget", &budget,
-                    "stop_target", &target, "prescan", &prescan) < 0) {
+    int prescan = 0, uncalibrated = 0;
+    /* truth, budget, stop_target, prescan, uncalibrated: absent from the
+     * records of older goniods */
+    if (json_unpack(d, "{s:s, s:s, s:s, s:s, s?:s, s:s, s:s, s:s, s?:F, s?:F, s?:i, s?:b}",
+                    "plan", &plan, "scene", &scene, "rig", &rig, "material", &material,
+                    "truth", &truth, "model", &model, "order", &order, "stop", &stop, "budget",
+                    &budget, "stop_target", &target, "prescan", &prescan, "uncalibrated",
+                    &uncalibrated) < 0) {
         json_decref(d);
         return gonio_err_set(err, GONIO_EBADDATA, "%s: lacks a field goniod writes", path);
     }
@@ -243,6 +245,7 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
         const char *v = json_string_value(json_object_get(d, meta[k]));
         snprintf(meta_out[k], meta_size[k], "%s", v ? v : "");
     }
+    r->uncalibrated = uncalibrated;
     json_decref(d);
     return 0;
 }

@@ -33,6 +33,7 @@ static const struct arg_spec capture_args[] = {
     {.name = "stop_target", .type = ARG_NUMBER, .min = 1e-6, .max = 10, .zero_none = 1,
      .unit = "a full-domain log error"},
     {.name = "prescan", .type = ARG_INT, .min = 0, .max = CAPTURE_PRESCAN_MAX, .unit = "points"},
+    {.name = "uncalibrated", .type = ARG_BOOL},
     {.name = NULL},
 };
 static const struct arg_spec resume_args[] = {

@@ -320,6 +320,7 @@ static struct capture_config request_config(const worker *w, const struct worker
         .budget_min = r->budget_min,
         .stop_target = r->stop_target,
         .prescan = r->prescan,
+        .uncalibrated = r->uncalibrated,
         .quiet = 1,
         .assess_nodes = (size_t)w->cfg->assess_nodes,
         .progress_fit = 1,

@@ -35,6 +35,7 @@ struct worker_request {
     char sample[128], operator_name[128], note[1024];
     double budget_min, stop_target; /* the adaptive order's stops, 0: none */
     int prescan; /* capture_config.prescan: 0 the engine's default */
+    int uncalibrated; /* capture_config.uncalibrated */
     int resume; /* the directory exists: continue from its journal */
 };
 

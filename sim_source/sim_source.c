@@ -179,7 +179,13 @@ void sim_source_rig(sim_source *src, struct capture_rig *out)
         return; /* a description */
     out->open = open_devices;
     out->close = close_devices;
-    out->integration_s = integration_s;
+    /* A detector of counts integrates as auto-ranging asks: the meter knows
+     * nothing of it, and the calibration check must know before it reads. */
+    struct sim_adc_info adc = {0};
+    out->counts = sim_effects_adc(src->fx, &adc);
+    out->counts_full_scale = adc.full_scale;
+    out->counts_nonlinearity = adc.nonlinearity;
+    out->integration_s = out->counts ? NULL : integration_s;
     out->resume = resume;
     out->driver = "sim";
     out->material = src->material;

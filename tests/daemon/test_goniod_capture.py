@@ -74,6 +74,28 @@ class CaptureTests(DaemonTest):
         self.assertEqual(st["fit_error"]["log_error"],
                          stop["results"]["err_plan"]["log_error"])
 
+    def test_counts_need_a_calibration_or_uncalibrated(self):
+        """A detector of counts (lab-raw): refused before anything is made
+        without a calibration; --uncalibrated journals counts, fits nothing."""
+        c = self.d.connect()
+        r = c.request("capture", plan="ds4", name="raw", scene="lab-raw")
+        self.assertEqual(r["class"], "ERROR", r)
+        self.assertIn("--uncalibrated", r["message"])
+        self.assertFalse(os.path.exists(os.path.join(self.d.root, "raw")))
+        self.assertEqual(c.request("watch")["class"], "OK")
+        r = c.request("capture", plan="ds4", name="raw", scene="lab-raw", uncalibrated=True)
+        self.assertEqual(r["class"], "OK", r)
+        docs = c.until_stop("raw")
+        self.assertEqual(docs[-1]["exit_status"], "success", docs[-1])
+        events = [d for d in docs if d["class"] == "event"]
+        self.assertTrue(events)
+        for e in events:
+            self.assertEqual(e["unit"], "counts")
+            self.assertEqual(e["rgb"], [None, None, None])
+            self.assertTrue(all(x > 0 for x in e["raw"]))
+        with open(os.path.join(self.d.root, "raw", "results.json")) as f:
+            self.assertIn("uncalibrated", json.load(f)["not_fitted"])
+
     def test_pause_and_resume(self):
         c = self.d.connect()
         c.request("capture", plan="ds3", name="pz")

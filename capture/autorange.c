@@ -1,0 +1,154 @@
+/* Auto-ranging (autorange.h): a ladder of integrations, a dark frame per
+ * rung, retakes until the peak sits between the floor and the clip. */
+#include "capture/autorange.h"
+
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+
+void autorange_init(struct autorange *a, const struct rig_profile *rig)
+{
+    memset(a, 0, sizeof *a);
+    a->fixed_s = rig->integration_s > 0 ? rig->integration_s : rig->auto_min_s;
+    a->min_s = rig->auto_min_s;
+    a->max_s = rig->auto_max_s;
+}
+
+static double held(const struct autorange *a, double t)
+{
+    return fmin(fmax(t, a->min_s), a->max_s);
+}
+
+static double rung_of(const struct autorange *a, double k)
+{
+    return held(a, a->fixed_s * pow(AUTORANGE_STEP, k));
+}
+
+static double index_of(const struct autorange *a, double t)
+{
+    return log(t / a->fixed_s) / log(AUTORANGE_STEP);
+}
+
+size_t autorange_ladder(const struct autorange *a, double *out, size_t max)
+{
+    size_t n = 0;
+    for (double k = floor(index_of(a, a->min_s)); n < max; k++) {
+        double t = rung_of(a, k);
+        if (n == 0 || t > out[n - 1])
+            out[n++] = t;
+        if (t >= a->max_s)
+            break;
+    }
+    return n;
+}
+
+double autorange_rung(const struct autorange *a, double t, int dir)
+{
+    return rung_of(a, round(index_of(a, t)) + dir);
+}
+
+static const double *dark_at(const struct autorange *a, double t)
+{
+    for (size_t i = 0; i < a->n_dark; i++)
+        if (fabs(a->dark_s[i] - t) <= 1e-9 * t)
+            return a->dark[i];
+    return NULL;
+}
+
+static void keep_dark(struct autorange *a, double t, const double counts[3])
+{
+    if (a->n_dark < AUTORANGE_RUNGS && !dark_at(a, t)) {
+        a->dark_s[a->n_dark] = t;
+        memcpy(a->dark[a->n_dark++], counts, 3 * sizeof *counts);
+    }
+}
+
+void autorange_note(struct autorange *a, const struct journal_sample *s)
+{
+    if (s->flags & JOURNAL_FLAG_DARK)
+        keep_dark(a, s->integration_s, s->raw);
+    else if (s->integration_s > 0)
+        a->next_s = s->integration_s;
+}
+
+/* The dark frame at t, the first time t is used: shutter closed, read,
+ * opened again, handed to the caller. */
+static int take_dark(struct autorange *a, drv_detector *d, double t, autorange_dark_fn dark,
+                     void *user, struct gonio_err *err)
+{
+    if (a->no_shutter || dark_at(a, t))
+        return 0;
+    int rc = drv_detector_shutter(d, 1, err);
+    if (rc == -ENOTSUP) { /* nothing to close: no dark frames on this rig */
+        a->no_shutter = 1;
+        if (err)
+            memset(err, 0, sizeof *err);
+        return 0;
+    }
+    struct drv_reading r;
+    if (rc == 0)
+        rc = drv_detector_acquire(d, t, &r, err);
+    int reopen = drv_detector_shutter(d, 0, rc == 0 ? err : NULL);
+    rc = rc < 0 ? rc : reopen;
+    if (rc == 0) {
+        keep_dark(a, r.integration_s, r.rgb);
+        rc = dark ? dark(user, &r, err) : 0;
+    }
+    return rc;
+}
+
+/* The peak channel's signal: counts less the dark at the reading's
+ * integration, where it is known (else the offset counts as signal, which
+ * only errs towards fewer retakes). */
+static double peak_signal(const struct autorange *a, const struct drv_reading *r)
+{
+    const double *dk = dark_at(a, r->integration_s);
+    double peak = -INFINITY;
+    for (int c = 0; c < 3; c++)
+        peak = fmax(peak, r->rgb[c] - (dk ? dk[c] : 0));
+    return peak;
+}
+
+/* The integration to try after r at t: t itself when r is to be kept. */
+static double next_try(const struct autorange *a, const struct drv_reading *r, double t,
+                       int went_down)
+{
+    if (r->flags & DRV_READING_SATURATED)
+        return autorange_rung(a, t, -1); /* t at the shortest: kept, flagged */
+    double peak = peak_signal(a, r);
+    if (went_down || peak >= AUTORANGE_FLOOR * r->full_scale)
+        return t;
+    double k = round(index_of(a, t));
+    double want = index_of(a, t * AUTORANGE_AIM * r->full_scale / fmax(peak, 1.0));
+    return rung_of(a, fmax(k + 1, floor(want)));
+}
+
+int autorange_acquire(struct autorange *a, drv_detector *d, autorange_dark_fn dark,
+                      void *user, struct autorange_take *out, struct gonio_err *err)
+{
+    memset(out, 0, sizeof *out);
+    /* A detector that reduces its readings itself is read at the fixed
+     * integration, as it always was; counts start where the last point
+     * ended, on the ladder. */
+    double t = a->next_s > 0 ? a->next_s : a->fixed_s;
+    int went_down = 0, rc;
+    for (;;) {
+        if ((rc = drv_detector_acquire(d, t, &out->r, err)) < 0)
+            return rc;
+        out->total_s += out->r.integration_s;
+        out->tries++;
+        if (out->r.unit != DRV_UNIT_COUNTS || !(out->r.full_scale > 0))
+            return 0; /* a detector that reduces its readings itself: read once */
+        if ((rc = take_dark(a, d, t, dark, user, err)) < 0)
+            return rc;
+        double next = t != autorange_rung(a, t, 0) ? autorange_rung(a, t, 0)
+                                                   : next_try(a, &out->r, t, went_down);
+        if (next == t || out->tries >= AUTORANGE_TRIES)
+            break;
+        went_down |= next < t;
+        a->retakes++;
+        t = next;
+    }
+    a->next_s = t;
+    return 0;
+}
