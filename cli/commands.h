@@ -27,6 +27,12 @@ int cmd_pause(int argc, char **argv);
 int cmd_resume(int argc, char **argv);
 int cmd_abort(int argc, char **argv);
 int cmd_shutdown(int argc, char **argv);
+/* cmd_bringup.c: bring-up of a new rig through goniod. */
+int cmd_home(int argc, char **argv);
+int cmd_move(int argc, char **argv);
+int cmd_where(int argc, char **argv);
+int cmd_limits(int argc, char **argv);
+int cmd_list(int argc, char **argv);
 
 /* --budget MINUTES, --stop-target LOG_ERR (opt) of both capture commands:
  * a positive number, else a message on stderr and -1. */
