@@ -17,6 +17,7 @@
 #include <time.h>
 
 #include "capture/capture.h"
+#include "capture/journal_plan.h"
 #include "common/err.h"
 #include "planner/planner.h"
 #include "radiometry/reduce.h"
@@ -120,15 +121,19 @@ struct json_t *cal_budget_json(const struct cal_loaded *cl, const struct rad_val
 /* Reduce a counts record of the capture (journal.h) as it is measured:
  * s->rgb and s->u from its raw counts at its plan point's angles, the
  * angle term's slopes from the records done so far on its lines; the
- * budget in *v. A record without counts is left as it is. */
+ * budget in *v. A record without counts is left as it is. The capture and
+ * gonio recalibrate (capture_recalibrate) both reduce through this, each
+ * record with the records before it in the journal, so that the two agree
+ * bit for bit. plan: the points the records index (a loaded plan, or a
+ * capture directory's plan.json). */
 struct journal_sample;
-int cal_reduce_sample(const struct cal_loaded *cl, const struct plan *plan,
+int cal_reduce_sample(const struct cal_loaded *cl, const struct journal_plan *plan,
                       const struct journal_sample *done, size_t n_done,
                       struct journal_sample *s, struct rad_value *v, struct gonio_err *err);
 
 /* Add the budget table (cal_budget_json) of the capture's counts records,
  * reduced together, to DIR/results.json as its "calibration" member. */
-int cal_results_budget(const struct cal_loaded *cl, const struct plan *plan,
+int cal_results_budget(const struct cal_loaded *cl, const struct journal_plan *plan,
                        const struct journal_sample *samples, size_t n, const char *dir,
                        struct gonio_err *err);
 

@@ -16,10 +16,15 @@
 #define NEIGHBOUR_DEG 12.5 /* the angle term's slopes look no further */
 
 /* The raw reading of a journal record at its plan point's angles. */
-static void to_raw(const struct journal_sample *s, const struct plan *plan,
+static const struct plan_point *point_of(const struct journal_plan *jp, int k)
+{
+    return jp->plan ? plan_point(jp->plan, (size_t)k) : &jp->points[k];
+}
+
+static void to_raw(const struct journal_sample *s, const struct journal_plan *plan,
                    const struct cal_loaded *cl, struct rad_raw *r)
 {
-    const struct plan_point *pt = plan_point(plan, (size_t)s->point);
+    const struct plan_point *pt = point_of(plan, s->point);
     memset(r, 0, sizeof *r);
     r->theta_i = pt->theta_i, r->theta_r = pt->theta_r;
     memcpy(r->counts, s->raw, sizeof r->counts);
@@ -30,7 +35,7 @@ static void to_raw(const struct journal_sample *s, const struct plan *plan,
     r->nonlinearity = cl->nonlinearity;
 }
 
-int cal_reduce_sample(const struct cal_loaded *cl, const struct plan *plan,
+int cal_reduce_sample(const struct cal_loaded *cl, const struct journal_plan *plan,
                       const struct journal_sample *done, size_t n_done,
                       struct journal_sample *s, struct rad_value *v, struct gonio_err *err)
 {
@@ -50,7 +55,7 @@ int cal_reduce_sample(const struct cal_loaded *cl, const struct plan *plan,
     for (size_t k = 0; k < n_done; k++) {
         const struct journal_sample *d = &done[k];
         if (!d->counts || (d->flags & JOURNAL_FLAG_DARK) || d->point < 0 ||
-            (size_t)d->point >= plan_count(plan))
+            (size_t)d->point >= plan->count)
             continue;
         struct rad_raw r;
         to_raw(d, plan, cl, &r);
@@ -71,7 +76,7 @@ int cal_reduce_sample(const struct cal_loaded *cl, const struct plan *plan,
     return rc;
 }
 
-int cal_results_budget(const struct cal_loaded *cl, const struct plan *plan,
+int cal_results_budget(const struct cal_loaded *cl, const struct journal_plan *plan,
                        const struct journal_sample *samples, size_t n, const char *dir,
                        struct gonio_err *err)
 {

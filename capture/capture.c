@@ -339,7 +339,8 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
     }
     if (rc == 0 && job->cal) { /* counts to BRDF and u before the record is written */
         struct rad_value v;
-        rc = cal_reduce_sample(job->cal, job->plan, r->samples, r->n, &s, &v, err);
+        struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
+        rc = cal_reduce_sample(job->cal, &jp, r->samples, r->n, &s, &v, err);
     }
     if (rc == 0) {
         capture_phase_enter(hooks, CAPTURE_PHASE_JOURNAL, (int)k);
@@ -581,8 +582,9 @@ static int finish(struct run *r, struct gonio_err *err)
         rc = capture_assess_truth(job->truth, fitted, job->cfg.assess_nodes, out, err);
     if (rc == 0)
         rc = capture_files_results(job->cfg.out_dir, out, err);
+    struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
     if (rc == 0 && job->cal)
-        rc = cal_results_budget(job->cal, job->plan, r->samples, r->n, job->cfg.out_dir, err);
+        rc = cal_results_budget(job->cal, &jp, r->samples, r->n, job->cfg.out_dir, err);
     brdf_material_free(fitted);
     return rc;
 }

@@ -302,4 +302,16 @@ int capture_run(const struct capture_config *cfg, const struct capture_rig *rig,
 int capture_check(const struct capture_config *cfg, const struct capture_rig *rig,
                   struct plan_estimate *est, struct gonio_err *err);
 
+/* gonio recalibrate: the raw counts journalled in capture DIR reduced
+ * again with reference calibration ID of ROOT (capture/calibration.h), in
+ * the capture's order and through the same per-record reduction, and
+ * refitted with the capture's model, into the new directory OUT (plan.json,
+ * setup.json naming ID and DIR, samples.csv, the model file, results.json
+ * with the budget). DIR is only read. Refused (-GONIO_EBADCONFIG, naming
+ * what differs) for a capture without raw counts or a calibration of
+ * another rig or detector; -GONIO_EUSAGE when OUT already holds a capture.
+ * The refit starts cold, as a capture with stop: all does. */
+int capture_recalibrate(const char *dir, const char *root, const char *id, const char *out,
+                        struct gonio_err *err);
+
 #endif

@@ -15,6 +15,7 @@ int cmd_render(int argc, char **argv);
 int cmd_study(int argc, char **argv);
 int cmd_journal(int argc, char **argv);
 int cmd_calibrate(int argc, char **argv);
+int cmd_recalibrate(int argc, char **argv);
 
 /* cmd_daemon.c: the commands that talk to goniod. cmd_capture_any runs
  * cmd_capture for --offline and cmd_capture_daemon otherwise. */

@@ -36,6 +36,7 @@ static const struct {
     {"study", cmd_study, "accuracy against rig time: materials x plans x models x scenes"},
     {"journal", cmd_journal, "check a capture's journal as a resume would, without resuming"},
     {"calibrate", cmd_calibrate, "measure dark frames or a reference standard (docs/radiometry.md)"},
+    {"recalibrate", cmd_recalibrate, "reduce a capture's raw counts again with another calibration"},
 };
 
 #define N_COMMANDS (sizeof commands / sizeof commands[0])

@@ -160,3 +160,81 @@ def test_resume_keeps_its_calibration(root):
     assert c.returncode == 2, c.stderr
     assert "setup.json has calibration '%s', this capture asks for '%s'" % (first, second) \
         in c.stderr, c.stderr
+
+
+def digest(folder):
+    """Every file of a capture directory, by name, as bytes."""
+    return {f: open(os.path.join(folder, f), "rb").read() for f in sorted(os.listdir(folder))
+            if os.path.isfile(os.path.join(folder, f))}
+
+
+def test_recalibrate_equals_capturing_with_that_calibration(root):
+    """A capture reduced again with calibration B equals, byte for byte,
+    the same seeded capture taken with B; the original is left as it was."""
+    cal = os.path.join(root, "cal")
+    lab = rig(root, "lab", 0.25)
+    first = calibrate(cal, lab)
+    time.sleep(1.1)  # a new id: ids are to the second
+    r = gonio("calibrate", "reference", "--offline", "--scene", "lab-raw", "--rig", lab,
+              "--plan", "ds3", "--out", cal, "--repeats", "3")  # other frames, another gain
+    assert r.returncode == 0, r.stderr
+    second = r.stdout.strip()
+    cap_a, cap_b = os.path.join(root, "a"), os.path.join(root, "b")
+    assert capture(cal, lab, cap_a, first).returncode == 0
+    assert capture(cal, lab, cap_b, second).returncode == 0
+    before = digest(cap_a)
+    out = os.path.join(root, "re")
+    r = gonio("recalibrate", cap_a, "--calibration", second, "--calibrations", cal, "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert digest(cap_a) == before, "the original record is never written"
+    a = list(csv.DictReader(open(os.path.join(cap_a, "samples.csv"))))
+    b = list(csv.DictReader(open(os.path.join(cap_b, "samples.csv"))))
+    re = list(csv.DictReader(open(os.path.join(out, "samples.csv"))))
+    cols = ["r", "g", "b", "u_r", "u_g", "u_b"]
+    # The two calibrations reduce the same raw counts differently ...
+    assert [x["raw_g"] for x in a] == [x["raw_g"] for x in b]
+    assert sum(x["g"] != y["g"] for x, y in zip(a, b)) > 40
+    # ... and recalibrating with B gives B's values exactly, as text.
+    assert [[x[c] for c in cols] for x in re] == [[x[c] for c in cols] for x in b]
+    assert open(os.path.join(out, "samples.csv"), "rb").read() == \
+        open(os.path.join(cap_b, "samples.csv"), "rb").read()
+    assert open(os.path.join(out, "abc.model"), "rb").read() == \
+        open(os.path.join(cap_b, "abc.model"), "rb").read()
+    assert open(os.path.join(out, "abc.model"), "rb").read() != \
+        open(os.path.join(cap_a, "abc.model"), "rb").read()
+    setup = json.load(open(os.path.join(out, "setup.json")))
+    assert setup["calibration"] == second and setup["recalibrated_from"] == cap_a
+    res = json.load(open(os.path.join(out, "results.json")))
+    assert res["calibration"]["id"] == second
+    assert res["calibration"]["budget"] == \
+        json.load(open(os.path.join(cap_b, "results.json")))["calibration"]["budget"]
+    # Beside the capture by default, and never over another.
+    r = gonio("recalibrate", cap_a, "--calibration", second, "--calibrations", cal)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == os.path.join(cap_a, "recalibrated-" + second)
+    r = gonio("recalibrate", cap_a, "--calibration", second, "--calibrations", cal, "-o", out)
+    assert r.returncode == 2 and "already holds a capture" in r.stderr, r.stderr
+
+
+def test_recalibrate_refusals(root):
+    cal = os.path.join(root, "cal")
+    lab = rig(root, "lab", 0.25)
+    cal_id = calibrate(cal, lab)
+    other = calibrate(os.path.join(root, "cal2"), rig(root, "bench", 0.25))
+    cap = os.path.join(root, "cap")
+    assert capture(cal, lab, cap, cal_id).returncode == 0
+    r = gonio("recalibrate", cap, "--calibration", other, "--calibrations",
+              os.path.join(root, "cal2"), "-o", os.path.join(root, "x"))
+    assert r.returncode == 2 and "is for rig 'bench'" in r.stderr \
+        and "taken on rig 'lab'" in r.stderr, r.stderr
+    brdf = os.path.join(root, "brdf")  # a detector that reports BRDF: nothing raw
+    c = gonio("capture", "--offline", "--scene", "lab", "--plan", "ds4", "--out", brdf,
+              "--quiet")
+    assert c.returncode == 0, c.stderr
+    r = gonio("recalibrate", brdf, "--calibration", cal_id, "--calibrations", cal, "-o",
+              os.path.join(root, "y"))
+    assert r.returncode == 2 and "no record holds raw counts" in r.stderr, r.stderr
+    r = gonio("recalibrate", cap, "--calibrations", cal)
+    assert r.returncode == 2 and "--calibration ID" in r.stderr
+    assert not os.path.exists(os.path.join(root, "x")) and not os.path.exists(
+        os.path.join(root, "y"))
