@@ -121,8 +121,9 @@ struct json_t *cal_budget_json(const struct cal_loaded *cl, const struct rad_val
 /* Reduce a counts record of the capture (journal.h) as it is measured:
  * s->rgb and s->u from its raw counts at its plan point's angles, the
  * angle term's slopes from the records done so far on its lines; the
- * budget in *v. A record without counts is left as it is. The capture and
- * gonio recalibrate (capture_recalibrate) both reduce through this, each
+ * budget in *v. A record without counts, or a dark frame, is left as it
+ * is. The capture and gonio recalibrate (capture_recalibrate) both reduce
+ * through this, each
  * record with the records before it in the journal, so that the two agree
  * bit for bit. plan: the points the records index (a loaded plan, or a
  * capture directory's plan.json). */

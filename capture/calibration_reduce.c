@@ -39,8 +39,10 @@ int cal_reduce_sample(const struct cal_loaded *cl, const struct journal_plan *pl
                       const struct journal_sample *done, size_t n_done,
                       struct journal_sample *s, struct rad_value *v, struct gonio_err *err)
 {
-    if (!s->counts)
-        return 0; /* a detector that gave BRDF: nothing to reduce */
+    /* A detector that gave BRDF has nothing to reduce; a dark frame is
+     * kept as the counts it is, the dark its neighbours were taken with. */
+    if (!s->counts || (s->flags & JOURNAL_FLAG_DARK))
+        return 0;
     /* The sample and its neighbours on its lines (same theta_i or same
      * theta_r, within the slope's reach), the sample first. */
     struct rad_raw *raw = malloc((n_done + 1) * sizeof *raw);

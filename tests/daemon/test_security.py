@@ -553,7 +553,8 @@ class PathCaptureTests(PathBase):
         r = self.c.request("resume", capture_id="linked")
         self.assertEqual((r["class"], r["code"]), ("ERROR", "not-found"), r)
         self.assertEqual(sorted(os.listdir(away)), before)
-        r = self.c.request("resume", capture_id="good")
+        # a complete capture resumes only to be fitted again
+        r = self.c.request("resume", capture_id="good", refit=True)
         self.assertEqual(r["class"], "OK", r)
         self.assertEqual(self.c.until_stop("good")[-1]["exit_status"], "success")
         self.check_complete("good")
