@@ -16,142 +16,9 @@
 
 #include "capture/capture.h"
 #include "cli/commands.h"
+#include "cli/conn.h"
 #include "cli/progress.h"
 #include "fit/models.h"
-
-#define GONIO_SOCKET_DEFAULT "/run/goniod/goniod.sock"
-
-struct conn {
-    int fd;
-    FILE *in;
-    long next_id;
-    const char *path;
-};
-
-static const char *socket_path(const char *opt)
-{
-    const char *env = getenv("GONIO_SOCKET");
-    return opt ? opt : env && env[0] ? env : GONIO_SOCKET_DEFAULT;
-}
-
-/* The next document from the daemon, or NULL when the connection ends. */
-static json_t *conn_read(struct conn *c)
-{
-    char *line = NULL;
-    size_t cap = 0;
-    ssize_t n = getline(&line, &cap, c->in);
-    if (n <= 0) {
-        free(line);
-        return NULL;
-    }
-    json_error_t je;
-    json_t *d = json_loadb(line, (size_t)n, 0, &je);
-    free(line);
-    if (!json_is_object(d)) {
-        json_decref(d);
-        fprintf(stderr, "gonio: goniod sent something that is not a JSON object\n");
-        return NULL;
-    }
-    return d;
-}
-
-static int conn_open(struct conn *c, const char *path)
-{
-    memset(c, 0, sizeof *c);
-    c->path = path;
-    c->next_id = 1;
-    struct sockaddr_un sa = {.sun_family = AF_UNIX};
-    if (strlen(path) >= sizeof sa.sun_path) {
-        fprintf(stderr, "gonio: %s: socket path too long\n", path);
-        return -1;
-    }
-    memcpy(sa.sun_path, path, strlen(path) + 1);
-    c->fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    if (c->fd < 0 || connect(c->fd, (struct sockaddr *)&sa, sizeof sa) < 0) {
-        fprintf(stderr, "gonio: cannot reach goniod at %s: %s (is goniod running? --socket "
-                        "or GONIO_SOCKET name another socket)\n",
-                path, strerror(errno));
-        if (c->fd >= 0)
-            close(c->fd);
-        return -1;
-    }
-    c->in = fdopen(dup(c->fd), "r");
-    json_t *v = c->in ? conn_read(c) : NULL;
-    const char *cls = json_string_value(json_object_get(v, "class"));
-    json_int_t major = json_integer_value(json_object_get(v, "proto_major"));
-    int ok = cls && !strcmp(cls, "VERSION") && major == 1;
-    if (!ok) {
-        if (cls && !strcmp(cls, "ERROR"))
-            fprintf(stderr, "gonio: goniod: %s\n",
-                    json_string_value(json_object_get(v, "message")));
-        else
-            fprintf(stderr, "gonio: %s: not a goniod speaking protocol 1\n", path);
-    }
-    json_decref(v);
-    if (!ok) {
-        if (c->in)
-            fclose(c->in);
-        close(c->fd);
-        return -1;
-    }
-    return 0;
-}
-
-static void conn_close(struct conn *c)
-{
-    fclose(c->in);
-    close(c->fd);
-}
-
-/* Send a request (stolen) and return its reply: OK, STATUS or ERROR. */
-static json_t *conn_request(struct conn *c, json_t *req)
-{
-    long id = c->next_id++;
-    json_object_set_new(req, "id", json_integer(id));
-    char *text = json_dumps(req, JSON_COMPACT);
-    json_decref(req);
-    if (!text)
-        return NULL;
-    size_t len = strlen(text);
-    text[len] = '\0';
-    int ok = send(c->fd, text, len, MSG_NOSIGNAL) == (ssize_t)len &&
-             send(c->fd, "\n", 1, MSG_NOSIGNAL) == 1;
-    free(text);
-    if (!ok) {
-        fprintf(stderr, "gonio: lost goniod at %s\n", c->path);
-        return NULL;
-    }
-    for (;;) {
-        json_t *d = conn_read(c);
-        if (!d) {
-            fprintf(stderr, "gonio: goniod closed the connection\n");
-            return NULL;
-        }
-        json_t *rid = json_object_get(d, "id");
-        const char *cls = json_string_value(json_object_get(d, "class"));
-        /* Unsolicited errors (no id) end the exchange too. */
-        if ((json_is_integer(rid) && json_integer_value(rid) == id) ||
-            (!rid && cls && !strcmp(cls, "ERROR")))
-            return d;
-        json_decref(d); /* a watch document before the reply */
-    }
-}
-
-/* Print a daemon error as given. 0 if d is no error; 2 if goniod refused
- * what was asked as bad input (bad-value: an unknown plan, a name outside
- * the capture root...), 1 for any other error or a missing reply. */
-static int reply_failed(json_t *d)
-{
-    if (!d)
-        return 1;
-    const char *cls = json_string_value(json_object_get(d, "class"));
-    if (cls && !strcmp(cls, "ERROR")) {
-        const char *code = json_string_value(json_object_get(d, "code"));
-        fprintf(stderr, "gonio: goniod: %s\n", json_string_value(json_object_get(d, "message")));
-        return code && !strcmp(code, "bad-value") ? 2 : 1;
-    }
-    return 0;
-}
 
 /* ---- watching -------------------------------------------------------- */
 
@@ -274,7 +141,7 @@ static int follow(struct conn *c, const char *id, int quiet)
             return rc;
         } else if (!strcmp(cls, "ERROR")) {
             progress_end(&p);
-            reply_failed(d);
+            conn_reply_failed(d);
             json_decref(d);
             return 1;
         }
@@ -342,13 +209,13 @@ static int simple(int argc, char **argv, const char *cmd, const char *usage_args
         return 2;
     }
     struct conn c;
-    if (conn_open(&c, socket_path(sock)) < 0)
+    if (conn_open(&c, conn_socket_path(sock)) < 0)
         return 1;
     json_t *req = json_pack("{s:s}", "cmd", cmd);
     if (arg)
         json_object_set_new(req, "capture_id", json_string(arg));
     json_t *rep = conn_request(&c, req);
-    int rc = reply_failed(rep);
+    int rc = conn_reply_failed(rep);
     if (!rc && !strcmp(cmd, "status")) {
         if (json_out) {
             json_object_del(rep, "id");
@@ -443,10 +310,10 @@ int cmd_watch(int argc, char **argv)
         return 2;
     }
     struct conn c;
-    if (conn_open(&c, socket_path(sock)) < 0)
+    if (conn_open(&c, conn_socket_path(sock)) < 0)
         return 1;
     json_t *rep = conn_request(&c, json_pack("{s:s}", "cmd", "watch"));
-    int rc = reply_failed(rep);
+    int rc = conn_reply_failed(rep);
     json_decref(rep);
     if (!rc)
         rc = follow(&c, NULL, quiet);
@@ -542,12 +409,12 @@ int cmd_capture_daemon(int argc, char **argv)
         return 2;
     }
     struct conn c;
-    if (conn_open(&c, socket_path(sock)) < 0)
+    if (conn_open(&c, conn_socket_path(sock)) < 0)
         return 1;
     int rc = 0;
     if (wait) { /* subscribe first, so not even a quick capture's start is missed */
         json_t *rep = conn_request(&c, json_pack("{s:s}", "cmd", "watch"));
-        rc = reply_failed(rep);
+        rc = conn_reply_failed(rep);
         json_decref(rep);
     }
     json_t *rep = NULL;
@@ -563,7 +430,7 @@ int cmd_capture_daemon(int argc, char **argv)
         if (prescan >= 0)
             json_object_set_new(req, "prescan", json_integer((json_int_t)prescan));
         rep = conn_request(&c, req);
-        rc = reply_failed(rep);
+        rc = conn_reply_failed(rep);
     }
     if (!rc) {
         char id[128];
