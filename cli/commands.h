@@ -14,6 +14,7 @@ int cmd_plot(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_study(int argc, char **argv);
 int cmd_journal(int argc, char **argv);
+int cmd_live(int argc, char **argv);
 
 /* cmd_daemon.c: the commands that talk to goniod. cmd_capture_any runs
  * cmd_capture for --offline and cmd_capture_daemon otherwise. */
