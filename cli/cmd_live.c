@@ -1,6 +1,7 @@
 /* gonio live: a page in the browser that follows goniod's capture stream,
  * or shows a finished capture from its directory (docs/live.md). A shell
  * over cli/live_state.h and cli/live_http.h: it watches, never controls. */
+#include <arpa/inet.h>
 #include <errno.h>
 #include <getopt.h>
 #include <signal.h>
@@ -51,6 +52,12 @@ static int parse_listen(const char *text, char *host, size_t n, unsigned *port)
         hl -= 2;
     }
     if (!colon || hl == 0 || hl >= n || !colon[1])
+        return -1;
+    unsigned char addr[16];
+    char h0[64];
+    snprintf(h0, sizeof h0, "%.*s", (int)hl, h);
+    /* an address, not a name: what it binds to is then what was asked */
+    if (inet_pton(AF_INET, h0, addr) != 1 && inet_pton(AF_INET6, h0, addr) != 1)
         return -1;
     char *end;
     errno = 0;
@@ -119,7 +126,7 @@ int cmd_live(int argc, char **argv)
     char host[128];
     unsigned port;
     if (parse_listen(listen, host, sizeof host, &port) < 0) {
-        fprintf(stderr, "gonio live: --listen '%s': use ADDRESS:PORT (127.0.0.1:8080, "
+        fprintf(stderr, "gonio live: --listen '%s': use IP-ADDRESS:PORT (127.0.0.1:8080, "
                         "[::1]:8080), port 0..65535\n", listen);
         return 2;
     }
