@@ -43,6 +43,12 @@ static void one_effect(struct sim_scene *sc, enum sim_effect_kind kind)
     fx->level = kind == SIM_FX_SATURATION ? 1e5 : kind == SIM_FX_BACKLASH ? 0.05 : 0.001;
     if (kind == SIM_FX_DARK)
         fx->level = 500;
+    if (kind == SIM_FX_LAMP_MONITOR)
+        fx->level = 1e7;
+    fx->gain = 0.8; /* adc: lab-raw's */
+    fx->bits = 16;
+    fx->offset = 1000;
+    fx->nonlinearity = 0.02;
     fx->rate = 1e-6;
     fx->code = 0x10;
     fx->drop = 0.01;
@@ -135,7 +141,7 @@ int main(int argc, char **argv)
     double bare_sig = bench_signal(&sc, n), bare_move = bench_move(&sc, n);
     printf("| row | ns/sample | added to bare |\n|---|---:|---:|\n");
     printf("| bare detector pipeline (3 channels) | %.1f | |\n", bare_sig);
-    for (int k = SIM_FX_LAMP_DRIFT; k <= SIM_FX_SATURATION; k++) {
+    for (int k = SIM_FX_LAMP_DRIFT; k <= SIM_FX_LAMP_MONITOR; k++) {
         one_effect(&sc, (enum sim_effect_kind)k);
         double t = bench_signal(&sc, n);
         printf("| %s | %.1f | %+.1f |\n", sim_effect_name((enum sim_effect_kind)k), t,
@@ -157,8 +163,8 @@ int main(int argc, char **argv)
     if (!m)
         return 1;
     long nr = n / 10;
-    const char *scenes[] = {"ideal", "lab", "bad-day", "spectral-lab"};
-    for (int i = 0; i < 4; i++) {
+    const char *scenes[] = {"ideal", "lab", "lab-raw", "bad-day", "spectral-lab"};
+    for (size_t i = 0; i < sizeof scenes / sizeof scenes[0]; i++) {
         struct gonio_err err = {0};
         if (sim_scene_load(scenes[i], &sc, &err) < 0) {
             fprintf(stderr, "effects_bench: %s\n", err.msg);

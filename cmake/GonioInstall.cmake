@@ -10,6 +10,9 @@
 #   /usr/lib/tmpfiles.d          gonio.conf: /run/goniod, /var/lib/gonio
 #   /usr/share/man               gonio(1), gonio-sim(1), goniod.yaml(5), goniod(8)
 #   /usr/share/doc/gonio         docs/*.md, README.md, the goniod config examples
+#   /usr/lib/python3/dist-packages/gonio
+#                                the Python client, with libgonio_model.so beside
+#                                its modules (docs/python.md)
 # The /etc and /var paths follow GNUInstallDirs: /etc for prefix /usr, else
 # PREFIX/etc; systemd's folders are always under the prefix's lib.
 install(TARGETS gonio goniod gonio-sim RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
@@ -43,3 +46,9 @@ install(FILES ${GONIO_DOCS} README.md LICENSE DESTINATION ${CMAKE_INSTALL_DOCDIR
 # for an installed system.
 install(DIRECTORY configs/goniod/ DESTINATION ${CMAKE_INSTALL_DOCDIR}/examples/goniod
         PATTERN "source-tree.yaml" EXCLUDE)
+
+# The Python client: Debian's python3 looks in PREFIX/lib/python3/dist-packages.
+set(GONIO_INSTALL_PYTHON_DIR "${CMAKE_INSTALL_PREFIX}/lib/python3/dist-packages/gonio")
+install(DIRECTORY python/gonio/ DESTINATION ${GONIO_INSTALL_PYTHON_DIR}
+        FILES_MATCHING PATTERN "*.py" PATTERN "__pycache__" EXCLUDE)
+install(TARGETS gonio_model LIBRARY DESTINATION ${GONIO_INSTALL_PYTHON_DIR})

@@ -112,11 +112,16 @@ void control_send_error(struct control_client *cl, const char *code, json_t *id,
     control_client_send(cl, error_doc(code, msg, id));
 }
 
-void control_broadcast(control *c, const char *text)
+void control_broadcast_to(control *c, int format, const char *text)
 {
     for (size_t i = 0; i < c->n_clients; i++)
-        if (c->clients[i]->watching)
+        if (c->clients[i]->watching & format)
             control_client_send_text(c->clients[i], text);
+}
+
+void control_broadcast(control *c, const char *text)
+{
+    control_broadcast_to(c, CONTROL_WATCH_STREAM, text);
 }
 
 /* ---- input ----------------------------------------------------------- */

@@ -183,9 +183,20 @@ static int cmd_status(control *c, struct control_client *cl, json_t *req, json_t
 static int cmd_watch(control *c, struct control_client *cl, json_t *req, json_t *reply,
                      const char **code, struct gonio_err *err)
 {
-    (void)req, (void)reply, (void)code, (void)err;
-    (void)c;
-    cl->watching = 1;
+    (void)c, (void)reply;
+    /* The running capture's first documents follow the OK
+     * (control_handle_line). */
+    const char *format = jstr(req, "format");
+    if (!format || !strcmp(format, "stream")) {
+        cl->watching |= CONTROL_WATCH_STREAM;
+        return 0;
+    }
+    if (strcmp(format, "event-model") != 0) {
+        *code = "bad-value";
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "watch: field 'format' '%s': use stream or event-model", format);
+    }
+    cl->watching |= CONTROL_WATCH_EVENTS;
     return 0;
 }
 
@@ -330,9 +341,14 @@ int control_handle_line(control *c, struct control_client *cl, const char *line,
         control_client_send(cl, reply);
         /* A watcher that subscribes mid-capture still gets the capture's
          * start and descriptor first. */
-        if (cmd->run == cmd_watch && c->start_doc) {
-            control_client_send_text(cl, c->start_doc);
-            control_client_send_text(cl, c->descriptor_doc);
+        if (cmd->run == cmd_watch) {
+            const char *format = jstr(req, "format");
+            if (format && !strcmp(format, "event-model"))
+                control_events_greet(c, cl);
+            else if (c->start_doc) {
+                control_client_send_text(cl, c->start_doc);
+                control_client_send_text(cl, c->descriptor_doc);
+            }
         }
     }
     control_request_free(&rq);

@@ -7,6 +7,7 @@
  *   control_paths.c     what a request may name on disk, and the request record
  *   control_stream.c    the documents streamed to watchers during a capture
  *                       (control_dispatch)
+ *   control_events.c    the same capture as Bluesky event-model documents
  *
  * Nothing outside these files includes this header: daemon/control.h is the
  * interface. */
@@ -24,6 +25,20 @@
 #include "daemon/control.h"
 #include "daemon/worker.h"
 
+/* What a watching client subscribed to (bits of control_client.watching):
+ * the capture stream's own documents, event-model [name, doc] pairs. */
+enum { CONTROL_WATCH_STREAM = 1, CONTROL_WATCH_EVENTS = 2 };
+
+/* The current run as event-model documents (control_events.c): uids the
+ * later documents refer to, and the run_start and descriptor lines kept for
+ * watchers that subscribe mid-capture. */
+struct control_events {
+    char run[37], primary[37]; /* "" when no run is open */
+    char *start_text, *descriptor_text;
+    unsigned long long seq;
+    int adaptive;
+};
+
 struct control_client {
     int fd;
     size_t max_out;    /* queued output beyond this drops the client */
@@ -31,7 +46,7 @@ struct control_client {
     size_t in_len;
     char *out;
     size_t out_len, out_cap;
-    int watching;
+    int watching;      /* CONTROL_WATCH_* bits */
     int closing;       /* close once out is sent */
     int dead;
     double last_active; /* last well-formed request (or the connect) */
@@ -53,6 +68,7 @@ struct control {
      * that subscribe mid-capture; NULL when idle. */
     char *start_doc, *descriptor_doc;
     unsigned long long seq; /* event sequence number within a capture */
+    struct control_events ev;
     /* Refused clients in the current log window (control_clients.c): since
      * when, how many logged in full, how many only counted. */
     double refused_since;
@@ -86,8 +102,10 @@ void control_client_send(struct control_client *cl, json_t *doc);
 /* Queue {"class":"ERROR",...}; id (borrowed, may be NULL) is echoed. */
 void control_send_error(struct control_client *cl, const char *code, json_t *id,
                         const char *fmt, ...) __attribute__((format(printf, 4, 5)));
-/* Queue one line to every watching client. */
+/* Queue one line to every client watching the capture stream. */
 void control_broadcast(control *c, const char *text);
+/* Queue one line to every client watching with format (CONTROL_WATCH_*). */
+void control_broadcast_to(control *c, int format, const char *text);
 /* Log the count of refused clients not yet logged, if any (at shutdown). */
 void control_refusals_flush(control *c);
 /* Close and free the dead clients, keeping the others in order. */
@@ -99,6 +117,18 @@ void control_client_free(struct control_client *cl);
 /* Tell watchers the capture is now paused or running again (after pause
  * and resume): {"class":"state","capture_id":...,"state":"paused"}. */
 void control_broadcast_state(control *c);
+
+/* ---- control_events.c ------------------------------------------------- */
+
+/* The event-model documents of a capture run's start (run_start, the primary
+ * stream's descriptor), of each sample (an event) and of its end (the fit
+ * stream, run_stop), sent to event-model watchers. */
+void control_events_start(control *c, const struct worker_msg_start *m);
+void control_events_sample(control *c, const struct worker_msg_sample *m);
+void control_events_stop(control *c, const struct worker_msg_stop *m);
+/* A watcher that subscribes mid-run: the run's run_start and descriptor. */
+void control_events_greet(control *c, struct control_client *cl);
+void control_events_free(control *c);
 
 /* ---- control_commands.c ----------------------------------------------- */
 

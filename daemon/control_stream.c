@@ -237,9 +237,11 @@ void control_dispatch(control *c, struct worker_msg *msgs)
                 control_broadcast(c, c->start_doc);
             if (c->descriptor_doc)
                 control_broadcast(c, c->descriptor_doc);
+            control_events_start(c, ms);
         } else if (m->kind == WORKER_MSG_SAMPLE) {
             c->seq++;
             doc = sample_doc(c, (const struct worker_msg_sample *)m);
+            control_events_sample(c, (const struct worker_msg_sample *)m);
         } else {
             const struct worker_msg_stop *ms = (const struct worker_msg_stop *)m;
             if (ms->rc < 0)
@@ -254,6 +256,7 @@ void control_dispatch(control *c, struct worker_msg *msgs)
                         ms->comm.timeouts, ms->comm.bad_replies, ms->comm.exceptions,
                         ms->comm.failed, ms->comm.reconnects);
             doc = stop_doc(ms);
+            control_events_stop(c, ms);
             free(c->start_doc);
             free(c->descriptor_doc);
             c->start_doc = c->descriptor_doc = NULL;

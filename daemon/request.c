@@ -36,6 +36,7 @@ static const struct arg_spec capture_args[] = {
 };
 static const struct arg_spec resume_args[] = {STRING_ARG("capture_id"), {.name = NULL}};
 static const struct arg_spec no_args[] = {{.name = NULL}};
+static const struct arg_spec watch_args[] = {STRING_ARG("format"), {.name = NULL}};
 
 /* The fields each command takes besides cmd and id, indexed by enum control_cmd. */
 static const struct {
@@ -44,7 +45,7 @@ static const struct {
 } commands[CONTROL_CMD_COUNT] = {
     [CONTROL_CMD_CAPTURE] = {"capture", capture_args},
     [CONTROL_CMD_STATUS] = {"status", no_args},
-    [CONTROL_CMD_WATCH] = {"watch", no_args},
+    [CONTROL_CMD_WATCH] = {"watch", watch_args},
     [CONTROL_CMD_PAUSE] = {"pause", no_args},
     [CONTROL_CMD_RESUME] = {"resume", resume_args},
     [CONTROL_CMD_ABORT] = {"abort", no_args},

@@ -19,6 +19,7 @@ struct drv_modbus_bus {
     double timeout_s, time_scale;
     int retries, trace, tcp;
     struct drv_modbus_stats stats;
+    int last_exception; /* of the last transaction: its exception code, 0 none */
     int (*cancelled)(void *user); /* drv_modbus_bus_set_cancel */
     void *cancel_user;
     /* The line (drv_modbus_acted): wall seconds a character takes on it
@@ -45,6 +46,11 @@ struct drv_modbus_bus {
         long requests; /* stats.requests when noted */
     } clock;
 };
+
+int drv_modbus_last_exception(const drv_modbus_bus *bus)
+{
+    return bus->last_exception;
+}
 
 void drv_modbus_bus_stats(const drv_modbus_bus *bus, struct drv_modbus_stats *out)
 {
@@ -402,6 +408,7 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
 {
     int e = 0, lost = 0, refused = 0;
     bus->stats.requests++;
+    bus->last_exception = 0;
     for (int attempt = 0; attempt <= bus->retries; attempt++) {
         if (attempt > 0)
             bus->stats.retries++;
@@ -426,6 +433,7 @@ static int transact(drv_modbus_bus *bus, int slave, int write, int addr, int n, 
         /* An exception is the device's considered answer: no retry. */
         if (e > MODBUS_ENOBASE && e < EMBBADCRC) {
             bus->stats.exceptions++;
+            bus->last_exception = e - MODBUS_ENOBASE;
             return gonio_err_set(err, GONIO_EDEVICE,
                                  "%s (slave %d): %s register 0x%04x (%d): exception %d (%s)",
                                  who, slave, write ? "writing" : "reading", (unsigned)addr, n,

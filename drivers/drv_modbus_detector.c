@@ -2,11 +2,13 @@
  * time (when the detector does not hold it already) and the trigger, wait
  * out the integration, read until READY with a sequence number the
  * trigger did not start from: the read that sees it holds the channels and
- * the rig clock too. */
+ * the rig clock too. A raw reading (status RAW) takes one read more, of the
+ * raw block (drivers/drv_modbus_raw.c). */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "drivers/drivers_private.h"
 #include "drivers/drv_modbus_private.h"
@@ -15,7 +17,8 @@
 enum { R_INTEGRATION = MB_DET_INTEGRATION, R_TRIGGER = MB_DET_TRIGGER, R_STATUS = MB_DET_STATUS,
        R_COUNT = MB_DET_COUNT, R_SEQUENCE = MB_DET_SEQUENCE, R_CLOCK = MB_DET_CLOCK,
        R_CHANNELS = MB_DET_CHANNELS, R_NREGS = MB_DET_CHANNELS + 6 };
-enum { ST_BUSY = MB_DET_BUSY, ST_READY = MB_DET_READY, ST_SATURATED = MB_DET_SATURATED };
+enum { ST_BUSY = MB_DET_BUSY, ST_READY = MB_DET_READY, ST_SATURATED = MB_DET_SATURATED,
+       ST_RAW = MB_DET_RAW };
 
 struct mb_detector {
     drv_modbus_bus *bus;
@@ -30,6 +33,10 @@ struct mb_detector {
      * a device that restarted shows them gone back. */
     int seen;
     uint32_t seen_seq, seen_clock;
+    /* The shutter as last asked (1 closed), and drv_modbus_faults then: a
+     * device that may have restarted since is told again. */
+    int shutter_closed;
+    long shutter_faults;
 };
 
 /* Integration, trigger, status, channel count, sequence, rig clock and
@@ -41,6 +48,7 @@ struct mb_detector {
 struct det_state {
     uint32_t st, count, seq, used_us;
     double rgb[3];
+    uint32_t counts[3]; /* the same registers as uint32: a raw reading's */
 };
 
 static int read_state(struct mb_detector *d, struct det_state *s, struct gonio_err *err)
@@ -53,8 +61,10 @@ static int read_state(struct mb_detector *d, struct det_state *s, struct gonio_e
     s->st = drv_modbus_get32(r + R_STATUS);
     s->count = drv_modbus_get32(r + R_COUNT);
     s->seq = drv_modbus_get32(r + R_SEQUENCE);
-    for (int k = 0; k < 3; k++)
+    for (int k = 0; k < 3; k++) {
         s->rgb[k] = drv_modbus_get_float(r + R_CHANNELS + 2 * k);
+        s->counts[k] = drv_modbus_get32(r + R_CHANNELS + 2 * k);
+    }
     uint32_t clock = drv_modbus_get32(r + R_CLOCK);
     drv_modbus_note_clock(d->bus, d->slave, clock);
     /* Differences modulo 2^32: a wrap is forward, a restart back. */
@@ -75,6 +85,42 @@ static int read_state(struct mb_detector *d, struct det_state *s, struct gonio_e
     return 0;
 }
 
+/* A reading accepted: the next trigger need not read the state first. */
+static int reading_taken(struct mb_detector *d, const struct det_state *s,
+                         struct drv_reading *out)
+{
+    d->seq_known = 1;
+    d->faults = drv_modbus_faults(d->bus);
+    d->seq = s->seq;
+    d->used_us = s->used_us;
+    out->integration_s = s->used_us * 1e-6;
+    return 0;
+}
+
+/* The shutter register: 1 closed, 0 open. A detector without one answers
+ * exception 02 (no such register): -ENOTSUP, as drivers.h says. */
+static int write_shutter(struct mb_detector *d, int closed, struct gonio_err *err)
+{
+    uint16_t w[2];
+    drv_modbus_put32(w, (uint32_t)closed);
+    long faults = drv_modbus_faults(d->bus);
+    int rc = drv_modbus_write(d->bus, d->slave, MB_DET_SHUTTER, 2, w, d->who, err);
+    if (rc < 0 && drv_modbus_last_exception(d->bus) == 2)
+        return gonio_err_set(err, ENOTSUP, "%s (slave %d) has no shutter (register 0x%04x: "
+                             "exception 02): cover it instead", d->who, d->slave,
+                             (unsigned)MB_DET_SHUTTER);
+    if (rc < 0)
+        return rc;
+    d->shutter_closed = closed;
+    d->shutter_faults = faults;
+    return 0;
+}
+
+static int mb_shutter(void *priv, int closed, struct gonio_err *err)
+{
+    return write_shutter(priv, closed != 0, err);
+}
+
 static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
                       struct gonio_err *err)
 {
@@ -85,6 +131,8 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
     struct det_state s = {.count = 3, .seq = d->seq, .used_us = d->used_us};
     int known = d->seq_known && d->faults == drv_modbus_faults(d->bus);
     int rc = known ? 0 : read_state(d, &s, err);
+    if (rc == 0 && d->shutter_closed && d->shutter_faults != drv_modbus_faults(d->bus))
+        rc = write_shutter(d, 1, err);
     if (rc < 0)
         return rc;
     uint32_t seq0 = s.seq;
@@ -131,6 +179,14 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
     }
     if (rc < 0)
         return rc;
+    if (s.st & ST_RAW) {
+        struct mb_raw_channels raw = {.seq = s.seq, .shutter_closed = d->shutter_closed,
+                                      .saturated = (s.st & ST_SATURATED) != 0};
+        memcpy(raw.counts, s.counts, sizeof raw.counts);
+        if ((rc = drv_modbus_read_raw(d->bus, d->slave, d->who, &raw, out, err)) < 0)
+            return rc;
+        return reading_taken(d, &s, out);
+    }
     for (int k = 0; k < 3; k++) {
         out->rgb[k] = s.rgb[k];
         /* A NaN or infinite reading would be journalled and fitted as a
@@ -139,13 +195,8 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
             return gonio_err_set(err, GONIO_EDEVICE, "%s (slave %d): channel %c reads %g",
                                  d->who, d->slave, "RGB"[k], out->rgb[k]);
     }
-    d->seq_known = 1;
-    d->faults = drv_modbus_faults(d->bus);
-    d->seq = s.seq;
-    d->used_us = s.used_us;
-    out->integration_s = s.used_us * 1e-6;
     out->flags = (s.st & ST_SATURATED) ? DRV_READING_SATURATED : 0;
-    return 0;
+    return reading_taken(d, &s, out);
 }
 
 /* The trigger's shortest write (FC 0x06) reaches the detector no sooner
@@ -161,6 +212,7 @@ static double mb_lag(const void *priv)
 static const struct drv_detector_ops mb_detector_ops = {
     .name = "modbus",
     .acquire = mb_acquire,
+    .shutter = mb_shutter,
     .lag = mb_lag,
     .free_priv = free,
 };

@@ -15,6 +15,28 @@ int drv_modbus_read(drv_modbus_bus *bus, int slave, int addr, int n, uint16_t *o
                     const char *who, struct gonio_err *err);
 int drv_modbus_write(drv_modbus_bus *bus, int slave, int addr, int n, const uint16_t *regs,
                      const char *who, struct gonio_err *err);
+/* A raw reading's channels as the detector's state read gave them, and
+ * what the driver knows of it, for drv_modbus_read_raw. */
+struct mb_raw_channels {
+    uint32_t counts[3];
+    uint32_t seq;       /* the reading's sequence number */
+    int shutter_closed; /* as the driver last set it */
+    int saturated;      /* the status said SATURATED */
+};
+
+/* Read the detector's raw block (docs/protocol-modbus.md, "Raw mode") and
+ * fill out with the counts and what the block states (unit, full scale,
+ * nonlinearity, monitor, gain state, flags). A block out of range (of
+ * another reading, counts above its full scale, a nonlinearity outside
+ * 0..0.5, a shutter not where it was put) is refused with -GONIO_EDEVICE
+ * naming the register and its value. */
+int drv_modbus_read_raw(drv_modbus_bus *bus, int slave, const char *who,
+                        const struct mb_raw_channels *ch, struct drv_reading *out,
+                        struct gonio_err *err);
+
+/* The exception code the device answered the last read or write with (2:
+ * no such register), 0 when it answered normally or not at all. */
+int drv_modbus_last_exception(const drv_modbus_bus *bus);
 
 /* When the device acted on the bus's last answered request (took the
  * registers it read, carried out the write), wall seconds

@@ -195,7 +195,26 @@ static int sim_acquire(void *priv, double integration_s, struct drv_reading *out
     memcpy(out->rgb, r.rgb, sizeof out->rgb);
     out->integration_s = r.integration_s;
     out->flags = (r.flags & SIM_SIGNAL_SATURATED) ? DRV_READING_SATURATED : 0;
+    out->monitor = r.monitor;
+    if (r.counts) {
+        out->unit = DRV_UNIT_COUNTS;
+        out->full_scale = r.full_scale;
+        out->nonlinearity = r.nonlinearity;
+    }
     return 0;
+}
+
+static int sim_shutter(void *priv, int closed, struct gonio_err *err)
+{
+    (void)err;
+    sim_rig_shutter(priv, closed);
+    return 0;
+}
+
+static int faulty_shutter(void *priv, int closed, struct gonio_err *err)
+{
+    int rc = exchange(priv, "detector", closed ? "close shutter" : "open shutter", err);
+    return rc < 0 ? rc : sim_shutter(priv, closed, err);
 }
 
 static int faulty_acquire(void *priv, double integration_s, struct drv_reading *out,
@@ -208,11 +227,13 @@ static int faulty_acquire(void *priv, double integration_s, struct drv_reading *
 static const struct drv_detector_ops sim_detector_ops = {
     .name = "sim",
     .acquire = sim_acquire,
+    .shutter = sim_shutter,
 };
 
 static const struct drv_detector_ops sim_detector_faulty_ops = {
     .name = "sim",
     .acquire = faulty_acquire,
+    .shutter = faulty_shutter,
 };
 
 drv_detector *drv_detector_new_sim(sim_rig *rig)

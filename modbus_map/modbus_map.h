@@ -47,14 +47,26 @@ enum mb_det_reg {
      * and of the blocks a detector keeps above them. */
     MB_DET_WAIT = 0x0200,
 };
-/* Detector status bits (MB_DET_STATUS). CLOCK_SIMULATED: the clock
- * register counts simulated time that advances only by what the simulator
- * models, never by wall time (gonio-sim --clock simulated); LINE_TIMED
- * with it: that time includes each RTU frame's time on the line at its
- * baud (gonio-sim --baud). Both at the top of the low word, clear of the
- * detector's own state bits. */
+/* Detector status bits (MB_DET_STATUS). RAW: the channels of the data
+ * hold counts (uint32, ADU) and the raw block describes them.
+ * CLOCK_SIMULATED: the clock register counts simulated time that advances
+ * only by what the simulator models, never by wall time (gonio-sim --clock
+ * simulated); LINE_TIMED with it: that time includes each RTU frame's time
+ * on the line at its baud (gonio-sim --baud). Both at the top of the low
+ * word, clear of the detector's own state bits. */
 enum { MB_DET_BUSY = 1u << 0, MB_DET_READY = 1u << 1, MB_DET_SATURATED = 1u << 2,
-       MB_DET_LINE_TIMED = 1u << 14, MB_DET_CLOCK_SIMULATED = 1u << 15 };
+       MB_DET_RAW = 1u << 3, MB_DET_LINE_TIMED = 1u << 14, MB_DET_CLOCK_SIMULATED = 1u << 15 };
+/* The detector's raw block: what a raw reading's counts need beside them,
+ * in one read of MB_DET_RAW_NREGS registers (a size no other read of the
+ * drivers has), and the shutter. The sequence is that of the integration
+ * the block describes; no monitor reads MB_DET_MONITOR_NONE. */
+enum mb_det_raw_reg {
+    MB_DET_RAW_SEQUENCE = 0x0100, MB_DET_GAIN_STATE = 0x0102, MB_DET_FULL_SCALE = 0x0104,
+    MB_DET_NONLINEARITY = 0x0106, MB_DET_MONITOR = 0x0108, MB_DET_SHUTTER = 0x010A,
+    MB_DET_RAW_END = 0x010C, MB_DET_RAW_NREGS = MB_DET_RAW_END - MB_DET_RAW_SEQUENCE,
+};
+#define MB_DET_MONITOR_NONE 0xFFFFFFFFu
+#define MB_DET_GAIN_STATE_MAX 255u /* gain states a detector may number */
 
 /* 32-bit values as two registers, upper word first (the AZ convention). */
 static inline uint32_t mb_get32(const uint16_t *r)

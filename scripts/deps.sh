@@ -20,6 +20,9 @@ PACKAGES="$PACKAGES parallel dpkg-dev fakeroot"
 # gonio live serves its page with libmicrohttpd; its test drives chromium
 # through chromium-driver and selenium (docs/live.md)
 PACKAGES="$PACKAGES libmicrohttpd-dev chromium-driver python3-selenium"
+# goniod's event-model documents (uids: libuuid), validated in a test against
+# Bluesky's schemas (docs/protocol.md)
+PACKAGES="$PACKAGES uuid-dev python3-jsonschema"
 
 missing=""
 for p in $PACKAGES; do

@@ -46,6 +46,7 @@ struct sim_effects {
     struct move_stage move[SIM_SCENE_MAX_EFFECTS];
     int n_light, n_sensor, n_move;
     int noisy;
+    const struct fx_state *adc; /* the adc effect's, NULL without */
     sim_faults *faults;
 };
 
@@ -71,6 +72,7 @@ static void fx_lamp_drift(struct fx_state *st, struct sim_signal *s)
     }
     st->t_last = s->now_s;
     double gain = fmax(1 + st->x, 0);
+    s->lamp_dev = gain - 1;
     for (int k = 0; k < s->n; k++)
         s->v[k] *= gain;
 }
@@ -127,6 +129,35 @@ static void fx_saturation(struct fx_state *st, struct sim_signal *s)
             s->v[k] = full;
             s->flags |= SIM_SIGNAL_SATURATED;
         }
+}
+
+/* ADC: counts = offset + x - k x^2 / full_scale, x = gain * electrons, as
+ * the ADC quantises it (rounded to the nearest count) and clipped to
+ * 0..2^bits - 1; a reading at the top is flagged saturated, as the full
+ * well's is. The values leave the pipeline as counts (s->counts). */
+static void fx_adc(struct fx_state *st, struct sim_signal *s)
+{
+    double scale = electrons_per_unit(s);
+    double full = ldexp(1.0, st->spec.bits) - 1;
+    for (int k = 0; k < s->n; k++) {
+        double x = st->spec.gain * s->v[k] * scale;
+        double adu = floor(st->spec.offset + x - st->spec.nonlinearity * x * x / full + 0.5);
+        if (isnan(adu) || adu >= full) { /* NAN: no data, which no ADC gives */
+            adu = full;
+            s->flags |= SIM_SIGNAL_SATURATED;
+        }
+        s->v[k] = fmax(adu, 0);
+    }
+    s->counts = 1;
+}
+
+/* Lamp monitor: a second detector that sees the source, not the sample:
+ * rate counts per second at the nominal output, times the lamp's present
+ * output (lamp_drift), Poisson over the integration. */
+static void fx_lamp_monitor(struct fx_state *st, struct sim_signal *s)
+{
+    double mean = st->spec.level * (1 + s->lamp_dev) * s->integration_s;
+    s->monitor = mean > 0 ? sim_poisson(st->rng, mean) : 0;
 }
 
 /* ---- moves ----------------------------------------------------------------- */
@@ -257,6 +288,7 @@ sim_effects *sim_effects_new(const struct sim_scene *scene, struct gonio_err *er
         [SIM_FX_LAMP_DRIFT] = fx_lamp_drift, [SIM_FX_STRAY_LIGHT] = fx_stray_light,
         [SIM_FX_DARK] = fx_dark,             [SIM_FX_SHOT_NOISE] = fx_shot_noise,
         [SIM_FX_READ_NOISE] = fx_read_noise, [SIM_FX_SATURATION] = fx_saturation,
+        [SIM_FX_ADC] = fx_adc,               [SIM_FX_LAMP_MONITOR] = fx_lamp_monitor,
     };
     static const move_fn move_fns[SIM_FX_KINDS] = {
         [SIM_FX_JITTER] = fx_jitter, [SIM_FX_BACKLASH] = fx_backlash,
@@ -286,12 +318,14 @@ sim_effects *sim_effects_new(const struct sim_scene *scene, struct gonio_err *er
                                                          sim_effect_name(sp->kind)));
             if (kind <= SIM_FX_STRAY_LIGHT)
                 fx->light[fx->n_light++] = (struct signal_stage){signal_fns[kind], st};
-            else if (kind <= SIM_FX_SATURATION)
+            else if (kind <= SIM_FX_LAMP_MONITOR)
                 fx->sensor[fx->n_sensor++] = (struct signal_stage){signal_fns[kind], st};
             else if (kind <= SIM_FX_ALARM)
                 fx->move[fx->n_move++] = (struct move_stage){move_fns[kind], st};
             if (kind == SIM_FX_DARK || kind == SIM_FX_SHOT_NOISE || kind == SIM_FX_READ_NOISE)
                 fx->noisy = 1;
+            if (kind == SIM_FX_ADC)
+                fx->adc = st;
             if (kind == SIM_FX_COMM_FAULTS) {
                 fx->faults = calloc(1, sizeof *fx->faults);
                 if (!fx->faults) {
@@ -324,6 +358,18 @@ int sim_effects_count(const sim_effects *fx)
 int sim_effects_noisy(const sim_effects *fx)
 {
     return fx->noisy;
+}
+
+int sim_effects_adc(const sim_effects *fx, struct sim_adc_info *info)
+{
+    if (!fx->adc)
+        return 0;
+    if (info)
+        *info = (struct sim_adc_info){.full_scale = ldexp(1.0, fx->adc->spec.bits) - 1,
+                                      .nonlinearity = fx->adc->spec.nonlinearity,
+                                      .offset = fx->adc->spec.offset,
+                                      .gain = fx->adc->spec.gain};
+    return 1;
 }
 
 void sim_effects_light(sim_effects *fx, struct sim_signal *s)

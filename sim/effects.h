@@ -11,7 +11,8 @@
  *   light   lamp_drift, stray_light: on the signal before the exposure is
  *           chosen (the auto-exposure meter sees them too);
  *   sensor  dark, shot_noise, read_noise, saturation: in electrons, which
- *           is where the integration time enters;
+ *           is where the integration time enters; then adc (electrons to
+ *           counts) and lamp_monitor (the source's own counts);
  *   move    jitter, backlash, stall, alarm: on each axis move command;
  *   faults  comm_faults: the decision per exchange (sim/effects_faults.h). */
 #ifndef GONIO_SIM_EFFECTS_H
@@ -25,7 +26,8 @@
 
 /* One detector reading on its way through the pipeline. Values are in the
  * calibrated unit (BRDF, 1/sr); a sensor effect converts to electrons with
- * e = v * responsivity * cos_i * integration_s and back. */
+ * e = v * responsivity * cos_i * integration_s and back. The adc effect,
+ * last, turns them into counts (ADU) and sets counts. */
 struct sim_signal {
     double *v;             /* n channel (or band) values */
     int n;
@@ -34,6 +36,18 @@ struct sim_signal {
     double now_s;          /* rig clock at the start of the integration */
     double responsivity;   /* e-/s per 1/sr at normal incidence */
     unsigned flags;        /* SIM_SIGNAL_* */
+    double lamp_dev;       /* the source's relative deviation from nominal (lamp_drift) */
+    int counts;            /* out: v holds ADC counts (adc) */
+    double monitor;        /* out: the lamp monitor's counts (lamp_monitor); the caller
+                            * sets NAN, what a scene without a monitor reports */
+};
+
+/* What a scene's ADC states of itself (the adc effect's parameters). */
+struct sim_adc_info {
+    double full_scale;   /* 2^bits - 1 */
+    double nonlinearity; /* k */
+    double offset;       /* ADU */
+    double gain;         /* ADU per electron */
 };
 
 /* One axis move command as the move effects see it. The caller keeps the
@@ -63,6 +77,10 @@ int sim_effects_count(const sim_effects *fx);
 /* True when the scene has detector noise (shot, read, dark): the detector
  * then chooses its integration time by auto-exposure. */
 int sim_effects_noisy(const sim_effects *fx);
+
+/* True when the scene has an adc: its readings are raw counts, and *info
+ * (may be NULL) gets what the ADC states. */
+int sim_effects_adc(const sim_effects *fx, struct sim_adc_info *info);
 
 void sim_effects_light(sim_effects *fx, struct sim_signal *s);
 void sim_effects_sensor(sim_effects *fx, struct sim_signal *s);

@@ -14,6 +14,9 @@ struct sim_detector {
     const brdf_material *material;
     sim_effects *fx;
     struct sim_exposure exposure;
+    int shutter_closed;
+    int counts;                 /* the scene has an adc */
+    struct sim_adc_info adc;
     /* spectral detectors only */
     brdf_spectral *spectral;
     int n_bands;
@@ -71,7 +74,10 @@ sim_detector *sim_detector_new(const struct rig_profile *rig, const brdf_materia
     }
     d->material = material;
     d->fx = fx;
-    sim_exposure_init(&d->exposure, rig, scene, fx ? sim_effects_noisy(fx) : 0);
+    /* An ideal meter where the detector reduces its readings itself; a raw
+     * detector integrates for the time the caller asks, as hardware does. */
+    d->counts = fx && sim_effects_adc(fx, &d->adc);
+    sim_exposure_init(&d->exposure, rig, scene, fx && !d->counts ? sim_effects_noisy(fx) : 0);
     int rc = 0;
     if (scene->detector == SIM_DETECTOR_SPECTRAL) {
         rc = open_spectral(d, scene, err);
@@ -119,6 +125,24 @@ double sim_detector_meter(sim_detector *d, const struct brdf_pair *p, double cos
     return sim_exposure_choose(&d->exposure, v, n, cos_i);
 }
 
+void sim_detector_shutter(sim_detector *d, int closed)
+{
+    d->shutter_closed = closed != 0;
+}
+
+/* The light stage, the exposure and the sensor stage on s. */
+static void expose(sim_detector *d, struct sim_signal *s, double cos_i)
+{
+    sim_effects_light(d->fx, s);
+    if (d->shutter_closed) {
+        for (int k = 0; k < s->n; k++)
+            s->v[k] = 0;
+    } else if (d->exposure.automatic) {
+        s->integration_s = sim_exposure_choose(&d->exposure, s->v, s->n, cos_i);
+    }
+    sim_effects_sensor(d->fx, s);
+}
+
 int sim_detector_read(sim_detector *d, const struct brdf_pair *p, double cos_i, double now_s,
                       double requested_s, double theta_i, double theta_r,
                       struct sim_reading *out, struct gonio_err *err)
@@ -131,15 +155,20 @@ int sim_detector_read(sim_detector *d, const struct brdf_pair *p, double cos_i, 
                            .cos_i = cos_i,
                            .integration_s = requested_s,
                            .now_s = now_s,
-                           .responsivity = d->exposure.responsivity};
-    if (d->fx) {
-        sim_effects_light(d->fx, &s);
-        if (d->exposure.automatic)
-            s.integration_s = sim_exposure_choose(&d->exposure, v, n, cos_i);
-        sim_effects_sensor(d->fx, &s);
-    }
+                           .responsivity = d->exposure.responsivity,
+                           .monitor = NAN};
+    if (d->fx)
+        expose(d, &s, cos_i);
+    else if (d->shutter_closed)
+        memset(v, 0, (size_t)n * sizeof *v);
     out->integration_s = s.integration_s;
     out->flags = s.flags;
+    out->monitor = s.monitor;
+    if (d->counts) {
+        out->counts = 1;
+        out->full_scale = d->adc.full_scale;
+        out->nonlinearity = d->adc.nonlinearity;
+    }
     if (!d->n_bands)
         return 0;
     for (int c = 0; c < 3; c++) {

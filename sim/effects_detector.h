@@ -17,12 +17,17 @@
 #include "sim/scene.h"
 
 struct sim_reading {
-    double rgb[3];          /* BRDF, 1/sr (linear sRGB of the spectrum when spectral) */
+    double rgb[3];          /* BRDF, 1/sr (linear sRGB of the spectrum when spectral);
+                             * counts (ADU) when counts is set */
     double integration_s;   /* the integration actually used */
     unsigned flags;         /* SIM_SIGNAL_SATURATED */
     int n_bands;            /* 0 for an RGB detector */
     const double *bands_nm; /* valid until the next reading */
     const double *spectrum;
+    int counts;             /* the scene has an adc: rgb holds raw counts */
+    double full_scale;      /* counts: the ADC's largest count; else 0 */
+    double nonlinearity;    /* counts: the ADC's k (sim/effects.h struct sim_adc_info) */
+    double monitor;         /* the lamp monitor's counts; NAN without lamp_monitor */
 };
 
 typedef struct sim_detector sim_detector;
@@ -42,9 +47,17 @@ int sim_detector_read(sim_detector *d, const struct brdf_pair *p, double cos_i, 
                       double requested_s, double theta_i, double theta_r,
                       struct sim_reading *out, struct gonio_err *err);
 
+/* Close (1) or open (0) the shutter in front of the detector: closed, it
+ * sees no light, only its dark signal and offset through the sensor
+ * effects, and integrates for the time asked (no auto-exposure); the
+ * lamp still drifts and its monitor still sees it. Open at creation. */
+void sim_detector_shutter(sim_detector *d, int closed);
+
 /* The integration the detector will choose at p, from the material's
  * noise-free signal through the light effects' expected values: the
- * auto-exposure of a noisy scene, else the rig's fixed integration. No
+ * auto-exposure of a noisy scene, else (no noise, or an adc: a real
+ * detector cannot know the peak before reading it) the rig's fixed
+ * integration. No
  * reading is made (nothing changes, spectra.csv gets nothing). */
 double sim_detector_meter(sim_detector *d, const struct brdf_pair *p, double cos_i);
 

@@ -218,6 +218,26 @@ void msim_axis_input(msim *m, struct msim_axis *ax)
     }
 }
 
+/* A count as a uint32 register: the ADC's counts are whole and within 32
+ * bits (sim/effects.c, fx_adc); the clamp only guards the cast. */
+static uint32_t count32(double v)
+{
+    return (uint32_t)fmin(fmax(nearbyint(v), 0), 4294967294.0);
+}
+
+/* A raw reading's channels as uint32 counts and its raw block. */
+static void publish_raw(struct msim_detector *d, uint16_t *r)
+{
+    for (int k = 0; k < DET_NCHANNELS; k++)
+        put32(r, DET_CHANNELS + 2 * k, count32(d->pending[k]));
+    put32(r, DET_RAW_SEQUENCE, d->sequence);
+    put32(r, DET_GAIN_STATE, 0);
+    put32(r, DET_FULL_SCALE, count32(d->pending_full_scale));
+    mb_put_float(r + DET_NONLINEARITY, (float)d->pending_nonlinearity);
+    put32(r, DET_MONITOR,
+          isnan(d->pending_monitor) ? MB_DET_MONITOR_NONE : count32(d->pending_monitor));
+}
+
 /* Completing an integration publishes its data and bumps the sequence. */
 void msim_det_refresh(msim *m)
 {
@@ -227,8 +247,12 @@ void msim_det_refresh(msim *m)
         d->busy = 0;
         d->ready = 1;
         d->sequence++;
-        for (int k = 0; k < DET_NCHANNELS; k++)
-            mb_put_float(r + DET_CHANNELS + 2 * k, (float)d->pending[k]);
+        d->raw = d->pending_raw;
+        if (d->raw)
+            publish_raw(d, r);
+        else
+            for (int k = 0; k < DET_NCHANNELS; k++)
+                mb_put_float(r + DET_CHANNELS + 2 * k, (float)d->pending[k]);
         /* The integration register reads back what was actually used
          * (auto-exposure may have chosen another). */
         put32(r, DET_INTEGRATION, d->pending_us);
@@ -236,6 +260,7 @@ void msim_det_refresh(msim *m)
     }
     put32(r, DET_STATUS, (d->busy ? DST_BUSY : 0u) | (d->ready ? DST_READY : 0u) |
                              (d->ready && (d->flags & SIM_SIGNAL_SATURATED) ? DST_SATURATED : 0u) |
+                             (d->ready && d->raw ? DST_RAW : 0u) |
                              (m->cfg.simulated_clock ? DST_CLOCK_SIMULATED : 0u) |
                              (m->cfg.simulated_clock && m->cfg.baud > 0 ? DST_LINE_TIMED : 0u));
     put32(r, DET_SEQUENCE, d->sequence);
@@ -251,10 +276,15 @@ void msim_det_trigger(msim *m)
     struct sim_reading rd;
     double used = us * 1e-6;
     d->pending_flags = 0;
+    d->pending_raw = 0;
     if (us > 0 && sim_rig_read(m->rig, used, &rd, NULL) == 0) {
         memcpy(d->pending, rd.rgb, sizeof d->pending);
         used = rd.integration_s;
         d->pending_flags = rd.flags;
+        d->pending_raw = rd.counts;
+        d->pending_full_scale = rd.full_scale;
+        d->pending_nonlinearity = rd.nonlinearity;
+        d->pending_monitor = rd.monitor;
     } else {
         sim_rig_sample(m->rig, d->pending);
     }
@@ -263,6 +293,14 @@ void msim_det_trigger(msim *m)
     d->ready = 0;
     d->busy_until = sim_rig_now(m->rig) + used;
     msim_det_refresh(m);
+}
+
+void msim_det_shutter(msim *m)
+{
+    uint16_t *r = m->det.map->tab_registers;
+    int closed = get32(r, DET_SHUTTER) != 0;
+    put32(r, DET_SHUTTER, (uint32_t)closed);
+    sim_rig_shutter(m->rig, closed);
 }
 
 int msim_jam(msim *m, int slave, enum msim_jam_kind kind, double deg, struct gonio_err *err)

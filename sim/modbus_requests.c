@@ -38,7 +38,8 @@ static const struct reg_range axis_ranges[] = {
     {AX_DATA_NO, AX_TRIGGER + 1, 1}, {AX_INPUT, AX_INPUT + 1, 1},
     {AX_STATUS, AX_ALARM + 1, 0},     {AX_FEEDBACK, AX_FEEDBACK + 1, 0}, {-1, -1, 0}};
 static const struct reg_range det_ranges[] = {
-    {DET_INTEGRATION, DET_TRIGGER + 1, 1}, {DET_STATUS, DET_NREGS - 1, 0}, {-1, -1, 0}};
+    {DET_INTEGRATION, DET_TRIGGER + 1, 1}, {DET_STATUS, DET_NREGS - 1, 0},
+    {DET_RAW_SEQUENCE, DET_SHUTTER - 1, 0}, {DET_SHUTTER, DET_SHUTTER + 1, 1}, {-1, -1, 0}};
 /* A simulated clock's detector has its wait register too. */
 static const struct reg_range det_wait_range[] = {{DET_WAIT, DET_WAIT + 1, 1}, {-1, -1, 0}};
 
@@ -244,6 +245,8 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
         msim_axis_refresh(m, ax);
     } else {
         uint16_t *r = m->det.map->tab_registers;
+        if (overlaps(addr, n, DET_SHUTTER))
+            msim_det_shutter(m);
         if (overlaps(addr, n, DET_TRIGGER) && get32(r, DET_TRIGGER) == 1) {
             put32(r, DET_TRIGGER, 0);
             msim_det_trigger(m);

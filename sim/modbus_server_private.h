@@ -24,14 +24,18 @@ enum {
     DET_INTEGRATION = MB_DET_INTEGRATION, DET_TRIGGER = MB_DET_TRIGGER,
     DET_STATUS = MB_DET_STATUS, DET_COUNT = MB_DET_COUNT, DET_SEQUENCE = MB_DET_SEQUENCE,
     DET_CLOCK = MB_DET_CLOCK, DET_CHANNELS = MB_DET_CHANNELS, DET_NCHANNELS = 3,
-    DET_NREGS = DET_CHANNELS + 2 * DET_NCHANNELS, DET_WAIT = MB_DET_WAIT,
-    DET_MAP_NREGS = DET_WAIT + 2, /* what the map holds: the wait's too */
+    DET_NREGS = DET_CHANNELS + 2 * DET_NCHANNELS,
+    DET_RAW_SEQUENCE = MB_DET_RAW_SEQUENCE, DET_GAIN_STATE = MB_DET_GAIN_STATE,
+    DET_FULL_SCALE = MB_DET_FULL_SCALE, DET_NONLINEARITY = MB_DET_NONLINEARITY,
+    DET_MONITOR = MB_DET_MONITOR, DET_SHUTTER = MB_DET_SHUTTER, DET_WAIT = MB_DET_WAIT,
+    DET_MAP_NREGS = DET_WAIT + 2, /* what the map holds: the raw block's and the wait's too */
 };
 enum { IN_ZHOME = MB_IN_ZHOME, IN_STOP = MB_IN_STOP, IN_ALM_RST = MB_IN_ALM_RST };
 enum { ST_HOME_END = MB_ST_HOME_END, ST_READY = MB_ST_READY, ST_ALM_A = MB_ST_ALM_A,
        ST_MOVE = MB_ST_MOVE, ST_IN_POS = MB_ST_IN_POS };
 enum { DST_BUSY = MB_DET_BUSY, DST_READY = MB_DET_READY, DST_SATURATED = MB_DET_SATURATED,
-       DST_LINE_TIMED = MB_DET_LINE_TIMED, DST_CLOCK_SIMULATED = MB_DET_CLOCK_SIMULATED };
+       DST_RAW = MB_DET_RAW, DST_LINE_TIMED = MB_DET_LINE_TIMED,
+       DST_CLOCK_SIMULATED = MB_DET_CLOCK_SIMULATED };
 enum { MSIM_ALARM_OVERLOAD = MB_ALARM_OVERLOAD, MSIM_ALARM_DEVIATION = MB_ALARM_DEVIATION,
        MSIM_ALARM_OVERTRAVEL = MB_ALARM_OVERTRAVEL, MSIM_ALARM_DATA = MB_ALARM_DATA };
 
@@ -71,6 +75,11 @@ struct msim_detector {
     double pending[DET_NCHANNELS];
     uint32_t pending_us; /* the integration the detector chose */
     unsigned pending_flags, flags;
+    /* A scene with an adc: the pending data are counts, with what the ADC
+     * states and the monitor's counts (NAN: none); raw: the published
+     * data's. */
+    int pending_raw, raw;
+    double pending_full_scale, pending_nonlinearity, pending_monitor;
 };
 
 struct msim {
@@ -140,6 +149,9 @@ void msim_axis_input(msim *m, struct msim_axis *ax);
 void msim_det_refresh(msim *m);
 /* The detector's trigger written 1: start an integration. */
 void msim_det_trigger(msim *m);
+/* The shutter register written: nonzero closes it (reads back 1), 0 opens
+ * it; the next integration sees it. */
+void msim_det_shutter(msim *m);
 
 /* ---- Requests (sim/modbus_requests.c) ------------------------------------ */
 

@@ -22,6 +22,7 @@ static const char *const effect_names[SIM_FX_KINDS] = {
     [SIM_FX_LAMP_DRIFT] = "lamp_drift",   [SIM_FX_STRAY_LIGHT] = "stray_light",
     [SIM_FX_DARK] = "dark",               [SIM_FX_SHOT_NOISE] = "shot_noise",
     [SIM_FX_READ_NOISE] = "read_noise",   [SIM_FX_SATURATION] = "saturation",
+    [SIM_FX_ADC] = "adc",                 [SIM_FX_LAMP_MONITOR] = "lamp_monitor",
     [SIM_FX_JITTER] = "jitter",           [SIM_FX_BACKLASH] = "backlash",
     [SIM_FX_STALL] = "stall",             [SIM_FX_ALARM] = "alarm",
     [SIM_FX_COMM_FAULTS] = "comm_faults",
@@ -36,6 +37,9 @@ static const char *const *effect_keys(enum sim_effect_kind k)
     static const char *const shot[] = {"name", NULL};
     static const char *const read[] = {"name", "sigma_e", NULL};
     static const char *const sat[] = {"name", "full_well_e", NULL};
+    static const char *const adc[] = {"name", "gain_adu_per_e", "bits", "offset_adu",
+                                      "nonlinearity", NULL};
+    static const char *const monitor[] = {"name", "rate_counts_per_s", NULL};
     static const char *const jitter[] = {"name", "sigma_deg", "axes", NULL};
     static const char *const backlash[] = {"name", "deg", "axes", NULL};
     static const char *const stall[] = {"name", "rate", "at_moves", "axes", "code", NULL};
@@ -48,6 +52,8 @@ static const char *const *effect_keys(enum sim_effect_kind k)
     case SIM_FX_SHOT_NOISE: return shot;
     case SIM_FX_READ_NOISE: return read;
     case SIM_FX_SATURATION: return sat;
+    case SIM_FX_ADC: return adc;
+    case SIM_FX_LAMP_MONITOR: return monitor;
     case SIM_FX_JITTER: return jitter;
     case SIM_FX_BACKLASH: return backlash;
     case SIM_FX_STALL:
@@ -130,6 +136,31 @@ static int parse_at_moves(const struct cfg_doc *doc, const struct cfg_node *map,
     return 0;
 }
 
+/* adc: an ADC of bits bits after a gain, with an offset that must leave
+ * room for a signal, and a nonlinearity that keeps the response rising up
+ * to full scale (x - k x^2 / FS has its maximum at x = FS / 2k). */
+static int parse_adc(const struct cfg_doc *doc, const struct cfg_node *item,
+                     struct sim_effect_spec *fx, struct gonio_err *err)
+{
+    long bits = 16;
+    int rc;
+    if ((rc = cfg_double(doc, item, "gain_adu_per_e", CFG_REQUIRED, 1e-6, 1e6, &fx->gain,
+                         err)) < 0 ||
+        (rc = cfg_int(doc, item, "bits", CFG_OPTIONAL, 8, 32, &bits, err)) < 0 ||
+        (rc = cfg_double(doc, item, "offset_adu", CFG_OPTIONAL, 0, 4294967295.0, &fx->offset,
+                         err)) < 0 ||
+        (rc = cfg_double(doc, item, "nonlinearity", CFG_OPTIONAL, 0, 0.4, &fx->nonlinearity,
+                         err)) < 0)
+        return rc;
+    fx->bits = (int)bits;
+    double full = ldexp(1.0, fx->bits) - 1;
+    if (fx->offset >= full / 2)
+        return cfg_error(doc, cfg_get(doc, item, "offset_adu"), "offset_adu", err,
+                         "%g ADU leaves less than half of the %d-bit range (%g) for the signal",
+                         fx->offset, fx->bits, full);
+    return 0;
+}
+
 /* The parameters of one effect item (a mapping with its name). */
 static int parse_params(const struct cfg_doc *doc, const struct cfg_node *item,
                         struct sim_effect_spec *fx, struct gonio_err *err)
@@ -156,6 +187,13 @@ static int parse_params(const struct cfg_doc *doc, const struct cfg_node *item,
         break;
     case SIM_FX_SATURATION:
         rc = cfg_double(doc, item, "full_well_e", CFG_REQUIRED, 1, 1e15, &fx->level, err);
+        break;
+    case SIM_FX_ADC:
+        rc = parse_adc(doc, item, fx, err);
+        break;
+    case SIM_FX_LAMP_MONITOR:
+        rc = cfg_double(doc, item, "rate_counts_per_s", CFG_REQUIRED, 1e-3, 1e12, &fx->level,
+                        err);
         break;
     case SIM_FX_JITTER:
         if ((rc = cfg_double(doc, item, "sigma_deg", CFG_REQUIRED, 0, 10, &fx->sigma, err)) < 0)
@@ -258,6 +296,12 @@ static int parse_effects(const struct cfg_doc *doc, const struct cfg_node *root,
         }
     }
     scene->n_effects = (int)n;
+    if (seen[SIM_FX_ADC] && scene->detector == SIM_DETECTOR_SPECTRAL) {
+        const struct cfg_node *adc = cfg_seq_item(doc, effects, (size_t)seen[SIM_FX_ADC] - 1);
+        const struct cfg_node *at = cfg_is_map(doc, adc) ? cfg_get(doc, adc, "name") : adc;
+        return cfg_error(doc, at ? at : adc, "name", err, "effect 'adc' needs an rgb detector (raw counts of a spectral "
+                         "detector are not simulated)");
+    }
     return 0;
 }
 

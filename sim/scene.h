@@ -23,6 +23,8 @@ enum sim_effect_kind {
     SIM_FX_SHOT_NOISE,  /* Poisson photon (and dark) noise */
     SIM_FX_READ_NOISE,  /* Gaussian read noise, electrons */
     SIM_FX_SATURATION,  /* full-well clipping, flagged on the sample */
+    SIM_FX_ADC,         /* electrons to raw counts: gain, offset, nonlinearity, clip */
+    SIM_FX_LAMP_MONITOR, /* a second detector seeing the source: its counts */
     SIM_FX_JITTER,      /* axis positioning jitter */
     SIM_FX_BACKLASH,    /* gear slack on moves ending in the negative direction */
     SIM_FX_STALL,       /* motor stall: the axis stops short with an alarm */
@@ -43,7 +45,12 @@ struct sim_effect_spec {
     int index;             /* position in the scene's list: part of its stream's seed */
     double sigma;          /* lamp_drift: relative; read_noise: e-; jitter: deg */
     double tau_s;          /* lamp_drift correlation time */
-    double level;          /* stray_light 1/sr, dark e-/s, saturation full well e-, backlash deg */
+    double level;          /* stray_light 1/sr, dark e-/s, saturation full well e-, backlash
+                            * deg, lamp_monitor counts/s */
+    double gain;           /* adc: ADU per electron */
+    double offset;         /* adc: ADU with no light and no dark */
+    double nonlinearity;   /* adc: k, x ADU above the offset read x - k x^2 / full scale */
+    int bits;              /* adc: resolution; counts clip at 2^bits - 1 */
     double rate;           /* stall/alarm: probability per move */
     long at_moves[SIM_EFFECT_MAX_MOVES]; /* stall/alarm: 1-based move numbers of the axis */
     int n_at_moves;

@@ -287,6 +287,11 @@ int sim_rig_read(sim_rig *rig, double integration_s, struct sim_reading *out,
     return sim_detector_read(rig->det, &p, cos_i, rig->now, integration_s, ti, tr, out, err);
 }
 
+void sim_rig_shutter(sim_rig *rig, int closed)
+{
+    sim_detector_shutter(rig->det, closed);
+}
+
 int sim_rig_acquire(sim_rig *rig, double integration_s, struct sim_reading *out,
                     struct gonio_err *err)
 {

@@ -97,6 +97,10 @@ int sim_rig_sample(const sim_rig *rig, double rgb[3]);
 int sim_rig_read(sim_rig *rig, double integration_s, struct sim_reading *out,
                  struct gonio_err *err);
 
+/* Close (1) or open (0) the detector's shutter (sim_detector_shutter):
+ * closed, readings hold its dark signal and offset only. */
+void sim_rig_shutter(sim_rig *rig, int closed);
+
 /* sim_rig_read, then the clock advances by the integration used. */
 int sim_rig_acquire(sim_rig *rig, double integration_s, struct sim_reading *out,
                     struct gonio_err *err);

@@ -44,7 +44,8 @@ def test_layout(dest):
                  "usr/lib/systemd/system/goniod.service", "usr/lib/sysusers.d/gonio.conf",
                  "usr/lib/tmpfiles.d/gonio.conf", "usr/share/man/man1/gonio.1",
                  "usr/share/man/man8/goniod.8", "usr/share/man/man5/goniod.yaml.5",
-                 "usr/share/man/man1/gonio-sim.1", "usr/share/doc/gonio/goniod.md"):
+                 "usr/share/man/man1/gonio-sim.1", "usr/share/doc/gonio/goniod.md",
+                 "usr/share/doc/gonio/python.md") + PYTHON_FILES:
         assert os.path.exists(os.path.join(dest, path)), path
     assert os.path.islink(os.path.join(dest, "etc/gonio/models"))
     sysusers = open(os.path.join(dest, "usr/lib/sysusers.d/gonio.conf")).read()
@@ -54,6 +55,37 @@ def test_layout(dest):
         assert re.search(r"(?m)^d %s 0750 gonio gonio" % re.escape(folder), tmpfiles), folder
     unit = open(os.path.join(dest, "usr/lib/systemd/system/goniod.service")).read()
     assert "User=gonio\n" in unit and "ExecStart=/usr/bin/goniod --config /etc/gonio/goniod.yaml" in unit
+
+
+# The Python client (docs/python.md): its modules and its model library.
+PYTHON_DIR = "usr/lib/python3/dist-packages/gonio"
+PYTHON_FILES = tuple(PYTHON_DIR + "/" + f for f in (
+    "__init__.py", "client.py", "capture.py", "model.py", "_arrays.py", "libgonio_model.so"))
+
+
+def test_installed_python_client(dest):
+    """The installed package, with no GONIO_* variable, reads a capture the
+    installed gonio made and evaluates its model through the installed
+    libgonio_model.so: the plan error results.json holds."""
+    out = os.path.join(dest, "cap-py")
+    cap = run(os.path.join(dest, "usr/bin/gonio"), "capture", "--offline", "--scene", "ideal",
+              "--plan", "ds4", "--quiet", "--out", out, env=clean_env())
+    assert cap.returncode == 0, cap.stderr
+    script = """
+import math, sys, gonio
+assert gonio.__file__.startswith(sys.argv[2]), gonio.__file__
+cap = gonio.read_capture(sys.argv[1])
+fitted = gonio.Model(cap.model_file).eval_inplane(cap.samples["theta_i"], cap.samples["theta_r"])
+terms = [abs(math.log1p(p * math.cos(math.radians(ti))) - math.log1p(f * math.cos(math.radians(ti))))
+         for ti, pr, fr in zip(cap.samples["theta_i"], fitted, cap.samples["rgb"])
+         for p, f in zip(pr, fr)]
+print(repr(sum(terms) / len(terms)), repr(cap.results["errors"]["plan"]["log"]))
+"""
+    env = dict(clean_env(), PYTHONPATH=os.path.join(dest, "usr/lib/python3/dist-packages"))
+    r = run("python3", "-c", script, out, os.path.join(dest, PYTHON_DIR), env=env)
+    assert r.returncode == 0, r.stderr
+    mine, theirs = map(float, r.stdout.split())
+    assert abs(mine - theirs) < 1e-9, r.stdout
 
 
 def installed_runs(dest, out):
@@ -166,7 +198,7 @@ def test_package(tmp_path):
     for path in ("./usr/lib/systemd/system/goniod.service", "./usr/lib/sysusers.d/gonio.conf",
                  "./usr/lib/tmpfiles.d/gonio.conf", "./usr/bin/goniod", "./usr/bin/gonio",
                  "./etc/gonio/goniod.yaml", "./usr/share/gonio/models/latent-decoder.gld",
-                 "./usr/share/man/man8/goniod.8"):
+                 "./usr/share/man/man8/goniod.8") + tuple("./" + f for f in PYTHON_FILES):
         assert re.search(r" %s( |$)" % re.escape(path), listing, re.M), path
     root = tmp_path / "root"
     assert run("dpkg-deb", "-x", str(debs[0]), str(root)).returncode == 0

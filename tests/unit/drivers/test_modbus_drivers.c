@@ -168,6 +168,8 @@ static void detector_reads_material(drv_modbus_bus *bus)
         struct drv_reading r;
         assert_int_equal(drv_detector_acquire(d, 0.05, &r, &err), 0);
         assert_close(r.integration_s, 0.05, 1e-9);
+        assert_int_equal(r.unit, DRV_UNIT_BRDF); /* no adc: calibrated, no raw block read */
+        assert_true(isnan(r.monitor));
         double ps = position(s), pa = position(a);
         struct brdf_pair p;
         brdf_pair_inplane(ps, pa - ps, &p);

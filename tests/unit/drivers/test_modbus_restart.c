@@ -4,7 +4,8 @@
  * an axis whose fresh drive reports IN-POS for its own target is
  * re-commanded to ours (the encoder is compared with the target), or the
  * move fails naming the axis, target and position; the detector refuses a
- * reading across a restart; a device that stays away is named as such. */
+ * reading across a restart, and closes its shutter again after one; a
+ * device that stays away is named as such. */
 #include <errno.h>
 #include <math.h>
 #include <string.h>
@@ -194,6 +195,29 @@ static void test_detector_refuses_across_restart(void **state)
     drv_detector_free(d);
 }
 
+/* A detector comes back from a restart with its shutter open: a closed one
+ * is closed again before the next integration, so a dark frame stays dark
+ * (the ideal scene reads the material's light, > 0, when open). */
+static void test_shutter_closed_again_after_restart(void **state)
+{
+    (void)state;
+    struct gonio_err err = {0};
+    drv_detector *d = drv_detector_new_modbus(bus, 3, &err);
+    assert_non_null(d);
+    struct drv_reading r;
+    assert_int_equal(drv_detector_acquire(d, 0.05, &r, &err), 0);
+    assert_true(r.rgb[1] > 0);
+    assert_int_equal(drv_detector_shutter(d, 1, &err), 0);
+    assert_int_equal(drv_detector_acquire(d, 0.05, &r, &err), 0);
+    assert_close(r.rgb[1], 0, 0);
+    restart(100);
+    assert_int_equal(drv_detector_acquire(d, 0.05, &r, &err), -GONIO_EDEVICE);
+    assert_int_equal(drv_detector_acquire(d, 0.05, &r, &err), 0);
+    for (int c = 0; c < 3; c++)
+        assert_close(r.rgb[c], 0, 0);
+    drv_detector_free(d);
+}
+
 static void test_vanished_device_named(void **state)
 {
     (void)state;
@@ -224,6 +248,7 @@ int main(void)
         ON(test_inpos_miss_named, tcp),       ON(test_detector_refuses_across_restart, tcp),
         ON(test_detector_refuses_across_restart, rtu),
         ON(test_vanished_device_named, tcp),
+        ON(test_shutter_closed_again_after_restart, tcp),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

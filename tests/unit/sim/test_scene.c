@@ -45,7 +45,8 @@ static void test_shipped_scenes_load(void **state)
                                   "spectral-cyan", "spectral-magenta", "spectral-gonio",
                                   "spectral-lab", "ideal-specular-black-phenolic",
                                   "ideal-gold-metallic-paint", "ideal-white-diffuse-bball",
-                                  "ideal-red-plastic", "ideal-alum-bronze", "ideal-pearl-paint"};
+                                  "ideal-red-plastic", "ideal-alum-bronze", "ideal-pearl-paint",
+                                  "lab-raw"};
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
         struct sim_scene sc;
         struct gonio_err err = {0};
@@ -60,6 +61,15 @@ static void test_shipped_scenes_load(void **state)
         }
     }
     struct sim_scene sc;
+    assert_int_equal(sim_scene_load("lab-raw", &sc, NULL), 0);
+    assert_int_equal(sc.n_effects, 10);
+    assert_int_equal(sc.effects[8].kind, SIM_FX_ADC);
+    assert_int_equal(sc.effects[8].bits, 16);
+    assert_close(sc.effects[8].gain, 0.8, 0);
+    assert_close(sc.effects[8].offset, 1000, 0);
+    assert_close(sc.effects[8].nonlinearity, 0.02, 0);
+    assert_int_equal(sc.effects[9].kind, SIM_FX_LAMP_MONITOR);
+    assert_close(sc.effects[9].level, 1e7, 0);
     assert_int_equal(sim_scene_load("spectral-gold", &sc, NULL), 0);
     assert_int_equal(sc.detector, SIM_DETECTOR_SPECTRAL);
     assert_int_equal(sc.n_bands, 35); /* 390-730 nm */
@@ -140,7 +150,17 @@ static void test_bad_effects_refused_at_their_position(void **state)
     CASE("  - dark\n", 3, 5, "rate_e_per_s", "needs parameters");
     CASE("  - shot_noise\n  - shot_noise\n", 4, 5, "name", "named twice (first at line 3)");
     CASE("  - {name: lamp_drift, sigma: \"0.1\"}\n", 3, 31, "sigma", "");
+    CASE("  - {name: adc, bits: 16}\n", 3, 5, "gain_adu_per_e", "missing");
+    CASE("  - {name: adc, gain_adu_per_e: 1, bits: 40}\n", 3, 42, "bits", "40");
+    CASE("  - {name: adc, gain_adu_per_e: 1, nonlinearity: 0.6}\n", 3, 50, "nonlinearity",
+         "0.6");
+    CASE("  - {name: adc, gain_adu_per_e: 1, bits: 12, offset_adu: 3000}\n", 3, 58,
+         "offset_adu", "3000 ADU leaves less than half of the 12-bit range (4095)");
+    CASE("  - lamp_monitor\n", 3, 5, "rate_counts_per_s", "needs parameters");
 #undef CASE
+    expect_error("material: default\ndetector: spectral\neffects:\n  - shot_noise\n"
+                 "  - {name: adc, gain_adu_per_e: 1}\n",
+                 5, 12, "name", "effect 'adc' needs an rgb detector");
     expect_error("material: default\ndetector: {kind: spectral, bands: {first_nm: 400, "
                  "last_nm: 705, step_nm: 10}}\n",
                  2, 35, "bands", "whole steps");

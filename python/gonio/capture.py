@@ -1,0 +1,76 @@
+"""A capture directory read into arrays (docs/formats.md): samples.csv by
+column, and the JSON files beside it."""
+import csv
+import json
+import os
+import zlib
+
+from . import _arrays
+
+
+class Capture:
+    """dir; samples: {column: array} (every column of samples.csv but its
+    CRC, flags and point as integers, rgb also as an (n, 3) array under
+    "rgb"); plan, setup, results, request: the JSON files (None when
+    absent); model_file: the final fit's model file path, or None."""
+
+    def __init__(self, path, samples, docs):
+        self.dir = path
+        self.samples = samples
+        self.plan = docs.get("plan.json")
+        self.setup = docs.get("setup.json")
+        self.results = docs.get("results.json")
+        self.request = docs.get("request.json")
+        name = (self.results or {}).get("model_file")
+        self.model_file = os.path.join(path, name) if name else None
+
+    def __len__(self):
+        return len(self.samples.get("point", []))
+
+
+INT_COLUMNS = ("point", "flags")
+
+
+def _read_samples(path):
+    """samples.csv's columns; the CRC chain checked (ValueError naming the
+    line where it breaks), as gonio's own reader does for the current
+    format."""
+    with open(path, newline="") as f:
+        text = f.read()
+    lines = text.split("\n")
+    header = lines[0].split(",")
+    chained = header[-1] == "chain_crc32"
+    crc = zlib.crc32((lines[0] + "\n").encode()) if chained else 0
+    records = []
+    for no, line in enumerate(lines[1:], 2):
+        if not line:
+            continue
+        if no == len(lines):  # no newline after it: a torn record
+            break
+        head, _, given = line.rpartition(",")
+        body = (head + ",").encode()
+        crc = zlib.crc32(body, crc) if chained else zlib.crc32(body)
+        if given.lower() != "%08x" % crc:
+            raise ValueError("%s:%d: CRC does not match (edited or corrupt journal)" % (path, no))
+        records.append(next(csv.reader([head])))
+    columns = {}
+    for i, name in enumerate(header[:-1]):
+        values = [r[i] for r in records]
+        columns[name] = ([int(v) for v in values] if name in INT_COLUMNS else
+                         _arrays.array(values))
+    if {"r", "g", "b"} <= set(columns):
+        at = [header.index(c) for c in "rgb"]
+        columns["rgb"] = _arrays.rows([r[i] for r in records for i in at], 3)
+    return columns
+
+
+def read_capture(path):
+    """The capture directory at path (a Capture)."""
+    samples = _read_samples(os.path.join(path, "samples.csv"))
+    docs = {}
+    for name in ("plan.json", "setup.json", "results.json", "request.json"):
+        p = os.path.join(path, name)
+        if os.path.exists(p):
+            with open(p) as f:
+                docs[name] = json.load(f)
+    return Capture(path, samples, docs)
