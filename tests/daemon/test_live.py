@@ -8,6 +8,7 @@ is refused with a 4xx. A screenshot of the page is kept in the build tree
 chromedriver or selenium.
 """
 import http.client
+import json
 import os
 import select
 import shutil
@@ -174,6 +175,69 @@ class BrowserTests(DaemonTest):
         self.assertIn("final fit, abc.model", p["fitsrc"])
         # the model file's curve, as the live page drew it at the stop
         self.assertEqual(p["curves"], final["curves"])
+
+
+class Stream:
+    """/events read as server-sent events: (event, data) pairs."""
+
+    def __init__(self, port):
+        self.c = http.client.HTTPConnection("127.0.0.1", port, timeout=3 * START_S)
+        self.c.request("GET", "/events")
+        self.r = self.c.getresponse()
+        assert self.r.status == 200, self.r.status
+        assert self.r.getheader("Content-Type") == "text/event-stream"
+
+    def next(self, deadline):
+        name, data = None, None
+        while True:
+            if time.time() > deadline:
+                raise AssertionError("no such event in time")
+            line = self.r.fp.readline().decode()
+            if not line:
+                raise AssertionError("the event stream ended")
+            line = line.rstrip("\n")
+            if line.startswith("event: "):
+                name = line[7:]
+            elif line.startswith("data: "):
+                data = json.loads(line[6:])
+            elif line == "" and name:
+                return name, data
+
+    def until(self, cond):
+        """The data of the first event cond takes, within 3 START_S (idle
+        streams send a comment line every 15 s, which ends a read)."""
+        deadline = time.time() + 3 * START_S
+        while True:
+            name, data = self.next(deadline)
+            if cond(name, data):
+                return data
+
+    def close(self):
+        self.c.close()
+
+
+class StreamTests(DaemonTest):
+    """The stream the page reads, without a browser: pause and abort."""
+    pace_s = 0.1
+
+    def test_pause_and_abort(self):
+        live = Live(env=dict(self.d.env, GONIO_SOCKET=self.d.sock))
+        try:
+            st = Stream(live.port)
+            self.assertEqual(self.d.gonio("capture", "--plan", "ds3", "--name", "ab1")
+                             .returncode, 0)
+            st.until(lambda n, d: n == "samples" and d["rows"])
+            self.assertEqual(self.d.gonio("pause").returncode, 0)
+            st.until(lambda n, d: n == "info" and d["state"] == "paused")
+            self.assertEqual(self.d.gonio("abort").returncode, 0)
+            info = st.until(lambda n, d: n == "info" and d["state"] == "aborted")
+            self.assertEqual(info["reason"], "aborted")
+            self.assertTrue(any(a.startswith("capture aborted") for a in info["alarms"]),
+                            info["alarms"])
+            self.assertNotIn("results", info)
+            st.close()
+        finally:
+            self.assertEqual(live.stop(), 0, live.err)
 
 
 class RequestTests(DaemonTest):
