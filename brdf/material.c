@@ -16,6 +16,7 @@
 #include "brdf/published.h"
 #include "brdf/sgd.h"
 #include "brdf/spectral.h"
+#include "brdf/standard.h"
 #include "common/paths.h"
 
 struct brdf_material {
@@ -165,6 +166,14 @@ static brdf_material *open_analytic(const char *spec, const char *arg, struct go
     return brdf_analytic_open(spec, arg, err); /* brdf/analytic.h */
 }
 
+static brdf_material *open_standard(const char *spec, const char *arg, struct gonio_err *err)
+{
+    struct brdf_standard s;
+    if (brdf_standard_load(arg, &s, err) < 0)
+        return NULL;
+    return brdf_standard_material(&s, spec, err); /* brdf/standard.h */
+}
+
 static brdf_material *open_spectral(const char *spec, const char *arg, struct gonio_err *err)
 {
     (void)arg;
@@ -179,7 +188,7 @@ brdf_material *brdf_material_open(const char *spec, struct gonio_err *err)
     } kinds[] = {
         {"nbrdf", open_nbrdf}, {"merl", open_merl},       {"abc", open_abc},
         {"sgd", open_sgd},     {"builtin", open_builtin}, {"spectral", open_spectral},
-        {"analytic", open_analytic},
+        {"analytic", open_analytic}, {"standard", open_standard},
     };
     if (!spec || !*spec) {
         gonio_err_set(err, GONIO_EBADCONFIG, "material: empty specification");
@@ -206,7 +215,7 @@ brdf_material *brdf_material_open(const char *spec, struct gonio_err *err)
     }
     gonio_err_set(err, GONIO_EBADCONFIG,
                   "%s: unknown material kind (use nbrdf:NAME, merl:PATH, abc:NAME, sgd:NAME, "
-                  "builtin:NAME, spectral:NAME, analytic:NAME or default)",
+                  "builtin:NAME, spectral:NAME, analytic:NAME, standard:NAME or default)",
                   spec);
     return NULL;
 }

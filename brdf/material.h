@@ -22,6 +22,8 @@ typedef struct brdf_material brdf_material;
  *   sgd:NAME     published shifted-gamma fit (Bagher et al. 2012)
  *   builtin:NAME a material embedded in the library (brdf/embedded.h)
  *   analytic:NAME an analytic material outside MERL (brdf/analytic.h)
+ *   standard:NAME a reflectance standard (brdf/standard.h), NAME a file or
+ *                <config>/standards/NAME.yaml
  *   default      the embedded default (no shared data needed)
  * NAME may also be a path to a file of that kind. Errors name the spec, the
  * file and the problem. */

@@ -113,7 +113,7 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
     struct drv_reading r;
     if ((rc = drv_detector_acquire(d->detector, rig->integration_s, &r, err)) < 0)
         return rc;
-    memset(s, 0, sizeof *s);
+    journal_sample_clear(s);
     s->point = index;
     s->s = at[0];
     s->a = at[1];
@@ -122,8 +122,16 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
     s->theta_o = fabs(s->theta_r);
     s->phi_i = 0.0;
     s->phi_o = fmod(at[2] + (s->theta_r >= 0 ? 180.0 : 0.0) + 360.0, 360.0);
-    memcpy(s->rgb, r.rgb, sizeof s->rgb);
+    if (r.unit == DRV_UNIT_COUNTS) { /* the record is the counts; BRDF is derived */
+        s->counts = 1;
+        memcpy(s->raw, r.rgb, sizeof s->raw);
+        s->gain_state = r.gain_state;
+    } else {
+        memcpy(s->rgb, r.rgb, sizeof s->rgb);
+    }
+    s->monitor = r.monitor;
     s->integration_s = r.integration_s;
+    s->integration_total_s = r.integration_s;
     s->flags = (r.flags & DRV_READING_SATURATED) ? JOURNAL_FLAG_SATURATED : 0;
     s->rig_time_s = rig_clock_now(clk);
     return 0;
@@ -276,6 +284,10 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
                           pt->theta_i, pt->theta_r, msg);
         }
     }
+    if (rc == 0 && job->cal) { /* counts to BRDF and u before the record is written */
+        struct rad_value v;
+        rc = cal_reduce_sample(job->cal, job->plan, r->samples, r->n, &s, &v, err);
+    }
     if (rc == 0) {
         capture_phase_enter(hooks, CAPTURE_PHASE_JOURNAL, (int)k);
         rc = journal_append(r->j, &s, err);
@@ -371,6 +383,7 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
         .driver = src->driver ? src->driver : "unknown",
         .detector = src->detector ? src->detector : "unknown",
         .policy = job->adaptive ? &job->policy : NULL,
+        .calibration = job->cal ? job->cal->meta.id : NULL,
     };
     const char *dir = job->cfg.out_dir;
     int rc = capture_files_prepare(dir, &setup, &r->lock_fd, err);
@@ -437,6 +450,8 @@ static int finish(struct run *r, struct gonio_err *err)
         rc = capture_assess_truth(job->truth, fitted, job->cfg.assess_nodes, out, err);
     if (rc == 0)
         rc = capture_files_results(job->cfg.out_dir, out, err);
+    if (rc == 0 && job->cal)
+        rc = cal_results_budget(job->cal, job->plan, r->samples, r->n, job->cfg.out_dir, err);
     brdf_material_free(fitted);
     return rc;
 }

@@ -30,6 +30,13 @@ struct drv_clock;
 
 struct capture_config {
     const char *plan;     /* name (ds2) or path */
+    /* A detector's counts reduced to BRDF as they are measured: the
+     * reference calibration `calibration` (an id; NULL: the newest valid
+     * one for the rig and detector) in the folder `calibrations`
+     * (capture/calibration.h). NULL calibrations: none. A calibration
+     * that is missing, expired, of another rig or detector or without the
+     * rig's integration is refused before anything moves. */
+    const char *calibration, *calibrations;
     /* What the rig measures, as a label in setup.json and results.json
      * (NULL: unknown) when its source does not know it (capture_rig.material). */
     const char *material;

@@ -89,6 +89,9 @@ static json_t *setup_json(const struct capture_setup *su)
     }
     if (root && su->material)
         json_object_set_new(root, "material", json_string(su->material));
+    /* A resume reduces with the calibration the capture began with. */
+    if (root && su->calibration)
+        json_object_set_new(root, "calibration", json_string(su->calibration));
     /* A resumed adaptive capture must decide as it began (docs/formats.md). */
     const struct adaptive_options *po = su->policy;
     if (root && po)
@@ -125,7 +128,7 @@ static int same_value(json_t *a, json_t *b)
 
 /* What a resume compares, in the order a difference is named: the rig
  * source's own members (the simulator's scene), then these. */
-static const char *const setup_keys[] = {"material", "rig", "detector"};
+static const char *const setup_keys[] = {"material", "rig", "detector", "calibration"};
 
 static int setup_key_known(const char *key)
 {

@@ -19,12 +19,13 @@ struct capture_setup {
     const char *material;
     const char *driver, *detector;
     const struct adaptive_options *policy;
+    const char *calibration; /* the calibration's id counts are reduced with, or NULL */
 };
 
 /* Create dir (or accept it for a resume), take its lock (*lock_fd, for
  * capture_files_unlock) and write plan.json and setup.json. A resume must
  * be of the same capture: its plan.json this plan's byte for byte, its
- * setup.json the same source members, material, rig, detector and adaptive policy
+ * setup.json the same source members, material, rig, detector, calibration and adaptive policy
  * options (model, budget, target, stop rule); otherwise, or
  * when another process holds the directory, an error names what differs
  * (or the pid) and nothing is written. */

@@ -56,7 +56,7 @@ int capture_fit_samples(const struct journal_sample *js, size_t n, const struct 
         out->sd = rep.sd;
         snprintf(out->warning, sizeof out->warning, "%s", rep.warning);
         /* Plan-domain error: the model against what was measured. */
-        rc = fit_sample_errors(*fitted, jd.rgb, n, &out->err_plan, err);
+        rc = fit_sample_errors(*fitted, jd.rgb, jd.n, &out->err_plan, err);
     }
     fit_journal_data_free(&jd);
     return rc;

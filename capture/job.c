@@ -4,12 +4,17 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "capture/sequence.h"
 
 static void job_inputs_free(struct capture_job *in)
 {
     free(in->integration_s);
+    if (in->cal)
+        cal_loaded_free(in->cal);
+    free(in->cal);
+    in->cal = NULL;
     plan_free(in->plan);
     brdf_material_free(in->truth_own);
     in->integration_s = NULL;
@@ -154,6 +159,27 @@ static int resolve_inputs(const struct capture_config *cfg, const struct capture
     return estimate(in, err);
 }
 
+/* The calibration the capture reduces with, chosen and checked before
+ * anything moves (capture/calibration.h). The gain state is the
+ * detector's to say at its first reading; the calibration's own holds. */
+static int resolve_calibration(const struct capture_config *cfg, struct capture_job *in,
+                               struct gonio_err *err)
+{
+    if (!cfg->calibrations)
+        return 0;
+    struct cal_need need = {.rig = in->rig.name,
+                            .detector = in->src->detector ? in->src->detector : "unknown",
+                            .integration_s = in->rig.integration_s, .gain_state = -1,
+                            .now = time(NULL)};
+    struct cal_meta m;
+    int rc = cal_select(cfg->calibrations, cfg->calibration, &need, &m, err);
+    if (rc < 0)
+        return rc;
+    if (!(in->cal = calloc(1, sizeof *in->cal)))
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    return cal_load(cfg->calibrations, m.id, in->cal, err);
+}
+
 /* The job's own copy of cfg: every string member copied into one block. */
 static int copy_config(const struct capture_config *cfg, struct capture_job *job,
                        struct gonio_err *err)
@@ -161,7 +187,8 @@ static int copy_config(const struct capture_config *cfg, struct capture_job *job
     job->cfg = *cfg;
     const char **member[] = {&job->cfg.plan, &job->cfg.material, &job->cfg.rig,
                              &job->cfg.truth, &job->cfg.model, &job->cfg.out_dir,
-                             &job->cfg.order, &job->cfg.stop};
+                             &job->cfg.order, &job->cfg.stop, &job->cfg.calibration,
+                             &job->cfg.calibrations};
     size_t n = sizeof member / sizeof *member, len = 0;
     for (size_t i = 0; i < n; i++)
         len += *member[i] ? strlen(*member[i]) + 1 : 0;
@@ -203,6 +230,8 @@ int capture_prepare(const struct capture_config *cfg, const struct capture_rig *
     int rc = copy_config(cfg, job, err);
     if (rc == 0)
         rc = resolve_inputs(&job->cfg, rig, job, err);
+    if (rc == 0)
+        rc = resolve_calibration(&job->cfg, job, err);
     if (rc < 0) {
         capture_job_free(job);
         return rc;

@@ -6,6 +6,7 @@
 
 #include "adaptive/adaptive.h"
 #include "brdf/material.h"
+#include "capture/calibration.h"
 #include "capture/capture.h"
 #include "fit/models.h"
 #include "planner/planner.h"
@@ -35,6 +36,7 @@ struct capture_job {
     /* Points measured first to meter the material (capture/sequence.h). */
     size_t prescan;
     int ran; /* capture_job_run was called: a job runs once */
+    struct cal_loaded *cal; /* the calibration counts are reduced with, or NULL */
 };
 
 /* The capture's stop rule: the plan's, or cfg->stop. */

@@ -42,6 +42,8 @@ int live_fit_feed(struct live_fit *st, const struct plan *plan,
     if (!st->fs)
         return 0;
     const struct journal_sample *last = &js[n - 1];
+    if (!journal_sample_has_brdf(last))
+        return 0; /* counts not reduced: nothing a fit can take */
     struct fit_sample s;
     fit_journal_samples(last, 1, &s);
     int force;

@@ -22,9 +22,10 @@ static void usage(FILE *out)
             "                     [--order travel|progressive|as-written|greedy|adaptive]\n"
             "                     [--stop all|converge] [--budget MINUTES]\n"
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
-            "                     [--quiet]\n"
+            "                     [--calibration ID|newest --calibrations ROOT] [--quiet]\n"
             "  --material overrides the scene's material: nbrdf:NAME, merl:FILE, abc:NAME,\n"
-            "  sgd:NAME, builtin:NAME, spectral:NAME, analytic:NAME or default. DIR receives\n"
+            "  sgd:NAME, builtin:NAME, spectral:NAME, analytic:NAME, standard:NAME (a\n"
+            "  reflectance standard, docs/radiometry.md) or default. DIR receives\n"
             "  plan.json, setup.json, samples.csv and results.json; running again on the same\n"
             "  DIR resumes the capture (of the same plan, scene, material and rig only).\n"
             "  --truth: the reference of the in-plane and full-domain errors (default: the\n"
@@ -40,6 +41,12 @@ static void usage(FILE *out)
             "  its predicted full-domain log error of the model is at most --stop-target,\n"
             "  with --stop converge once more rig time would buy too little, or when the\n"
             "  pool is exhausted. A resume keeps the model, budget, target and stop rule.\n"
+            "  --calibrations ROOT: reduce a counts detector's readings to BRDF with an\n"
+            "  uncertainty as they are measured, with the reference calibration\n"
+            "  --calibration ID (default newest: the newest valid one for the rig and\n"
+            "  detector) in ROOT (gonio calibrate, docs/radiometry.md); a calibration\n"
+            "  that is missing, expired, of another rig or detector, or without the\n"
+            "  rig's integration is refused before the first move (exit 2).\n"
             PRESCAN_HELP
             "  (default here: none, the scene's estimate knows its material).\n"
             "  Progress goes to stderr (a bar on a terminal) unless --quiet. SIGINT or\n"
@@ -133,12 +140,14 @@ int cmd_capture(int argc, char **argv)
         {"quiet", no_argument, NULL, 'q'},     {"help", no_argument, NULL, 'h'},
         {"stop", required_argument, NULL, 'S'}, {"truth", required_argument, NULL, 't'},
         {"budget", required_argument, NULL, 'B'}, {"stop-target", required_argument, NULL, 'T'},
-        {"prescan", required_argument, NULL, 'P'}, {NULL, 0, NULL, 0},
+        {"prescan", required_argument, NULL, 'P'},
+        {"calibration", required_argument, NULL, 'C'},
+        {"calibrations", required_argument, NULL, 'R'}, {NULL, 0, NULL, 0},
     };
     struct capture_config cfg = {.model = "abc"};
     long long points;
     const char *scene = NULL;
-    int offline = 0, c;
+    int offline = 0, cal_named = 0, c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (c) {
@@ -153,6 +162,11 @@ int cmd_capture(int argc, char **argv)
         case 'S': cfg.stop = optarg; break;
         case 't': cfg.truth = optarg; break;
         case 'q': cfg.quiet = 1; break;
+        case 'C':
+            cfg.calibration = strcmp(optarg, "newest") ? optarg : NULL;
+            cal_named = 1;
+            break;
+        case 'R': cfg.calibrations = optarg; break;
         case 'P':
             if (cmd_capture_prescan(optarg, &points, &cfg.prescan) < 0)
                 return 2;
@@ -170,6 +184,11 @@ int cmd_capture(int argc, char **argv)
     if (optind != argc || !scene || !cfg.plan || !cfg.out_dir) {
         fprintf(stderr, "gonio capture: --scene, --plan and --out are required\n");
         usage(stderr);
+        return 2;
+    }
+    if (cal_named && !cfg.calibrations) {
+        fprintf(stderr, "gonio capture: --calibration needs --calibrations ROOT, the folder "
+                        "gonio calibrate wrote it to\n");
         return 2;
     }
     if (!offline) {

@@ -16,9 +16,135 @@
 
 #include "capture/capture.h"
 #include "cli/commands.h"
-#include "cli/conn.h"
+#include "cli/daemon_client.h"
 #include "cli/progress.h"
 #include "fit/models.h"
+
+const char *socket_path(const char *opt)
+{
+    const char *env = getenv("GONIO_SOCKET");
+    return opt ? opt : env && env[0] ? env : GONIO_SOCKET_DEFAULT;
+}
+
+/* The next document from the daemon, or NULL when the connection ends. */
+json_t *conn_read(struct conn *c)
+{
+    char *line = NULL;
+    size_t cap = 0;
+    ssize_t n = getline(&line, &cap, c->in);
+    if (n <= 0) {
+        free(line);
+        return NULL;
+    }
+    json_error_t je;
+    json_t *d = json_loadb(line, (size_t)n, 0, &je);
+    free(line);
+    if (!json_is_object(d)) {
+        json_decref(d);
+        fprintf(stderr, "gonio: goniod sent something that is not a JSON object\n");
+        return NULL;
+    }
+    return d;
+}
+
+int conn_open(struct conn *c, const char *path)
+{
+    memset(c, 0, sizeof *c);
+    c->path = path;
+    c->next_id = 1;
+    struct sockaddr_un sa = {.sun_family = AF_UNIX};
+    if (strlen(path) >= sizeof sa.sun_path) {
+        fprintf(stderr, "gonio: %s: socket path too long\n", path);
+        return -1;
+    }
+    memcpy(sa.sun_path, path, strlen(path) + 1);
+    c->fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (c->fd < 0 || connect(c->fd, (struct sockaddr *)&sa, sizeof sa) < 0) {
+        fprintf(stderr, "gonio: cannot reach goniod at %s: %s (is goniod running? --socket "
+                        "or GONIO_SOCKET name another socket)\n",
+                path, strerror(errno));
+        if (c->fd >= 0)
+            close(c->fd);
+        return -1;
+    }
+    c->in = fdopen(dup(c->fd), "r");
+    json_t *v = c->in ? conn_read(c) : NULL;
+    const char *cls = json_string_value(json_object_get(v, "class"));
+    json_int_t major = json_integer_value(json_object_get(v, "proto_major"));
+    int ok = cls && !strcmp(cls, "VERSION") && major == 1;
+    if (!ok) {
+        if (cls && !strcmp(cls, "ERROR"))
+            fprintf(stderr, "gonio: goniod: %s\n",
+                    json_string_value(json_object_get(v, "message")));
+        else
+            fprintf(stderr, "gonio: %s: not a goniod speaking protocol 1\n", path);
+    }
+    json_decref(v);
+    if (!ok) {
+        if (c->in)
+            fclose(c->in);
+        close(c->fd);
+        return -1;
+    }
+    return 0;
+}
+
+void conn_close(struct conn *c)
+{
+    fclose(c->in);
+    close(c->fd);
+}
+
+/* Send a request (stolen) and return its reply: OK, STATUS or ERROR. */
+json_t *conn_request(struct conn *c, json_t *req)
+{
+    long id = c->next_id++;
+    json_object_set_new(req, "id", json_integer(id));
+    char *text = json_dumps(req, JSON_COMPACT);
+    json_decref(req);
+    if (!text)
+        return NULL;
+    size_t len = strlen(text);
+    text[len] = '\0';
+    int ok = send(c->fd, text, len, MSG_NOSIGNAL) == (ssize_t)len &&
+             send(c->fd, "\n", 1, MSG_NOSIGNAL) == 1;
+    free(text);
+    if (!ok) {
+        fprintf(stderr, "gonio: lost goniod at %s\n", c->path);
+        return NULL;
+    }
+    for (;;) {
+        json_t *d = conn_read(c);
+        if (!d) {
+            fprintf(stderr, "gonio: goniod closed the connection\n");
+            return NULL;
+        }
+        json_t *rid = json_object_get(d, "id");
+        const char *cls = json_string_value(json_object_get(d, "class"));
+        /* Unsolicited errors (no id) end the exchange too. */
+        if ((json_is_integer(rid) && json_integer_value(rid) == id) ||
+            (!rid && cls && !strcmp(cls, "ERROR")))
+            return d;
+        json_decref(d); /* a watch document before the reply */
+    }
+}
+
+/* Print a daemon error as given. 0 if d is no error; 2 if goniod refused
+ * what was asked as bad input (bad-value: an unknown plan, a name outside
+ * the capture root...), 1 for any other error or a missing reply. */
+int reply_failed(json_t *d)
+{
+    if (!d)
+        return 1;
+    const char *cls = json_string_value(json_object_get(d, "class"));
+    if (cls && !strcmp(cls, "ERROR")) {
+        const char *code = json_string_value(json_object_get(d, "code"));
+        fprintf(stderr, "gonio: goniod: %s\n", json_string_value(json_object_get(d, "message")));
+        /* complete: a resume that would change a finished capture */
+        return code && (!strcmp(code, "bad-value") || !strcmp(code, "complete")) ? 2 : 1;
+    }
+    return 0;
+}
 
 /* ---- watching -------------------------------------------------------- */
 
@@ -78,9 +204,13 @@ static void show_stop(struct progress *p, json_t *d)
     printf("\n");
     if (res) {
         json_t *ep = json_object_get(res, "err_plan");
-        printf("  fit %s%s: plan log error %.4f, relative RMSE %.4f\n",
+        /* the verdict first: an underdetermined fit's small error is no figure
+         * to trust (an older goniod says only whether it converged) */
+        const char *verdict = json_string_value(json_object_get(res, "fit_status"));
+        printf("  fit %s: %s, plan log error %.4f, relative RMSE %.4f\n",
                json_string_value(json_object_get(res, "model")),
-               json_is_true(json_object_get(res, "converged")) ? "" : " (did not converge)",
+               verdict ? verdict
+               : json_is_true(json_object_get(res, "converged")) ? "converged" : "not-converged",
                jreal(ep, "log_error"), jreal(ep, "rel_rmse"));
         json_t *ef = json_object_get(res, "err_full");
         const char *truth = json_string_value(json_object_get(res, "truth"));
@@ -141,7 +271,7 @@ static int follow(struct conn *c, const char *id, int quiet)
             return rc;
         } else if (!strcmp(cls, "ERROR")) {
             progress_end(&p);
-            conn_reply_failed(d);
+            reply_failed(d);
             json_decref(d);
             return 1;
         }
@@ -182,18 +312,151 @@ static void show_capture(json_t *cap)
 /* Options every daemon command takes. */
 #define SOCKET_OPTS {"socket", required_argument, NULL, 'S'}, {"help", no_argument, NULL, 'h'}
 
+/* The command that resumes capture id, as the operator would type it. */
+static void print_resume_hint(const char *id, const char *sock)
+{
+    printf("  resume it with: gonio resume %s%s%s\n", id, sock ? " --socket " : "",
+           sock ? sock : "");
+}
+
+/* The captures in goniod's capture root, newest first (NULL on error,
+ * printed). */
+static json_t *request_list(struct conn *c)
+{
+    json_t *rep = conn_request(c, json_pack("{s:s}", "cmd", "list"));
+    if (reply_failed(rep)) {
+        json_decref(rep);
+        return NULL;
+    }
+    return rep;
+}
+
+/* status's line on the newest capture in the capture root, and the command
+ * that resumes it when it was interrupted or aborted. */
+static void show_newest(const char *sock, json_t *newest)
+{
+    if (!json_is_object(newest))
+        return;
+    const char *id = json_string_value(json_object_get(newest, "id"));
+    const char *state = json_string_value(json_object_get(newest, "state"));
+    char rig[32];
+    progress_hms(jreal(newest, "rig_time_s"), rig, sizeof rig);
+    printf("newest capture %s: %s, %zu/%zu samples, rig time %s, last change %s\n", id, state,
+           jsize(newest, "samples_done"), jsize(newest, "samples_total"), rig,
+           json_string_value(json_object_get(newest, "last_change")));
+    const char *verdict = json_string_value(json_object_get(newest, "fit_status"));
+    if (verdict)
+        printf("  fit %s, plan log error %.4f\n", verdict, jreal(newest, "plan_log_error"));
+    if (!strcmp(state, "interrupted") || !strcmp(state, "aborted"))
+        print_resume_hint(id, sock);
+}
+
+static void show_status(json_t *rep, json_t *newest, const char *sock)
+{
+    const char *state = json_string_value(json_object_get(rep, "state"));
+    printf("goniod %s", state);
+    if (strcmp(state, "idle"))
+        printf(": capture %s, %lld/%lld points, rig time %.1f s",
+               json_string_value(json_object_get(rep, "capture_id")),
+               (long long)json_integer_value(json_object_get(rep, "points_done")),
+               (long long)json_integer_value(json_object_get(rep, "points_total")),
+               jreal(rep, "rig_time_s"));
+    printf("\n");
+    show_capture(json_object_get(rep, "capture"));
+    json_t *fe = json_object_get(rep, "fit_error");
+    if (json_is_object(fe)) {
+        const char *verdict = json_string_value(json_object_get(fe, "status"));
+        printf("fit (%s, %lld samples): log error %.4f, relative RMSE %.4f%s%s\n",
+               json_string_value(json_object_get(fe, "capture_id")),
+               (long long)json_integer_value(json_object_get(fe, "samples")),
+               jreal(fe, "log_error"), jreal(fe, "rel_rmse"), verdict ? ", " : "",
+               verdict ? verdict : "");
+    }
+    show_newest(sock, newest);
+    /* the daemon's release, as goniod --version prints it: the one that
+     * answers may differ from this gonio's (an older one does not say) */
+    const char *release = json_string_value(json_object_get(rep, "release"));
+    if (release)
+        printf("goniod %s\n", release);
+}
+
+/* gonio list's table: one line a capture, newest first. */
+static void show_list(json_t *list)
+{
+    printf("%-34s %-12s %-11s %13s %9s  %-20s  %s\n", "ID", "PLAN", "STATE", "SAMPLES",
+           "RIG TIME", "LAST CHANGE", "SAMPLE");
+    size_t i;
+    json_t *e;
+    json_array_foreach(list, i, e) {
+        char rig[32], samples[32];
+        progress_hms(jreal(e, "rig_time_s"), rig, sizeof rig);
+        snprintf(samples, sizeof samples, "%zu/%zu", jsize(e, "samples_done"),
+                 jsize(e, "samples_total"));
+        const char *sample = json_string_value(json_object_get(e, "sample"));
+        printf("%-34s %-12s %-11s %13s %9s  %-20s  %s\n",
+               json_string_value(json_object_get(e, "id")),
+               json_string_value(json_object_get(e, "plan")),
+               json_string_value(json_object_get(e, "state")), samples, rig,
+               json_string_value(json_object_get(e, "last_change")), sample ? sample : "-");
+    }
+}
+
+static void print_json(json_t *d)
+{
+    json_object_del(d, "id");
+    char *s = json_dumps(d, JSON_COMPACT);
+    printf("%s\n", s ? s : "null");
+    free(s);
+}
+
+/* What a command prints of its OK reply. */
+static int show_reply(struct conn *c, const char *cmd, json_t *rep, int json_out,
+                      const char *sock)
+{
+    if (!strcmp(cmd, "status")) {
+        json_t *list = request_list(c);
+        if (!list)
+            return 1;
+        json_t *newest = json_array_get(json_object_get(list, "captures"), 0);
+        if (json_out) {
+            json_object_set(rep, "newest_capture", newest ? newest : json_null());
+            print_json(rep);
+        } else {
+            show_status(rep, newest, sock);
+        }
+        json_decref(list);
+    } else if (!strcmp(cmd, "list")) {
+        if (json_out)
+            print_json(rep);
+        else
+            show_list(json_object_get(rep, "captures"));
+    } else {
+        const char *id = json_string_value(json_object_get(rep, "capture_id"));
+        printf("goniod: %s%s%s\n", cmd, id ? " " : "", id ? id : "");
+        if (id && !strcmp(cmd, "abort"))
+            print_resume_hint(id, sock);
+    }
+    return 0;
+}
+
 static int simple(int argc, char **argv, const char *cmd, const char *usage_args,
                   const char *help)
 {
     static const struct option opts[] = {SOCKET_OPTS, {"json", no_argument, NULL, 'j'},
+                                         {"refit", no_argument, NULL, 'R'},
                                          {NULL, 0, NULL, 0}};
     const char *sock = NULL;
-    int json_out = 0, ch;
+    int json_out = 0, refit = 0, ch;
     optind = 1;
     while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+        /* --json and --refit only where the usage names them */
+        if ((ch == 'j' && !strstr(usage_args, "--json")) ||
+            (ch == 'R' && !strstr(usage_args, "--refit")))
+            ch = '?';
         switch (ch) {
         case 'S': sock = optarg; break;
         case 'j': json_out = 1; break;
+        case 'R': refit = 1; break;
         case 'h': printf("usage: gonio %s %s[--socket PATH]\n  %s\n", cmd, usage_args, help);
                   return 0;
         default: fprintf(stderr, "usage: gonio %s %s[--socket PATH]\n", cmd, usage_args);
@@ -201,55 +464,24 @@ static int simple(int argc, char **argv, const char *cmd, const char *usage_args
         }
     }
     const char *arg = NULL;
-    int takes_arg = usage_args[0] != '\0' && strcmp(usage_args, "[--json] ");
-    if (takes_arg && optind < argc)
+    if (strstr(usage_args, "ID") && optind < argc)
         arg = argv[optind++];
     if (optind != argc) {
         fprintf(stderr, "gonio %s: unexpected argument '%s'\n", cmd, argv[optind]);
         return 2;
     }
     struct conn c;
-    if (conn_open(&c, conn_socket_path(sock)) < 0)
+    if (conn_open(&c, socket_path(sock)) < 0)
         return 1;
     json_t *req = json_pack("{s:s}", "cmd", cmd);
     if (arg)
         json_object_set_new(req, "capture_id", json_string(arg));
+    if (refit)
+        json_object_set_new(req, "refit", json_true());
     json_t *rep = conn_request(&c, req);
-    int rc = conn_reply_failed(rep);
-    if (!rc && !strcmp(cmd, "status")) {
-        if (json_out) {
-            json_object_del(rep, "id");
-            char *s = json_dumps(rep, JSON_COMPACT);
-            printf("%s\n", s);
-            free(s);
-        } else {
-            const char *state = json_string_value(json_object_get(rep, "state"));
-            printf("goniod %s", state);
-            if (strcmp(state, "idle"))
-                printf(": capture %s, %lld/%lld points, rig time %.1f s",
-                       json_string_value(json_object_get(rep, "capture_id")),
-                       (long long)json_integer_value(json_object_get(rep, "points_done")),
-                       (long long)json_integer_value(json_object_get(rep, "points_total")),
-                       jreal(rep, "rig_time_s"));
-            printf("\n");
-            show_capture(json_object_get(rep, "capture"));
-            json_t *fe = json_object_get(rep, "fit_error");
-            if (json_is_object(fe))
-                printf("fit (%s, %lld samples): log error %.4f, relative RMSE %.4f\n",
-                       json_string_value(json_object_get(fe, "capture_id")),
-                       (long long)json_integer_value(json_object_get(fe, "samples")),
-                       jreal(fe, "log_error"), jreal(fe, "rel_rmse"));
-            /* the daemon's release, as goniod --version prints it: the
-             * one that answers may differ from this gonio's (an older one
-             * does not say) */
-            const char *release = json_string_value(json_object_get(rep, "release"));
-            if (release)
-                printf("goniod %s\n", release);
-        }
-    } else if (!rc) {
-        const char *id = json_string_value(json_object_get(rep, "capture_id"));
-        printf("goniod: %s%s%s\n", cmd, id ? " " : "", id ? id : "");
-    }
+    int rc = reply_failed(rep);
+    if (!rc)
+        rc = show_reply(&c, cmd, rep, json_out, sock);
     json_decref(rep);
     conn_close(&c);
     return rc;
@@ -259,7 +491,8 @@ int cmd_status(int argc, char **argv)
 {
     return simple(argc, argv, "status", "[--json] ",
                   "state (idle, running, paused), capture id, points done, rig time, last "
-                  "fit error, goniod's release");
+                  "fit error,\n  the newest capture in the capture root (and the command "
+                  "that resumes it\n  when it was interrupted or aborted), goniod's release");
 }
 
 int cmd_pause(int argc, char **argv)
@@ -269,15 +502,25 @@ int cmd_pause(int argc, char **argv)
 
 int cmd_resume(int argc, char **argv)
 {
-    return simple(argc, argv, "resume", "[CAPTURE-ID] ",
-                  "continue the paused capture, or (idle daemon) resume an interrupted "
-                  "capture from its journal");
+    return simple(argc, argv, "resume", "[CAPTURE-ID] [--refit] ",
+                  "continue the paused capture, or (idle daemon) resume an interrupted or\n"
+                  "  aborted capture from its journal. A complete capture is refused (exit 2,\n"
+                  "  nothing changed) unless --refit: fit its samples again, rewrite results");
+}
+
+int cmd_list(int argc, char **argv)
+{
+    return simple(argc, argv, "list", "[--json] ",
+                  "the captures in goniod's capture root, newest first: id, plan, state\n"
+                  "  (running, paused, complete, interrupted, failed, aborted), samples done/"
+                  "total,\n  rig time, last change (UTC)");
 }
 
 int cmd_abort(int argc, char **argv)
 {
     return simple(argc, argv, "abort", "",
-                  "stop the capture at the next point boundary; its samples are kept");
+                  "stop the capture at the next point boundary; its samples are kept, and\n"
+                  "  the command that resumes it is printed");
 }
 
 int cmd_shutdown(int argc, char **argv)
@@ -310,10 +553,10 @@ int cmd_watch(int argc, char **argv)
         return 2;
     }
     struct conn c;
-    if (conn_open(&c, conn_socket_path(sock)) < 0)
+    if (conn_open(&c, socket_path(sock)) < 0)
         return 1;
     json_t *rep = conn_request(&c, json_pack("{s:s}", "cmd", "watch"));
-    int rc = conn_reply_failed(rep);
+    int rc = reply_failed(rep);
     json_decref(rep);
     if (!rc)
         rc = follow(&c, NULL, quiet);
@@ -328,13 +571,17 @@ static void capture_usage(FILE *out)
             "                     [--rig NAME|FILE] [--model NAME] [--order ORDER]\n"
             "                     [--stop all|converge] [--budget MINUTES]\n"
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
-            "                     [--name ID] [--wait] [--quiet] [--socket PATH]\n"
+            "                     [--name ID] [--sample NAME] [--operator NAME] [--note TEXT]\n"
+            "                     [--wait] [--quiet] [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). Files are relative to goniod's capture\n"
             "  root. --model: the final fit's model, any RGB model of 'gonio fit --help'\n"
             "  (default abc). --truth SPEC: the reference material of the in-plane and\n"
             "  full-domain errors (on hardware there are none without it; on the simulator\n"
-            "  the default is the material it measures). --wait follows the capture to its\n"
+            "  the default is the material it measures). On a hardware rig --material is a\n"
+            "  spec that must resolve (nbrdf:, merl:, ...), not a label: name the sample with\n"
+            "  --sample. --sample, --operator, --note: kept with the capture (request.json,\n"
+            "  the start document, gonio list). --wait follows the capture to its\n"
             "  end, its progress on stderr (--quiet: none): exit 0 when it completes.\n"
             "  --order adaptive, --budget, --stop-target: as 'gonio capture --offline --help'\n"
             "  says.\n"
@@ -359,12 +606,14 @@ int cmd_capture_daemon(int argc, char **argv)
         {"truth", required_argument, NULL, 't'}, {"wait", no_argument, NULL, 'w'},
         {"quiet", no_argument, NULL, 'q'},       {"budget", required_argument, NULL, 'B'},
         {"stop-target", required_argument, NULL, 'T'},
-        {"prescan", required_argument, NULL, 'P'}, {NULL, 0, NULL, 0},
+        {"prescan", required_argument, NULL, 'P'}, {"sample", required_argument, NULL, 'A'},
+        {"operator", required_argument, NULL, 'O'}, {"note", required_argument, NULL, 'N'},
+        {NULL, 0, NULL, 0},
     };
-    static const char *const keys[] = {"plan", "scene", "material", "rig",
-                                       "model", "order", "stop", "name", "truth"};
-    static const char letters[] = "psmrMoxnt";
-    const char *vals[9] = {0}, *sock = NULL;
+    static const char *const keys[] = {"plan", "scene", "material", "rig", "model", "order",
+                                       "stop", "name", "truth", "sample", "operator", "note"};
+    static const char letters[] = "psmrMoxntAON";
+    const char *vals[12] = {0}, *sock = NULL;
     double budget = 0, target = 0;
     long long prescan = -1; /* -1: not given, goniod's default */
     int wait = 0, quiet = 0, ch, ignored;
@@ -409,18 +658,18 @@ int cmd_capture_daemon(int argc, char **argv)
         return 2;
     }
     struct conn c;
-    if (conn_open(&c, conn_socket_path(sock)) < 0)
+    if (conn_open(&c, socket_path(sock)) < 0)
         return 1;
     int rc = 0;
     if (wait) { /* subscribe first, so not even a quick capture's start is missed */
         json_t *rep = conn_request(&c, json_pack("{s:s}", "cmd", "watch"));
-        rc = conn_reply_failed(rep);
+        rc = reply_failed(rep);
         json_decref(rep);
     }
     json_t *rep = NULL;
     if (!rc) {
         json_t *req = json_pack("{s:s}", "cmd", "capture");
-        for (int i = 0; i < 9; i++)
+        for (int i = 0; i < 12; i++)
             if (vals[i])
                 json_object_set_new(req, keys[i], json_string(vals[i]));
         if (budget > 0)
@@ -430,7 +679,7 @@ int cmd_capture_daemon(int argc, char **argv)
         if (prescan >= 0)
             json_object_set_new(req, "prescan", json_integer((json_int_t)prescan));
         rep = conn_request(&c, req);
-        rc = conn_reply_failed(rep);
+        rc = reply_failed(rep);
     }
     if (!rc) {
         char id[128];

@@ -283,6 +283,9 @@ int cmd_fit(int argc, char **argv)
         fprintf(stderr, "gonio fit: %s\n", err.msg);
         return gonio_exit_status(err.code);
     }
+    if (jd.without_value)
+        fprintf(stderr, "gonio fit: %zu records without a BRDF value (dark frames, counts not "
+                        "reduced) left out\n", jd.without_value);
     int censored = fit_model_censors(kind, a.how);
     for (size_t i = 0; !censored && i < n_spectral; i++)
         spec[i].saturated = 0; /* spectra.csv's flags, as rgb_lower */

@@ -85,7 +85,9 @@ static int check(const char *dir, const char *rig_opt)
     if (rc == 0) {
         printf("%s: %zu records of %zu plan points, %s; each at its plan point within %g deg "
                "(%s), no point twice\n",
-               journal_path, n, count, info.chained ? "checksums chained" : "unchained format",
+               journal_path, n, count, info.raw       ? "checksums chained"
+               : info.chained ? "checksums chained, without raw columns"
+                              : "unchained format",
                rig.mech.in_position_deg, from);
         if (info.torn_bytes)
             printf("%s: a torn last record (%zu bytes), which a resume cuts off\n", journal_path,

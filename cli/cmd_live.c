@@ -11,7 +11,7 @@
 #include <unistd.h>
 
 #include "cli/commands.h"
-#include "cli/conn.h"
+#include "cli/daemon_client.h"
 #include "cli/live_http.h"
 #include "cli/live_state.h"
 
@@ -74,10 +74,10 @@ static int parse_listen(const char *text, char *host, size_t n, unsigned *port)
 static int follow(live_state *st, const char *sock)
 {
     struct conn c;
-    if (conn_open(&c, conn_socket_path(sock)) < 0)
+    if (conn_open(&c, socket_path(sock)) < 0)
         return 1;
     json_t *rep = conn_request(&c, json_pack("{s:s}", "cmd", "watch"));
-    int rc = conn_reply_failed(rep);
+    int rc = reply_failed(rep);
     json_decref(rep);
     while (!rc && !stopping) {
         json_t *d = conn_read(&c);

@@ -149,7 +149,7 @@ static int plot_slices(int argc, char **argv)
     struct gonio_err err = {0};
     brdf_material *truth = NULL, *models[MAX_MODELS] = {0};
     struct report_sample *samples = NULL;
-    size_t n_samples = 0, oop = 0;
+    size_t n_samples = 0, oop = 0, no_value = 0;
     int rc = 0;
     if (material && !(truth = fit_material_open(material, &err)))
         rc = -1;
@@ -157,10 +157,13 @@ static int plot_slices(int argc, char **argv)
         if (!(models[i] = fit_material_open(model_specs[i], &err)))
             rc = -1;
     if (!rc && samples_path)
-        rc = report_samples_read(samples_path, &samples, &n_samples, &oop, &err);
+        rc = report_samples_read(samples_path, &samples, &n_samples, &oop, &no_value, &err);
     if (!rc && oop)
         fprintf(stderr, "gonio plot: %zu out-of-plane samples of %s are not drawn\n", oop,
                 samples_path);
+    if (!rc && no_value)
+        fprintf(stderr, "gonio plot: %zu records of %s without a BRDF value (dark frames, "
+                        "counts not reduced) are not drawn\n", no_value, samples_path);
     if (!rc) {
         struct report_slices in = {.title = title,
                                    .truth = truth,

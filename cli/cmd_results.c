@@ -35,11 +35,12 @@ static const struct column {
 };
 #define NCOL (sizeof columns / sizeof columns[0])
 /* The table leaves out the reference's name (a long spec, the material
- * column's twin on a simulated rig) and the plan-domain errors; --json,
- * --csv and --format have every column. */
+ * column's twin on a simulated rig) and the plan-domain relative RMSE, but
+ * keeps the plan-domain log error: on hardware without a reference it is
+ * the only error there is. --json, --csv and --format have every column. */
 static int in_table(size_t c)
 {
-    return strcmp(columns[c].name, "truth") && strncmp(columns[c].name, "plan_", 5);
+    return strcmp(columns[c].name, "truth") && strcmp(columns[c].name, "plan_rel");
 }
 
 static int column_find(const char *name, size_t len)
@@ -174,6 +175,9 @@ static void print_table(json_t *rows)
     char buf[4096];
     for (size_t c = 0; c < NCOL; c++)
         width[c] = (int)strlen(columns[c].title);
+    /* A column no capture recorded (the truth errors and the scene of
+     * hardware captures) is left out rather than shown as a column of "-". */
+    int shown[NCOL] = {0};
     size_t i;
     json_t *row;
     json_array_foreach(rows, i, row) {
@@ -181,6 +185,7 @@ static void print_table(json_t *rows)
             cell_text(row, c, buf, sizeof buf);
             if ((int)strlen(buf) > width[c])
                 width[c] = (int)strlen(buf);
+            shown[c] |= in_table(c) && strcmp(buf, "-");
         }
     }
     /* Text to the left, numbers to the right; two spaces between. */
@@ -189,7 +194,7 @@ static void print_table(json_t *rows)
         for (size_t r = 0; r < n; r++) {
             const char *sep = "";
             for (size_t c = 0; c < NCOL; c++) {
-                if (!in_table(c))
+                if (!shown[c])
                     continue;
                 if (header)
                     snprintf(buf, sizeof buf, "%s", columns[c].title);
@@ -275,8 +280,9 @@ static void usage(FILE *out)
     fprintf(out,
             "usage: gonio results [--json | --csv | --format FMT] CAPTURE_DIR...\n"
             "One row per capture: directory, plan, scene, material, model, samples, rig time\n"
-            "(h:mm:ss), fit time (s), fit status, and the log error and relative RMSE on the\n"
-            "in-plane and full domains ('-' when the capture has no reference material).\n"
+            "(h:mm:ss), fit time (s), fit status, the plan-domain log error, and the log error\n"
+            "and relative RMSE on the in-plane and full domains ('-' when the capture has no\n"
+            "reference material; a column no capture has is left out).\n"
             "  --json    an array of objects, one per capture (absent values null)\n"
             "  --csv     a header and one line per capture (absent values empty)\n"
             "  --format  one line per capture with %%dir %%plan %%scene %%material %%model\n"

@@ -15,6 +15,7 @@ int cmd_render(int argc, char **argv);
 int cmd_study(int argc, char **argv);
 int cmd_journal(int argc, char **argv);
 int cmd_live(int argc, char **argv);
+int cmd_calibrate(int argc, char **argv);
 
 /* cmd_daemon.c: the commands that talk to goniod. cmd_capture_any runs
  * cmd_capture for --offline and cmd_capture_daemon otherwise. */
@@ -26,6 +27,12 @@ int cmd_pause(int argc, char **argv);
 int cmd_resume(int argc, char **argv);
 int cmd_abort(int argc, char **argv);
 int cmd_shutdown(int argc, char **argv);
+/* cmd_bringup.c: bring-up of a new rig through goniod. */
+int cmd_home(int argc, char **argv);
+int cmd_move(int argc, char **argv);
+int cmd_where(int argc, char **argv);
+int cmd_limits(int argc, char **argv);
+int cmd_list(int argc, char **argv);
 
 /* --budget MINUTES, --stop-target LOG_ERR (opt) of both capture commands:
  * a positive number, else a message on stderr and -1. */

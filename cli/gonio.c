@@ -21,6 +21,11 @@ static const struct {
     {"resume", cmd_resume, "continue a paused capture, or resume an interrupted one by id"},
     {"abort", cmd_abort, "stop the running capture, keeping its samples"},
     {"shutdown", cmd_shutdown, "stop goniod"},
+    {"home", cmd_home, "home the rig's axes, or one (bring-up, through goniod)"},
+    {"move", cmd_move, "move an axis to an angle within its soft limits"},
+    {"where", cmd_where, "the axes' encoder positions, drive status and alarms"},
+    {"limits", cmd_limits, "drive an axis slowly to its soft limits and back"},
+    {"list", cmd_list, "goniod's captures: state, samples, rig time, the resumable ones"},
     {"fit", cmd_fit, "fit a model to a capture's samples and write its model file"},
     {"export", cmd_export, "export a material as a MERL .binary table"},
     {"results", cmd_results, "tabulate the results of capture directories"},
@@ -31,6 +36,7 @@ static const struct {
     {"study", cmd_study, "accuracy against rig time: materials x plans x models x scenes"},
     {"journal", cmd_journal, "check a capture's journal as a resume would, without resuming"},
     {"live", cmd_live, "follow the capture in a browser: a page served on localhost"},
+    {"calibrate", cmd_calibrate, "measure dark frames or a reference standard (docs/radiometry.md)"},
 };
 
 #define N_COMMANDS (sizeof commands / sizeof commands[0])

@@ -19,7 +19,7 @@ install(TARGETS gonio goniod gonio-sim RUNTIME DESTINATION ${CMAKE_INSTALL_BINDI
 
 install(FILES configs/goniod/sim.yaml DESTINATION ${GONIO_INSTALL_CONFIG_DIR}
         RENAME goniod.yaml)
-foreach(sub plans rigs scenes render)
+foreach(sub plans rigs scenes render standards)
   install(DIRECTORY configs/${sub} DESTINATION ${GONIO_INSTALL_CONFIG_DIR}
           FILES_MATCHING PATTERN "*.yaml")
 endforeach()

@@ -267,6 +267,34 @@ static int load_socket(const struct cfg_doc *d, const struct cfg_node *root,
     return 0;
 }
 
+int goniod_config_rig_gap(const struct goniod_config *cfg, const struct rig_profile *rig,
+                          const char *rig_ref, char *why, size_t size)
+{
+    if (cfg->driver == GONIOD_DRIVER_SIM || !rig->out_of_plane || cfg->slaves.azimuth)
+        return 0;
+    /* Without the drive the engine would leave the azimuth where it is and
+     * record in-plane samples as the out-of-plane pairs they were planned as. */
+    snprintf(why, size,
+             "driver.slaves.azimuth is %d (none), but rig profile '%s' is out of plane "
+             "(out_of_plane: true) and moves an azimuth axis; set driver.slaves.azimuth to "
+             "the azimuth drive's slave id, or name an in-plane rig profile",
+             cfg->slaves.azimuth, rig_ref);
+    return -GONIO_EBADCONFIG;
+}
+
+int goniod_config_rig_check(const struct goniod_config *cfg, const char *rig_ref,
+                            struct gonio_err *err)
+{
+    struct rig_profile rig;
+    char why[1400];
+    int rc = rig_profile_load(rig_ref, &rig, err);
+    if (rc < 0)
+        return rc;
+    if ((rc = goniod_config_rig_gap(cfg, &rig, rig_ref, why, sizeof why)) < 0)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "%s: %s", cfg->path, why);
+    return 0;
+}
+
 int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio_err *err)
 {
     static const char *const keys[] = {"rig",    "driver",       "capture_root",
@@ -318,6 +346,13 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
     if (rig_profile_load(cfg->rig, &rig, &e2) < 0) {
         const struct cfg_node *at = cfg_get(d, root, "rig");
         rc = cfg_error(d, at ? at : root, "rig", err, "%s", e2.msg);
+        goto out;
+    }
+    char why[1400];
+    if (goniod_config_rig_gap(cfg, &rig, cfg->rig, why, sizeof why) < 0) {
+        const struct cfg_node *slaves = cfg_get(d, drv, "slaves");
+        const struct cfg_node *az = slaves ? cfg_get(d, slaves, "azimuth") : NULL;
+        rc = cfg_error(d, az ? az : slaves ? slaves : drv, "azimuth", err, "%s", why);
         goto out;
     }
     rc = 0;

@@ -8,6 +8,7 @@
 #include <stdio.h>
 
 #include "common/err.h"
+#include "rig/rig.h"
 
 enum goniod_driver { GONIOD_DRIVER_SIM, GONIOD_DRIVER_MODBUS_RTU, GONIOD_DRIVER_MODBUS_TCP };
 
@@ -66,6 +67,20 @@ struct goniod_config {
  * to the file's folder. Returns 0, or -GONIO_EBADCONFIG / -GONIO_ENOTFOUND
  * with err filled. */
 int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio_err *err);
+
+/* Whether the driver has every axis the rig profile moves: the sim driver
+ * has all of them; a Modbus rig has an azimuth drive only where
+ * driver.slaves.azimuth names its slave. 0 when it does; else
+ * -GONIO_EBADCONFIG with why (size bytes) saying what is missing, the
+ * field of the config that would wire it (driver.slaves.azimuth) and its
+ * value, and the fix; rig_ref names the profile in it. */
+int goniod_config_rig_gap(const struct goniod_config *cfg, const struct rig_profile *rig,
+                          const char *rig_ref, char *why, size_t size);
+
+/* goniod_config_rig_gap for the rig profile rig_ref (a name or a path):
+ * loaded, then checked; err reads "CONFIG: driver.slaves.azimuth: ...". */
+int goniod_config_rig_check(const struct goniod_config *cfg, const char *rig_ref,
+                            struct gonio_err *err);
 
 /* The resolved configuration as YAML goniod would accept (--check). */
 void goniod_config_print(FILE *out, const struct goniod_config *cfg);

@@ -143,6 +143,7 @@ void control_free(control *c)
     close(c->lock_fd); /* only now: the path is free for the next goniod */
     free(c->start_doc);
     free(c->descriptor_doc);
+    json_decref(c->bringup_id);
     control_events_free(c);
     free(c);
 }

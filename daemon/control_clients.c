@@ -316,6 +316,8 @@ void control_reap(control *c)
 {
     size_t k = 0;
     for (size_t i = 0; i < c->n_clients; i++) {
+        if (c->clients[i]->dead && c->clients[i] == c->bringup_client)
+            c->bringup_client = NULL; /* its bring-up goes on; nobody hears the end */
         if (c->clients[i]->dead)
             control_client_free(c->clients[i]);
         else

@@ -8,8 +8,10 @@
 #include <sys/stat.h>
 #include <time.h>
 
+#include "brdf/material.h"
 #include "common/paths.h"
 #include "common/version.h"
+#include "daemon/captures.h"
 #include "daemon/control_private.h"
 #include "daemon/request.h"
 
@@ -26,6 +28,23 @@ struct command {
 static const char *jstr(json_t *req, const char *key)
 {
     return json_string_value(json_object_get(req, key));
+}
+
+/* On hardware the material is what the sample is, a spec results are
+ * compared with, not a label: one that does not resolve is refused (the
+ * simulator's is resolved by its own check). */
+static int material_resolves(const char *spec, struct gonio_err *err)
+{
+    struct gonio_err why = {0};
+    brdf_material *m = brdf_material_open(spec, &why);
+    if (m) {
+        brdf_material_free(m);
+        return 0;
+    }
+    return gonio_err_set(err, GONIO_EUSAGE,
+                         "material '%s' does not resolve (%s); on a hardware rig it names a "
+                         "material spec, not a label",
+                         spec, why.msg);
 }
 
 static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_t *reply,
@@ -57,9 +76,33 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
     } else {
         snprintf(r.rig, sizeof r.rig, "%s", c->cfg->rig);
     }
+    if ((rc = goniod_config_rig_check(c->cfg, r.rig, err)) < 0)
+        return rc;
     if (material &&
         (rc = control_resolve_material(c, material, r.material, sizeof r.material, err)) < 0)
         return rc;
+    if (material && c->cfg->driver != GONIOD_DRIVER_SIM &&
+        (rc = material_resolves(r.material, err)) < 0)
+        return rc;
+    /* What the operator says of the capture: kept, never interpreted. */
+    static const char *const meta_keys[] = {"sample", "operator", "note"};
+    char *meta_out[] = {r.sample, r.operator_name, r.note};
+    size_t meta_size[] = {sizeof r.sample, sizeof r.operator_name, sizeof r.note};
+    for (int k = 0; k < 3; k++) {
+        const char *v = jstr(req, meta_keys[k]);
+        if (!v)
+            continue;
+        size_t len = strlen(v);
+        int ctl = 0;
+        for (size_t i = 0; i < len; i++)
+            ctl |= (unsigned char)v[i] < 0x20 || v[i] == 0x7f;
+        if (len >= meta_size[k] || ctl)
+            return gonio_err_set(err, GONIO_EUSAGE,
+                                 "%s '%.60s': at most %zu bytes of text without control "
+                                 "characters",
+                                 meta_keys[k], v, meta_size[k] - 1);
+        memcpy(meta_out[k], v, len + 1);
+    }
     if (truth && (rc = control_resolve_material(c, truth, r.truth, sizeof r.truth, err)) < 0)
         return rc;
     snprintf(r.model, sizeof r.model, "%s", model ? model : "abc");
@@ -160,13 +203,16 @@ static json_t *status_doc(control *c)
     json_object_set_new(d, "rig_time_s", control_json_number(st.rig_time_s));
     if (st.has_fit)
         json_object_set_new(d, "fit_error",
-                            json_pack("{s:s, s:o, s:o, s:I}", "capture_id", st.fit_id,
+                            json_pack("{s:s, s:o, s:o, s:I, s:o}", "capture_id", st.fit_id,
                                       "log_error", control_json_number(st.fit_log_error),
                                       "rel_rmse", control_json_number(st.fit_rel_rmse),
-                                      "samples", (json_int_t)st.fit_samples));
+                                      "samples", (json_int_t)st.fit_samples, "status",
+                                      st.fit_status[0] ? json_string(st.fit_status)
+                                                       : json_null()));
     else
         json_object_set_new(d, "fit_error", json_null());
     json_object_set_new(d, "capture", capture_doc(&st));
+    json_object_set_new(d, "bringup", st.bringup[0] ? json_string(st.bringup) : json_null());
     return d;
 }
 
@@ -261,6 +307,20 @@ static int cmd_resume(control *c, struct control_client *cl, json_t *req, json_t
         *code = "not-found";
         return rc;
     }
+    *code = "bad-value";
+    if ((rc = goniod_config_rig_check(c->cfg, r.rig, err)) < 0)
+        return rc;
+    /* A complete capture has nothing left to measure: resuming it would
+     * only fit again and rewrite its results, which only refit asks for. */
+    char ended[16];
+    captures_end_state(r.dir, ended, sizeof ended);
+    if (!strcmp(ended, "complete") && !json_is_true(json_object_get(req, "refit"))) {
+        *code = "complete";
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "capture '%s' is complete; nothing was changed (a resume with "
+                             "refit, gonio resume --refit, fits its samples again)",
+                             id);
+    }
     r.resume = 1;
     *code = "busy";
     if ((rc = worker_start(c->w, &r, err)) < 0)
@@ -274,9 +334,36 @@ static int cmd_resume(control *c, struct control_client *cl, json_t *req, json_t
 static int cmd_abort(control *c, struct control_client *cl, json_t *req, json_t *reply,
                      const char **code, struct gonio_err *err)
 {
-    (void)cl, (void)req, (void)reply;
+    (void)cl, (void)req;
     *code = "not-running";
-    return worker_abort(c->w, "aborted", err);
+    struct worker_status st;
+    worker_get_status(c->w, &st);
+    int rc = worker_abort(c->w, "aborted", err);
+    if (rc == 0) /* what `resume` takes to continue it */
+        json_object_set_new(reply, "capture_id", json_string(st.id));
+    return rc;
+}
+
+static int cmd_list(control *c, struct control_client *cl, json_t *req, json_t *reply,
+                    const char **code, struct gonio_err *err)
+{
+    (void)cl, (void)req;
+    struct worker_status st;
+    worker_get_status(c->w, &st);
+    struct captures_live live = {
+        .id = st.state == WORKER_IDLE ? NULL : st.id,
+        .state = st.state == WORKER_PAUSED ? "paused" : "running",
+        .done = st.done,
+        .total = st.total,
+        .rig_time_s = st.rig_time_s,
+    };
+    json_t *list = captures_list(c->cfg->capture_root, &live);
+    if (!list) {
+        *code = "io";
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    }
+    json_object_set_new(reply, "captures", list);
+    return 0;
 }
 
 static int cmd_shutdown(control *c, struct control_client *cl, json_t *req, json_t *reply,
@@ -286,6 +373,19 @@ static int cmd_shutdown(control *c, struct control_client *cl, json_t *req, json
     c->shutdown = 1;
     return 0;
 }
+
+/* bring-up: control_bringup.c */
+#define BRINGUP_CMD(fn, op)                                                                  \
+    static int fn(control *c, struct control_client *cl, json_t *req, json_t *reply,        \
+                  const char **code, struct gonio_err *err)                                  \
+    {                                                                                        \
+        (void)reply;                                                                         \
+        return control_cmd_bringup(c, op, req, code, err, cl);                               \
+    }
+BRINGUP_CMD(cmd_home, BRINGUP_HOME)
+BRINGUP_CMD(cmd_move, BRINGUP_MOVE)
+BRINGUP_CMD(cmd_where, BRINGUP_WHERE)
+BRINGUP_CMD(cmd_limits, BRINGUP_LIMITS)
 
 /* What each command does, indexed like request.c's table of names and
  * fields. */
@@ -297,6 +397,11 @@ static const struct command commands[CONTROL_CMD_COUNT] = {
     [CONTROL_CMD_RESUME] = {cmd_resume, NEED_ANY},
     [CONTROL_CMD_ABORT] = {cmd_abort, NEED_ACTIVE},
     [CONTROL_CMD_SHUTDOWN] = {cmd_shutdown, NEED_ANY},
+    [CONTROL_CMD_HOME] = {cmd_home, NEED_IDLE},
+    [CONTROL_CMD_MOVE] = {cmd_move, NEED_IDLE},
+    [CONTROL_CMD_WHERE] = {cmd_where, NEED_IDLE},
+    [CONTROL_CMD_LIMITS] = {cmd_limits, NEED_IDLE},
+    [CONTROL_CMD_LIST] = {cmd_list, NEED_ANY},
 };
 
 int control_handle_line(control *c, struct control_client *cl, const char *line, size_t len)
@@ -321,6 +426,12 @@ int control_handle_line(control *c, struct control_client *cl, const char *line,
         control_request_free(&rq);
         return 1;
     }
+    if (cmd->need == NEED_IDLE && st.bringup[0]) {
+        control_send_error(cl, "busy", id, "%s: bring-up '%s' is running; wait for it to finish",
+                           name, st.bringup);
+        control_request_free(&rq);
+        return 1;
+    }
     if (cmd->need == NEED_ACTIVE && st.state == WORKER_IDLE) {
         control_send_error(cl, "not-running", id, "%s: no capture is running", name);
         control_request_free(&rq);
@@ -337,6 +448,8 @@ int control_handle_line(control *c, struct control_client *cl, const char *line,
     if (rc < 0) {
         json_decref(reply);
         control_send_error(cl, code, id, "%s", err.msg[0] ? err.msg : gonio_strerror(rc));
+    } else if (rc > 0) {
+        json_decref(reply); /* answered later (bring-up) */
     } else {
         control_client_send(cl, reply);
         /* A watcher that subscribes mid-capture still gets the capture's

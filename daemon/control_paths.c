@@ -161,11 +161,13 @@ static void request_path(const struct worker_request *r, char *out, size_t size)
 
 int control_save_request(const struct worker_request *r, struct gonio_err *err)
 {
-    json_t *d = json_pack("{s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:f, s:f, s:i}", "id",
+    json_t *d = json_pack("{s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:f, s:f, s:i, s:s, "
+                          "s:s, s:s}", "id",
                           r->id, "plan", r->plan, "scene", r->scene, "rig", r->rig, "material",
                           r->material, "truth", r->truth, "model", r->model, "order", r->order,
                           "stop", r->stop, "budget", r->budget_min, "stop_target",
-                          r->stop_target, "prescan", r->prescan);
+                          r->stop_target, "prescan", r->prescan, "sample", r->sample,
+                          "operator", r->operator_name, "note", r->note);
     char *text = d ? control_json_text(d) : NULL;
     if (!text)
         return gonio_err_set(err, ENOMEM, "out of memory");
@@ -233,6 +235,14 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
     r->budget_min = budget;
     r->stop_target = target;
     r->prescan = prescan;
+    /* the operator's metadata: absent from the records of older goniods */
+    const char *meta[] = {"sample", "operator", "note"};
+    char *meta_out[] = {r->sample, r->operator_name, r->note};
+    size_t meta_size[] = {sizeof r->sample, sizeof r->operator_name, sizeof r->note};
+    for (int k = 0; k < 3; k++) {
+        const char *v = json_string_value(json_object_get(d, meta[k]));
+        snprintf(meta_out[k], meta_size[k], "%s", v ? v : "");
+    }
     json_decref(d);
     return 0;
 }

@@ -22,6 +22,8 @@
 
 #include "common/clock.h"
 #include "common/err.h"
+#include "daemon/bringup.h"
+#include "daemon/bringup.h"
 #include "daemon/control.h"
 #include "daemon/worker.h"
 
@@ -68,6 +70,11 @@ struct control {
      * that subscribe mid-capture; NULL when idle. */
     char *start_doc, *descriptor_doc;
     unsigned long long seq; /* event sequence number within a capture */
+    /* The client waiting for a bring-up command's reply (NULL: none, or it
+     * left), the request's id (owned) and the worker's ticket. */
+    struct control_client *bringup_client;
+    json_t *bringup_id;
+    unsigned long bringup_ticket;
     struct control_events ev;
     /* Refused clients in the current log window (control_clients.c): since
      * when, how many logged in full, how many only counted. */
@@ -136,6 +143,15 @@ void control_events_free(control *c);
  * 1 when the line was a well-formed request (run, or refused for the rig's
  * state), 0 when it was malformed. */
 int control_handle_line(control *c, struct control_client *cl, const char *line, size_t len);
+/* ---- control_bringup.c ------------------------------------------------ */
+
+/* A bring-up command (daemon/bringup.h) checked and handed to the worker
+ * for cl: 1 (its reply waits for control_bringup_reply), or an error. */
+int control_cmd_bringup(control *c, enum bringup_op op, json_t *req, const char **code,
+                        struct gonio_err *err, struct control_client *cl);
+/* The reply of a bring-up command the worker ended, to the client that
+ * asked for it if it is still there. */
+void control_bringup_reply(control *c, const struct worker_msg_bringup *m);
 
 /* ---- control_paths.c -------------------------------------------------- */
 

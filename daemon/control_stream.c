@@ -8,6 +8,7 @@
 #include <time.h>
 
 #include "daemon/control_private.h"
+#include "fit/fit_status.h"
 #include "rig/rig.h"
 
 static json_t *string_or_null(const char *v)
@@ -35,6 +36,9 @@ static json_t *start_doc(const struct worker_msg_start *m)
                                               ? json_real(m->req.stop_target)
                                               : json_null());
     json_object_set_new(s, "resume", json_boolean(m->req.resume));
+    json_object_set_new(s, "sample", string_or_null(m->req.sample));
+    json_object_set_new(s, "operator", string_or_null(m->req.operator_name));
+    json_object_set_new(s, "note", string_or_null(m->req.note));
     json_object_set_new(s, "total", json_integer((json_int_t)m->total));
     json_object_set_new(s, "already_done", json_integer((json_int_t)m->already_done));
     json_object_set_new(s, "estimate_s", control_json_number(m->estimate_s));
@@ -64,6 +68,14 @@ static json_t *sample_doc(const control *c, const struct worker_msg_sample *m)
                         json_pack("[o,o,o]", control_json_number(s->rgb[0]),
                                   control_json_number(s->rgb[1]),
                                   control_json_number(s->rgb[2])));
+    if (s->counts) { /* what the detector gave; rgb null until a calibration reduces it */
+        json_object_set_new(d, "unit", json_string("counts"));
+        json_object_set_new(d, "raw", json_pack("[o,o,o]", control_json_number(s->raw[0]),
+                                                control_json_number(s->raw[1]),
+                                                control_json_number(s->raw[2])));
+        json_object_set_new(d, "integration_total_s",
+                            control_json_number(s->integration_total_s));
+    }
     json_object_set_new(d, "integration_s", control_json_number(s->integration_s));
     json_object_set_new(d, "rig_time_s", control_json_number(s->rig_time_s));
     json_object_set_new(d, "saturated", json_boolean(s->flags & JOURNAL_FLAG_SATURATED));
@@ -177,6 +189,8 @@ static json_t *stop_doc(const struct worker_msg_stop *m)
         json_object_set_new(r, "truth", truth ? truth : json_null());
         json_object_set_new(r, "model", json_string(s->model));
         json_object_set_new(r, "converged", json_boolean(s->converged));
+        json_object_set_new(r, "fit_status",
+                            json_string(fit_status_name(fit_status_code(&s->status))));
         json_object_set_new(r, "fit_time_s", control_json_number(s->fit_time_s));
         json_object_set_new(
             r, "params",
@@ -242,6 +256,8 @@ void control_dispatch(control *c, struct worker_msg *msgs)
             c->seq++;
             doc = sample_doc(c, (const struct worker_msg_sample *)m);
             control_events_sample(c, (const struct worker_msg_sample *)m);
+        } else if (m->kind == WORKER_MSG_BRINGUP) {
+            control_bringup_reply(c, (const struct worker_msg_bringup *)m);
         } else {
             const struct worker_msg_stop *ms = (const struct worker_msg_stop *)m;
             if (ms->rc < 0)

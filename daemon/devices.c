@@ -46,30 +46,39 @@ static int open_usb_detector(const struct goniod_config *cfg, int (*cancelled)(v
 #endif
 }
 
-int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profile *rig,
-                        int (*cancelled)(void *user), void *user,
-                        struct capture_devices *dev, void **bus_out, struct gonio_err *err)
+/* The configured bus, with its line settings, timeout and retries. */
+static drv_modbus_bus *open_bus(const struct goniod_config *cfg, struct gonio_err *err)
 {
-    memset(dev, 0, sizeof *dev);
-    *bus_out = NULL;
     struct drv_modbus_bus_cfg bc;
     drv_modbus_bus_cfg_default(&bc);
     bc.timeout_s = cfg->timeout_s;
     bc.retries = cfg->retries;
     bc.time_scale = cfg->time_scale;
-    drv_modbus_bus *bus;
     if (cfg->driver == GONIOD_DRIVER_MODBUS_RTU) {
         bc.device = cfg->device;
         bc.baud = (int)cfg->baud;
         bc.parity = cfg->parity;
         bc.data_bits = cfg->data_bits;
         bc.stop_bits = cfg->stop_bits;
-        bus = drv_modbus_bus_new_rtu(&bc, err);
-    } else {
-        bc.host = cfg->host;
-        bc.port = cfg->port;
-        bus = drv_modbus_bus_new_tcp(&bc, err);
+        return drv_modbus_bus_new_rtu(&bc, err);
     }
+    bc.host = cfg->host;
+    bc.port = cfg->port;
+    return drv_modbus_bus_new_tcp(&bc, err);
+}
+
+int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profile *rig,
+                        int (*cancelled)(void *user), void *user,
+                        struct capture_devices *dev, void **bus_out, struct gonio_err *err)
+{
+    memset(dev, 0, sizeof *dev);
+    *bus_out = NULL;
+    /* Checked at start and at each request; again here, where a missing
+     * drive would silently leave an axis the plan moves where it stands. */
+    char why[700];
+    if (goniod_config_rig_gap(cfg, rig, rig->name, why, sizeof why) < 0)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "%s: %s", cfg->path, why);
+    drv_modbus_bus *bus = open_bus(cfg, err);
     if (!bus)
         return -(err && err->code ? err->code : GONIO_EDEVICE);
     drv_modbus_bus_set_cancel(bus, cancelled, user);
@@ -83,10 +92,10 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profil
                                       err);
     if (dev->sample)
         dev->arm = drv_axis_new_modbus(bus, cfg->slaves.arm, &rig->arm, &opts, "arm", err);
-    if (dev->arm && cfg->slaves.azimuth && rig->out_of_plane)
+    if (dev->arm && rig->out_of_plane)
         dev->azimuth = drv_axis_new_modbus(bus, cfg->slaves.azimuth, &rig->azimuth, &opts,
                                            "azimuth", err);
-    int axes_ok = dev->arm && (dev->azimuth || !cfg->slaves.azimuth || !rig->out_of_plane);
+    int axes_ok = dev->arm && (dev->azimuth || !rig->out_of_plane);
     if (axes_ok && cfg->detector == GONIOD_DETECTOR_USB) {
         open_usb_detector(cfg, cancelled, user, dev, err);
     } else if (axes_ok) {
@@ -125,6 +134,115 @@ void goniod_devices_close(struct capture_devices *dev, void *bus)
     drv_modbus_bus_free(bus);
 }
 
+int goniod_axes_open(const struct goniod_config *cfg, const struct rig_profile *rig,
+                     double speed_factor, int (*cancelled)(void *user), void *user,
+                     struct goniod_axes *out, struct gonio_err *err)
+{
+    memset(out, 0, sizeof *out);
+    if (cfg->driver == GONIOD_DRIVER_SIM)
+        return gonio_err_set(err, GONIO_EUSAGE, "%s: driver 'sim' has no drives to bring up "
+                             "(the in-process rig starts at home for every capture)", cfg->path);
+    drv_modbus_bus *bus = open_bus(cfg, err);
+    if (!bus)
+        return -(err && err->code ? err->code : GONIO_EDEVICE);
+    drv_modbus_bus_set_cancel(bus, cancelled, user);
+    out->bus = bus;
+    struct drv_modbus_axis_opts opts = {.steps_per_deg = cfg->steps_per_deg,
+                                        .in_position_deg = rig->mech.in_position_deg,
+                                        .backlash_deg = rig->mech.backlash_deg,
+                                        .approach = rig->mech.approach,
+                                        .move_retries = rig->mech.move_retries};
+    const struct rig_axis *prof[] = {&rig->sample, &rig->arm, &rig->azimuth};
+    static const char *const names[] = {"sample", "arm", "azimuth"};
+    const int slaves[] = {cfg->slaves.sample, cfg->slaves.arm, cfg->slaves.azimuth};
+    for (int i = 0; i < GONIOD_AXES_MAX; i++) {
+        if (!slaves[i])
+            continue;
+        struct rig_axis p = *prof[i];
+        p.speed *= speed_factor;
+        p.accel *= speed_factor;
+        drv_axis *ax = drv_axis_new_modbus(bus, slaves[i], &p, &opts, names[i], err);
+        if (!ax) {
+            goniod_axes_close(out);
+            return -(err && err->code ? err->code : GONIO_EDEVICE);
+        }
+        out->ax[out->n] = ax;
+        out->names[out->n] = names[i];
+        out->slaves[out->n++] = slaves[i];
+    }
+    return 0;
+}
+
+void goniod_axes_close(struct goniod_axes *a)
+{
+    for (int i = 0; i < a->n; i++)
+        drv_axis_free(a->ax[i]);
+    drv_modbus_bus_free(a->bus);
+    memset(a, 0, sizeof *a);
+}
+
+/* One probe line, a YAML comment (so that --check's output stays the
+ * configuration): the device, then what it answered or why it did not;
+ * the first failure kept in first. */
+static void probe_line(FILE *out, const char *who, int rc, const char *what,
+                       const struct gonio_err *e, struct gonio_err *first)
+{
+    fprintf(out, "# probe: %-22s %s%s\n", who, rc == 0 ? "" : "did not answer: ",
+            rc == 0 ? what : e->msg);
+    if (rc < 0 && !first->msg[0])
+        *first = *e;
+}
+
+int goniod_probe(const struct goniod_config *cfg, const struct rig_profile *rig, FILE *out,
+                 struct gonio_err *err)
+{
+    if (cfg->driver == GONIOD_DRIVER_SIM) {
+        fprintf(out, "# probe: driver sim, the in-process rig: nothing to probe\n");
+        return 0;
+    }
+    struct goniod_axes axes;
+    int rc = goniod_axes_open(cfg, rig, 1, NULL, NULL, &axes, err);
+    if (rc < 0)
+        return rc;
+    struct gonio_err first = {0};
+    char who[64], what[256], alarm[64];
+    for (int i = 0; i < axes.n; i++) {
+        struct drv_axis_state st;
+        struct gonio_err e = {0};
+        rc = drv_axis_state(axes.ax[i], &st, &e);
+        snprintf(who, sizeof who, "axis %s (slave %d)", axes.names[i], axes.slaves[i]);
+        snprintf(alarm, sizeof alarm, st.alarm ? "0x%02x (%s)" : "none", st.alarm,
+                 drv_alarm_name(st.alarm));
+        snprintf(what, sizeof what, "answered: at %.2f deg, %s%s%s, alarm %s",
+                 st.position_deg, st.ready > 0 ? "READY" : "not READY",
+                 st.moving > 0 ? ", MOVE" : "", st.home_end > 0 ? ", HOME-END" : "", alarm);
+        probe_line(out, who, rc, what, &e, &first);
+    }
+    if (cfg->detector == GONIOD_DETECTOR_MODBUS) {
+        unsigned status = 0;
+        int channels = 0;
+        struct gonio_err e = {0};
+        rc = drv_modbus_detector_probe(axes.bus, cfg->slaves.detector, &status, &channels, &e);
+        snprintf(who, sizeof who, "detector (slave %d)", cfg->slaves.detector);
+        snprintf(what, sizeof what, "answered: %d channels, %s", channels,
+                 status & 1 ? "BUSY" : status & 2 ? "READY" : "idle");
+        if (rc == 0 && (channels < 1 || channels > 64)) {
+            rc = gonio_err_set(&e, GONIO_EDEVICE, "detector (slave %d): channel count %d, "
+                               "not 1..64: not a gonio detector", cfg->slaves.detector, channels);
+        }
+        probe_line(out, who, rc, what, &e, &first);
+    } else {
+        fprintf(out, "# probe: %-22s not probed (the USB spectrometer opens at a capture)\n",
+                "detector (usb)");
+    }
+    goniod_axes_close(&axes);
+    if (first.msg[0]) {
+        *err = first;
+        return -GONIO_EDEVICE;
+    }
+    return 0;
+}
+
 #else /* the Modbus backend is not in this build */
 
 int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profile *rig,
@@ -152,6 +270,32 @@ void goniod_devices_close(struct capture_devices *dev, void *bus)
 {
     (void)bus;
     memset(dev, 0, sizeof *dev);
+}
+
+int goniod_axes_open(const struct goniod_config *cfg, const struct rig_profile *rig,
+                     double speed_factor, int (*cancelled)(void *user), void *user,
+                     struct goniod_axes *out, struct gonio_err *err)
+{
+    (void)rig, (void)speed_factor, (void)cancelled, (void)user;
+    memset(out, 0, sizeof *out);
+    return gonio_err_set(err, GONIO_EDEVICE, "%s: driver '%s': this goniod was built without "
+                         "the Modbus backend", cfg->path, goniod_driver_name(cfg->driver));
+}
+
+void goniod_axes_close(struct goniod_axes *a)
+{
+    memset(a, 0, sizeof *a);
+}
+
+int goniod_probe(const struct goniod_config *cfg, const struct rig_profile *rig, FILE *out,
+                 struct gonio_err *err)
+{
+    (void)rig;
+    if (cfg->driver == GONIOD_DRIVER_SIM) {
+        fprintf(out, "# probe: driver sim, the in-process rig: nothing to probe\n");
+        return 0;
+    }
+    return goniod_axes_open(cfg, rig, 1, NULL, NULL, &(struct goniod_axes){0}, err);
 }
 
 #endif

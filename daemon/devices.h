@@ -5,6 +5,8 @@
 #ifndef GONIO_DAEMON_DEVICES_H
 #define GONIO_DAEMON_DEVICES_H
 
+#include <stdio.h>
+
 #include "common/err.h"
 #include "capture/capture.h"
 #include "daemon/config.h"
@@ -29,5 +31,30 @@ void goniod_devices_stats(const void *bus, struct goniod_comm_stats *out);
 
 /* Free the devices, then the bus. */
 void goniod_devices_close(struct capture_devices *dev, void *bus);
+
+/* The rig's axes alone, for bring-up and the probe: every
+ * axis the configuration wires (the azimuth where slaves.azimuth names
+ * it), with the rig profile's limits and mechanics and its speeds and
+ * accelerations times speed_factor (1: the profile's). names[i] and
+ * slaves[i] go with ax[i]. The sim driver has no drives: GONIO_EUSAGE. */
+#define GONIOD_AXES_MAX 3
+struct goniod_axes {
+    drv_axis *ax[GONIOD_AXES_MAX];
+    const char *names[GONIOD_AXES_MAX];
+    int slaves[GONIOD_AXES_MAX];
+    int n;
+    void *bus;
+};
+int goniod_axes_open(const struct goniod_config *cfg, const struct rig_profile *rig,
+                     double speed_factor, int (*cancelled)(void *user), void *user,
+                     struct goniod_axes *out, struct gonio_err *err);
+void goniod_axes_close(struct goniod_axes *a);
+
+/* goniod --check --probe: open the bus, ask every configured device what
+ * it is (each axis drive's status, alarm and encoder; the detector's
+ * status and channel count), a line each on out. 0 when all answered;
+ * else -GONIO_EDEVICE with err naming the first that did not. */
+int goniod_probe(const struct goniod_config *cfg, const struct rig_profile *rig, FILE *out,
+                 struct gonio_err *err);
 
 #endif

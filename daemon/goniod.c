@@ -17,6 +17,7 @@
 #include "common/version.h"
 #include "daemon/config.h"
 #include "daemon/control.h"
+#include "daemon/devices.h"
 #include "daemon/lock.h"
 #include "daemon/notify.h"
 #include "daemon/worker.h"
@@ -34,11 +35,13 @@ static void on_signal(int sig)
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: goniod --config FILE [--check]\n"
+    fprintf(out, "usage: goniod --config FILE [--check [--probe]]\n"
                  "       goniod --version\n"
                  "  --config FILE  the daemon's configuration (goniod.yaml(5))\n"
                  "  --check        validate FILE, print the resolved configuration and exit\n"
                  "                 (0 when valid, 2 with path:line:col: problem when not)\n"
+                 "  --probe        with --check: open the bus, ask every device what it is\n"
+                 "                 (a line each); 2 naming the first that did not answer\n"
                  "  --version      print the release and exit\n"
                  "Keys and the protocol: docs/goniod.md, docs/protocol.md.\n");
 }
@@ -163,25 +166,47 @@ static int serve(const struct goniod_config *cfg)
     return 0;
 }
 
+/* --check --probe: after the resolved configuration, what each device
+ * answered; 2 naming the first that did not. */
+static int run_probe(const struct goniod_config *cfg)
+{
+    struct rig_profile rig;
+    struct gonio_err err = {0};
+    fflush(stdout);
+    if (rig_profile_load(cfg->rig, &rig, &err) < 0 || goniod_probe(cfg, &rig, stdout, &err) < 0) {
+        fflush(stdout);
+        fprintf(stderr, "goniod: probe: %s\n", err.msg);
+        return 2;
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     static const struct option opts[] = {
         {"config", required_argument, NULL, 'c'},
         {"check", no_argument, NULL, 'k'},
+        {"probe", no_argument, NULL, 'p'},
         {"help", no_argument, NULL, 'h'},
         {"version", no_argument, NULL, 'V'},
         {NULL, 0, NULL, 0},
     };
     const char *path = NULL;
-    int check = 0, ch;
+    int check = 0, probe = 0, ch;
     while ((ch = getopt_long(argc, argv, "c:", opts, NULL)) != -1) {
         switch (ch) {
         case 'c': path = optarg; break;
         case 'k': check = 1; break;
+        case 'p': probe = 1; break;
         case 'h': usage(stdout); return 0;
         case 'V': gonio_print_version(stdout, "goniod"); return 0;
         default: usage(stderr); return 2;
         }
+    }
+    if (probe && !check) {
+        fprintf(stderr, "goniod: --probe goes with --check\n");
+        usage(stderr);
+        return 2;
     }
     if (!path || optind != argc) {
         fprintf(stderr, "goniod: --config FILE is required\n");
@@ -198,7 +223,7 @@ int main(int argc, char **argv)
     }
     if (check) {
         goniod_config_print(stdout, &cfg);
-        return 0;
+        return probe ? run_probe(&cfg) : 0;
     }
     if (setup_signals(&err) < 0) {
         fprintf(stderr, "goniod: %s\n", err.msg);

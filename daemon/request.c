@@ -25,6 +25,7 @@ static const struct arg_spec capture_args[] = {
     STRING_ARG("plan"), STRING_ARG("scene"), STRING_ARG("material"),
     STRING_ARG("rig"),  STRING_ARG("model"), STRING_ARG("order"),
     STRING_ARG("stop"), STRING_ARG("name"),  STRING_ARG("truth"),
+    STRING_ARG("sample"), STRING_ARG("operator"), STRING_ARG("note"),
     /* From a few points' rig time to a week. */
     {.name = "budget", .type = ARG_NUMBER, .min = 0.1, .max = 10080, .zero_none = 1,
      .unit = "minutes of rig time"},
@@ -34,8 +35,15 @@ static const struct arg_spec capture_args[] = {
     {.name = "prescan", .type = ARG_INT, .min = 0, .max = CAPTURE_PRESCAN_MAX, .unit = "points"},
     {.name = NULL},
 };
-static const struct arg_spec resume_args[] = {STRING_ARG("capture_id"), {.name = NULL}};
+static const struct arg_spec resume_args[] = {
+    STRING_ARG("capture_id"), {.name = "refit", .type = ARG_BOOL}, {.name = NULL}};
 static const struct arg_spec no_args[] = {{.name = NULL}};
+/* bring-up: an axis (home: optional), a move's target in degrees */
+static const struct arg_spec axis_args[] = {STRING_ARG("axis"), {.name = NULL}};
+static const struct arg_spec move_args[] = {
+    STRING_ARG("axis"),
+    {.name = "deg", .type = ARG_NUMBER, .min = -360, .max = 360, .unit = "degrees"},
+    {.name = NULL}};
 static const struct arg_spec watch_args[] = {STRING_ARG("format"), {.name = NULL}};
 
 /* The fields each command takes besides cmd and id, indexed by enum control_cmd. */
@@ -50,6 +58,11 @@ static const struct {
     [CONTROL_CMD_RESUME] = {"resume", resume_args},
     [CONTROL_CMD_ABORT] = {"abort", no_args},
     [CONTROL_CMD_SHUTDOWN] = {"shutdown", no_args},
+    [CONTROL_CMD_HOME] = {"home", axis_args},
+    [CONTROL_CMD_MOVE] = {"move", move_args},
+    [CONTROL_CMD_WHERE] = {"where", no_args},
+    [CONTROL_CMD_LIMITS] = {"limits", axis_args},
+    [CONTROL_CMD_LIST] = {"list", no_args},
 };
 
 const char *control_cmd_name(enum control_cmd cmd)

@@ -19,6 +19,12 @@ enum control_cmd {
     CONTROL_CMD_RESUME,
     CONTROL_CMD_ABORT,
     CONTROL_CMD_SHUTDOWN,
+    /* bring-up (daemon/bringup.h) */
+    CONTROL_CMD_HOME,
+    CONTROL_CMD_MOVE,
+    CONTROL_CMD_WHERE,
+    CONTROL_CMD_LIMITS,
+    CONTROL_CMD_LIST,
     CONTROL_CMD_COUNT
 };
 

@@ -11,7 +11,9 @@
 #include <unistd.h>
 
 #include "brdf/metrics.h"
+#include "daemon/captures.h"
 #include "daemon/devices.h"
+#include "fit/fit_status.h"
 #include "sim_source/sim_source.h"
 
 /* A request's capture, prepared once: the job and the rig source it runs
@@ -47,9 +49,14 @@ struct worker {
     char end_state[16], end_message[GONIO_ERR_MSG_MAX];
     struct worker_msg *head, *tail;
     void *bus; /* the Modbus bus while a capture holds it */
+    /* A bring-up command under way in the thread (bringup_active), its
+     * job and ticket. */
+    int bringup_active;
+    struct bringup_job bringup;
+    unsigned long bringup_ticket;
     int has_comm; /* the last capture's bus counts, taken as it closed */
     struct goniod_comm_stats comm;
-    int has_fit;
+    int has_fit, fit_final; /* fit_final: the figures are done_fit's */
     char fit_id[128];
     double fit_log, fit_rmse;
     size_t fit_n;
@@ -60,6 +67,7 @@ struct worker {
         char id[128];
         double log, rmse;
         size_t n;
+        char status[24]; /* its verdict (fit_status_name) */
     } done_fit;
 #ifdef GONIO_TEST_HOOKS
     /* Crash torture (docs/torture.md): GONIOD_PHASE_LOG names a file that
@@ -119,6 +127,7 @@ static void hook_on_fit(void *user, const struct brdf_errors *e, size_t samples)
     worker *w = user;
     pthread_mutex_lock(&w->mu);
     w->has_fit = 1;
+    w->fit_final = 0;
     snprintf(w->fit_id, sizeof w->fit_id, "%s", w->req.id);
     w->fit_log = e->log;
     w->fit_rmse = e->rel_rmse;
@@ -246,12 +255,44 @@ static int hook_cancelled(void *user)
     return abort;
 }
 
+/* Every axis where the rig profile allows it before the first move: an
+ * axis left beyond the limits (by an earlier rig profile, or by hand)
+ * would otherwise be driven from where the profile says it cannot be. */
+static int check_start(const struct rig_profile *rig, struct capture_devices *dev,
+                       struct gonio_err *err)
+{
+    drv_axis *axes[] = {dev->sample, dev->arm, dev->azimuth};
+    const struct rig_axis *prof[] = {&rig->sample, &rig->arm, &rig->azimuth};
+    for (int i = 0; i < 3; i++) {
+        double at;
+        if (!axes[i])
+            continue;
+        int rc = drv_axis_position(axes[i], &at, err);
+        if (rc < 0)
+            return rc;
+        double slack = rig->mech.in_position_deg;
+        if (at < prof[i]->min - slack || at > prof[i]->max + slack) {
+            const char *name = drv_axis_name(axes[i]);
+            return gonio_err_set(err, GONIO_EUNREACHABLE,
+                                 "axis %s is at %.2f deg, outside rig profile '%s''s limits "
+                                 "axes.%s %g..%g deg; bring it inside first: gonio home %s",
+                                 name, at, rig->name, name, prof[i]->min, prof[i]->max, name);
+        }
+    }
+    return 0;
+}
+
 static int hook_open(void *user, const struct rig_profile *rig, const char *dir,
                      struct capture_devices *dev, struct gonio_err *err)
 {
     (void)dir;
     worker *w = user;
-    return goniod_devices_open(w->cfg, rig, hook_cancelled, w, dev, &w->bus, err);
+    int rc = goniod_devices_open(w->cfg, rig, hook_cancelled, w, dev, &w->bus, err);
+    if (rc == 0 && (rc = check_start(rig, dev, err)) < 0) {
+        goniod_devices_close(dev, w->bus);
+        w->bus = NULL;
+    }
+    return rc;
 }
 
 static void hook_close(void *user, struct capture_devices *dev)
@@ -354,6 +395,25 @@ int worker_check(worker *w, const struct worker_request *req, struct gonio_err *
     return prepare(w, req, &w->pending, err);
 }
 
+/* The run's end in the capture directory (daemon/captures.h), written
+ * before the stop is reported, so a list never shows a finished capture as
+ * interrupted. A shutdown interrupted the capture; the operator did not
+ * abort it. */
+static void record_stop(worker *w, int rc, const char *reason, const struct gonio_err *err,
+                        const struct capture_summary *sum)
+{
+    const char *state = rc < 0                       ? "failed"
+                        : !strcmp(reason, "shutdown") ? "interrupted"
+                        : !strcmp(reason, "aborted")  ? "aborted"
+                                                      : "complete";
+    struct captures_stop stop = {.state = state, .reason = reason,
+                                 .message = rc < 0 ? err->msg : "",
+                                 .summary = rc < 0 ? NULL : sum};
+    struct gonio_err werr = {0};
+    if (captures_record_stop(w->req.dir, &stop, &werr) < 0)
+        fprintf(stderr, "goniod: capture %s: %s\n", w->req.id, werr.msg);
+}
+
 static void *run(void *arg)
 {
     worker *w = arg;
@@ -372,6 +432,9 @@ static void *run(void *arg)
     };
     w->has_comm = 0;
     memset(&sum, 0, sizeof sum);
+    /* Until this run ends, the capture is running or, if goniod dies,
+     * interrupted: no earlier run's end record stands. */
+    captures_clear_stop(w->req.dir);
     /* A resume was not checked first: it is prepared here. */
     int rc = w->current ? 0 : prepare(w, &w->req, &w->current, &err);
     if (rc == 0)
@@ -389,14 +452,17 @@ static void *run(void *arg)
                          : aborted ? (w->abort_reason[0] ? w->abort_reason : "aborted")
                                    : sum.stop_reason;
     if (rc == 0 && !aborted) {
-        w->has_fit = w->done_fit.has = 1;
+        w->has_fit = w->done_fit.has = w->fit_final = 1;
         snprintf(w->fit_id, sizeof w->fit_id, "%s", w->req.id);
         snprintf(w->done_fit.id, sizeof w->done_fit.id, "%s", w->req.id);
         w->fit_log = w->done_fit.log = sum.err_plan.log;
         w->fit_rmse = w->done_fit.rmse = sum.err_plan.rel_rmse;
         w->fit_n = w->done_fit.n = sum.samples;
-    } else { /* the stopped capture's streaming fit goes with it */
-        w->has_fit = w->done_fit.has;
+        snprintf(w->done_fit.status, sizeof w->done_fit.status, "%s",
+                 fit_status_name(fit_status_code(&sum.status)));
+    } else {
+        /* the stopped capture's streaming fit goes with it */
+        w->has_fit = w->fit_final = w->done_fit.has;
         snprintf(w->fit_id, sizeof w->fit_id, "%s", w->done_fit.id);
         w->fit_log = w->done_fit.log;
         w->fit_rmse = w->done_fit.rmse;
@@ -407,6 +473,7 @@ static void *run(void *arg)
     snprintf(w->end_message, sizeof w->end_message, "%s", rc < 0 ? err.msg : "");
     if (rc == 0 && !aborted)
         w->eta_s = 0;
+    record_stop(w, rc, reason, &err, &sum);
     w->running = 0;
     w->paused = 0;
     pthread_mutex_unlock(&w->mu);
@@ -460,7 +527,7 @@ oom:
 static void join_if_finished(worker *w)
 {
     pthread_mutex_lock(&w->mu);
-    int join = w->thread_live && !w->running;
+    int join = w->thread_live && !w->running && !w->bringup_active;
     pthread_mutex_unlock(&w->mu);
     if (join) {
         pthread_join(w->thread, NULL);
@@ -474,6 +541,9 @@ void worker_free(worker *w)
         return;
     if (w->thread_live) {
         worker_abort(w, "shutdown", NULL);
+        pthread_mutex_lock(&w->mu);
+        w->abort = 1; /* a bring-up command's waits end too */
+        pthread_mutex_unlock(&w->mu);
         pthread_join(w->thread, NULL);
     }
     for (struct worker_msg *m = w->head, *next; m; m = next) {
@@ -502,10 +572,14 @@ int worker_start(worker *w, const struct worker_request *req, struct gonio_err *
     join_if_finished(w);
     pthread_mutex_lock(&w->mu);
     if (w->running || w->thread_live) {
-        int rc = gonio_err_set(err, GONIO_EUSAGE,
-                               "capture '%s' is running; abort it or wait for it to finish "
-                               "before starting another",
-                               w->req.id);
+        int rc = w->bringup_active
+                     ? gonio_err_set(err, GONIO_EUSAGE, "bring-up '%s %s' is running; wait for "
+                                     "it to finish", bringup_op_name(w->bringup.op),
+                                     w->bringup.axis)
+                     : gonio_err_set(err, GONIO_EUSAGE,
+                                     "capture '%s' is running; abort it or wait for it to "
+                                     "finish before starting another",
+                                     w->req.id);
         pthread_mutex_unlock(&w->mu);
         return rc;
     }
@@ -606,6 +680,12 @@ void worker_get_status(worker *w, struct worker_status *st)
     st->fit_log_error = w->fit_log;
     st->fit_rel_rmse = w->fit_rmse;
     st->fit_samples = w->fit_n;
+    if (w->bringup_active)
+        snprintf(st->bringup, sizeof st->bringup, "%s%s%s", bringup_op_name(w->bringup.op),
+                 w->bringup.axis[0] ? " " : "", w->bringup.axis);
+    /* The verdict goes with the final fit's figures, not a streaming fit's. */
+    if (w->fit_final)
+        snprintf(st->fit_status, sizeof st->fit_status, "%s", w->done_fit.status);
     pthread_mutex_unlock(&w->mu);
 }
 
@@ -619,7 +699,62 @@ struct worker_msg *worker_take(worker *w)
     w->head = w->tail = NULL;
     pthread_mutex_unlock(&w->mu);
     for (struct worker_msg *p = m; p; p = p->next)
-        if (p->kind == WORKER_MSG_STOP)
+        if (p->kind == WORKER_MSG_STOP || p->kind == WORKER_MSG_BRINGUP)
             join_if_finished(w);
     return m;
+}
+
+/* ---- bring-up (daemon/bringup.h) ------------------------------------- */
+
+static void *run_bringup(void *arg)
+{
+    worker *w = arg;
+    struct worker_msg_bringup *m = calloc(1, sizeof *m);
+    struct bringup_result res;
+    struct rig_profile rig;
+    memset(&res, 0, sizeof res);
+    if ((res.rc = rig_profile_load(w->cfg->rig, &rig, &res.err)) == 0)
+        bringup_run(w->cfg, &rig, &w->bringup, hook_cancelled, w, &res);
+    pthread_mutex_lock(&w->mu);
+    w->bringup_active = 0;
+    pthread_mutex_unlock(&w->mu);
+    if (m) {
+        m->base.kind = WORKER_MSG_BRINGUP;
+        m->ticket = w->bringup_ticket;
+        m->job = w->bringup;
+        m->result = res;
+        push(w, &m->base);
+    }
+    return NULL;
+}
+
+int worker_bringup(worker *w, const struct bringup_job *job, unsigned long ticket,
+                   struct gonio_err *err)
+{
+    join_if_finished(w);
+    pthread_mutex_lock(&w->mu);
+    if (w->running || w->thread_live) {
+        int rc = w->bringup_active
+                     ? gonio_err_set(err, GONIO_EUSAGE, "bring-up '%s %s' is running; wait "
+                                     "for it to finish", bringup_op_name(w->bringup.op),
+                                     w->bringup.axis)
+                     : gonio_err_set(err, GONIO_EUSAGE, "capture '%s' is running; abort it "
+                                     "or wait for it to finish", w->req.id);
+        pthread_mutex_unlock(&w->mu);
+        return rc;
+    }
+    w->bringup = *job;
+    w->bringup_ticket = ticket;
+    w->bringup_active = 1;
+    w->abort = 0;
+    pthread_mutex_unlock(&w->mu);
+    int rc = pthread_create(&w->thread, NULL, run_bringup, w);
+    if (rc != 0) {
+        pthread_mutex_lock(&w->mu);
+        w->bringup_active = 0;
+        pthread_mutex_unlock(&w->mu);
+        return gonio_err_set(err, rc, "bring-up thread: %s", strerror(rc));
+    }
+    w->thread_live = 1;
+    return 0;
 }

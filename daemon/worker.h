@@ -16,6 +16,7 @@
 
 #include "common/err.h"
 #include "capture/capture.h"
+#include "daemon/bringup.h"
 #include "daemon/config.h"
 #include "daemon/devices.h"
 #include "journal/journal.h"
@@ -29,6 +30,9 @@ struct worker_request {
      * reference of the truth errors, "" for none (docs/protocol.md). */
     char plan[1024], scene[1024], rig[1024], material[1024], truth[1024], model[32], order[32];
     char stop[16]; /* "all", "converge" or "" (the plan's rule) */
+    /* The operator's metadata, "" when not given: the sample's name, who
+     * ran it, a note (docs/protocol.md). */
+    char sample[128], operator_name[128], note[1024];
     double budget_min, stop_target; /* the adaptive order's stops, 0: none */
     int prescan; /* capture_config.prescan: 0 the engine's default */
     int resume; /* the directory exists: continue from its journal */
@@ -55,9 +59,13 @@ struct worker_status {
     char fit_id[128];
     double fit_log_error, fit_rel_rmse;
     size_t fit_samples;
+    /* A bring-up command under way ("move arm"), "" when none. */
+    char bringup[48];
+    /* The final fit's verdict (fit_status_name), "" for a streaming fit's. */
+    char fit_status[24];
 };
 
-enum worker_msg_kind { WORKER_MSG_START, WORKER_MSG_SAMPLE, WORKER_MSG_STOP };
+enum worker_msg_kind { WORKER_MSG_START, WORKER_MSG_SAMPLE, WORKER_MSG_STOP, WORKER_MSG_BRINGUP };
 
 /* The queue's link: every message begins with it, and its kind says which
  * of the structs below it is. */
@@ -99,6 +107,14 @@ struct worker_msg_stop {
     struct goniod_comm_stats comm;
 };
 
+/* A bring-up command ended (worker_bringup): its ticket and result. */
+struct worker_msg_bringup {
+    struct worker_msg base;
+    unsigned long ticket;
+    struct bringup_job job;
+    struct bringup_result result;
+};
+
 typedef struct worker worker;
 
 /* The worker for a daemon configured by cfg (which must outlive it).
@@ -130,6 +146,12 @@ int worker_continue(worker *w, struct gonio_err *err);
 int worker_abort(worker *w, const char *reason, struct gonio_err *err);
 
 void worker_get_status(worker *w, struct worker_status *st);
+
+/* Run a bring-up command (daemon/bringup.h) on the configured drives in
+ * the worker's thread; its end is a WORKER_MSG_BRINGUP with ticket.
+ * Refused (GONIO_EUSAGE) while a capture or another one runs. */
+int worker_bringup(worker *w, const struct bringup_job *job, unsigned long ticket,
+                   struct gonio_err *err);
 
 /* Take every queued message (oldest first); free each with free(). Joins
  * the capture thread once its STOP message has been taken. */

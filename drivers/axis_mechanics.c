@@ -47,9 +47,10 @@ enum { ALM_DEVIATION = MB_ALARM_DEVIATION, ALM_SENSOR = MB_ALARM_SENSOR,
        ALM_OVERLOAD = MB_ALARM_OVERLOAD, ALM_OVERTRAVEL = MB_ALARM_OVERTRAVEL,
        ALM_DATA = MB_ALARM_DATA };
 
-static const char *alarm_name(unsigned code)
+const char *drv_alarm_name(unsigned code)
 {
     switch (code) {
+    case 0: return "";
     case ALM_DEVIATION: return "excessive position deviation";
     case ALM_SENSOR: return "sensor error";
     case ALM_OVERLOAD: return "overload";
@@ -136,7 +137,7 @@ static int alarm_error(const drv_axis *ax, unsigned code, struct gonio_err *err)
     char t[128];
     tried(ax, t, sizeof t);
     return gonio_err_set(err, GONIO_EDEVICE, "%s: drive alarm 0x%02x (%s)%s", ax->who, code,
-                         alarm_name(code), t);
+                         drv_alarm_name(code), t);
 }
 
 /* The drive rests at pos outside the band: overshoot or short (along the
@@ -433,4 +434,12 @@ int drv_axis_stop(drv_axis *ax, struct gonio_err *err)
     ax->at_rest = ax->rest_known = 0;
     ax->stopped = 1;
     return ax->ops->stop(ax->priv, err);
+}
+
+int drv_axis_state(drv_axis *ax, struct drv_axis_state *out, struct gonio_err *err)
+{
+    *out = (struct drv_axis_state){.ready = -1, .moving = -1, .in_pos = -1, .home_end = -1,
+                                   .alarm_active = -1};
+    int rc = ax->ops->status ? ax->ops->status(ax->priv, out, err) : 0;
+    return rc < 0 ? rc : ax->ops->feedback(ax->priv, &out->position_deg, err);
 }

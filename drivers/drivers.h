@@ -82,6 +82,20 @@ int drv_axis_stop(drv_axis *ax, struct gonio_err *err);
 int drv_axis_alarm_reset(drv_axis *ax, struct gonio_err *err);
 const char *drv_axis_name(const drv_axis *ax);
 
+/* What a drive says of itself, read from it now (goniod's bring-up and
+ * probe): the encoder, the drive's output status (each flag -1 where the
+ * backend has none to read, as the in-process rig) and its present alarm
+ * (0: none; drv_alarm_name names it). Moves nothing. */
+struct drv_axis_state {
+    double position_deg;
+    int ready, moving, in_pos, home_end, alarm_active;
+    unsigned alarm;
+};
+int drv_axis_state(drv_axis *ax, struct drv_axis_state *out, struct gonio_err *err);
+/* The AZ alarm codes' names (docs/protocol-modbus.md): "overload" for
+ * 0x30; "unknown alarm" for a code not in the table, "" for 0. */
+const char *drv_alarm_name(unsigned code);
+
 /* What the axis's mechanics cost so far: moves sent to the drive (legs,
  * re-commands included), re-commands of a drive that came to rest outside
  * the in-position band, drive alarms reset and the move retried, and

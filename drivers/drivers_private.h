@@ -32,6 +32,9 @@ struct drv_axis_ops {
     /* Home from from_deg to 0 and wait; *alarm as wait_rest's. */
     int (*home)(void *priv, double from_deg, unsigned *alarm, struct gonio_err *err);
     int (*stop)(void *priv, struct gonio_err *err);
+    /* Optional (NULL: the drive has no status to read): its output status
+     * as drv_axis_state's flags, and its present alarm code. */
+    int (*status)(void *priv, struct drv_axis_state *st, struct gonio_err *err);
     /* Where the drive goes when told deg (its nearest step); NULL: exactly there. */
     double (*resolve)(const void *priv, double deg);
     void (*free_priv)(void *priv);

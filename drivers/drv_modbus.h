@@ -125,6 +125,11 @@ drv_axis *drv_axis_new_modbus(drv_modbus_bus *bus, int slave, const struct rig_a
  * -GONIO_EDEVICE, "detector (slave 3): the device restarted ...". */
 drv_detector *drv_detector_new_modbus(drv_modbus_bus *bus, int slave, struct gonio_err *err);
 
+/* The detector at slave id `slave` asked what it is without integrating
+ * (goniod --check --probe): its status bits and channel count. */
+int drv_modbus_detector_probe(drv_modbus_bus *bus, int slave, unsigned *status, int *channels,
+                              struct gonio_err *err);
+
 /* The rig clock: seconds since the clock was created, read from the
  * detector's rig-clock register when it is non-zero (a simulator), else
  * wall time; monotonic across late answers and restarts of the device

@@ -318,6 +318,21 @@ static int mb_stop(void *priv, struct gonio_err *err)
     return pulse_input(a, IN_STOP, err);
 }
 
+static int mb_status(void *priv, struct drv_axis_state *out, struct gonio_err *err)
+{
+    uint32_t st, alarm;
+    int rc = read_status(priv, &st, &alarm, err);
+    if (rc < 0)
+        return rc;
+    out->ready = !!(st & ST_READY);
+    out->moving = !!(st & ST_MOVE);
+    out->in_pos = !!(st & ST_IN_POS);
+    out->home_end = !!(st & ST_HOME_END);
+    out->alarm_active = !!(st & ST_ALM_A);
+    out->alarm = alarm;
+    return 0;
+}
+
 static const struct drv_axis_ops mb_axis_ops = {
     .name = "modbus",
     .start_leg = mb_start_leg,
@@ -329,6 +344,7 @@ static const struct drv_axis_ops mb_axis_ops = {
     .home = mb_home,
     .stop = mb_stop,
     .resolve = mb_resolve,
+    .status = mb_status,
     .free_priv = free,
 };
 

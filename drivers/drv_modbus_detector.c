@@ -236,3 +236,17 @@ drv_detector *drv_detector_new_modbus(drv_modbus_bus *bus, int slave, struct gon
         gonio_err_set(err, ENOMEM, "modbus detector: out of memory");
     return det;
 }
+
+int drv_modbus_detector_probe(drv_modbus_bus *bus, int slave, unsigned *status, int *channels,
+                              struct gonio_err *err)
+{
+    char who[32];
+    uint16_t r[4]; /* status and channel count, adjacent */
+    snprintf(who, sizeof who, "detector (slave %d)", slave);
+    int rc = drv_modbus_read(bus, slave, R_STATUS, 4, r, who, err);
+    if (rc < 0)
+        return rc;
+    *status = drv_modbus_get32(r);
+    *channels = (int)drv_modbus_get32(r + 2);
+    return 0;
+}

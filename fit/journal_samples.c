@@ -19,16 +19,30 @@ int fit_data_from_journal(const struct journal_sample *js, size_t n,
                           struct fit_journal_data *out, struct gonio_err *err)
 {
     memset(out, 0, sizeof *out);
-    if (!(out->rgb = malloc((n ? n : 1) * sizeof *out->rgb)))
-        return gonio_err_set(err, ENOMEM, "out of memory");
-    out->n = n;
-    out->saturated = fit_journal_samples(js, n, out->rgb);
-    if (out->saturated && !(out->lower = malloc(n))) {
+    if (!(out->rgb = malloc((n ? n : 1) * sizeof *out->rgb)) || !(out->lower = malloc(n ? n : 1))) {
         fit_journal_data_free(out);
         return gonio_err_set(err, ENOMEM, "out of memory");
     }
-    for (size_t i = 0; out->lower && i < n; i++)
-        out->lower[i] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
+    for (size_t i = 0; i < n; i++) {
+        if (!journal_sample_has_brdf(&js[i])) {
+            out->without_value++;
+            continue;
+        }
+        out->saturated += fit_journal_samples(&js[i], 1, &out->rgb[out->n]);
+        out->lower[out->n++] = (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
+    }
+    if (!out->saturated) { /* NULL when none is: fit_journal_data_for */
+        free(out->lower);
+        out->lower = NULL;
+    }
+    if (out->n == 0 && out->without_value > 0) {
+        size_t k = out->without_value;
+        fit_journal_data_free(out);
+        return gonio_err_set(err, GONIO_EBADDATA,
+                             "no sample has a BRDF value: %zu records of detector counts "
+                             "not reduced (or dark frames); a calibration turns counts into BRDF",
+                             k);
+    }
     return 0;
 }
 

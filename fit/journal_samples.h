@@ -17,16 +17,20 @@
 size_t fit_journal_samples(const struct journal_sample *js, size_t n, struct fit_sample *out);
 
 /* A journal's samples as fit data: the one conversion a capture's final
- * fit, the study and `gonio fit` share. Owns its arrays (free with
- * fit_journal_data_free). */
+ * fit, the study and `gonio fit` share. Records without a BRDF value
+ * (journal_sample_has_brdf: dark frames, counts not reduced) are left out
+ * and counted. Owns its arrays (free with fit_journal_data_free). */
 struct fit_journal_data {
-    struct fit_sample *rgb; /* the samples, in journal order */
+    struct fit_sample *rgb; /* the samples with a value, in journal order */
     size_t n;
+    size_t without_value;   /* records left out: no BRDF value */
     size_t saturated;       /* how many the detector saturated */
     unsigned char *lower;   /* their flags (1: saturated), NULL when none is */
 };
 
-/* The n journalled samples js into out. Returns 0, or -ENOMEM with err. */
+/* The n journalled samples js into out. Returns 0, -ENOMEM with err, or
+ * -GONIO_EBADDATA when records are there but none has a BRDF value
+ * ("no sample has a BRDF value: 40 records of counts not reduced ..."). */
 int fit_data_from_journal(const struct journal_sample *js, size_t n,
                           struct fit_journal_data *out, struct gonio_err *err);
 

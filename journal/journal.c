@@ -75,19 +75,15 @@ static int write_record(const journal *j, const char *line, size_t len)
 }
 #endif
 
-/* The record's text, its CRC last: over the text alone in the earlier
- * format, continuing the chain in the current one. */
+/* The record's text, its CRC last: over the text alone in the earliest
+ * format, continuing the chain in the others. */
 static int format_record(const struct journal_sample *s, const struct journal_tail *tail,
                          char *buf, size_t size, unsigned long *crc)
 {
-    /* %.17g keeps every double exactly, so a resumed fit sees the same data. */
-    int n = snprintf(buf, size,
-                     "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%u,",
-                     s->point, s->theta_i, s->theta_r, s->phi_i, s->theta_o, s->phi_o, s->s, s->a,
-                     s->rgb[0], s->rgb[1], s->rgb[2], s->integration_s, s->rig_time_s, s->flags);
+    int n = journal_format_fields(s, tail->format, buf, size);
     if (n < 0 || (size_t)n + 10 >= size)
         return -1;
-    *crc = journal_crc(tail->format == JOURNAL_CHAINED ? tail->crc : 0, buf, (size_t)n);
+    *crc = journal_crc(journal_format_chained(tail->format) ? tail->crc : 0, buf, (size_t)n);
     n += snprintf(buf + n, size - (size_t)n, "%08lx\n", *crc);
     return n;
 }
@@ -103,7 +99,8 @@ int journal_read_info(const char *path, struct journal_sample **samples, size_t 
     struct stat st;
     int rc = journal_load(path, fd, samples, n, &tail, err);
     if (rc == 0 && info) {
-        info->chained = tail.format == JOURNAL_CHAINED;
+        info->chained = journal_format_chained(tail.format);
+        info->raw = tail.format == JOURNAL_RAW;
         info->torn_bytes = fstat(fd, &st) == 0 && st.st_size > tail.valid_len
                                ? (size_t)(st.st_size - tail.valid_len)
                                : 0;
@@ -144,7 +141,7 @@ journal *journal_open(const char *path, struct journal_sample **samples, size_t 
     /* A new journal: its header, then its name in the directory, durable
      * before the first sample is. */
     if (!failed && j->tail.valid_len == 0) {
-        const char *h = JOURNAL_HEADER_CHAINED;
+        const char *h = JOURNAL_HEADER_RAW;
         failed = write_fully(j->fd, h, strlen(h)) < 0 || fsync(j->fd) != 0 ||
                  gonio_fsync_parent(path, NULL) < 0;
         j->tail.valid_len = (off_t)strlen(h);

@@ -23,13 +23,34 @@ struct journal_sample {
     double theta_i, theta_r;            /* in-plane angles (theta_r = a - s), degrees */
     double phi_i, theta_o, phi_o;       /* the pair in spherical angles */
     double s, a;          /* axis positions measured at acquisition, degrees */
-    double rgb[3];        /* BRDF, 1/sr */
-    double integration_s; /* detector integration time */
+    double rgb[3];        /* BRDF, 1/sr; NAN: not reduced (a counts sample) */
+    double integration_s; /* detector integration time of the reading kept */
     double rig_time_s;    /* rig clock when the sample was taken */
     unsigned flags;       /* JOURNAL_FLAG_* */
+    /* The raw record (journals of the earlier formats read them as none). */
+    int counts;           /* 1: the detector gave counts, raw[] holds them */
+    double raw[3];        /* counts (ADU) per channel, dark offset included; NAN: none */
+    double integration_total_s; /* all detector time spent on the point, retakes
+                                 * included; NAN: not recorded */
+    int gain_state;       /* the detector's gain setting; JOURNAL_GAIN_NONE: none */
+    double monitor;       /* the lamp monitor's counts; NAN: no monitor */
+    double u[3];          /* standard uncertainty of rgb, 1/sr; NAN: none */
 };
 
 #define JOURNAL_FLAG_SATURATED 0x1u
+/* A dark frame (shutter closed) at the integration of the point it was
+ * taken for: the data to subtract dark with, not a sample of the plan. */
+#define JOURNAL_FLAG_DARK 0x2u
+#define JOURNAL_GAIN_NONE (-1)
+
+/* Clear *s to a sample of nothing: zeros, with every optional field none
+ * (rgb, raw, integration_total_s, monitor, u NAN; gain_state
+ * JOURNAL_GAIN_NONE; counts 0). */
+void journal_sample_clear(struct journal_sample *s);
+
+/* 1 when s is a sample of the plan with a BRDF value (not a dark frame,
+ * not an unreduced counts sample): what a fit can take. */
+int journal_sample_has_brdf(const struct journal_sample *s);
 
 /* The direction pair a sample was measured at: in-plane samples (phi_i = 0,
  * phi_o = 0 or 180) from theta_i, theta_r exactly, others from the
@@ -69,7 +90,8 @@ int journal_read(const char *path, struct journal_sample **samples, size_t *n,
 
 /* What journal_read_info says of a journal besides its records. */
 struct journal_info {
-    int chained;       /* the current format (0: the earlier, unchained one) */
+    int chained;       /* a chained format (0: the earliest, unchained one) */
+    int raw;           /* the current format, with the raw columns (0: an earlier one) */
     size_t torn_bytes; /* bytes of a torn last record, which journal_open cuts */
 };
 

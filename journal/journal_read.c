@@ -17,71 +17,76 @@ unsigned long journal_crc(unsigned long seed, const char *text, size_t len)
     return crc32(seed, (const Bytef *)text, (uInt)len);
 }
 
+/* The raw columns' values: optional ones finite or none, a BRDF sample
+ * with its value, a counts sample with its counts. */
+static int raw_check(const struct journal_sample *s, char *why, size_t size)
+{
+    static const char *const ch[] = {"r", "g", "b"};
+    int rgb_known = 0;
+    for (int c = 0; c < 3; c++)
+        rgb_known += isfinite(s->rgb[c]);
+    for (int c = 0; c < 3; c++) {
+        if ((!s->counts && !isfinite(s->rgb[c])) || isinf(s->rgb[c]))
+            return snprintf(why, size, "%s %g is not a finite number%s", ch[c], s->rgb[c],
+                            s->counts ? "" : " (a BRDF sample needs its value)"), -1;
+        if (s->counts && !isfinite(s->raw[c]))
+            return snprintf(why, size, "raw_%s %g: a counts sample needs its counts", ch[c],
+                            s->raw[c]), -1;
+        if (isinf(s->raw[c]) || isinf(s->u[c]))
+            return snprintf(why, size, "raw_%s or u_%s is not a finite number", ch[c], ch[c]),
+                   -1;
+        if (s->u[c] < 0)
+            return snprintf(why, size, "u_%s %g is negative", ch[c], s->u[c]), -1;
+    }
+    if (s->counts && rgb_known != 0 && rgb_known != 3)
+        return snprintf(why, size, "r, g, b of a counts sample are all reduced or none"), -1;
+    if (isinf(s->integration_total_s) || s->integration_total_s < 0)
+        return snprintf(why, size, "integration_total_s %g is negative or not finite",
+                        s->integration_total_s), -1;
+    if (isinf(s->monitor))
+        return snprintf(why, size, "monitor %g is not a finite number", s->monitor), -1;
+    if (s->gain_state < JOURNAL_GAIN_NONE)
+        return snprintf(why, size, "gain_state %d is negative", s->gain_state), -1;
+    if ((s->flags & JOURNAL_FLAG_DARK) && !s->counts)
+        return snprintf(why, size, "a dark frame is a counts sample"), -1;
+    return 0;
+}
+
 int journal_record_check(const struct journal_sample *s, const struct journal_tail *prev,
                          char *why, size_t size)
 {
     static const char *const names[] = {"theta_i", "theta_r", "phi_i", "theta_o", "phi_o",
-                                        "s", "a", "r", "g", "b", "integration_s", "rig_time_s"};
-    const double v[] = {s->theta_i, s->theta_r, s->phi_i,  s->theta_o, s->phi_o,
-                        s->s,       s->a,       s->rgb[0], s->rgb[1],  s->rgb[2],
-                        s->integration_s, s->rig_time_s};
+                                        "s", "a", "integration_s", "rig_time_s"};
+    const double v[] = {s->theta_i, s->theta_r, s->phi_i,         s->theta_o, s->phi_o,
+                        s->s,       s->a,       s->integration_s, s->rig_time_s};
     for (size_t i = 0; i < sizeof v / sizeof *v; i++)
         if (!isfinite(v[i])) {
             snprintf(why, size, "%s %g is not a finite number", names[i], v[i]);
             return -1;
         }
+    if (prev->format != JOURNAL_RAW && (s->counts || s->flags & JOURNAL_FLAG_DARK)) {
+        snprintf(why, size, "a journal of the earlier format holds BRDF samples only "
+                            "(capture counts into a new directory)");
+        return -1;
+    }
+    if (!(s->flags & ~(JOURNAL_FLAG_SATURATED | JOURNAL_FLAG_DARK)) &&
+        raw_check(s, why, size) != 0)
+        return -1;
     if (s->point < 0)
         snprintf(why, size, "point %d is negative", s->point);
     else if (s->integration_s < 0)
         snprintf(why, size, "integration_s %g is negative", s->integration_s);
     else if (s->rig_time_s < 0)
         snprintf(why, size, "rig_time_s %g is negative", s->rig_time_s);
-    else if (s->flags & ~JOURNAL_FLAG_SATURATED)
+    else if (s->flags & ~(JOURNAL_FLAG_SATURATED | JOURNAL_FLAG_DARK))
         snprintf(why, size, "flags %u has bits no sample carries", s->flags);
-    else if (prev->format == JOURNAL_CHAINED && prev->records > 0 &&
+    else if (journal_format_chained(prev->format) && prev->records > 0 &&
              s->rig_time_s < prev->rig_time_s)
         snprintf(why, size, "rig_time_s %g is before the previous record's %g",
                  s->rig_time_s, prev->rig_time_s);
     else
         return 0;
     return -1;
-}
-
-/* Parse one complete line (without its newline) into *s and the CRC it
- * carries; *covered is the length the CRC covers. 0, or -1: not a record. */
-static int parse_record(const char *line, size_t len, struct journal_sample *s,
-                        unsigned long *crc, size_t *covered)
-{
-    const char *comma = NULL;
-    for (size_t i = len; i > 0; i--)
-        if (line[i - 1] == ',') {
-            comma = line + i - 1;
-            break;
-        }
-    if (!comma || line + len - (comma + 1) != 8)
-        return -1;
-    char crc_text[9];
-    memcpy(crc_text, comma + 1, 8);
-    crc_text[8] = '\0';
-    char *end;
-    *crc = strtoul(crc_text, &end, 16);
-    if (*end || crc_text[0] == '-' || crc_text[0] == '+' || crc_text[0] == ' ')
-        return -1;
-    *covered = (size_t)(comma + 1 - line);
-    /* sscanf on the journal buffer itself would measure the rest of the
-     * file on every call (glibc takes strlen first): quadratic in the
-     * journal's length. A record is short; scan a copy of it. */
-    char rec[JOURNAL_LINE_MAX];
-    if (len >= sizeof rec)
-        return -1;
-    memcpy(rec, line, len);
-    rec[len] = '\0';
-    int used = 0;
-    int got = sscanf(rec, "%d,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%u,%n", &s->point,
-                     &s->theta_i, &s->theta_r, &s->phi_i, &s->theta_o, &s->phi_o, &s->s, &s->a,
-                     &s->rgb[0], &s->rgb[1], &s->rgb[2], &s->integration_s, &s->rig_time_s,
-                     &s->flags, &used);
-    return got == 14 && (size_t)used == *covered ? 0 : -1;
 }
 
 static int read_bytes(const char *path, int fd, char **out, size_t *size, struct gonio_err *err)
@@ -117,9 +122,10 @@ static long header_format(const char *buf, size_t size, enum journal_format *for
     static const struct {
         const char *text;
         enum journal_format format;
-    } headers[] = {{JOURNAL_HEADER_CHAINED, JOURNAL_CHAINED},
+    } headers[] = {{JOURNAL_HEADER_RAW, JOURNAL_RAW},
+                   {JOURNAL_HEADER_CHAINED, JOURNAL_CHAINED},
                    {JOURNAL_HEADER_PER_RECORD, JOURNAL_PER_RECORD}};
-    *format = JOURNAL_CHAINED; /* what an empty journal is written in */
+    *format = JOURNAL_RAW; /* what an empty journal is written in */
     int torn = 0;
     for (size_t i = 0; i < sizeof headers / sizeof *headers; i++) {
         size_t len = strlen(headers[i].text);
@@ -145,7 +151,8 @@ static int not_a_record(const char *path, size_t line_no, const char *line, size
     size_t commas = 0;
     for (size_t i = 0; i < len; i++)
         commas += line[i] == ',';
-    int torn = !more_lines && commas <= JOURNAL_RECORD_COMMAS + 1 &&
+    size_t most = format == JOURNAL_RAW ? JOURNAL_RAW_RECORD_COMMAS : JOURNAL_RECORD_COMMAS;
+    int torn = !more_lines && commas <= most + 1 &&
                (!has_newline || format == JOURNAL_PER_RECORD);
     if (torn)
         return 1;
@@ -169,8 +176,8 @@ int journal_load(const char *path, int fd, struct journal_sample **out, size_t *
         return gonio_err_set(err, GONIO_EBADDATA, "%s:1: not a gonio sample journal (bad header)",
                              path);
     }
-    if (tail->format == JOURNAL_CHAINED) /* the chain starts from the header */
-        tail->crc = journal_crc(0, JOURNAL_HEADER_CHAINED, strlen(JOURNAL_HEADER_CHAINED));
+    if (journal_format_chained(tail->format)) /* the chain starts from the header */
+        tail->crc = journal_crc(0, journal_header(tail->format), strlen(journal_header(tail->format)));
     tail->valid_len = (off_t)hlen;
     size_t cap = 0, pos = (size_t)hlen, line_no = 2;
     for (; hlen > 0 && pos < size && rc == 0; line_no++) {
@@ -181,16 +188,16 @@ int journal_load(const char *path, int fd, struct journal_sample **out, size_t *
         unsigned long crc;
         size_t covered;
         char why[200];
-        if (!nl || len >= JOURNAL_LINE_MAX || parse_record(buf + pos, len, &s, &crc, &covered)) {
+        if (!nl || len >= JOURNAL_LINE_MAX || journal_parse_record(buf + pos, len, tail->format, &s, &crc, &covered)) {
             rc = not_a_record(path, line_no, buf + pos, len, nl != NULL, more, tail->format,
                               "not a sample record (fields or CRC text malformed)", err);
             break;
         }
-        unsigned long want = journal_crc(tail->format == JOURNAL_CHAINED ? tail->crc : 0,
+        unsigned long want = journal_crc(journal_format_chained(tail->format) ? tail->crc : 0,
                                          buf + pos, covered);
         if (crc != want) {
             rc = not_a_record(path, line_no, buf + pos, len, 1, more, tail->format,
-                              tail->format == JOURNAL_CHAINED
+                              journal_format_chained(tail->format)
                                   ? "checksum does not continue the chain: this record, or "
                                     "one before it, was edited, removed, inserted or moved"
                                   : "corrupt record (CRC mismatch)",

@@ -391,7 +391,7 @@ static void slices_figure(struct page *p, const char *material, const char *scen
                     first->material_spec, e.msg);
     if (first->samples_file[0]) {
         snprintf(path, sizeof path, "%.2000s/%.2000s", p->dir, first->samples_file);
-        if (report_samples_read(path, &samples, &ns, NULL, &e) < 0) {
+        if (report_samples_read(path, &samples, &ns, NULL, NULL, &e) < 0) {
             report_note(f, p->o->quiet, "%s: samples left out of the slices: %s", path, e.msg);
             samples = NULL;
             ns = 0;

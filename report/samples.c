@@ -10,7 +10,8 @@
 #include "journal/journal.h"
 
 int report_samples_read(const char *path, struct report_sample **out, size_t *n,
-                        size_t *n_out_of_plane, struct gonio_err *err)
+                        size_t *n_out_of_plane, size_t *n_without_value,
+                        struct gonio_err *err)
 {
     char buf[4200];
     struct stat st;
@@ -28,8 +29,12 @@ int report_samples_read(const char *path, struct report_sample **out, size_t *n,
         free(js);
         return gonio_err_set(err, GONIO_EBADDATA, "%s: out of memory", path);
     }
-    size_t k = 0, oop = 0;
+    size_t k = 0, oop = 0, none = 0;
     for (size_t i = 0; i < m; i++) {
+        if (!journal_sample_has_brdf(&js[i])) {
+            none++;
+            continue;
+        }
         struct brdf_pair p;
         journal_sample_pair(&js[i], &p);
         double ti, tr;
@@ -47,5 +52,7 @@ int report_samples_read(const char *path, struct report_sample **out, size_t *n,
     *n = k;
     if (n_out_of_plane)
         *n_out_of_plane = oop;
+    if (n_without_value)
+        *n_without_value = none;
     return 0;
 }

@@ -10,9 +10,11 @@
 
 /* Read path (a samples.csv, or a capture directory holding one). Samples
  * out of the plane of incidence are left out (counted in *n_out_of_plane
- * when not NULL). *out is malloc'd. Errors are the journal's (file, line,
- * problem). */
+ * when not NULL), and so are records without a BRDF value, dark frames
+ * and counts not reduced (in *n_without_value when not NULL). *out is
+ * malloc'd. Errors are the journal's (file, line, problem). */
 int report_samples_read(const char *path, struct report_sample **out, size_t *n,
-                        size_t *n_out_of_plane, struct gonio_err *err);
+                        size_t *n_out_of_plane, size_t *n_without_value,
+                        struct gonio_err *err);
 
 #endif

@@ -10,8 +10,8 @@ from . import _arrays
 
 class Capture:
     """dir; samples: {column: array} (every column of samples.csv but its
-    CRC, flags and point as integers, rgb also as an (n, 3) array under
-    "rgb"); plan, setup, results, request: the JSON files (None when
+    CRC: flags, point and gain_state as integers, unit as strings, an empty
+    field (none) as nan; rgb also as an (n, 3) array under "rgb"); plan, setup, results, request: the JSON files (None when
     absent); model_file: the final fit's model file path, or None."""
 
     def __init__(self, path, samples, docs):
@@ -28,7 +28,12 @@ class Capture:
         return len(self.samples.get("point", []))
 
 
-INT_COLUMNS = ("point", "flags")
+INT_COLUMNS = ("point", "flags", "gain_state")
+TEXT_COLUMNS = ("unit",)
+
+
+def _number(v):
+    return float(v) if v != "" else float("nan")
 
 
 def _read_samples(path):
@@ -56,11 +61,15 @@ def _read_samples(path):
     columns = {}
     for i, name in enumerate(header[:-1]):
         values = [r[i] for r in records]
-        columns[name] = ([int(v) for v in values] if name in INT_COLUMNS else
-                         _arrays.array(values))
+        if name in TEXT_COLUMNS:
+            columns[name] = values
+        elif name in INT_COLUMNS:
+            columns[name] = [int(v) if v != "" else 0 for v in values]
+        else:
+            columns[name] = _arrays.array([_number(v) for v in values])
     if {"r", "g", "b"} <= set(columns):
         at = [header.index(c) for c in "rgb"]
-        columns["rgb"] = _arrays.rows([r[i] for r in records for i in at], 3)
+        columns["rgb"] = _arrays.rows([_number(r[i]) for r in records for i in at], 3)
     return columns
 
 

@@ -440,7 +440,7 @@ class CrashTests(DaemonTest):
             c = self.d.connect()
             self.assertEqual(c.request("status")["state"], "idle")
             c.request("watch")
-            r = c.request("resume", capture_id="crash")
+            r = c.request("resume", capture_id="crash", refit=True)  # even if it completed
             self.assertEqual(r["class"], "OK", r)
             start = c.read()
             self.assertEqual(start["class"], "start")

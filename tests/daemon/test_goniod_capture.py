@@ -152,8 +152,8 @@ class CaptureTests(DaemonTest):
         complete = c.until_stop("rt")[-1]
         self.assertEqual(complete["reason"], "complete")
         self.assertEqual(c.request("status")["capture"]["rig_time_s"], complete["rig_time_s"])
-        # Resumed again with every point journalled: the rig time stays.
-        self.assertEqual(c.request("resume", capture_id="rt")["class"], "OK")
+        # Resumed again (a refit) with every point journalled: the rig time stays.
+        self.assertEqual(c.request("resume", capture_id="rt", refit=True)["class"], "OK")
         again = c.until_stop("rt")[-1]
         self.assertEqual(again["rig_time_s"], complete["rig_time_s"])
         cap = c.request("status")["capture"]
@@ -502,7 +502,8 @@ class ClientTests(DaemonTest):
         lines[2] = lines[2].replace(",", ";", 1)  # a bad record that is not the last
         with open(journal, "w") as f:
             f.writelines(lines)
-        self.assertEqual(self.d.gonio("resume", "fl").returncode, 0)
+        # complete: only a refit reads its journal again
+        self.assertEqual(self.d.gonio("resume", "fl", "--refit").returncode, 0)
         deadline = time.monotonic() + 2 * START_S
         while True:
             st = json.loads(self.d.gonio("status", "--json").stdout)

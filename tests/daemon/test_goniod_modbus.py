@@ -129,7 +129,8 @@ class ModbusTests(ModbusRig):
     def test_no_rig_answering(self):
         self.stop_sim()
         c = self.capture("  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n"
-                         "  timeout_s: 0.05\n" % self.port, "gone")
+                         "  timeout_s: 0.05\n  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
+                         % self.port, "gone")
         stop = c.until_stop("gone")[-1]
         self.assertEqual(stop["exit_status"], "fail")
         self.assertTrue(stop["message"])
@@ -166,9 +167,16 @@ class ModbusClockTests(ModbusRig):
         setup = load_json(os.path.join(whole_dir, "setup.json"))
         self.assertEqual((setup["driver"], setup["detector"]), ("modbus-tcp", "modbus"))
         self.assertNotIn("scene", setup)
+        # The table shows the plan-domain error and the fit's verdict, and no
+        # column of "-" for the truth errors and scene it cannot have.
         r = subprocess.run([GONIO, "results", whole_dir], capture_output=True, text=True)
         self.assertEqual(r.returncode, 0, r.stderr)
-        self.assertIn(" - ", r.stdout.splitlines()[1])
+        head, row = r.stdout.splitlines()[0], r.stdout.splitlines()[1]
+        cells = dict(zip(re.split(r"  +", head.strip()), re.split(r"  +", row.strip())))
+        self.assertEqual(cells["plan log"], "%.4f" % whole["errors"]["plan"]["log"])
+        self.assertEqual(cells["fit status"], whole["fit_status"]["status"])
+        self.assertNotIn(" - ", row)
+        self.assertNotIn("full log", head)
 
         # kill -9 mid-capture; gonio-sim's clock runs on while goniod is down.
         c.request("capture", plan="ds3", name="cut")

@@ -28,6 +28,7 @@ class UsbConfigTests(unittest.TestCase):
               "driver:\n  kind: modbus-tcp\n  host: 127.0.0.1\n"
               "  detector: {kind: usb-spectrometer, vendor: 0x2457, product: 0x101E,\n"
               "             serial: USB2+F01234, bands: 390-730, scale: 2.5e-5}\n"
+              "  slaves: {sample: 1, arm: 2, azimuth: 4}\n"
               "capture_root: caps\n"
               "socket:\n  path: g.sock\n")
 

@@ -142,6 +142,13 @@ class ClientTests(Checks, DaemonTest):
                 with self.assertRaises(gonio.GonioError) as e:
                     client.capture("ds3", **fields)
                 self.assertEqual(e.exception.code, code)
+            # Every field the client takes is one goniod knows: sent past
+            # the client's own check with a value of no field's type, each is
+            # refused as bad-type, never unknown-field.
+            for name in gonio.CAPTURE_FIELDS:
+                with self.assertRaises(gonio.GonioError) as e:
+                    client.request("capture", **dict({"plan": "ds3"}, **{name: [1]}))
+                self.assertEqual((name, e.exception.code), (name, "bad-type"))
             with self.assertRaises(gonio.GonioError) as e:
                 client.capture("nosuch")
             self.assertEqual(e.exception.code, "bad-value")

@@ -144,7 +144,7 @@ static void test_complete_line_with_bad_crc_at_end_is_refused(void **state)
     snprintf(path, sizeof path, "%s/badlast.csv", dir);
     append_n(path, 0, 3);
     FILE *f = fopen(path, "a");
-    fputs("3,1,2,0,2,180,1,3,0.1,0.1,0.1,0.05,4,0,deadbeef\n", f);
+    fputs("3,1,2,0,2,180,1,3,0.1,0.1,0.1,0.05,4,0,brdf,,,,,,,,,,deadbeef\n", f);
     fclose(f);
     struct journal_sample *s = NULL;
     size_t n;

@@ -13,6 +13,7 @@
 
 #define N 6
 #define COLUMNS "point,theta_i,theta_r,phi_i,theta_o,phi_o,s,a,r,g,b,integration_s,rig_time_s,flags,"
+#define RAW_COLUMNS "unit,raw_r,raw_g,raw_b,integration_total_s,gain_state,monitor,u_r,u_g,u_b,"
 
 static char dir[256];
 static char lines[N + 1][512]; /* the intact journal, line by line (0: header) */
@@ -140,10 +141,23 @@ static void copy_intact(char text[][512])
     memcpy(text, lines, sizeof lines);
 }
 
+/* A record of the current format as the earlier ones had it: without the
+ * raw columns (the 10 fields after flags); its CRC left to recompute. */
+static void drop_raw_columns(char *line)
+{
+    char *from = line;
+    for (int c = 0; c < 14; c++)
+        from = strchr(from, ',') + 1;
+    char *to = from;
+    for (int c = 0; c < 10; c++)
+        to = strchr(to, ',') + 1;
+    memmove(from, to, strlen(to) + 1);
+}
+
 static void test_header_marks_the_chained_format(void **state)
 {
     (void)state;
-    assert_string_equal(lines[0], COLUMNS "chain_crc32\n");
+    assert_string_equal(lines[0], COLUMNS RAW_COLUMNS "chain_crc32\n");
     /* The documented rule, computed here independently of the writer. */
     char text[N + 1][512];
     copy_intact(text);
@@ -300,8 +314,10 @@ static void test_earlier_format_still_reads(void **state)
     char path[300], all[8192] = "";
     snprintf(path, sizeof path, "%s/v1.csv", dir);
     for (int k = 0; k <= N; k++) {
-        if (k)
+        if (k) {
+            drop_raw_columns(text[k]);
             recrc(text[k], sizeof text[k], 0);
+        }
         strcat(all, text[k]);
     }
     strcat(all, "9,1,2,0,2,180,1,3,0.1,0.1,0.1,0.05,40,0,deadbeef\n");

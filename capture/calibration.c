@@ -1,0 +1,135 @@
+/* Measuring a calibration on the rig's devices (capture/calibration.h):
+ * dark frames behind the closed shutter, the standard at the plan's points. */
+#include "capture/calibration.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "brdf/angles.h"
+#include "drivers/drivers.h"
+
+struct frames {
+    struct cal_frame *v;
+    size_t n, cap;
+};
+
+static int push(struct frames *f, const struct cal_frame *fr, struct gonio_err *err)
+{
+    if (f->n == f->cap) {
+        size_t cap = f->cap ? 2 * f->cap : 64;
+        struct cal_frame *v = realloc(f->v, cap * sizeof *v);
+        if (!v)
+            return gonio_err_set(err, ENOMEM, "calibration: out of memory");
+        f->v = v, f->cap = cap;
+    }
+    f->v[f->n++] = *fr;
+    return 0;
+}
+
+static int read_frame(struct capture_devices *dev, enum cal_kind kind, double ti, double tr,
+                      double integration_s, struct frames *f, struct gonio_err *err)
+{
+    struct drv_reading r;
+    int rc = drv_detector_acquire(dev->detector, integration_s, &r, err);
+    if (rc < 0)
+        return rc;
+    if (r.unit != DRV_UNIT_COUNTS)
+        return gonio_err_set(err, GONIO_EUSAGE, "calibration: the detector reports BRDF, not "
+                             "counts: it calibrates itself, there is nothing to calibrate");
+    struct cal_frame fr = {.kind = kind, .theta_i = ti, .theta_r = tr,
+                           .integration_s = r.integration_s, .gain_state = r.gain_state,
+                           .monitor = r.monitor, .full_scale = r.full_scale,
+                           .nonlinearity = r.nonlinearity,
+                           .rig_time_s = drv_clock_now(dev->clock)};
+    memcpy(fr.counts, r.rgb, sizeof fr.counts);
+    return push(f, &fr, err);
+}
+
+int cal_measure_dark(struct capture_devices *dev, const double *integrations, size_t n_int,
+                     int frames, struct cal_frame **out, size_t *n_out, struct gonio_err *err)
+{
+    struct frames f = {0};
+    int rc = drv_detector_shutter(dev->detector, 1, err);
+    for (size_t i = 0; rc >= 0 && i < n_int; i++)
+        for (int k = 0; rc >= 0 && k < frames; k++)
+            rc = read_frame(dev, CAL_DARK, NAN, NAN, integrations[i], &f, err);
+    struct gonio_err ignored;
+    if (rc != -ENOTSUP)
+        drv_detector_shutter(dev->detector, 0, rc < 0 ? &ignored : err);
+    if (rc < 0) {
+        free(f.v);
+        return rc;
+    }
+    *out = f.v, *n_out = f.n;
+    return 0;
+}
+
+/* Move the axes to a point and let them settle. */
+static int go_to(struct capture_devices *dev, const struct rig_profile *rig,
+                 const struct plan_point *pt, struct gonio_err *err)
+{
+    drv_axis *axes[3] = {dev->sample, dev->arm, dev->azimuth};
+    const double to[3] = {pt->ax.s, pt->ax.a, pt->ax.az};
+    int n = dev->azimuth && rig->out_of_plane ? 3 : 2, rc;
+    for (int i = 0; i < n; i++)
+        if ((rc = drv_axis_start_move(axes[i], to[i], err)) < 0)
+            return rc;
+    for (int i = 0; i < n; i++)
+        if ((rc = drv_axis_wait(axes[i], err)) < 0)
+            return rc;
+    if (rig->settle_s > 0 && (rc = drv_clock_sleep(dev->clock, rig->settle_s)) < 0)
+        return gonio_err_set(err, -rc, "settle: %s", gonio_strerror(rc));
+    return 0;
+}
+
+int cal_measure_reference(struct capture_devices *dev, const struct rig_profile *rig,
+                          const struct plan *plan, int repeats, struct cal_frame **out,
+                          size_t *n_out, struct gonio_err *err)
+{
+    struct frames f = {0};
+    int rc = drv_detector_shutter(dev->detector, 0, err);
+    if (rc == -ENOTSUP)
+        rc = 0; /* no shutter: the light path is open */
+    for (size_t p = 0; rc >= 0 && p < plan_count(plan); p++) {
+        const struct plan_point *pt = plan_point(plan, p);
+        if (pt->out_of_plane) {
+            rc = gonio_err_set(err, GONIO_EUSAGE, "calibration: the reference is read in "
+                               "plane only (point %zu is out of plane)", p + 1);
+            break;
+        }
+        rc = go_to(dev, rig, pt, err);
+        /* The plan's angles: the sample's point is matched by them, and
+         * where the axes rested inside their band is the angle term. */
+        for (int k = 0; rc >= 0 && k < repeats; k++)
+            rc = read_frame(dev, CAL_REFERENCE, pt->theta_i, pt->theta_r, rig->integration_s,
+                            &f, err);
+    }
+    if (rc < 0) {
+        free(f.v);
+        return rc;
+    }
+    *out = f.v, *n_out = f.n;
+    return 0;
+}
+
+void cal_new_id(const char *root, enum cal_kind kind, time_t now, char *id, size_t size)
+{
+    struct tm tm;
+    gmtime_r(&now, &tm);
+    char stamp[32];
+    strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm);
+    const char *what = kind == CAL_DARK ? "dark" : "reference";
+    snprintf(id, size, "%s-%s", what, stamp);
+    for (int k = 2; k < 1000; k++) {
+        char path[4096];
+        struct stat st;
+        snprintf(path, sizeof path, "%s/%s", root, id);
+        if (stat(path, &st) != 0)
+            return;
+        snprintf(id, size, "%s-%s-%d", what, stamp, k);
+    }
+}

@@ -1,0 +1,139 @@
+/* Calibration is a capture: dark frames and a reference standard measured
+ * on the rig and written as a calibration directory, then looked up and
+ * checked before a capture that reduces counts with it
+ * (docs/radiometry.md, "Calibrations").
+ *
+ * A calibration directory ROOT/ID holds calibration.json (id, kind, when,
+ * validity, rig, detector, the integrations and gain states covered, the
+ * standard and the dark a reference was taken with) and frames.csv, every
+ * raw reading taken. What the reduction needs (dark means and spreads,
+ * reference means, the photon-transfer gain, the monitor's noise) is
+ * derived from the frames when the calibration is loaded, so a better
+ * derivation applies to old calibrations too. */
+#ifndef GONIO_CAPTURE_CALIBRATION_H
+#define GONIO_CAPTURE_CALIBRATION_H
+
+#include <stddef.h>
+#include <time.h>
+
+#include "capture/capture.h"
+#include "common/err.h"
+#include "planner/planner.h"
+#include "radiometry/reduce.h"
+#include "rig/rig.h"
+
+#define CAL_MAX_INTEGRATIONS 8
+
+enum cal_kind { CAL_DARK = 0, CAL_REFERENCE = 1 };
+
+struct cal_meta {
+    char id[64];
+    enum cal_kind kind;
+    time_t created;   /* wall clock, UTC */
+    double valid_s;   /* expires at created + valid_s */
+    char rig[64], detector[32];
+    char standard[128]; /* reference: the standard's name or file */
+    char dark[64];      /* reference: the dark calibration it was taken with */
+    double integrations[CAL_MAX_INTEGRATIONS];
+    size_t n_integrations;
+    int gain_state;     /* the gain state the frames were read at */
+    double in_position_deg;
+    enum rad_spot spot; /* how the rig's detector sees the lit spot */
+};
+
+/* One raw reading of a calibration (a frames.csv row). */
+struct cal_frame {
+    enum cal_kind kind;
+    double theta_i, theta_r, integration_s;
+    int gain_state;
+    double counts[3], monitor, full_scale, nonlinearity, rig_time_s;
+};
+
+/* Dark frames: the shutter closed (or the lamp off), frames readings at
+ * each integration. *frames_out is malloc'd. -ENOTSUP from a detector
+ * without a shutter is passed on (the operator must cover it). */
+int cal_measure_dark(struct capture_devices *dev, const double *integrations, size_t n_int,
+                     int frames, struct cal_frame **out, size_t *n_out, struct gonio_err *err);
+
+/* The standard in the sample's place, read repeats times at each of the
+ * plan's points (the shutter opened first). */
+int cal_measure_reference(struct capture_devices *dev, const struct rig_profile *rig,
+                          const struct plan *plan, int repeats, struct cal_frame **out,
+                          size_t *n_out, struct gonio_err *err);
+
+/* A new id, "dark-20261207T053500Z" (with a suffix when ROOT has it). */
+void cal_new_id(const char *root, enum cal_kind kind, time_t now, char *id, size_t size);
+
+/* Write ROOT/ID (meta->id) atomically: frames.csv, then calibration.json. */
+int cal_write(const char *root, const struct cal_meta *meta, const struct cal_frame *frames,
+              size_t n, struct gonio_err *err);
+
+/* Read ROOT/ID's calibration.json (and frames when frames is not NULL). */
+int cal_read(const char *root, const char *id, struct cal_meta *meta, struct cal_frame **frames,
+             size_t *n, struct gonio_err *err);
+
+/* What a capture asks of its calibration. */
+struct cal_need {
+    const char *rig, *detector;
+    double integration_s;
+    int gain_state; /* -1: not known yet (the detector says at its first reading) */
+    time_t now;
+};
+
+/* The reference calibration to reduce with: id (or, id NULL, the newest
+ * reference in ROOT whose rig and detector match) with its dark, both
+ * valid now and covering the integration. Refused before anything moves
+ * with -GONIO_EBADCONFIG naming what differs: a missing calibration, one
+ * expired (and when), of another rig or detector, or without the
+ * integration or gain state. meta_out may be NULL. */
+int cal_select(const char *root, const char *id, const struct cal_need *need,
+               struct cal_meta *meta_out, struct gonio_err *err);
+
+/* The dark calibration a reference is taken with: id, or the newest valid
+ * one for the rig and detector covering the integration. */
+int cal_select_dark(const char *root, const char *id, const struct cal_need *need,
+                    struct cal_meta *meta_out, struct gonio_err *err);
+
+/* A loaded calibration: the reduction's inputs, owning their arrays. */
+struct cal_loaded {
+    struct cal_meta meta, dark_meta;
+    double full_scale, nonlinearity; /* the detector's, as its reference frames said */
+    struct rad_dark *darks;
+    struct rad_ref *refs;
+    struct rad_calibration cal;
+};
+
+/* Load reference calibration id and its dark, derive the reduction's
+ * inputs, and load its standard. */
+int cal_load(const char *root, const char *id, struct cal_loaded *out, struct gonio_err *err);
+void cal_loaded_free(struct cal_loaded *c);
+
+/* results.json's "calibration" member: the calibration's id, dark,
+ * standard and its warning, and the budget table, per term its kind
+ * (systematic or per sample) and median relative u per channel over the
+ * reduced values, with the combined one. A new JSON object (jansson's
+ * json_t; NULL when out of memory). */
+struct json_t;
+struct json_t *cal_budget_json(const struct cal_loaded *cl, const struct rad_value *v,
+                               size_t n);
+
+/* Reduce a counts record of the capture (journal.h) as it is measured:
+ * s->rgb and s->u from its raw counts at its plan point's angles, the
+ * angle term's slopes from the records done so far on its lines; the
+ * budget in *v. A record without counts is left as it is. */
+struct journal_sample;
+int cal_reduce_sample(const struct cal_loaded *cl, const struct plan *plan,
+                      const struct journal_sample *done, size_t n_done,
+                      struct journal_sample *s, struct rad_value *v, struct gonio_err *err);
+
+/* Add the budget table (cal_budget_json) of the capture's counts records,
+ * reduced together, to DIR/results.json as its "calibration" member. */
+int cal_results_budget(const struct cal_loaded *cl, const struct plan *plan,
+                       const struct journal_sample *samples, size_t n, const char *dir,
+                       struct gonio_err *err);
+
+/* The derivation alone, from frames (tests, recalibration). */
+int cal_derive(const struct cal_frame *dark, size_t n_dark, const struct cal_frame *ref,
+               size_t n_ref, struct cal_loaded *out, struct gonio_err *err);
+
+#endif

@@ -1,0 +1,108 @@
+/* A capture's counts reduced with its calibration as they are measured
+ * (capture/calibration.h): each record keeps its raw counts and gains the
+ * BRDF and its standard uncertainty. */
+#include "capture/calibration.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <jansson.h>
+
+#include "common/paths.h"
+#include "journal/journal.h"
+
+#define NEIGHBOUR_DEG 12.5 /* the angle term's slopes look no further */
+
+/* The raw reading of a journal record at its plan point's angles. */
+static void to_raw(const struct journal_sample *s, const struct plan *plan,
+                   const struct cal_loaded *cl, struct rad_raw *r)
+{
+    const struct plan_point *pt = plan_point(plan, (size_t)s->point);
+    memset(r, 0, sizeof *r);
+    r->theta_i = pt->theta_i, r->theta_r = pt->theta_r;
+    memcpy(r->counts, s->raw, sizeof r->counts);
+    r->integration_s = s->integration_s;
+    r->gain_state = s->gain_state == JOURNAL_GAIN_NONE ? 0 : s->gain_state;
+    r->monitor = s->monitor;
+    r->full_scale = cl->full_scale;
+    r->nonlinearity = cl->nonlinearity;
+}
+
+int cal_reduce_sample(const struct cal_loaded *cl, const struct plan *plan,
+                      const struct journal_sample *done, size_t n_done,
+                      struct journal_sample *s, struct rad_value *v, struct gonio_err *err)
+{
+    if (!s->counts)
+        return 0; /* a detector that gave BRDF: nothing to reduce */
+    /* The sample and its neighbours on its lines (same theta_i or same
+     * theta_r, within the slope's reach), the sample first. */
+    struct rad_raw *raw = malloc((n_done + 1) * sizeof *raw);
+    struct rad_value *val = malloc((n_done + 1) * sizeof *val);
+    if (!raw || !val) {
+        free(raw);
+        free(val);
+        return gonio_err_set(err, ENOMEM, "calibration: out of memory");
+    }
+    size_t n = 0;
+    to_raw(s, plan, cl, &raw[n++]);
+    for (size_t k = 0; k < n_done; k++) {
+        const struct journal_sample *d = &done[k];
+        if (!d->counts || (d->flags & JOURNAL_FLAG_DARK) || d->point < 0 ||
+            (size_t)d->point >= plan_count(plan))
+            continue;
+        struct rad_raw r;
+        to_raw(d, plan, cl, &r);
+        int same_i = fabs(r.theta_i - raw[0].theta_i) < 0.01;
+        int same_r = fabs(r.theta_r - raw[0].theta_r) < 0.01;
+        if ((same_i && fabs(r.theta_r - raw[0].theta_r) <= NEIGHBOUR_DEG) ||
+            (same_r && fabs(r.theta_i - raw[0].theta_i) <= NEIGHBOUR_DEG))
+            raw[n++] = r;
+    }
+    int rc = rad_reduce(&cl->cal, raw, n, val, err);
+    if (rc >= 0) {
+        *v = val[0];
+        memcpy(s->rgb, v->brdf, sizeof s->rgb);
+        memcpy(s->u, v->u, sizeof s->u);
+    }
+    free(raw);
+    free(val);
+    return rc;
+}
+
+int cal_results_budget(const struct cal_loaded *cl, const struct plan *plan,
+                       const struct journal_sample *samples, size_t n, const char *dir,
+                       struct gonio_err *err)
+{
+    struct rad_raw *raw = malloc((n ? n : 1) * sizeof *raw);
+    struct rad_value *v = malloc((n ? n : 1) * sizeof *v);
+    size_t m = 0;
+    int rc = raw && v ? 0 : gonio_err_set(err, ENOMEM, "calibration: out of memory");
+    for (size_t k = 0; rc == 0 && k < n; k++)
+        if (samples[k].counts && !(samples[k].flags & JOURNAL_FLAG_DARK))
+            to_raw(&samples[k], plan, cl, &raw[m++]);
+    if (rc == 0)
+        rc = rad_reduce(&cl->cal, raw, m, v, err);
+    char path[4200];
+    snprintf(path, sizeof path, "%s/results.json", dir);
+    json_error_t je;
+    json_t *res = rc == 0 ? json_load_file(path, 0, &je) : NULL;
+    json_t *budget = res ? cal_budget_json(cl, v, m) : NULL;
+    if (rc == 0 && (!res || !budget))
+        rc = gonio_err_set(err, GONIO_EBADDATA, "%s: cannot add the calibration's budget",
+                           path);
+    if (rc == 0) {
+        json_object_set_new(res, "calibration", budget);
+        budget = NULL;
+        char *text = json_dumps(res, JSON_INDENT(2) | JSON_REAL_PRECISION(12));
+        rc = text ? gonio_write_file_atomic(path, text, strlen(text), err)
+                  : gonio_err_set(err, ENOMEM, "%s: out of memory", path);
+        free(text);
+    }
+    json_decref(budget);
+    json_decref(res);
+    free(raw);
+    free(v);
+    return rc;
+}

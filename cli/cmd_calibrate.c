@@ -1,0 +1,213 @@
+/* gonio calibrate dark|reference: a calibration measured on the in-process
+ * simulated rig and written as ROOT/ID (capture/calibration.h,
+ * docs/radiometry.md "Calibrations"). */
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "capture/calibration.h"
+#include "cli/commands.h"
+#include "common/paths.h"
+#include "sim_source/sim_source.h"
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: gonio calibrate dark --offline --scene NAME|FILE --out ROOT [--rig NAME|FILE]\n"
+            "                       [--integration SECONDS]... [--frames N] [--valid MINUTES]\n"
+            "       gonio calibrate reference --offline --scene NAME|FILE --plan NAME|FILE\n"
+            "                       --out ROOT [--standard NAME|FILE] [--repeats N] [--dark ID]\n"
+            "                       [--rig NAME|FILE] [--valid MINUTES]\n"
+            "                       [--spot overfilled|underfilled]\n"
+            "  dark: the shutter closed, N frames (default 16) at the rig profile's\n"
+            "  integration and at each --integration; valid 60 minutes by default.\n"
+            "  reference: the standard (default spectralon-99, configs/standards/) in the\n"
+            "  sample's place, read --repeats times (default 4) at each of the plan's\n"
+            "  points, with the dark --dark ID or the newest valid one in ROOT; valid 480\n"
+            "  minutes by default. Writes ROOT/ID (calibration.json, frames.csv) and prints\n"
+            "  the id, by which a capture names it. --spot: how the detector\n"
+            "  sees the lit spot, for a reference interpolated between its geometries\n"
+            "  (default overfilled: the simulated rig's signal goes with cos theta_i).\n");
+}
+
+struct opts {
+    const char *scene, *rig, *root, *plan, *standard, *dark;
+    double integrations[CAL_MAX_INTEGRATIONS];
+    size_t n_int;
+    long frames, repeats;
+    double valid_min;
+    int offline;
+    int underfilled;
+};
+
+static int parse(int argc, char **argv, struct opts *o)
+{
+    static const struct option longopts[] = {
+        {"offline", no_argument, NULL, 'O'},   {"scene", required_argument, NULL, 's'},
+        {"rig", required_argument, NULL, 'r'}, {"out", required_argument, NULL, 'd'},
+        {"plan", required_argument, NULL, 'p'}, {"standard", required_argument, NULL, 'S'},
+        {"dark", required_argument, NULL, 'D'}, {"integration", required_argument, NULL, 'i'},
+        {"frames", required_argument, NULL, 'f'}, {"repeats", required_argument, NULL, 'n'},
+        {"valid", required_argument, NULL, 'v'}, {"help", no_argument, NULL, 'h'},
+        {"spot", required_argument, NULL, 'F'},
+        {NULL, 0, NULL, 0},
+    };
+    int c;
+    optind = 1;
+    while ((c = getopt_long(argc, argv, "", longopts, NULL)) != -1) {
+        char *end = NULL;
+        double x = 0;
+        if (c == 'i' || c == 'f' || c == 'n' || c == 'v') {
+            errno = 0;
+            x = strtod(optarg, &end);
+            if (errno || end == optarg || *end || !(x > 0) || !isfinite(x)) {
+                fprintf(stderr, "gonio calibrate: %s: not a positive number: '%s'\n",
+                        c == 'i' ? "--integration" : c == 'f' ? "--frames"
+                        : c == 'n' ? "--repeats" : "--valid", optarg);
+                return -1;
+            }
+        }
+        switch (c) {
+        case 'O': o->offline = 1; break;
+        case 's': o->scene = optarg; break;
+        case 'r': o->rig = optarg; break;
+        case 'd': o->root = optarg; break;
+        case 'p': o->plan = optarg; break;
+        case 'S': o->standard = optarg; break;
+        case 'D': o->dark = optarg; break;
+        case 'i':
+            if (o->n_int + 1 >= CAL_MAX_INTEGRATIONS) {
+                fprintf(stderr, "gonio calibrate: at most %d integrations\n",
+                        CAL_MAX_INTEGRATIONS - 1);
+                return -1;
+            }
+            o->integrations[o->n_int++] = x;
+            break;
+        case 'f': o->frames = (long)x; break;
+        case 'n': o->repeats = (long)x; break;
+        case 'v': o->valid_min = x; break;
+        case 'F':
+            if (strcmp(optarg, "overfilled") != 0 && strcmp(optarg, "underfilled") != 0) {
+                fprintf(stderr, "gonio calibrate: --spot: overfilled or underfilled, not "
+                                "'%s'\n", optarg);
+                return -1;
+            }
+            o->underfilled = strcmp(optarg, "underfilled") == 0;
+            break;
+        case 'h': usage(stdout); return 1;
+        default: usage(stderr); return -1;
+        }
+    }
+    return 0;
+}
+
+/* Measure on the in-process simulated rig; frames are malloc'd. */
+static int measure(const struct opts *o, enum cal_kind kind, struct cal_meta *m,
+                   struct cal_frame **frames, size_t *n, struct gonio_err *err)
+{
+    char material[256];
+    snprintf(material, sizeof material, "standard:%s", o->standard);
+    sim_source *src = sim_source_new(o->scene, kind == CAL_REFERENCE ? material : NULL, o->rig,
+                                     err);
+    if (!src)
+        return -abs(err->code ? err->code : EINVAL);
+    struct capture_rig crig;
+    sim_source_rig(src, &crig);
+    struct rig_profile prof;
+    memset(&prof, 0, sizeof prof);
+    struct plan *plan = NULL;
+    int rc = rig_profile_load(o->rig ? o->rig : crig.profile, &prof, err);
+    if (rc >= 0 && kind == CAL_REFERENCE && (rc = plan_load(o->plan, &prof, &plan, err)) > 0)
+        rc = 0;
+    snprintf(m->rig, sizeof m->rig, "%s", prof.name);
+    snprintf(m->detector, sizeof m->detector, "%s", crig.detector ? crig.detector : "unknown");
+    m->in_position_deg = prof.mech.in_position_deg;
+    m->integrations[0] = prof.integration_s;
+    m->n_integrations = 1;
+    for (size_t k = 0; k < o->n_int; k++)
+        m->integrations[m->n_integrations++] = o->integrations[k];
+    if (rc >= 0 && kind == CAL_REFERENCE) {
+        struct cal_need need = {.rig = m->rig, .detector = m->detector,
+                                .integration_s = prof.integration_s, .now = m->created};
+        struct cal_meta dark;
+        if ((rc = cal_select_dark(o->root, o->dark, &need, &dark, err)) >= 0)
+            snprintf(m->dark, sizeof m->dark, "%s", dark.id);
+        m->n_integrations = 1;
+    }
+    struct capture_devices dev;
+    if (rc >= 0 && (rc = crig.open(crig.user, &prof, o->root, &dev, err)) >= 0) {
+        rc = kind == CAL_DARK
+                 ? cal_measure_dark(&dev, m->integrations, m->n_integrations, (int)o->frames,
+                                    frames, n, err)
+                 : cal_measure_reference(&dev, &prof, plan, (int)o->repeats, frames, n, err);
+        crig.close(crig.user, &dev);
+    }
+    /* The gain state the detector read at: what a capture must match. */
+    if (rc >= 0 && *n > 0)
+        m->gain_state = (*frames)[0].gain_state;
+    plan_free(plan);
+    sim_source_free(src);
+    return rc;
+}
+
+int cmd_calibrate(int argc, char **argv)
+{
+    if (argc < 2 || (strcmp(argv[1], "dark") != 0 && strcmp(argv[1], "reference") != 0)) {
+        if (argc >= 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
+            usage(stdout);
+            return 0;
+        }
+        fprintf(stderr, "gonio calibrate: say what to calibrate: dark or reference\n");
+        usage(stderr);
+        return 2;
+    }
+    enum cal_kind kind = strcmp(argv[1], "dark") == 0 ? CAL_DARK : CAL_REFERENCE;
+    struct opts o = {.standard = "spectralon-99", .frames = 16, .repeats = 4};
+    int prc = parse(argc - 1, argv + 1, &o);
+    if (prc)
+        return prc > 0 ? 0 : 2;
+    if (optind != argc - 1 || !o.scene || !o.root || (kind == CAL_REFERENCE && !o.plan)) {
+        fprintf(stderr, "gonio calibrate: --scene and --out are required (reference: and "
+                        "--plan)\n");
+        usage(stderr);
+        return 2;
+    }
+    if (!o.offline) {
+        fprintf(stderr, "gonio calibrate: only --offline calibrations (the in-process "
+                        "simulated rig) exist in this build\n");
+        return 2;
+    }
+    if (o.repeats < 2 && kind == CAL_REFERENCE) {
+        fprintf(stderr, "gonio calibrate: --repeats must be at least 2 (the photon-transfer "
+                        "gain comes from their spread)\n");
+        return 2;
+    }
+    struct cal_meta m = {.kind = kind, .created = time(NULL)};
+    m.spot = o.underfilled ? RAD_SPOT_UNDERFILLED : RAD_SPOT_OVERFILLED;
+    m.valid_s = 60 * (o.valid_min > 0 ? o.valid_min : kind == CAL_DARK ? 60 : 480);
+    snprintf(m.standard, sizeof m.standard, "%s", kind == CAL_REFERENCE ? o.standard : "");
+    struct gonio_err err = {0};
+    struct cal_frame *frames = NULL;
+    size_t n = 0;
+    int rc = gonio_mkdir_p(o.root, &err);
+    if (rc >= 0)
+        rc = measure(&o, kind, &m, &frames, &n, &err);
+    if (rc >= 0) {
+        cal_new_id(o.root, kind, m.created, m.id, sizeof m.id);
+        rc = cal_write(o.root, &m, frames, n, &err);
+    }
+    free(frames);
+    if (rc < 0) {
+        fprintf(stderr, "gonio calibrate: %s\n", err.msg[0] ? err.msg : gonio_strerror(rc));
+        return gonio_exit_status(rc);
+    }
+    printf("%s\n", m.id);
+    fprintf(stderr, "calibration %s: %zu frames, rig %s, detector %s%s%s, valid %g min\n",
+            m.id, n, m.rig, m.detector, kind == CAL_REFERENCE ? ", dark " : "",
+            kind == CAL_REFERENCE ? m.dark : "", m.valid_s / 60);
+    return 0;
+}

@@ -1,0 +1,371 @@
+/* The relative method and its budget (radiometry/reduce.h). */
+#include "radiometry/reduce.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define GEOM_TOL_DEG 0.01 /* two geometries within this are the same point */
+
+static const char *const term_names[RAD_N_TERMS] = {
+    "counting", "dark", "reference", "reference_noise", "drift", "nonlinearity", "angle",
+    "geometry",
+};
+
+const char *rad_term_name(enum rad_term t)
+{
+    return t >= 0 && t < RAD_N_TERMS ? term_names[t] : "?";
+}
+
+int rad_term_systematic(enum rad_term t)
+{
+    return t == RAD_U_REFERENCE || t == RAD_U_GEOMETRY;
+}
+
+static int same_integration(double a, double b)
+{
+    return fabs(a - b) <= 1e-9 * fmax(1.0, fabs(a));
+}
+
+const struct rad_dark *rad_find_dark(const struct rad_calibration *cal, double integration_s,
+                                     int gain_state)
+{
+    for (size_t k = 0; k < cal->n_darks; k++)
+        if (cal->darks[k].gain_state == gain_state &&
+            same_integration(cal->darks[k].integration_s, integration_s))
+            return &cal->darks[k];
+    return NULL;
+}
+
+int rad_covers(const struct rad_calibration *cal, double integration_s, int gain_state,
+               struct gonio_err *err)
+{
+    if (!rad_find_dark(cal, integration_s, gain_state))
+        return gonio_err_set(err, GONIO_EBADCONFIG,
+                             "no dark frame at integration %g s, gain state %d", integration_s,
+                             gain_state);
+    for (size_t k = 0; k < cal->n_refs; k++)
+        if (cal->refs[k].gain_state == gain_state)
+            return 0;
+    return gonio_err_set(err, GONIO_EBADCONFIG, "no reference readings at gain state %d",
+                         gain_state);
+}
+
+double rad_linearise(double y, double k, double full_scale)
+{
+    if (!(k > 0.0) || !(full_scale > 0.0))
+        return y;
+    double disc = 1.0 - 4.0 * k * y / full_scale;
+    if (disc <= 0.0)
+        return full_scale / (2.0 * k); /* the top of the response: nothing reads higher */
+    /* The smaller root, in the form without cancellation for small y. */
+    return 2.0 * y / (1.0 + sqrt(disc));
+}
+
+/* The geometric factor the spot puts into a reading besides the BRDF. */
+static double spot_factor(enum rad_spot spot, double theta_i, double theta_r)
+{
+    const double d2r = 3.14159265358979323846 / 180.0;
+    return spot == RAD_SPOT_OVERFILLED ? cos(theta_i * d2r) : cos(theta_r * d2r);
+}
+
+/* One reference reading's response per channel: linearised counts above
+ * its dark per monitor count (or per second), or -1 when it has no dark. */
+struct response {
+    double k[3];               /* x_r / m_r */
+    double x[3];               /* x_r */
+    const struct rad_ref *ref; /* the (nearest) reading */
+    const struct rad_dark *dark;
+};
+
+static int ref_response(const struct rad_calibration *cal, const struct rad_ref *r,
+                        const struct rad_raw *s, int use_monitor, struct response *out,
+                        struct gonio_err *err)
+{
+    const struct rad_dark *d = rad_find_dark(cal, r->integration_s, r->gain_state);
+    if (!d)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "reference at (%g, %g) deg: no dark frame "
+                             "at integration %g s, gain state %d", r->theta_i, r->theta_r,
+                             r->integration_s, r->gain_state);
+    double m = use_monitor ? r->monitor : r->integration_s;
+    for (int c = 0; c < 3; c++) {
+        out->x[c] = rad_linearise(r->counts[c] - d->mean[c], s->nonlinearity, s->full_scale);
+        if (!(out->x[c] > 0.0))
+            return gonio_err_set(err, GONIO_EBADDATA, "reference at (%g, %g) deg: channel %d "
+                                 "reads %g counts, not above its dark %g", r->theta_i,
+                                 r->theta_r, c, r->counts[c], d->mean[c]);
+        out->k[c] = out->x[c] / m;
+    }
+    out->ref = r;
+    out->dark = d;
+    return 0;
+}
+
+/* The reference response normalised by the standard and the spot, which
+ * varies slowly with geometry, at reading r. */
+static void normalised(const struct rad_calibration *cal, const struct response *resp,
+                       double n[3])
+{
+    const struct rad_ref *r = resp->ref;
+    double f[3];
+    brdf_standard_brdf(&cal->standard, r->theta_i, r->theta_r, f);
+    double g = spot_factor(cal->setup.spot, r->theta_i, r->theta_r);
+    for (int c = 0; c < 3; c++)
+        n[c] = resp->k[c] / (f[c] * g);
+}
+
+/* The two reference readings of gain state g at incidence ti bracketing tr
+ * (lo == hi on an exact match); -1 when tr is outside the row. */
+static int bracket_row(const struct rad_calibration *cal, int g, double ti, double tr,
+                       const struct rad_ref **lo, const struct rad_ref **hi)
+{
+    *lo = *hi = NULL;
+    for (size_t k = 0; k < cal->n_refs; k++) {
+        const struct rad_ref *r = &cal->refs[k];
+        if (r->gain_state != g || fabs(r->theta_i - ti) > GEOM_TOL_DEG)
+            continue;
+        if (fabs(r->theta_r - tr) <= GEOM_TOL_DEG) {
+            *lo = *hi = r;
+            return 0;
+        }
+        if (r->theta_r < tr && (!*lo || r->theta_r > (*lo)->theta_r))
+            *lo = r;
+        if (r->theta_r > tr && (!*hi || r->theta_r < (*hi)->theta_r))
+            *hi = r;
+    }
+    return *lo && *hi ? 0 : -1;
+}
+
+/* The incidence rows of gain state g bracketing ti (equal on a match). */
+static int bracket_incidence(const struct rad_calibration *cal, int g, double ti, double *lo,
+                             double *hi)
+{
+    *lo = -INFINITY, *hi = INFINITY;
+    for (size_t k = 0; k < cal->n_refs; k++) {
+        const struct rad_ref *r = &cal->refs[k];
+        if (r->gain_state != g)
+            continue;
+        if (fabs(r->theta_i - ti) <= GEOM_TOL_DEG) {
+            *lo = *hi = r->theta_i;
+            return 0;
+        }
+        if (r->theta_i < ti && r->theta_i > *lo)
+            *lo = r->theta_i;
+        if (r->theta_i > ti && r->theta_i < *hi)
+            *hi = r->theta_i;
+    }
+    return isfinite(*lo) && isfinite(*hi) ? 0 : -1;
+}
+
+/* The normalised response at (ti, tr) from one incidence row. */
+static int row_value(const struct rad_calibration *cal, const struct rad_raw *s, int mon,
+                     double ti, double n[3], struct response *nearest, struct gonio_err *err)
+{
+    const struct rad_ref *lo, *hi;
+    if (bracket_row(cal, s->gain_state, ti, s->theta_r, &lo, &hi) < 0)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "sample at (%g, %g) deg: outside the "
+                             "reference's geometries at incidence %g deg (gain state %d)",
+                             s->theta_i, s->theta_r, ti, s->gain_state);
+    struct response a, b;
+    double na[3], nb[3];
+    int rc;
+    if ((rc = ref_response(cal, lo, s, mon, &a, err)) < 0 ||
+        (rc = ref_response(cal, hi, s, mon, &b, err)) < 0)
+        return rc;
+    normalised(cal, &a, na);
+    normalised(cal, &b, nb);
+    double t = lo == hi ? 0.0 : (s->theta_r - lo->theta_r) / (hi->theta_r - lo->theta_r);
+    for (int c = 0; c < 3; c++)
+        n[c] = na[c] * (1 - t) + nb[c] * t;
+    *nearest = t <= 0.5 ? a : b;
+    return 0;
+}
+
+/* The reference response at the sample's geometry: the reading itself
+ * when there is one, else interpolated in the normalised response. */
+static int reference_at(const struct rad_calibration *cal, const struct rad_raw *s, int mon,
+                        struct response *out, struct gonio_err *err)
+{
+    double lo_i, hi_i;
+    if (bracket_incidence(cal, s->gain_state, s->theta_i, &lo_i, &hi_i) < 0)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "sample at (%g, %g) deg: no reference "
+                             "readings around incidence %g deg at gain state %d", s->theta_i,
+                             s->theta_r, s->theta_i, s->gain_state);
+    double na[3], nb[3];
+    struct response near_a, near_b;
+    int rc = row_value(cal, s, mon, lo_i, na, &near_a, err);
+    if (rc < 0 || (rc = row_value(cal, s, mon, hi_i, nb, &near_b, err)) < 0)
+        return rc;
+    const struct rad_ref *r = near_a.ref;
+    if (lo_i == hi_i && fabs(r->theta_r - s->theta_r) <= GEOM_TOL_DEG) {
+        *out = near_a; /* measured at this very geometry: no model in between */
+        return 0;
+    }
+    double t = lo_i == hi_i ? 0.0 : (s->theta_i - lo_i) / (hi_i - lo_i);
+    *out = t <= 0.5 ? near_a : near_b;
+    double f[3];
+    brdf_standard_brdf(&cal->standard, s->theta_i, s->theta_r, f);
+    double g = spot_factor(cal->setup.spot, s->theta_i, s->theta_r);
+    for (int c = 0; c < 3; c++)
+        out->k[c] = (na[c] * (1 - t) + nb[c] * t) * f[c] * g;
+    return 0;
+}
+
+/* d ln f_ref / d theta for the standard at the reference's geometry, per
+ * degree, along theta_i and theta_r. */
+static void standard_slopes(const struct brdf_standard *st, double ti, double tr, double sl[2])
+{
+    const double h = 0.5;
+    sl[0] = log(brdf_standard_shape(st, ti + h, tr) / brdf_standard_shape(st, ti - h, tr)) /
+            (2 * h);
+    sl[1] = log(brdf_standard_shape(st, ti, tr + h) / brdf_standard_shape(st, ti, tr - h)) /
+            (2 * h);
+}
+
+/* The relative variance an angle error adds to a reading whose log varies
+ * with slopes sl (per degree): theta_i = s, theta_r = a - s, the axes'
+ * errors s and a independent and uniform within the band. */
+static double angle_var(const double sl[2], double band_deg)
+{
+    double u2 = band_deg * band_deg / 3.0;
+    double ds = sl[0] - sl[1], da = sl[1];
+    return (ds * ds + da * da) * u2;
+}
+
+static int reduce_one(const struct rad_calibration *cal, const struct rad_raw *s,
+                      struct rad_value *v, struct gonio_err *err)
+{
+    const struct rad_setup *su = &cal->setup;
+    const struct rad_dark *ds = rad_find_dark(cal, s->integration_s, s->gain_state);
+    if (!ds)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "sample at (%g, %g) deg: no dark frame at "
+                             "integration %g s, gain state %d", s->theta_i, s->theta_r,
+                             s->integration_s, s->gain_state);
+    int mon = isfinite(s->monitor) && s->monitor > 0;
+    for (size_t k = 0; mon && k < cal->n_refs; k++)
+        mon = isfinite(cal->refs[k].monitor) && cal->refs[k].monitor > 0;
+    struct response ref = {0};
+    int rc = reference_at(cal, s, mon, &ref, err);
+    if (rc < 0)
+        return rc;
+    const struct rad_dark *dr = ref.dark;
+    double f[3], fs_sl[2] = {0, 0};
+    brdf_standard_brdf(&cal->standard, s->theta_i, s->theta_r, f);
+    standard_slopes(&cal->standard, ref.ref->theta_i, ref.ref->theta_r, fs_sl);
+    double m_s = mon ? s->monitor : s->integration_s;
+    for (int c = 0; c < 3; c++) {
+        if (s->full_scale > 0 && s->counts[c] >= s->full_scale) {
+            v->brdf[c] = v->u[c] = v->snr[c] = NAN;
+            for (int t = 0; t < RAD_N_TERMS; t++)
+                v->rel[t][c] = NAN;
+            continue;
+        }
+        double x_s = rad_linearise(s->counts[c] - ds->mean[c], s->nonlinearity, s->full_scale);
+        double A = f[c] / (ref.k[c] * m_s); /* BRDF per linearised count */
+        double b = x_s * A;
+        double g = su->adu_per_electron[c];
+        double var_s = g * fmax(x_s, 0.0) + ds->sd[c] * ds->sd[c];
+        double ab = fabs(b) > 0 ? fabs(b) : NAN;
+        double r[RAD_N_TERMS] = {0};
+        r[RAD_U_COUNTING] = A * sqrt(var_s) / ab;
+        double xr = ref.x[c];
+        if (ds == dr) {
+            double dd = -A + b / xr;
+            r[RAD_U_DARK] = fabs(dd) * ds->sd[c] / sqrt(ds->n) / ab;
+        } else {
+            double vs = A * A * ds->sd[c] * ds->sd[c] / ds->n;
+            double vr = (b / xr) * (b / xr) * dr->sd[c] * dr->sd[c] / dr->n;
+            r[RAD_U_DARK] = sqrt(vs + vr) / ab;
+        }
+        double cert = cal->standard.rho[c] > 0 ? cal->standard.u_rho[c] / cal->standard.rho[c]
+                                                : 0.0;
+        r[RAD_U_REFERENCE] = sqrt(cert * cert + cal->standard.u_shape * cal->standard.u_shape);
+        r[RAD_U_REF_NOISE] = sqrt((g * xr + dr->sd[c] * dr->sd[c]) / ref.ref->n) / xr;
+        double mvar = mon ? su->monitor_rel_sd * su->monitor_rel_sd * (1.0 + 1.0 / ref.ref->n)
+                          : 0.0;
+        r[RAD_U_DRIFT] = sqrt(mvar + su->drift_rel_u * su->drift_rel_u);
+        r[RAD_U_NONLINEARITY] = s->full_scale > 0 ? su->nonlinearity_rel_u * s->nonlinearity *
+                                                        fabs(x_s - xr) / s->full_scale
+                                                  : 0.0;
+        r[RAD_U_ANGLE] = sqrt(angle_var(fs_sl, su->in_position_deg)); /* sample's: pass 2 */
+        r[RAD_U_GEOMETRY] = su->geometry_rel_u;
+        v->brdf[c] = b;
+        v->snr[c] = x_s / sqrt(var_s);
+        for (int t = 0; t < RAD_N_TERMS; t++)
+            v->rel[t][c] = r[t];
+    }
+    return 0;
+}
+
+/* Neighbours further apart than this resolve no slope: a 12 deg wide lobe
+ * read every 25 deg of incidence has no measured slope along theta_i. */
+#define SLOPE_MAX_SPAN_DEG 12.0
+
+/* ln BRDF's slope along one angle at sample k from its nearest neighbours
+ * on either side with the other angle equal (one-sided at an edge). NAN
+ * when no neighbour lies within SLOPE_MAX_SPAN_DEG. */
+static double neighbour_slope(const struct rad_raw *raw, const struct rad_value *v, size_t n,
+                              size_t k, int c, int along_r)
+{
+#define ALONG(j) (along_r ? raw[j].theta_r : raw[j].theta_i)
+#define ACROSS(j) (along_r ? raw[j].theta_i : raw[j].theta_r)
+    double x0 = ALONG(k);
+    long lo = -1, hi = -1;
+    for (size_t j = 0; j < n; j++) {
+        if (j == k || fabs(ACROSS(j) - ACROSS(k)) > GEOM_TOL_DEG || !(v[j].brdf[c] > 0))
+            continue;
+        double x = ALONG(j);
+        if (x < x0 - GEOM_TOL_DEG && x >= x0 - SLOPE_MAX_SPAN_DEG && (lo < 0 || x > ALONG(lo)))
+            lo = (long)j;
+        if (x > x0 + GEOM_TOL_DEG && x <= x0 + SLOPE_MAX_SPAN_DEG && (hi < 0 || x < ALONG(hi)))
+            hi = (long)j;
+    }
+    long a = lo >= 0 ? lo : (long)k, b = hi >= 0 ? hi : (long)k;
+    if (a == b || !(v[a].brdf[c] > 0) || !(v[b].brdf[c] > 0))
+        return NAN;
+    return log(v[b].brdf[c] / v[a].brdf[c]) / (ALONG(b) - ALONG(a));
+#undef ALONG
+#undef ACROSS
+}
+
+/* The sample's slopes along theta_i and theta_r. Where the capture does
+ * not resolve the slope along theta_i, it is taken as a mirror lobe's,
+ * -d/dtheta_r (a lobe that follows theta_r - theta_i): the larger of the
+ * two usual cases, a diffuse material's 0 being the other. */
+static void sample_slopes(const struct rad_raw *raw, const struct rad_value *v, size_t n,
+                          size_t k, int c, double sl[2])
+{
+    double dr = neighbour_slope(raw, v, n, k, c, 1);
+    double di = neighbour_slope(raw, v, n, k, c, 0);
+    if (isnan(dr))
+        dr = 0.0; /* a lone point along theta_r: nothing measured to go by */
+    sl[0] = isnan(di) ? -dr : di;
+    sl[1] = dr;
+}
+
+int rad_reduce(const struct rad_calibration *cal, const struct rad_raw *raw, size_t n,
+               struct rad_value *out, struct gonio_err *err)
+{
+    for (size_t k = 0; k < n; k++) {
+        int rc = reduce_one(cal, &raw[k], &out[k], err);
+        if (rc < 0)
+            return rc;
+    }
+    for (size_t k = 0; k < n; k++)
+        for (int c = 0; c < 3; c++) {
+            struct rad_value *v = &out[k];
+            if (!isfinite(v->brdf[c]))
+                continue;
+            double sl[2];
+            sample_slopes(raw, out, n, k, c, sl);
+            double ref_a = v->rel[RAD_U_ANGLE][c];
+            v->rel[RAD_U_ANGLE][c] =
+                sqrt(ref_a * ref_a + angle_var(sl, cal->setup.in_position_deg));
+            double sum = 0;
+            for (int t = 0; t < RAD_N_TERMS; t++)
+                sum += v->rel[t][c] * v->rel[t][c];
+            v->u[c] = fabs(v->brdf[c]) * sqrt(sum);
+        }
+    return 0;
+}

@@ -1,0 +1,161 @@
+"""gonio calibrate as an operator runs it on the simulated raw rig: a dark,
+then a reference taken with it, written where a capture looks; and the
+refusals: a detector that reports BRDF, a reference without a dark, a bad
+option."""
+import csv
+import json
+import os
+import subprocess
+import tempfile
+import time
+
+import pytest
+
+BIN = os.environ.get("GONIO_BIN", "build/bin")
+GONIO = os.path.join(BIN, "gonio")
+
+
+def gonio(*args):
+    return subprocess.run([GONIO, *args], capture_output=True, text=True, timeout=300)
+
+
+@pytest.fixture
+def root():
+    with tempfile.TemporaryDirectory(prefix="calibrate_") as d:
+        yield d
+
+
+def test_dark_then_reference(root):
+    d = gonio("calibrate", "dark", "--offline", "--scene", "lab-raw", "--out", root,
+              "--integration", "0.2", "--frames", "8")
+    assert d.returncode == 0, d.stderr
+    dark_id = d.stdout.strip()
+    meta = json.load(open(os.path.join(root, dark_id, "calibration.json")))
+    assert meta["kind"] == "dark" and meta["rig"] == "default" and meta["detector"] == "rgb"
+    assert meta["integrations_s"] == [0.05, 0.2] and meta["valid_s"] == 3600
+    rows = list(csv.DictReader(open(os.path.join(root, dark_id, "frames.csv"))))
+    assert len(rows) == 16 and all(r["kind"] == "dark" for r in rows)
+    # The shutter was closed: offset and dark only, far below a lit reading.
+    assert max(float(r["g"]) for r in rows) < 1200
+    r = gonio("calibrate", "reference", "--offline", "--scene", "lab-raw", "--plan", "ds3",
+              "--out", root, "--repeats", "2")
+    assert r.returncode == 0, r.stderr
+    ref = json.load(open(os.path.join(root, r.stdout.strip(), "calibration.json")))
+    assert ref["kind"] == "reference" and ref["dark"] == dark_id
+    assert ref["standard"] == "spectralon-99" and ref["frames"] == 2 * 52
+    rows = list(csv.DictReader(open(os.path.join(root, r.stdout.strip(), "frames.csv"))))
+    assert min(float(x["g"]) for x in rows) > 3000  # the standard, lit
+
+
+def test_refusals(root):
+    r = gonio("calibrate", "dark", "--offline", "--scene", "lab", "--out", root)
+    assert r.returncode == 2 and "reports BRDF, not counts" in r.stderr, r.stderr
+    r = gonio("calibrate", "reference", "--offline", "--scene", "lab-raw", "--plan", "ds3",
+              "--out", root)
+    assert r.returncode == 2 and "no valid dark calibration" in r.stderr, r.stderr
+    r = gonio("calibrate", "dark", "--offline", "--scene", "lab-raw", "--out", root,
+              "--frames", "-3")
+    assert r.returncode == 2 and "--frames: not a positive number: '-3'" in r.stderr
+    r = gonio("calibrate", "white", "--offline")
+    assert r.returncode == 2 and "dark or reference" in r.stderr
+    assert os.listdir(root) == []
+
+
+def rig(folder, name, integration):
+    """The default rig profile under another name and integration."""
+    src = os.path.join(os.environ.get("GONIO_CONFIG", "configs"), "rigs", "default.yaml")
+    text = open(src).read().replace("fixed_s: 0.05", "fixed_s: %g" % integration)
+    text = text.replace("name: default", "name: %s" % name)
+    path = os.path.join(folder, "%s.yaml" % name)
+    with open(path, "w") as f:
+        f.write(text)
+    return path
+
+
+def calibrate(root, rig_path, *extra):
+    d = gonio("calibrate", "dark", "--offline", "--scene", "lab-raw", "--rig", rig_path,
+              "--out", root)
+    assert d.returncode == 0, d.stderr
+    r = gonio("calibrate", "reference", "--offline", "--scene", "lab-raw", "--rig", rig_path,
+              "--plan", "ds3", "--out", root, "--repeats", "2", *extra)
+    assert r.returncode == 0, r.stderr
+    return r.stdout.strip()
+
+
+def capture(root, rig_path, out, cal="newest"):
+    return gonio("capture", "--offline", "--scene", "lab-raw", "--rig", rig_path, "--plan",
+                 "ds3", "--material", "analytic:rough-diffuse", "--out", out, "--quiet",
+                 "--calibration", cal, "--calibrations", root)
+
+
+def test_capture_reduced_with_its_calibration(root):
+    lab = rig(root, "lab", 0.25)
+    cal_id = calibrate(os.path.join(root, "cal"), lab)
+    out = os.path.join(root, "cap")
+    c = capture(os.path.join(root, "cal"), lab, out)
+    assert c.returncode == 0, c.stderr
+    rows = list(csv.DictReader(open(os.path.join(out, "samples.csv"))))
+    assert len(rows) == 52
+    for r in rows:
+        assert r["unit"] == "counts" and float(r["raw_g"]) > 1000
+        g, u = float(r["g"]), float(r["u_g"])
+        assert 0.05 < g < 0.3 and 0 < u < 0.02 * g, r  # BRDF with a ~1 % u
+    res = json.load(open(os.path.join(out, "results.json")))
+    cal = res["calibration"]
+    assert cal["id"] == cal_id and cal["standard"] == "spectralon-99"
+    terms = {t["term"]: t for t in cal["budget"]}
+    assert terms["reference"]["kind"] == "systematic"
+    assert 0.005 < terms["reference"]["median_relative_u"][1] < 0.01
+    assert 0.002 < terms["counting"]["median_relative_u"][1] < 0.02
+
+
+def test_capture_refuses_a_calibration_it_cannot_use(root):
+    cal = os.path.join(root, "cal")
+    lab = rig(root, "lab", 0.25)
+    calibrate(cal, lab)
+    cases = [
+        (rig(root, "bench", 0.25), "newest", "for rig 'bench'"),
+        (lab, "reference-none", "calibration reference-none: not found"),
+        (rig(root, "lab-long", 0.5), "newest", "rig 'lab'"),
+    ]
+    # The same rig name, another integration: not covered.
+    slow = rig(os.path.join(root), "lab", 0.5)
+    for rig_path, cal_id, needle in cases:
+        out = os.path.join(root, "cap")
+        c = capture(cal, rig_path, out, cal_id)
+        assert c.returncode == 2 and needle in c.stderr, (needle, c.stderr)
+        assert not os.path.exists(out), "refused before anything was written"
+    c = capture(cal, slow, os.path.join(root, "cap"))
+    assert c.returncode == 2 and "does not cover integration 0.5 s (it has 0.25 s)" in c.stderr, \
+        c.stderr
+    r = gonio("capture", "--offline", "--scene", "lab-raw", "--plan", "ds3", "--out",
+              os.path.join(root, "cap"), "--calibration", "x")
+    assert r.returncode == 2 and "--calibration needs --calibrations ROOT" in r.stderr
+
+
+def test_expired_calibration_refused(root):
+    cal = os.path.join(root, "cal")
+    lab = rig(root, "lab", 0.25)
+    calibrate(cal, lab, "--valid", "0.02")  # the reference for 1.2 s
+    time.sleep(2.5)
+    c = capture(cal, lab, os.path.join(root, "cap"))
+    assert c.returncode == 2 and "expired at" in c.stderr, c.stderr
+
+
+def test_resume_keeps_its_calibration(root):
+    """setup.json names the calibration: a capture resumed with another is
+    refused, naming both."""
+    cal = os.path.join(root, "cal")
+    lab = rig(root, "lab", 0.25)
+    first = calibrate(cal, lab)
+    out = os.path.join(root, "cap")
+    c = capture(cal, lab, out, first)
+    assert c.returncode == 0, c.stderr
+    assert json.load(open(os.path.join(out, "setup.json")))["calibration"] == first
+    time.sleep(1.1)  # a new id: ids are to the second
+    second = calibrate(cal, lab)
+    assert second != first
+    c = capture(cal, lab, out, second)
+    assert c.returncode == 2, c.stderr
+    assert "setup.json has calibration '%s', this capture asks for '%s'" % (first, second) \
+        in c.stderr, c.stderr
