@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "brdf/abc.h"
+#include "brdf/analytic_spec.h"
 #include "brdf/material_private.h"
 
 #define AN_PI 3.14159265358979323846
@@ -151,12 +152,14 @@ static const struct brdf_material_ops analytic_ops = {
 
 brdf_material *brdf_analytic_open(const char *spec, const char *name, struct gonio_err *err)
 {
+    if (brdf_analytic_spec_is_parametric(name))
+        return brdf_analytic_spec_open(spec, name, err);
     const struct brdf_analytic *a = brdf_analytic_find(name);
     if (!a) {
         char names[256];
         brdf_analytic_names(names, sizeof names);
-        gonio_err_set(err, GONIO_ENOTFOUND, "%s: no analytic material '%s' (have: %s)", spec,
-                      name, names);
+        gonio_err_set(err, GONIO_ENOTFOUND, "%s: no analytic material '%s' (have: %s, "
+                      "or aniso-ggx?... and two-lobe?... with parameters)", spec, name, names);
         return NULL;
     }
     brdf_material *m = brdf_material_new(&analytic_ops, (void *)a, spec);

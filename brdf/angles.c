@@ -49,6 +49,19 @@ void brdf_pair_from_dirs(const double wi_in[3], const double wo_in[3], struct br
     p->phi_d = atan2(d[1], d[0]);
 }
 
+void brdf_pair_rotate(struct brdf_pair *p, double rotation_deg)
+{
+    if (rotation_deg == 0.0)
+        return;
+    double c = cos(rotation_deg * BRDF_DEG), s = sin(rotation_deg * BRDF_DEG);
+    double *w[2] = {p->wi, p->wo};
+    for (int k = 0; k < 2; k++) {
+        double x = w[k][0], y = w[k][1];
+        w[k][0] = c * x + s * y;
+        w[k][1] = -s * x + c * y;
+    }
+}
+
 void brdf_pair_inplane(double theta_i_deg, double theta_r_deg, struct brdf_pair *p)
 {
     double ti = theta_i_deg * BRDF_DEG, tr = theta_r_deg * BRDF_DEG;

@@ -42,6 +42,13 @@ struct brdf_angle {
 void brdf_pair_from_hd_cs(const struct brdf_angle *theta_h, const struct brdf_angle *theta_d,
                           const struct brdf_angle *phi_d, struct brdf_pair *p);
 
+/* A lab-frame pair as a sample turned rotation_deg about its normal sees
+ * it: wi and wo turned by -rotation_deg about z; theta_h, theta_d and
+ * phi_d, which a turn about the normal leaves alone, are kept to the last
+ * bit (an isotropic material reads the same value, the exact mirror's
+ * phi_h = 0 rule included). */
+void brdf_pair_rotate(struct brdf_pair *p, double rotation_deg);
+
 /* Polar angles of the two directions, degrees. */
 double brdf_pair_theta_i_deg(const struct brdf_pair *p);
 double brdf_pair_theta_o_deg(const struct brdf_pair *p);

@@ -23,6 +23,7 @@ struct brdf_material {
     const struct brdf_material_ops *ops;
     void *priv;
     char *name;
+    int anisotropic;
 };
 
 brdf_material *brdf_material_new(const struct brdf_material_ops *ops, void *priv,
@@ -40,6 +41,7 @@ brdf_material *brdf_material_new(const struct brdf_material_ops *ops, void *priv
     m->ops = ops;
     m->priv = priv;
     m->name = copy;
+    m->anisotropic = 0;
     return m;
 }
 
@@ -52,6 +54,16 @@ size_t brdf_material_eval(const brdf_material *m, const struct brdf_pair *pairs,
         if (isnan(rgb[3 * i]) || isnan(rgb[3 * i + 1]) || isnan(rgb[3 * i + 2]))
             missing++;
     return missing;
+}
+
+int brdf_material_isotropic(const brdf_material *m)
+{
+    return !m->anisotropic;
+}
+
+void brdf_material_set_anisotropic(brdf_material *m)
+{
+    m->anisotropic = 1;
 }
 
 const char *brdf_material_name(const brdf_material *m)

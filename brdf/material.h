@@ -21,7 +21,9 @@ typedef struct brdf_material brdf_material;
  *   abc:NAME     published ABC fit of a MERL material (Low et al. 2012)
  *   sgd:NAME     published shifted-gamma fit (Bagher et al. 2012)
  *   builtin:NAME a material embedded in the library (brdf/embedded.h)
- *   analytic:NAME an analytic material outside MERL (brdf/analytic.h)
+ *   analytic:NAME an analytic material outside MERL (brdf/analytic.h), or
+ *                one built from parameters, analytic:KIND?key=value&...
+ *                (brdf/analytic_spec.h)
  *   standard:NAME a reflectance standard (brdf/standard.h), NAME a file or
  *                <config>/standards/NAME.yaml
  *   default      the embedded default (no shared data needed)
@@ -32,6 +34,11 @@ brdf_material *brdf_material_open(const char *spec, struct gonio_err *err);
 /* Evaluate n pairs into rgb[3n]. Returns the number of pairs without data. */
 size_t brdf_material_eval(const brdf_material *m, const struct brdf_pair *pairs, size_t n,
                           double *rgb);
+
+/* 1 when the material is isotropic: its values do not change as the
+ * sample turns about its normal (brdf_pair_rotate), as MERL tables and
+ * the isotropic models assume; 0 for an anisotropic material. */
+int brdf_material_isotropic(const brdf_material *m);
 
 /* The specification the material was opened with (or the model's name). */
 const char *brdf_material_name(const brdf_material *m);

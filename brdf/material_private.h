@@ -16,4 +16,9 @@ struct brdf_material_ops {
 brdf_material *brdf_material_new(const struct brdf_material_ops *ops, void *priv,
                                  const char *name);
 
+/* Mark m anisotropic: its values depend on the pairs' azimuth in the
+ * sample frame (brdf_material_isotropic). Materials are isotropic unless
+ * their backend says so. */
+void brdf_material_set_anisotropic(brdf_material *m);
+
 #endif

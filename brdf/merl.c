@@ -213,6 +213,12 @@ brdf_material *brdf_merl_open(const char *path, const char *name, struct gonio_e
 int brdf_merl_export(const brdf_material *m, const char *path, struct gonio_err *err)
 {
     const size_t row = (size_t)BRDF_MERL_NTD * BRDF_MERL_NPD; /* one theta_h slice */
+    /* A MERL table has no phi_h: it would keep one azimuth's slice of an
+     * anisotropic material and call it the whole. */
+    if (!brdf_material_isotropic(m))
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "%s: %s is anisotropic; a MERL table holds isotropic materials "
+                             "only (its cells have no phi_h)", path, brdf_material_name(m));
     unsigned char *out = malloc(BRDF_MERL_FILE_BYTES);
     struct brdf_pair *pairs = malloc(row * sizeof *pairs);
     double *rgb = malloc(3 * row * sizeof *rgb);

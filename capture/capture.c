@@ -10,6 +10,7 @@
 #include "capture/journal_plan.h"
 #include "capture/eta.h"
 #include "capture/final_fit.h"
+#include "capture/isotropy_check.h"
 #include "capture/job.h"
 #include "capture/live_fit.h"
 #include "capture/sequence.h"
@@ -67,13 +68,25 @@ static void rig_clock_paused(struct rig_clock *rc)
  * reads add nothing to the point's time where the bus is slow. */
 static int measure_point(struct capture_devices *d, struct rig_clock *clk,
                          const struct capture_hooks *hooks, const struct rig_profile *rig,
-                         const struct plan_point *pt, int index, struct journal_sample *s,
-                         struct gonio_err *err)
+                         const struct plan_point *pt, double rotation_deg, int index,
+                         struct journal_sample *s, struct gonio_err *err)
 {
-    drv_axis *axes[3] = {d->sample, d->arm, d->azimuth};
-    const double to[3] = {pt->ax.s, pt->ax.a, pt->ax.az};
-    double at[3] = {0, 0, 0}, rested = INFINITY;
-    int n = d->azimuth ? 3 : 2, rc;
+    /* the axes the rig has: sample, arm, then azimuth and rotation if any */
+    drv_axis *axes[4] = {d->sample, d->arm};
+    double to[4] = {pt->ax.s, pt->ax.a};
+    const struct rig_axis *prof[4] = {&rig->sample, &rig->arm};
+    double at[4] = {0, 0, 0, 0}, rested = INFINITY;
+    int n = 2, rc;
+    if (d->azimuth) {
+        axes[n] = d->azimuth;
+        prof[n] = &rig->azimuth;
+        to[n++] = pt->ax.az;
+    }
+    if (d->rotation) {
+        axes[n] = d->rotation;
+        prof[n] = &rig->rotation;
+        to[n++] = rotation_deg;
+    }
     for (int i = 0; i < n; i++)
         if ((rc = drv_axis_start_move(axes[i], to[i], err)) < 0)
             return rc;
@@ -82,9 +95,8 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
      * target, then comes back: each such approach leg is sent as its first
      * leg ends, the axes whose first legs end first first, so the move
      * lasts as long as its slowest axis (rig/motion.h). */
-    const struct rig_axis *prof[3] = {&rig->sample, &rig->arm, &rig->azimuth};
-    int by_leg[3] = {0, 1, 2};
-    double leg[3];
+    int by_leg[4] = {0, 1, 2, 3};
+    double leg[4];
     for (int i = 0; i < n; i++)
         leg[i] = rig_axis_time(drv_axis_leg_deg(axes[i]), prof[i]->speed, prof[i]->accel);
     for (int i = 1; i < n; i++)
@@ -121,7 +133,7 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
     brdf_axes_to_inplane(s->s, s->a, &s->theta_i, &s->theta_r);
     s->theta_o = fabs(s->theta_r);
     s->phi_i = 0.0;
-    s->phi_o = fmod(at[2] + (s->theta_r >= 0 ? 180.0 : 0.0) + 360.0, 360.0);
+    s->phi_o = fmod((d->azimuth ? at[2] : 0.0) + (s->theta_r >= 0 ? 180.0 : 0.0) + 360.0, 360.0);
     if (r.unit == DRV_UNIT_COUNTS) { /* the record is the counts; BRDF is derived */
         s->counts = 1;
         memcpy(s->raw, r.rgb, sizeof s->raw);
@@ -140,9 +152,11 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
 /* What the axes' mechanics cost (re-commands, alarms, re-homes), summed. */
 static void add_axis_stats(const struct capture_devices *d, struct drv_axis_stats *sum)
 {
-    const drv_axis *axes[3] = {d->sample, d->arm, d->azimuth};
-    for (int i = 0; i < 3; i++) {
+    const drv_axis *axes[4] = {d->sample, d->arm, d->azimuth, d->rotation};
+    for (int i = 0; i < 4; i++) {
         struct drv_axis_stats st;
+        if (!axes[i])
+            continue;
         drv_axis_stats(axes[i], &st);
         sum->moves += st.moves;
         sum->recommands += st.recommands;
@@ -157,6 +171,8 @@ static void stop_axes(struct capture_devices *d)
     drv_axis_stop(d->arm, NULL);
     if (d->azimuth)
         drv_axis_stop(d->azimuth, NULL);
+    if (d->rotation)
+        drv_axis_stop(d->rotation, NULL);
 }
 
 /* The ETA a host shows: capture/eta.h's, metered from the journal. */
@@ -274,7 +290,7 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
     /* The adaptive order decides the point after k meanwhile. */
     int rc = sequence_begin(r->seq, k, err);
     if (rc == 0)
-        rc = measure_point(dev, clk, hooks, &job->rig, pt, (int)k, &s, err);
+        rc = measure_point(dev, clk, hooks, &job->rig, pt, 0.0, (int)k, &s, err);
     if (rc < 0) {
         stop_axes(dev); /* a failed point leaves no axis moving */
         if (err) { /* name the point the operator will find in plan.json */
@@ -310,6 +326,50 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
     if (rc >= 0 && hooks->on_sample)
         hooks->on_sample(hooks->user, &s, r->n, plan_count(job->plan));
     return rc;
+}
+
+/* The isotropy check's measurement: the pair with the sample turned, on
+ * the capture's devices, not journalled (no plan point). */
+struct check_ctx {
+    struct run *r;
+    struct capture_devices *dev;
+    struct rig_clock *clk;
+};
+
+static int check_measure(void *user, const struct iso_check_pair *p, double rotation_deg,
+                         double *value, struct gonio_err *err)
+{
+    static const struct capture_hooks no_hooks;
+    struct check_ctx *c = user;
+    struct plan_point pt = {.theta_i = p->theta_i, .theta_r = p->theta_r};
+    brdf_inplane_to_axes(p->theta_i, p->theta_r, &pt.ax.s, &pt.ax.a);
+    struct journal_sample s;
+    int rc = measure_point(c->dev, c->clk, &no_hooks, &c->r->job->rig, &pt, rotation_deg, -1,
+                           &s, err);
+    if (rc < 0) {
+        stop_axes(c->dev);
+        return rc;
+    }
+    *value = s.flags & JOURNAL_FLAG_SATURATED ? NAN : (s.rgb[0] + s.rgb[1] + s.rgb[2]) / 3.0;
+    return 0;
+}
+
+/* The isotropy check after the capture's last point (capture_config
+ * check_isotropy), on the rig's rotation axis; its rig time apart. */
+static int check_isotropy(struct run *r, struct capture_devices *dev, struct rig_clock *clk,
+                          struct gonio_err *err)
+{
+    if (!dev->rotation)
+        return gonio_err_set(err, GONIO_EUSAGE, "--check isotropy: the rig source has no "
+                             "rotation axis device");
+    struct check_ctx c = {r, dev, clk};
+    double t0 = rig_clock_now(clk);
+    int rc = iso_check_run(r->samples, r->n, check_measure, &c, &r->out->isotropy, err);
+    if (rc < 0)
+        return rc;
+    r->out->isotropy.rig_time_s = rig_clock_now(clk) - t0;
+    r->out->has_isotropy = 1;
+    return 0;
 }
 
 /* Measure every point the journal does not hold yet, from `first` on in
@@ -363,6 +423,8 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
             break;
         }
     }
+    if (rc == 0 && !r->aborted && r->job->cfg.check_isotropy)
+        rc = check_isotropy(r, &dev, &clk, err);
     r->out->paused_s = clk.paused;
     add_axis_stats(&dev, &r->out->mech);
     job->src->close(job->src->user, &dev);

@@ -14,6 +14,7 @@
 #include <stddef.h>
 
 #include "adaptive/adaptive.h"
+#include "capture/isotropy_check.h"
 #include "brdf/abc.h"
 #include "fit/fit.h"
 #include "brdf/material.h"
@@ -85,6 +86,10 @@ struct capture_config {
      * order); CAPTURE_PRESCAN_OFF: none; else
      * 1..CAPTURE_PRESCAN_MAX (refused in the adaptive order). */
     int prescan;
+    /* After the last point, the isotropy check (capture/isotropy_check.h,
+     * docs/checks.md) on the rig's rotation axis; refused on a rig
+     * profile without one. */
+    int check_isotropy;
 };
 
 #define CAPTURE_PRESCAN_OFF (-1)
@@ -126,11 +131,14 @@ struct capture_summary {
     struct adaptive_status policy;
     size_t decisions;
     double decision_mean_s, decision_max_s, decision_wait_s;
+    int has_isotropy; /* the isotropy check ran: its verdict and rig time */
+    struct iso_check_result isotropy;
 };
 
 /* The devices a capture runs on. */
 struct capture_devices {
     struct drv_axis *sample, *arm, *azimuth; /* azimuth may be NULL for in-plane rigs */
+    struct drv_axis *rotation; /* the sample about its normal; NULL on rigs without */
     struct drv_detector *detector;
     struct drv_clock *clock;
 };

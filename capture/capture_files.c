@@ -375,6 +375,31 @@ static json_t *adaptive_json(const struct capture_summary *s)
     return o;
 }
 
+/* The checks' verdicts with their evidence and rig time (docs/checks.md). */
+static json_t *checks_json(const struct capture_summary *s)
+{
+    json_t *o = json_object();
+    if (!s->has_isotropy)
+        return o;
+    const struct iso_check_result *c = &s->isotropy;
+    json_t *worst = c->max_deviation > 0 || c->pairs
+                        ? json_pack("{s:f,s:f,s:f}", "theta_i", c->worst.theta_i, "theta_r",
+                                    c->worst.theta_r, "rotation_deg", c->worst_rotation_deg)
+                        : json_null();
+    json_t *iso = json_pack("{s:s,s:s,s:I,s:I,s:f,s:o,s:o,s:o,s:o,s:f,s:o,s:f,s:o}", "verdict",
+                            c->verdict, "why", c->why, "pairs", (json_int_t)c->pairs,
+                            "measurements", (json_int_t)c->measurements, "max_deviation",
+                            c->max_deviation, "significance", num_or_null(c->significance),
+                            "threshold", num_or_null(c->threshold), "noise",
+                            num_or_null(c->noise), "detectable", num_or_null(c->detectable),
+                            "false_alarm_rate", c->alpha, "worst", worst, "rig_time_s",
+                            c->rig_time_s, "rig_time_share",
+                            s->rig_time_s > 0 ? json_real(c->rig_time_s / s->rig_time_s)
+                                              : json_null());
+    json_object_set_new(o, "isotropy", iso);
+    return o;
+}
+
 int capture_files_results(const char *dir, const struct capture_summary *s,
                           struct gonio_err *err)
 {
@@ -424,6 +449,7 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
     if (root) {
         json_object_set_new(root, "stop_reason", json_string(s->stop_reason));
         json_object_set_new(root, "adaptive", s->adaptive ? adaptive_json(s) : json_null());
+        json_object_set_new(root, "checks", checks_json(s));
     }
     return write_json(dir, "results.json", root, err);
 }

@@ -23,6 +23,7 @@ static void usage(FILE *out)
             "                     [--stop all|converge] [--budget MINUTES]\n"
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
             "                     [--calibration ID|newest --calibrations ROOT] [--quiet]\n"
+            "                     [--check isotropy]\n"
             "  --material overrides the scene's material: nbrdf:NAME, merl:FILE, abc:NAME,\n"
             "  sgd:NAME, builtin:NAME, spectral:NAME, analytic:NAME, standard:NAME (a\n"
             "  reflectance standard, docs/radiometry.md) or default. DIR receives\n"
@@ -47,6 +48,10 @@ static void usage(FILE *out)
             "  detector) in ROOT (gonio calibrate, docs/radiometry.md); a calibration\n"
             "  that is missing, expired, of another rig or detector, or without the\n"
             "  rig's integration is refused before the first move (exit 2).\n"
+            "  --check isotropy: after the last point, re-measure a few glossy pairs with\n"
+            "  the sample turned about its normal and say whether it is isotropic, as the\n"
+            "  in-plane premise assumes (docs/checks.md); needs a rig profile with a\n"
+            "  rotation axis (--rig rotating).\n"
             PRESCAN_HELP
             "  (default here: none, the scene's estimate knows its material).\n"
             "  Progress goes to stderr (a bar on a terminal) unless --quiet. SIGINT or\n"
@@ -142,7 +147,8 @@ int cmd_capture(int argc, char **argv)
         {"budget", required_argument, NULL, 'B'}, {"stop-target", required_argument, NULL, 'T'},
         {"prescan", required_argument, NULL, 'P'},
         {"calibration", required_argument, NULL, 'C'},
-        {"calibrations", required_argument, NULL, 'R'}, {NULL, 0, NULL, 0},
+        {"calibrations", required_argument, NULL, 'R'}, {"check", required_argument, NULL, 'K'},
+        {NULL, 0, NULL, 0},
     };
     struct capture_config cfg = {.model = "abc"};
     long long points;
@@ -176,6 +182,14 @@ int cmd_capture(int argc, char **argv)
             if (cmd_capture_number(c == 'B' ? "--budget" : "--stop-target", optarg,
                              c == 'B' ? &cfg.budget_min : &cfg.stop_target) < 0)
                 return 2;
+            break;
+        case 'K':
+            if (strcmp(optarg, "isotropy")) {
+                fprintf(stderr, "gonio capture: --check '%s': the check is 'isotropy'\n",
+                        optarg);
+                return 2;
+            }
+            cfg.check_isotropy = 1;
             break;
         case 'h': usage(stdout); return 0;
         default: usage(stderr); return 2;
@@ -252,5 +266,10 @@ int cmd_capture(int argc, char **argv)
         print_errors("in-plane", &s.err_inplane);
         print_errors("full", &s.err_full);
     }
+    if (s.has_isotropy)
+        printf("  isotropy check: %s (%s; %zu pairs, %.0f s of rig time, %.1f%% of the "
+               "capture's)\n",
+               s.isotropy.verdict, s.isotropy.why, s.isotropy.pairs, s.isotropy.rig_time_s,
+               s.rig_time_s > 0 ? 100.0 * s.isotropy.rig_time_s / s.rig_time_s : 0.0);
     return 0;
 }

@@ -1,6 +1,6 @@
 /* gonio results DIR...: one row per capture directory, read from its
  * results.json (plan, material, model, samples, rig and fit time, fit
- * status, errors by domain) and setup.json (the scene), as an aligned
+ * status, errors by domain, the isotropy check's verdict and rig time) and setup.json (the scene), as an aligned
  * table, --json, --csv or a --format line. A value the capture did not
  * record (no truth errors without a reference, no fit status from an older
  * capture, no scene on a hardware rig) is "-" in the table, null in JSON
@@ -32,6 +32,8 @@ static const struct column {
     {"plan_log", "plan log", COL_REAL},    {"plan_rel", "plan rRMSE", COL_REAL},
     {"inplane_log", "in-plane log", COL_REAL}, {"inplane_rel", "in-plane rRMSE", COL_REAL},
     {"full_log", "full log", COL_REAL},    {"full_rel", "full rRMSE", COL_REAL},
+    /* the checks' verdicts and their rig time (docs/checks.md) */
+    {"isotropy", "isotropy", COL_TEXT},    {"isotropy_s", "isotropy s", COL_REAL},
 };
 #define NCOL (sizeof columns / sizeof columns[0])
 /* The table leaves out the reference's name (a long spec, the material
@@ -40,7 +42,8 @@ static const struct column {
  * the only error there is. --json, --csv and --format have every column. */
 static int in_table(size_t c)
 {
-    return strcmp(columns[c].name, "truth") && strcmp(columns[c].name, "plan_rel");
+    return strcmp(columns[c].name, "truth") && strcmp(columns[c].name, "plan_rel") &&
+           strcmp(columns[c].name, "isotropy_s");
 }
 
 static int column_find(const char *name, size_t len)
@@ -125,6 +128,11 @@ static json_t *row_read(const char *dir)
         json_object_set_new(row, log_key, error_value(root, domains[d], "log"));
         json_object_set_new(row, rel_key, error_value(root, domains[d], "rel_rmse"));
     }
+    json_t *iso = json_object_get(json_object_get(root, "checks"), "isotropy");
+    json_object_set_new(row, "isotropy", text_value(json_object_get(iso, "verdict")));
+    json_t *iso_s = json_object_get(iso, "rig_time_s");
+    json_object_set_new(row, "isotropy_s", json_is_number(iso_s) ? json_incref(iso_s)
+                                                                  : json_null());
     json_decref(setup);
     json_decref(root);
     return row;

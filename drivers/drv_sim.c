@@ -106,7 +106,8 @@ static int exchange(sim_rig *rig, const char *device, const char *what, struct g
 
 static const char *axis_device(const struct sim_axis_priv *p)
 {
-    static const char *names[SIM_N_AXES] = {"sample axis", "arm axis", "azimuth axis"};
+    static const char *names[SIM_N_AXES] = {"sample axis", "arm axis", "azimuth axis",
+                                            "rotation axis"};
     return names[p->id];
 }
 
@@ -167,9 +168,10 @@ static const struct drv_axis_ops sim_axis_faulty_ops = {
 
 drv_axis *drv_axis_new_sim(sim_rig *rig, enum sim_axis_id axis)
 {
-    static const char *names[SIM_N_AXES] = {"sample", "arm", "azimuth"};
+    static const char *names[SIM_N_AXES] = {"sample", "arm", "azimuth", "rotation"};
     const struct rig_profile *prof = sim_rig_profile(rig);
-    const struct rig_axis *lim[SIM_N_AXES] = {&prof->sample, &prof->arm, &prof->azimuth};
+    const struct rig_axis *lim[SIM_N_AXES] = {&prof->sample, &prof->arm, &prof->azimuth,
+                                              &prof->rotation};
     const struct drv_axis_mechanics mech = {
         .min_deg = lim[axis]->min, .max_deg = lim[axis]->max,
         .in_position_deg = prof->mech.in_position_deg, .backlash_deg = prof->mech.backlash_deg,

@@ -79,7 +79,7 @@ int rig_profile_load(const char *path_or_name, struct rig_profile *rig, struct g
                                            "settle_s", "integration", "axes", "driver",
                                            "drivers", "detector", "mechanics", NULL};
     static const char *const int_keys[] = {"fixed_s", "auto_min_s", "auto_max_s", NULL};
-    static const char *const axis_keys[] = {"sample", "arm", "azimuth", NULL};
+    static const char *const axis_keys[] = {"sample", "arm", "azimuth", "rotation", NULL};
     char path[4096];
     if (gonio_config_path(path_or_name, "rigs", path, sizeof path) < 0)
         return gonio_err_set(err, GONIO_EBADCONFIG, "%s: path too long", path_or_name);
@@ -109,6 +109,7 @@ int rig_profile_load(const char *path_or_name, struct rig_profile *rig, struct g
         (rc = load_axis(d, axes, "sample", 180, &rig->sample, err)) < 0 ||
         (rc = load_axis(d, axes, "arm", 360, &rig->arm, err)) < 0 ||
         (rc = has_az = load_axis(d, axes, "azimuth", 360, &rig->azimuth, err)) < 0 ||
+        (rc = rig->has_rotation = load_axis(d, axes, "rotation", 360, &rig->rotation, err)) < 0 ||
         (rc = load_mechanics(d, root, &rig->mech, err)) < 0)
         goto out;
     if (!cfg_get(d, axes, "sample") || !cfg_get(d, axes, "arm")) {

@@ -33,6 +33,11 @@ struct rig_profile {
     struct rig_axis sample;  /* s = theta_i */
     struct rig_axis arm;     /* a = theta_i + theta_r, from the source */
     struct rig_axis azimuth; /* out-of-plane axis; used when out_of_plane */
+    /* The sample's rotation about its own normal (axes.rotation, optional):
+     * it turns an anisotropic sample's tangent against the plane of
+     * incidence and leaves an isotropic one's readings alone. */
+    struct rig_axis rotation;
+    int has_rotation;
     int out_of_plane;
     double blind_deg;        /* detector within this of the source: unreachable */
     double settle_s;         /* wait after each move */

@@ -52,7 +52,7 @@ msim *msim_new(const struct rig_profile *profile, const brdf_material *material,
         return NULL;
     }
     const struct rig_axis *profs[SIM_N_AXES] = {&profile->sample, &profile->arm,
-                                                 &profile->azimuth};
+                                                 &profile->azimuth, &profile->rotation};
     m->n_axes = profile->out_of_plane ? 3 : 2;
     for (int i = 0; i < SIM_N_AXES; i++) {
         m->axis[i].id = (enum sim_axis_id)i;

@@ -48,6 +48,8 @@ static sim_rig *rig_alloc(const struct rig_profile *profile, const brdf_material
     rig->axis[SIM_AXIS_SAMPLE] = (struct sim_axis){.prof = &profile->sample, .name = "sample"};
     rig->axis[SIM_AXIS_ARM] = (struct sim_axis){.prof = &profile->arm, .name = "arm"};
     rig->axis[SIM_AXIS_AZIMUTH] = (struct sim_axis){.prof = &profile->azimuth, .name = "azimuth"};
+    rig->axis[SIM_AXIS_ROTATION] =
+        (struct sim_axis){.prof = &profile->rotation, .name = "rotation"};
     return rig;
 }
 
@@ -262,6 +264,8 @@ static void sim_rig_optics(const sim_rig *rig, struct brdf_pair *pp, double *cos
     double a = sim_rig_position(rig, SIM_AXIS_ARM) + rig->axis[SIM_AXIS_ARM].hidden;
     double az = sim_rig_position(rig, SIM_AXIS_AZIMUTH) + rig->axis[SIM_AXIS_AZIMUTH].hidden;
     sim_axes_optics(s, a, az, pp, cos_i);
+    /* the sample's own rotation: what its frame sees (0 on rigs without) */
+    brdf_pair_rotate(pp, sim_rig_position(rig, SIM_AXIS_ROTATION));
 }
 
 int sim_rig_sample(const sim_rig *rig, double rgb[3])

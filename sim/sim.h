@@ -15,7 +15,10 @@
 #include "sim/effects_faults.h"
 #include "sim/scene.h"
 
-enum sim_axis_id { SIM_AXIS_SAMPLE, SIM_AXIS_ARM, SIM_AXIS_AZIMUTH, SIM_N_AXES };
+/* SIM_AXIS_ROTATION turns the sample about its own normal (a rig profile's
+ * optional axes.rotation): the material is read in the turned sample's
+ * frame (brdf_pair_rotate). The Modbus server serves the first three. */
+enum sim_axis_id { SIM_AXIS_SAMPLE, SIM_AXIS_ARM, SIM_AXIS_AZIMUTH, SIM_AXIS_ROTATION, SIM_N_AXES };
 
 /* The pair the optics see with the axes at s, a, az (the planner's mapping
  * inverted), and the cosine of the source's incidence on the sample

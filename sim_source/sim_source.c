@@ -117,6 +117,7 @@ static void close_devices(void *user, struct capture_devices *d)
     drv_axis_free(d->sample);
     drv_axis_free(d->arm);
     drv_axis_free(d->azimuth);
+    drv_axis_free(d->rotation);
     drv_detector_free(d->detector);
     drv_clock_free(d->clock);
     memset(d, 0, sizeof *d);
@@ -137,6 +138,10 @@ static int open_devices(void *user, const struct rig_profile *rig, const char *d
     d->sample = drv_axis_new_sim(src->sim, SIM_AXIS_SAMPLE);
     d->arm = drv_axis_new_sim(src->sim, SIM_AXIS_ARM);
     d->azimuth = drv_axis_new_sim(src->sim, SIM_AXIS_AZIMUTH);
+    if (rig->has_rotation && !(d->rotation = drv_axis_new_sim(src->sim, SIM_AXIS_ROTATION))) {
+        close_devices(src, d);
+        return gonio_err_set(err, ENOMEM, "simulated rig: out of memory");
+    }
     d->detector = drv_detector_new_sim(src->sim);
     d->clock = drv_clock_new_sim(src->sim);
     if (!d->sample || !d->arm || !d->azimuth || !d->detector || !d->clock) {

@@ -79,7 +79,8 @@ static void item_name(const char *token, char *out, size_t size)
         s = slash + 1;
     size_t n = strlen(s);
     const char *dot = strrchr(s, '.');
-    if (dot && dot != s)
+    /* a material's parameters (analytic:KIND?ax=0.08&...) are no extension */
+    if (dot && dot != s && !strchr(s, '?'))
         n = (size_t)(dot - s);
     size_t k = 0;
     for (size_t i = 0; i < n && k + 1 < size; i++) {

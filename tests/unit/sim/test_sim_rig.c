@@ -1,7 +1,11 @@
 /* sim_rig's additions for gonio-sim: a move at a given speed and
  * acceleration follows that trapezoid (checked against the closed form
  * written out here), the profile's limits still apply, and sampling the
- * detector neither advances the clock nor differs from a measurement. */
+ * detector neither advances the clock nor differs from a measurement; the
+ * rotation axis turns the sample about its normal: an anisotropic
+ * material reads as its tangent turned by as much, an isotropic one reads
+ * the same to the bit (exact mirror included), and a profile without the
+ * axis refuses to turn it. */
 #include <math.h>
 
 #include "brdf/angles.h"
@@ -87,11 +91,67 @@ static void test_sample_does_not_advance(void **state)
     brdf_material_free(m);
 }
 
+/* The detector's reading at s, a with the sample turned rot degrees. */
+static void read_at(sim_rig *r, double s, double a, double rot, double rgb[3])
+{
+    struct gonio_err err = {0};
+    assert_int_equal(sim_rig_start_move(r, SIM_AXIS_SAMPLE, s, &err), 0);
+    assert_int_equal(sim_rig_start_move(r, SIM_AXIS_ARM, a, &err), 0);
+    assert_int_equal(sim_rig_start_move(r, SIM_AXIS_ROTATION, rot, &err), 0);
+    sim_rig_advance(r, 30.0);
+    assert_int_equal(sim_rig_sample(r, rgb), 0);
+}
+
+static void test_rotation_turns_the_sample(void **state)
+{
+    (void)state;
+    struct rig_profile rig, plain;
+    struct gonio_err err = {0};
+    assert_int_equal(rig_profile_load("rotating", &rig, &err), 0);
+    assert_true(rig.has_rotation);
+    rig_profile_default(&plain);
+    assert_false(plain.has_rotation);
+    brdf_material *an = brdf_material_open("analytic:aniso-ggx?ax=0.08&ay=0.3&phi=20", &err);
+    brdf_material *turned = brdf_material_open("analytic:aniso-ggx?ax=0.08&ay=0.3&phi=110", &err);
+    brdf_material *iso = brdf_material_open(brdf_material_default_spec(), &err);
+    assert_non_null(an);
+    assert_non_null(turned);
+    assert_non_null(iso);
+    sim_rig *r = sim_rig_new(&rig, an, &err), *i = sim_rig_new(&rig, iso, &err);
+    sim_rig *p = sim_rig_new(&plain, an, &err);
+    assert_non_null(r);
+    assert_non_null(i);
+    assert_non_null(p);
+    double at0[3], at90[3], want[3];
+    read_at(r, 30, 80, 0, at0);
+    read_at(r, 30, 80, 90, at90);
+    struct brdf_pair pair;
+    brdf_pair_inplane(30, 50, &pair);
+    brdf_material_eval(turned, &pair, 1, want);
+    for (int c = 0; c < 3; c++)
+        assert_rel_close(at90[c], want[c], 1e-12);
+    assert_true(fabs(at90[1] - at0[1]) > 0.2 * at0[1]);
+    for (double a = 40; a <= 80; a += 10) { /* a = 60: the exact mirror */
+        read_at(i, 30, a, 0, at0);
+        read_at(i, 30, a, 135, at90);
+        for (int c = 0; c < 3; c++)
+            assert_close(at90[c], at0[c], 0);
+    }
+    assert_int_equal(sim_rig_start_move(p, SIM_AXIS_ROTATION, 45, &err), -GONIO_EUNREACHABLE);
+    sim_rig_free(r);
+    sim_rig_free(i);
+    sim_rig_free(p);
+    brdf_material_free(an);
+    brdf_material_free(turned);
+    brdf_material_free(iso);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_move_at_speed),
         cmocka_unit_test(test_sample_does_not_advance),
+        cmocka_unit_test(test_rotation_turns_the_sample),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
