@@ -14,6 +14,7 @@ int cmd_plot(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_study(int argc, char **argv);
 int cmd_journal(int argc, char **argv);
+int cmd_live(int argc, char **argv);
 int cmd_calibrate(int argc, char **argv);
 int cmd_recalibrate(int argc, char **argv);
 

@@ -35,6 +35,7 @@ static const struct {
     {"render", cmd_render, "render materials and fitted models on a lit sphere (EXR, PNG)"},
     {"study", cmd_study, "accuracy against rig time: materials x plans x models x scenes"},
     {"journal", cmd_journal, "check a capture's journal as a resume would, without resuming"},
+    {"live", cmd_live, "follow the capture in a browser: a page served on localhost"},
     {"calibrate", cmd_calibrate, "measure dark frames or a reference standard (docs/radiometry.md)"},
     {"recalibrate", cmd_recalibrate, "reduce a capture's raw counts again with another calibration"},
 };

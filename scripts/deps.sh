@@ -17,6 +17,9 @@ PACKAGES="$PACKAGES clang"
 # the study's GNU parallel recipe runs in a test (docs/study.md); make package
 # builds the .deb with dpkg-deb under fakeroot (docs/install.md)
 PACKAGES="$PACKAGES parallel dpkg-dev fakeroot"
+# gonio live serves its page with libmicrohttpd; its test drives chromium
+# through chromium-driver and selenium (docs/live.md)
+PACKAGES="$PACKAGES libmicrohttpd-dev chromium-driver python3-selenium"
 # goniod's event-model documents (uids: libuuid), validated in a test against
 # Bluesky's schemas (docs/protocol.md)
 PACKAGES="$PACKAGES uuid-dev python3-jsonschema"
