@@ -173,20 +173,31 @@ static void hook_on_progress(void *user, const struct capture_progress *p)
     push(w, &m->base);
 }
 
-static void push(worker *w, struct worker_msg *m)
+/* Queue m for the loop; the caller holds w->mu. */
+static void enqueue_locked(worker *w, struct worker_msg *m)
 {
     m->next = NULL;
-    pthread_mutex_lock(&w->mu);
     if (w->tail)
         w->tail->next = m;
     else
         w->head = m;
     w->tail = m;
-    pthread_mutex_unlock(&w->mu);
+}
+
+static void wake(worker *w)
+{
     /* One byte is enough: the loop drains the whole queue. A full pipe
      * already means "wake up". */
     ssize_t n = write(w->pipe_wr, "x", 1);
     (void)n;
+}
+
+static void push(worker *w, struct worker_msg *m)
+{
+    pthread_mutex_lock(&w->mu);
+    enqueue_locked(w, m);
+    pthread_mutex_unlock(&w->mu);
+    wake(w);
 }
 
 static void hook_on_sample(void *user, const struct journal_sample *s, size_t done,
@@ -475,9 +486,8 @@ static void *run(void *arg)
     if (rc == 0 && !aborted)
         w->eta_s = 0;
     record_stop(w, rc, reason, &err, &sum);
-    w->running = 0;
-    w->paused = 0;
-    pthread_mutex_unlock(&w->mu);
+    /* The stop is queued as the worker goes idle, under one lock: a loop
+     * that sees it idle (goniod shutting down) finds the stop to send. */
     if (m) {
         m->base.kind = WORKER_MSG_STOP;
         snprintf(m->id, sizeof m->id, "%s", w->req.id);
@@ -488,8 +498,13 @@ static void *run(void *arg)
         m->summary = sum;
         m->has_comm = w->has_comm;
         m->comm = w->comm;
-        push(w, &m->base);
+        enqueue_locked(w, &m->base);
     }
+    w->running = 0;
+    w->paused = 0;
+    pthread_mutex_unlock(&w->mu);
+    if (m)
+        wake(w);
     return NULL;
 }
 
@@ -717,15 +732,17 @@ static void *run_bringup(void *arg)
     if ((res.rc = rig_profile_load(w->cfg->rig, &rig, &res.err)) == 0)
         bringup_run(w->cfg, &rig, &w->bringup, hook_cancelled, w, &res);
     pthread_mutex_lock(&w->mu);
-    w->bringup_active = 0;
-    pthread_mutex_unlock(&w->mu);
-    if (m) {
+    if (m) { /* queued as it goes idle, as a capture's stop is */
         m->base.kind = WORKER_MSG_BRINGUP;
         m->ticket = w->bringup_ticket;
         m->job = w->bringup;
         m->result = res;
-        push(w, &m->base);
+        enqueue_locked(w, &m->base);
     }
+    w->bringup_active = 0;
+    pthread_mutex_unlock(&w->mu);
+    if (m)
+        wake(w);
     return NULL;
 }
 
