@@ -123,6 +123,40 @@ static int sandwich(const struct abc_problem *pb, const double th[ABC_NPAR], gsl
     return rc;
 }
 
+/* The shift of theta per unit relative scale error s of channel ch's
+ * values (f -> f (1 + s)), to first order: d theta / ds = H^-1 J~^T (w dr/df f), J~
+ * the weighted Jacobian, w each row's weight root, H^-1 = hinv (before any
+ * sandwich). A parameter the scale moves (kd, A: their logs by about 1) has
+ * a component; the lobe's shape (B, C, eta) next to none where f cos << 1.
+ * Returns 0, -1 on no memory. */
+static int scale_shift(const struct abc_problem *pb, const double th[ABC_NPAR],
+                       const gsl_matrix *hinv, int ch, double g[ABC_NPAR])
+{
+    size_t nres = abc_problem_nres(pb);
+    double *v = calloc(nres ? nres : 1, sizeof *v);
+    struct abc_cache c;
+    if (!v || abc_cache_init(&c, pb) < 0) {
+        free(v);
+        return -1;
+    }
+    for (size_t k = 0; k < pb->n; k++) {
+        size_t row = 3 * k + (size_t)ch;
+        double ci = pb->cosi[k];
+        double slope = pb->loss == FIT_LOSS_LOG ? ci / (1.0 + pb->f[row] * ci) : pb->s[row];
+        v[row] = abc_row_weight(pb, k, ch) * slope * pb->f[row];
+    }
+    double jv[ABC_NPAR];
+    abc_problem_normal(pb, th, 1, v, jv, NULL, &c);
+    abc_cache_free(&c);
+    free(v);
+    for (int i = 0; i < ABC_NPAR; i++) {
+        g[i] = 0;
+        for (int j = 0; j < ABC_NPAR; j++)
+            g[i] += gsl_matrix_get(hinv, (size_t)i, (size_t)j) * jv[j];
+    }
+    return 0;
+}
+
 /* Parameter standard deviations at theta: covariance s2 (J^T J)^-1 from
  * GSL, mapped to natural units. Weighted samples (pb->sw) are not weighted
  * by their precision but by the share of the domain they stand for, and a
@@ -134,7 +168,7 @@ static int sandwich(const struct abc_problem *pb, const double th[ABC_NPAR], gsl
  * undetermined: INFINITY. K (nk rows) and cn: the root of J^T J at theta
  * (abc_jacobian_root). */
 void abc_uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR], double s2,
-                     const double *K, size_t nk, const double cn[ABC_NPAR],
+                     const double u_sys[3], const double *K, size_t nk, const double cn[ABC_NPAR],
                      struct fit_uncertainty *u)
 {
     double *sd = (double *)u; /* 10 doubles in the order of the struct */
@@ -153,11 +187,17 @@ void abc_uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR], do
     int undet[ABC_NPAR];
     for (int i = 0; i < ABC_NPAR; i++)
         undet[i] = !(cn[i] > 0) || !(gsl_matrix_get(cov, (size_t)i, (size_t)i) > 0);
+    double g[3][ABC_NPAR] = {{0}}, us[3] = {0}; /* per channel */
+    for (int ch = 0; u_sys && ch < 3; ch++)
+        if ((us[ch] = u_sys[ch] > 0 ? u_sys[ch] : 0.0) > 0 && scale_shift(pb, th, cov, ch, g[ch]) < 0)
+            goto done;
     if (pb->sw && sandwich(pb, th, cov) < 0)
         goto done;
     for (int i = 0; i < ABC_NPAR; i++)
         for (int j = 0; j < ABC_NPAR; j++)
-            c[i][j] = s2 * gsl_matrix_get(cov, (size_t)i, (size_t)j);
+            c[i][j] = s2 * gsl_matrix_get(cov, (size_t)i, (size_t)j) +
+                      (us[0] * us[0] * g[0][i] * g[0][j] + us[1] * us[1] * g[1][i] * g[1][j] +
+                       us[2] * us[2] * g[2][i] * g[2][j]);
     for (int k = 0; k < 3; k++) {
         u->log_kd[k] = undet[k] ? INFINITY : sqrt(c[k][k]);
         u->log_A[k] = undet[3 + k] ? INFINITY : sqrt(c[3 + k][3 + k]);

@@ -181,6 +181,7 @@ static double rms_log(const struct abc_problem *pb, const double th[ABC_NPAR])
     struct abc_problem v = *pb;
     v.loss = FIT_LOSS_LOG;
     v.prior = NULL;
+    v.mw = NULL; /* in log units, whatever the values' uncertainties */
     return pb->n ? sqrt(2.0 * fast_cost(&v, th) / (3.0 * (double)pb->n)) : NAN;
 }
 
@@ -222,7 +223,7 @@ static int peak_unbounded(const struct fit_sample *s, const size_t *idx, size_t 
  * fold's rest is too small to fit. */
 static double heldout_rms(const struct abc_problem *pb, const size_t *idx,
                           const struct fit_options *opt, const double *weight,
-                          const double theta[ABC_NPAR])
+                          const double *sigma, const double theta[ABC_NPAR])
 {
     size_t n = pb->n, folds = n < ABC_FOLDS ? n : ABC_FOLDS, need = pb->prior ? 1 : 3;
     if (!folds || n - (n + folds - 1) / folds < need)
@@ -249,6 +250,7 @@ static double heldout_rms(const struct abc_problem *pb, const size_t *idx,
             abc_problem_set_loss(&tp, opt->loss) == 0 &&
             abc_problem_set_lower(&tp, opt->lower_bound, train_s) == 0 &&
             abc_problem_set_weights(&tp, weight, train_s) == 0 &&
+            abc_problem_set_sigma(&tp, sigma, train_s) == 0 &&
             abc_problem_subset(&hp, pb, test, nh) == 0 &&
             abc_problem_set_lower(&hp, opt->lower_bound, test_s) == 0 &&
             abc_problem_set_weights(&hp, weight, test_s) == 0) {
@@ -286,6 +288,8 @@ struct abc_run {
     size_t nv, n_local, n_grid;
     double scale;
     double *weight; /* weight[i] for sample i (domain weights), or NULL */
+    double *sigma;  /* sigma[3 i + c]: sample i's u divided by the scale (measurement
+                       weights), or NULL */
     struct fit_sample *scaled;
     struct brdf_abc warm_scaled;
     struct abc_problem full, local, grid;
@@ -343,6 +347,38 @@ static int select_samples(struct abc_run *r, struct gonio_err *err)
     return 0;
 }
 
+/* Sample s's value c's uncertainty without the shared systematic part
+ * (relative usys): sqrt(u^2 - (usys f)^2), what scatters from sample to
+ * sample; 0 when nothing is left or u is absent. */
+static double per_sample_u(const struct fit_sample *s, int c, double usys)
+{
+    double u = s->u[c], us = usys * s->rgb[c];
+    if (!(isfinite(u) && u > 0))
+        return 0;
+    double v = u * u - us * us;
+    return v > 0 ? sqrt(v) : 0;
+}
+
+/* The samples' per-sample uncertainties in the data's units into r->sigma
+ * when every usable sample has all three: the fit is then weighted by them.
+ * A capture's values carry them all or none; a mix (some samples without)
+ * is fitted as before, unweighted. Returns 0, -1 on no memory. */
+static int measurement_sigma(struct abc_run *r)
+{
+    const double *usys = r->opt.u_systematic;
+    for (size_t k = 0; k < r->nv; k++)
+        for (int c = 0; c < 3; c++)
+            if (!(per_sample_u(&r->samples[r->idx[k]], c, usys[c]) > 0))
+                return 0;
+    if (!(r->sigma = malloc(3 * r->n * sizeof *r->sigma)))
+        return -1;
+    for (size_t k = 0; k < r->nv; k++)
+        for (int c = 0; c < 3; c++)
+            r->sigma[3 * r->idx[k] + (size_t)c] =
+                per_sample_u(&r->samples[r->idx[k]], c, usys[c]) / r->scale;
+    return 0;
+}
+
 /* The domain weights (when asked for), the data divided by their scale
  * (r->samples then points to the copy), and above ABC_LOCAL_MAX samples
  * the seeded shuffle whose first n_local samples the starts are solved on. */
@@ -377,6 +413,8 @@ static int weigh_and_scale(struct abc_run *r, struct gonio_err *err)
             r->opt.warm_start = &r->warm_scaled;
         }
     }
+    if (measurement_sigma(r) < 0)
+        return gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory for %zu samples", n);
     if (nv > ABC_LOCAL_MAX) {
         gsl_rng *rng = gsl_rng_alloc(gsl_rng_mt19937);
         if (!rng)
@@ -396,7 +434,8 @@ static int problem_of(const struct abc_run *r, struct abc_problem *pb, size_t m)
     if (abc_problem_init(pb, r->samples, r->idx, m) < 0 ||
         abc_problem_set_loss(pb, r->opt.loss) < 0 ||
         abc_problem_set_lower(pb, r->opt.lower_bound, r->idx) < 0 ||
-        abc_problem_set_weights(pb, r->weight, r->idx) < 0)
+        abc_problem_set_weights(pb, r->weight, r->idx) < 0 ||
+        abc_problem_set_sigma(pb, r->sigma, r->idx) < 0)
         return -1;
     pb->prior = r->prior;
     return 0;
@@ -428,7 +467,8 @@ static int find_starts(struct abc_run *r, struct gonio_err *err)
     if (ng < r->n_local) {
         const size_t *gi = ng < r->n_grid ? gidx : r->idx;
         int ok = abc_problem_init(&r->grid, r->samples, gi, ng) == 0 &&
-                 abc_problem_set_weights(&r->grid, r->weight, gi) == 0;
+                 abc_problem_set_weights(&r->grid, r->weight, gi) == 0 &&
+                 abc_problem_set_sigma(&r->grid, r->sigma, gi) == 0;
         free(gidx);
         if (!ok)
             return gonio_err_set(err, GONIO_EFIT, "fit_abc: out of memory");
@@ -519,19 +559,24 @@ static void report(const struct abc_run *r, const struct brdf_abc *out, struct f
     double s2 = abc_residual_variance(fp, best->cost), ps2 = r->prior_sigma * r->prior_sigma;
     if (r->prior) /* the prior's noise level, or the misfit when it is larger */
         s2 = isfinite(s2) && s2 > ps2 ? s2 : ps2;
+    if (r->sigma && !r->prior) /* weights of known variances: absolute */
+        s2 = 1.0;
     /* the root of J^T J at the optimum, for the covariance and the
      * status's rank (which leaves the prior's rows out) */
     double K[(15 + ABC_NPAR) * ABC_NPAR], cn[ABC_NPAR];
     size_t nk = abc_jacobian_root(fp, best->theta, K, cn);
-    abc_uncertainty(fp, best->theta, s2, K, nk, cn, &info->sd);
+    abc_uncertainty(fp, best->theta, s2, r->sigma ? r->opt.u_systematic : NULL, K, nk, cn,
+                    &info->sd);
     info->scale = r->scale;
     info->domain_weights = r->weight != NULL;
+    info->measurement_weights = r->sigma != NULL;
     struct fit_status *st = &info->status;
     *st = fit_status_init();
     st->geometries = fit_status_geometries(r->samples, r->idx, r->nv);
     abc_status_figures(best->theta, K, nk && r->prior ? nk - ABC_NPAR : nk, st);
     st->insample = rms_log(fp, best->theta);
-    st->heldout = r->opt.heldout ? heldout_rms(&r->local, r->idx, &r->opt, r->weight, best->theta)
+    st->heldout = r->opt.heldout ? heldout_rms(&r->local, r->idx, &r->opt, r->weight, r->sigma,
+                                               best->theta)
                                  : NAN;
     if (!best->converged)
         st->findings |= 1u << FIT_STATUS_NOT_CONVERGED;
@@ -586,6 +631,7 @@ static int fit_abc_canonical(const struct fit_sample *samples, size_t n, struct 
     free(r->idx);
     free(r->scaled);
     free(r->weight);
+    free(r->sigma);
     free(r);
     return rc;
 }

@@ -90,6 +90,7 @@ int fit_abc_model_fit(const struct fit_data *data, const struct fit_model_option
     fo.seed = (unsigned)o.seed;
     fo.lower_bound = data->rgb_lower;
     fo.domain_weights = data->domain_weights;
+    memcpy(fo.u_systematic, data->u_systematic, sizeof fo.u_systematic);
     fo.warm_start = o.warm_start;
     struct brdf_abc p;
     struct fit_info info;

@@ -177,6 +177,7 @@ void abc_problem_free(struct abc_problem *pb)
     free(pb->vi);
     free(pb->s);
     free(pb->sw);
+    free(pb->mw);
     free(pb->lower);
     memset(pb, 0, sizeof *pb);
 }
@@ -201,6 +202,23 @@ int abc_problem_set_weights(struct abc_problem *pb, const double *w, const size_
         return -1;
     for (size_t k = 0; k < pb->n; k++)
         pb->sw[k] = sqrt(w[idx ? idx[k] : k]);
+    return 0;
+}
+
+int abc_problem_set_sigma(struct abc_problem *pb, const double *u, const size_t *idx)
+{
+    if (!u)
+        return 0;
+    if (!pb->mw && !(pb->mw = malloc((pb->n ? 3 * pb->n : 1) * sizeof *pb->mw)))
+        return -1;
+    for (size_t k = 0; k < pb->n; k++)
+        for (size_t c = 0; c < 3; c++) {
+            size_t row = 3 * k + c;
+            double ci = pb->cosi[k];
+            double slope = pb->loss == FIT_LOSS_LOG ? ci / (1.0 + pb->f[row] * ci)
+                                                    : fabs(pb->s[row]);
+            pb->mw[row] = 1.0 / (u[3 * (idx ? idx[k] : k) + c] * slope);
+        }
     return 0;
 }
 
@@ -321,7 +339,7 @@ void abc_problem_eval(const struct abc_problem *pb, const double th[ABC_NPAR], d
             double rv = lin ? (fhat - pb->f[row]) * pb->s[row] : log1p(fhat * ci) - pb->y[row];
             /* a lower bound the model is above: no residual, no slope */
             int met = pb->lower && pb->lower[k] && rv > 0;
-            double sw = pb->sw ? pb->sw[k] : 1.0;
+            double sw = abc_row_weight(pb, k, c);
             if (r)
                 r[row] = met ? 0.0 : sw * rv;
             if (!J)
@@ -501,11 +519,12 @@ double abc_problem_resid(const struct abc_problem *pb, const double th[ABC_NPAR]
             for (size_t k = 0; k < n; k++)
                 if (pb->lower[k] && out[ch * n + k] > 0)
                     out[ch * n + k] = c->w[ch * n + k] = 0.0;
-    if (pb->sw)
+    if (pb->sw || pb->mw)
         for (size_t ch = 0; ch < 3; ch++)
             for (size_t k = 0; k < n; k++) {
-                out[ch * n + k] *= pb->sw[k];
-                c->w[ch * n + k] *= pb->sw[k];
+                double sw = abc_row_weight(pb, k, (int)ch);
+                out[ch * n + k] *= sw;
+                c->w[ch * n + k] *= sw;
             }
     for (size_t row = 0; row < 3 * n; row++)
         ss += out[row] * out[row];

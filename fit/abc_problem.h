@@ -83,6 +83,10 @@ struct abc_problem {
      * multiplying its residuals and their slopes. NULL: all 1
      * (abc_problem_set_weights). */
     double *sw;
+    /* mw[3k + c]: the square root of value (k, c)'s measurement weight, 1 /
+     * the sd of its residual under the fit's loss (abc_problem_set_sigma),
+     * multiplying its residual and slopes on top of sw. NULL: all 1. */
+    double *mw;
     enum fit_loss loss; /* FIT_LOSS_LOG after init; abc_problem_set_loss changes it */
     double *s;      /* linear losses: r = (fhat - f) s, 3n (NULL for the log loss) */
     const struct abc_prior_term *prior; /* NULL: no prior rows */
@@ -113,6 +117,20 @@ int abc_problem_set_lower(struct abc_problem *pb, const unsigned char *flags, co
  * none), each >= 0, multiplies sample k's squared residuals. Returns 0, -1
  * on no memory. */
 int abc_problem_set_weights(struct abc_problem *pb, const double *w, const size_t *idx);
+
+/* Weigh each value by the inverse variance of its residual: u[3 idx[k] + c]
+ * is the standard uncertainty (in the problem's units) of sample k's value
+ * c (idx as given to abc_problem_init; u NULL: none), carried through the
+ * loss's residual to first order: mw = 1 / (u |dr/df|), dr/df = cos / (1 +
+ * f cos) for the log loss, s for the linear ones. Set after the loss.
+ * Returns 0, -1 on no memory. */
+int abc_problem_set_sigma(struct abc_problem *pb, const double *u, const size_t *idx);
+
+/* The square root of value (k, c)'s whole weight: sw[k] mw[3k + c]. */
+static inline double abc_row_weight(const struct abc_problem *pb, size_t k, int c)
+{
+    return (pb->sw ? pb->sw[k] : 1.0) * (pb->mw ? pb->mw[3 * k + (size_t)c] : 1.0);
+}
 
 /* Switch the data residuals to another loss (fit/fit.h enum fit_loss).
  * Returns 0, or -1 for an unknown loss or no memory. */

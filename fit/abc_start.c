@@ -130,7 +130,7 @@ double abc_linear_score(const struct abc_problem *pb, double B, double C, double
         double ci = pb->cosi[k];
         for (int c = 0; c < 3; c++) {
             double d = ci / (1.0 + fmax(pb->f[3 * k + c], 0.0) * ci);
-            double wk = d * d * (pb->sw ? pb->sw[k] * pb->sw[k] : 1.0), fk = pb->f[3 * k + c];
+            double sw = abc_row_weight(pb, k, c), wk = d * d * (sw * sw), fk = pb->f[3 * k + c];
             s11[c] += wk / (ABC_PI * ABC_PI);
             s12[c] += wk * s / ABC_PI;
             s22[c] += wk * s * s;
@@ -145,7 +145,8 @@ double abc_linear_score(const struct abc_problem *pb, double B, double C, double
         double ci = pb->cosi[k];
         for (int c = 0; c < 3; c++) {
             double r = log1p((kd[c] / ABC_PI + A[c] * spec[k]) * ci) - pb->y[3 * k + c];
-            score += r * r * (pb->sw ? pb->sw[k] * pb->sw[k] : 1.0);
+            double sw = abc_row_weight(pb, k, c);
+            score += r * r * (sw * sw);
         }
     }
     return isfinite(score) ? score : INFINITY;
@@ -263,7 +264,7 @@ static int grid_init(struct grid *g, const struct abc_problem *pb)
      * the sample's weight. */
     for (size_t k = 0; k < 3 * n; k++) {
         double ci = pb->cosi[k / 3];
-        double d = ci / (1.0 + fmax(pb->f[k], 0.0) * ci) * (pb->sw ? pb->sw[k / 3] : 1.0);
+        double d = ci / (1.0 + fmax(pb->f[k], 0.0) * ci) * abc_row_weight(pb, k / 3, (int)(k % 3));
         w[k] = d * d;
     }
     for (size_t k = 0; k < n; k++)
@@ -367,9 +368,9 @@ static void grid_score_true(struct grid *g, const struct abc_problem *pb, struct
         /* log(1 + fhat cos) - log(1 + f cos) as one log; w is free by now */
         true_rows(n, fr, lobe, pb->xi, pb->cosi, pb->iy, kdp, nd->A, w);
         abc_vlog(w, 3 * n);
-        if (pb->sw)
+        if (pb->sw || pb->mw) /* w channel-major: w[c n + k] */
             for (size_t k = 0; k < 3 * n; k++)
-                w[k] *= pb->sw[k % n];
+                w[k] *= abc_row_weight(pb, k % n, (int)(k / n));
         double score = 0;
         for (size_t k = 0; k < 3 * n; k++)
             score += w[k] * w[k];

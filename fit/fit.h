@@ -17,6 +17,11 @@
 struct fit_sample {
     struct brdf_pair g;
     double rgb[3];
+    /* Standard uncertainty of each value (1/sr, k = 1): 0 or not finite,
+     * none. When every usable sample of a fit has all three, the ABC fit
+     * weights each residual by its inverse variance (docs/fitting.md
+     * "Measurement weights"); otherwise u is ignored. */
+    double u[3];
 };
 
 enum fit_loss {
@@ -60,6 +65,12 @@ struct fit_options {
      * reads (the streaming fit's rounds, which hold out samples their own
      * way). */
     int heldout;
+    /* Per channel, the relative standard uncertainty shared by all values
+     * (k = 1): one error of the whole capture (the reference standard's
+     * certificate and shape, the placement), part of each sample's u. Used
+     * only by fits weighted by the samples' u: their weights take u without
+     * it, and their parameter sds add its effect in quadrature; 0: none. */
+    double u_systematic[3];
 };
 
 struct fit_options fit_default_options(void);
@@ -69,7 +80,10 @@ struct fit_options fit_default_options(void);
  * variance 2 cost / (residuals - 9); for a prior fit the prior's noise
  * level, fit/abc_prior.h; for a fit weighted by domain share the sandwich
  * s^2 H^-1 (J^T W^2 J) H^-1, H = J^T W J, with the residuals counted as
- * Kish's effective number, docs/fitting.md "Domain weights"). INFINITY:
+ * Kish's effective number, docs/fitting.md "Domain weights"; for a fit
+ * weighted by the samples' u, (J^T W J)^-1 with no rescale, the sandwich
+ * with the domain weights, plus the shared systematic error's effect
+ * (fit_options.u_systematic) in quadrature). INFINITY:
  * the data do not determine the parameter (no influence, or clamped at a
  * bound); all NaN: not computed (fewer residuals, or for a weighted fit
  * fewer effective ones, than parameters without a prior). */
@@ -95,6 +109,9 @@ struct fit_info {
                             cost is in those units */
     struct fit_status status; /* what the fit can know (fit/fit_status.h) */
     int domain_weights;  /* 1: the samples were weighted by their domain share */
+    int measurement_weights; /* 1: each value was weighted by 1 / (its residual's sd)^2,
+                                from fit_sample.u: sd are then absolute (no residual-
+                                variance rescale) and include u_systematic */
 };
 
 /* Scale normalisation. The log loss log(1 + f cos theta_i) has a scale of

@@ -11,6 +11,7 @@ size_t fit_journal_samples(const struct journal_sample *js, size_t n, struct fit
         saturated += (js[i].flags & JOURNAL_FLAG_SATURATED) != 0;
         journal_sample_pair(&js[i], &out[i].g);
         memcpy(out[i].rgb, js[i].rgb, sizeof out[i].rgb);
+        memcpy(out[i].u, js[i].u, sizeof out[i].u); /* NAN: none (fit_sample.u) */
     }
     return saturated;
 }

@@ -50,6 +50,9 @@ struct fit_data {
      * (fit/domain_weights.h); the in-plane MLPs and abc-pseudo fit them
      * alike. */
     int domain_weights;
+    /* Per channel, the relative standard uncertainty that all samples' u
+     * share (fit_options.u_systematic); {0}: none. */
+    double u_systematic[3];
 };
 
 struct fit_model_options {
