@@ -569,13 +569,16 @@ static int finish(struct run *r, struct gonio_err *err)
         return capture_files_results(job->cfg.out_dir, out, err);
     }
     capture_phase_enter(r->hooks, CAPTURE_PHASE_FIT, -1);
+    double usys[3] = {0}; /* the calibration's shared error, for fits weighted by u */
+    if (job->cal)
+        rad_systematic_rel_u(&job->cal->cal, usys);
     int rc = capture_fit_samples(
         r->samples, r->n, lf->fs && !lf->progress ? fit_stream_params(lf->fs) : NULL,
         job->model, job->cfg.out_dir,
         job->material_name[0] ? job->material_name
         : job->truth_name[0]  ? job->truth_name
                               : NULL,
-        job->adaptive, out, &fitted, err);
+        job->adaptive, job->cal ? usys : NULL, out, &fitted, err);
     if (rc == 0 && r->converged)
         out->converged = 1; /* the stop rule decided: the capture converged */
     if (rc == 0 && job->truth)

@@ -123,6 +123,7 @@ struct capture_summary {
      * policy also "target", "budget", "exhausted" */
     char stop_reason[32];
     struct fit_uncertainty sd; /* parameter sds of an ABC final fit (fit/fit.h) */
+    int sd_measured; /* 1: sd from the samples' u and the shared systematic term */
     char warning[256];         /* abc-prior: "too few samples" warning, or "" */
     struct drv_axis_stats mech; /* this run's axis mechanics, all axes (drivers.h) */
     struct fit_status status;  /* what the final fit can know (fit/fit_status.h) */

@@ -321,9 +321,12 @@ static json_t *str_or_null(const char *v)
     return v[0] ? json_string(v) : json_null();
 }
 
-static json_t *uncertainty_json(const struct fit_uncertainty *u, const char *warning)
+static json_t *uncertainty_json(const struct fit_uncertainty *u, const char *warning,
+                                int measured)
 {
     json_t *o = json_object();
+    /* what the sds rest on (docs/fitting.md "Measurement weights") */
+    json_object_set_new(o, "from", json_string(measured ? "uncertainties" : "residuals"));
     json_t *kd = json_array(), *a = json_array();
     for (int c = 0; c < 3; c++) {
         json_array_append_new(kd, num_or_null(u->log_kd[c]));
@@ -451,7 +454,7 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
                                       "rehomes", (json_int_t)s->mech.rehomes));
     if (root) /* parameter sds from the fit's Jacobian, natural units (fit/fit.h) */
         json_object_set_new(root, "uncertainty", s->has_params
-                                                     ? uncertainty_json(&s->sd, s->warning)
+                                                     ? uncertainty_json(&s->sd, s->warning, s->sd_measured)
                                                      : json_null());
     if (root)
         json_object_set_new(root, "fit_status", status_json(&s->status));

@@ -21,8 +21,9 @@ static void model_path(const char *dir, const char *name, struct capture_summary
 
 int capture_fit_samples(const struct journal_sample *js, size_t n, const struct brdf_abc *warm,
                         const struct fit_model_kind *kind, const char *dir,
-                        const char *material, int chosen, struct capture_summary *out,
-                        brdf_material **fitted, struct gonio_err *err)
+                        const char *material, int chosen, const double *u_systematic,
+                        struct capture_summary *out, brdf_material **fitted,
+                        struct gonio_err *err)
 {
     struct fit_journal_data jd;
     int rc = fit_data_from_journal(js, n, &jd, err);
@@ -31,6 +32,8 @@ int capture_fit_samples(const struct journal_sample *js, size_t n, const struct 
     out->saturated = jd.saturated;
     struct fit_data data =
         fit_journal_data_for(&jd, kind, FIT_SATURATED_DEFAULT, material, chosen);
+    if (u_systematic)
+        memcpy(data.u_systematic, u_systematic, sizeof data.u_systematic);
     struct fit_model_options mo = fit_model_default_options();
     mo.warm_start = warm; /* the streaming fit's last parameters, when there is one */
     mo.warm_start_from = "the capture's streaming fit";
@@ -54,6 +57,7 @@ int capture_fit_samples(const struct journal_sample *js, size_t n, const struct 
         out->has_params = rep.has_abc;
         out->params = rep.abc;
         out->sd = rep.sd;
+        out->sd_measured = rep.measured;
         snprintf(out->warning, sizeof out->warning, "%s", rep.warning);
         /* Plan-domain error: the model against what was measured. */
         rc = fit_sample_errors(*fitted, jd.rgb, jd.n, &out->err_plan, err);

@@ -16,12 +16,16 @@
  * censors them (fit_model_censors; docs/fitting.md "Saturated readings"),
  * and samples an adaptive policy chose (chosen) are weighted by their
  * share of the domain (fit/models.h fit_data); material is what was
- * measured (abc-prior leaves it out of its prior), or NULL. A failed fit
- * names the model and leaves the journal as it is. */
+ * measured (abc-prior leaves it out of its prior), or NULL. u_systematic
+ * (NULL: none): per channel, the relative uncertainty all samples' u share
+ * (rad_systematic_rel_u of the capture's calibration), for the fits
+ * weighted by u (fit_data.u_systematic). A failed fit names the model and
+ * leaves the journal as it is. */
 int capture_fit_samples(const struct journal_sample *js, size_t n, const struct brdf_abc *warm,
                         const struct fit_model_kind *kind, const char *dir,
-                        const char *material, int chosen, struct capture_summary *out,
-                        brdf_material **fitted, struct gonio_err *err);
+                        const char *material, int chosen, const double *u_systematic,
+                        struct capture_summary *out, brdf_material **fitted,
+                        struct gonio_err *err);
 
 /* Errors of model against truth over the in-plane and full domains (all
  * its nodes, or a seeded sample of assess_nodes of them) into out. */

@@ -162,8 +162,10 @@ static int refit(const struct recal_setup *su, const struct cal_loaded *cl,
     sum.samples = n;
     sum.rig_time_s = n ? s[n - 1].rig_time_s : 0;
     brdf_material *fitted = NULL;
+    double usys[3];
+    rad_systematic_rel_u(&cl->cal, usys);
     int rc = capture_fit_samples(s, n, NULL, kind, out, su->material[0] ? su->material : NULL,
-                                 0, &sum, &fitted, err);
+                                 0, usys, &sum, &fitted, err);
     brdf_material_free(fitted);
     if (rc == 0)
         rc = capture_files_results(out, &sum, err);

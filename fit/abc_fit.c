@@ -362,10 +362,13 @@ static double per_sample_u(const struct fit_sample *s, int c, double usys)
 /* The samples' per-sample uncertainties in the data's units into r->sigma
  * when every usable sample has all three: the fit is then weighted by them.
  * A capture's values carry them all or none; a mix (some samples without)
- * is fitted as before, unweighted. Returns 0, -1 on no memory. */
+ * is fitted as before, unweighted, and so is a fit with a prior (abc-prior),
+ * whose rows are scaled for log residuals. Returns 0, -1 on no memory. */
 static int measurement_sigma(struct abc_run *r)
 {
     const double *usys = r->opt.u_systematic;
+    if (r->prior) /* its rows assume the data residuals' noise level: log units */
+        return 0;
     for (size_t k = 0; k < r->nv; k++)
         for (int c = 0; c < 3; c++)
             if (!(per_sample_u(&r->samples[r->idx[k]], c, usys[c]) > 0))
@@ -559,7 +562,7 @@ static void report(const struct abc_run *r, const struct brdf_abc *out, struct f
     double s2 = abc_residual_variance(fp, best->cost), ps2 = r->prior_sigma * r->prior_sigma;
     if (r->prior) /* the prior's noise level, or the misfit when it is larger */
         s2 = isfinite(s2) && s2 > ps2 ? s2 : ps2;
-    if (r->sigma && !r->prior) /* weights of known variances: absolute */
+    if (r->sigma) /* weights of known variances: absolute */
         s2 = 1.0;
     /* the root of J^T J at the optimum, for the covariance and the
      * status's rank (which leaves the prior's rows out) */

@@ -111,6 +111,7 @@ int fit_abc_model_fit(const struct fit_data *data, const struct fit_model_option
         rep->converged = info.converged;
         rep->status = info.status;
         rep->weighted = info.domain_weights;
+        rep->measured = info.measurement_weights;
         snprintf(rep->note, sizeof rep->note, "%d starts, %d iterations, %s; %zu samples dropped",
                  info.starts, info.iterations, info.reason ? info.reason : "-", info.dropped);
     }

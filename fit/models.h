@@ -75,6 +75,7 @@ struct fit_model_report {
     char note[512];   /* one line for people: iterations/epochs, stop reason */
     struct fit_status status; /* what the fit can know (fit/fit_status.h) */
     int weighted;     /* 1: the samples were weighted by their domain share */
+    int measured;     /* 1: each value was weighted by its u (fit_info.measurement_weights) */
     /* The ABC fits (abc, abc-prior): their parameters and sds (has_abc 1),
      * and a warning for people (abc-prior's too few samples), else "". */
     int has_abc;

@@ -18,6 +18,21 @@ const char *rad_term_name(enum rad_term t)
     return t >= 0 && t < RAD_N_TERMS ? term_names[t] : "?";
 }
 
+/* The standard's certificate and shape, relative, for channel c. */
+static double reference_rel_u(const struct rad_calibration *cal, int c)
+{
+    double cert = cal->standard.rho[c] > 0 ? cal->standard.u_rho[c] / cal->standard.rho[c] : 0.0;
+    return sqrt(cert * cert + cal->standard.u_shape * cal->standard.u_shape);
+}
+
+void rad_systematic_rel_u(const struct rad_calibration *cal, double out[3])
+{
+    for (int c = 0; c < 3; c++) {
+        double ref = reference_rel_u(cal, c), geo = cal->setup.geometry_rel_u;
+        out[c] = sqrt(ref * ref + geo * geo);
+    }
+}
+
 int rad_term_systematic(enum rad_term t)
 {
     return t == RAD_U_REFERENCE || t == RAD_U_GEOMETRY;
@@ -278,9 +293,7 @@ static int reduce_one(const struct rad_calibration *cal, const struct rad_raw *s
             double vr = (b / xr) * (b / xr) * dr->sd[c] * dr->sd[c] / dr->n;
             r[RAD_U_DARK] = sqrt(vs + vr) / ab;
         }
-        double cert = cal->standard.rho[c] > 0 ? cal->standard.u_rho[c] / cal->standard.rho[c]
-                                                : 0.0;
-        r[RAD_U_REFERENCE] = sqrt(cert * cert + cal->standard.u_shape * cal->standard.u_shape);
+        r[RAD_U_REFERENCE] = reference_rel_u(cal, c);
         r[RAD_U_REF_NOISE] = sqrt((g * xr + dr->sd[c] * dr->sd[c]) / ref.ref->n) / xr;
         double mvar = mon ? su->monitor_rel_sd * su->monitor_rel_sd * (1.0 + 1.0 / ref.ref->n)
                           : 0.0;

@@ -96,6 +96,12 @@ const char *rad_term_name(enum rad_term t);
 /* 1 for the terms shared by all samples of a capture. */
 int rad_term_systematic(enum rad_term t);
 
+/* Per channel, the root sum of squares of the systematic terms' relative
+ * standard uncertainties, which are the same for every sample of a capture
+ * reduced with cal (the standard's certificate and shape, the placement):
+ * the shared part of each value's u, what a fit propagates as one error. */
+void rad_systematic_rel_u(const struct rad_calibration *cal, double out[3]);
+
 struct rad_value {
     double brdf[3];             /* 1/sr; NAN where the reading clipped */
     double u[3];                /* combined standard uncertainty, 1/sr */
