@@ -385,7 +385,7 @@ static json_t *adaptive_json(const struct capture_summary *s)
 }
 
 /* The checks' verdicts with their evidence and rig time (docs/checks.md). */
-static json_t *checks_json(const struct capture_summary *s)
+json_t *capture_files_checks(const struct capture_summary *s)
 {
     json_t *o = json_object();
     if (!s->has_isotropy)
@@ -465,7 +465,7 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
     if (root) {
         json_object_set_new(root, "stop_reason", json_string(s->stop_reason));
         json_object_set_new(root, "adaptive", s->adaptive ? adaptive_json(s) : json_null());
-        json_object_set_new(root, "checks", checks_json(s));
+        json_object_set_new(root, "checks", capture_files_checks(s));
     }
     return write_json(dir, "results.json", root, err);
 }

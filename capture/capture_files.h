@@ -6,6 +6,8 @@
 #ifndef GONIO_CAPTURE_CAPTURE_FILES_H
 #define GONIO_CAPTURE_CAPTURE_FILES_H
 
+#include <jansson.h>
+
 #include "capture/capture.h"
 #include "planner/planner.h"
 
@@ -43,5 +45,10 @@ void capture_files_unlock(int lock_fd);
 /* Write results.json from a finished capture. */
 int capture_files_results(const char *dir, const struct capture_summary *s,
                           struct gonio_err *err);
+
+/* results.json's checks: an object with a member per check that ran (the
+ * isotropy check's verdict, evidence and rig time), empty when none did;
+ * NULL when out of memory. */
+json_t *capture_files_checks(const struct capture_summary *s);
 
 #endif
