@@ -107,6 +107,11 @@ class ChecksTests(DaemonTest):
         g = self.d.gonio("capture", "--plan", "ds2", "--name", "plain", "--check", "isotropy")
         self.assertEqual(g.returncode, 2, g.stderr)
         self.assertIn("rig 'default'", g.stderr)
+        # A material's parameters are key=value pairs of a few characters; a path is none.
+        for bad in ("analytic:aniso-ggx?ax=../../etc", "analytic:aniso-ggx?", "analytic:../x?a=1"):
+            r = c.request("capture", plan="ds2", name="plain", rig="rotating", material=bad)
+            self.assertEqual(r["code"], "bad-value", r)
+            self.assertIn("not a valid name", r["message"])
         self.assertFalse(os.path.exists(os.path.join(self.d.root, "plain")))
         # A capture without the check has none.
         c.request("watch")
