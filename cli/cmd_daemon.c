@@ -581,8 +581,9 @@ static void capture_usage(FILE *out)
             "  the default is the material it measures). On a hardware rig --material is a\n"
             "  spec that must resolve (nbrdf:, merl:, ...), not a label: name the sample with\n"
             "  --sample. --sample, --operator, --note: kept with the capture (request.json,\n"
-            "  the start document, gonio list). --wait follows the capture to its\n"
-            "  end, its progress on stderr (--quiet: none): exit 0 when it completes.\n"
+            "  setup.json, results.json, the start document, gonio list). --wait follows\n"
+            "  the capture to its end, its progress on stderr (--quiet: none): exit 0\n"
+            "  when it completes.\n"
             "  --order adaptive, --budget, --stop-target: as 'gonio capture --offline --help'\n"
             "  says.\n"
             PRESCAN_HELP
