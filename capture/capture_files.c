@@ -480,9 +480,9 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
                                       "alarms_recovered", (json_int_t)s->mech.alarms_recovered,
                                       "rehomes", (json_int_t)s->mech.rehomes));
     if (root) /* parameter sds from the fit's Jacobian, natural units (fit/fit.h) */
-        json_object_set_new(root, "uncertainty", s->has_params
-                                                     ? uncertainty_json(&s->sd, s->warning, s->sd_measured)
-                                                     : json_null());
+        json_object_set_new(root, "uncertainty",
+                            s->has_params ? uncertainty_json(&s->sd, s->warning, s->sd_measured)
+                                          : json_null());
     if (root)
         json_object_set_new(root, "fit_status", status_json(&s->status));
     if (root) { /* why nothing was fitted (counts, uncalibrated); auto-ranging's cost */

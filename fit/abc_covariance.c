@@ -188,9 +188,11 @@ void abc_uncertainty(const struct abc_problem *pb, const double th[ABC_NPAR], do
     for (int i = 0; i < ABC_NPAR; i++)
         undet[i] = !(cn[i] > 0) || !(gsl_matrix_get(cov, (size_t)i, (size_t)i) > 0);
     double g[3][ABC_NPAR] = {{0}}, us[3] = {0}; /* per channel */
-    for (int ch = 0; u_sys && ch < 3; ch++)
-        if ((us[ch] = u_sys[ch] > 0 ? u_sys[ch] : 0.0) > 0 && scale_shift(pb, th, cov, ch, g[ch]) < 0)
+    for (int ch = 0; u_sys && ch < 3; ch++) {
+        us[ch] = u_sys[ch] > 0 ? u_sys[ch] : 0.0;
+        if (us[ch] > 0 && scale_shift(pb, th, cov, ch, g[ch]) < 0)
             goto done;
+    }
     if (pb->sw && sandwich(pb, th, cov) < 0)
         goto done;
     for (int i = 0; i < ABC_NPAR; i++)
