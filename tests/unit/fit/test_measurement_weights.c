@@ -9,13 +9,17 @@
  *  - the weighted fit's estimates scatter less about the truth than those
  *    of the same data fitted unweighted;
  *  - samples of which one lacks u are fitted exactly as samples without
- *    any (u is used all or nothing). */
+ *    any (u is used all or nothing);
+ *  - the weighted cost, by the reference and the solver's paths, is half
+ *    the sum of ((log residual) / (its sd from u))^2, computed here
+ *    directly. */
 #include <math.h>
 #include <string.h>
 
 #include "brdf/abc.h"
 #include "brdf/angles.h"
 #include "brdf/domain.h"
+#include "fit/abc_problem.h"
 #include "fit/fit.h"
 #include "tests/gonio_test.h"
 
@@ -160,11 +164,44 @@ static void test_u_all_or_nothing(void **state)
     assert_memory_equal(&ia.sd, &ib.sd, sizeof ia.sd);
 }
 
+static void test_weighted_cost_is_chi_square(void **state)
+{
+    (void)state;
+    static struct fit_sample clean[MAXN], s[MAXN];
+    double rel[MAXN], u[3 * MAXN], expect = 0;
+    size_t n = clean_samples(clean, rel);
+    uint64_t st = 11;
+    capture(clean, rel, n, &st, s);
+    for (size_t k = 0; k < n; k++) {
+        double fh[3], ci = s[k].g.wi[2];
+        brdf_abc_eval(&glossy, &s[k].g, fh);
+        for (int c = 0; c < 3; c++) {
+            u[3 * k + c] = s[k].u[c];
+            double r = log1p(fh[c] * ci) - log1p(s[k].rgb[c] * ci);
+            double sd = s[k].u[c] * ci / (1 + s[k].rgb[c] * ci);
+            expect += 0.5 * (r / sd) * (r / sd);
+        }
+    }
+    struct abc_problem pb = {0};
+    struct abc_cache c;
+    double th[ABC_NPAR];
+    abc_params_to_theta(&glossy, th);
+    assert_int_equal(abc_problem_init(&pb, s, NULL, n), 0);
+    assert_int_equal(abc_problem_set_sigma(&pb, u, NULL), 0);
+    assert_int_equal(abc_cache_init(&c, &pb), 0);
+    printf("chi^2 / 2 over %zu values: %.3f\n", 3 * n, expect);
+    assert_close(abc_problem_cost(&pb, th), expect, 1e-9 * expect);
+    assert_close(abc_problem_resid(&pb, th, NULL, &c), expect, 1e-9 * expect);
+    abc_cache_free(&c);
+    abc_problem_free(&pb);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sds_match_spread_and_weights_help),
         cmocka_unit_test(test_u_all_or_nothing),
+        cmocka_unit_test(test_weighted_cost_is_chi_square),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
