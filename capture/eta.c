@@ -21,8 +21,10 @@ struct capture_eta {
     long *order;           /* the order the capture measures the points in */
     unsigned char *done;
     /* Where the axes were before the first record (home until
-     * capture_eta_start says otherwise). */
+     * capture_eta_start says otherwise), or before the next one when
+     * from_start (a resumed capture's axes, read again). */
     struct rig_axes start;
+    int from_start;
     /* The record observed last (-1: none; the axes at start, rig time 0),
      * and the overheads summed over n_obs records. */
     long last;
@@ -86,8 +88,10 @@ void capture_eta_observe(capture_eta *e, const struct journal_sample *s)
     if (s->point < 0 || (size_t)s->point >= e->n)
         return;
     size_t i = (size_t)s->point;
-    const struct rig_axes *from = e->last >= 0 ? &plan_point(e->plan, (size_t)e->last)->ax
-                                                : &e->start;
+    const struct rig_axes *from = e->last >= 0 && !e->from_start
+                                      ? &plan_point(e->plan, (size_t)e->last)->ax
+                                      : &e->start;
+    e->from_start = 0;
     double move = rig_move_time_backlash(e->rig, from, &plan_point(e->plan, i)->ax);
     double share = e->done[i] ? 0
                               : e->move[i] + capture_eta_overhead(e) +
@@ -107,8 +111,8 @@ void capture_eta_observe(capture_eta *e, const struct journal_sample *s)
 
 void capture_eta_start(capture_eta *e, const struct rig_axes *at)
 {
-    if (e->n_obs == 0)
-        e->start = *at;
+    e->start = *at;
+    e->from_start = 1;
     for (size_t k = 0; k < e->n; k++) {
         size_t i = (size_t)e->order[k];
         if (!e->done[i]) {

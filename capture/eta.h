@@ -36,8 +36,9 @@ void capture_eta_free(capture_eta *e);
 
 /* A journalled sample, in record order: its point is done, its integration
  * is metered, and its overhead counted (from the record observed before
- * it; the first from home, or capture_eta_start's position, at rig time
- * 0). A point outside the plan is ignored. */
+ * it, or from capture_eta_start's position when that came between them;
+ * the first from home, or that position, at rig time 0). A point outside
+ * the plan is ignored. */
 void capture_eta_observe(capture_eta *e, const struct journal_sample *s);
 
 /* The axes are at `at` (sample, arm, azimuth) before the next point in the

@@ -164,7 +164,7 @@ static void test_order_counts_the_moves(void **state)
  * axes' positions count the first move from there, each by hand here;
  * the first record measured from there shows no overhead beyond the
  * settle; a resumed capture's next point counts its move from the axes,
- * not from the last record's point. */
+ * not from the last record's point, and its record is metered so. */
 static void test_start_position(void **state)
 {
     (void)state;
@@ -212,6 +212,13 @@ static void test_start_position(void **state)
                      rig_move_time_backlash(&rig, &away, p1),
                  1e-9);
     assert_close(capture_eta_estimate(e), want, 1e-9); /* the whole capture's, as it began */
+    /* point 1 measured from there shows no overhead beyond the settle */
+    struct journal_sample s1 = s0;
+    s1.point = 1;
+    s1.rig_time_s = end + rig_move_time_backlash(&rig, &away, p1) + rig.settle_s +
+                    rig.integration_s;
+    capture_eta_observe(e, &s1);
+    assert_close(capture_eta_overhead(e), rig.settle_s, 1e-9);
     capture_eta_free(e);
 }
 
