@@ -509,6 +509,9 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
         .full_scale = src->counts_full_scale,
         .nonlinearity = src->counts_nonlinearity,
         .calibration = job->cal ? job->cal->meta.id : NULL,
+        .sample = job->cfg.sample,
+        .operator_name = job->cfg.operator_name,
+        .note = job->cfg.note,
     };
     struct autorange ar;
     double ladder[AUTORANGE_RUNGS];

@@ -42,6 +42,10 @@ struct capture_config {
      * (NULL: unknown) when its source does not know it (capture_rig.material). */
     const char *material;
     const char *rig;      /* the rig profile; NULL: the source's (capture_rig.profile) */
+    /* The operator's metadata, in setup.json and results.json (NULL or "":
+     * not given): the sample's name, who ran the capture, a note. A resume
+     * keeps what the capture began with. */
+    const char *sample, *operator_name, *note;
     /* The reference for the in-plane and full-domain errors (a material
      * spec), labelled with it in results.json. NULL: what the rig source
      * says it measures; otherwise no such errors. */

@@ -63,6 +63,9 @@ static json_t *axis_json(const struct rig_axis *ax)
                      ax->min, "max", ax->max);
 }
 
+/* The operator's metadata, in setup.json and results.json alike. */
+static const char *const meta_keys[] = {"sample", "operator", "note"};
+
 static json_t *setup_json(const struct capture_setup *su)
 {
     const struct rig_profile *rig = su->rig;
@@ -98,6 +101,13 @@ static json_t *setup_json(const struct capture_setup *su)
                                       "nonlinearity", su->nonlinearity, "integration_ladder",
                                       ladder));
     }
+    /* The operator's metadata, null when not given; not compared on a
+     * resume, which keeps the file as the capture began. */
+    const char *meta_value[] = {su->sample, su->operator_name, su->note};
+    for (size_t i = 0; root && i < sizeof meta_keys / sizeof *meta_keys; i++)
+        json_object_set_new(root, meta_keys[i], meta_value[i] && meta_value[i][0]
+                                                    ? json_string(meta_value[i])
+                                                    : json_null());
     /* A resume reduces with the calibration the capture began with. */
     if (root && su->calibration)
         json_object_set_new(root, "calibration", json_string(su->calibration));
@@ -143,6 +153,9 @@ static int setup_key_known(const char *key)
 {
     if (!strcmp(key, "driver") || !strcmp(key, "adaptive"))
         return 1;
+    for (size_t i = 0; i < sizeof meta_keys / sizeof *meta_keys; i++)
+        if (!strcmp(key, meta_keys[i]))
+            return 1;
     for (size_t i = 0; i < sizeof setup_keys / sizeof *setup_keys; i++)
         if (!strcmp(key, setup_keys[i]))
             return 1;
@@ -385,7 +398,7 @@ static json_t *adaptive_json(const struct capture_summary *s)
 }
 
 /* The checks' verdicts with their evidence and rig time (docs/checks.md). */
-static json_t *checks_json(const struct capture_summary *s)
+json_t *capture_files_checks(const struct capture_summary *s)
 {
     json_t *o = json_object();
     if (!s->has_isotropy)
@@ -407,6 +420,20 @@ static json_t *checks_json(const struct capture_summary *s)
                                               : json_null());
     json_object_set_new(o, "isotropy", iso);
     return o;
+}
+
+/* results.json names the capture as setup.json does: the metadata it began
+ * with, whichever run (a resume, a refit, a recalibration) writes it. */
+static void copy_metadata(const char *dir, json_t *root)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/setup.json", dir);
+    json_t *setup = json_load_file(path, 0, NULL);
+    for (size_t i = 0; i < sizeof meta_keys / sizeof *meta_keys; i++) {
+        json_t *v = json_object_get(setup, meta_keys[i]);
+        json_object_set_new(root, meta_keys[i], json_is_string(v) ? json_incref(v) : json_null());
+    }
+    json_decref(setup);
 }
 
 int capture_files_results(const char *dir, const struct capture_summary *s,
@@ -462,10 +489,12 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
                             json_pack("{s:I,s:I}", "darks", (json_int_t)s->darks, "retakes",
                                       (json_int_t)s->retakes));
     }
+    if (root)
+        copy_metadata(dir, root);
     if (root) {
         json_object_set_new(root, "stop_reason", json_string(s->stop_reason));
         json_object_set_new(root, "adaptive", s->adaptive ? adaptive_json(s) : json_null());
-        json_object_set_new(root, "checks", checks_json(s));
+        json_object_set_new(root, "checks", capture_files_checks(s));
     }
     return write_json(dir, "results.json", root, err);
 }

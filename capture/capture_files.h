@@ -6,6 +6,8 @@
 #ifndef GONIO_CAPTURE_CAPTURE_FILES_H
 #define GONIO_CAPTURE_CAPTURE_FILES_H
 
+#include <jansson.h>
+
 #include "capture/capture.h"
 #include "planner/planner.h"
 
@@ -25,6 +27,7 @@ struct capture_setup {
     const double *ladder;
     size_t n_ladder;
     const char *calibration; /* the calibration's id counts are reduced with, or NULL */
+    const char *sample, *operator_name, *note; /* the operator's metadata, NULL: not given */
 };
 
 /* Create dir (or accept it for a resume), take its lock (*lock_fd, for
@@ -40,8 +43,14 @@ int capture_files_prepare(const char *dir, const struct capture_setup *setup, in
 /* Release the directory's lock. */
 void capture_files_unlock(int lock_fd);
 
-/* Write results.json from a finished capture. */
+/* Write results.json from a finished capture, with the operator's
+ * metadata (sample, operator, note) setup.json holds. */
 int capture_files_results(const char *dir, const struct capture_summary *s,
                           struct gonio_err *err);
+
+/* results.json's checks: an object with a member per check that ran (the
+ * isotropy check's verdict, evidence and rig time), empty when none did;
+ * NULL when out of memory. */
+json_t *capture_files_checks(const struct capture_summary *s);
 
 #endif

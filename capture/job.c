@@ -195,7 +195,8 @@ static int copy_config(const struct capture_config *cfg, struct capture_job *job
     const char **member[] = {&job->cfg.plan, &job->cfg.material, &job->cfg.rig,
                              &job->cfg.truth, &job->cfg.model, &job->cfg.out_dir,
                              &job->cfg.order, &job->cfg.stop, &job->cfg.calibration,
-                             &job->cfg.calibrations};
+                             &job->cfg.calibrations, &job->cfg.sample,
+                             &job->cfg.operator_name, &job->cfg.note};
     size_t n = sizeof member / sizeof *member, len = 0;
     for (size_t i = 0; i < n; i++)
         len += *member[i] ? strlen(*member[i]) + 1 : 0;

@@ -24,6 +24,9 @@ static void usage(FILE *out)
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
             "                     [--calibration ID|newest --calibrations ROOT]\n"
             "                     [--uncalibrated] [--check isotropy] [--quiet]\n"
+            "                     [--sample NAME] [--operator NAME] [--note TEXT]\n"
+            "  --sample, --operator, --note: the sample's name, who ran the capture and a\n"
+            "  note, recorded in setup.json and results.json (a resume keeps the first).\n"
             "  --uncalibrated: a detector that gives counts is captured without a\n"
             "  calibration: the counts are journalled, nothing is fitted (without it such\n"
             "  a capture is refused, exit 2, before the first move).\n"
@@ -152,6 +155,8 @@ int cmd_capture(int argc, char **argv)
         {"uncalibrated", no_argument, NULL, 'U'},
         {"calibration", required_argument, NULL, 'C'},
         {"calibrations", required_argument, NULL, 'R'}, {"check", required_argument, NULL, 'K'},
+        {"sample", required_argument, NULL, 'n'}, {"operator", required_argument, NULL, 'w'},
+        {"note", required_argument, NULL, 'N'},
         {NULL, 0, NULL, 0},
     };
     struct capture_config cfg = {.model = "abc"};
@@ -173,6 +178,9 @@ int cmd_capture(int argc, char **argv)
         case 't': cfg.truth = optarg; break;
         case 'q': cfg.quiet = 1; break;
         case 'U': cfg.uncalibrated = 1; break;
+        case 'n': cfg.sample = optarg; break;
+        case 'w': cfg.operator_name = optarg; break;
+        case 'N': cfg.note = optarg; break;
         case 'C':
             cfg.calibration = strcmp(optarg, "newest") ? optarg : NULL;
             cal_named = 1;

@@ -225,6 +225,13 @@ static void show_stop(struct progress *p, json_t *d)
                    jreal(ad, "predicted_error"), jreal(ad, "decision_mean_s"),
                    jreal(ad, "decision_max_s"));
     }
+    json_t *iso = json_object_get(json_object_get(d, "checks"), "isotropy");
+    if (iso)
+        printf("  isotropy check: %s (%s; largest deviation %.3f, %.1f sigma against %.1f; "
+               "%.0f s of rig time)\n",
+               json_string_value(json_object_get(iso, "verdict")),
+               json_string_value(json_object_get(iso, "why")), jreal(iso, "max_deviation"),
+               jreal(iso, "significance"), jreal(iso, "threshold"), jreal(iso, "rig_time_s"));
     fflush(stdout);
 }
 
@@ -572,7 +579,8 @@ static void capture_usage(FILE *out)
             "                     [--stop all|converge] [--budget MINUTES]\n"
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
             "                     [--name ID] [--sample NAME] [--operator NAME] [--note TEXT]\n"
-            "                     [--uncalibrated] [--wait] [--quiet] [--socket PATH]\n"
+            "                     [--uncalibrated] [--check isotropy] [--wait] [--quiet]\n"
+            "                     [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). Files are relative to goniod's capture\n"
             "  root. --model: the final fit's model, any RGB model of 'gonio fit --help'\n"
@@ -581,10 +589,13 @@ static void capture_usage(FILE *out)
             "  the default is the material it measures). On a hardware rig --material is a\n"
             "  spec that must resolve (nbrdf:, merl:, ...), not a label: name the sample with\n"
             "  --sample. --sample, --operator, --note: kept with the capture (request.json,\n"
-            "  the start document, gonio list). --wait follows the capture to its\n"
-            "  end, its progress on stderr (--quiet: none): exit 0 when it completes.\n"
+            "  setup.json, results.json, the start document, gonio list). --wait follows\n"
+            "  the capture to its end, its progress on stderr (--quiet: none): exit 0\n"
+            "  when it completes.\n"
             "  --order adaptive, --budget, --stop-target: as 'gonio capture --offline --help'\n"
-            "  says.\n"
+            "  says. --check isotropy: after the last point, the isotropy check on a rig\n"
+            "  whose profile has a rotation axis (--rig rotating); its verdict is in the\n"
+            "  stop document, results.json and --wait's output; a rig without one exits 2.\n"
             PRESCAN_HELP
             "  (default on a Modbus or USB rig: " PRESCAN_STR(CAPTURE_PRESCAN_DEFAULT) ", or one in "
             PRESCAN_STR(CAPTURE_PRESCAN_SHARE) " of a smaller plan's points,\n"
@@ -608,12 +619,15 @@ int cmd_capture_daemon(int argc, char **argv)
         {"stop-target", required_argument, NULL, 'T'},
         {"prescan", required_argument, NULL, 'P'}, {"sample", required_argument, NULL, 'A'},
         {"operator", required_argument, NULL, 'O'}, {"note", required_argument, NULL, 'N'},
-        {"uncalibrated", no_argument, NULL, 'U'}, {NULL, 0, NULL, 0},
+        {"uncalibrated", no_argument, NULL, 'U'}, {"check", required_argument, NULL, 'K'},
+        {NULL, 0, NULL, 0},
     };
-    static const char *const keys[] = {"plan", "scene", "material", "rig", "model", "order",
-                                       "stop", "name", "truth", "sample", "operator", "note"};
-    static const char letters[] = "psmrMoxntAON";
-    const char *vals[12] = {0}, *sock = NULL;
+    static const char *const keys[] = {"plan",  "scene",  "material", "rig",      "model",
+                                       "order", "stop",   "name",     "truth",    "sample",
+                                       "operator", "note", "check"};
+    static const char letters[] = "psmrMoxntAONK";
+    enum { N_KEYS = sizeof keys / sizeof keys[0] };
+    const char *vals[N_KEYS] = {0}, *sock = NULL;
     double budget = 0, target = 0;
     long long prescan = -1; /* -1: not given, goniod's default */
     int wait = 0, quiet = 0, uncalibrated = 0, ch, ignored;
@@ -670,7 +684,7 @@ int cmd_capture_daemon(int argc, char **argv)
     json_t *rep = NULL;
     if (!rc) {
         json_t *req = json_pack("{s:s}", "cmd", "capture");
-        for (int i = 0; i < 12; i++)
+        for (int i = 0; i < N_KEYS; i++)
             if (vals[i])
                 json_object_set_new(req, keys[i], json_string(vals[i]));
         if (budget > 0)

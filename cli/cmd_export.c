@@ -7,13 +7,32 @@
 #include "brdf/material.h"
 #include "brdf/merl.h"
 #include "cli/commands.h"
+#include "cli/output_path.h"
 #include "fit/model_file.h"
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: gonio export merl --material SPEC -o FILE.binary\n"
+    fprintf(out, "usage: gonio export merl --material SPEC -o FILE.binary|DIR\n"
                  "  SPEC: nbrdf:NAME, merl:FILE, abc:NAME, sgd:NAME, builtin:NAME, spectral:NAME,\n"
-                 "        analytic:NAME, default or model:FILE\n");
+                 "        analytic:NAME, default or model:FILE\n"
+                 "  -o DIR (an existing directory): DIR/NAME.binary, NAME the spec's last\n"
+                 "        part without its extension (model:c1/abc.model: abc.binary)\n");
+}
+
+/* A table's file name from its spec: the last part, without extension. */
+static const char *table_name(const char *spec, char *buf, size_t size)
+{
+    const char *base = spec;
+    for (const char *c = spec; *c; c++)
+        if (*c == ':' || *c == '/')
+            base = c + 1;
+    const char *dot = strrchr(base, '.');
+    int len = dot && dot != base ? (int)(dot - base) : (int)strlen(base);
+    if (!*base)
+        snprintf(buf, size, "table.binary");
+    else
+        snprintf(buf, size, "%.*s.binary", len > 200 ? 200 : len, base);
+    return buf;
 }
 
 int cmd_export(int argc, char **argv)
@@ -50,6 +69,9 @@ int cmd_export(int argc, char **argv)
         usage(stderr);
         return 2;
     }
+    char path[4200], name[256];
+    out = output_path("gonio export", out, NULL, table_name(spec, name, sizeof name), path,
+                      sizeof path);
     /* The file is the MERL binary format whatever its name; a name that
      * says otherwise (x.txt) would mislead whoever opens it next. */
     size_t n = strlen(out);

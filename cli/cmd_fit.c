@@ -13,6 +13,7 @@
 #include "brdf/domain.h"
 #include "brdf/metrics.h"
 #include "cli/commands.h"
+#include "cli/output_path.h"
 #include "fit/domain_weights.h"
 #include "fit/journal_samples.h"
 #include "journal/journal.h"
@@ -23,13 +24,14 @@
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: gonio fit SAMPLES --model NAME [-o MODEL_FILE] [--seed N] [--epochs N]\n"
+    fprintf(out, "usage: gonio fit SAMPLES --model NAME [-o FILE|DIR] [--seed N] [--epochs N]\n"
                  "                 [--truth SPEC] [--saturated clipped|censored]\n"
                  "                 [--weights domain|none] [--quiet]\n"
                  "  SAMPLES: a capture directory or its samples.csv; for mlp-spectral a\n"
                  "           capture directory (its spectra.csv) or a spectral CSV\n"
                  "           (theta_i,theta_r,wavelength_nm,value)\n"
-                 "  -o: default SAMPLES_DIR/NAME.model\n"
+                 "  -o: the model file, or a directory for DIR/NAME.model; default\n"
+                 "      SAMPLES_DIR/NAME.model, ./NAME.model when SAMPLES_DIR is not writable\n"
                  "  --truth: also report errors against SPEC on the in-plane and full domains\n"
                  "  --saturated: fit saturated readings as lower bounds (one-sided\n"
                  "           residuals) or at their clipped value; default: the model's\n"
@@ -204,11 +206,9 @@ static void resolve_paths(const char *arg, const struct fit_model_kind *kind,
         snprintf(p->dir, sizeof p->dir, "%.*s", slash ? (int)(slash - arg) : 1,
                  slash ? arg : ".");
     }
-    p->out = a->out;
-    if (!p->out) {
-        snprintf(p->out_buf, sizeof p->out_buf, "%.4000s/%.64s.model", p->dir, a->model);
-        p->out = p->out_buf;
-    }
+    char name[80];
+    snprintf(name, sizeof name, "%.64s.model", a->model);
+    p->out = output_path("gonio fit", a->out, p->dir, name, p->out_buf, sizeof p->out_buf);
 }
 
 /* The captured material, so that abc-prior leaves it out of its prior:

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "cli/commands.h"
+#include "cli/output_path.h"
 #include "common/paths.h"
 #include "fit/model_file.h"
 #include "report/raster.h"
@@ -21,9 +22,11 @@ static void usage(FILE *out)
     fprintf(out,
             "usage: gonio plot slices [--material SPEC] [--samples CAPTURE|samples.csv]\n"
             "                         [--model SPEC [--label TEXT]]... [--theta-i LIST]\n"
-            "                         [--channel y|r|g|b] [--title TEXT] -o FILE.svg|FILE.png\n"
+            "                         [--channel y|r|g|b] [--title TEXT] -o FILE.svg|FILE.png|DIR\n"
             "       gonio plot pareto|bars STUDY_DIR [--scene NAME] [--domain plan|inplane|full]\n"
-            "                         [--metric log|rrmse] -o FILE.svg|FILE.png\n"
+            "                         [--metric log|rrmse] -o FILE.svg|FILE.png|DIR\n"
+            "  -o DIR (an existing directory): DIR/FIGURE.svg (slices.svg, pareto.svg,\n"
+            "        bars.svg)\n"
             "  SPEC: a material (nbrdf:NAME, abc:NAME, builtin:NAME, default, ...) or a\n"
             "        fitted model, model:FILE (gonio fit)\n"
             "  --theta-i: comma-separated incidence angles, one panel each (default: those\n"
@@ -140,6 +143,9 @@ static int plot_slices(int argc, char **argv)
         fprintf(stderr, "gonio plot slices: unexpected argument '%s'\n", argv[optind]);
         return 2;
     }
+    char path[4200];
+    if (out)
+        out = output_path("gonio plot", out, NULL, "slices.svg", path, sizeof path);
     if (!out_ok(out))
         return 2;
     if (!material && !samples_path && !n_models) {
@@ -243,6 +249,10 @@ static int plot_study(int argc, char **argv, int bars)
         fprintf(stderr, "gonio plot: one study directory is required\n");
         return 2;
     }
+    char path[4200];
+    if (out)
+        out = output_path("gonio plot", out, NULL, bars ? "bars.svg" : "pareto.svg", path,
+                          sizeof path);
     if (!out_ok(out))
         return 2;
     struct gonio_err err = {0};

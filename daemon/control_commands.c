@@ -14,6 +14,7 @@
 #include "daemon/captures.h"
 #include "daemon/control_private.h"
 #include "daemon/request.h"
+#include "rig/rig.h"
 
 enum need { NEED_ANY, NEED_IDLE, NEED_ACTIVE };
 
@@ -47,6 +48,31 @@ static int material_resolves(const char *spec, struct gonio_err *err)
                          spec, why.msg);
 }
 
+/* The request's check (docs/checks.md): "isotropy" only, and only on a rig
+ * whose profile can turn the sample about its normal; refused here, before
+ * anything is created, naming the rig as the request named it. */
+static int check_option(const char *check, const char *rig_name, const char *rig_ref,
+                        int *isotropy, struct gonio_err *err)
+{
+    *isotropy = 0;
+    if (!check)
+        return 0;
+    if (strcmp(check, "isotropy"))
+        return gonio_err_set(err, GONIO_EUSAGE, "check '%.60s': the check is 'isotropy'", check);
+    struct rig_profile rp;
+    int rc = rig_profile_load(rig_ref, &rp, err);
+    if (rc < 0)
+        return rc;
+    if (!rp.has_rotation)
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "check 'isotropy': rig '%s' has no rotation axis (axes.rotation) "
+                             "to turn the sample about its normal; use a rig profile with one, "
+                             "such as 'rotating'",
+                             rig_name);
+    *isotropy = 1;
+    return 0;
+}
+
 static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_t *reply,
                        const char **code, struct gonio_err *err)
 {
@@ -77,6 +103,9 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
         snprintf(r.rig, sizeof r.rig, "%s", c->cfg->rig);
     }
     if ((rc = goniod_config_rig_check(c->cfg, r.rig, err)) < 0)
+        return rc;
+    if ((rc = check_option(jstr(req, "check"), rig ? rig : c->cfg->rig, r.rig,
+                           &r.check_isotropy, err)) < 0)
         return rc;
     if (material &&
         (rc = control_resolve_material(c, material, r.material, sizeof r.material, err)) < 0)

@@ -493,6 +493,15 @@ static json_t *fit_data(const struct capture_summary *s)
     if (s->adaptive)
         json_object_set_new(d, "predicted_error",
                             control_json_number(s->policy.predicted_error));
+    if (s->has_isotropy) { /* the isotropy check (docs/checks.md): flat, as data keys are */
+        const struct iso_check_result *iso = &s->isotropy;
+        json_object_set_new(d, "isotropy_verdict", json_string(iso->verdict));
+        json_object_set_new(d, "isotropy_max_deviation",
+                            control_json_number(iso->max_deviation));
+        json_object_set_new(d, "isotropy_significance", control_json_number(iso->significance));
+        json_object_set_new(d, "isotropy_threshold", control_json_number(iso->threshold));
+        json_object_set_new(d, "isotropy_rig_time_s", control_json_number(iso->rig_time_s));
+    }
     return d;
 }
 
@@ -511,7 +520,7 @@ static void send_fit(control *c, const struct capture_summary *s, double t)
                             : json_is_boolean(v) ? "boolean"
                             : json_is_string(v)  ? "string"
                                                  : "number";
-        const char *units = !strcmp(k, "fit_time_s")                     ? "s"
+        const char *units = !strcmp(k, "fit_time_s") || !strcmp(k, "isotropy_rig_time_s") ? "s"
                             : !strcmp(k, "kd") || !strcmp(k, "A")        ? "1/sr"
                                                                          : NULL;
         json_object_set_new(keys, k, data_key(dtype, dim, units, source));

@@ -3,6 +3,7 @@
  * "Paths from requests"); and the request record a capture keeps for
  * resume, whose paths are held to the root again when it is read back. */
 #define _XOPEN_SOURCE 700 /* realpath */
+#include <ctype.h>
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -121,8 +122,23 @@ int control_resolve_material(const control *c, const char *v, char *out, size_t 
         memcpy(out + 5, path, strlen(path) + 1);
         return 0;
     }
-    if (!control_valid_id(rest))
-        return gonio_err_set(err, GONIO_EUSAGE, "material '%s': not a valid name", v);
+    /* A name, with its parameters after '?' for the analytic materials
+     * that take them (docs/checks.md: analytic:aniso-ggx?ax=0.05&ay=0.2):
+     * key=value pairs of letters, digits, '.', '_', '+' and '-'; what they
+     * mean is the material's check. */
+    const char *query = strchr(rest, '?');
+    char name[128];
+    size_t n = query ? (size_t)(query - rest) : strlen(rest);
+    int ok = n < sizeof name && strlen(v) < size;
+    if (ok) {
+        memcpy(name, rest, n);
+        name[n] = 0;
+        ok = control_valid_id(name);
+    }
+    for (const char *q = query ? query + 1 : ""; ok && *q; q++)
+        ok = isalnum((unsigned char)*q) || strchr("._+-=&", *q);
+    if (!ok || (query && !query[1]))
+        return gonio_err_set(err, GONIO_EUSAGE, "material '%.200s': not a valid name", v);
     snprintf(out, size, "%s", v);
     return 0;
 }
@@ -162,12 +178,13 @@ static void request_path(const struct worker_request *r, char *out, size_t size)
 int control_save_request(const struct worker_request *r, struct gonio_err *err)
 {
     json_t *d = json_pack("{s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:f, s:f, s:i, s:s, "
-                          "s:s, s:s}", "id",
+                          "s:s, s:s, s:b, s:s}", "id",
                           r->id, "plan", r->plan, "scene", r->scene, "rig", r->rig, "material",
                           r->material, "truth", r->truth, "model", r->model, "order", r->order,
                           "stop", r->stop, "budget", r->budget_min, "stop_target",
                           r->stop_target, "prescan", r->prescan, "sample", r->sample,
-                          "operator", r->operator_name, "note", r->note, "uncalibrated", r->uncalibrated);
+                          "operator", r->operator_name, "note", r->note, "uncalibrated", r->uncalibrated,
+                          "check", r->check_isotropy ? "isotropy" : "");
     char *text = d ? control_json_text(d) : NULL;
     if (!text)
         return gonio_err_set(err, ENOMEM, "out of memory");
@@ -191,15 +208,17 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
     const char *plan, *scene, *rig, *material, *truth = "", *model, *order, *stop;
     double budget = 0, target = 0;
     int prescan = 0, uncalibrated = 0;
-    /* truth, budget, stop_target, prescan, uncalibrated: absent from the
-     * records of older goniods */
-    if (json_unpack(d, "{s:s, s:s, s:s, s:s, s?:s, s:s, s:s, s:s, s?:F, s?:F, s?:i, s?:b}",
+    const char *check = "";
+    /* truth, budget, stop_target, prescan, uncalibrated, check: absent from
+     * the records of older goniods */
+    if (json_unpack(d, "{s:s, s:s, s:s, s:s, s?:s, s:s, s:s, s:s, s?:F, s?:F, s?:i, s?:b, s?:s}",
                     "plan", &plan, "scene", &scene, "rig", &rig, "material", &material,
                     "truth", &truth, "model", &model, "order", &order, "stop", &stop, "budget",
                     &budget, "stop_target", &target, "prescan", &prescan, "uncalibrated",
-                    &uncalibrated) < 0) {
+                    &uncalibrated, "check", &check) < 0 ||
+        (check[0] && strcmp(check, "isotropy"))) {
         json_decref(d);
-        return gonio_err_set(err, GONIO_EBADDATA, "%s: lacks a field goniod writes", path);
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: lacks a field goniod writes, or has a value it does not", path);
     }
     /* goniod wrote these checked, but the record is a file: its paths are
      * held to the capture root again before anything is opened. */
@@ -246,6 +265,7 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
         snprintf(meta_out[k], meta_size[k], "%s", v ? v : "");
     }
     r->uncalibrated = uncalibrated;
+    r->check_isotropy = check[0] != 0;
     json_decref(d);
     return 0;
 }

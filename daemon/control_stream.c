@@ -7,6 +7,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "capture/capture_files.h"
 #include "daemon/control_private.h"
 #include "fit/fit_status.h"
 #include "rig/rig.h"
@@ -39,6 +40,7 @@ static json_t *start_doc(const struct worker_msg_start *m)
     json_object_set_new(s, "sample", string_or_null(m->req.sample));
     json_object_set_new(s, "operator", string_or_null(m->req.operator_name));
     json_object_set_new(s, "note", string_or_null(m->req.note));
+    json_object_set_new(s, "check", m->req.check_isotropy ? json_string("isotropy") : json_null());
     json_object_set_new(s, "total", json_integer((json_int_t)m->total));
     json_object_set_new(s, "already_done", json_integer((json_int_t)m->already_done));
     json_object_set_new(s, "estimate_s", control_json_number(m->estimate_s));
@@ -217,6 +219,9 @@ static json_t *stop_doc(const struct worker_msg_stop *m)
                           control_json_number(s->decision_mean_s), "decision_max_s",
                           control_json_number(s->decision_max_s)));
         json_object_set_new(d, "results", r);
+        /* the premise checks' verdicts, as results.json has them */
+        json_t *checks = capture_files_checks(s);
+        json_object_set_new(d, "checks", checks ? checks : json_object());
     }
     return d;
 }

@@ -26,6 +26,7 @@ static const struct arg_spec capture_args[] = {
     STRING_ARG("rig"),  STRING_ARG("model"), STRING_ARG("order"),
     STRING_ARG("stop"), STRING_ARG("name"),  STRING_ARG("truth"),
     STRING_ARG("sample"), STRING_ARG("operator"), STRING_ARG("note"),
+    STRING_ARG("check"),
     /* From a few points' rig time to a week. */
     {.name = "budget", .type = ARG_NUMBER, .min = 0.1, .max = 10080, .zero_none = 1,
      .unit = "minutes of rig time"},

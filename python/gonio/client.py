@@ -11,7 +11,7 @@ PROTO_MAJOR = 1
 # The fields a capture request takes and their JSON types (docs/protocol.md).
 CAPTURE_FIELDS = {"plan": str, "scene": str, "material": str, "rig": str, "model": str,
                   "order": str, "stop": str, "name": str, "truth": str,
-                  "sample": str, "operator": str, "note": str,
+                  "sample": str, "operator": str, "note": str, "check": str,
                   "budget": (int, float), "stop_target": (int, float), "prescan": int}
 
 

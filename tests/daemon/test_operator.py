@@ -212,16 +212,29 @@ class MetadataTests(DaemonTest):
                          self.META["note"], "--wait", "--quiet")
         self.assertEqual(r.returncode, 0, r.stderr)
         start = next(d for d in c.until_stop("m1") if d["class"] == "start")
-        request = load_json(os.path.join(self.d.root, "m1", "request.json"))
+        files = [load_json(os.path.join(self.d.root, "m1", name))
+                 for name in ("request.json", "setup.json", "results.json")]
         listed = json.loads(self.d.gonio("list", "--json").stdout)["captures"][0]
         for key, value in self.META.items():
-            self.assertEqual((start[key], request[key], listed[key]), (value, value, value))
+            self.assertEqual([start[key], listed[key]] + [f[key] for f in files], [value] * 5)
         self.assertIn(self.META["sample"], self.d.gonio("list").stdout.splitlines()[1])
-        # A resume keeps them (request.json is read back).
+        # A resume keeps them (request.json is read back), and its refit's
+        # results.json names them as setup.json does.
+        os.unlink(os.path.join(self.d.root, "m1", "results.json"))
         self.assertEqual(self.d.gonio("resume", "m1", "--refit").returncode, 0)
         wait_idle(self)
         self.assertEqual(load_json(os.path.join(self.d.root, "m1", "request.json"))["note"],
                          self.META["note"])
+        for name in ("setup.json", "results.json"):
+            self.assertEqual(load_json(os.path.join(self.d.root, "m1", name))["operator"],
+                             self.META["operator"])
+
+    def test_metadata_absent_is_null(self):
+        r = self.d.gonio("capture", "--plan", "ds4", "--name", "m0", "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        for name in ("setup.json", "results.json"):
+            got = load_json(os.path.join(self.d.root, "m0", name))
+            self.assertEqual([got[k] for k in self.META], [None] * 3, name)
 
     def test_bad_metadata_is_refused(self):
         for args in (["--note", "two\nlines"], ["--operator", "x" * 200]):

@@ -149,6 +149,11 @@ class ClientTests(Checks, DaemonTest):
                 with self.assertRaises(gonio.GonioError) as e:
                     client.request("capture", **dict({"plan": "ds3"}, **{name: [1]}))
                 self.assertEqual((name, e.exception.code), (name, "bad-type"))
+            # The client passes a check on; goniod refuses it on a rig that cannot turn the sample.
+            with self.assertRaises(gonio.GonioError) as e:
+                client.capture("ds3", check="isotropy")
+            self.assertEqual(e.exception.code, "bad-value")
+            self.assertIn("rig 'default' has no rotation axis", e.exception.message)
             with self.assertRaises(gonio.GonioError) as e:
                 client.capture("nosuch")
             self.assertEqual(e.exception.code, "bad-value")

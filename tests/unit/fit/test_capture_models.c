@@ -33,6 +33,7 @@
 #include "fit/models.h"
 
 #include "cli/cmd_fit.c"
+#include "cli/output_path.c" /* cmd_fit.c's output path */
 
 static char dir[] = "/tmp/gonio-capmodelsXXXXXX";
 

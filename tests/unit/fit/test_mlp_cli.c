@@ -23,6 +23,7 @@
 #include "cli/cmd_export.c"
 #undef usage
 #include "cli/cmd_fit.c"
+#include "cli/output_path.c" /* cmd_fit.c's output path */
 
 static char dir[] = "/tmp/gonio-fitcliXXXXXX";
 static char cap[300];

@@ -47,14 +47,6 @@ static char *slurp(const char *path, size_t *len)
     return buf;
 }
 
-static void spit(const char *path, const char *text)
-{
-    FILE *f = fopen(path, "wb");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
-}
-
 static int setup(void **state)
 {
     (void)state;
@@ -119,7 +111,7 @@ static void expect_refused(char text[][512], int count, int line, const char *wh
     snprintf(path, sizeof path, "%s/edited.csv", dir);
     for (int k = 0; k < count; k++)
         strcat(all, text[k]);
-    spit(path, all);
+    gonio_test_write_text(path, all);
     struct journal_sample *s = NULL;
     size_t n = 0;
     struct gonio_err err = {0};
@@ -258,7 +250,7 @@ static void test_torn_tail_still_cut(void **state)
     for (int k = 0; k <= N; k++)
         strcat(all, lines[k]);
     all[strlen(all) - 20] = '\0';
-    spit(path, all);
+    gonio_test_write_text(path, all);
     struct journal_sample *s = NULL;
     size_t n = 0;
     struct gonio_err err = {0};
@@ -321,7 +313,7 @@ static void test_earlier_format_still_reads(void **state)
         strcat(all, text[k]);
     }
     strcat(all, "9,1,2,0,2,180,1,3,0.1,0.1,0.1,0.05,40,0,deadbeef\n");
-    spit(path, all);
+    gonio_test_write_text(path, all);
     struct journal_sample *s = NULL;
     size_t n = 0;
     struct gonio_err err = {0};

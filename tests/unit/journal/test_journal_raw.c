@@ -104,14 +104,6 @@ static char *slurp(const char *path)
     return buf;
 }
 
-static void spit(const char *path, const char *text)
-{
-    FILE *f = fopen(path, "wb");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
-}
-
 static int setup(void **state)
 {
     (void)state;
@@ -282,7 +274,7 @@ static void test_reader_refuses_edited_raw_fields(void **state)
         }
         char edited[300];
         snprintf(edited, sizeof edited, "%s/edited.csv", dir);
-        spit(edited, out);
+        gonio_test_write_text(edited, out);
         struct journal_sample *r = NULL;
         size_t n = 0;
         struct gonio_err err = {0};
@@ -315,7 +307,7 @@ static void test_earlier_chained_format(void **state)
     }
     char path[300];
     snprintf(path, sizeof path, "%s/v2.csv", dir);
-    spit(path, text);
+    gonio_test_write_text(path, text);
     struct journal_sample *r = NULL;
     size_t n = 0;
     struct gonio_err err = {0};
@@ -371,7 +363,7 @@ static void test_torn_raw_record_cut(void **state)
     snprintf(torn, sizeof torn, "%s/torn.csv", dir);
     for (size_t cut = 1; cut < 60; cut += 7) {
         text[len - cut] = '\0';
-        spit(torn, text);
+        gonio_test_write_text(torn, text);
         struct journal_sample *r = NULL;
         size_t n = 0;
         struct gonio_err err = {0};

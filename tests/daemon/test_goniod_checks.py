@@ -1,0 +1,150 @@
+#!/usr/bin/python3
+"""The isotropy check through goniod (docs/checks.md): a capture request's
+check "isotropy" on the rotating rig profile gives its verdict in the stop
+document, in the event-model fit stream and in gonio capture --wait's
+output; request.json keeps it, so an aborted capture resumed is checked
+too; a rig without a rotation axis and an unknown check are refused before
+anything is created.
+
+Run from ctest (the environment names the binaries), or by hand:
+  GONIO_BIN=build/bin GONIO_TESTS_BIN=build/tests GONIO_CONFIG=configs \\
+      python3 tests/daemon/test_goniod_checks.py -v
+"""
+import json
+import os
+import sys
+import time
+import unittest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from goniod_harness import DaemonTest, load_json
+from test_goniod_events import load_validators, read_run
+
+ANISO = "analytic:aniso-ggx?ax=0.05&ay=0.2"
+ISO = "analytic:plastic-ggx"
+
+
+def same(a, b):
+    """a and b equal, their numbers to 1e-9 (results.json writes fewer digits)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(same(a[k], b[k]) for k in a)
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        return abs(a - b) <= 1e-9 * max(abs(a), abs(b))
+    return a == b
+
+
+class ChecksTests(DaemonTest):
+    pace_s = 0.0
+
+    def assertSame(self, a, b):
+        self.assertTrue(same(a, b), "%r != %r" % (a, b))
+
+    def stop_checks(self, stop):
+        self.assertEqual(stop["exit_status"], "success", stop)
+        return stop["checks"]["isotropy"]
+
+    def test_isotropic_in_stop_document(self):
+        c = self.d.connect()
+        self.assertEqual(c.request("watch")["class"], "OK")
+        r = c.request("capture", plan="ds2", name="iso", scene="lab", rig="rotating",
+                      material=ISO, check="isotropy")
+        self.assertEqual(r["class"], "OK", r)
+        docs = c.until_stop("iso")
+        self.assertEqual(docs[0]["check"], "isotropy")
+        iso = self.stop_checks(docs[-1])
+        self.assertEqual(iso["verdict"], "isotropic", iso["why"])
+        self.assertLess(iso["significance"], iso["threshold"])
+        self.assertGreater(iso["rig_time_s"], 0)
+        self.assertLess(iso["rig_time_s"], 0.2 * docs[-1]["rig_time_s"])
+        # The stop document's verdict is results.json's, and request.json keeps the check.
+        capdir = os.path.join(self.d.root, "iso")
+        self.assertSame(load_json(os.path.join(capdir, "results.json"))["checks"]["isotropy"], iso)
+        self.assertEqual(load_json(os.path.join(capdir, "request.json"))["check"], "isotropy")
+
+    def test_anisotropic_with_wait_and_event_model(self):
+        validators, why = load_validators()
+        ev = self.d.connect()
+        if validators:
+            self.assertEqual(ev.request("watch", format="event-model")["class"], "OK")
+        r = self.d.gonio("capture", "--plan", "ds2", "--name", "aniso", "--rig", "rotating",
+                         "--material", ANISO, "--check", "isotropy", "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("isotropy check: anisotropic", r.stdout)
+        res = load_json(os.path.join(self.d.root, "aniso", "results.json"))
+        iso = res["checks"]["isotropy"]
+        self.assertEqual(iso["verdict"], "anisotropic")
+        self.assertGreater(iso["significance"], iso["threshold"])
+        self.assertIn("against %.1f" % iso["threshold"], r.stdout)
+        if not validators:
+            sys.stderr.write(why + "\n")
+            return
+        pairs = read_run(ev)
+        for name, doc in pairs:
+            errors = [e.message for e in validators[name].iter_errors(doc)]
+            self.assertEqual(errors, [], "%s invalid: %s" % (name, json.dumps(doc)[:600]))
+        fit = [d for n, d in pairs if n == "descriptor" and d["name"] == "fit"]
+        self.assertEqual(len(fit), 1)
+        event = [d for n, d in pairs if n == "event" and d["descriptor"] == fit[0]["uid"]][0]
+        self.assertEqual(event["data"]["isotropy_verdict"], "anisotropic")
+        self.assertAlmostEqual(event["data"]["isotropy_significance"], iso["significance"],
+                               delta=1e-9 * iso["significance"])
+        self.assertAlmostEqual(event["data"]["isotropy_rig_time_s"], iso["rig_time_s"],
+                               delta=1e-9 * iso["rig_time_s"])
+        self.assertEqual(fit[0]["data_keys"]["isotropy_rig_time_s"]["units"], "s")
+
+
+    def test_refusals(self):
+        c = self.d.connect()
+        r = c.request("capture", plan="ds2", name="plain", material=ANISO, check="isotropy")
+        self.assertEqual(r["code"], "bad-value", r)
+        self.assertIn("rig 'default'", r["message"])
+        self.assertIn("rotation", r["message"])
+        r = c.request("capture", plan="ds2", name="plain", rig="rotating", check="planarity")
+        self.assertEqual(r["code"], "bad-value", r)
+        self.assertIn("'planarity'", r["message"])
+        r = c.request("capture", plan="ds2", name="plain", rig="rotating", check=1)
+        self.assertEqual(r["code"], "bad-type", r)
+        g = self.d.gonio("capture", "--plan", "ds2", "--name", "plain", "--check", "isotropy")
+        self.assertEqual(g.returncode, 2, g.stderr)
+        self.assertIn("rig 'default'", g.stderr)
+        # A material's parameters are key=value pairs of a few characters; a path is none.
+        for bad in ("analytic:aniso-ggx?ax=../../etc", "analytic:aniso-ggx?", "analytic:../x?a=1"):
+            r = c.request("capture", plan="ds2", name="plain", rig="rotating", material=bad)
+            self.assertEqual(r["code"], "bad-value", r)
+            self.assertIn("not a valid name", r["message"])
+        self.assertFalse(os.path.exists(os.path.join(self.d.root, "plain")))
+        # A capture without the check has none.
+        c.request("watch")
+        r = c.request("capture", plan="ds2", name="none", rig="rotating", material=ANISO)
+        self.assertEqual(r["class"], "OK", r)
+        stop = c.until_stop("none")[-1]
+        self.assertEqual(stop["checks"], {})
+
+
+class ChecksResumeTests(DaemonTest):
+    pace_s = 0.02  # slow enough to abort mid-way
+
+    def test_resume_keeps_the_check(self):
+        c = self.d.connect()
+        c.request("watch")
+        r = c.request("capture", plan="ds2", name="ab", rig="rotating", material=ANISO,
+                      check="isotropy")
+        self.assertEqual(r["class"], "OK", r)
+        while c.read()["class"] != "event":
+            pass
+        time.sleep(0.2)
+        self.assertEqual(c.request("abort")["class"], "OK")
+        stop = c.until_stop("ab")[-1]
+        self.assertEqual(stop["exit_status"], "abort")
+        self.assertNotIn("checks", stop)
+        r = c.request("resume", capture_id="ab")
+        self.assertEqual(r["class"], "OK", r)
+        docs = c.until_stop("ab")
+        self.assertTrue(docs[0]["resume"])
+        self.assertEqual(docs[0]["check"], "isotropy")
+        self.assertEqual(docs[-1]["exit_status"], "success", docs[-1])
+        self.assertEqual(docs[-1]["checks"]["isotropy"]["verdict"], "anisotropic")
+
+
+if __name__ == "__main__":
+    unittest.main()
