@@ -265,6 +265,23 @@ static int eta_new(const struct capture_job *in, const struct capture_hooks *hoo
     return 0;
 }
 
+/* The ETA from the axes' present positions (the encoders, read once the
+ * devices are open, before the first move): a capture starts wherever
+ * the last one, or a bring-up command, left them. */
+static int eta_from_axes(capture_eta *eta, const struct capture_devices *dev,
+                         struct gonio_err *err)
+{
+    struct rig_axes at = {0, 0, 0};
+    int rc = drv_axis_position(dev->sample, &at.s, err);
+    if (rc == 0)
+        rc = drv_axis_position(dev->arm, &at.a, err);
+    if (rc == 0 && dev->azimuth)
+        rc = drv_axis_position(dev->azimuth, &at.az, err);
+    if (rc == 0)
+        capture_eta_start(eta, &at);
+    return rc;
+}
+
 /* One run of a job: the directory, the journal and what was measured. */
 struct run {
     capture_job *job;
@@ -428,18 +445,24 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
     int rc = eta_new(job, hooks, r->seq, all, r->n, &r->eta, err);
     if (rc < 0)
         return rc;
-    progress(hooks, job, r->eta, &r->fit, r->seq, r->n, r->already,
-             r->n > 0 ? all[r->n - 1].rig_time_s : 0);
-    if ((rc = replay_journal(r, err)) < 0 || r->converged || first < 0)
+    double rig_s = r->n > 0 ? all[r->n - 1].rig_time_s : 0;
+    /* The first report (a host's start document) waits for the axes'
+     * positions when there is a point to measure. */
+    if ((rc = replay_journal(r, err)) < 0 || r->converged || first < 0) {
+        progress(hooks, job, r->eta, &r->fit, r->seq, r->n, r->already, rig_s);
         return rc;
-
+    }
     struct capture_devices dev;
-    if ((rc = open_devices(r, &dev, err)) < 0) {
+    rc = open_devices(r, &dev, err);
+    if (rc == 0 && r->eta && (rc = eta_from_axes(r->eta, &dev, err)) < 0)
+        job->src->close(job->src->user, &dev);
+    progress(hooks, job, r->eta, &r->fit, r->seq, r->n, r->already, rig_s);
+    if (rc < 0) {
         r->aborted = rc == -ECANCELED; /* the host stopped it while the devices opened */
         return r->aborted ? 0 : rc;
     }
     struct rig_clock clk;
-    rig_clock_start(&clk, dev.clock, r->n > 0 ? all[r->n - 1].rig_time_s : 0);
+    rig_clock_start(&clk, dev.clock, rig_s);
     for (long k = first; k >= 0 && rc == 0;) {
         enum capture_control c = hooks->control ? hooks->control(hooks->user) : CAPTURE_GO;
         if (c == CAPTURE_ABORT) {

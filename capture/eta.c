@@ -18,8 +18,14 @@ struct capture_eta {
     size_t n;
     plan_meter *meter;
     double *move;          /* point i's move from its predecessor in the order */
+    long *order;           /* the order the capture measures the points in */
     unsigned char *done;
-    /* The record observed last (-1: none; the axes at home, rig time 0),
+    /* Where the axes were before the first record (home until
+     * capture_eta_start says otherwise), or before the next one when
+     * from_start (a resumed capture's axes, read again). */
+    struct rig_axes start;
+    int from_start;
+    /* The record observed last (-1: none; the axes at start, rig time 0),
      * and the overheads summed over n_obs records. */
     long last;
     double last_rig_s;
@@ -29,8 +35,6 @@ struct capture_eta {
     size_t stride;     /* meter and recount every stride-th record */
     double left;       /* the points left, as last counted and counted off */
 };
-
-static const struct rig_axes home = {0, 0, 0};
 
 static double count_left(const capture_eta *e);
 
@@ -42,10 +46,11 @@ capture_eta *capture_eta_new(const struct plan *plan, const struct rig_profile *
     capture_eta *e = calloc(1, sizeof *e);
     if (e) {
         e->move = malloc((n ? n : 1) * sizeof *e->move);
+        e->order = malloc((n ? n : 1) * sizeof *e->order);
         e->done = calloc(n ? n : 1, 1);
         e->meter = plan_meter_new(plan, rig, expected_s, err);
     }
-    if (!e || !e->move || !e->done || !e->meter) {
+    if (!e || !e->move || !e->order || !e->done || !e->meter) {
         capture_eta_free(e);
         gonio_err_set(err, ENOMEM, "ETA: out of memory");
         return NULL;
@@ -54,9 +59,10 @@ capture_eta *capture_eta_new(const struct plan *plan, const struct rig_profile *
     e->rig = rig;
     e->n = n;
     e->last = -1;
-    const struct rig_axes *at = &home;
+    const struct rig_axes *at = &e->start;
     for (size_t k = 0; k < n; k++) {
         size_t i = order ? (size_t)order[k] : k;
+        e->order[k] = (long)i;
         const struct rig_axes *to = &plan_point(plan, i)->ax;
         e->move[i] = rig_move_time_backlash(rig, at, to);
         at = to;
@@ -72,6 +78,7 @@ void capture_eta_free(capture_eta *e)
         return;
     plan_meter_free(e->meter);
     free(e->move);
+    free(e->order);
     free(e->done);
     free(e);
 }
@@ -81,8 +88,10 @@ void capture_eta_observe(capture_eta *e, const struct journal_sample *s)
     if (s->point < 0 || (size_t)s->point >= e->n)
         return;
     size_t i = (size_t)s->point;
-    const struct rig_axes *from = e->last >= 0 ? &plan_point(e->plan, (size_t)e->last)->ax
-                                                : &home;
+    const struct rig_axes *from = e->last >= 0 && !e->from_start
+                                      ? &plan_point(e->plan, (size_t)e->last)->ax
+                                      : &e->start;
+    e->from_start = 0;
     double move = rig_move_time_backlash(e->rig, from, &plan_point(e->plan, i)->ax);
     double share = e->done[i] ? 0
                               : e->move[i] + capture_eta_overhead(e) +
@@ -98,6 +107,22 @@ void capture_eta_observe(capture_eta *e, const struct journal_sample *s)
     } else {
         e->left = e->left > share ? e->left - share : 0;
     }
+}
+
+void capture_eta_start(capture_eta *e, const struct rig_axes *at)
+{
+    e->start = *at;
+    e->from_start = 1;
+    for (size_t k = 0; k < e->n; k++) {
+        size_t i = (size_t)e->order[k];
+        if (!e->done[i]) {
+            e->move[i] = rig_move_time_backlash(e->rig, at, &plan_point(e->plan, i)->ax);
+            break;
+        }
+    }
+    e->left = count_left(e);
+    if (e->n_obs == 0)
+        e->estimate_s = e->left;
 }
 
 double capture_eta_estimate(const capture_eta *e)

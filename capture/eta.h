@@ -36,9 +36,17 @@ void capture_eta_free(capture_eta *e);
 
 /* A journalled sample, in record order: its point is done, its integration
  * is metered, and its overhead counted (from the record observed before
- * it; the first from home at rig time 0). A point outside the plan is
- * ignored. */
+ * it, or from capture_eta_start's position when that came between them;
+ * the first from home, or that position, at rig time 0). A point outside
+ * the plan is ignored. */
 void capture_eta_observe(capture_eta *e, const struct journal_sample *s);
+
+/* The axes are at `at` (sample, arm, azimuth) before the next point in the
+ * order: its move counts from there, not from the point before it (home
+ * for the first). A capture calls it once the devices are open, as a
+ * capture starts wherever the last one left the axes; before any
+ * observation the estimate counts from there too. */
+void capture_eta_start(capture_eta *e, const struct rig_axes *at);
 
 /* The rig time of the points not observed yet. */
 double capture_eta_left(const capture_eta *e);

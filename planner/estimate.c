@@ -1,13 +1,15 @@
 /* The rig-time estimate of a plan in its order (planner/planner.h): the
- * moves from home through the points with their backlash legs, the settle
+ * moves from home (or the axes' present positions) through the points with their backlash legs, the settle
  * and the integration of each point. */
 #include "planner/plan_private.h"
 
-void plan_estimate_points(const struct plan *plan, const struct rig_profile *rig,
-                          plan_integration_fn integration, void *user, double *point_s,
-                          struct plan_estimate *est)
+void plan_estimate_from(const struct plan *plan, const struct rig_profile *rig,
+                        const struct rig_axes *start, plan_integration_fn integration,
+                        void *user, double *point_s, struct plan_estimate *est)
 {
     struct rig_axes at = {0, 0, 0};
+    if (start)
+        at = *start;
     est->move_s = est->integration_s = 0;
     for (size_t i = 0; i < plan->n; i++) {
         const struct plan_point *pt = plan_point(plan, i);
@@ -21,6 +23,13 @@ void plan_estimate_points(const struct plan *plan, const struct rig_profile *rig
     }
     est->settle_s = (double)plan->n * rig->settle_s;
     est->total_s = est->move_s + est->settle_s + est->integration_s;
+}
+
+void plan_estimate_points(const struct plan *plan, const struct rig_profile *rig,
+                          plan_integration_fn integration, void *user, double *point_s,
+                          struct plan_estimate *est)
+{
+    plan_estimate_from(plan, rig, NULL, integration, user, point_s, est);
 }
 
 void plan_estimate(const struct plan *plan, const struct rig_profile *rig,

@@ -106,6 +106,13 @@ void plan_estimate_points(const struct plan *plan, const struct rig_profile *rig
                           plan_integration_fn integration, void *user, double *point_s,
                           struct plan_estimate *est);
 
+/* plan_estimate_points with the first move from start (the axes' present
+ * positions: sample, arm, azimuth) instead of home; start NULL: home. A
+ * capture starts wherever the last one left the axes. */
+void plan_estimate_from(const struct plan *plan, const struct rig_profile *rig,
+                        const struct rig_axes *start, plan_integration_fn integration,
+                        void *user, double *point_s, struct plan_estimate *est);
+
 /* A lower bound on the move time of any order from home: up to 2000
  * points the Held-Karp 1-tree bound (subgradient ascent on node penalties,
  * about 0.6 s for DS1), else the weight of a minimum spanning tree over home

@@ -159,6 +159,69 @@ static void test_order_counts_the_moves(void **state)
     free(order);
 }
 
+/* A capture that starts where the last one left the axes (the arm at
+ * 140 deg): the planner's estimate from that start and the ETA told the
+ * axes' positions count the first move from there, each by hand here;
+ * the first record measured from there shows no overhead beyond the
+ * settle; a resumed capture's next point counts its move from the axes,
+ * not from the last record's point, and its record is metered so. */
+static void test_start_position(void **state)
+{
+    (void)state;
+    struct gonio_err err = {0};
+    const struct rig_axes start = {-20, 140, 0};
+    size_t n = plan_count(ds3);
+    double want = 0;
+    const struct rig_axes *at = &start;
+    for (size_t i = 0; i < n; i++) {
+        const struct rig_axes *to = &plan_point(ds3, i)->ax;
+        want += rig_move_time_backlash(&rig, at, to) + rig.settle_s + rig.integration_s;
+        at = to;
+    }
+    struct plan_estimate home_est, est;
+    plan_estimate(ds3, &rig, &home_est);
+    plan_estimate_from(ds3, &rig, &start, NULL, NULL, NULL, &est);
+    assert_close(est.total_s, want, 1e-9);
+    assert_true(est.total_s > home_est.total_s + 1); /* the arm's long way back */
+    plan_estimate_from(ds3, &rig, NULL, NULL, NULL, NULL, &est);
+    assert_close(est.total_s, home_est.total_s, 0); /* no start: home */
+
+    capture_eta *e = capture_eta_new(ds3, &rig, NULL, NULL, &err);
+    assert_non_null(e);
+    capture_eta_start(e, &start);
+    assert_close(capture_eta_estimate(e), want, 1e-9);
+    assert_close(capture_eta_left(e), want, 1e-9);
+    double end = rig_move_time_backlash(&rig, &start, &plan_point(ds3, 0)->ax) + rig.settle_s +
+                 rig.integration_s;
+    struct journal_sample s0;
+    memset(&s0, 0, sizeof s0);
+    s0.point = 0;
+    s0.integration_s = rig.integration_s;
+    s0.rig_time_s = end;
+    capture_eta_observe(e, &s0);
+    assert_close(capture_eta_overhead(e), rig.settle_s, 1e-9);
+    assert_close(capture_eta_left(e), want - end, 1e-9);
+
+    /* resumed with the axes moved away since: point 1 from there */
+    const struct rig_axes away = {10, -60, 0};
+    double before = capture_eta_left(e);
+    capture_eta_start(e, &away);
+    const struct rig_axes *p0 = &plan_point(ds3, 0)->ax, *p1 = &plan_point(ds3, 1)->ax;
+    assert_close(capture_eta_left(e),
+                 before - rig_move_time_backlash(&rig, p0, p1) +
+                     rig_move_time_backlash(&rig, &away, p1),
+                 1e-9);
+    assert_close(capture_eta_estimate(e), want, 1e-9); /* the whole capture's, as it began */
+    /* point 1 measured from there shows no overhead beyond the settle */
+    struct journal_sample s1 = s0;
+    s1.point = 1;
+    s1.rig_time_s = end + rig_move_time_backlash(&rig, &away, p1) + rig.settle_s +
+                    rig.integration_s;
+    capture_eta_observe(e, &s1);
+    assert_close(capture_eta_overhead(e), rig.settle_s, 1e-9);
+    capture_eta_free(e);
+}
+
 /* A plan of 12,322 points meters every seventh record and counts the points
  * off in between: from the first metered record on the ETA stays within
  * 1 % of what is left, and it ends at 0 with every point done. Each point
@@ -212,6 +275,7 @@ int main(void)
         cmocka_unit_test(test_nearest_integration_and_overhead),
         cmocka_unit_test(test_order_counts_the_moves),
         cmocka_unit_test(test_large_plan_counts_off),
+        cmocka_unit_test(test_start_position),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
