@@ -132,6 +132,18 @@ json_t *conn_request(struct conn *c, json_t *req)
 /* Print a daemon error as given. 0 if d is no error; 2 if goniod refused
  * what was asked as bad input (bad-value: an unknown plan, a name outside
  * the capture root...), 1 for any other error or a missing reply. */
+int conn_watch(struct conn *c, const char *sock)
+{
+    if (conn_open(c, socket_path(sock)) < 0)
+        return 1;
+    json_t *rep = conn_request(c, json_pack("{s:s}", "cmd", "watch"));
+    int rc = reply_failed(rep);
+    json_decref(rep);
+    if (rc)
+        conn_close(c);
+    return rc;
+}
+
 int reply_failed(json_t *d)
 {
     if (!d)
@@ -560,13 +572,10 @@ int cmd_watch(int argc, char **argv)
         return 2;
     }
     struct conn c;
-    if (conn_open(&c, socket_path(sock)) < 0)
-        return 1;
-    json_t *rep = conn_request(&c, json_pack("{s:s}", "cmd", "watch"));
-    int rc = reply_failed(rep);
-    json_decref(rep);
-    if (!rc)
-        rc = follow(&c, NULL, quiet);
+    int rc = conn_watch(&c, sock);
+    if (rc)
+        return rc;
+    rc = follow(&c, NULL, quiet);
     conn_close(&c);
     return rc;
 }

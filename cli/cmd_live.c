@@ -74,12 +74,10 @@ static int parse_listen(const char *text, char *host, size_t n, unsigned *port)
 static int follow(live_state *st, const char *sock)
 {
     struct conn c;
-    if (conn_open(&c, socket_path(sock)) < 0)
-        return 1;
-    json_t *rep = conn_request(&c, json_pack("{s:s}", "cmd", "watch"));
-    int rc = reply_failed(rep);
-    json_decref(rep);
-    while (!rc && !stopping) {
+    int rc = conn_watch(&c, sock);
+    if (rc)
+        return rc;
+    while (!stopping) {
         json_t *d = conn_read(&c);
         if (!d) {
             if (!stopping) {

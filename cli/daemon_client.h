@@ -31,5 +31,9 @@ json_t *conn_request(struct conn *c, json_t *req);
 /* Print a daemon error as given: 0 if d is no error, 2 for a refusal of
  * bad input (bad-value), 1 for any other error or no reply. */
 int reply_failed(json_t *d);
+/* Connect to goniod at sock (socket_path's rules) and subscribe to its
+ * stream: 0 with c open, else the exit code (reply_failed's, 1 when it
+ * could not connect) with c closed. */
+int conn_watch(struct conn *c, const char *sock);
 
 #endif
