@@ -13,19 +13,17 @@ Run from ctest (the environment names the binaries), or by hand:
   GONIO_BIN=build/bin GONIO_TESTS_BIN=build/tests GONIO_CONFIG=configs \\
       python3 tests/daemon/test_request_files.py -v
 """
-import json
 import os
 import pwd
 import shutil
 import subprocess
 import sys
 import tempfile
-import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from goniod_harness import (GONIO, GONIOD, START_S, Conn, Daemon, DaemonTest, journal_points,  # noqa: E402
-                            load_json, wrap)
+from goniod_harness import (GONIO, GONIOD, START_S, Daemon, DaemonTest,  # noqa: E402
+                            journal_points, load_json, wrap)
 
 # An operator's plan: pairs no shipped plan has, in the order written, and
 # no name of its own (the plan's name is the file's).
@@ -55,7 +53,8 @@ axes:
 
 
 def pairs_of(capdir):
-    return [[p["theta_i"], p["theta_r"]] for p in load_json(os.path.join(capdir, "plan.json"))["pairs"]]
+    pairs = load_json(os.path.join(capdir, "plan.json"))["pairs"]
+    return [[p["theta_i"], p["theta_r"]] for p in pairs]
 
 
 def operator_folder(test):
