@@ -117,8 +117,8 @@ class ClientTests(Checks, DaemonTest):
             self.check_capture(pairs, cap)
             self.assertEqual([[p["theta_i"], p["theta_r"]] for p in cap.plan["pairs"]],
                              [[20, -30], [20, 30], [45, 10], [45, 60]])
-            self.assertEqual(cap.request["plan"],
-                             os.path.join(os.path.realpath(cap.dir), "request", "plan", "mine.yaml"))
+            kept = os.path.join(os.path.realpath(cap.dir), "request", "plan", "mine.yaml")
+            self.assertEqual(cap.request["plan"], kept)
             with self.assertRaises(gonio.GonioError) as e:
                 client.capture("ds4", plan_text=5)
             self.assertEqual(e.exception.code, "bad-type")
