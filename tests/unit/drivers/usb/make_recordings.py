@@ -79,11 +79,14 @@ def query(lines, slot, text):
     lines.append(urb(0x81, info_reply(slot, text), depth=1))
 
 
-def spectrum(lines, raw, packets=None, sync=b"\x69", status_at=None):
-    """Integration, status, request, 8 packets and the sync byte. packets:
-    override the packet list; status_at: (index, errno) ends that packet
-    with a kernel URB status instead (e.g. -108 ESHUTDOWN when unplugged)."""
-    lines.append(urb(0x01, b"\x02" + struct.pack("<I", INTEGRATION_US)))
+def spectrum(lines, raw, packets=None, sync=b"\x69", status_at=None, integration=True):
+    """Integration (unless integration is False: the driver sends it only
+    when it changes), status, request, 8 packets and the sync byte.
+    packets: override the packet list; status_at: (index, errno) ends that
+    packet with a kernel URB status instead (e.g. -108 ESHUTDOWN when
+    unplugged)."""
+    if integration:
+        lines.append(urb(0x01, b"\x02" + struct.pack("<I", INTEGRATION_US)))
     lines.append(urb(0x01, b"\xfe"))
     lines.append(urb(0x81, status_reply(INTEGRATION_US), depth=1))
     lines.append(urb(0x01, b"\x09"))
