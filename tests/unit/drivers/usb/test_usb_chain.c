@@ -2,8 +2,8 @@
  * USB traffic (umockdev, as test_usb_spectrometer.c): dark frames and a
  * reference standard read through the driver are written as calibrations,
  * selected and loaded as a capture does (capture/calibration.h), and the
- * sample's readings reduced (radiometry/reduce.h) come back as the
- * sample's BRDF.
+ * sample's readings, journalled as counts, reduced record by record as the
+ * capture reduces them (cal_reduce_sample) come back as the sample's BRDF.
  *
  * make_chain.py wrote chain.ioctl: a simulated USB2000+ (lamp curve times a
  * far from flat response, an electric baseline, a per-pixel dark pattern
@@ -20,6 +20,7 @@
 
 #include "capture/calibration.h"
 #include "drivers/drv_usbspec.h"
+#include "journal/journal.h"
 #include "radiometry/reduce.h"
 
 #define DEVNODE "/dev/bus/usb/001/005"
@@ -83,8 +84,8 @@ static void read_frame(drv_detector *det, enum cal_kind kind, double ti, double 
 
 /* Calibrate (dark, reference) and capture through the driver; write the
  * calibrations to ROOT as gonio calibrate does and select and load them as
- * a capture does; the sample's raw readings in raw[]. */
-static void measure(struct cal_loaded *cl, struct rad_raw *raw)
+ * a capture does; the sample's readings as the capture journals counts. */
+static void measure(struct cal_loaded *cl, struct journal_sample *js)
 {
     UMockdevTestbed *tb = testbed("chain.ioctl");
     struct drv_usbspec_cfg cfg;
@@ -106,11 +107,13 @@ static void measure(struct cal_loaded *cl, struct rad_raw *raw)
     for (int g = 0; g < N_GEOM; g++) {
         struct cal_frame f;
         read_frame(det, CAL_REFERENCE, GEOM[g][0], GEOM[g][1], &f);
-        raw[g] = (struct rad_raw){.theta_i = GEOM[g][0], .theta_r = GEOM[g][1],
-                                  .integration_s = f.integration_s, .gain_state = f.gain_state,
-                                  .full_scale = f.full_scale, .nonlinearity = f.nonlinearity,
-                                  .monitor = f.monitor};
-        memcpy(raw[g].counts, f.counts, sizeof raw[g].counts);
+        journal_sample_clear(&js[g]);
+        js[g].point = g;
+        js[g].counts = 1;
+        memcpy(js[g].raw, f.counts, sizeof js[g].raw);
+        js[g].integration_s = f.integration_s;
+        js[g].gain_state = f.gain_state;
+        js[g].monitor = f.monitor;
     }
     drv_detector_free(det);
     g_object_unref(tb);
@@ -131,7 +134,7 @@ static void measure(struct cal_loaded *cl, struct rad_raw *raw)
         cal_write(dir, &rm, ref, N_GEOM * REPEATS, &err) < 0)
         fail_msg("write: %s", err.msg);
     struct cal_need need = {.rig = "default", .detector = "usb-spectrometer",
-                            .integration_s = raw[0].integration_s, .gain_state = 0, .now = now};
+                            .integration_s = js[0].integration_s, .gain_state = 0, .now = now};
     struct cal_meta chosen;
     if (cal_select(dir, NULL, &need, &chosen, &err) < 0)
         fail_msg("select: %s", err.msg);
@@ -144,21 +147,32 @@ static void test_calibrated_capture_recovers_the_brdf(void **state)
 {
     (void)state;
     struct cal_loaded cl;
-    struct rad_raw raw[N_GEOM];
-    measure(&cl, raw);
+    struct journal_sample js[N_GEOM];
+    measure(&cl, js);
+    struct plan_point pts[N_GEOM];
+    memset(pts, 0, sizeof pts);
+    for (int g = 0; g < N_GEOM; g++)
+        pts[g].theta_i = GEOM[g][0], pts[g].theta_r = GEOM[g][1];
+    const struct journal_plan jp = {.points = pts, .count = N_GEOM};
     struct rad_value v[N_GEOM];
     struct gonio_err err = {0};
-    if (rad_reduce(&cl.cal, raw, N_GEOM, v, &err) < 0)
-        fail_msg("reduce: %s", err.msg);
+    for (int g = 0; g < N_GEOM; g++) { /* each with the records before it, as measured */
+        if (cal_reduce_sample(&cl, &jp, js, (size_t)g, &js[g], &v[g], &err) < 0)
+            fail_msg("reduce: %s", err.msg);
+        for (int c = 0; c < 3; c++) { /* the record carries what the budget says */
+            assert_close(js[g].rgb[c], v[g].brdf[c], 0);
+            assert_close(js[g].u[c], v[g].u[c], 0);
+        }
+    }
     double rel[3 * N_GEOM];
     int n = 0;
     for (int g = 0; g < N_GEOM; g++)
         for (int c = 0; c < 3; c++) {
             double want = truth(c, GEOM[g][0], GEOM[g][1]);
-            double e = v[g].brdf[c] / want - 1;
+            double e = js[g].rgb[c] / want - 1;
             fprintf(stderr, "  (%2g, %3g) %c: %.5f 1/sr, true %.5f (%+.3f %%), u %.3f %%, "
                             "SNR %.0f\n", GEOM[g][0], GEOM[g][1], "RGB"[c], v[g].brdf[c],
-                    want, 100 * e, 100 * v[g].u[c] / v[g].brdf[c], v[g].snr[c]);
+                    want, 100 * e, 100 * js[g].u[c] / js[g].rgb[c], v[g].snr[c]);
             assert_true(v[g].u[c] > 0 && isfinite(v[g].u[c]));
             if (v[g].snr[c] >= 100)
                 rel[n++] = fabs(e);
