@@ -23,7 +23,7 @@ N_DARK = 8
 REPEATS = 3
 # (theta_i, theta_r) on the standard's nodes below, theta_r signed (+ on
 # the mirror side), in the order the reference and the capture visit them.
-GEOMETRIES = [(0, 30), (0, 60), (30, -30), (30, 0), (30, 30), (60, 60)]
+GEOMETRIES = [(0, 30), (0, 60), (30, -60), (30, 0), (30, 30), (60, 60)]
 RHO = 0.99                       # the standard: flat, as chain-standard.yaml says
 INCIDENCE = [0, 30, 60]
 VIEW = [-60, -30, 0, 30, 60]

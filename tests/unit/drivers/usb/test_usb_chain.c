@@ -29,7 +29,8 @@
 #define N_GEOM 6
 #define PI 3.14159265358979323846
 
-static const double GEOM[N_GEOM][2] = {{0, 30}, {0, 60}, {30, -30}, {30, 0}, {30, 30}, {60, 60}};
+static const double GEOM[N_GEOM][2] = {{0, 30},  {0, 60},  {30, -60},
+                                       {30, 0}, {30, 30}, {60, 60}};
 static const double KD[3] = {0.40, 0.35, 0.30}; /* R, G, B bins */
 static const double KS = 0.30, LOBE_DEG = 12.0;
 
@@ -82,12 +83,8 @@ static void read_frame(drv_detector *det, enum cal_kind kind, double ti, double 
     memcpy(f->counts, r.rgb, sizeof f->counts);
 }
 
-/* Calibrate (dark, reference) and capture through the driver; write the
- * calibrations to ROOT as gonio calibrate does and select and load them as
- * a capture does; the sample's readings as the capture journals counts. */
-static void measure(struct cal_loaded *cl, struct journal_sample *js)
+static drv_detector *open_detector(void)
 {
-    UMockdevTestbed *tb = testbed("chain.ioctl");
     struct drv_usbspec_cfg cfg;
     drv_usbspec_cfg_default(&cfg);
     cfg.timeout_s = 2.0;
@@ -98,12 +95,46 @@ static void measure(struct cal_loaded *cl, struct journal_sample *js)
     drv_detector *det = drv_detector_new_usbspec(s, &cfg, &err);
     if (!det)
         fail_msg("detector: %s", err.msg);
+    return det;
+}
+
+/* Dark frames and the standard through the driver, written to root as
+ * gonio calibrate writes them (rig "default", 0.1 s). */
+static void calibrate(drv_detector *det, const char *root)
+{
     struct cal_frame dark[N_DARK], ref[N_GEOM * REPEATS];
     for (int k = 0; k < N_DARK; k++)
         read_frame(det, CAL_DARK, NAN, NAN, &dark[k]);
     for (int g = 0; g < N_GEOM; g++)
         for (int k = 0; k < REPEATS; k++)
             read_frame(det, CAL_REFERENCE, GEOM[g][0], GEOM[g][1], &ref[g * REPEATS + k]);
+    struct gonio_err err = {0};
+    struct cal_meta dm = {.id = "dark-usb", .kind = CAL_DARK, .created = time(NULL),
+                          .valid_s = 3600, .rig = "default", .detector = "usb-spectrometer",
+                          .integrations = {0.1}, .n_integrations = 1,
+                          .in_position_deg = 0.05, .spot = RAD_SPOT_OVERFILLED};
+    struct cal_meta rm = dm;
+    snprintf(rm.id, sizeof rm.id, "reference-usb");
+    rm.kind = CAL_REFERENCE;
+    if ((size_t)snprintf(rm.standard, sizeof rm.standard, "%s/chain-standard.yaml",
+                         USB_DATA_DIR) >= sizeof rm.standard)
+        fail_msg("the source path %s is too long for a standard's path", USB_DATA_DIR);
+    snprintf(rm.dark, sizeof rm.dark, "dark-usb");
+    if (cal_write(root, &dm, dark, N_DARK, &err) < 0 ||
+        cal_write(root, &rm, ref, N_GEOM * REPEATS, &err) < 0)
+        fail_msg("write: %s", err.msg);
+}
+
+/* Calibrate and capture through the driver; select and load the
+ * calibration as a capture does; the sample's readings as the capture
+ * journals counts. */
+static void measure(struct cal_loaded *cl, struct journal_sample *js)
+{
+    UMockdevTestbed *tb = testbed("chain.ioctl");
+    drv_detector *det = open_detector();
+    char root[128];
+    snprintf(root, sizeof root, "%s/records", dir);
+    calibrate(det, root);
     for (int g = 0; g < N_GEOM; g++) {
         struct cal_frame f;
         read_frame(det, CAL_REFERENCE, GEOM[g][0], GEOM[g][1], &f);
@@ -117,29 +148,15 @@ static void measure(struct cal_loaded *cl, struct journal_sample *js)
     }
     drv_detector_free(det);
     g_object_unref(tb);
-
+    struct gonio_err err = {0};
     time_t now = time(NULL);
-    struct cal_meta dm = {.id = "dark-usb", .kind = CAL_DARK, .created = now, .valid_s = 3600,
-                          .rig = "default", .detector = "usb-spectrometer",
-                          .integrations = {0.1}, .n_integrations = 1,
-                          .in_position_deg = 0.05, .spot = RAD_SPOT_OVERFILLED};
-    struct cal_meta rm = dm;
-    snprintf(rm.id, sizeof rm.id, "reference-usb");
-    rm.kind = CAL_REFERENCE;
-    if ((size_t)snprintf(rm.standard, sizeof rm.standard, "%s/chain-standard.yaml",
-                         USB_DATA_DIR) >= sizeof rm.standard)
-        fail_msg("the source path %s is too long for a standard's path", USB_DATA_DIR);
-    snprintf(rm.dark, sizeof rm.dark, "dark-usb");
-    if (cal_write(dir, &dm, dark, N_DARK, &err) < 0 ||
-        cal_write(dir, &rm, ref, N_GEOM * REPEATS, &err) < 0)
-        fail_msg("write: %s", err.msg);
     struct cal_need need = {.rig = "default", .detector = "usb-spectrometer",
                             .integration_s = js[0].integration_s, .gain_state = 0, .now = now};
     struct cal_meta chosen;
-    if (cal_select(dir, NULL, &need, &chosen, &err) < 0)
+    if (cal_select(root, NULL, &need, &chosen, &err) < 0)
         fail_msg("select: %s", err.msg);
     assert_string_equal(chosen.id, "reference-usb");
-    if (cal_load(dir, chosen.id, cl, &err) < 0)
+    if (cal_load(root, chosen.id, cl, &err) < 0)
         fail_msg("load: %s", err.msg);
 }
 
