@@ -3,7 +3,9 @@
  * reference standard read through the driver are written as calibrations,
  * selected and loaded as a capture does (capture/calibration.h), and the
  * sample's readings, journalled as counts, reduced record by record as the
- * capture reduces them (cal_reduce_sample) come back as the sample's BRDF.
+ * capture reduces them (cal_reduce_sample) come back as the sample's BRDF;
+ * and the same again through the capture engine (capture_run with
+ * --calibrations, the simulator's axes and the replayed spectrometer).
  *
  * make_chain.py wrote chain.ioctl: a simulated USB2000+ (lamp curve times a
  * far from flat response, an electric baseline, a per-pixel dark pattern
@@ -18,7 +20,10 @@
 
 #include "tests/gonio_test.h"
 
+#include "brdf/material.h"
 #include "capture/calibration.h"
+#include "capture/capture.h"
+#include "drivers/drv_sim.h"
 #include "drivers/drv_usbspec.h"
 #include "journal/journal.h"
 #include "radiometry/reduce.h"
@@ -37,6 +42,18 @@ static const double KS = 0.30, LOBE_DEG = 12.0;
 static double truth(int c, double ti, double tr)
 {
     return KD[c] / PI + KS * exp(-((tr - ti) / LOBE_DEG) * ((tr - ti) / LOBE_DEG));
+}
+
+/* The median of v[n] (sorted in place, by insertion). */
+static double median_of(double *v, int n)
+{
+    for (int i = 1; i < n; i++)
+        for (int k = i; k > 0 && v[k] < v[k - 1]; k--) {
+            double t = v[k];
+            v[k] = v[k - 1];
+            v[k - 1] = t;
+        }
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 static char dir[64];
@@ -194,22 +211,120 @@ static void test_calibrated_capture_recovers_the_brdf(void **state)
             if (v[g].snr[c] >= 100)
                 rel[n++] = fabs(e);
         }
-    /* median, by insertion sort */
-    for (int i = 1; i < n; i++)
-        for (int k = i; k > 0 && rel[k] < rel[k - 1]; k--) {
-            double t = rel[k];
-            rel[k] = rel[k - 1];
-            rel[k - 1] = t;
-        }
-    double median = n % 2 ? rel[n / 2] : 0.5 * (rel[n / 2 - 1] + rel[n / 2]);
+    double median = median_of(rel, n);
     fprintf(stderr, "  median |measured/true - 1| over %d values at SNR >= 100: %.3f %%, "
-                    "largest %.3f %%\n", n, 100 * median, 100 * rel[n - 1]);
+                    "largest %.3f %%\n", n, 100 * median, 100 * rel[n - 1]); /* sorted */
     /* Every value here has SNR >= 380: one reading's counting noise is at
      * most 0.26 %, so a median over 18 far above 0.1 % is a bias (the
      * nonlinearity left in gives 0.36 %, the dark frame left out 12 %). */
     assert_true(n >= 3 * N_GEOM - 2);
     assert_true(median <= 0.001);
     cal_loaded_free(&cl);
+}
+
+/* ---- the same through the capture engine ------------------------------ */
+
+/* The rig: gonio's simulated axes and clock, the replayed spectrometer as
+ * its detector (the simulator's own detector is not used). */
+struct usb_rig {
+    drv_detector *det;
+    brdf_material *material; /* the simulated axes need one; nothing reads it */
+    sim_rig *sim;
+};
+
+static int open_rig(void *user, const struct rig_profile *rig, const char *out,
+                    struct capture_devices *d, struct gonio_err *err)
+{
+    (void)out;
+    struct usb_rig *u = user;
+    memset(d, 0, sizeof *d);
+    if (!(u->sim = sim_rig_new(rig, u->material, err)))
+        return -GONIO_EDEVICE;
+    d->sample = drv_axis_new_sim(u->sim, SIM_AXIS_SAMPLE);
+    d->arm = drv_axis_new_sim(u->sim, SIM_AXIS_ARM);
+    d->azimuth = drv_axis_new_sim(u->sim, SIM_AXIS_AZIMUTH);
+    d->clock = drv_clock_new_sim(u->sim);
+    d->detector = u->det;
+    return d->sample && d->arm && d->azimuth && d->clock ? 0 : -ENOMEM;
+}
+
+static void close_rig(void *user, struct capture_devices *d)
+{
+    struct usb_rig *u = user;
+    drv_axis_free(d->sample);
+    drv_axis_free(d->arm);
+    drv_axis_free(d->azimuth);
+    drv_clock_free(d->clock);
+    memset(d, 0, sizeof *d);
+    sim_rig_free(u->sim);
+    u->sim = NULL;
+}
+
+/* gonio capture with --calibrations: the calibration found by the rig and
+ * detector, each sample journalled as counts and reduced as it is
+ * measured; samples.csv holds the BRDF. */
+static void test_capture_engine_reduces_the_counts(void **state)
+{
+    (void)state;
+    char root[128], path[400], out[256];
+    snprintf(root, sizeof root, "%s/engine", dir);
+    UMockdevTestbed *tb = testbed("chain.ioctl");
+    struct usb_rig u = {.det = open_detector()};
+    calibrate(u.det, root);
+    /* the rig: integration 0.1 s, as calibrated and recorded, nothing to range */
+    snprintf(path, sizeof path, "%s/default.yaml", root);
+    gonio_test_write_text(path, "name: default\nout_of_plane: true\nblind_deg: 5\n"
+                                "settle_s: 0.3\nintegration:\n  fixed_s: 0.1\n"
+                                "  auto_min_s: 0.1\n  auto_max_s: 0.1\naxes:\n"
+                                "  sample:  {speed: 20, accel: 40, min: -90, max: 90}\n"
+                                "  arm:     {speed: 15, accel: 30, min: -170, max: 170}\n"
+                                "  azimuth: {speed: 30, accel: 60, min: -180, max: 180}\n");
+    char plan[256], text[512];
+    snprintf(plan, sizeof plan, "%s/usb6.yaml", root);
+    int len = snprintf(text, sizeof text, "name: usb6\norder: as-written\npairs:\n");
+    for (int g = 0; g < N_GEOM; g++)
+        len += snprintf(text + len, sizeof text - (size_t)len, "  - [%g, %g]\n", GEOM[g][0],
+                        GEOM[g][1]);
+    gonio_test_write_text(plan, text);
+    struct gonio_err err = {0};
+    u.material = brdf_material_open("builtin:gray-plastic", &err);
+    if (!u.material)
+        fail_msg("material: %s", err.msg);
+    snprintf(out, sizeof out, "%s/capture", root);
+    struct capture_rig src = {.open = open_rig, .close = close_rig, .profile = path,
+                              .driver = "modbus-tcp", .detector = "usb-spectrometer",
+                              .user = &u};
+    struct capture_config cfg = {.plan = plan, .calibrations = root, .out_dir = out,
+                                 .model = "abc", .quiet = 1, .measure_only = 1,
+                                 .prescan = CAPTURE_PRESCAN_OFF};
+    struct capture_summary sum;
+    if (capture_run(&cfg, &src, NULL, &sum, &err) < 0)
+        fail_msg("capture: %s", err.msg);
+    drv_detector_free(u.det);
+    brdf_material_free(u.material);
+    g_object_unref(tb);
+
+    struct journal_sample *js = NULL;
+    size_t n = 0;
+    snprintf(path, sizeof path, "%s/samples.csv", out);
+    if (journal_read(path, &js, &n, &err) < 0)
+        fail_msg("journal: %s", err.msg);
+    assert_int_equal(n, N_GEOM);
+    double rel[3 * N_GEOM];
+    for (size_t k = 0; k < n; k++) {
+        assert_true(js[k].counts);
+        int g = js[k].point;
+        for (int c = 0; c < 3; c++) {
+            double want = truth(c, GEOM[g][0], GEOM[g][1]);
+            rel[3 * k + (size_t)c] = fabs(js[k].rgb[c] / want - 1);
+            assert_true(js[k].u[c] > 0 && js[k].u[c] < 0.02 * want);
+        }
+    }
+    double median = median_of(rel, 3 * N_GEOM);
+    fprintf(stderr, "  capture engine: median |measured/true - 1| over %d values: %.3f %%\n",
+            3 * N_GEOM, 100 * median);
+    assert_true(median <= 0.001);
+    free(js);
 }
 
 int main(void)
@@ -222,6 +337,7 @@ int main(void)
     }
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_calibrated_capture_recovers_the_brdf),
+        cmocka_unit_test(test_capture_engine_reduces_the_counts),
     };
     return gonio_test_exit(cmocka_run_group_tests(tests, setup, teardown));
 }
