@@ -188,7 +188,7 @@ static void test_uncertainty_matches_replicate_spread(void **state)
 {
     (void)state;
     struct brdf_pair g[400];
-    struct fit_sample s0[400], s[400];
+    struct fit_sample s0[400] = {0}, s[400] = {0};
     size_t n = ds2_grid(g);
     synth(&truth, g, n, s0);
     gsl_rng *rng = gsl_rng_alloc(gsl_rng_mt19937);

@@ -95,7 +95,7 @@ static void test_even_grid(void **state)
 static void test_crowd_shares_its_point(void **state)
 {
     (void)state;
-    struct fit_sample s[GRID * GRID + CROWD];
+    struct fit_sample s[GRID * GRID + CROWD] = {0};
     double alone[GRID * GRID], w[GRID * GRID + CROWD];
     size_t n = grid_samples(s);
     assert_int_equal(fit_domain_weights(s, NULL, n, alone), 0);
@@ -120,7 +120,7 @@ static void test_crowd_shares_its_point(void **state)
 static void test_ties_and_order(void **state)
 {
     (void)state;
-    struct fit_sample s[GRID * GRID + 1], r[GRID * GRID + 1];
+    struct fit_sample s[GRID * GRID + 1] = {0}, r[GRID * GRID + 1] = {0};
     double w[GRID * GRID + 1], wr[GRID * GRID + 1], alone[GRID * GRID];
     size_t n = grid_samples(s);
     assert_int_equal(fit_domain_weights(s, NULL, n, alone), 0);
