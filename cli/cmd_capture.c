@@ -162,6 +162,7 @@ int cmd_capture(int argc, char **argv)
     struct capture_config cfg = {.model = "abc"};
     long long points;
     const char *scene = NULL;
+    struct gonio_err check_err = {0};
     int offline = 0, cal_named = 0, c;
     optind = 1;
     while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
@@ -197,12 +198,10 @@ int cmd_capture(int argc, char **argv)
                 return 2;
             break;
         case 'K':
-            if (strcmp(optarg, "isotropy")) {
-                fprintf(stderr, "gonio capture: --check '%s': the check is 'isotropy'\n",
-                        optarg);
+            if (capture_checks_parse("--check", optarg, &cfg.checks, &check_err) < 0) {
+                fprintf(stderr, "gonio capture: %s\n", check_err.msg);
                 return 2;
             }
-            cfg.check_isotropy = 1;
             break;
         case 'h': usage(stdout); return 0;
         default: usage(stderr); return 2;
@@ -292,5 +291,10 @@ int cmd_capture(int argc, char **argv)
                "capture's)\n",
                s.isotropy.verdict, s.isotropy.why, s.isotropy.pairs, s.isotropy.rig_time_s,
                s.rig_time_s > 0 ? 100.0 * s.isotropy.rig_time_s / s.rig_time_s : 0.0);
+    if (s.has_oop)
+        printf("  out-of-plane check: in-plane %s (%s; %zu pairs, %.0f s of rig time, %.1f%% "
+               "of the capture's)\n",
+               s.oop.verdict, s.oop.why, s.oop.pairs, s.oop.rig_time_s,
+               s.rig_time_s > 0 ? 100.0 * s.oop.rig_time_s / s.rig_time_s : 0.0);
     return 0;
 }
