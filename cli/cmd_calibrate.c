@@ -140,11 +140,16 @@ static int measure(const struct opts *o, enum cal_kind kind, struct cal_meta *m,
     }
     struct capture_devices dev;
     if (rc >= 0 && (rc = crig.open(crig.user, &prof, o->root, &dev, err)) >= 0) {
-        rc = kind == CAL_DARK
-                 ? cal_measure_dark(&dev, m->integrations, m->n_integrations, (int)o->frames,
-                                    frames, n, err)
-                 : cal_measure_reference(&dev, &prof, plan, (int)o->repeats, frames, n, err);
+        /* The in-process rig mounts its standard itself: nobody to ask. */
+        struct cal_run run = {.root = o->root, .meta = m, .rig = &prof, .plan = plan,
+                              .per_point = (int)(kind == CAL_DARK ? o->frames : o->repeats)};
+        struct cal_hooks hooks = {0};
+        int aborted = 0;
+        cal_new_id(o->root, kind, m->created, m->id, sizeof m->id);
+        rc = cal_run_measure(&dev, &run, &hooks, frames, n, &aborted, err);
         crig.close(crig.user, &dev);
+        if (rc < 0) /* nothing to resume offline: no directory left behind */
+            cal_discard(o->root, m->id);
     }
     /* The gain state the detector read at: what a capture must match. */
     if (rc >= 0 && *n > 0)
@@ -196,10 +201,8 @@ int cmd_calibrate(int argc, char **argv)
     int rc = gonio_mkdir_p(o.root, &err);
     if (rc >= 0)
         rc = measure(&o, kind, &m, &frames, &n, &err);
-    if (rc >= 0) {
-        cal_new_id(o.root, kind, m.created, m.id, sizeof m.id);
+    if (rc >= 0)
         rc = cal_write(o.root, &m, frames, n, &err);
-    }
     free(frames);
     if (rc < 0) {
         fprintf(stderr, "gonio calibrate: %s\n", err.msg[0] ? err.msg : gonio_strerror(rc));
