@@ -588,8 +588,8 @@ static void capture_usage(FILE *out)
             "                     [--stop all|converge] [--budget MINUTES]\n"
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
             "                     [--name ID] [--sample NAME] [--operator NAME] [--note TEXT]\n"
-            "                     [--uncalibrated] [--check isotropy] [--wait] [--quiet]\n"
-            "                     [--socket PATH]\n"
+            "                     [--uncalibrated] [--calibration ID|newest]\n"
+            "                     [--check isotropy] [--wait] [--quiet] [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). Files are relative to goniod's capture\n"
             "  root. --model: the final fit's model, any RGB model of 'gonio fit --help'\n"
@@ -601,6 +601,10 @@ static void capture_usage(FILE *out)
             "  setup.json, results.json, the start document, gonio list). --wait follows\n"
             "  the capture to its end, its progress on stderr (--quiet: none): exit 0\n"
             "  when it completes.\n"
+            "  --calibration ID|newest: reduce a counts detector's readings with reference\n"
+            "  calibration ID in goniod's calibration root (gonio calibrate), or the newest\n"
+            "  valid one for the rig and detector; refused (exit 2) before the first move\n"
+            "  when it is missing, expired or of another rig or detector.\n"
             "  --order adaptive, --budget, --stop-target: as 'gonio capture --offline --help'\n"
             "  says. --check isotropy: after the last point, the isotropy check on a rig\n"
             "  whose profile has a rotation axis (--rig rotating); its verdict is in the\n"
@@ -629,12 +633,13 @@ int cmd_capture_daemon(int argc, char **argv)
         {"prescan", required_argument, NULL, 'P'}, {"sample", required_argument, NULL, 'A'},
         {"operator", required_argument, NULL, 'O'}, {"note", required_argument, NULL, 'N'},
         {"uncalibrated", no_argument, NULL, 'U'}, {"check", required_argument, NULL, 'K'},
+        {"calibration", required_argument, NULL, 'C'},
         {NULL, 0, NULL, 0},
     };
     static const char *const keys[] = {"plan",  "scene",  "material", "rig",      "model",
                                        "order", "stop",   "name",     "truth",    "sample",
-                                       "operator", "note", "check"};
-    static const char letters[] = "psmrMoxntAONK";
+                                       "operator", "note", "check", "calibration"};
+    static const char letters[] = "psmrMoxntAONKC";
     enum { N_KEYS = sizeof keys / sizeof keys[0] };
     const char *vals[N_KEYS] = {0}, *sock = NULL;
     double budget = 0, target = 0;

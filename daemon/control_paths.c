@@ -185,6 +185,8 @@ int control_save_request(const struct worker_request *r, struct gonio_err *err)
                           r->stop_target, "prescan", r->prescan, "sample", r->sample,
                           "operator", r->operator_name, "note", r->note, "uncalibrated", r->uncalibrated,
                           "check", r->check_isotropy ? "isotropy" : "");
+    if (d && r->calibration[0])
+        json_object_set_new(d, "calibration", json_string(r->calibration));
     char *text = d ? control_json_text(d) : NULL;
     if (!text)
         return gonio_err_set(err, ENOMEM, "out of memory");
@@ -266,6 +268,12 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
     }
     r->uncalibrated = uncalibrated;
     r->check_isotropy = check[0] != 0;
+    const char *cal = json_string_value(json_object_get(d, "calibration"));
+    if (cal && !control_valid_id(cal)) {
+        json_decref(d);
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: calibration '%.60s' is no id", path, cal);
+    }
+    snprintf(r->calibration, sizeof r->calibration, "%s", cal ? cal : "");
     json_decref(d);
     return 0;
 }
