@@ -76,7 +76,9 @@ struct cal_run {
  * must act first (cover the detector of a rig without a shutter, mount the
  * standard), returns once they have, or CAPTURE_ABORT; NULL ask: nobody
  * to ask (the in-process simulated rig mounts its standard itself, and a
- * dark without a shutter is refused). on_frame follows each frame. */
+ * dark without a shutter is refused). on_frame follows each frame, and
+ * says first where the run stands (the journal's frames; rig time NAN when
+ * there are none). */
 struct cal_hooks {
     enum capture_control (*control)(void *user);
     enum capture_control (*ask)(void *user, const char *instruction);

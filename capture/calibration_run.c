@@ -167,6 +167,8 @@ int cal_run_measure(struct capture_devices *dev, const struct cal_run *run,
     if (rc == 0)
         rc = open_journal(run, path, &f, &fd, err);
     size_t total = cal_run_total(run);
+    if (rc == 0 && h->on_frame) /* where the run stands: the journal's frames */
+        h->on_frame(h->user, f.n, total, f.n ? f.v[f.n - 1].rig_time_s : NAN);
     if (rc == 0 && f.n < total)
         rc = prepare(dev, run, h, aborted, err);
     size_t moved_to = (size_t)-1;

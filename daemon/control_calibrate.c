@@ -51,9 +51,11 @@ static int from_request(control *c, json_t *req, struct worker_calibration *k,
                              "reference");
     if (plan && (rc = control_resolve_ref(c, "plan", plan, k->plan, sizeof k->plan, err)) < 0)
         return rc;
-    if ((rc = control_resolve_ref(c, "rig", rig ? rig : c->cfg->rig, k->rig, sizeof k->rig,
-                                  err)) < 0 ||
-        (rc = goniod_config_rig_check(c->cfg, k->rig, err)) < 0)
+    if (rig && (rc = control_resolve_ref(c, "rig", rig, k->rig, sizeof k->rig, err)) < 0)
+        return rc;
+    if (!rig) /* goniod's own, resolved as its config was loaded */
+        snprintf(k->rig, sizeof k->rig, "%s", c->cfg->rig);
+    if ((rc = goniod_config_rig_check(c->cfg, k->rig, err)) < 0)
         return rc;
     if ((rc = control_resolve_ref(c, "standard", standard ? standard : "spectralon-99",
                                   k->standard, sizeof k->standard, err)) < 0)

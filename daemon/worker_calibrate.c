@@ -120,7 +120,8 @@ static void on_frame(void *user, size_t done, size_t total, double rig_time_s)
     pthread_mutex_lock(&w->mu);
     w->done = done;
     w->total = total;
-    w->rig_time_s = rig_time_s;
+    if (isfinite(rig_time_s))
+        w->rig_time_s = rig_time_s;
     pthread_mutex_unlock(&w->mu);
 }
 
