@@ -320,9 +320,13 @@ static void show_capture(json_t *cap)
         progress_hms(left, t, sizeof t);
         snprintf(eta, sizeof eta, ", ETA %s", t);
     }
-    printf("capture %s: %s, %zu/%zu points, rig time %s%s%s\n",
-           json_string_value(json_object_get(cap, "capture_id")), state ? state : "?",
-           jsize(cap, "points_done"), jsize(cap, "points_total"), rig, est, eta);
+    /* a calibration (minor addition): its kind, and frames for points */
+    const char *kind = json_string_value(json_object_get(cap, "kind"));
+    int cal = kind && strcmp(kind, "capture") != 0;
+    printf("%s%s %s: %s, %zu/%zu %s, rig time %s%s%s\n", cal ? kind : "capture",
+           cal ? " calibration" : "", json_string_value(json_object_get(cap, "capture_id")),
+           state ? state : "?", jsize(cap, "points_done"), jsize(cap, "points_total"),
+           cal ? "frames" : "points", rig, est, eta);
     const char *msg = json_string_value(json_object_get(cap, "message"));
     if (msg)
         printf("  %s\n", msg);
@@ -373,13 +377,16 @@ static void show_newest(const char *sock, json_t *newest)
 static void show_status(json_t *rep, json_t *newest, const char *sock)
 {
     const char *state = json_string_value(json_object_get(rep, "state"));
+    const char *kind = json_string_value(json_object_get(json_object_get(rep, "capture"),
+                                                         "kind"));
+    int cal = kind && strcmp(kind, "capture") != 0;
     printf("goniod %s", state);
     if (strcmp(state, "idle"))
-        printf(": capture %s, %lld/%lld points, rig time %.1f s",
+        printf(": %s %s, %lld/%lld %s, rig time %.1f s", cal ? "calibration" : "capture",
                json_string_value(json_object_get(rep, "capture_id")),
                (long long)json_integer_value(json_object_get(rep, "points_done")),
                (long long)json_integer_value(json_object_get(rep, "points_total")),
-               jreal(rep, "rig_time_s"));
+               cal ? "frames" : "points", jreal(rep, "rig_time_s"));
     printf("\n");
     show_capture(json_object_get(rep, "capture"));
     json_t *fe = json_object_get(rep, "fit_error");

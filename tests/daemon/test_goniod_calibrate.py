@@ -234,6 +234,10 @@ class CalibrateTests(CalibrateRig):
             self.assertIn("rig 'lab' has no shutter: cover the detector",
                           st["capture"]["message"])
             self.assertEqual(st["points_done"], 0, "nothing read before the operator acted")
+            out = self.d.gonio("status").stdout
+            self.assertIn("goniod paused: calibration %s, 0/4 frames" % st["capture_id"], out)
+            self.assertIn("dark calibration %s: paused" % st["capture_id"], out)
+            self.assertIn("cover the detector (or turn the lamp off), then: gonio resume", out)
         d = self.calibrate("dark", "--frames", "4", operator=cover)
         self.assertEqual(d.returncode, 0, d.stderr)
         rows = frames(os.path.join(self.cal_root, d.stdout.strip(), "frames.csv"))
@@ -243,6 +247,34 @@ class CalibrateTests(CalibrateRig):
         self.assertGreater(min(float(x["g"]) for x in rows), 3000)
         st = self.status()
         self.assertEqual((st["state"], st["capture"]["state"]), ("idle", "complete"))
+
+    def test_on_goniods_simulated_rig(self):
+        """The sim driver mounts the standard itself for a reference (the
+        material standard:NAME), after the same pause."""
+        self.d = Daemon(self.folder, scene="lab-raw").start()
+        self.cal_root = os.path.join(self.folder, "calibrations")
+        _, ref_id = self.dark_and_reference()
+        # The standard as the offline calibration on the same scene reads it.
+        offline = os.path.join(self.folder, "offline")
+        for kind in (["dark"], ["reference", "--plan", "ds3", "--repeats", "2"]):
+            r = subprocess.run([GONIO, "calibrate", *kind, "--offline", "--scene", "lab-raw",
+                                "--out", offline], capture_output=True, text=True, timeout=60)
+            self.assertEqual(r.returncode, 0, r.stderr)
+        want = frames(os.path.join(offline, r.stdout.strip(), "frames.csv"))
+        got = frames(os.path.join(self.cal_root, ref_id, "frames.csv"))
+        self.assertEqual([(x["theta_i"], x["theta_r"]) for x in got],
+                         [(x["theta_i"], x["theta_r"]) for x in want])
+        for a, b in zip(got, want):
+            self.assertLess(abs(float(a["g"]) / float(b["g"]) - 1), 0.05, (a, b))
+        r = self.d.gonio("capture", "--plan", "ds3", "--name", "sim", "--calibration", ref_id,
+                         "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr + r.stdout)
+        capdir = os.path.join(self.d.root, "sim")
+        self.assertEqual(json.load(open(os.path.join(capdir, "setup.json")))["calibration"],
+                         ref_id)
+        rows = [x for x in frames(os.path.join(capdir, "samples.csv"))
+                if not int(x["flags"]) & 2]
+        self.assertTrue(rows and all(float(x["u_g"]) > 0 for x in rows))
 
     def test_bad_requests_refused_naming_the_field(self):
         self.start_daemon()
