@@ -529,8 +529,9 @@ int cmd_pause(int argc, char **argv)
 int cmd_resume(int argc, char **argv)
 {
     return simple(argc, argv, "resume", "[CAPTURE-ID] [--refit] ",
-                  "continue the paused capture, or (idle daemon) resume an interrupted or\n"
-                  "  aborted capture from its journal. A complete capture is refused (exit 2,\n"
+                  "continue the paused capture (or calibration, once the operator did what\n"
+                  "  goniod asked), or (idle daemon) resume an interrupted or aborted capture\n"
+                  "  or calibration from its journal. A complete capture is refused (exit 2,\n"
                   "  nothing changed) unless --refit: fit its samples again, rewrite results");
 }
 

@@ -228,6 +228,26 @@ class CalibrateTests(CalibrateRig):
     def test_operator_covers_a_detector_without_shutter(self):
         self.d = None
         self.start_daemon(rig_profile(self.folder, "lab", 0.25, shutter=False))
+        # Aborted while it waits on the operator: nothing read, the
+        # directory kept; gonio resume ID asks again.
+        c = self.d.connect()
+        c.request("watch")
+        r = c.request("calibrate", kind="dark", frames=4, name="dark-cut")
+        self.assertEqual(r["class"], "OK", r)
+        st = self.wait_state("paused", "asking to cover the detector")
+        self.assertEqual(st["capture_id"], "dark-cut")
+        r = self.d.gonio("abort")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("gonio resume dark-cut", r.stdout)
+        stop = c.until_stop("dark-cut")[-1]
+        self.assertEqual((stop["exit_status"], stop["reason"]), ("abort", "aborted"), stop)
+        self.assertEqual(stop["calibration"]["frames"], 0)
+        self.assertEqual(c.request("resume", capture_id="dark-cut")["class"], "OK")
+        self.wait_state("paused", "asking again")
+        self.assertEqual(c.request("resume")["class"], "OK")
+        stop = c.until_stop("dark-cut")[-1]
+        self.assertEqual(stop["exit_status"], "success", stop)
+        self.assertEqual(len(frames(os.path.join(self.cal_root, "dark-cut", "frames.csv"))), 4)
 
         def cover(st):
             self.assertEqual(st["capture"]["kind"], "dark")
