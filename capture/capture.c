@@ -344,7 +344,7 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
     if (rc == 0)
         rc = measure_point(dev, clk, hooks, &job->rig, pt, 0.0, (int)k, &r->ranging, &s, err);
     if (rc == 0) /* a source that could not say so before: its first reading tells */
-        rc = capture_calibration_check(&job->cfg, s.counts, err);
+        rc = capture_calibration_check(&job->cfg, s.counts, job->src->detector, err);
     if (rc < 0) {
         stop_axes(dev); /* a failed point leaves no axis moving */
         if (err) { /* name the point the operator will find in plan.json */
