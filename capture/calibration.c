@@ -10,14 +10,10 @@
 #include <sys/stat.h>
 
 #include "brdf/angles.h"
+#include "capture/calibration_private.h"
 #include "drivers/drivers.h"
 
-struct frames {
-    struct cal_frame *v;
-    size_t n, cap;
-};
-
-static int push(struct frames *f, const struct cal_frame *fr, struct gonio_err *err)
+int cal_frames_push(struct cal_frames *f, const struct cal_frame *fr, struct gonio_err *err)
 {
     if (f->n == f->cap) {
         size_t cap = f->cap ? 2 * f->cap : 64;
@@ -30,8 +26,8 @@ static int push(struct frames *f, const struct cal_frame *fr, struct gonio_err *
     return 0;
 }
 
-static int read_frame(struct capture_devices *dev, enum cal_kind kind, double ti, double tr,
-                      double integration_s, struct frames *f, struct gonio_err *err)
+int cal_read_frame(struct capture_devices *dev, enum cal_kind kind, double ti, double tr,
+                   double integration_s, struct cal_frames *f, struct gonio_err *err)
 {
     struct drv_reading r;
     int rc = drv_detector_acquire(dev->detector, integration_s, &r, err);
@@ -46,17 +42,17 @@ static int read_frame(struct capture_devices *dev, enum cal_kind kind, double ti
                            .nonlinearity = r.nonlinearity,
                            .rig_time_s = drv_clock_now(dev->clock)};
     memcpy(fr.counts, r.rgb, sizeof fr.counts);
-    return push(f, &fr, err);
+    return cal_frames_push(f, &fr, err);
 }
 
 int cal_measure_dark(struct capture_devices *dev, const double *integrations, size_t n_int,
                      int frames, struct cal_frame **out, size_t *n_out, struct gonio_err *err)
 {
-    struct frames f = {0};
+    struct cal_frames f = {0};
     int rc = drv_detector_shutter(dev->detector, 1, err);
     for (size_t i = 0; rc >= 0 && i < n_int; i++)
         for (int k = 0; rc >= 0 && k < frames; k++)
-            rc = read_frame(dev, CAL_DARK, NAN, NAN, integrations[i], &f, err);
+            rc = cal_read_frame(dev, CAL_DARK, NAN, NAN, integrations[i], &f, err);
     struct gonio_err ignored;
     if (rc != -ENOTSUP)
         drv_detector_shutter(dev->detector, 0, rc < 0 ? &ignored : err);
@@ -68,9 +64,8 @@ int cal_measure_dark(struct capture_devices *dev, const double *integrations, si
     return 0;
 }
 
-/* Move the axes to a point and let them settle. */
-static int go_to(struct capture_devices *dev, const struct rig_profile *rig,
-                 const struct plan_point *pt, struct gonio_err *err)
+int cal_go_to(struct capture_devices *dev, const struct rig_profile *rig,
+              const struct plan_point *pt, struct gonio_err *err)
 {
     drv_axis *axes[3] = {dev->sample, dev->arm, dev->azimuth};
     const double to[3] = {pt->ax.s, pt->ax.a, pt->ax.az};
@@ -90,7 +85,7 @@ int cal_measure_reference(struct capture_devices *dev, const struct rig_profile 
                           const struct plan *plan, int repeats, struct cal_frame **out,
                           size_t *n_out, struct gonio_err *err)
 {
-    struct frames f = {0};
+    struct cal_frames f = {0};
     int rc = drv_detector_shutter(dev->detector, 0, err);
     if (rc == -ENOTSUP)
         rc = 0; /* no shutter: the light path is open */
@@ -101,11 +96,11 @@ int cal_measure_reference(struct capture_devices *dev, const struct rig_profile 
                                "plane only (point %zu is out of plane)", p + 1);
             break;
         }
-        rc = go_to(dev, rig, pt, err);
+        rc = cal_go_to(dev, rig, pt, err);
         /* The plan's angles: the sample's point is matched by them, and
          * where the axes rested inside their band is the angle term. */
         for (int k = 0; rc >= 0 && k < repeats; k++)
-            rc = read_frame(dev, CAL_REFERENCE, pt->theta_i, pt->theta_r, rig->integration_s,
+            rc = cal_read_frame(dev, CAL_REFERENCE, pt->theta_i, pt->theta_r, rig->integration_s,
                             &f, err);
     }
     if (rc < 0) {

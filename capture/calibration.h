@@ -62,6 +62,47 @@ int cal_measure_reference(struct capture_devices *dev, const struct rig_profile 
                           const struct plan *plan, int repeats, struct cal_frame **out,
                           size_t *n_out, struct gonio_err *err);
 
+/* A calibration run, journalled: what cal_run measures into ROOT/ID. */
+struct cal_run {
+    const char *root;
+    const struct cal_meta *meta; /* id, kind, integrations (dark), standard */
+    const struct rig_profile *rig; /* its shutter, settle and integration */
+    const struct plan *plan;     /* reference: the points */
+    int per_point;               /* dark: frames per integration; reference: repeats */
+};
+
+/* How a host steers a run and hears from it. control is asked before each
+ * frame (CAPTURE_ABORT stops it, the journal kept); ask, when the operator
+ * must act first (cover the detector of a rig without a shutter, mount the
+ * standard), returns once they have, or CAPTURE_ABORT; NULL ask: nobody
+ * to ask (the in-process simulated rig mounts its standard itself, and a
+ * dark without a shutter is refused). on_frame follows each frame, and
+ * says first where the run stands (the journal's frames; rig time NAN when
+ * there are none). */
+struct cal_hooks {
+    enum capture_control (*control)(void *user);
+    enum capture_control (*ask)(void *user, const char *instruction);
+    void (*on_frame)(void *user, size_t done, size_t total, double rig_time_s);
+    void *user;
+};
+
+/* The frames a run takes. */
+size_t cal_run_total(const struct cal_run *run);
+
+/* Measure a run into ROOT/ID: each frame appended to ROOT/ID/journal.csv
+ * and synced before the next, so that a run killed at any moment keeps
+ * every frame it read; a journal already there is continued (its frames
+ * checked against the run: kind, geometry, integration), a torn last line
+ * dropped. *frames (malloc'd) is every frame, the journal's first;
+ * *aborted is 1 when control stopped it early. The caller writes the
+ * calibration (cal_write) once the run is whole. */
+int cal_run_measure(struct capture_devices *dev, const struct cal_run *run,
+                    const struct cal_hooks *h, struct cal_frame **frames, size_t *n,
+                    int *aborted, struct gonio_err *err);
+
+/* Remove ROOT/ID's journal and the directory, when it holds nothing else. */
+void cal_discard(const char *root, const char *id);
+
 /* A new id, "dark-20261207T053500Z" (with a suffix when ROOT has it). */
 void cal_new_id(const char *root, enum cal_kind kind, time_t now, char *id, size_t size);
 

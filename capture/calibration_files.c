@@ -12,10 +12,19 @@
 
 #include <jansson.h>
 
+#include "capture/calibration_private.h"
 #include "common/paths.h"
 
-#define FRAMES_HEADER "kind,theta_i,theta_r,integration_s,gain_state,r,g,b,monitor," \
-                      "full_scale,nonlinearity,rig_time_s\n"
+#define FRAMES_HEADER CAL_FRAMES_HEADER
+
+int cal_frame_line(const struct cal_frame *f, char *buf, size_t size)
+{
+    return snprintf(buf, size,
+                    "%s,%.17g,%.17g,%.17g,%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n",
+                    f->kind == CAL_DARK ? "dark" : "reference", f->theta_i, f->theta_r,
+                    f->integration_s, f->gain_state, f->counts[0], f->counts[1], f->counts[2],
+                    f->monitor, f->full_scale, f->nonlinearity, f->rig_time_s);
+}
 
 static int write_frames(const char *path, const struct cal_frame *f, size_t n,
                         struct gonio_err *err)
@@ -26,20 +35,14 @@ static int write_frames(const char *path, const struct cal_frame *f, size_t n,
         return gonio_err_set(err, ENOMEM, "%s: out of memory", path);
     len += (size_t)snprintf(buf, cap, FRAMES_HEADER);
     for (size_t k = 0; k < n; k++)
-        len += (size_t)snprintf(buf + len, cap - len,
-                                "%s,%.17g,%.17g,%.17g,%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,"
-                                "%.17g\n", f[k].kind == CAL_DARK ? "dark" : "reference",
-                                f[k].theta_i, f[k].theta_r, f[k].integration_s,
-                                f[k].gain_state, f[k].counts[0], f[k].counts[1],
-                                f[k].counts[2], f[k].monitor, f[k].full_scale,
-                                f[k].nonlinearity, f[k].rig_time_s);
+        len += (size_t)cal_frame_line(&f[k], buf + len, cap - len);
     int rc = gonio_write_file_atomic(path, buf, len, err);
     free(buf);
     return rc;
 }
 
-static int read_frames(const char *path, struct cal_frame **out, size_t *n,
-                       struct gonio_err *err)
+int cal_frames_read(const char *path, struct cal_frame **out, size_t *n,
+                    struct gonio_err *err)
 {
     FILE *fp = fopen(path, "r");
     if (!fp)
@@ -175,7 +178,7 @@ int cal_read(const char *root, const char *id, struct cal_meta *meta, struct cal
     if (rc < 0 || !frames)
         return rc;
     snprintf(path, sizeof path, "%s/%s/frames.csv", root, id);
-    return read_frames(path, frames, n, err);
+    return cal_frames_read(path, frames, n, err);
 }
 
 /* Why a calibration cannot serve the capture, in err; 0 when it can. */

@@ -1,6 +1,7 @@
-/* gonio calibrate dark|reference: a calibration measured on the in-process
- * simulated rig and written as ROOT/ID (capture/calibration.h,
- * docs/radiometry.md "Calibrations"). */
+/* gonio calibrate dark|reference: a calibration measured on goniod's rig
+ * (cmd_calibrate_daemon.c), or with --offline on the in-process simulated
+ * rig, and written as ROOT/ID (capture/calibration.h, docs/radiometry.md
+ * "Calibrations"). */
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
@@ -8,6 +9,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+
+#include <jansson.h>
 
 #include "capture/calibration.h"
 #include "cli/commands.h"
@@ -17,7 +20,8 @@
 static void usage(FILE *out)
 {
     fprintf(out,
-            "usage: gonio calibrate dark --offline --scene NAME|FILE --out ROOT [--rig NAME|FILE]\n"
+            "usage: gonio calibrate dark|reference [--name ID] [--socket PATH] [options below]\n"
+            "       gonio calibrate dark --offline --scene NAME|FILE --out ROOT [--rig NAME|FILE]\n"
             "                       [--integration SECONDS]... [--frames N] [--valid MINUTES]\n"
             "       gonio calibrate reference --offline --scene NAME|FILE --plan NAME|FILE\n"
             "                       --out ROOT [--standard NAME|FILE] [--repeats N] [--dark ID]\n"
@@ -31,14 +35,23 @@ static void usage(FILE *out)
             "  minutes by default. Writes ROOT/ID (calibration.json, frames.csv) and prints\n"
             "  the id, by which a capture names it. --spot: how the detector\n"
             "  sees the lit spot, for a reference interpolated between its geometries\n"
-            "  (default overfilled: the simulated rig's signal goes with cos theta_i).\n");
+            "  (default overfilled: the simulated rig's signal goes with cos theta_i).\n"
+            "  Without --offline goniod measures it on its rig into its calibration root\n"
+            "  (--scene and --out are the offline rig's; one --integration at most),\n"
+            "  where a capture names it (gonio capture --calibration ID|newest): a rig\n"
+            "  without a shutter, and every reference, pause for the operator (cover the\n"
+            "  detector, mount the standard), who continues with gonio resume; it prints\n"
+            "  what goniod asks on stderr and the id on stdout once complete. A run\n"
+            "  stopped early (abort, goniod killed) keeps its frames: gonio resume ID.\n");
 }
 
 struct opts {
-    const char *scene, *rig, *root, *plan, *standard, *dark;
+    const char *scene, *rig, *root, *plan, *standard, *dark, *name, *sock;
+    int standard_given;
     double integrations[CAL_MAX_INTEGRATIONS];
     size_t n_int;
     long frames, repeats;
+    int frames_given, repeats_given;
     double valid_min;
     int offline;
     int underfilled;
@@ -53,7 +66,8 @@ static int parse(int argc, char **argv, struct opts *o)
         {"dark", required_argument, NULL, 'D'}, {"integration", required_argument, NULL, 'i'},
         {"frames", required_argument, NULL, 'f'}, {"repeats", required_argument, NULL, 'n'},
         {"valid", required_argument, NULL, 'v'}, {"help", no_argument, NULL, 'h'},
-        {"spot", required_argument, NULL, 'F'},
+        {"spot", required_argument, NULL, 'F'}, {"name", required_argument, NULL, 'N'},
+        {"socket", required_argument, NULL, 'K'},
         {NULL, 0, NULL, 0},
     };
     int c;
@@ -77,7 +91,9 @@ static int parse(int argc, char **argv, struct opts *o)
         case 'r': o->rig = optarg; break;
         case 'd': o->root = optarg; break;
         case 'p': o->plan = optarg; break;
-        case 'S': o->standard = optarg; break;
+        case 'S': o->standard = optarg, o->standard_given = 1; break;
+        case 'N': o->name = optarg; break;
+        case 'K': o->sock = optarg; break;
         case 'D': o->dark = optarg; break;
         case 'i':
             if (o->n_int + 1 >= CAL_MAX_INTEGRATIONS) {
@@ -87,8 +103,8 @@ static int parse(int argc, char **argv, struct opts *o)
             }
             o->integrations[o->n_int++] = x;
             break;
-        case 'f': o->frames = (long)x; break;
-        case 'n': o->repeats = (long)x; break;
+        case 'f': o->frames = (long)x, o->frames_given = 1; break;
+        case 'n': o->repeats = (long)x, o->repeats_given = 1; break;
         case 'v': o->valid_min = x; break;
         case 'F':
             if (strcmp(optarg, "overfilled") != 0 && strcmp(optarg, "underfilled") != 0) {
@@ -140,11 +156,16 @@ static int measure(const struct opts *o, enum cal_kind kind, struct cal_meta *m,
     }
     struct capture_devices dev;
     if (rc >= 0 && (rc = crig.open(crig.user, &prof, o->root, &dev, err)) >= 0) {
-        rc = kind == CAL_DARK
-                 ? cal_measure_dark(&dev, m->integrations, m->n_integrations, (int)o->frames,
-                                    frames, n, err)
-                 : cal_measure_reference(&dev, &prof, plan, (int)o->repeats, frames, n, err);
+        /* The in-process rig mounts its standard itself: nobody to ask. */
+        struct cal_run run = {.root = o->root, .meta = m, .rig = &prof, .plan = plan,
+                              .per_point = (int)(kind == CAL_DARK ? o->frames : o->repeats)};
+        struct cal_hooks hooks = {0};
+        int aborted = 0;
+        cal_new_id(o->root, kind, m->created, m->id, sizeof m->id);
+        rc = cal_run_measure(&dev, &run, &hooks, frames, n, &aborted, err);
         crig.close(crig.user, &dev);
+        if (rc < 0) /* nothing to resume offline: no directory left behind */
+            cal_discard(o->root, m->id);
     }
     /* The gain state the detector read at: what a capture must match. */
     if (rc >= 0 && *n > 0)
@@ -152,6 +173,41 @@ static int measure(const struct opts *o, enum cal_kind kind, struct cal_meta *m,
     plan_free(plan);
     sim_source_free(src);
     return rc;
+}
+
+/* The request goniod takes (docs/protocol.md, "calibrate"): the options
+ * given, goniod's defaults for the rest. */
+static int through_goniod(const struct opts *o, enum cal_kind kind, const char *what)
+{
+    if (o->scene || o->root || o->n_int > 1) {
+        fprintf(stderr, "gonio calibrate: %s: goniod calibrates its own rig into its "
+                        "calibration root (--scene and --out are --offline's, and it takes "
+                        "one --integration)\n", o->scene ? "--scene" : o->root ? "--out"
+                                                                             : "--integration");
+        return 2;
+    }
+    if (kind == CAL_REFERENCE && !o->plan) {
+        fprintf(stderr, "gonio calibrate: a reference needs --plan\n");
+        return 2;
+    }
+    json_t *req = json_pack("{s:s, s:s}", "cmd", "calibrate", "kind", what);
+    const char *keys[] = {"plan", "rig", "standard", "dark", "name"};
+    const char *vals[] = {o->plan, o->rig, o->standard_given ? o->standard : NULL, o->dark,
+                          o->name};
+    for (int k = 0; k < 5; k++)
+        if (vals[k])
+            json_object_set_new(req, keys[k], json_string(vals[k]));
+    if (o->underfilled)
+        json_object_set_new(req, "spot", json_string("underfilled"));
+    if (o->frames_given)
+        json_object_set_new(req, "frames", json_integer(o->frames));
+    if (o->repeats_given)
+        json_object_set_new(req, "repeats", json_integer(o->repeats));
+    if (o->n_int)
+        json_object_set_new(req, "integration", json_real(o->integrations[0]));
+    if (o->valid_min > 0)
+        json_object_set_new(req, "valid", json_real(o->valid_min));
+    return cmd_calibrate_goniod(req, o->sock);
 }
 
 int cmd_calibrate(int argc, char **argv)
@@ -170,15 +226,16 @@ int cmd_calibrate(int argc, char **argv)
     int prc = parse(argc - 1, argv + 1, &o);
     if (prc)
         return prc > 0 ? 0 : 2;
-    if (optind != argc - 1 || !o.scene || !o.root || (kind == CAL_REFERENCE && !o.plan)) {
-        fprintf(stderr, "gonio calibrate: --scene and --out are required (reference: and "
-                        "--plan)\n");
-        usage(stderr);
+    if (optind != argc - 1) {
+        fprintf(stderr, "gonio calibrate: unexpected argument '%s'\n", argv[optind + 1]);
         return 2;
     }
-    if (!o.offline) {
-        fprintf(stderr, "gonio calibrate: only --offline calibrations (the in-process "
-                        "simulated rig) exist in this build\n");
+    if (!o.offline)
+        return through_goniod(&o, kind, argv[1]);
+    if (!o.scene || !o.root || (kind == CAL_REFERENCE && !o.plan)) {
+        fprintf(stderr, "gonio calibrate: --offline needs --scene and --out (reference: and "
+                        "--plan)\n");
+        usage(stderr);
         return 2;
     }
     if (o.repeats < 2 && kind == CAL_REFERENCE) {
@@ -196,10 +253,8 @@ int cmd_calibrate(int argc, char **argv)
     int rc = gonio_mkdir_p(o.root, &err);
     if (rc >= 0)
         rc = measure(&o, kind, &m, &frames, &n, &err);
-    if (rc >= 0) {
-        cal_new_id(o.root, kind, m.created, m.id, sizeof m.id);
+    if (rc >= 0)
         rc = cal_write(o.root, &m, frames, n, &err);
-    }
     free(frames);
     if (rc < 0) {
         fprintf(stderr, "gonio calibrate: %s\n", err.msg[0] ? err.msg : gonio_strerror(rc));

@@ -326,9 +326,13 @@ static void show_capture(json_t *cap)
         progress_hms(left, t, sizeof t);
         snprintf(eta, sizeof eta, ", ETA %s", t);
     }
-    printf("capture %s: %s, %zu/%zu points, rig time %s%s%s\n",
-           json_string_value(json_object_get(cap, "capture_id")), state ? state : "?",
-           jsize(cap, "points_done"), jsize(cap, "points_total"), rig, est, eta);
+    /* a calibration (minor addition): its kind, and frames for points */
+    const char *kind = json_string_value(json_object_get(cap, "kind"));
+    int cal = kind && strcmp(kind, "capture") != 0;
+    printf("%s%s %s: %s, %zu/%zu %s, rig time %s%s%s\n", cal ? kind : "capture",
+           cal ? " calibration" : "", json_string_value(json_object_get(cap, "capture_id")),
+           state ? state : "?", jsize(cap, "points_done"), jsize(cap, "points_total"),
+           cal ? "frames" : "points", rig, est, eta);
     const char *msg = json_string_value(json_object_get(cap, "message"));
     if (msg)
         printf("  %s\n", msg);
@@ -379,13 +383,16 @@ static void show_newest(const char *sock, json_t *newest)
 static void show_status(json_t *rep, json_t *newest, const char *sock)
 {
     const char *state = json_string_value(json_object_get(rep, "state"));
+    const char *kind = json_string_value(json_object_get(json_object_get(rep, "capture"),
+                                                         "kind"));
+    int cal = kind && strcmp(kind, "capture") != 0;
     printf("goniod %s", state);
     if (strcmp(state, "idle"))
-        printf(": capture %s, %lld/%lld points, rig time %.1f s",
+        printf(": %s %s, %lld/%lld %s, rig time %.1f s", cal ? "calibration" : "capture",
                json_string_value(json_object_get(rep, "capture_id")),
                (long long)json_integer_value(json_object_get(rep, "points_done")),
                (long long)json_integer_value(json_object_get(rep, "points_total")),
-               jreal(rep, "rig_time_s"));
+               cal ? "frames" : "points", jreal(rep, "rig_time_s"));
     printf("\n");
     show_capture(json_object_get(rep, "capture"));
     json_t *fe = json_object_get(rep, "fit_error");
@@ -528,8 +535,9 @@ int cmd_pause(int argc, char **argv)
 int cmd_resume(int argc, char **argv)
 {
     return simple(argc, argv, "resume", "[CAPTURE-ID] [--refit] ",
-                  "continue the paused capture, or (idle daemon) resume an interrupted or\n"
-                  "  aborted capture from its journal. A complete capture is refused (exit 2,\n"
+                  "continue the paused capture (or calibration, once the operator did what\n"
+                  "  goniod asked), or (idle daemon) resume an interrupted or aborted capture\n"
+                  "  or calibration from its journal. A complete capture is refused (exit 2,\n"
                   "  nothing changed) unless --refit: fit its samples again, rewrite results");
 }
 
@@ -594,8 +602,8 @@ static void capture_usage(FILE *out)
             "                     [--stop all|converge] [--budget MINUTES]\n"
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
             "                     [--name ID] [--sample NAME] [--operator NAME] [--note TEXT]\n"
-            "                     [--uncalibrated] [--check CHECK[,CHECK]] [--wait] [--quiet]\n"
-            "                     [--socket PATH]\n"
+            "                     [--uncalibrated] [--calibration ID|newest]\n"
+            "                     [--check CHECK[,CHECK]] [--wait] [--quiet] [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). A --plan or --rig FILE is read here and\n"
             "  sent with the request (at most 16384 bytes); goniod keeps a copy in the\n"
@@ -609,6 +617,10 @@ static void capture_usage(FILE *out)
             "  with the capture (request.json, setup.json, results.json, the start\n"
             "  document, gonio list). --wait follows the capture to its end, its progress\n"
             "  on stderr (--quiet: none): exit 0 when it completes.\n"
+            "  --calibration ID|newest: reduce a counts detector's readings with reference\n"
+            "  calibration ID in goniod's calibration root (gonio calibrate), or the newest\n"
+            "  valid one for the rig and detector; refused (exit 2) before the first move\n"
+            "  when it is missing, expired or of another rig or detector.\n"
             "  --order adaptive, --budget, --stop-target: as 'gonio capture --offline --help'\n"
             "  says. --check isotropy: after the last point, the isotropy check on a rig\n"
             "  whose profile has a rotation axis (--rig rotating); its verdict is in the\n"
@@ -639,12 +651,13 @@ int cmd_capture_daemon(int argc, char **argv)
         {"prescan", required_argument, NULL, 'P'}, {"sample", required_argument, NULL, 'A'},
         {"operator", required_argument, NULL, 'O'}, {"note", required_argument, NULL, 'N'},
         {"uncalibrated", no_argument, NULL, 'U'}, {"check", required_argument, NULL, 'K'},
+        {"calibration", required_argument, NULL, 'C'},
         {NULL, 0, NULL, 0},
     };
     static const char *const keys[] = {"plan",  "scene",  "material", "rig",      "model",
                                        "order", "stop",   "name",     "truth",    "sample",
-                                       "operator", "note", "check"};
-    static const char letters[] = "psmrMoxntAONK";
+                                       "operator", "note", "check", "calibration"};
+    static const char letters[] = "psmrMoxntAONKC";
     enum { N_KEYS = sizeof keys / sizeof keys[0] };
     const char *vals[N_KEYS] = {0}, *sock = NULL;
     double budget = 0, target = 0;

@@ -17,6 +17,10 @@ int cmd_journal(int argc, char **argv);
 int cmd_live(int argc, char **argv);
 int cmd_calibrate(int argc, char **argv);
 int cmd_recalibrate(int argc, char **argv);
+/* gonio calibrate's request (a calibrate document, stolen) run on goniod
+ * at sock (NULL: the default): its exit status. */
+struct json_t;
+int cmd_calibrate_goniod(struct json_t *req, const char *sock);
 
 /* cmd_daemon.c: the commands that talk to goniod. cmd_capture_any runs
  * cmd_capture for --offline and cmd_capture_daemon otherwise. */

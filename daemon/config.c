@@ -298,7 +298,7 @@ int goniod_config_rig_check(const struct goniod_config *cfg, const char *rig_ref
 int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio_err *err)
 {
     static const char *const keys[] = {"rig",    "driver",       "capture_root",
-                                       "socket", "assess_nodes", NULL};
+                                       "socket", "assess_nodes", "calibration_root", NULL};
     memset(cfg, 0, sizeof *cfg);
     snprintf(cfg->path, sizeof cfg->path, "%s", path);
     snprintf(cfg->rig, sizeof cfg->rig, "default");
@@ -330,6 +330,8 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
         (rc = copy_ref(d, root, "rig", cfg->rig, sizeof cfg->rig, err)) < 0 ||
         (rc = copy_path(d, root, "capture_root", CFG_REQUIRED, cfg->capture_root,
                         sizeof cfg->capture_root, err)) < 0 ||
+        (rc = copy_path(d, root, "calibration_root", CFG_OPTIONAL, cfg->calibration_root,
+                        sizeof cfg->calibration_root, err)) < 0 ||
         (rc = load_socket(d, root, cfg, err)) < 0 ||
         (rc = cfg_int(d, root, "assess_nodes", CFG_OPTIONAL, 0, 900000, &cfg->assess_nodes,
                       err)) < 0 ||
@@ -337,6 +339,12 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
         (rc = cfg_enum(d, drv, "kind", CFG_REQUIRED, driver_names, &kind, err)) < 0)
         goto out;
     cfg->driver = (enum goniod_driver)kind;
+    if (!cfg->calibration_root[0]) { /* beside the capture root */
+        const char *slash = strrchr(cfg->capture_root, '/');
+        int len = slash ? (int)(slash - cfg->capture_root) : 0;
+        snprintf(cfg->calibration_root, sizeof cfg->calibration_root, "%.*s%scalibrations",
+                 len, cfg->capture_root, slash ? "/" : "");
+    }
     rc = cfg->driver == GONIOD_DRIVER_SIM ? load_sim(d, drv, cfg, err)
                                           : load_modbus(d, drv, cfg, err);
     if (rc < 0)
@@ -427,6 +435,8 @@ void goniod_config_print(FILE *out, const struct goniod_config *c)
     }
     fputs("capture_root: ", out);
     put_str(out, c->capture_root);
+    fputs("\ncalibration_root: ", out);
+    put_str(out, c->calibration_root);
     fputs("\nsocket:\n  path: ", out);
     put_str(out, c->socket_path);
     fputc('\n', out);

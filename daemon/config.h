@@ -51,6 +51,9 @@ struct goniod_config {
     int retries; /* attempts after the first for a request that failed */
     /* files and socket */
     char capture_root[1024];
+    /* gonio calibrate's directories (calibration_root; default: beside
+     * the capture root, DIR/calibrations for DIR/captures) */
+    char calibration_root[1024];
     char socket_path[108];   /* sizeof sockaddr_un.sun_path */
     char socket_group[64];   /* "" keeps the daemon's group */
     int max_clients;

@@ -179,6 +179,11 @@ static int capture_inputs(control *c, json_t *req, const struct control_sent *se
     r->budget_min = json_number_value(json_object_get(req, "budget"));
     r->stop_target = json_number_value(json_object_get(req, "stop_target"));
     r->uncalibrated = json_is_true(json_object_get(req, "uncalibrated"));
+    const char *cal = jstr(req, "calibration");
+    if (cal && (!control_valid_id(cal) || strlen(cal) >= sizeof r->calibration))
+        return gonio_err_set(err, GONIO_EUSAGE, "calibration '%.60s': a calibration id (gonio "
+                             "calibrate printed it) or newest", cal);
+    snprintf(r->calibration, sizeof r->calibration, "%s", cal ? cal : "");
     json_t *prescan = json_object_get(req, "prescan");
     if (prescan && (rc = capture_prescan_option("prescan", json_integer_value(prescan),
                                                 &r->prescan, err)) < 0)
@@ -259,7 +264,8 @@ static json_t *capture_doc(const struct worker_status *st)
 {
     if (!st->has_capture)
         return json_null();
-    return json_pack("{s:s, s:s, s:o, s:I, s:I, s:o, s:o, s:o}", "capture_id", st->cap_id,
+    return json_pack("{s:s, s:s, s:s, s:o, s:I, s:I, s:o, s:o, s:o}", "capture_id", st->cap_id,
+                     "kind", st->cap_kind,
                      "state", st->cap_state, "message",
                      st->cap_message[0] ? json_string(st->cap_message) : json_null(),
                      "points_done", (json_int_t)st->cap_done, "points_total",
@@ -367,6 +373,9 @@ static int cmd_resume(control *c, struct control_client *cl, json_t *req, json_t
     memset(&r, 0, sizeof r);
     snprintf(r.id, sizeof r.id, "%s", id);
     snprintf(r.dir, sizeof r.dir, "%s/%s", c->cfg->capture_root, id);
+    struct stat cb;
+    if (lstat(r.dir, &cb) != 0 && control_is_calibration(c, id))
+        return control_resume_calibration(c, id, reply, code, err);
     /* lstat: a capture directory that is a symbolic link is no capture,
      * and neither is one holding a link goniod would write through. */
     struct stat sb;
@@ -456,6 +465,13 @@ static int cmd_shutdown(control *c, struct control_client *cl, json_t *req, json
     return 0;
 }
 
+static int cmd_calibrate(control *c, struct control_client *cl, json_t *req, json_t *reply,
+                         const char **code, struct gonio_err *err)
+{
+    (void)cl;
+    return control_cmd_calibrate(c, req, reply, code, err);
+}
+
 /* bring-up: control_bringup.c */
 #define BRINGUP_CMD(fn, op)                                                                  \
     static int fn(control *c, struct control_client *cl, json_t *req, json_t *reply,        \
@@ -484,6 +500,7 @@ static const struct command commands[CONTROL_CMD_COUNT] = {
     [CONTROL_CMD_WHERE] = {cmd_where, NEED_IDLE},
     [CONTROL_CMD_LIMITS] = {cmd_limits, NEED_IDLE},
     [CONTROL_CMD_LIST] = {cmd_list, NEED_ANY},
+    [CONTROL_CMD_CALIBRATE] = {cmd_calibrate, NEED_IDLE},
 };
 
 int control_handle_line(control *c, struct control_client *cl, const char *line, size_t len)

@@ -186,6 +186,8 @@ int control_save_request(const struct worker_request *r, struct gonio_err *err)
                           r->stop_target, "prescan", r->prescan, "sample", r->sample,
                           "operator", r->operator_name, "note", r->note, "uncalibrated", r->uncalibrated,
                           "check", capture_checks_text(r->checks, checks, sizeof checks));
+    if (d && r->calibration[0])
+        json_object_set_new(d, "calibration", json_string(r->calibration));
     char *text = d ? control_json_text(d) : NULL;
     if (!text)
         return gonio_err_set(err, ENOMEM, "out of memory");
@@ -267,6 +269,12 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
         snprintf(meta_out[k], meta_size[k], "%s", v ? v : "");
     }
     r->uncalibrated = uncalibrated;
+    const char *cal = json_string_value(json_object_get(d, "calibration"));
+    if (cal && !control_valid_id(cal)) {
+        json_decref(d);
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: calibration '%.60s' is no id", path, cal);
+    }
+    snprintf(r->calibration, sizeof r->calibration, "%s", cal ? cal : "");
     json_decref(d);
     return 0;
 }

@@ -153,6 +153,20 @@ int control_cmd_bringup(control *c, enum bringup_op op, json_t *req, const char 
  * asked for it if it is still there. */
 void control_bringup_reply(control *c, const struct worker_msg_bringup *m);
 
+/* ---- control_calibrate.c ---------------------------------------------- */
+
+/* The calibrate command: checked, its directory made in the calibration
+ * root, its run handed to the worker; reply gets capture_id, dir and
+ * calibration (the kind). */
+int control_cmd_calibrate(control *c, json_t *req, json_t *reply, const char **code,
+                          struct gonio_err *err);
+/* Whether id is a calibration goniod started (its record in the
+ * calibration root). */
+int control_is_calibration(const control *c, const char *id);
+/* resume ID of a calibration that did not finish: its journal continued. */
+int control_resume_calibration(control *c, const char *id, json_t *reply, const char **code,
+                               struct gonio_err *err);
+
 /* ---- control_paths.c -------------------------------------------------- */
 
 /* A capture id: one path component of 1..100 safe characters, not starting

@@ -182,6 +182,13 @@ static json_t *stop_doc(const struct worker_msg_stop *m)
         json_object_set_new(d, "message", msg ? msg : json_string("(not UTF-8)"));
         return d;
     }
+    if (m->calibration[0]) { /* a calibration's: what it measured */
+        json_object_set_new(d, "calibration", json_pack("{s:s, s:I, s:o}", "kind",
+                                                        m->calibration, "frames",
+                                                        (json_int_t)s->samples, "rig_time_s",
+                                                        control_json_number(s->rig_time_s)));
+        return d;
+    }
     json_object_set_new(d, "samples", json_integer((json_int_t)s->samples));
     json_object_set_new(d, "rig_time_s", control_json_number(s->rig_time_s));
     json_object_set_new(d, "paused_s", control_json_number(s->paused_s));
@@ -235,9 +242,12 @@ void control_broadcast_state(control *c)
     worker_get_status(c->w, &st);
     if (st.state == WORKER_IDLE)
         return;
-    char *text = control_json_text(
-        json_pack("{s:s, s:s, s:s}", "class", "state", "capture_id", st.id, "state",
-                  st.state == WORKER_PAUSED ? "paused" : "running"));
+    json_t *doc = json_pack("{s:s, s:s, s:s}", "class", "state", "capture_id", st.id, "state",
+                            st.state == WORKER_PAUSED ? "paused" : "running");
+    /* a calibration waiting on the operator says for what */
+    if (doc && st.state == WORKER_PAUSED && st.cap_message[0])
+        json_object_set_new(doc, "message", json_string(st.cap_message));
+    char *text = control_json_text(doc);
     if (text)
         control_broadcast(c, text);
     free(text);
@@ -266,6 +276,8 @@ void control_dispatch(control *c, struct worker_msg *msgs)
             control_events_sample(c, (const struct worker_msg_sample *)m);
         } else if (m->kind == WORKER_MSG_BRINGUP) {
             control_bringup_reply(c, (const struct worker_msg_bringup *)m);
+        } else if (m->kind == WORKER_MSG_PROMPT) {
+            control_broadcast_state(c);
         } else {
             const struct worker_msg_stop *ms = (const struct worker_msg_stop *)m;
             if (ms->rc < 0)
@@ -280,7 +292,8 @@ void control_dispatch(control *c, struct worker_msg *msgs)
                         ms->comm.timeouts, ms->comm.bad_replies, ms->comm.exceptions,
                         ms->comm.failed, ms->comm.reconnects);
             doc = stop_doc(ms);
-            control_events_stop(c, ms);
+            if (!ms->calibration[0]) /* event-model documents are a capture's */
+                control_events_stop(c, ms);
             free(c->start_doc);
             free(c->descriptor_doc);
             c->start_doc = c->descriptor_doc = NULL;

@@ -39,6 +39,17 @@ static const struct arg_spec capture_args[] = {
      * length in bytes. */
     {.name = "plan_text", .type = ARG_STRING, .max = CONTROL_FILE_MAX, .unit = "bytes"},
     {.name = "rig_text", .type = ARG_STRING, .max = CONTROL_FILE_MAX, .unit = "bytes"},
+    STRING_ARG("calibration"),
+    {.name = NULL},
+};
+/* gonio calibrate through goniod (docs/protocol.md, "calibrate") */
+static const struct arg_spec calibrate_args[] = {
+    STRING_ARG("kind"), STRING_ARG("name"), STRING_ARG("plan"), STRING_ARG("rig"),
+    STRING_ARG("standard"), STRING_ARG("dark"), STRING_ARG("spot"),
+    {.name = "frames", .type = ARG_INT, .min = 2, .max = 10000, .unit = "frames"},
+    {.name = "repeats", .type = ARG_INT, .min = 2, .max = 1000, .unit = "readings a point"},
+    {.name = "integration", .type = ARG_NUMBER, .min = 1e-6, .max = 60, .unit = "seconds"},
+    {.name = "valid", .type = ARG_NUMBER, .min = 0.01, .max = 525600, .unit = "minutes"},
     {.name = NULL},
 };
 static const struct arg_spec resume_args[] = {
@@ -69,6 +80,7 @@ static const struct {
     [CONTROL_CMD_WHERE] = {"where", no_args},
     [CONTROL_CMD_LIMITS] = {"limits", axis_args},
     [CONTROL_CMD_LIST] = {"list", no_args},
+    [CONTROL_CMD_CALIBRATE] = {"calibrate", calibrate_args},
 };
 
 const char *control_cmd_name(enum control_cmd cmd)

@@ -32,6 +32,8 @@ enum control_cmd {
     CONTROL_CMD_WHERE,
     CONTROL_CMD_LIMITS,
     CONTROL_CMD_LIST,
+    /* a calibration measured on the rig (daemon/worker.h, worker_calibrate) */
+    CONTROL_CMD_CALIBRATE,
     CONTROL_CMD_COUNT
 };
 

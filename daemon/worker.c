@@ -13,69 +13,9 @@
 #include "brdf/metrics.h"
 #include "daemon/captures.h"
 #include "daemon/devices.h"
+#include "daemon/worker_private.h"
 #include "fit/fit_status.h"
 #include "sim_source/sim_source.h"
-
-/* A request's capture, prepared once: the job and the rig source it runs
- * on (with the sim driver, or a scene to describe, the source's sim). */
-struct prepared {
-    char id[128], dir[4096];
-    sim_source *sim;
-    struct capture_rig rig;
-    capture_job *job;
-};
-
-struct worker {
-    const struct goniod_config *cfg;
-    pthread_mutex_t mu;
-    pthread_cond_t cv;       /* pause/abort/resume changes */
-    int pipe_rd, pipe_wr;
-    pthread_t thread;
-    int thread_live;         /* started and not joined yet */
-    int running;             /* a capture is in capture_run */
-    int paused, abort;
-    char abort_reason[32];
-    struct worker_request req;
-    /* The capture worker_check prepared, until worker_start takes it (the
-     * main thread's), and the one the worker thread runs. */
-    struct prepared *pending, *current;
-    size_t done, total;
-    double rig_time_s, estimate_s, eta_s;
-    double predicted[3]; /* the adaptive order's prediction (worker_msg_sample) */
-    int announced; /* this run's start message is queued */
-    /* The last capture's end: "" while none has ended since the current
-     * one started (worker_status). */
-    int has_capture;
-    char end_state[16], end_message[GONIO_ERR_MSG_MAX];
-    struct worker_msg *head, *tail;
-    void *bus; /* the Modbus bus while a capture holds it */
-    /* A bring-up command under way in the thread (bringup_active), its
-     * job and ticket. */
-    int bringup_active;
-    struct bringup_job bringup;
-    unsigned long bringup_ticket;
-    int has_comm; /* the last capture's bus counts, taken as it closed */
-    struct goniod_comm_stats comm;
-    int has_fit, fit_final; /* fit_final: the figures are done_fit's */
-    char fit_id[128];
-    double fit_log, fit_rmse;
-    size_t fit_n;
-    /* The last completed capture's figures: what status shows again once
-     * a capture stops without completing (docs/protocol.md, fit_error). */
-    struct {
-        int has;
-        char id[128];
-        double log, rmse;
-        size_t n;
-        char status[24]; /* its verdict (fit_status_name) */
-    } done_fit;
-#ifdef GONIO_TEST_HOOKS
-    /* Crash torture (docs/torture.md): GONIOD_PHASE_LOG names a file that
-     * gets a line per engine phase, GONIOD_PHASE_HOLD pauses in phases. */
-    int phase_fd;
-    double hold_s[CAPTURE_PHASE_FIT + 1];
-#endif
-};
 
 #ifdef GONIO_TEST_HOOKS
 /* The phase log and holds from the environment; none without it. A bad
@@ -335,6 +275,9 @@ static struct capture_config request_config(const worker *w, const struct worker
         .stop_target = r->stop_target,
         .prescan = r->prescan,
         .uncalibrated = r->uncalibrated,
+        .calibrations = r->calibration[0] ? w->cfg->calibration_root : NULL,
+        .calibration = r->calibration[0] && strcmp(r->calibration, "newest") ? r->calibration
+                                                                             : NULL,
         .checks = r->checks,
         .quiet = 1,
         .assess_nodes = (size_t)w->cfg->assess_nodes,
@@ -621,6 +564,7 @@ int worker_start(worker *w, const struct worker_request *req, struct gonio_err *
     w->has_capture = 1;
     w->announced = 0;
     w->end_state[0] = w->end_message[0] = '\0';
+    w->calibration[0] = w->prompt[0] = '\0';
     pthread_mutex_unlock(&w->mu);
     int rc = pthread_create(&w->thread, NULL, run, w);
     if (rc != 0) {
@@ -688,7 +632,10 @@ void worker_get_status(worker *w, struct worker_status *st)
         snprintf(st->cap_id, sizeof st->cap_id, "%s", w->req.id);
         snprintf(st->cap_state, sizeof st->cap_state, "%s",
                  w->running ? (w->paused ? "paused" : "running") : w->end_state);
-        snprintf(st->cap_message, sizeof st->cap_message, "%s", w->end_message);
+        snprintf(st->cap_message, sizeof st->cap_message, "%s",
+                 w->running && w->prompt[0] ? w->prompt : w->end_message);
+        snprintf(st->cap_kind, sizeof st->cap_kind, "%s",
+                 w->calibration[0] ? w->calibration : "capture");
         st->cap_done = w->done;
         st->cap_total = w->total;
         st->cap_rig_time_s = w->rig_time_s;
@@ -779,4 +726,42 @@ int worker_bringup(worker *w, const struct bringup_job *job, unsigned long ticke
     }
     w->thread_live = 1;
     return 0;
+}
+
+/* ---- for the calibration run (daemon/worker_calibrate.c) ------------- */
+
+void worker_push_msg(worker *w, struct worker_msg *m)
+{
+    push(w, m);
+}
+
+void worker_enqueue_locked(worker *w, struct worker_msg *m)
+{
+    enqueue_locked(w, m);
+}
+
+void worker_wake(worker *w)
+{
+    wake(w);
+}
+
+enum capture_control worker_hook_control(void *user)
+{
+    return hook_control(user);
+}
+
+int worker_hook_open(void *user, const struct rig_profile *rig, const char *dir,
+                     struct capture_devices *dev, struct gonio_err *err)
+{
+    return hook_open(user, rig, dir, dev, err);
+}
+
+void worker_hook_close(void *user, struct capture_devices *dev)
+{
+    hook_close(user, dev);
+}
+
+void worker_join_if_finished(worker *w)
+{
+    join_if_finished(w);
 }

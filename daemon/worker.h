@@ -36,8 +36,26 @@ struct worker_request {
     double budget_min, stop_target; /* the adaptive order's stops, 0: none */
     int prescan; /* capture_config.prescan: 0 the engine's default */
     int uncalibrated; /* capture_config.uncalibrated */
+    /* The reference calibration in the configured calibration_root: an
+     * id, "newest", or "" for none (capture_config.calibration). */
+    char calibration[128];
     unsigned checks; /* capture_config.checks: the request's check (capture/checks.h) */
     int resume; /* the directory exists: continue from its journal */
+};
+
+/* A calibration to measure on the rig (gonio calibrate through goniod;
+ * capture/calibration.h): written to dir, its calibration_root/id, with
+ * request.json recording this for a resume. */
+struct worker_calibration {
+    char id[64], dir[2048]; /* cal_meta's id */
+    int kind;               /* enum cal_kind */
+    char plan[1024], rig[1024], standard[1024]; /* resolved references */
+    char dark[64];          /* reference: the dark it is taken with (resolved) */
+    double integration_s;   /* dark: an integration besides the rig's, 0: none */
+    int per_point;          /* dark: frames per integration; reference: repeats */
+    double valid_s;
+    int underfilled;        /* the spot (cal_meta.spot) */
+    long long created;      /* unix seconds: the id's and calibration.json's */
 };
 
 enum worker_state { WORKER_IDLE, WORKER_RUNNING, WORKER_PAUSED };
@@ -65,9 +83,21 @@ struct worker_status {
     char bringup[48];
     /* The final fit's verdict (fit_status_name), "" for a streaming fit's. */
     char fit_status[24];
+    /* What runs or ran last: "capture", or a calibration's kind ("dark",
+     * "reference"); while it waits on the operator, cap_message says what
+     * they are to do. */
+    char cap_kind[16];
 };
 
-enum worker_msg_kind { WORKER_MSG_START, WORKER_MSG_SAMPLE, WORKER_MSG_STOP, WORKER_MSG_BRINGUP };
+/* PROMPT: a calibration waits on the operator (worker_status.cap_message
+ * says for what); a bare struct worker_msg. */
+enum worker_msg_kind {
+    WORKER_MSG_START,
+    WORKER_MSG_SAMPLE,
+    WORKER_MSG_STOP,
+    WORKER_MSG_BRINGUP,
+    WORKER_MSG_PROMPT
+};
 
 /* The queue's link: every message begins with it, and its kind says which
  * of the structs below it is. */
@@ -107,6 +137,9 @@ struct worker_msg_stop {
     struct capture_summary summary;
     int has_comm; /* the capture ran on a bus: its exchange counts */
     struct goniod_comm_stats comm;
+    /* A calibration's stop: its kind ("" for a capture); summary.samples
+     * and rig_time_s are its frames and the last one's rig time. */
+    char calibration[16];
 };
 
 /* A bring-up command ended (worker_bringup): its ticket and result. */
@@ -154,6 +187,16 @@ void worker_get_status(worker *w, struct worker_status *st);
  * Refused (GONIO_EUSAGE) while a capture or another one runs. */
 int worker_bringup(worker *w, const struct bringup_job *job, unsigned long ticket,
                    struct gonio_err *err);
+
+/* Check a calibration as its run will (rig profile, plan, standard, and a
+ * reference's dark, which c->dark gets resolved), without measuring or
+ * writing anything; err names the field and value of what is wrong. */
+int worker_calibrate_check(worker *w, struct worker_calibration *c, struct gonio_err *err);
+
+/* Start measuring calibration c (new, or continuing its journal) in the
+ * worker's thread: pause, resume and abort steer it as they do a
+ * capture, status shows it, the stop document ends it. */
+int worker_calibrate(worker *w, const struct worker_calibration *c, struct gonio_err *err);
 
 /* Take every queued message (oldest first); free each with free(). Joins
  * the capture thread once its STOP message has been taken. */

@@ -44,6 +44,9 @@ struct rig_profile {
     double integration_s;    /* fixed integration (no noise in the scene) */
     double auto_min_s, auto_max_s; /* auto-exposure bounds */
     struct rig_mechanics mech;
+    /* The detector has a shutter the dark frames close (shutter, default
+     * true); without one the operator covers it when asked. */
+    int shutter;
 };
 
 /* The design's default profile (DESIGN.md section 9), without a file. */

@@ -1,0 +1,34 @@
+/* What the calibration files share inside capture/: a growing array of
+ * frames, one reading, a move to a plan point, and frames.csv's line
+ * format, which the run's journal uses too. */
+#ifndef GONIO_CAPTURE_CALIBRATION_PRIVATE_H
+#define GONIO_CAPTURE_CALIBRATION_PRIVATE_H
+
+#include "capture/calibration.h"
+
+struct cal_frames {
+    struct cal_frame *v;
+    size_t n, cap;
+};
+
+int cal_frames_push(struct cal_frames *f, const struct cal_frame *fr, struct gonio_err *err);
+
+/* One reading at integration_s, appended to f with the plan's angles. */
+int cal_read_frame(struct capture_devices *dev, enum cal_kind kind, double ti, double tr,
+                   double integration_s, struct cal_frames *f, struct gonio_err *err);
+
+/* Move the axes to a point and let them settle. */
+int cal_go_to(struct capture_devices *dev, const struct rig_profile *rig,
+              const struct plan_point *pt, struct gonio_err *err);
+
+#define CAL_FRAMES_HEADER "kind,theta_i,theta_r,integration_s,gain_state,r,g,b,monitor," \
+                          "full_scale,nonlinearity,rig_time_s\n"
+
+/* A frame as a frames.csv line (with its newline); the length written. */
+int cal_frame_line(const struct cal_frame *f, char *buf, size_t size);
+
+/* Read a frames file (the header and lines of cal_frame_line); *out is
+ * malloc'd. */
+int cal_frames_read(const char *path, struct cal_frame **out, size_t *n, struct gonio_err *err);
+
+#endif

@@ -1,0 +1,88 @@
+/* The worker's state, shared by worker.c (captures, bring-up) and
+ * worker_calibrate.c (calibrations): one thread at a time runs on the rig,
+ * steered through the same mutex, pause and abort. */
+#ifndef GONIO_DAEMON_WORKER_PRIVATE_H
+#define GONIO_DAEMON_WORKER_PRIVATE_H
+
+#include <pthread.h>
+
+#include "daemon/worker.h"
+#include "sim_source/sim_source.h"
+
+/* A request's capture, prepared once: the job and the rig source it runs
+ * on (with the sim driver, or a scene to describe, the source's sim). */
+struct prepared {
+    char id[128], dir[4096];
+    sim_source *sim;
+    struct capture_rig rig;
+    capture_job *job;
+};
+
+struct worker {
+    const struct goniod_config *cfg;
+    pthread_mutex_t mu;
+    pthread_cond_t cv;       /* pause/abort/resume changes */
+    int pipe_rd, pipe_wr;
+    pthread_t thread;
+    int thread_live;         /* started and not joined yet */
+    int running;             /* a capture is in capture_run */
+    int paused, abort;
+    char abort_reason[32];
+    struct worker_request req;
+    /* The capture worker_check prepared, until worker_start takes it (the
+     * main thread's), and the one the worker thread runs. */
+    struct prepared *pending, *current;
+    size_t done, total;
+    double rig_time_s, estimate_s, eta_s;
+    double predicted[3]; /* the adaptive order's prediction (worker_msg_sample) */
+    int announced; /* this run's start message is queued */
+    /* A calibration runs (worker_calibrate): its kind, "" for a capture;
+     * and what the operator is asked to do while it waits on them. */
+    char calibration[16];
+    char prompt[512];
+    struct worker_calibration cal;
+    /* The last capture's end: "" while none has ended since the current
+     * one started (worker_status). */
+    int has_capture;
+    char end_state[16], end_message[GONIO_ERR_MSG_MAX];
+    struct worker_msg *head, *tail;
+    void *bus; /* the Modbus bus while a capture holds it */
+    /* A bring-up command under way in the thread (bringup_active), its
+     * job and ticket. */
+    int bringup_active;
+    struct bringup_job bringup;
+    unsigned long bringup_ticket;
+    int has_comm; /* the last capture's bus counts, taken as it closed */
+    struct goniod_comm_stats comm;
+    int has_fit, fit_final; /* fit_final: the figures are done_fit's */
+    char fit_id[128];
+    double fit_log, fit_rmse;
+    size_t fit_n;
+    /* The last completed capture's figures: what status shows again once
+     * a capture stops without completing (docs/protocol.md, fit_error). */
+    struct {
+        int has;
+        char id[128];
+        double log, rmse;
+        size_t n;
+        char status[24]; /* its verdict (fit_status_name) */
+    } done_fit;
+#ifdef GONIO_TEST_HOOKS
+    /* Crash torture (docs/torture.md): GONIOD_PHASE_LOG names a file that
+     * gets a line per engine phase, GONIOD_PHASE_HOLD pauses in phases. */
+    int phase_fd;
+    double hold_s[CAPTURE_PHASE_FIT + 1];
+#endif
+};
+
+/* worker.c's helpers, for worker_calibrate.c. */
+void worker_push_msg(worker *w, struct worker_msg *m);
+void worker_enqueue_locked(worker *w, struct worker_msg *m);
+void worker_wake(worker *w);
+enum capture_control worker_hook_control(void *user);
+int worker_hook_open(void *user, const struct rig_profile *rig, const char *dir,
+                     struct capture_devices *dev, struct gonio_err *err);
+void worker_hook_close(void *user, struct capture_devices *dev);
+void worker_join_if_finished(worker *w);
+
+#endif

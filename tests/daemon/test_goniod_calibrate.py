@@ -1,0 +1,388 @@
+#!/usr/bin/python3
+"""gonio calibrate through goniod over Modbus TCP, as an operator runs it on
+a rig: gonio-sim serves the raw lab scene (lab, counts) on the simulated
+clock, with the standard mounted (--material standard:spectralon-99) for the
+dark and the reference and the sample mounted for the capture (gonio-sim
+started again: the operator swapped what sits in the sample's place).
+
+- dark and reference through goniod, then a capture through goniod with
+  --calibration newest: its BRDF is the material's (median |measured/true-1|
+  at most 0.5 % over the values with SNR >= 100, as tests/unit/capture/
+  test_chain.c holds the offline chain);
+- the operator's pause: a reference waits for the standard to be mounted, a
+  dark on a rig profile without a shutter for the detector to be covered;
+  status says what to do and gonio resume continues;
+- goniod killed (SIGKILL) mid-calibration: nothing measured is lost and
+  gonio resume ID finishes it, its frames those of a calibration that ran
+  through;
+- requests refused with exit 2 naming the field, nothing created.
+"""
+import csv
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+import unittest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+import child_procs  # noqa: E402
+from goniod_harness import (BIN, GONIO, SLOW, START_S, TESTS_BIN, Daemon,
+                            assert_valgrind_clean, tmpdir, wrap)
+
+SIM = os.path.join(BIN, "gonio-sim")
+MATERIAL_VALUES = os.path.join(TESTS_BIN, "material_values")
+CONFIG = os.environ.get("GONIO_CONFIG", "configs")
+STANDARD = "standard:spectralon-99"
+SAMPLE = "analytic:rough-diffuse"
+GAIN_ADU_PER_E = 0.8  # lab's ADC (configs/scenes/lab.yaml)
+
+
+def rig_profile(folder, name, integration, shutter=True):
+    """The default rig profile under another name and integration (0.25 s:
+    a diffuse sample reads at SNR > 100 on lab), with or without a
+    shutter."""
+    with open(os.path.join(CONFIG, "rigs", "default.yaml")) as f:
+        text = f.read()
+    text = text.replace("fixed_s: 0.05", "fixed_s: %g" % integration)
+    text = text.replace("name: default", "name: %s" % name)
+    if not shutter:
+        text += "shutter: false\n"
+    path = os.path.join(folder, "%s.yaml" % name)
+    with open(path, "w") as f:
+        f.write(text)
+    return path
+
+
+def journal_lines(path):
+    with open(path) as f:
+        return f.read().count("\n")
+
+
+def frames(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+class CalibrateRig(unittest.TestCase):
+    """gonio-sim (lab, simulated clock) on a TCP port that survives its
+    restarts, and goniod on it with the lab rig profile."""
+
+    def setUp(self):
+        if not os.path.exists(SIM):
+            self.skipTest("gonio-sim not built")
+        self.folder = tmpdir()
+        self.port = None
+        self.sim = None
+        self.start_sim(STANDARD)
+        self.rig = rig_profile(self.folder, "lab", 0.25)
+        self.d = None
+
+    def tearDown(self):
+        try:
+            if self.d:
+                self.d.stop()
+            self.assertEqual(self.stop_sim(), 0, "gonio-sim's exit status on SIGTERM")
+            assert_valgrind_clean(self.folder)
+        finally:
+            if os.environ.get("GONIO_KEEP"):
+                sys.stderr.write("kept %s\n" % self.folder)
+            else:
+                shutil.rmtree(self.folder, ignore_errors=True)
+
+    def start_sim(self, material):
+        """gonio-sim measuring material: what is mounted in the sample's place."""
+        self.stop_sim()
+        out_path = os.path.join(self.folder, "sim.out")
+        open(out_path, "w").close()
+        self.sim = subprocess.Popen(
+            wrap([SIM, "--scene", "lab", "--material", material, "--clock", "simulated",
+                  "--tcp", "127.0.0.1:%d" % (self.port or 0)], self.folder),
+            stdout=open(out_path, "w"), stderr=open(os.path.join(self.folder, "sim.err"), "a"),
+            preexec_fn=child_procs.die_with_parent)
+        deadline = time.time() + START_S
+        text = ""
+        while time.time() < deadline and "tcp" not in text:
+            time.sleep(0.05)
+            text = open(out_path).read()
+        self.assertIn("tcp", text, open(os.path.join(self.folder, "sim.err")).read())
+        self.port = int(text.splitlines()[1].rsplit(":", 1)[1])
+
+    def stop_sim(self):
+        if not self.sim:
+            return 0
+        if self.sim.poll() is None:
+            self.sim.terminate()
+        rc = self.sim.wait(timeout=2 * START_S)
+        self.sim = None
+        return rc
+
+    def start_daemon(self, rig=None):
+        driver = ("  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n  timeout_s: %g\n"
+                  "  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
+                  % (self.port, 0.5 * SLOW))
+        self.d = Daemon(self.folder, driver=driver)
+        text = open(self.d.config).read().replace("rig: default", "rig: %s" % (rig or self.rig))
+        with open(self.d.config, "w") as f:
+            f.write(text)
+        self.d.start()
+        self.cal_root = os.path.join(self.folder, "calibrations")
+        return self.d
+
+    def status(self):
+        c = self.d.connect()
+        st = c.request("status")
+        c.close()
+        self.d.conns.remove(c)
+        return st
+
+    def wait_state(self, state, what):
+        """status until goniod is in state (the operator's pause); the
+        status document."""
+        deadline = time.time() + 2 * START_S
+        while time.time() < deadline:
+            st = self.status()
+            if st["state"] == state:
+                return st
+            time.sleep(0.05)
+        raise AssertionError("goniod never %s (%s): %r" % (state, what, st))
+
+    def calibrate(self, *args, operator=None):
+        """gonio calibrate ARGS through goniod; operator(status) runs at
+        goniod's pause, then gonio resume. Returns the finished command."""
+        env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
+        p = subprocess.Popen([GONIO, "calibrate", *args], stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True, env=env)
+        if operator:
+            st = self.wait_state("paused", "asking the operator")
+            operator(st)
+            r = self.d.gonio("resume")
+            self.assertEqual(r.returncode, 0, r.stderr)
+        out, err = p.communicate(timeout=4 * START_S)
+        return subprocess.CompletedProcess(p.args, p.returncode, out, err)
+
+    def mount_standard(self, st):
+        self.assertIn("mount the standard 'spectralon-99'", st["capture"]["message"])
+        self.assertEqual(st["capture"]["kind"], "reference")
+
+    def dark_and_reference(self):
+        d = self.calibrate("dark")
+        self.assertEqual(d.returncode, 0, d.stderr)
+        r = self.calibrate("reference", "--plan", "ds3", "--repeats", "2",
+                           operator=self.mount_standard)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        return d.stdout.strip(), r.stdout.strip()
+
+
+class CalibrateTests(CalibrateRig):
+
+    def test_calibrated_capture_through_goniod(self):
+        self.start_daemon()
+        dark_id, ref_id = self.dark_and_reference()
+        dark = json.load(open(os.path.join(self.cal_root, dark_id, "calibration.json")))
+        ref = json.load(open(os.path.join(self.cal_root, ref_id, "calibration.json")))
+        self.assertEqual((dark["kind"], dark["rig"], dark["detector"]), ("dark", "lab", "modbus"))
+        self.assertEqual((ref["kind"], ref["dark"], ref["frames"]), ("reference", dark_id, 104))
+        dark_rows = frames(os.path.join(self.cal_root, dark_id, "frames.csv"))
+        self.assertEqual(len(dark_rows), 16)
+        # The shutter closed: offset and dark only, far below the lit standard.
+        self.assertLess(max(float(x["g"]) for x in dark_rows), 1500)
+        ref_rows = frames(os.path.join(self.cal_root, ref_id, "frames.csv"))
+        self.assertGreater(min(float(x["g"]) for x in ref_rows), 3000)
+
+        # The operator mounts the sample (gonio-sim measures it from now on).
+        self.start_sim(SAMPLE)
+        r = self.d.gonio("capture", "--plan", "ds3", "--name", "cap", "--calibration", "newest",
+                         "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr + r.stdout)
+        capdir = os.path.join(self.d.root, "cap")
+        self.assertEqual(json.load(open(os.path.join(capdir, "setup.json")))["calibration"],
+                         ref_id)
+        rows = [x for x in frames(os.path.join(capdir, "samples.csv"))
+                if not int(x["flags"]) & 2]
+        self.assertEqual(len(rows), 52)
+        # The truth at each point, by brdf/material.h alone.
+        pairs = "".join("%s %s\n" % (x["theta_i"], x["theta_r"]) for x in rows)
+        truth = subprocess.run([MATERIAL_VALUES, SAMPLE], input=pairs, capture_output=True,
+                               text=True, check=True).stdout.split("\n")
+        # SNR from the counts: the signal over the dark, against its shot
+        # noise (the scene's ADC gain) and the dark frames' spread.
+        dark_g = [float(x["g"]) for x in dark_rows if abs(float(x["integration_s"]) - 0.25) < 1e-6]
+        errors = []
+        for k, x in enumerate(rows):
+            want = [float(v) for v in truth[k].split()]
+            for ch, name in enumerate("rgb"):
+                signal = float(x["raw_" + name]) - statistics.mean(dark_g)
+                noise = (GAIN_ADU_PER_E * signal + statistics.pstdev(dark_g) ** 2) ** 0.5
+                if signal / noise >= 100:
+                    errors.append(abs(float(x[name]) / want[ch] - 1))
+        med = statistics.median(errors)
+        sys.stderr.write("calibrated capture through goniod: median |measured/true - 1| "
+                         "%.3f %% over %d values with SNR >= 100\n" % (100 * med, len(errors)))
+        self.assertGreaterEqual(len(errors), 100)
+        self.assertLessEqual(med, 0.005)
+
+    def test_operator_covers_a_detector_without_shutter(self):
+        self.d = None
+        self.start_daemon(rig_profile(self.folder, "lab", 0.25, shutter=False))
+        # Aborted while it waits on the operator: nothing read, the
+        # directory kept; gonio resume ID asks again.
+        c = self.d.connect()
+        c.request("watch")
+        r = c.request("calibrate", kind="dark", frames=4, name="dark-cut")
+        self.assertEqual(r["class"], "OK", r)
+        st = self.wait_state("paused", "asking to cover the detector")
+        self.assertEqual(st["capture_id"], "dark-cut")
+        r = self.d.gonio("abort")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("gonio resume dark-cut", r.stdout)
+        stop = c.until_stop("dark-cut")[-1]
+        self.assertEqual((stop["exit_status"], stop["reason"]), ("abort", "aborted"), stop)
+        self.assertEqual(stop["calibration"]["frames"], 0)
+        self.assertEqual(c.request("resume", capture_id="dark-cut")["class"], "OK")
+        self.wait_state("paused", "asking again")
+        self.assertEqual(c.request("resume")["class"], "OK")
+        stop = c.until_stop("dark-cut")[-1]
+        self.assertEqual(stop["exit_status"], "success", stop)
+        self.assertEqual(len(frames(os.path.join(self.cal_root, "dark-cut", "frames.csv"))), 4)
+
+        def cover(st):
+            self.assertEqual(st["capture"]["kind"], "dark")
+            self.assertIn("rig 'lab' has no shutter: cover the detector",
+                          st["capture"]["message"])
+            self.assertEqual(st["points_done"], 0, "nothing read before the operator acted")
+            out = self.d.gonio("status").stdout
+            self.assertIn("goniod paused: calibration %s, 0/4 frames" % st["capture_id"], out)
+            self.assertIn("dark calibration %s: paused" % st["capture_id"], out)
+            self.assertIn("cover the detector (or turn the lamp off), then: gonio resume", out)
+        d = self.calibrate("dark", "--frames", "4", operator=cover)
+        self.assertEqual(d.returncode, 0, d.stderr)
+        rows = frames(os.path.join(self.cal_root, d.stdout.strip(), "frames.csv"))
+        self.assertEqual(len(rows), 4)
+        # gonio-sim's shutter was never closed: the lit standard, read as the
+        # "dark" (the operator's cover is the operator's).
+        self.assertGreater(min(float(x["g"]) for x in rows), 3000)
+        st = self.status()
+        self.assertEqual((st["state"], st["capture"]["state"]), ("idle", "complete"))
+
+    def test_on_goniods_simulated_rig(self):
+        """The sim driver mounts the standard itself for a reference (the
+        material standard:NAME), after the same pause."""
+        self.d = Daemon(self.folder, scene="lab").start()
+        self.cal_root = os.path.join(self.folder, "calibrations")
+        _, ref_id = self.dark_and_reference()
+        # The standard as the offline calibration on the same scene reads it.
+        offline = os.path.join(self.folder, "offline")
+        for kind in (["dark"], ["reference", "--plan", "ds3", "--repeats", "2"]):
+            r = subprocess.run([GONIO, "calibrate", *kind, "--offline", "--scene", "lab",
+                                "--out", offline], capture_output=True, text=True, timeout=60)
+            self.assertEqual(r.returncode, 0, r.stderr)
+        want = frames(os.path.join(offline, r.stdout.strip(), "frames.csv"))
+        got = frames(os.path.join(self.cal_root, ref_id, "frames.csv"))
+        self.assertEqual([(x["theta_i"], x["theta_r"]) for x in got],
+                         [(x["theta_i"], x["theta_r"]) for x in want])
+        for a, b in zip(got, want):
+            self.assertLess(abs(float(a["g"]) / float(b["g"]) - 1), 0.05, (a, b))
+        r = self.d.gonio("capture", "--plan", "ds3", "--name", "sim", "--calibration", ref_id,
+                         "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr + r.stdout)
+        capdir = os.path.join(self.d.root, "sim")
+        self.assertEqual(json.load(open(os.path.join(capdir, "setup.json")))["calibration"],
+                         ref_id)
+        rows = [x for x in frames(os.path.join(capdir, "samples.csv"))
+                if not int(x["flags"]) & 2]
+        self.assertTrue(rows and all(float(x["u_g"]) > 0 for x in rows))
+
+    def test_bad_requests_refused_naming_the_field(self):
+        self.start_daemon()
+        cases = [
+            (["reference", "--plan", "ds3", "--standard", "no-such-plaque"],
+             "standard 'no-such-plaque'"),
+            (["reference", "--plan", "ds3"], "(run gonio calibrate dark, then reference)"),
+            (["reference", "--plan", "no-such-plan"], "no-such-plan"),
+            (["dark", "--rig", "no-such-rig"], "no-such-rig"),
+            (["dark", "--name", "../x"], "field 'name' '../x'"),
+        ]
+        for args, needle in cases:
+            r = self.calibrate(*args)
+            self.assertEqual(r.returncode, 2, (args, r.stderr))
+            self.assertIn(needle, r.stderr, args)
+        self.assertFalse(os.path.exists(self.cal_root) and os.listdir(self.cal_root),
+                         "a refused request created nothing")
+        # A dark of one rig does not serve another's reference.
+        d = self.calibrate("dark", "--frames", "2")
+        self.assertEqual(d.returncode, 0, d.stderr)
+        shutil.copy(self.rig, os.path.join(self.d.root, "bench.yaml"))
+        text = open(os.path.join(self.d.root, "bench.yaml")).read()
+        with open(os.path.join(self.d.root, "bench.yaml"), "w") as f:
+            f.write(text.replace("name: lab", "name: bench"))
+        r = self.calibrate("reference", "--plan", "ds3", "--rig", "bench.yaml", "--dark",
+                           d.stdout.strip())
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("is of rig 'lab', the capture's rig is 'bench'", r.stderr)
+        self.assertEqual(os.listdir(self.cal_root), [d.stdout.strip()])
+
+
+class CalibrateCrashTests(CalibrateRig):
+    """goniod killed mid-calibration, then gonio resume ID."""
+
+    def test_kill9_mid_reference_then_resume(self):
+        self.start_daemon()
+        dark_id, whole_id = self.dark_and_reference()
+        whole = frames(os.path.join(self.cal_root, whole_id, "frames.csv"))
+        env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
+        p = subprocess.Popen([GONIO, "calibrate", "reference", "--plan", "ds3", "--repeats",
+                              "2", "--name", "ref-killed"], stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True, env=env)
+        self.mount_standard(self.wait_state("paused", "asking for the standard"))
+        journal = os.path.join(self.cal_root, "ref-killed", "journal.csv")
+        self.assertEqual(self.d.gonio("resume").returncode, 0)
+        deadline = time.time() + 4 * START_S
+        while time.time() < deadline and journal_lines(journal) < 31:
+            time.sleep(0.005)
+        self.d.kill9()
+        p.communicate(timeout=START_S)
+        self.assertNotEqual(p.returncode, 0)
+        with open(journal) as f:  # the whole lines: a kill mid-write tears the last
+            text = f.read()
+        before = text[:text.rfind("\n") + 1].splitlines()
+        self.assertGreater(len(before), 30)
+        self.assertLess(len(before), 105, "killed before the end")
+        self.assertFalse(os.path.exists(os.path.join(self.cal_root, "ref-killed",
+                                                     "calibration.json")))
+        self.d.start()
+        env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
+        c = self.d.connect()
+        c.request("watch")
+        self.assertEqual(c.request("resume", capture_id="ref-killed")["class"], "OK")
+        st = self.wait_state("paused", "asking for the standard again")
+        self.mount_standard(st)
+        self.assertEqual(st["points_done"], len(before) - 1, "the journal's frames kept")
+        self.assertEqual(self.d.gonio("resume").returncode, 0)
+        stop = c.until_stop("ref-killed")[-1]
+        self.assertEqual(stop["exit_status"], "success", stop)
+        self.assertEqual(stop["calibration"]["frames"], 104)
+        resumed = os.path.join(self.cal_root, "ref-killed")
+        text = open(os.path.join(resumed, "frames.csv")).read().splitlines()
+        # Nothing measured before the kill is lost or changed ...
+        self.assertEqual(text[:len(before)], before)
+        # ... and the calibration is the uninterrupted one's: the same frames
+        # (kind, geometry, integration), the standard's readings alike.
+        got = frames(os.path.join(resumed, "frames.csv"))
+        key = ("kind", "theta_i", "theta_r", "integration_s", "gain_state")
+        self.assertEqual([[x[k] for k in key] for x in got],
+                         [[x[k] for k in key] for x in whole])
+        for a, b in zip(got, whole):
+            self.assertLess(abs(float(a["g"]) / float(b["g"]) - 1), 0.05, (a, b))
+        meta = json.load(open(os.path.join(resumed, "calibration.json")))
+        self.assertEqual((meta["id"], meta["dark"], meta["frames"]), ("ref-killed", dark_id, 104))
+        r = self.d.gonio("resume", "ref-killed")
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("is complete", r.stderr)
+
+
+if __name__ == "__main__":
+    unittest.main()

@@ -1,0 +1,189 @@
+/* A calibration run's journal (capture/calibration.h, cal_run_measure) on
+ * the simulated raw lab rig: a run stopped part way and started again keeps
+ * the frames it read and reads only the rest, a torn last line is dropped,
+ * a journal of another run is refused; and the operator's part: a rig
+ * without a shutter with nobody to ask is refused, a reference asks for
+ * its standard before it reads. */
+#include <errno.h>
+#include <stdlib.h>
+#include <sys/stat.h>
+
+#include "capture/calibration.h"
+#include "sim_source/sim_source.h"
+#include "tests/gonio_test.h"
+
+static char dir[64];
+
+static int setup(void **state)
+{
+    (void)state;
+    return gonio_test_dir_make(dir, sizeof dir, "calrun");
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    return gonio_test_dir_remove(dir);
+}
+
+/* The simulated lab rig, its profile and devices open. */
+struct rig {
+    sim_source *src;
+    struct capture_rig crig;
+    struct rig_profile prof;
+    struct capture_devices dev;
+};
+
+static void rig_open(struct rig *r, const char *material)
+{
+    struct gonio_err err = {0};
+    r->src = sim_source_new("lab", material, NULL, &err);
+    assert_non_null(r->src);
+    sim_source_rig(r->src, &r->crig);
+    assert_int_equal(rig_profile_load(r->crig.profile, &r->prof, &err), 0);
+    assert_int_equal(r->crig.open(r->crig.user, &r->prof, dir, &r->dev, &err), 0);
+}
+
+static void rig_close(struct rig *r)
+{
+    r->crig.close(r->crig.user, &r->dev);
+    sim_source_free(r->src);
+}
+
+/* control: abort before the frame after `stop_after` frames. */
+struct stopper {
+    int calls, stop_after;
+    char asked[512];
+    enum capture_control answer;
+};
+
+static enum capture_control stop_control(void *user)
+{
+    struct stopper *s = user;
+    return s->calls++ == s->stop_after ? CAPTURE_ABORT : CAPTURE_GO;
+}
+
+static enum capture_control record_ask(void *user, const char *instruction)
+{
+    struct stopper *s = user;
+    snprintf(s->asked, sizeof s->asked, "%s", instruction);
+    return s->answer;
+}
+
+static struct cal_meta dark_meta(const char *id, double integration_s)
+{
+    struct cal_meta m = {.kind = CAL_DARK, .n_integrations = 1,
+                         .integrations = {integration_s}};
+    snprintf(m.id, sizeof m.id, "%s", id);
+    return m;
+}
+
+static size_t lines(const char *path)
+{
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    size_t n = 0;
+    int c;
+    while ((c = fgetc(f)) != EOF)
+        n += c == '\n';
+    fclose(f);
+    return n;
+}
+
+static void test_stopped_run_continues_its_journal(void **state)
+{
+    (void)state;
+    struct rig r;
+    rig_open(&r, NULL);
+    struct cal_meta m = dark_meta("dark-run", r.prof.integration_s);
+    struct cal_run run = {.root = dir, .meta = &m, .rig = &r.prof, .per_point = 6};
+    struct stopper s = {.stop_after = 3};
+    struct cal_hooks h = {.control = stop_control, .user = &s};
+    struct cal_frame *first = NULL, *all = NULL;
+    size_t n1 = 0, n2 = 0;
+    int aborted = 0;
+    struct gonio_err err = {0};
+    assert_int_equal(cal_run_measure(&r.dev, &run, &h, &first, &n1, &aborted, &err), 0);
+    assert_true(aborted);
+    assert_int_equal(n1, 3);
+    char jpath[256];
+    snprintf(jpath, sizeof jpath, "%s/dark-run/journal.csv", dir);
+    assert_int_equal(lines(jpath), 4); /* the header and three frames, synced */
+    FILE *f = fopen(jpath, "a"); /* a kill mid-write: half a frame */
+    fputs("dark,nan,nan,0.05,0,1003,99", f);
+    fclose(f);
+    s = (struct stopper){.stop_after = -1};
+    assert_int_equal(cal_run_measure(&r.dev, &run, &h, &all, &n2, &aborted, &err), 0);
+    assert_false(aborted);
+    assert_int_equal(n2, 6);
+    assert_int_equal(s.calls, 3); /* only the frames it lacked were read */
+    for (size_t k = 0; k < n1; k++)
+        assert_memory_equal(all[k].counts, first[k].counts, sizeof first[k].counts);
+    assert_int_equal(lines(jpath), 7);
+    struct cal_frame *back = NULL;
+    size_t nb = 0;
+    struct cal_meta written;
+    assert_true(cal_read(dir, "dark-run", &written, NULL, NULL, &err) < 0); /* the caller's */
+    free(first);
+    free(all);
+    free(back);
+
+    /* Another run under the same id is not this journal's. */
+    struct cal_meta other = dark_meta("dark-run", 2 * r.prof.integration_s);
+    run.meta = &other;
+    assert_true(cal_run_measure(&r.dev, &run, &h, &back, &nb, &aborted, &err) < 0);
+    assert_non_null(strstr(err.msg, "not this calibration's journal"));
+    rig_close(&r);
+}
+
+static void test_the_operator_is_asked(void **state)
+{
+    (void)state;
+    struct rig r;
+    rig_open(&r, "standard:spectralon-99");
+    struct gonio_err err = {0};
+    struct cal_frame *fr = NULL;
+    size_t n = 0;
+    int aborted = 0;
+    /* No shutter and nobody to ask: refused before any frame. */
+    r.prof.shutter = 0;
+    struct cal_meta m = dark_meta("dark-noshutter", r.prof.integration_s);
+    struct cal_run run = {.root = dir, .meta = &m, .rig = &r.prof, .per_point = 2};
+    struct cal_hooks none = {0};
+    assert_int_equal(cal_run_measure(&r.dev, &run, &none, &fr, &n, &aborted, &err),
+                     -GONIO_EUSAGE);
+    assert_non_null(strstr(err.msg, "has no shutter"));
+    /* A reference asks for its standard first; declined, nothing is read. */
+    r.prof.shutter = 1;
+    struct plan *plan = NULL;
+    assert_true(plan_load("ds4", &r.prof, &plan, &err) > 0);
+    struct cal_meta ref = {.kind = CAL_REFERENCE};
+    snprintf(ref.id, sizeof ref.id, "reference-asked");
+    snprintf(ref.standard, sizeof ref.standard, "spectralon-99");
+    struct cal_run rrun = {.root = dir, .meta = &ref, .rig = &r.prof, .plan = plan,
+                           .per_point = 2};
+    struct stopper s = {.stop_after = -1, .answer = CAPTURE_ABORT};
+    struct cal_hooks h = {.control = stop_control, .ask = record_ask, .user = &s};
+    assert_int_equal(cal_run_measure(&r.dev, &rrun, &h, &fr, &n, &aborted, &err), 0);
+    assert_true(aborted);
+    assert_int_equal(n, 0);
+    assert_non_null(strstr(s.asked, "mount the standard 'spectralon-99'"));
+    free(fr);
+    /* Mounted: every point read. */
+    s = (struct stopper){.stop_after = -1, .answer = CAPTURE_GO};
+    assert_int_equal(cal_run_measure(&r.dev, &rrun, &h, &fr, &n, &aborted, &err), 0);
+    assert_false(aborted);
+    assert_int_equal(n, 2 * plan_count(plan));
+    free(fr);
+    plan_free(plan);
+    rig_close(&r);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_stopped_run_continues_its_journal),
+        cmocka_unit_test(test_the_operator_is_asked),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
