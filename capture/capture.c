@@ -244,8 +244,9 @@ static void progress(const struct capture_hooks *hooks, const struct capture_job
  * progress counts down its budget, nor for a host that shows no progress
  * (the study): metering costs O(points) per sample. */
 static int eta_new(const struct capture_job *in, const struct capture_hooks *hooks,
-                   const sequence *seq, const struct journal_sample *js, size_t n,
-                   capture_eta **out, struct gonio_err *err)
+                   const sequence *seq, const struct autorange *ar,
+                   const struct journal_sample *js, size_t n, capture_eta **out,
+                   struct gonio_err *err)
 {
     *out = NULL;
     if (in->adaptive || !hooks->on_progress)
@@ -259,6 +260,7 @@ static int eta_new(const struct capture_job *in, const struct capture_hooks *hoo
     free(order);
     if (!e)
         return -abs(err ? err->code : ENOMEM);
+    capture_eta_ranging(e, ar);
     for (size_t i = 0; i < n; i++)
         capture_eta_observe(e, &js[i]);
     *out = e;
@@ -442,7 +444,7 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
         return gonio_err_set(err, ENOMEM, "out of memory");
     r->samples = all;
     r->already = r->n;
-    int rc = eta_new(job, hooks, r->seq, all, r->n, &r->eta, err);
+    int rc = eta_new(job, hooks, r->seq, &r->ranging.ar, all, r->n, &r->eta, err);
     if (rc < 0)
         return rc;
     double rig_s = r->n > 0 ? all[r->n - 1].rig_time_s : 0;
@@ -538,6 +540,7 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
     autorange_init(&r->ranging.ar, &job->rig);
     if (job->cal) /* a calibration covers the fixed integration: no ranging off it */
         r->ranging.ar.min_s = r->ranging.ar.max_s = r->ranging.ar.fixed_s;
+    r->ranging.ar.full_scale = src->counts ? src->counts_full_scale : 0;
     r->ranging.j = r->j;
     size_t kept = 0;
     for (size_t i = 0; i < r->n; i++) {
