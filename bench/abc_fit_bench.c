@@ -41,7 +41,7 @@ static int fit_set(const struct brdf_pair *g, const double *ref, size_t n,
                    const struct fit_options *opt, struct brdf_abc *p, double *t,
                    struct fit_info *info)
 {
-    struct fit_sample *s = malloc(n * sizeof *s);
+    struct fit_sample *s = calloc(n, sizeof *s);
     for (size_t k = 0; k < n; k++) {
         s[k].g = g[k];
         memcpy(s[k].rgb, ref + 3 * k, sizeof s[k].rgb);

@@ -22,7 +22,7 @@
 
 static int print_table(const struct brdf_pair *g, size_t n)
 {
-    struct fit_sample *s = malloc(n * sizeof *s);
+    struct fit_sample *s = calloc(n, sizeof *s);
     double *rgb = malloc(3 * n * sizeof *rgb);
     for (size_t i = 0; i < abc_prior_n_rows; i++) {
         char spec[256];
@@ -108,7 +108,7 @@ int main(int argc, char **argv)
         }
         for (int d = getenv("ONLY_DS4") ? 3 : 0; d < 4; d++) {
             size_t n = nds[d];
-            struct fit_sample *s = malloc(n * sizeof *s);
+            struct fit_sample *s = calloc(n, sizeof *s);
             double *rgb = malloc(3 * n * sizeof *rgb);
             brdf_material_eval(mat, ds[d], n, rgb);
             for (size_t k = 0; k < n; k++) {

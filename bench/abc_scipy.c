@@ -56,7 +56,7 @@ int main(int argc, char **argv)
     size_t n;
     if (bench_plan_pairs("ds1", &g, &n) < 0)
         return 1;
-    struct fit_sample *s = malloc(n * sizeof *s);
+    struct fit_sample *s = calloc(n, sizeof *s);
     double *rgb = malloc(3 * n * sizeof *rgb);
     struct fit_options opt = fit_default_options();
     for (int m = 0; m < nm; m++) {

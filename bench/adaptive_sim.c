@@ -108,7 +108,7 @@ static void point_pair(const struct plan_point *pt, struct brdf_pair *p)
 static struct fit_sample *sample_plan(const struct plan *p, const brdf_material *truth)
 {
     size_t n = plan_count(p);
-    struct fit_sample *s = malloc(n * sizeof *s);
+    struct fit_sample *s = calloc(n, sizeof *s);
     if (!s)
         return NULL;
     for (size_t i = 0; i < n; i++) {
@@ -134,7 +134,7 @@ static int run_material(const struct cfg *c, const char *name, const struct rig_
     plan_estimate(ref, rig, &est);
     struct fit_sample *ref_s = sample_plan(ref, truth), *pool_s = sample_plan(pool, truth);
     size_t n_pool = plan_count(pool);
-    struct fit_sample *got = malloc(n_pool * sizeof *got);
+    struct fit_sample *got = calloc(n_pool, sizeof *got);
     if (!ref_s || !pool_s || !got) {
         fprintf(stderr, "adaptive_sim: out of memory\n");
         return -1;

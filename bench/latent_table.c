@@ -217,7 +217,7 @@ static int fit_set(const struct table_opts *o, const struct table_data *d,
 {
     struct gonio_err err = {0};
     size_t n = d->nset[s];
-    struct fit_sample *smp = malloc(n * sizeof *smp);
+    struct fit_sample *smp = calloc(n, sizeof *smp);
     double *rgb = malloc(3 * n * sizeof *rgb);
     brdf_material_eval(truth, d->sets[s], n, rgb);
     for (size_t k = 0; k < n; k++) {

@@ -56,7 +56,7 @@ int main(int argc, char **argv)
            "full_log");
     int rounds = 0, calm_run = 0;
     for (size_t i = 0; i < n; i++) {
-        struct fit_sample s;
+        struct fit_sample s = {0};
         fit_journal_samples(&js[i], 1, &s);
         /* ends: theta_i rows (whole-row sub-levels of progressive order) */
         int end = getenv("REPLAY_ROWS") && i >= (size_t)atol(getenv("REPLAY_ROWS")) &&

@@ -18,6 +18,7 @@
 #include "cli/commands.h"
 #include "cli/daemon_client.h"
 #include "cli/progress.h"
+#include "cli/request_file.h"
 #include "fit/models.h"
 
 const char *socket_path(const char *opt)
@@ -591,16 +592,18 @@ static void capture_usage(FILE *out)
             "                     [--uncalibrated] [--check isotropy] [--wait] [--quiet]\n"
             "                     [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
-            "  'gonio capture --offline --help'). Files are relative to goniod's capture\n"
-            "  root. --model: the final fit's model, any RGB model of 'gonio fit --help'\n"
-            "  (default abc). --truth SPEC: the reference material of the in-plane and\n"
-            "  full-domain errors (on hardware there are none without it; on the simulator\n"
-            "  the default is the material it measures). On a hardware rig --material is a\n"
-            "  spec that must resolve (nbrdf:, merl:, ...), not a label: name the sample with\n"
-            "  --sample. --sample, --operator, --note: kept with the capture (request.json,\n"
-            "  setup.json, results.json, the start document, gonio list). --wait follows\n"
-            "  the capture to its end, its progress on stderr (--quiet: none): exit 0\n"
-            "  when it completes.\n"
+            "  'gonio capture --offline --help'). A --plan or --rig FILE is read here and\n"
+            "  sent with the request (at most 16384 bytes); goniod keeps a copy in the\n"
+            "  capture directory, which a resume reads. A --scene FILE and merl: files are\n"
+            "  relative to goniod's capture root. --model: the final fit's model, any RGB\n"
+            "  model of 'gonio fit --help' (default abc). --truth SPEC: the reference\n"
+            "  material of the in-plane and full-domain errors (on hardware there are none\n"
+            "  without it; on the simulator the default is the material it measures). On a\n"
+            "  hardware rig --material is a spec that must resolve (nbrdf:, merl:, ...), not\n"
+            "  a label: name the sample with --sample. --sample, --operator, --note: kept\n"
+            "  with the capture (request.json, setup.json, results.json, the start\n"
+            "  document, gonio list). --wait follows the capture to its end, its progress\n"
+            "  on stderr (--quiet: none): exit 0 when it completes.\n"
             "  --order adaptive, --budget, --stop-target: as 'gonio capture --offline --help'\n"
             "  says. --check isotropy: after the last point, the isotropy check on a rig\n"
             "  whose profile has a rotation axis (--rig rotating); its verdict is in the\n"
@@ -681,10 +684,35 @@ int cmd_capture_daemon(int argc, char **argv)
         fprintf(stderr, "gonio capture: --stop '%s': use all or converge\n", vals[6]);
         return 2;
     }
-    struct conn c;
-    if (conn_open(&c, socket_path(sock)) < 0)
-        return 1;
+    /* A plan or rig named as a file is read here and travels with the
+     * request (cli/request_file.h); the rest are names or values. */
+    json_t *req = json_pack("{s:s}", "cmd", "capture");
     int rc = 0;
+    for (int i = 0; i < N_KEYS && !rc; i++) {
+        if (!vals[i])
+            continue;
+        if (!strcmp(keys[i], "plan") || !strcmp(keys[i], "rig"))
+            rc = request_file_attach(req, keys[i], i == 0 ? "--plan" : "--rig", vals[i]);
+        else
+            json_object_set_new(req, keys[i], json_string(vals[i]));
+    }
+    if (budget > 0)
+        json_object_set_new(req, "budget", json_real(budget));
+    if (target > 0)
+        json_object_set_new(req, "stop_target", json_real(target));
+    if (prescan >= 0)
+        json_object_set_new(req, "prescan", json_integer((json_int_t)prescan));
+    if (uncalibrated)
+        json_object_set_new(req, "uncalibrated", json_true());
+    if (rc || (rc = request_file_fits(req)) != 0) {
+        json_decref(req);
+        return rc;
+    }
+    struct conn c;
+    if (conn_open(&c, socket_path(sock)) < 0) {
+        json_decref(req);
+        return 1;
+    }
     if (wait) { /* subscribe first, so not even a quick capture's start is missed */
         json_t *rep = conn_request(&c, json_pack("{s:s}", "cmd", "watch"));
         rc = reply_failed(rep);
@@ -692,20 +720,10 @@ int cmd_capture_daemon(int argc, char **argv)
     }
     json_t *rep = NULL;
     if (!rc) {
-        json_t *req = json_pack("{s:s}", "cmd", "capture");
-        for (int i = 0; i < N_KEYS; i++)
-            if (vals[i])
-                json_object_set_new(req, keys[i], json_string(vals[i]));
-        if (budget > 0)
-            json_object_set_new(req, "budget", json_real(budget));
-        if (target > 0)
-            json_object_set_new(req, "stop_target", json_real(target));
-        if (prescan >= 0)
-            json_object_set_new(req, "prescan", json_integer((json_int_t)prescan));
-        if (uncalibrated)
-            json_object_set_new(req, "uncalibrated", json_true());
         rep = conn_request(&c, req);
         rc = reply_failed(rep);
+    } else {
+        json_decref(req);
     }
     if (!rc) {
         char id[128];

@@ -13,6 +13,7 @@
 #include "brdf/abc.h"
 #include "cli/live_curve.h"
 #include "cli/live_state.h"
+#include "fit/journal_samples.h"
 #include "fit/model_file.h"
 #include "fit/stream.h"
 #include "journal/journal.h"
@@ -211,8 +212,7 @@ static void add_sample(live_state *s, const struct journal_sample *js, long seq,
             return;
     }
     struct fit_sample fsamp;
-    journal_sample_pair(js, &fsamp.g);
-    memcpy(fsamp.rgb, js->rgb, sizeof fsamp.rgb);
+    fit_journal_samples(js, 1, &fsamp);
     s->fed++;
     if (fit_stream_add(s->fs, &fsamp, force, &e) < 0 || !force)
         return;

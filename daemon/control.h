@@ -13,11 +13,11 @@
 
 #include "common/err.h"
 #include "daemon/config.h"
+#include "daemon/request.h" /* CONTROL_MAX_LINE */
 #include "daemon/worker.h"
 
 #define CONTROL_PROTO_MAJOR 1
 #define CONTROL_PROTO_MINOR 0
-#define CONTROL_MAX_LINE 65536          /* bytes of one request, newline excluded */
 
 typedef struct control control;
 

@@ -7,6 +7,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "brdf/material.h"
 #include "common/paths.h"
@@ -73,50 +74,93 @@ static int check_option(const char *check, const char *rig_name, const char *rig
     return 0;
 }
 
-static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_t *reply,
-                       const char **code, struct gonio_err *err)
+/* The capture's id: the request's name, else a readable, sortable stamp and
+ * the plan's name (a sent file's without its extension). */
+static int capture_id(const control *c, json_t *req, const char *plan,
+                      struct worker_request *r, struct gonio_err *err)
 {
-    (void)cl;
-    struct worker_request r;
-    memset(&r, 0, sizeof r);
+    const char *name = jstr(req, "name");
+    if (name) {
+        if (!control_valid_id(name))
+            return gonio_err_set(err, GONIO_EUSAGE,
+                                 "name '%s': a capture id is 1..100 letters, digits, '.', '_' "
+                                 "or '-', not starting with '.' or '-'",
+                                 name);
+        snprintf(r->id, sizeof r->id, "%s", name);
+        return 0;
+    }
+    char label[64];
+    const char *slash = strrchr(plan, '/');
+    snprintf(label, sizeof label, "%.40s", slash ? slash + 1 : plan);
+    char *dot = strrchr(label, '.');
+    if (dot && dot != label && (!strcmp(dot, ".yaml") || !strcmp(dot, ".yml")))
+        *dot = 0;
+    char stamp[32];
+    time_t t = time(NULL);
+    struct tm tm;
+    gmtime_r(&t, &tm);
+    strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm);
+    char base[96];
+    snprintf(base, sizeof base, "%s-%s", stamp, control_valid_id(label) ? label : "plan");
+    snprintf(r->id, sizeof r->id, "%s", base);
+    /* the suffix keeps two captures started in the same second apart */
+    for (int k = 2; k < 1000; k++) {
+        char probe[2304];
+        struct stat st;
+        snprintf(probe, sizeof probe, "%s/%s", c->cfg->capture_root, r->id);
+        if (stat(probe, &st) != 0)
+            break;
+        snprintf(r->id, sizeof r->id, "%s-%d", base, k);
+    }
+    return 0;
+}
+
+/* The request's plan, scene, rig, materials, metadata and options into r,
+ * checked as the engine will use them (worker_check): nothing is created
+ * here. A file the request carried is read from its copy (sent). */
+static int capture_inputs(control *c, json_t *req, const struct control_sent *sent,
+                          struct worker_request *r, struct gonio_err *err)
+{
     const char *plan = jstr(req, "plan"), *scene = jstr(req, "scene"),
                *rig = jstr(req, "rig"), *material = jstr(req, "material"),
                *model = jstr(req, "model"), *order = jstr(req, "order"),
-               *stop = jstr(req, "stop"), *name = jstr(req, "name"),
-               *truth = jstr(req, "truth");
-    *code = "bad-value";
-    if (!plan)
-        return gonio_err_set(err, GONIO_EUSAGE, "capture: 'plan' is required");
+               *stop = jstr(req, "stop"), *truth = jstr(req, "truth");
+    const char *sent_plan = control_sent_path(sent, "plan"),
+               *sent_rig = control_sent_path(sent, "rig");
     int rc;
-    if ((rc = control_resolve_ref(c, "plan", plan, r.plan, sizeof r.plan, err)) < 0)
+    if (sent_plan)
+        snprintf(r->plan, sizeof r->plan, "%s", sent_plan);
+    else if ((rc = control_resolve_ref(c, "plan", plan, r->plan, sizeof r->plan, err)) < 0)
         return rc;
     if (scene) {
-        if ((rc = control_resolve_ref(c, "scene", scene, r.scene, sizeof r.scene, err)) < 0)
+        if ((rc = control_resolve_ref(c, "scene", scene, r->scene, sizeof r->scene, err)) < 0)
             return rc;
     } else if (c->cfg->driver == GONIOD_DRIVER_SIM) {
-        snprintf(r.scene, sizeof r.scene, "%s", c->cfg->scene);
+        snprintf(r->scene, sizeof r->scene, "%s", c->cfg->scene);
     } /* hardware measures what it measures: no scene unless named */
-    if (rig) {
-        if ((rc = control_resolve_ref(c, "rig", rig, r.rig, sizeof r.rig, err)) < 0)
+    if (sent_rig) {
+        snprintf(r->rig, sizeof r->rig, "%s", sent_rig);
+    } else if (rig) {
+        if ((rc = control_resolve_ref(c, "rig", rig, r->rig, sizeof r->rig, err)) < 0)
             return rc;
     } else {
-        snprintf(r.rig, sizeof r.rig, "%s", c->cfg->rig);
+        snprintf(r->rig, sizeof r->rig, "%s", c->cfg->rig);
     }
-    if ((rc = goniod_config_rig_check(c->cfg, r.rig, err)) < 0)
+    if ((rc = goniod_config_rig_check(c->cfg, r->rig, err)) < 0)
         return rc;
-    if ((rc = check_option(jstr(req, "check"), rig ? rig : c->cfg->rig, r.rig,
-                           &r.check_isotropy, err)) < 0)
+    if ((rc = check_option(jstr(req, "check"), rig ? rig : c->cfg->rig, r->rig,
+                           &r->check_isotropy, err)) < 0)
         return rc;
     if (material &&
-        (rc = control_resolve_material(c, material, r.material, sizeof r.material, err)) < 0)
+        (rc = control_resolve_material(c, material, r->material, sizeof r->material, err)) < 0)
         return rc;
     if (material && c->cfg->driver != GONIOD_DRIVER_SIM &&
-        (rc = material_resolves(r.material, err)) < 0)
+        (rc = material_resolves(r->material, err)) < 0)
         return rc;
     /* What the operator says of the capture: kept, never interpreted. */
     static const char *const meta_keys[] = {"sample", "operator", "note"};
-    char *meta_out[] = {r.sample, r.operator_name, r.note};
-    size_t meta_size[] = {sizeof r.sample, sizeof r.operator_name, sizeof r.note};
+    char *meta_out[] = {r->sample, r->operator_name, r->note};
+    size_t meta_size[] = {sizeof r->sample, sizeof r->operator_name, sizeof r->note};
     for (int k = 0; k < 3; k++) {
         const char *v = jstr(req, meta_keys[k]);
         if (!v)
@@ -132,67 +176,82 @@ static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_
                                  meta_keys[k], v, meta_size[k] - 1);
         memcpy(meta_out[k], v, len + 1);
     }
-    if (truth && (rc = control_resolve_material(c, truth, r.truth, sizeof r.truth, err)) < 0)
+    if (truth && (rc = control_resolve_material(c, truth, r->truth, sizeof r->truth, err)) < 0)
         return rc;
-    snprintf(r.model, sizeof r.model, "%s", model ? model : "abc");
-    snprintf(r.order, sizeof r.order, "%s", order ? order : "");
-    snprintf(r.stop, sizeof r.stop, "%s", stop ? stop : "");
+    snprintf(r->model, sizeof r->model, "%s", model ? model : "abc");
+    snprintf(r->order, sizeof r->order, "%s", order ? order : "");
+    snprintf(r->stop, sizeof r->stop, "%s", stop ? stop : "");
     /* In range (daemon/request.c); whether the order takes them is the
      * engine's check. */
-    r.budget_min = json_number_value(json_object_get(req, "budget"));
-    r.stop_target = json_number_value(json_object_get(req, "stop_target"));
-    r.uncalibrated = json_is_true(json_object_get(req, "uncalibrated"));
+    r->budget_min = json_number_value(json_object_get(req, "budget"));
+    r->stop_target = json_number_value(json_object_get(req, "stop_target"));
+    r->uncalibrated = json_is_true(json_object_get(req, "uncalibrated"));
     json_t *prescan = json_object_get(req, "prescan");
     if (prescan && (rc = capture_prescan_option("prescan", json_integer_value(prescan),
-                                                &r.prescan, err)) < 0)
+                                                &r->prescan, err)) < 0)
         return rc;
-
-    if (name) {
-        if (!control_valid_id(name))
-            return gonio_err_set(err, GONIO_EUSAGE,
-                                 "name '%s': a capture id is 1..100 letters, digits, '.', '_' "
-                                 "or '-', not starting with '.' or '-'",
-                                 name);
-        snprintf(r.id, sizeof r.id, "%s", name);
-    } else {
-        /* A readable, sortable id; the suffix keeps two captures started
-         * in the same second apart. */
-        char stamp[32];
-        time_t t = time(NULL);
-        struct tm tm;
-        gmtime_r(&t, &tm);
-        strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm);
-        char base[96];
-        snprintf(base, sizeof base, "%s-%.40s", stamp, control_valid_id(plan) ? plan : "plan");
-        snprintf(r.id, sizeof r.id, "%s", base);
-        for (int k = 2; k < 1000; k++) {
-            char probe[2304];
-            struct stat st;
-            snprintf(probe, sizeof probe, "%s/%s", c->cfg->capture_root, r.id);
-            if (stat(probe, &st) != 0)
-                break;
-            snprintf(r.id, sizeof r.id, "%s-%d", base, k);
-        }
-    }
-    snprintf(r.dir, sizeof r.dir, "%s/%s", c->cfg->capture_root, r.id);
     /* Everything the engine will read, resolved as it will resolve it,
      * before the OK: a bad request creates nothing. */
-    if ((rc = worker_check(c->w, &r, err)) < 0)
-        return rc;
-    if ((rc = gonio_mkdir_p(c->cfg->capture_root, err)) < 0) {
+    return worker_check(c->w, r, err);
+}
+
+/* The capture's directory, created (or not: EEXIST) for the request. */
+static int capture_mkdir(const control *c, const struct worker_request *r, const char **code,
+                         struct gonio_err *err)
+{
+    int rc = gonio_mkdir_p(c->cfg->capture_root, err);
+    if (rc < 0) {
         *code = "io";
         return rc;
     }
-    if (mkdir(r.dir, 0755) < 0) {
-        *code = errno == EEXIST ? "exists" : "io";
-        return gonio_err_set(err, errno == EEXIST ? GONIO_EUSAGE : errno,
-                             errno == EEXIST
-                                 ? "capture '%s' exists; resume it or choose another name"
-                                 : "capture '%s': cannot create its directory",
-                             r.id);
+    if (mkdir(r->dir, 0755) == 0)
+        return 0;
+    *code = errno == EEXIST ? "exists" : "io";
+    return gonio_err_set(err, errno == EEXIST ? GONIO_EUSAGE : errno,
+                         errno == EEXIST
+                             ? "capture '%s' exists; resume it or choose another name"
+                             : "capture '%s': cannot create its directory",
+                         r->id);
+}
+
+static int cmd_capture(control *c, struct control_client *cl, json_t *req, json_t *reply,
+                       const char **code, struct gonio_err *err)
+{
+    (void)cl;
+    struct worker_request r;
+    memset(&r, 0, sizeof r);
+    const char *plan = jstr(req, "plan");
+    *code = "bad-value";
+    if (!plan)
+        return gonio_err_set(err, GONIO_EUSAGE, "capture: 'plan' is required");
+    struct control_sent sent;
+    int rc;
+    if ((rc = control_sent_take(req, &sent, err)) < 0 ||
+        (rc = capture_id(c, req, plan, &r, err)) < 0)
+        return rc;
+    snprintf(r.dir, sizeof r.dir, "%s/%s", c->cfg->capture_root, r.id);
+    /* The files the request carries are checked where the capture will
+     * read them: in its directory, which goes again if the check fails. */
+    if (sent.n && (rc = capture_mkdir(c, &r, code, err)) < 0)
+        return rc;
+    if (sent.n && (rc = control_sent_write(&sent, r.dir, err)) < 0) {
+        *code = rc == -GONIO_EUSAGE ? "bad-value" : "io";
+        control_sent_discard(&sent, r.dir);
+        rmdir(r.dir);
+        return rc;
     }
+    if ((rc = capture_inputs(c, req, &sent, &r, err)) < 0) {
+        control_sent_rename(&sent, err);
+        control_sent_discard(&sent, r.dir);
+        if (sent.n)
+            rmdir(r.dir);
+        return rc;
+    }
+    if (!sent.n && (rc = capture_mkdir(c, &r, code, err)) < 0)
+        return rc;
     if ((rc = control_save_request(&r, err)) < 0 || (rc = worker_start(c->w, &r, err)) < 0) {
         *code = "busy";
+        control_sent_discard(&sent, r.dir);
         control_discard_request(&r);
         return rc;
     }

@@ -5,6 +5,7 @@
  *                       limits (control_tick)
  *   control_commands.c  the command table and what each command does
  *   control_paths.c     what a request may name on disk, and the request record
+ *   control_files.c     the plan and rig files a capture request carries
  *   control_stream.c    the documents streamed to watchers during a capture
  *                       (control_dispatch)
  *   control_events.c    the same capture as Bluesky event-model documents
@@ -22,7 +23,6 @@
 
 #include "common/clock.h"
 #include "common/err.h"
-#include "daemon/bringup.h"
 #include "daemon/bringup.h"
 #include "daemon/control.h"
 #include "daemon/worker.h"
@@ -177,5 +177,37 @@ int control_save_request(const struct worker_request *r, struct gonio_err *err);
 int control_load_request(const control *c, struct worker_request *r, struct gonio_err *err);
 /* Undo a capture that did not start: its record and its (empty) directory. */
 void control_discard_request(const struct worker_request *r);
+
+/* ---- control_files.c -------------------------------------------------- */
+
+/* The files a capture request carries: plan_text with plan, rig_text with
+ * rig (docs/protocol.md). */
+enum { CONTROL_SENT_MAX = 2 };
+struct control_sent_file {
+    const char *field; /* "plan" or "rig" */
+    const char *name;  /* the file as the operator named it (messages) */
+    const char *base;  /* its last component: the copy's name */
+    const char *text;  /* borrowed from the request */
+    size_t len;
+    char path[2560];   /* the copy in the capture directory, "" until written */
+    int written;
+};
+struct control_sent {
+    struct control_sent_file files[CONTROL_SENT_MAX];
+    int n;
+};
+/* The files req carries (none: s->n 0), their names checked. 0, or a
+ * GONIO_EUSAGE error naming the field and the file. */
+int control_sent_take(json_t *req, struct control_sent *s, struct gonio_err *err);
+/* Write each copy into dir/request/FIELD/NAME (dir exists); a plan's
+ * progressive levels must be names. On error, control_sent_discard. */
+int control_sent_write(struct control_sent *s, const char *dir, struct gonio_err *err);
+/* The copy of field ("plan", "rig") once written, else NULL. */
+const char *control_sent_path(const struct control_sent *s, const char *field);
+/* Remove the copies written and their folders (dir itself stays). */
+void control_sent_discard(const struct control_sent *s, const char *dir);
+/* In err's message, each copy's path becomes the file's name as the
+ * operator gave it: the message the same file would get from gonio. */
+void control_sent_rename(const struct control_sent *s, struct gonio_err *err);
 
 #endif

@@ -35,6 +35,10 @@ static const struct arg_spec capture_args[] = {
      .unit = "a full-domain log error"},
     {.name = "prescan", .type = ARG_INT, .min = 0, .max = CAPTURE_PRESCAN_MAX, .unit = "points"},
     {.name = "uncalibrated", .type = ARG_BOOL},
+    /* The files the request carries (daemon/control_files.c): max is their
+     * length in bytes. */
+    {.name = "plan_text", .type = ARG_STRING, .max = CONTROL_FILE_MAX, .unit = "bytes"},
+    {.name = "rig_text", .type = ARG_STRING, .max = CONTROL_FILE_MAX, .unit = "bytes"},
     {.name = NULL},
 };
 static const struct arg_spec resume_args[] = {
@@ -90,6 +94,8 @@ static int type_ok(enum arg_type t, json_t *v)
 
 static int in_range(const struct arg_spec *a, json_t *v)
 {
+    if (a->type == ARG_STRING) /* a string's max: its length in bytes, 0 none */
+        return a->max == 0 || (double)json_string_length(v) <= a->max;
     if (a->type == ARG_INT) {
         json_int_t i = json_integer_value(v);
         return (a->zero_none && i == 0) || ((double)i >= a->min && (double)i <= a->max);
@@ -107,6 +113,11 @@ static void range_message(const char *cmd, const struct arg_spec *a, json_t *v, 
                           size_t size)
 {
     char value[64];
+    if (json_is_string(v)) {
+        snprintf(out, size, "%s: field '%s' of %zu bytes is too long: at most %g %s", cmd,
+                 a->name, json_string_length(v), a->max, a->unit);
+        return;
+    }
     if (json_is_integer(v))
         snprintf(value, sizeof value, "%lld", (long long)json_integer_value(v));
     else if (snprintf(value, sizeof value, "%.15g", json_number_value(v)) > 0 &&

@@ -11,6 +11,13 @@
 
 #include <jansson.h>
 
+#define CONTROL_MAX_LINE 65536 /* bytes of one request, newline excluded */
+
+/* The most bytes of a file a capture request carries (plan_text, rig_text):
+ * shipped plans and rigs are under 2 KiB, and two such files escaped for
+ * JSON must fit in one request line (CONTROL_MAX_LINE). */
+#define CONTROL_FILE_MAX 16384
+
 enum control_cmd {
     CONTROL_CMD_CAPTURE,
     CONTROL_CMD_STATUS,

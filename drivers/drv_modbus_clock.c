@@ -207,10 +207,10 @@ drv_clock *drv_clock_new_modbus(drv_modbus_bus *bus, int detector_slave, struct 
     c->wall0 = gonio_monotonic_s();
     /* Status to clock in one read: whether the clock is simulated, and
      * the register. */
-    uint16_t r[R_CLOCK + 2 - R_STATUS];
+    uint16_t r[R_CLOCK + 2 - R_STATUS] = {0};
     int rc = drv_modbus_read(bus, detector_slave, R_STATUS, R_CLOCK + 2 - R_STATUS, r,
                              "detector clock", err);
-    c->ms = drv_modbus_get32(r + R_CLOCK - R_STATUS);
+    c->ms = drv_modbus_get32(r + (R_CLOCK - R_STATUS));
     uint32_t st = drv_modbus_get32(r);
     if (rc == 0 && (st & MB_DET_CLOCK_SIMULATED)) {
         c->simulated = 2;

@@ -72,8 +72,10 @@ int fit_abc_pseudo_fit(const struct fit_data *data, const struct fit_model_optio
         u[1] = trr;
         fit_mlp_forward(&net, u, 1, z);
         dense[n].g = grid[k];
-        for (int c = 0; c < 3; c++)
+        for (int c = 0; c < 3; c++) {
             dense[n].rgb[c] = fit_mlp_value(z[c]);
+            dense[n].u[c] = NAN; /* a network's value has no measurement uncertainty */
+        }
         n++;
     }
     fit_mlp_free(&net);

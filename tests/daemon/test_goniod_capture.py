@@ -579,9 +579,10 @@ class ClientTests(DaemonTest):
         r = self.d.gonio("resume", "nothing-here")
         self.assertEqual(r.returncode, 1)
         self.assertIn("nothing-here", r.stderr)
+        # gonio sends the file it reads; goniod refuses it as a plan
         r = self.d.gonio("capture", "--plan", "/etc/passwd")
         self.assertEqual(r.returncode, 2)
-        self.assertIn("capture root", r.stderr)
+        self.assertIn("/etc/passwd:1:1: key 'plan'", r.stderr)
         self.assertEqual(self.d.gonio("capture").returncode, 2)
         self.assertEqual(self.d.gonio("capture", "--plan", "ds3", "--stop", "x").returncode, 2)
         self.assertEqual(self.d.gonio("status", "extra").returncode, 2)

@@ -106,6 +106,23 @@ class ClientTests(Checks, DaemonTest):
             self.assertEqual((start["budget"], start["stop_target"]), (0.5, 0.001))
             self.assertEqual(stop["stop_reason"], "budget")
 
+    def test_plan_sent_with_the_request(self):
+        """plan_text: a plan goniod cannot read travels as text, and the
+        capture measures its pairs."""
+        text = ("pairs:\n  - [20, -30]\n  - [20, 30]\n  - [45, 10]\n  - [45, 60]\n"
+                "order: as-written\nstop: all\n")
+        with self.client() as client:
+            reply, pairs, cap = self.follow(client, "/nowhere/mine.yaml", plan_text=text,
+                                            name="ps")
+            self.check_capture(pairs, cap)
+            self.assertEqual([[p["theta_i"], p["theta_r"]] for p in cap.plan["pairs"]],
+                             [[20, -30], [20, 30], [45, 10], [45, 60]])
+            kept = os.path.join(os.path.realpath(cap.dir), "request", "plan", "mine.yaml")
+            self.assertEqual(cap.request["plan"], kept)
+            with self.assertRaises(gonio.GonioError) as e:
+                client.capture("ds4", plan_text=5)
+            self.assertEqual(e.exception.code, "bad-type")
+
     def test_pause_resume_abort(self):
         with self.client() as client:
             events = client.watch()

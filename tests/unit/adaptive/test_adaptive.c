@@ -55,7 +55,7 @@ static brdf_material *truth;
 static struct fit_sample measure(const struct plan *pool, long i)
 {
     const struct plan_point *pt = plan_point(pool, (size_t)i);
-    struct fit_sample s;
+    struct fit_sample s = {0};
     brdf_pair_inplane(pt->theta_i, pt->theta_r, &s.g);
     if (truth)
         brdf_material_eval(truth, &s.g, 1, s.rgb);

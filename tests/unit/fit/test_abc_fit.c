@@ -67,7 +67,7 @@ static void test_recovers_known_parameters(void **state)
     struct brdf_pair g[400];
     size_t n = ds2_grid(g);
     assert_true(n > 100 && n < 400);
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     synth(&truth, g, n, s);
     struct brdf_abc p;
     struct fit_info info;
@@ -96,7 +96,7 @@ static void test_jacobian_matches_finite_differences(void **state)
     (void)state;
     struct brdf_pair g[400];
     size_t n = ds2_grid(g);
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     synth(&truth, g, n, s);
     struct abc_problem pb;
     assert_int_equal(abc_problem_init(&pb, s, NULL, n), 0);
@@ -147,7 +147,7 @@ static void test_fused_path_matches_dense(void **state)
     (void)state;
     struct brdf_pair g[400];
     size_t n = ds2_grid(g);
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     synth(&truth, g, n, s);
     struct abc_prior_term prior = {.mean = {-2, -2, -2, 2, 2, 2, 7, 0, -3}};
     for (int i = 0; i < ABC_NPAR; i++)
@@ -249,7 +249,7 @@ static void test_linear_score_weighted(void **state)
     (void)state;
     struct brdf_pair g[400];
     size_t n = ds2_grid(g);
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     synth(&truth, g, n, s);
     double weight[400], spec[400], plain = 0;
     for (size_t k = 0; k < n; k++)
@@ -288,7 +288,7 @@ static void test_subset_equals_init(void **state)
     (void)state;
     struct brdf_pair g[400];
     size_t n = ds2_grid(g);
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     synth(&truth, g, n, s);
     struct abc_problem all, sub, ref;
     assert_int_equal(abc_problem_init(&all, s, NULL, n), 0);
@@ -329,7 +329,7 @@ static void test_data_scale_median(void **state)
         if (mul % 3 == 0 || mul % 7 == 0)
             continue; /* j -> mul j mod 21 a permutation of 0..20 */
         for (int lows = 10; lows <= 11; lows++) {
-            struct fit_sample s[7];
+            struct fit_sample s[7] = {0};
             for (size_t k = 0; k < 7; k++) {
                 brdf_pair_inplane(0, 30, &s[k].g); /* cos theta_i = 1 */
                 for (int c = 0; c < 3; c++) {
@@ -388,7 +388,7 @@ static void test_six_samples_finite(void **state)
         {.kd = {0.01, 0.03, 0.1}, .A = {1200, 1100, 1080}, .B = 2.5e5, .C = 1.08, .eta = 1.47},
     };
     for (size_t m = 0; m < 3; m++) {
-        struct fit_sample s[6];
+        struct fit_sample s[6] = {0};
         for (int k = 0; k < 6; k++) {
             brdf_pair_inplane(30, tr[k], &s[k].g);
             brdf_abc_eval(&mats[m], &s[k].g, s[k].rgb);
@@ -410,7 +410,7 @@ static void test_all_diffuse_data(void **state)
     struct brdf_abc lamb = {.kd = {0.5, 0.4, 0.3}, .A = {0, 0, 0}, .B = 1, .C = 1, .eta = 1.5};
     struct brdf_pair g[400];
     size_t n = ds2_grid(g);
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     synth(&lamb, g, n, s);
     struct brdf_abc p;
     struct fit_info info;
@@ -427,7 +427,7 @@ static void test_unusable_samples_dropped(void **state)
     (void)state;
     struct brdf_pair g[400];
     size_t n = ds2_grid(g);
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     synth(&truth, g, n, s);
     s[3].rgb[1] = NAN;
     s[10].rgb[0] = INFINITY;
@@ -455,7 +455,7 @@ static void test_warm_start_refines(void **state)
     (void)state;
     struct brdf_pair g[400];
     size_t n = ds2_grid(g);
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     synth(&truth, g, n, s);
     struct brdf_abc near = truth;
     near.B *= 1.3;
@@ -477,7 +477,7 @@ static void test_large_input_subset_path(void **state)
 {
     (void)state;
     size_t n = 30000;
-    struct fit_sample *s = malloc(n * sizeof *s);
+    struct fit_sample *s = calloc(n, sizeof *s);
     unsigned seed = 99;
     printf("seed %u\n", seed);
     srand(seed);

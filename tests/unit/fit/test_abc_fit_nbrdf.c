@@ -80,7 +80,7 @@ static void check_material(const char *name, double limit)
     assert_int_equal((int)n, 912);
     double *rgb = malloc(3 * n * sizeof *rgb);
     brdf_material_eval(m, ds1, n, rgb);
-    struct fit_sample *s = malloc(n * sizeof *s);
+    struct fit_sample *s = calloc(n, sizeof *s);
     for (size_t k = 0; k < n; k++) {
         s[k].g = ds1[k];
         memcpy(s[k].rgb, rgb + 3 * k, sizeof s[k].rgb);

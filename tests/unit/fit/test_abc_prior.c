@@ -88,7 +88,7 @@ static void test_jacobian_with_prior_and_losses(void **state)
 {
     (void)state;
     struct brdf_pair g[400];
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     size_t n = ds2_grid(g);
     synth(&truth, g, n, s);
     struct abc_prior_term pt = {0};
@@ -150,7 +150,7 @@ static void test_losses_and_de_recover_truth(void **state)
 {
     (void)state;
     struct brdf_pair g[400];
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     size_t n = ds2_grid(g);
     synth(&truth, g, n, s);
     const enum fit_loss losses[] = {FIT_LOSS_LOG, FIT_LOSS_RELATIVE, FIT_LOSS_COS_L2};
@@ -188,7 +188,7 @@ static void test_uncertainty_matches_replicate_spread(void **state)
 {
     (void)state;
     struct brdf_pair g[400];
-    struct fit_sample s0[400], s[400];
+    struct fit_sample s0[400] = {0}, s[400] = {0};
     size_t n = ds2_grid(g);
     synth(&truth, g, n, s0);
     gsl_rng *rng = gsl_rng_alloc(gsl_rng_mt19937);
@@ -230,7 +230,7 @@ static void test_prior_fades_with_samples(void **state)
 {
     (void)state;
     struct brdf_pair g[400];
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     size_t n = ds2_grid(g);
     synth(&truth, g, n, s);
     struct fit_abc_prior prior;
@@ -282,7 +282,7 @@ static void test_ds4_shiny_materials(void **state)
         snprintf(spec, sizeof spec, "nbrdf:%s", names[i]);
         brdf_material *mat = brdf_material_open(spec, &err);
         assert_non_null(mat);
-        struct fit_sample s[6], sb[400];
+        struct fit_sample s[6] = {0}, sb[400] = {0};
         double v[18];
         static double vb[1200];
         brdf_material_eval(mat, g, 6, v);

@@ -49,7 +49,7 @@ static void eval_material(const char *spec, struct fit_sample *s, size_t n)
 static void cross_validate(const char *spec, const struct fit_model_options *opt,
                            struct fit_auto_cv *cv)
 {
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     size_t n = grid(s, 400);
     eval_material(spec, s, n);
     struct fit_data data = {.rgb = s, .n_rgb = n};
@@ -103,7 +103,7 @@ static void test_conductor_goes_to_abc(void **state)
     assert_string_not_equal(cv.model[cv.chosen], "latent");
 
     /* through the registry: the chosen model's own file, with the figures */
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     size_t n = grid(s, 400);
     eval_material("analytic:ggx-gold", s, n);
     struct fit_data data = {.rgb = s, .n_rgb = n};
@@ -140,7 +140,7 @@ static void test_decoder_material_goes_to_latent(void **state)
         fail_msg("%s", err.msg);
     long m = latent_decoder_find(dec, "red-fabric");
     assert_true(m >= 0);
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     size_t n = grid(s, 400);
     for (size_t k = 0; k < n; k++)
         latent_decoder_eval(dec, latent_decoder_latent(dec, (size_t)m), &s[k].g, 1, s[k].rgb);
@@ -177,7 +177,7 @@ static void test_refuses_too_few_geometries(void **state)
     /* three in-plane pairs, each twice and with its reciprocal twin
      * (theta_i and theta_r swapped): 12 samples, 3 geometries */
     static const double pairs[3][2] = {{20, 40}, {10, 60}, {30, 50}};
-    struct fit_sample s[12];
+    struct fit_sample s[12] = {0};
     size_t n = 0;
     for (int rep = 0; rep < 2; rep++)
         for (int k = 0; k < 3; k++) {

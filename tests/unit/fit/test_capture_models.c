@@ -440,7 +440,7 @@ static void saturated_capture(const char *model, char *cap, size_t cap_len, doub
     struct journal_sample *js = NULL;
     size_t n = 0;
     assert_true(journal_read(path, &js, &n, &err) >= 0);
-    struct fit_sample *fs = malloc(n * sizeof *fs);
+    struct fit_sample *fs = calloc(n, sizeof *fs);
     unsigned char *lower = malloc(n);
     struct brdf_pair *pairs = malloc(n * sizeof *pairs);
     double *got = malloc(3 * n * sizeof *got), *want = malloc(3 * n * sizeof *want);

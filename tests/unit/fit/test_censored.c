@@ -102,7 +102,7 @@ static void test_latent_censored(void **state)
         red[k] = truth[3 * k];
     qsort(red, n, sizeof *red, cmp_double);
     double clip = red[n * 85 / 100];
-    struct fit_sample *s = malloc(n * sizeof *s);
+    struct fit_sample *s = calloc(n, sizeof *s);
     unsigned char *lower = calloc(n, 1);
     size_t flagged = 0;
     for (size_t k = 0; k < n; k++) {

@@ -67,7 +67,7 @@ static double sum(const double *w, size_t n)
 static void test_even_grid(void **state)
 {
     (void)state;
-    struct fit_sample s[GRID * GRID];
+    struct fit_sample s[GRID * GRID] = {0};
     double w[GRID * GRID];
     size_t n = grid_samples(s);
     assert_int_equal(fit_domain_weights(s, NULL, n, w), 0);
@@ -95,7 +95,7 @@ static void test_even_grid(void **state)
 static void test_crowd_shares_its_point(void **state)
 {
     (void)state;
-    struct fit_sample s[GRID * GRID + CROWD];
+    struct fit_sample s[GRID * GRID + CROWD] = {0};
     double alone[GRID * GRID], w[GRID * GRID + CROWD];
     size_t n = grid_samples(s);
     assert_int_equal(fit_domain_weights(s, NULL, n, alone), 0);
@@ -120,7 +120,7 @@ static void test_crowd_shares_its_point(void **state)
 static void test_ties_and_order(void **state)
 {
     (void)state;
-    struct fit_sample s[GRID * GRID + 1], r[GRID * GRID + 1];
+    struct fit_sample s[GRID * GRID + 1] = {0}, r[GRID * GRID + 1] = {0};
     double w[GRID * GRID + 1], wr[GRID * GRID + 1], alone[GRID * GRID];
     size_t n = grid_samples(s);
     assert_int_equal(fit_domain_weights(s, NULL, n, alone), 0);
@@ -226,7 +226,7 @@ static void test_weighted_fit_ignores_crowd(void **state)
     struct brdf_abc crowd_mat = spread_mat;
     for (int c = 0; c < 3; c++)
         crowd_mat.kd[c] *= 4;
-    struct fit_sample s[400];
+    struct fit_sample s[400] = {0};
     size_t n = 0;
     for (double ti = 0; ti <= 75; ti += 15)
         for (double tr = -75; tr <= 75; tr += 6)
@@ -275,7 +275,7 @@ static void test_no_weights_below_seven(void **state)
 {
     (void)state;
     static const double tr[7] = {-60, -20, 20, 28, 36, 60, 45};
-    struct fit_sample s[7];
+    struct fit_sample s[7] = {0};
     for (int k = 0; k < 7; k++) {
         brdf_pair_inplane(30, tr[k], &s[k].g);
         brdf_abc_eval(&glossy, &s[k].g, s[k].rgb);
@@ -312,7 +312,7 @@ static void test_weighted_sds_match_their_spread(void **state)
     /* 40 spread samples and a crowd of 200 in one grazing corner: the crowd
      * stands for little of the domain, so the spread samples carry nearly
      * all the weight */
-    struct fit_sample clean[300], s[300];
+    struct fit_sample clean[300] = {0}, s[300] = {0};
     size_t n = 0;
     for (double ti = 0; ti <= 75; ti += 15)
         for (double tr = -75; tr <= 75; tr += 22)

@@ -266,7 +266,7 @@ static void test_spectral_limit(void **state)
 static void test_models_underdetermined(void **state)
 {
     (void)state;
-    struct fit_sample s[6];
+    struct fit_sample s[6] = {0};
     const double tr[6] = {-60, -20, 20, 28, 36, 60};
     for (int k = 0; k < 6; k++) {
         brdf_pair_inplane(30, tr[k], &s[k].g);

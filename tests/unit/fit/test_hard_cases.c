@@ -258,7 +258,7 @@ static void test_six_samples(void **state)
     for (int k = 0; k < 6; k++)
         brdf_pair_inplane(30, tr[k], &g[k]);
     const struct brdf_abc truth = {{0.2, 0.15, 0.1}, {20, 15, 10}, 3000, 0.9, 1.5};
-    struct fit_sample s[6];
+    struct fit_sample s[6] = {0};
     double ref[18];
     synth(&truth, g, 6, s);
     for (int k = 0; k < 6; k++)
@@ -507,7 +507,7 @@ static void test_one_geometry_underdetermined(void **state)
 {
     (void)state;
     const struct brdf_abc truth = {{0.2, 0.15, 0.1}, {20, 15, 10}, 3000, 0.9, 1.5};
-    struct fit_sample s[3];
+    struct fit_sample s[3] = {0};
     for (int k = 0; k < 3; k++) {
         brdf_pair_inplane(30, 25, &s[k].g);
         brdf_abc_eval(&truth, &s[k].g, s[k].rgb);
@@ -532,7 +532,7 @@ static void test_one_theta_h_underdetermined(void **state)
 {
     (void)state;
     const struct brdf_abc truth = {{0.2, 0.15, 0.1}, {20, 15, 10}, 3000, 0.9, 1.5};
-    struct fit_sample s[15];
+    struct fit_sample s[15] = {0};
     for (int k = 0; k < 15; k++) {
         brdf_pair_inplane(5.0 * k + 2, 5.0 * k + 2, &s[k].g);
         brdf_abc_eval(&truth, &s[k].g, s[k].rgb);

@@ -84,7 +84,7 @@ static double log_err(const double *a, const double *b, const struct brdf_pair *
 
 static struct fit_sample *samples_of(const double *rgb, const struct brdf_pair *p, size_t n)
 {
-    struct fit_sample *s = malloc(n * sizeof *s);
+    struct fit_sample *s = calloc(n, sizeof *s);
     for (size_t k = 0; k < n; k++) {
         s[k].g = p[k];
         memcpy(s[k].rgb, rgb + 3 * k, sizeof s[k].rgb);
@@ -334,7 +334,7 @@ static void test_finite_at_extremes(void **state)
 static void test_too_few_samples(void **state)
 {
     (void)state;
-    struct fit_sample s[4];
+    struct fit_sample s[4] = {0};
     memset(s, 0, sizeof s);
     brdf_pair_inplane(30, 30, &s[0].g);
     brdf_pair_inplane(30, 40, &s[1].g);

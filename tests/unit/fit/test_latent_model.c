@@ -37,7 +37,7 @@ static void test_registry_round_trip(void **state)
     /* samples: the decoder at a training latent, on a coarse in-plane grid */
     long m = latent_decoder_find(dec, "red-fabric");
     assert_true(m >= 0);
-    struct fit_sample s[200];
+    struct fit_sample s[200] = {0};
     size_t n = 0;
     for (int ti = 0; ti <= 70; ti += 10)
         for (int tr = -70; tr <= 70; tr += 7)

@@ -154,7 +154,7 @@ static void test_early_stopping(void **state)
 
 static struct fit_sample *smooth_samples(size_t *n)
 {
-    struct fit_sample *s = malloc(561 * sizeof *s);
+    struct fit_sample *s = calloc(561, sizeof *s);
     size_t m = 0;
     for (int ti = 0; ti <= 80; ti += 5)
         for (int tr = -80; tr <= 80; tr += 5) {
@@ -241,7 +241,7 @@ static void reciprocal_rgb(double ti, double tr, double f[3])
 static void test_reciprocity_fills_incidence(void **state)
 {
     (void)state;
-    struct fit_sample *s = malloc(3 * 81 * sizeof *s);
+    struct fit_sample *s = calloc(3 * 81, sizeof *s);
     size_t n = 0;
     for (int ti = 0; ti <= 80; ti += 40)
         for (int tr = -80; tr <= 80; tr += 2) {

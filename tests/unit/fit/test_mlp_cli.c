@@ -159,7 +159,7 @@ static void test_abc_default_output(void **state)
     assert_int_equal(run(argv, 4, &out, &errtext), 0);
     size_t n;
     struct journal_sample *js = samples(&n);
-    struct fit_sample *fs = malloc(n * sizeof *fs);
+    struct fit_sample *fs = calloc(n, sizeof *fs);
     for (size_t i = 0; i < n; i++) {
         journal_sample_pair(&js[i], &fs[i].g);
         memcpy(fs[i].rgb, js[i].rgb, sizeof fs[i].rgb);

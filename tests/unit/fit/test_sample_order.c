@@ -92,7 +92,7 @@ static void saturate(struct fit_sample *s, size_t n, unsigned char *f)
 /* fit_abc on s[0..n) (modified: flagged clips) in N_ORDERS orders. */
 static void abc_orders(struct fit_sample *s, size_t n, int flagged)
 {
-    struct fit_sample p[MAX_SAMPLES];
+    struct fit_sample p[MAX_SAMPLES] = {0};
     unsigned char f[MAX_SAMPLES], pf[MAX_SAMPLES];
     if (flagged)
         saturate(s, n, f);
@@ -113,7 +113,7 @@ static void abc_orders(struct fit_sample *s, size_t n, int flagged)
 static void test_abc(void **state)
 {
     (void)state;
-    struct fit_sample s[MAX_SAMPLES];
+    struct fit_sample s[MAX_SAMPLES] = {0};
     for (int wide = 0; wide <= 1; wide++)
         for (int flagged = 0; flagged <= 1; flagged++)
             abc_orders(s, synth(wide, s), flagged);
@@ -134,7 +134,7 @@ static latent_decoder *load_decoder(void)
 /* fit_latent on s[0..n) (modified: flagged clips) in N_ORDERS orders. */
 static void latent_orders(const latent_decoder *d, struct fit_sample *s, size_t n, int flagged)
 {
-    struct fit_sample p[MAX_SAMPLES];
+    struct fit_sample p[MAX_SAMPLES] = {0};
     unsigned char f[MAX_SAMPLES], pf[MAX_SAMPLES];
     if (flagged)
         saturate(s, n, f);
@@ -156,7 +156,7 @@ static void test_latent(void **state)
 {
     (void)state;
     latent_decoder *d = load_decoder();
-    struct fit_sample s[MAX_SAMPLES];
+    struct fit_sample s[MAX_SAMPLES] = {0};
     for (int wide = 0; wide <= 1; wide++)
         for (int flagged = 0; flagged <= 1; flagged++)
             latent_orders(d, s, synth(wide, s), flagged);
@@ -186,7 +186,7 @@ static void test_merl_ds4(void **state)
             brdf_pair_inplane(ds4[k][0], ds4[k][1], &g[k]);
         assert_int_equal(brdf_material_eval(m, g, 6, rgb), 0);
         brdf_material_free(m);
-        struct fit_sample s[6];
+        struct fit_sample s[6] = {0};
         for (int flagged = 0; flagged <= 1; flagged++) {
             for (int k = 0; k < 6; k++) {
                 s[k].g = g[k];
@@ -241,7 +241,7 @@ static void test_registry(void **state)
     (void)state;
     static const char *const models[] = {"abc", "abc-prior", "latent", "auto", "mlp",
                                          "abc-pseudo"};
-    struct fit_sample s[MAX_SAMPLES], p[MAX_SAMPLES];
+    struct fit_sample s[MAX_SAMPLES] = {0}, p[MAX_SAMPLES] = {0};
     unsigned char f[MAX_SAMPLES], pf[MAX_SAMPLES];
     size_t n = synth(1, s);
     saturate(s, n, f);
@@ -265,7 +265,7 @@ static void test_registry(void **state)
 static void test_auto_cv(void **state)
 {
     (void)state;
-    struct fit_sample s[MAX_SAMPLES], p[MAX_SAMPLES];
+    struct fit_sample s[MAX_SAMPLES] = {0}, p[MAX_SAMPLES] = {0};
     unsigned char f[MAX_SAMPLES], pf[MAX_SAMPLES];
     size_t n = synth(1, s);
     saturate(s, n, f);

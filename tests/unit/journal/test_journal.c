@@ -222,7 +222,7 @@ static void test_fit_samples_count_saturated(void **state)
     struct journal_sample js[7];
     for (int i = 0; i < 7; i++)
         js[i] = make(i); /* odd points are flagged saturated */
-    struct fit_sample fs[7];
+    struct fit_sample fs[7] = {0};
     assert_int_equal(fit_journal_samples(js, 7, fs), 3);
     for (int k = 0; k < 7; k++) {
         struct brdf_pair want;
