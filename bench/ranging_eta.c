@@ -80,8 +80,8 @@ int main(int argc, char **argv)
         printf("%-30s %9.1f %+8.1f%% %+8.1f%% %+8.1f%% %+8.1f%% %8.1f%% %8.1f%% %8zu %6zu\n",
                mat, t, 100 * (s.estimate / t - 1), 100 * (s.at_prescan / t - 1),
                100 * (s.at_quarter / t - 1), 100 * (s.at_half / t - 1),
-               100 * worst_from(&s, s.prescan, t), 100 * worst_from(&s, s.total / 4, t), sum.retakes,
-               sum.darks);
+               100 * worst_from(&s, s.prescan, t), 100 * worst_from(&s, s.total / 4, t),
+               sum.retakes, sum.darks);
     }
     return 0;
 }
