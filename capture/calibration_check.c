@@ -1,12 +1,12 @@
 #include "capture/calibration_check.h"
 
 int capture_calibration_check(const struct capture_config *cfg, int counts,
-                              struct gonio_err *err)
+                              const char *detector, struct gonio_err *err)
 {
     if (!counts || cfg->uncalibrated || cfg->calibrations)
         return 0; /* a calibration named is looked up and checked when the job resolves */
     return gonio_err_set(err, GONIO_EUSAGE,
-                         "the detector gives counts and the capture names no calibration to "
-                         "turn them into BRDF: give --calibration ID, or --uncalibrated to "
-                         "journal the counts and fit nothing");
+                         "the detector (%s) gives counts and the capture names no calibration "
+                         "to turn them into BRDF: give --calibration ID, or --uncalibrated to "
+                         "journal the counts and fit nothing", detector ? detector : "unknown");
 }

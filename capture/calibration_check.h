@@ -12,8 +12,8 @@
 
 /* 0 when cfg may capture from a detector that gives counts (counts 1) or
  * BRDF (counts 0); else -GONIO_EUSAGE (exit 2) with a message naming the
- * fix. */
+ * detector (setup.json's name for it; NULL: "unknown") and the fix. */
 int capture_calibration_check(const struct capture_config *cfg, int counts,
-                              struct gonio_err *err);
+                              const char *detector, struct gonio_err *err);
 
 #endif

@@ -346,7 +346,7 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
     if (rc == 0)
         rc = measure_point(dev, clk, hooks, &job->rig, pt, 0.0, (int)k, &r->ranging, &s, err);
     if (rc == 0) /* a source that could not say so before: its first reading tells */
-        rc = capture_calibration_check(&job->cfg, s.counts, err);
+        rc = capture_calibration_check(&job->cfg, s.counts, job->src->detector, err);
     if (rc == 0 && dev->counts && !s.counts) /* never BRDF from a detector of counts */
         rc = gonio_err_set(err, GONIO_EDEVICE,
                            "the detector said at open that it gives counts, and its reading "
@@ -461,7 +461,7 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
     struct capture_devices dev;
     rc = open_devices(r, &dev, err);
     if (rc == 0 && dev.counts && /* the detector said so at open: before the first move */
-        (rc = capture_calibration_check(&job->cfg, 1, err)) < 0)
+        (rc = capture_calibration_check(&job->cfg, 1, job->src->detector, err)) < 0)
         job->src->close(job->src->user, &dev);
     else if (rc == 0 && r->eta && (rc = eta_from_axes(r->eta, &dev, err)) < 0)
         job->src->close(job->src->user, &dev);

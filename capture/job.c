@@ -243,7 +243,7 @@ int capture_prepare(const struct capture_config *cfg, const struct capture_rig *
         return gonio_err_set(err, ENOMEM, "out of memory");
     int rc = copy_config(cfg, job, err);
     if (rc == 0) /* before anything is written or moved */
-        rc = capture_calibration_check(&job->cfg, rig->counts, err);
+        rc = capture_calibration_check(&job->cfg, rig->counts, rig->detector, err);
     if (rc == 0)
         rc = resolve_inputs(&job->cfg, rig, job, err);
     if (rc == 0)

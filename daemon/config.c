@@ -312,7 +312,7 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
     cfg->time_scale = 1;
     cfg->timeout_s = 0.5;
     cfg->retries = 4;
-    cfg->usb = (struct goniod_usb_detector){.vendor = 0x2457, .product = 0x101e, .scale = 1,
+    cfg->usb = (struct goniod_usb_detector){.vendor = 0x2457, .product = 0x101e, .scale = 0,
                                             .timeout_s = 1};
     cfg->max_clients = 16;
     cfg->idle_timeout_s = 600;
@@ -419,8 +419,10 @@ void goniod_config_print(FILE *out, const struct goniod_config *c)
                     c->usb.vendor, c->usb.product);
             if (c->usb.serial[0])
                 fprintf(out, "    serial: \"%s\"\n", c->usb.serial);
-            fprintf(out, "    bands: %s\n    scale: %.17g\n    timeout_s: %g\n",
-                    c->usb.bands_390 ? "390-730" : "400-700", c->usb.scale, c->usb.timeout_s);
+            fprintf(out, "    bands: %s\n", c->usb.bands_390 ? "390-730" : "400-700");
+            if (c->usb.scale > 0) /* the BRDF shortcut, only where asked for */
+                fprintf(out, "    scale: %.17g\n", c->usb.scale);
+            fprintf(out, "    timeout_s: %g\n", c->usb.timeout_s);
         }
     }
     fputs("capture_root: ", out);

@@ -24,7 +24,7 @@ struct goniod_usb_detector {
     int vendor, product;     /* USB ids */
     char serial[64];         /* "" : the first device with these ids */
     int bands_390;           /* 1: 35 bands 390-730 nm; 0: 31 bands 400-700 nm */
-    double scale;            /* BRDF (1/sr) per dark-corrected count per second */
+    double scale;            /* 0: counts; > 0: the BRDF shortcut, 1/sr per count per second */
     double timeout_s;        /* per USB transfer beyond the integration */
 };
 

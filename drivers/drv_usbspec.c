@@ -33,6 +33,8 @@ struct drv_usbspec {
     char serial[64];
     double timeout_s;
     double coef[4];
+    double nl[DRV_USBSPEC_NL_MAX + 1]; /* the nonlinearity correction's c0..c7 */
+    int nl_order;
     int packet;         /* spectrum packet size: 512 high speed, 64 full speed */
     int lost;           /* unplugged, or a transfer libusb never gave back */
     int (*cancelled)(void *user); /* the host's cancel check, or NULL */
@@ -50,7 +52,7 @@ void drv_usbspec_cfg_default(struct drv_usbspec_cfg *cfg)
     cfg->first_nm = 400;
     cfg->step_nm = 10;
     cfg->n_bands = 31;
-    cfg->scale = 1.0;
+    cfg->scale = 0; /* counts */
 }
 
 static void LIBUSB_CALL on_done(struct libusb_transfer *t)
@@ -201,21 +203,33 @@ static int query_info(drv_usbspec *s, int slot, char *text, size_t size, struct 
     return 0;
 }
 
+/* A number stored as ASCII in a query-information slot; what names it in
+ * the error ("wavelength coefficient 1"). */
+static int slot_number(drv_usbspec *s, int slot, const char *what, double *v,
+                       struct gonio_err *err)
+{
+    char text[24], *end;
+    int rc = query_info(s, slot, text, sizeof text, err);
+    if (rc < 0)
+        return rc;
+    errno = 0;
+    *v = strtod(text, &end);
+    while (*end == ' ')
+        end++;
+    if (end == text || *end || errno == ERANGE || !isfinite(*v))
+        return gonio_err_set(err, GONIO_EDEVICE, "%s: %s (slot %d): '%s' is not a number",
+                             s->who, what, slot, text);
+    return 0;
+}
+
 static int read_calibration(drv_usbspec *s, struct gonio_err *err)
 {
     for (int k = 0; k < 4; k++) {
-        char text[24], *end;
-        int rc = query_info(s, k + 1, text, sizeof text, err);
+        char what[40];
+        snprintf(what, sizeof what, "wavelength coefficient %d", k);
+        int rc = slot_number(s, k + 1, what, &s->coef[k], err);
         if (rc < 0)
             return rc;
-        errno = 0;
-        double v = strtod(text, &end);
-        while (*end == ' ')
-            end++;
-        if (end == text || *end || errno == ERANGE || !isfinite(v))
-            return gonio_err_set(err, GONIO_EDEVICE, "%s: wavelength coefficient %d (slot %d): "
-                                 "'%s' is not a number", s->who, k, k + 1, text);
-        s->coef[k] = v;
     }
     double lam[DRV_USBSPEC_PIXELS];
     drv_usbspec_wavelengths(s->coef, DRV_USBSPEC_PIXELS, lam);
@@ -226,6 +240,60 @@ static int read_calibration(drv_usbspec *s, struct gonio_err *err)
                                  s->coef[0], s->coef[1], s->coef[2], s->coef[3], p, lam[p],
                                  lam[p - 1]);
     return 0;
+}
+
+static double poly(const double *c, int order, double y)
+{
+    double p = 0;
+    for (int k = order; k >= 0; k--)
+        p = p * y + c[k];
+    return p;
+}
+
+double drv_usbspec_linearise(const double *c, int order, double y)
+{
+    return y / poly(c, order, y);
+}
+
+/* Slots 6-13: the coefficients c0..c7 of the correction y / P(y) the
+ * device's factory calibration measured; slot 14: the order of P. Checked
+ * over the ADC's whole range: P positive and y / P(y) increasing, so that
+ * a larger count is always more light. */
+static int read_nonlinearity(drv_usbspec *s, struct gonio_err *err)
+{
+    double order;
+    int rc = slot_number(s, 14, "nonlinearity order", &order, err);
+    if (rc < 0)
+        return rc;
+    if (!(order >= 0 && order <= DRV_USBSPEC_NL_MAX) || order != floor(order))
+        return gonio_err_set(err, GONIO_EDEVICE, "%s: nonlinearity order (slot 14): %g, "
+                             "expected a whole number 0-%d", s->who, order, DRV_USBSPEC_NL_MAX);
+    s->nl_order = (int)order;
+    for (int k = 0; k <= s->nl_order; k++) {
+        char what[40];
+        snprintf(what, sizeof what, "nonlinearity coefficient %d", k);
+        if ((rc = slot_number(s, 6 + k, what, &s->nl[k], err)) < 0)
+            return rc;
+    }
+    double last = -INFINITY;
+    for (int y = 0; y <= DRV_USBSPEC_FULL_SCALE; y += 64) {
+        double p = poly(s->nl, s->nl_order, y);
+        double x = drv_usbspec_linearise(s->nl, s->nl_order, y);
+        if (!(p > 0) || !(x > last))
+            return gonio_err_set(err, GONIO_EDEVICE, "%s: nonlinearity correction (slots 6-%d, "
+                                 "c0 = %g): at %d counts P(y) = %g, y / P(y) = %g; it must be "
+                                 "positive and increase", s->who, 6 + s->nl_order, s->nl[0], y,
+                                 p, x);
+        last = x;
+    }
+    return 0;
+}
+
+void drv_usbspec_nonlinearity(const drv_usbspec *s, double c[DRV_USBSPEC_NL_MAX + 1],
+                              int *order)
+{
+    memcpy(c, s->nl, sizeof s->nl);
+    *order = s->nl_order;
 }
 
 int drv_usbspec_status(drv_usbspec *s, struct drv_usbspec_status *st, struct gonio_err *err)
@@ -381,7 +449,8 @@ drv_usbspec *drv_usbspec_open(const struct drv_usbspec_cfg *cfg, struct gonio_er
     struct drv_usbspec_status st;
     if ((rc = find_device(s, cfg, err)) < 0 ||
         (rc = command(s, &init, 1, "initialise", err)) < 0 ||
-        (rc = read_calibration(s, err)) < 0 || (rc = drv_usbspec_status(s, &st, err)) < 0) {
+        (rc = read_calibration(s, err)) < 0 || (rc = read_nonlinearity(s, err)) < 0 ||
+        (rc = drv_usbspec_status(s, &st, err)) < 0) {
         drv_usbspec_close(s);
         return NULL;
     }

@@ -6,7 +6,9 @@
  * Opening claims the device, initialises it (0x01), reads the wavelength
  * calibration (query information 0x05, slots 1-4: the coefficients c0..c3
  * of lambda(p) = c0 + c1 p + c2 p^2 + c3 p^3 as ASCII) and the status
- * (0xFE). A spectrum (0x09) is 2048 little-endian 16-bit counts; it is
+ * (0xFE), and the factory's nonlinearity correction (slot 14: the order
+ * of P, slots 6-13: its coefficients c0..c7; a count y above the electric
+ * dark is linearised as y / P(y)). A spectrum (0x09) is 2048 little-endian 16-bit counts; it is
  * resampled onto the configured bands (by default 31 bands 400-700 nm, or
  * 35 bands 390-730 nm, each a 10 nm box around its centre).
  *
@@ -31,6 +33,8 @@
 #define DRV_USBSPEC_MAX_BANDS 64
 #define DRV_USBSPEC_MIN_US 1000u      /* the USB2000+'s integration range */
 #define DRV_USBSPEC_MAX_US 655350000u
+#define DRV_USBSPEC_FULL_SCALE 65535  /* the 16-bit ADC's largest count */
+#define DRV_USBSPEC_NL_MAX 7          /* the nonlinearity polynomial's highest order */
 
 struct drv_usbspec_cfg {
     int vendor, product;  /* USB ids; defaults 0x2457, 0x101e (USB2000+) */
@@ -40,8 +44,11 @@ struct drv_usbspec_cfg {
      * width step_nm. Default 400, 10, 31. */
     double first_nm, step_nm;
     int n_bands;
-    /* BRDF (1/sr) per dark-corrected count per second of integration: the
-     * rig's radiometric calibration (a white reference). Default 1. */
+    /* 0 (the default): the detector reports counts, which a calibration
+     * reduces to BRDF (docs/radiometry.md). > 0: a shortcut that reports
+     * BRDF as dark-corrected band counts times scale per second of
+     * integration (a white reference's constant, measured once), with no
+     * dark frame, reference standard or uncertainty. */
     double scale;
 };
 
@@ -56,6 +63,12 @@ void drv_usbspec_close(drv_usbspec *s);
 
 /* The calibration coefficients c0..c3 read at open. */
 void drv_usbspec_coefficients(const drv_usbspec *s, double c[4]);
+/* The nonlinearity correction read at open: c0..c[*order] of P. */
+void drv_usbspec_nonlinearity(const drv_usbspec *s, double c[DRV_USBSPEC_NL_MAX + 1],
+                              int *order);
+/* y / P(y), P(y) = c0 + c1 y + ... + c_order y^order: a count y above the
+ * electric dark with the detector's nonlinearity undone. */
+double drv_usbspec_linearise(const double *c, int order, double y);
 /* The serial number the device reports in sysfs ("" when unknown). */
 const char *drv_usbspec_serial(const drv_usbspec *s);
 
@@ -96,20 +109,32 @@ int drv_usbspec_resample(const double *lambda_nm, const double *v, size_t n,
                          double *out, struct gonio_err *err);
 
 /* The detector of the capture engine (drivers/drivers.h). Each acquire sets
- * the integration time when it changed, reads a spectrum, subtracts the
- * electric dark level (mean of the optically masked pixels 6-20), resamples
- * onto the bands, turns counts into BRDF by scale / integration time, and
- * reports the linear sRGB of that spectrum under D65 (brdf/spectral.h, as
- * the simulated spectral detector does). A pixel at full scale (65535) in
- * the bands' range sets DRV_READING_SATURATED. Bands and scale come from
- * cfg; a band beyond the calibrated pixels fails here. The detector owns s
- * (closed on failure too). */
+ * the integration time when it changed, reads a spectrum and subtracts the
+ * electric dark level (mean of the optically masked pixels 6-20).
+ *
+ * Counts (scale 0): each pixel is linearised with the device's correction,
+ * the pixels are resampled onto the bands, and the reading's three
+ * channels are the mean band counts of three broad bins, R: bands centred
+ * at 595 nm and above, G: 495-595 nm, B: below 495 nm (DRV_UNIT_COUNTS,
+ * gain state 0, nonlinearity 0 as it is undone here; full_scale the
+ * linearised top of the ADC, which a channel with a pixel at 65535 reads,
+ * so that the reduction gives it no value). A calibration's dark frames
+ * and reference standard turn each channel into BRDF.
+ *
+ * BRDF (scale > 0, the shortcut): the band counts times scale / integration
+ * time, and the reading the linear sRGB of that spectrum under D65
+ * (brdf/spectral.h, as the simulated spectral detector does).
+ *
+ * A pixel at full scale in the bands' range sets DRV_READING_SATURATED.
+ * Bands and scale come from cfg; a band beyond the calibrated pixels fails
+ * here. The detector owns s (closed on failure too). */
 drv_detector *drv_detector_new_usbspec(drv_usbspec *s, const struct drv_usbspec_cfg *cfg,
                                        struct gonio_err *err);
 
-/* The last acquire's band centres and spectrum (BRDF, 1/sr) of a detector
- * made by drv_detector_new_usbspec; returns the band count (0 before the
- * first reading). */
+/* The last acquire's band centres and spectrum of a detector made by
+ * drv_detector_new_usbspec (linearised counts above the electric dark, or
+ * BRDF in 1/sr with the scale shortcut); returns the band count (0 before
+ * the first reading). */
 int drv_usbspec_last_spectrum(const drv_detector *d, const double **centres_nm,
                               const double **spectrum);
 

@@ -88,12 +88,14 @@ class UsbCaptureTests(unittest.TestCase):
             self.d.proc.wait()
         test_goniod_modbus.ModbusRig.tearDown(self)
 
-    def start(self, recording):
+    def start(self, recording, detector=""):
         cap = os.path.join(self.folder, "cap")
         os.makedirs(cap)
         rig = open(os.path.join(g.SOURCE, "configs", "rigs", "default.yaml")).read()
-        rig = rig.replace("settle_s: 0.3", "settle_s: 0.01").replace("fixed_s: 0.05",
-                                                                       "fixed_s: 0.1")
+        # one integration, as recorded: counts are auto-ranged within these
+        rig = rig.replace("settle_s: 0.3", "settle_s: 0.01").replace(
+            "fixed_s: 0.05", "fixed_s: 0.1").replace("auto_min_s: 0.001", "auto_min_s: 0.1") \
+            .replace("auto_max_s: 2", "auto_max_s: 0.1")
         with open(os.path.join(cap, "fast.yaml"), "w") as f:
             f.write(rig)
         with open(os.path.join(cap, "tiny.yaml"), "w") as f:
@@ -115,8 +117,8 @@ class UsbCaptureTests(unittest.TestCase):
         self.d = g.Daemon(self.folder, command=[wrapper], driver=(
             "  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n  time_scale: 1000\n"
             "  timeout_s: %g\n  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
-            "  detector: {kind: usb-spectrometer, serial: USB2+F01234, timeout_s: 2}\n"
-            % (self.port, 0.5 * g.SLOW)))
+            "  detector: {kind: usb-spectrometer, serial: USB2+F01234, timeout_s: 2%s}\n"
+            % (self.port, 0.5 * g.SLOW, detector)))
         self.d.start()
         c = self.d.connect()
         c.request("watch")
@@ -129,8 +131,45 @@ class UsbCaptureTests(unittest.TestCase):
         with open(self.d.log) as f:
             self.assertEqual(rc, 0, f.read()[-2000:])
 
-    def test_capture_reads_the_spectrometer(self):
+    def test_counts_refused_without_calibration(self):
+        """The spectrometer gives counts: a capture naming no calibration
+        fails at the first reading, naming the detector and the fix, and no
+        sample is kept as BRDF."""
         c = self.start("spectrum.ioctl")
+        self.assertEqual(c.request("capture", plan="tiny.yaml", rig="fast.yaml",
+                                   name="raw")["class"], "OK")
+        stop = c.until_stop("raw")[-1]
+        self.assertEqual(stop["exit_status"], "fail", stop)
+        self.assertIn("the detector (usb-spectrometer) gives counts", stop["message"])
+        self.assertIn("--calibration ID", stop["message"])
+        samples = os.path.join(self.d.root, "raw", "samples.csv")
+        self.assertFalse(os.path.exists(samples) and g.read_samples(samples))
+        self.finish(c)
+
+    def test_uncalibrated_journals_counts(self):
+        """--uncalibrated: the counts are journalled as counts (the three
+        bins of the lamp-lit tile: red above blue), none as BRDF, nothing
+        fitted."""
+        c = self.start("spectrum.ioctl")
+        self.assertEqual(c.request("capture", plan="tiny.yaml", rig="fast.yaml", name="raw",
+                                   uncalibrated=True)["class"], "OK")
+        docs = c.until_stop("raw")
+        self.assertEqual(docs[-1]["reason"], "complete", docs[-1])
+        events = [d for d in docs if d["class"] == "event" and "raw" in d]
+        self.assertEqual(len(events), 4)
+        for e in events:
+            self.assertEqual(e["unit"], "counts")
+            self.assertEqual(e["rgb"], [None, None, None])
+            self.assertEqual(e["raw"], events[0]["raw"])
+            self.assertTrue(all(x > 1000 for x in e["raw"]), e["raw"])
+        self.assertGreater(events[0]["raw"][0], events[0]["raw"][2])
+        results = g.load_json(os.path.join(self.d.root, "raw", "results.json"))
+        self.assertIn("uncalibrated", results["not_fitted"])
+        self.finish(c)
+
+    def test_scale_shortcut_reports_brdf(self):
+        """scale in the config: the shortcut that reports BRDF, as before."""
+        c = self.start("spectrum.ioctl", detector=", scale: 2.5e-5")
         self.assertEqual(c.request("capture", plan="tiny.yaml", rig="fast.yaml",
                                    name="usb")["class"], "OK")
         stop = c.until_stop("usb")[-1]

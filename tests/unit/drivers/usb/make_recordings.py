@@ -13,6 +13,10 @@ import struct
 
 DEV = "/dev/bus/usb/001/005"
 COEF = ["339.620361", "0.3805263", "-1.953270E-05", "-1.18845E-09"]
+# The factory's nonlinearity correction: slot 14 the order, slots 6.. the
+# coefficients of P in y / P(y) (y: counts above the electric dark). Like a
+# real USB2000+'s: P a few % under 1 at low counts, rising toward 1.
+NL = ["0.95", "1.2E-06", "-4.0E-12"]
 INTEGRATION_US = 100000
 PIXELS = 2048
 DARK = (6, 21)  # electric dark pixels, half-open
@@ -57,20 +61,32 @@ def status_reply(integration_us):
     return (struct.pack("<HI", PIXELS, integration_us) + bytes([0, 0, 0, 9, 1, 0, 0, 0, 0x80, 0]))
 
 
-def opening(lines):
+def opening(lines, nl=None):
     lines.append(urb(0x01, b"\x01"))                       # initialise
     for slot, text in enumerate(COEF, start=1):            # wavelength calibration
         lines.append(urb(0x01, bytes([0x05, slot])))
         lines.append(urb(0x81, info_reply(slot, text), depth=1))
+    nl = nl or NL
+    query(lines, 14, str(len(nl) - 1))                     # nonlinearity order
+    for slot, text in enumerate(nl, start=6):              # its coefficients
+        query(lines, slot, text)
     lines.append(urb(0x01, b"\xfe"))                       # status
     lines.append(urb(0x81, status_reply(2000), depth=1))
 
 
-def spectrum(lines, raw, packets=None, sync=b"\x69", status_at=None):
-    """Integration, status, request, 8 packets and the sync byte. packets:
-    override the packet list; status_at: (index, errno) ends that packet
-    with a kernel URB status instead (e.g. -108 ESHUTDOWN when unplugged)."""
-    lines.append(urb(0x01, b"\x02" + struct.pack("<I", INTEGRATION_US)))
+def query(lines, slot, text):
+    lines.append(urb(0x01, bytes([0x05, slot])))
+    lines.append(urb(0x81, info_reply(slot, text), depth=1))
+
+
+def spectrum(lines, raw, packets=None, sync=b"\x69", status_at=None, integration=True):
+    """Integration (unless integration is False: the driver sends it only
+    when it changes), status, request, 8 packets and the sync byte.
+    packets: override the packet list; status_at: (index, errno) ends that
+    packet with a kernel URB status instead (e.g. -108 ESHUTDOWN when
+    unplugged)."""
+    if integration:
+        lines.append(urb(0x01, b"\x02" + struct.pack("<I", INTEGRATION_US)))
     lines.append(urb(0x01, b"\xfe"))
     lines.append(urb(0x81, status_reply(INTEGRATION_US), depth=1))
     lines.append(urb(0x01, b"\x09"))
@@ -127,6 +143,10 @@ def main():
              urb(0x81, info_reply(1, COEF[0]), depth=1), urb(0x01, b"\x05\x02"),
              urb(0x81, info_reply(2, "0.38O5263"), depth=1)]   # a letter O in slot 2
     write("bad_calibration.ioctl", lines)
+
+    lines = []
+    opening(lines, nl=["0.95", "-2.0E-05"])                # P(y) < 0 from 47500 counts
+    write("bad_nonlinearity.ioctl", lines)
 
 
 if __name__ == "__main__":

@@ -76,16 +76,21 @@ static int read_recording(const char *name, struct urb_rec *out, int max)
     return n;
 }
 
-/* Calibration: the ASCII of the replies that follow "0x05 slot". */
+/* A query-information slot: the ASCII of the reply that follows "0x05 slot". */
+static double recorded_slot(const struct urb_rec *r, int n, int slot)
+{
+    for (int i = 0; i + 1 < n; i++)
+        if (r[i].ep == 0x01 && r[i].actual == 2 && r[i].data[0] == 0x05 &&
+            r[i].data[1] == slot && r[i + 1].ep == 0x81)
+            return strtod((const char *)r[i + 1].data + 2, NULL);
+    return NAN;
+}
+
+/* Calibration: slots 1-4. */
 static void recorded_coefficients(const struct urb_rec *r, int n, double c[4])
 {
-    for (int k = 0; k < 4; k++) {
-        c[k] = NAN;
-        for (int i = 0; i + 1 < n; i++)
-            if (r[i].ep == 0x01 && r[i].actual == 2 && r[i].data[0] == 0x05 &&
-                r[i].data[1] == k + 1 && r[i + 1].ep == 0x81)
-                c[k] = strtod((const char *)r[i + 1].data + 2, NULL);
-    }
+    for (int k = 0; k < 4; k++)
+        c[k] = recorded_slot(r, n, k + 1);
 }
 
 /* Counts: the eight 512-byte packets from EP 0x82 after the request 0x09. */
@@ -237,6 +242,97 @@ static void check_spectrum(double first_nm, int n_bands)
     g_object_unref(tb);
 }
 
+/* Counts, the default: every pixel above the electric dark linearised as
+ * y / P(y) with the recorded slots 6.. (order in slot 14), the bands
+ * resampled as above, and each channel the mean of its bin's bands (R:
+ * centres from 595 nm, G: 495-595 nm, B: below), computed here by
+ * quadrature. */
+static void check_counts(double first_nm, int n_bands)
+{
+    UMockdevTestbed *tb = testbed("spectrum.ioctl");
+    struct urb_rec rec[64];
+    int n = read_recording("spectrum.ioctl", rec, 64);
+    double c[4], counts[DRV_USBSPEC_PIXELS], lam[DRV_USBSPEC_PIXELS], v[DRV_USBSPEC_PIXELS];
+    recorded_coefficients(rec, n, c);
+    recorded_counts(rec, n, counts);
+    int order = (int)recorded_slot(rec, n, 14);
+    assert_int_equal(order, 2);
+    double dark = 0, nl[3] = {recorded_slot(rec, n, 6), recorded_slot(rec, n, 7),
+                              recorded_slot(rec, n, 8)};
+    for (int p = 6; p <= 20; p++)
+        dark += counts[p] / 15.0;
+    for (int p = 0; p < DRV_USBSPEC_PIXELS; p++) {
+        double x = p, y = counts[p] - dark;
+        lam[p] = c[0] + c[1] * x + c[2] * x * x + c[3] * x * x * x;
+        v[p] = y / (nl[0] + nl[1] * y + nl[2] * y * y);
+    }
+    struct drv_usbspec_cfg cfg = cfg_default();
+    cfg.first_nm = first_nm;
+    cfg.n_bands = n_bands;
+    struct gonio_err err = {0};
+    drv_usbspec *s = drv_usbspec_open(&cfg, &err);
+    if (!s)
+        fail_msg("open: %s", err.msg);
+    drv_detector *det = drv_detector_new_usbspec(s, &cfg, &err);
+    if (!det)
+        fail_msg("detector: %s", err.msg);
+    struct drv_reading r;
+    if (drv_detector_acquire(det, 0.1, &r, &err) < 0)
+        fail_msg("acquire: %s", err.msg);
+    assert_int_equal(r.unit, DRV_UNIT_COUNTS);
+    assert_close(r.integration_s, 0.1, 1e-12);
+    assert_int_equal(r.flags, 0);
+    assert_int_equal(r.gain_state, 0);
+    assert_close(r.nonlinearity, 0, 0); /* undone per pixel, before the bands */
+    double y = 65535;
+    assert_close(r.full_scale, y / (nl[0] + nl[1] * y + nl[2] * y * y), 1e-9);
+    double want[3] = {0, 0, 0}, tol[3] = {0, 0, 0};
+    int in_bin[3] = {0, 0, 0};
+    for (int b = 0; b < n_bands; b++) {
+        double centre = first_nm + 10 * b, bound;
+        int ch = centre >= 595 ? 0 : centre >= 495 ? 1 : 2;
+        want[ch] += band_mean(lam, v, centre - 5, centre + 5, &bound);
+        tol[ch] += bound;
+        in_bin[ch]++;
+    }
+    assert_int_equal(in_bin[2], first_nm < 400 ? 11 : 10);
+    for (int ch = 0; ch < 3; ch++) {
+        assert_true(want[ch] > 1000);
+        assert_close(r.rgb[ch], want[ch] / in_bin[ch], (tol[ch] + 1e-6) / in_bin[ch]);
+    }
+    drv_detector_free(det);
+    g_object_unref(tb);
+}
+
+static void test_counts_31_bands(void **state)
+{
+    (void)state;
+    check_counts(400, 31);
+}
+
+static void test_counts_35_bands(void **state)
+{
+    (void)state;
+    check_counts(390, 35);
+}
+
+/* A nonlinearity correction that turns back (P negative near full scale)
+ * would read more light as less: refused at open, naming the slots. */
+static void test_bad_nonlinearity_refused(void **state)
+{
+    (void)state;
+    UMockdevTestbed *tb = testbed("bad_nonlinearity.ioctl");
+    struct drv_usbspec_cfg cfg = cfg_default();
+    struct gonio_err err = {0};
+    assert_null(drv_usbspec_open(&cfg, &err));
+    assert_int_equal(err.code, GONIO_EDEVICE);
+    fprintf(stderr, "  %s\n", err.msg);
+    if (!strstr(err.msg, "nonlinearity correction (slots 6-7") ||
+        !strstr(err.msg, "must be positive and increase"))
+        fail_msg("message: %s", err.msg);
+    g_object_unref(tb);
+}
+
 static void test_spectrum_31_bands(void **state)
 {
     (void)state;
@@ -249,8 +345,9 @@ static void test_spectrum_35_bands(void **state)
     check_spectrum(390, 35);
 }
 
-/* One pixel at full scale (65535, near 596 nm) flags the reading; the
- * reading itself still comes back. */
+/* One pixel at full scale (65535, near 596 nm) flags the reading, and
+ * its channel (R: the 600 nm band's box reaches 595 nm) reads the top of
+ * the scale, which the reduction gives no value; the others read light. */
 static void test_saturated_pixel_flags_the_reading(void **state)
 {
     (void)state;
@@ -266,7 +363,10 @@ static void test_saturated_pixel_flags_the_reading(void **state)
     if (drv_detector_acquire(det, 0.1, &r, &err) < 0)
         fail_msg("acquire: %s", err.msg);
     assert_int_equal(r.flags, DRV_READING_SATURATED);
-    assert_true(r.rgb[0] > 0 && r.rgb[1] > 0 && r.rgb[2] > 0);
+    assert_int_equal(r.unit, DRV_UNIT_COUNTS);
+    assert_close(r.rgb[0], r.full_scale, 0);
+    assert_true(r.rgb[1] > 1000 && r.rgb[1] < 0.9 * r.full_scale);
+    assert_true(r.rgb[2] > 1000 && r.rgb[2] < 0.9 * r.full_scale);
     drv_detector_free(det);
     g_object_unref(tb);
 }
@@ -379,13 +479,16 @@ static void urb_finish(struct silent_dev *d, UMockdevIoctlData *u, const unsigne
 
 static void on_command(struct silent_dev *d, const unsigned char *c, int len)
 {
-    static const char *coef[4] = {"339.620361", "0.3805263", "-1.953270E-05", "-1.18845E-09"};
+    /* slots 1-4: wavelengths; 6: the nonlinearity's c0, 14: its order */
+    static const char *slot[15] = {[1] = "339.620361", [2] = "0.3805263",
+                                   [3] = "-1.953270E-05", [4] = "-1.18845E-09", [6] = "1",
+                                   [14] = "0"};
     d->reply_len = 0;
-    if (c[0] == 0x05 && len == 2 && c[1] >= 1 && c[1] <= 4) {
+    if (c[0] == 0x05 && len == 2 && c[1] < 15 && slot[c[1]]) {
         memset(d->reply, 0, 17);
         d->reply[0] = 0x05;
         d->reply[1] = c[1];
-        memcpy(d->reply + 2, coef[c[1] - 1], strlen(coef[c[1] - 1]));
+        memcpy(d->reply + 2, slot[c[1]], strlen(slot[c[1]]));
         d->reply_len = 17;
     } else if (c[0] == 0xFE) {
         static const unsigned char st[16] = {0x00, 0x08, 0xA0, 0x86, 0x01, 0x00, 0, 0,
@@ -586,6 +689,9 @@ int main(void)
         cmocka_unit_test(test_resample_flat_and_bounds),
         cmocka_unit_test(test_open_reads_calibration),
         cmocka_unit_test(test_other_serial_is_not_opened),
+        cmocka_unit_test(test_counts_31_bands),
+        cmocka_unit_test(test_counts_35_bands),
+        cmocka_unit_test(test_bad_nonlinearity_refused),
         cmocka_unit_test(test_spectrum_31_bands),
         cmocka_unit_test(test_spectrum_35_bands),
         cmocka_unit_test(test_saturated_pixel_flags_the_reading),
