@@ -45,7 +45,7 @@ static void one_effect(struct sim_scene *sc, enum sim_effect_kind kind)
         fx->level = 500;
     if (kind == SIM_FX_LAMP_MONITOR)
         fx->level = 1e7;
-    fx->gain = 0.8; /* adc: lab-raw's */
+    fx->gain = 0.8; /* adc: lab's */
     fx->bits = 16;
     fx->offset = 1000;
     fx->nonlinearity = 0.02;
@@ -163,7 +163,7 @@ int main(int argc, char **argv)
     if (!m)
         return 1;
     long nr = n / 10;
-    const char *scenes[] = {"ideal", "lab", "lab-raw", "bad-day", "spectral-lab"};
+    const char *scenes[] = {"ideal", "lab", "bad-day", "spectral-lab"};
     for (size_t i = 0; i < sizeof scenes / sizeof scenes[0]; i++) {
         struct gonio_err err = {0};
         if (sim_scene_load(scenes[i], &sc, &err) < 0) {

@@ -1,5 +1,5 @@
 /* How well the capture's estimate and ETA hold with auto-ranging: a DS1
- * capture --uncalibrated on the lab-raw scene per material, the estimate
+ * capture --uncalibrated on the lab scene per material, the estimate
  * before the first move, and the rig time so far plus the ETA once the
  * pre-scan is done and at a quarter and a half of the points, against the
  * rig time the capture took (docs/plans.md, "Auto-ranging"). Reported,
@@ -72,7 +72,7 @@ int main(int argc, char **argv)
                                      .quiet = 1, .material = mat, .uncalibrated = 1};
         struct capture_summary sum;
         struct gonio_err err = {0};
-        if (sim_source_capture("lab-raw", &cfg, &hooks, &sum, &err) < 0) {
+        if (sim_source_capture("lab", &cfg, &hooks, &sum, &err) < 0) {
             fprintf(stderr, "%s: %s\n", mat, err.msg);
             return 1;
         }

@@ -72,6 +72,12 @@ int cal_reduce_sample(const struct cal_loaded *cl, const struct journal_plan *pl
         *v = val[0];
         memcpy(s->rgb, v->brdf, sizeof s->rgb);
         memcpy(s->u, v->u, sizeof s->u);
+        /* A reading clipped in one channel has no value in any (the journal
+         * takes a counts record's r, g, b all reduced or none): its counts
+         * stay, flagged saturated, and the fit takes none of it. */
+        if (!isfinite(s->rgb[0]) || !isfinite(s->rgb[1]) || !isfinite(s->rgb[2]))
+            for (int c = 0; c < 3; c++)
+                s->rgb[c] = s->u[c] = NAN;
     }
     free(raw);
     free(val);

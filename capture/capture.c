@@ -389,23 +389,21 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
     return rc;
 }
 
-/* The isotropy check's measurement: the pair with the sample turned, on
- * the capture's devices, not journalled (no plan point). */
+/* A premise check's reading: the placed point pt with the sample turned
+ * rotation_deg, on the capture's devices, not journalled (no plan point);
+ * NAN when saturated. */
 struct check_ctx {
     struct run *r;
     struct capture_devices *dev;
     struct rig_clock *clk;
 };
 
-static int check_measure(void *user, const struct iso_check_pair *p, double rotation_deg,
-                         double *value, struct gonio_err *err)
+static int check_read(struct check_ctx *c, const struct plan_point *pt, double rotation_deg,
+                      double *value, struct gonio_err *err)
 {
     static const struct capture_hooks no_hooks;
-    struct check_ctx *c = user;
-    struct plan_point pt = {.theta_i = p->theta_i, .theta_r = p->theta_r};
-    brdf_inplane_to_axes(p->theta_i, p->theta_r, &pt.ax.s, &pt.ax.a);
     struct journal_sample s;
-    int rc = measure_point(c->dev, c->clk, &no_hooks, &c->r->job->rig, &pt, rotation_deg, -1,
+    int rc = measure_point(c->dev, c->clk, &no_hooks, &c->r->job->rig, pt, rotation_deg, -1,
                            &c->r->ranging, &s, err);
     if (rc < 0) {
         stop_axes(c->dev);
@@ -415,8 +413,66 @@ static int check_measure(void *user, const struct iso_check_pair *p, double rota
     return 0;
 }
 
+/* The isotropy check's measurement: the in-plane pair, the sample turned. */
+static int check_measure(void *user, const struct iso_check_pair *p, double rotation_deg,
+                         double *value, struct gonio_err *err)
+{
+    struct plan_point pt = {.theta_i = p->theta_i, .theta_r = p->theta_r};
+    brdf_inplane_to_axes(p->theta_i, p->theta_r, &pt.ax.s, &pt.ax.a);
+    return check_read(user, &pt, rotation_deg, value, err);
+}
+
+/* The in-plane sufficiency check's: the out-of-plane pair or its in-plane
+ * counterpart (NAN where the rig cannot reach it), and the fitted model's
+ * prediction of a pair. */
+static int oop_measure(void *user, const struct oop_check_pair *p, int in_plane,
+                       double *value, struct gonio_err *err)
+{
+    struct check_ctx *c = user;
+    struct plan_point pt = {.theta_i = p->in_theta_i, .theta_r = p->in_theta_r};
+    if (!in_plane)
+        pt = (struct plan_point){
+            .theta_i = p->theta_i, .theta_o = p->theta_o, .phi_o = p->phi_o, .out_of_plane = 1};
+    char why[160];
+    *value = NAN;
+    if (plan_point_place(&pt, &c->r->job->rig, why, sizeof why) < 0)
+        return 0;
+    return check_read(c, &pt, 0.0, value, err);
+}
+
+static double oop_predict(void *user, const struct brdf_pair *p)
+{
+    double rgb[3];
+    brdf_material_eval(user, p, 1, rgb);
+    return (rgb[0] + rgb[1] + rgb[2]) / 3.0;
+}
+
+/* The in-plane sufficiency check after the final fit (capture_config
+ * checks), of the fitted model, on the devices opened again where the
+ * capture left them; its rig time apart. */
+static int check_out_of_plane(struct run *r, const brdf_material *model, struct gonio_err *err)
+{
+    struct capture_devices dev;
+    int rc = open_devices(r, &dev, err);
+    if (rc < 0)
+        return rc;
+    struct rig_clock clk;
+    rig_clock_start(&clk, dev.clock, 0);
+    struct check_ctx c = {r, &dev, &clk};
+    if (!dev.azimuth)
+        rc = gonio_err_set(err, GONIO_EUSAGE, "--check out-of-plane: the rig source has no "
+                           "azimuth axis device");
+    else
+        rc = oop_check_run(oop_predict, (void *)model, oop_measure, &c, &r->out->oop, err);
+    r->out->oop.rig_time_s = rig_clock_now(&clk);
+    r->out->has_oop = rc == 0;
+    add_axis_stats(&dev, &r->out->mech);
+    r->job->src->close(r->job->src->user, &dev);
+    return rc;
+}
+
 /* The isotropy check after the capture's last point (capture_config
- * check_isotropy), on the rig's rotation axis; its rig time apart. */
+ * checks), on the rig's rotation axis; its rig time apart. */
 static int check_isotropy(struct run *r, struct capture_devices *dev, struct rig_clock *clk,
                           struct gonio_err *err)
 {
@@ -493,7 +549,7 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
             break;
         }
     }
-    if (rc == 0 && !r->aborted && r->job->cfg.check_isotropy)
+    if (rc == 0 && !r->aborted && (r->job->cfg.checks & CAPTURE_CHECK_ISOTROPY))
         rc = check_isotropy(r, &dev, &clk, err);
     r->out->paused_s = clk.paused;
     add_axis_stats(&dev, &r->out->mech);
@@ -617,6 +673,8 @@ static int finish(struct run *r, struct gonio_err *err)
         job->adaptive, job->cal ? usys : NULL, out, &fitted, err);
     if (rc == 0 && r->converged)
         out->converged = 1; /* the stop rule decided: the capture converged */
+    if (rc == 0 && (job->cfg.checks & CAPTURE_CHECK_OUT_OF_PLANE))
+        rc = check_out_of_plane(r, fitted, err);
     if (rc == 0 && job->truth)
         rc = capture_assess_truth(job->truth, fitted, job->cfg.assess_nodes, out, err);
     if (rc == 0)
@@ -655,7 +713,6 @@ int capture_job_run(capture_job *job, const struct capture_hooks *hooks,
     rc = open_capture(&r, &first, err);
     if (rc == 0)
         rc = acquire(&r, first, err);
-    journal_close(r.j);
     capture_eta_free(r.eta);
     if (rc == 0 && !r.aborted)
         rc = sequence_summary(r.seq, &job->policy, out, err);
@@ -664,8 +721,10 @@ int capture_job_run(capture_job *job, const struct capture_hooks *hooks,
     sequence_free(r.seq);
     if (rc == 0)
         summarize(&r, out);
+    /* the journal stays open for the dark frames of a check after the fit */
     if (rc == 0 && !r.aborted && !job->cfg.measure_only)
         rc = finish(&r, err);
+    journal_close(r.j);
     if (rc == 0 && !r.aborted)
         capture_phase_enter(r.hooks, CAPTURE_PHASE_BETWEEN, -1);
     capture_files_unlock(r.lock_fd);

@@ -14,7 +14,9 @@
 #include <stddef.h>
 
 #include "adaptive/adaptive.h"
+#include "capture/checks.h"
 #include "capture/isotropy_check.h"
+#include "capture/oop_check.h"
 #include "brdf/abc.h"
 #include "fit/fit.h"
 #include "brdf/material.h"
@@ -90,10 +92,12 @@ struct capture_config {
      * order); CAPTURE_PRESCAN_OFF: none; else
      * 1..CAPTURE_PRESCAN_MAX (refused in the adaptive order). */
     int prescan;
-    /* After the last point, the isotropy check (capture/isotropy_check.h,
-     * docs/checks.md) on the rig's rotation axis; refused on a rig
-     * profile without one. */
-    int check_isotropy;
+    /* The premise checks (capture/checks.h, docs/checks.md), CAPTURE_CHECK_*
+     * bits: after the last point, the isotropy check (capture/isotropy_check.h)
+     * on the rig's rotation axis; after the final fit, the in-plane
+     * sufficiency check (capture/oop_check.h) on its azimuth axis. Refused
+     * on a rig profile without the axis. */
+    unsigned checks;
     /* A detector that gives counts is captured without a calibration: its
      * counts are journalled and nothing is fitted (results.json's
      * not_fitted says why). Without it such a capture is refused before
@@ -143,6 +147,8 @@ struct capture_summary {
     double decision_mean_s, decision_max_s, decision_wait_s;
     int has_isotropy; /* the isotropy check ran: its verdict and rig time */
     struct iso_check_result isotropy;
+    int has_oop; /* the in-plane sufficiency check ran: its verdict and rig time */
+    struct oop_check_result oop;
     /* Why no model was fitted ("" when one was): counts not reduced. */
     char not_fitted[160];
     size_t darks;   /* dark frames journalled (auto-ranging) */

@@ -400,10 +400,35 @@ static json_t *adaptive_json(const struct capture_summary *s)
     return o;
 }
 
+static json_t *share_of(double part, double whole)
+{
+    return whole > 0 ? json_real(part / whole) : json_null();
+}
+
+/* The in-plane sufficiency check's verdict, figures and worst pair. */
+static json_t *oop_json(const struct oop_check_result *c, double rig_time_s)
+{
+    const struct oop_check_pair *w = &c->worst;
+    json_t *worst = isnan(c->ratio) ? json_null()
+                                    : json_pack("{s:f,s:f,s:f,s:f,s:f}", "theta_i", w->theta_i,
+                                                "theta_o", w->theta_o, "phi_o", w->phi_o,
+                                                "error", c->worst_error, "predicted",
+                                                w->predicted);
+    return json_pack("{s:s,s:s,s:I,s:I,s:o,s:o,s:o,s:f,s:f,s:o,s:f,s:o}", "verdict", c->verdict,
+                     "why", c->why, "pairs", (json_int_t)c->pairs, "measurements",
+                     (json_int_t)c->measurements, "error_oop", num_or_null(c->error_oop),
+                     "error_inplane", num_or_null(c->error_inplane), "ratio",
+                     num_or_null(c->ratio), "threshold", c->threshold, "error_floor",
+                     OOP_CHECK_FLOOR, "worst", worst, "rig_time_s", c->rig_time_s,
+                     "rig_time_share", share_of(c->rig_time_s, rig_time_s));
+}
+
 /* The checks' verdicts with their evidence and rig time (docs/checks.md). */
 json_t *capture_files_checks(const struct capture_summary *s)
 {
     json_t *o = json_object();
+    if (s->has_oop)
+        json_object_set_new(o, "out_of_plane", oop_json(&s->oop, s->rig_time_s));
     if (!s->has_isotropy)
         return o;
     const struct iso_check_result *c = &s->isotropy;

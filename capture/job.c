@@ -138,12 +138,10 @@ static int resolve_inputs(const struct capture_config *cfg, const struct capture
     if ((rc = rig_profile_load(rig, &in->rig, err)) < 0 ||
         (rc = plan_load(cfg->plan, &in->rig, &in->plan, err)) < 0)
         return rc;
-    if (cfg->check_isotropy && !in->rig.has_rotation)
-        return gonio_err_set(err, GONIO_EUSAGE,
-                             "--check isotropy: rig profile '%s' has no rotation axis (axes."
-                             "rotation; configs/rigs/rotating.yaml has one)", in->rig.name);
-    if (cfg->check_isotropy && cfg->measure_only)
-        return gonio_err_set(err, GONIO_EUSAGE, "--check isotropy: not in a measure-only run");
+    if ((rc = capture_checks_rig("--check", cfg->checks, &in->rig, in->rig.name, err)) < 0)
+        return rc;
+    if (cfg->checks && cfg->measure_only)
+        return gonio_err_set(err, GONIO_EUSAGE, "--check: not in a measure-only run");
     if (cfg->order) {
         int mode = plan_order_parse(cfg->order);
         if (mode < 0)

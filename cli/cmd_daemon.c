@@ -245,6 +245,11 @@ static void show_stop(struct progress *p, json_t *d)
                json_string_value(json_object_get(iso, "verdict")),
                json_string_value(json_object_get(iso, "why")), jreal(iso, "max_deviation"),
                jreal(iso, "significance"), jreal(iso, "threshold"), jreal(iso, "rig_time_s"));
+    json_t *oop = json_object_get(json_object_get(d, "checks"), "out_of_plane");
+    if (oop)
+        printf("  out-of-plane check: in-plane %s (%s; %.0f s of rig time)\n",
+               json_string_value(json_object_get(oop, "verdict")),
+               json_string_value(json_object_get(oop, "why")), jreal(oop, "rig_time_s"));
     fflush(stdout);
 }
 
@@ -589,7 +594,7 @@ static void capture_usage(FILE *out)
             "                     [--stop all|converge] [--budget MINUTES]\n"
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
             "                     [--name ID] [--sample NAME] [--operator NAME] [--note TEXT]\n"
-            "                     [--uncalibrated] [--check isotropy] [--wait] [--quiet]\n"
+            "                     [--uncalibrated] [--check CHECK[,CHECK]] [--wait] [--quiet]\n"
             "                     [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). A --plan or --rig FILE is read here and\n"
@@ -608,6 +613,8 @@ static void capture_usage(FILE *out)
             "  says. --check isotropy: after the last point, the isotropy check on a rig\n"
             "  whose profile has a rotation axis (--rig rotating); its verdict is in the\n"
             "  stop document, results.json and --wait's output; a rig without one exits 2.\n"
+            "  --check out-of-plane: after the final fit, the in-plane sufficiency check,\n"
+            "  on a rig whose profile has an azimuth axis; reported alike.\n"
             PRESCAN_HELP
             "  (default on a Modbus or USB rig: " PRESCAN_STR(CAPTURE_PRESCAN_DEFAULT) ", or one in "
             PRESCAN_STR(CAPTURE_PRESCAN_SHARE) " of a smaller plan's points,\n"

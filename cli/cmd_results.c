@@ -34,6 +34,7 @@ static const struct column {
     {"full_log", "full log", COL_REAL},    {"full_rel", "full rRMSE", COL_REAL},
     /* the checks' verdicts and their rig time (docs/checks.md) */
     {"isotropy", "isotropy", COL_TEXT},    {"isotropy_s", "isotropy s", COL_REAL},
+    {"oop", "in-plane", COL_TEXT},         {"oop_s", "in-plane check s", COL_REAL},
 };
 #define NCOL (sizeof columns / sizeof columns[0])
 /* The table leaves out the reference's name (a long spec, the material
@@ -43,7 +44,7 @@ static const struct column {
 static int in_table(size_t c)
 {
     return strcmp(columns[c].name, "truth") && strcmp(columns[c].name, "plan_rel") &&
-           strcmp(columns[c].name, "isotropy_s");
+           strcmp(columns[c].name, "isotropy_s") && strcmp(columns[c].name, "oop_s");
 }
 
 static int column_find(const char *name, size_t len)
@@ -128,11 +129,14 @@ static json_t *row_read(const char *dir)
         json_object_set_new(row, log_key, error_value(root, domains[d], "log"));
         json_object_set_new(row, rel_key, error_value(root, domains[d], "rel_rmse"));
     }
-    json_t *iso = json_object_get(json_object_get(root, "checks"), "isotropy");
-    json_object_set_new(row, "isotropy", text_value(json_object_get(iso, "verdict")));
-    json_t *iso_s = json_object_get(iso, "rig_time_s");
-    json_object_set_new(row, "isotropy_s", json_is_number(iso_s) ? json_incref(iso_s)
-                                                                  : json_null());
+    static const char *const checks[][3] = {{"isotropy", "isotropy", "isotropy_s"},
+                                            {"out_of_plane", "oop", "oop_s"}};
+    for (size_t k = 0; k < 2; k++) {
+        json_t *c = json_object_get(json_object_get(root, "checks"), checks[k][0]);
+        json_object_set_new(row, checks[k][1], text_value(json_object_get(c, "verdict")));
+        json_t *s = json_object_get(c, "rig_time_s");
+        json_object_set_new(row, checks[k][2], json_is_number(s) ? json_incref(s) : json_null());
+    }
     json_decref(setup);
     json_decref(root);
     return row;

@@ -49,29 +49,22 @@ static int material_resolves(const char *spec, struct gonio_err *err)
                          spec, why.msg);
 }
 
-/* The request's check (docs/checks.md): "isotropy" only, and only on a rig
- * whose profile can turn the sample about its normal; refused here, before
- * anything is created, naming the rig as the request named it. */
+/* The request's check (docs/checks.md, capture/checks.h), only on a rig
+ * whose profile has the axis it needs; refused here, before anything is
+ * created, naming the rig as the request named it. */
 static int check_option(const char *check, const char *rig_name, const char *rig_ref,
-                        int *isotropy, struct gonio_err *err)
+                        unsigned *checks, struct gonio_err *err)
 {
-    *isotropy = 0;
+    *checks = 0;
     if (!check)
         return 0;
-    if (strcmp(check, "isotropy"))
-        return gonio_err_set(err, GONIO_EUSAGE, "check '%.60s': the check is 'isotropy'", check);
+    int rc = capture_checks_parse("check", check, checks, err);
     struct rig_profile rp;
-    int rc = rig_profile_load(rig_ref, &rp, err);
-    if (rc < 0)
-        return rc;
-    if (!rp.has_rotation)
-        return gonio_err_set(err, GONIO_EUSAGE,
-                             "check 'isotropy': rig '%s' has no rotation axis (axes.rotation) "
-                             "to turn the sample about its normal; use a rig profile with one, "
-                             "such as 'rotating'",
-                             rig_name);
-    *isotropy = 1;
-    return 0;
+    if (rc == 0)
+        rc = rig_profile_load(rig_ref, &rp, err);
+    if (rc == 0)
+        rc = capture_checks_rig("check", *checks, &rp, rig_name, err);
+    return rc;
 }
 
 /* The capture's id: the request's name, else a readable, sortable stamp and
@@ -148,8 +141,8 @@ static int capture_inputs(control *c, json_t *req, const struct control_sent *se
     }
     if ((rc = goniod_config_rig_check(c->cfg, r->rig, err)) < 0)
         return rc;
-    if ((rc = check_option(jstr(req, "check"), rig ? rig : c->cfg->rig, r->rig,
-                           &r->check_isotropy, err)) < 0)
+    if ((rc = check_option(jstr(req, "check"), rig ? rig : c->cfg->rig, r->rig, &r->checks,
+                           err)) < 0)
         return rc;
     if (material &&
         (rc = control_resolve_material(c, material, r->material, sizeof r->material, err)) < 0)

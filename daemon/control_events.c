@@ -502,6 +502,14 @@ static json_t *fit_data(const struct capture_summary *s)
         json_object_set_new(d, "isotropy_threshold", control_json_number(iso->threshold));
         json_object_set_new(d, "isotropy_rig_time_s", control_json_number(iso->rig_time_s));
     }
+    if (s->has_oop) { /* the in-plane sufficiency check, likewise */
+        json_object_set_new(d, "oop_verdict", json_string(s->oop.verdict));
+        json_object_set_new(d, "oop_error", control_json_number(s->oop.error_oop));
+        json_object_set_new(d, "oop_error_inplane", control_json_number(s->oop.error_inplane));
+        json_object_set_new(d, "oop_ratio", control_json_number(s->oop.ratio));
+        json_object_set_new(d, "oop_threshold", control_json_number(s->oop.threshold));
+        json_object_set_new(d, "oop_rig_time_s", control_json_number(s->oop.rig_time_s));
+    }
     return d;
 }
 
@@ -520,9 +528,11 @@ static void send_fit(control *c, const struct capture_summary *s, double t)
                             : json_is_boolean(v) ? "boolean"
                             : json_is_string(v)  ? "string"
                                                  : "number";
-        const char *units = !strcmp(k, "fit_time_s") || !strcmp(k, "isotropy_rig_time_s") ? "s"
-                            : !strcmp(k, "kd") || !strcmp(k, "A")        ? "1/sr"
-                                                                         : NULL;
+        int seconds = !strcmp(k, "fit_time_s") || !strcmp(k, "isotropy_rig_time_s") ||
+                      !strcmp(k, "oop_rig_time_s");
+        const char *units = seconds                               ? "s"
+                            : !strcmp(k, "kd") || !strcmp(k, "A") ? "1/sr"
+                                                                  : NULL;
         json_object_set_new(keys, k, data_key(dtype, dim, units, source));
     }
     char uid[37];

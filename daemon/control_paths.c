@@ -177,6 +177,7 @@ static void request_path(const struct worker_request *r, char *out, size_t size)
 
 int control_save_request(const struct worker_request *r, struct gonio_err *err)
 {
+    char checks[64];
     json_t *d = json_pack("{s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:s, s:f, s:f, s:i, s:s, "
                           "s:s, s:s, s:b, s:s}", "id",
                           r->id, "plan", r->plan, "scene", r->scene, "rig", r->rig, "material",
@@ -184,7 +185,7 @@ int control_save_request(const struct worker_request *r, struct gonio_err *err)
                           "stop", r->stop, "budget", r->budget_min, "stop_target",
                           r->stop_target, "prescan", r->prescan, "sample", r->sample,
                           "operator", r->operator_name, "note", r->note, "uncalibrated", r->uncalibrated,
-                          "check", r->check_isotropy ? "isotropy" : "");
+                          "check", capture_checks_text(r->checks, checks, sizeof checks));
     char *text = d ? control_json_text(d) : NULL;
     if (!text)
         return gonio_err_set(err, ENOMEM, "out of memory");
@@ -209,6 +210,7 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
     double budget = 0, target = 0;
     int prescan = 0, uncalibrated = 0;
     const char *check = "";
+    r->checks = 0;
     /* truth, budget, stop_target, prescan, uncalibrated, check: absent from
      * the records of older goniods */
     if (json_unpack(d, "{s:s, s:s, s:s, s:s, s?:s, s:s, s:s, s:s, s?:F, s?:F, s?:i, s?:b, s?:s}",
@@ -216,7 +218,7 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
                     "truth", &truth, "model", &model, "order", &order, "stop", &stop, "budget",
                     &budget, "stop_target", &target, "prescan", &prescan, "uncalibrated",
                     &uncalibrated, "check", &check) < 0 ||
-        (check[0] && strcmp(check, "isotropy"))) {
+        (check[0] && capture_checks_parse("check", check, &r->checks, NULL) < 0)) {
         json_decref(d);
         return gonio_err_set(err, GONIO_EBADDATA, "%s: lacks a field goniod writes, or has a value it does not", path);
     }
@@ -265,7 +267,6 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
         snprintf(meta_out[k], meta_size[k], "%s", v ? v : "");
     }
     r->uncalibrated = uncalibrated;
-    r->check_isotropy = check[0] != 0;
     json_decref(d);
     return 0;
 }

@@ -40,7 +40,10 @@ static json_t *start_doc(const struct worker_msg_start *m)
     json_object_set_new(s, "sample", string_or_null(m->req.sample));
     json_object_set_new(s, "operator", string_or_null(m->req.operator_name));
     json_object_set_new(s, "note", string_or_null(m->req.note));
-    json_object_set_new(s, "check", m->req.check_isotropy ? json_string("isotropy") : json_null());
+    char checks[64];
+    json_object_set_new(s, "check", m->req.checks ? json_string(capture_checks_text(
+                                                        m->req.checks, checks, sizeof checks))
+                                                  : json_null());
     json_object_set_new(s, "total", json_integer((json_int_t)m->total));
     json_object_set_new(s, "already_done", json_integer((json_int_t)m->already_done));
     json_object_set_new(s, "estimate_s", control_json_number(m->estimate_s));

@@ -335,7 +335,7 @@ static struct capture_config request_config(const worker *w, const struct worker
         .stop_target = r->stop_target,
         .prescan = r->prescan,
         .uncalibrated = r->uncalibrated,
-        .check_isotropy = r->check_isotropy,
+        .checks = r->checks,
         .quiet = 1,
         .assess_nodes = (size_t)w->cfg->assess_nodes,
         .progress_fit = 1,

@@ -36,7 +36,7 @@ struct worker_request {
     double budget_min, stop_target; /* the adaptive order's stops, 0: none */
     int prescan; /* capture_config.prescan: 0 the engine's default */
     int uncalibrated; /* capture_config.uncalibrated */
-    int check_isotropy; /* capture_config.check_isotropy: the request's check "isotropy" */
+    unsigned checks; /* capture_config.checks: the request's check (capture/checks.h) */
     int resume; /* the directory exists: continue from its journal */
 };
 

@@ -105,6 +105,7 @@ struct row_capture {
     const char *job_id, *material, *material_spec, *scene, *plan;
     const struct capture_summary *sum;
     long plan_points;
+    double calibration_s; /* the calibration's rig time; NAN: none */
 };
 
 struct row_fit {
@@ -143,6 +144,7 @@ static json_t *row_json(const struct row_capture *c, const struct row_fit *f)
     json_object_set_new(o, "move_s", num(c->sum->move_s));
     json_object_set_new(o, "settle_s", num(c->sum->settle_s));
     json_object_set_new(o, "integration_s", num(c->sum->integration_s));
+    json_object_set_new(o, "calibration_s", num(c->calibration_s));
     json_object_set_new(o, "fit_wall_s", num(f->wall_s));
     json_object_set_new(o, "fit_cpu_s", num(f->cpu_s));
     json_object_set_new(o, "fit_converged", json_integer(f->converged));
@@ -325,7 +327,17 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
     char path[4200];
     struct stop_check sc = {stop};
     struct capture_hooks hooks = {.control = stop ? stop_control : NULL, .user = &sc};
-    rc = plan->budget_of ? budget_of(&cfg, scene->spec, plan->budget_of, err) : 0;
+    /* A detector of counts is calibrated first, as on hardware. */
+    char cal_root[4200];
+    double cal_s = NAN;
+    rc = study_calibrate(scene->spec, plan->file, jobdir, cal_root, sizeof cal_root, &cal_s,
+                         err);
+    if (rc == 0 && cal_root[0])
+        cfg.calibrations = cal_root;
+    else
+        cal_s = NAN;
+    if (rc == 0 && plan->budget_of)
+        rc = budget_of(&cfg, scene->spec, plan->budget_of, err);
     if (rc == 0)
         rc = sim_source_capture(scene->spec, &cfg, &hooks, &sum, err);
     if (rc == 0 && !strcmp(sum.stop_reason, "aborted"))
@@ -344,7 +356,7 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
     struct row_capture rc_info = {
         .job_id = job->id, .material = mat->name, .material_spec = mat->spec,
         .scene = scene->name, .plan = plan->name, .sum = &sum,
-        .plan_points = plan_points(jobdir),
+        .plan_points = plan_points(jobdir), .calibration_s = cal_s,
     };
     for (size_t m = 0; rc == 0 && m < s->n_models; m++) {
         study_row_path(dir, job->id, s->models[m].name, path, sizeof path);

@@ -21,6 +21,7 @@ const struct study_col study_cols[] = {
     {"plan_points", STUDY_COL_INT},    {"stop_reason", STUDY_COL_STR},
     {"rig_time_s", STUDY_COL_REAL},    {"move_s", STUDY_COL_REAL},
     {"settle_s", STUDY_COL_REAL},      {"integration_s", STUDY_COL_REAL},
+    {"calibration_s", STUDY_COL_REAL},
     {"fit_wall_s", STUDY_COL_TIME},    {"fit_cpu_s", STUDY_COL_TIME},
     {"fit_converged", STUDY_COL_INT},  {"fit_status", STUDY_COL_STR},
     {"fit_findings", STUDY_COL_STR},   {"fit_geometries", STUDY_COL_INT},

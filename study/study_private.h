@@ -49,6 +49,13 @@ extern const size_t study_n_cols;
  * fit's status (fit/fit_status.h); st NULL (the fit failed): empty. */
 void study_row_status(json_t *row, const struct fit_status *st);
 
+/* Calibrate a job on scene whose detector gives counts (study/calibrate.c):
+ * a dark, then the standard at plan's points, into root (JOBDIR/
+ * calibrations, kept for a rerun), their rig time into *rig_time_s. root
+ * is "" when the detector reports BRDF itself (nothing to calibrate). */
+int study_calibrate(const char *scene, const char *plan, const char *jobdir, char *root,
+                    size_t size, double *rig_time_s, struct gonio_err *err);
+
 /* study.json's content (without shard when shard is 0: for comparisons). */
 json_t *study_spec_json(const struct study_spec *s, int with_shard);
 

@@ -26,7 +26,7 @@ def root():
 
 
 def test_dark_then_reference(root):
-    d = gonio("calibrate", "dark", "--offline", "--scene", "lab-raw", "--out", root,
+    d = gonio("calibrate", "dark", "--offline", "--scene", "lab", "--out", root,
               "--integration", "0.2", "--frames", "8")
     assert d.returncode == 0, d.stderr
     dark_id = d.stdout.strip()
@@ -37,7 +37,7 @@ def test_dark_then_reference(root):
     assert len(rows) == 16 and all(r["kind"] == "dark" for r in rows)
     # The shutter was closed: offset and dark only, far below a lit reading.
     assert max(float(r["g"]) for r in rows) < 1200
-    r = gonio("calibrate", "reference", "--offline", "--scene", "lab-raw", "--plan", "ds3",
+    r = gonio("calibrate", "reference", "--offline", "--scene", "lab", "--plan", "ds3",
               "--out", root, "--repeats", "2")
     assert r.returncode == 0, r.stderr
     ref = json.load(open(os.path.join(root, r.stdout.strip(), "calibration.json")))
@@ -48,12 +48,12 @@ def test_dark_then_reference(root):
 
 
 def test_refusals(root):
-    r = gonio("calibrate", "dark", "--offline", "--scene", "lab", "--out", root)
+    r = gonio("calibrate", "dark", "--offline", "--scene", "ideal", "--out", root)
     assert r.returncode == 2 and "reports BRDF, not counts" in r.stderr, r.stderr
-    r = gonio("calibrate", "reference", "--offline", "--scene", "lab-raw", "--plan", "ds3",
+    r = gonio("calibrate", "reference", "--offline", "--scene", "lab", "--plan", "ds3",
               "--out", root)
     assert r.returncode == 2 and "no valid dark calibration" in r.stderr, r.stderr
-    r = gonio("calibrate", "dark", "--offline", "--scene", "lab-raw", "--out", root,
+    r = gonio("calibrate", "dark", "--offline", "--scene", "lab", "--out", root,
               "--frames", "-3")
     assert r.returncode == 2 and "--frames: not a positive number: '-3'" in r.stderr
     r = gonio("calibrate", "white", "--offline")
@@ -73,17 +73,17 @@ def rig(folder, name, integration):
 
 
 def calibrate(root, rig_path, *extra):
-    d = gonio("calibrate", "dark", "--offline", "--scene", "lab-raw", "--rig", rig_path,
+    d = gonio("calibrate", "dark", "--offline", "--scene", "lab", "--rig", rig_path,
               "--out", root)
     assert d.returncode == 0, d.stderr
-    r = gonio("calibrate", "reference", "--offline", "--scene", "lab-raw", "--rig", rig_path,
+    r = gonio("calibrate", "reference", "--offline", "--scene", "lab", "--rig", rig_path,
               "--plan", "ds3", "--out", root, "--repeats", "2", *extra)
     assert r.returncode == 0, r.stderr
     return r.stdout.strip()
 
 
 def capture(root, rig_path, out, cal="newest"):
-    return gonio("capture", "--offline", "--scene", "lab-raw", "--rig", rig_path, "--plan",
+    return gonio("capture", "--offline", "--scene", "lab", "--rig", rig_path, "--plan",
                  "ds3", "--material", "analytic:rough-diffuse", "--out", out, "--quiet",
                  "--calibration", cal, "--calibrations", root)
 
@@ -129,7 +129,7 @@ def test_capture_refuses_a_calibration_it_cannot_use(root):
     c = capture(cal, slow, os.path.join(root, "cap"))
     assert c.returncode == 2 and "does not cover integration 0.5 s (it has 0.25 s)" in c.stderr, \
         c.stderr
-    r = gonio("capture", "--offline", "--scene", "lab-raw", "--plan", "ds3", "--out",
+    r = gonio("capture", "--offline", "--scene", "lab", "--plan", "ds3", "--out",
               os.path.join(root, "cap"), "--calibration", "x")
     assert r.returncode == 2 and "--calibration needs --calibrations ROOT" in r.stderr
 
@@ -175,7 +175,7 @@ def test_recalibrate_equals_capturing_with_that_calibration(root):
     lab = rig(root, "lab", 0.25)
     first = calibrate(cal, lab)
     time.sleep(1.1)  # a new id: ids are to the second
-    r = gonio("calibrate", "reference", "--offline", "--scene", "lab-raw", "--rig", lab,
+    r = gonio("calibrate", "reference", "--offline", "--scene", "lab", "--rig", lab,
               "--plan", "ds3", "--out", cal, "--repeats", "3")  # other frames, another gain
     assert r.returncode == 0, r.stderr
     second = r.stdout.strip()
@@ -228,7 +228,7 @@ def test_recalibrate_refusals(root):
     assert r.returncode == 2 and "is for rig 'bench'" in r.stderr \
         and "taken on rig 'lab'" in r.stderr, r.stderr
     brdf = os.path.join(root, "brdf")  # a detector that reports BRDF: nothing raw
-    c = gonio("capture", "--offline", "--scene", "lab", "--plan", "ds4", "--out", brdf,
+    c = gonio("capture", "--offline", "--scene", "ideal", "--plan", "ds4", "--out", brdf,
               "--quiet")
     assert c.returncode == 0, c.stderr
     r = gonio("recalibrate", brdf, "--calibration", cal_id, "--calibrations", cal, "-o",

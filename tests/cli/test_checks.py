@@ -1,7 +1,10 @@
 """The premise checks as an operator meets them: gonio capture --check
 isotropy on the rotating rig says "anisotropic" for an anisotropic material
 and "isotropic" for an isotropic one, with its evidence and rig time in
-results.json and gonio results; a rig without a rotation axis and an
+results.json and gonio results; --check out-of-plane says "insufficient"
+for the anisotropic material (its model's error out of the plane of
+incidence beyond 1.5x its error in it) and "sufficient" for an isotropic
+one, alike; a rig without a rotation axis or an azimuth axis and an
 unknown check are refused (exit 2, nothing written); the MERL export
 refuses an anisotropic material and a bad material parameter is named."""
 import json
@@ -10,6 +13,8 @@ import subprocess
 import tempfile
 
 import pytest
+
+import gonio_cal
 
 BIN = os.environ.get("GONIO_BIN", "build/bin")
 GONIO = os.path.join(BIN, "gonio")
@@ -52,7 +57,9 @@ def test_anisotropic_material_found(tmp):
 
 
 def test_isotropic_material_passes(tmp):
-    _, _, res = check(tmp, "analytic:plastic-ggx", scene="lab")
+    # With detector noise: lab's, read by the simulator's ideal meter (the
+    # check's own readings on lab's counts are not reduced by a calibration)
+    _, _, res = check(tmp, "analytic:plastic-ggx", scene=gonio_cal.metered_scene(tmp))
     c = res["checks"]["isotropy"]
     assert c["verdict"] == "isotropic", c["why"]
     assert c["significance"] < c["threshold"]
@@ -68,6 +75,58 @@ def test_rig_without_rotation_refused(tmp):
     r = gonio("capture", "--offline", "--scene", "ideal", "--rig", "rotating", "--plan", "ds3",
               "--check", "planarity", "--out", out)
     assert r.returncode == 2 and "'planarity'" in r.stderr
+
+
+def test_out_of_plane_check(tmp):
+    out = os.path.join(tmp, "cap")
+    r = gonio("capture", "--offline", "--quiet", "--scene", "ideal", "--rig", "rotating",
+              "--plan", "ds2", "--material", ANISO, "--check", "isotropy,out-of-plane",
+              "--out", out)
+    assert r.returncode == 0, r.stderr
+    with open(os.path.join(out, "results.json")) as f:
+        res = json.load(f)
+    assert res["checks"]["isotropy"]["verdict"] == "anisotropic"
+    c = res["checks"]["out_of_plane"]
+    assert c["verdict"] == "insufficient", c["why"]
+    assert c["ratio"] > c["threshold"] == 1.5
+    assert c["ratio"] == pytest.approx(c["error_oop"] / max(c["error_inplane"],
+                                                            c["error_floor"]))
+    assert c["worst"]["error"] >= c["error_oop"] > 0.05
+    assert c["worst"]["phi_o"] % 180 != 0  # out of the plane
+    assert c["pairs"] == 6 and c["measurements"] == 12
+    assert 0 < c["rig_time_s"] < 0.25 * res["rig_time_s"]  # DS2 is small: 12%
+    assert c["rig_time_share"] == pytest.approx(c["rig_time_s"] / res["rig_time_s"])
+    assert "out-of-plane check: in-plane insufficient" in r.stdout
+    rows = json.loads(gonio("results", "--json", out).stdout)
+    assert rows[0]["oop"] == "insufficient"
+    assert rows[0]["oop_s"] == pytest.approx(c["rig_time_s"])
+    # an isotropic material on the lab scene, the default rig (no rotation axis)
+    out2 = os.path.join(tmp, "cap2")
+    r = gonio("capture", "--offline", "--scene", "lab", "--plan", "ds2", "--material",
+              "analytic:plastic-ggx", "--check", "out-of-plane", "--out", out2)
+    assert r.returncode == 0, r.stderr
+    assert "out-of-plane check: in-plane sufficient" in r.stdout
+    with open(os.path.join(out2, "results.json")) as f:
+        res = json.load(f)
+    c = res["checks"]["out_of_plane"]
+    assert c["verdict"] == "sufficient" and c["ratio"] < 1.5, c["why"]
+    assert "isotropy" not in res["checks"]
+
+
+def test_rig_without_azimuth_refused(tmp):
+    rig = os.path.join(tmp, "flat.yaml")
+    src = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "configs",
+                       "rigs", "default.yaml")
+    with open(src) as f:
+        text = f.read().replace("out_of_plane: true", "out_of_plane: false")
+    with open(rig, "w") as f:
+        f.write(text.replace("name: default", "name: flat"))
+    out = os.path.join(tmp, "cap")
+    r = gonio("capture", "--offline", "--scene", "ideal", "--rig", rig, "--plan", "ds3",
+              "--check", "out-of-plane", "--out", out)
+    assert r.returncode == 2
+    assert "out-of-plane" in r.stderr and "azimuth" in r.stderr and "'flat'" in r.stderr
+    assert not os.path.exists(out)
 
 
 def test_no_check_no_verdict(tmp):

@@ -75,15 +75,15 @@ class CaptureTests(DaemonTest):
                          stop["results"]["err_plan"]["log_error"])
 
     def test_counts_need_a_calibration_or_uncalibrated(self):
-        """A detector of counts (lab-raw): refused before anything is made
+        """A detector of counts (lab): refused before anything is made
         without a calibration; --uncalibrated journals counts, fits nothing."""
         c = self.d.connect()
-        r = c.request("capture", plan="ds4", name="raw", scene="lab-raw")
+        r = c.request("capture", plan="ds4", name="raw", scene="lab")
         self.assertEqual(r["class"], "ERROR", r)
         self.assertIn("--uncalibrated", r["message"])
         self.assertFalse(os.path.exists(os.path.join(self.d.root, "raw")))
         self.assertEqual(c.request("watch")["class"], "OK")
-        r = c.request("capture", plan="ds4", name="raw", scene="lab-raw", uncalibrated=True)
+        r = c.request("capture", plan="ds4", name="raw", scene="lab", uncalibrated=True)
         self.assertEqual(r["class"], "OK", r)
         docs = c.until_stop("raw")
         self.assertEqual(docs[-1]["exit_status"], "success", docs[-1])

@@ -1,10 +1,12 @@
 #!/usr/bin/python3
-"""The isotropy check through goniod (docs/checks.md): a capture request's
+"""The premise checks through goniod (docs/checks.md): a capture request's
 check "isotropy" on the rotating rig profile gives its verdict in the stop
 document, in the event-model fit stream and in gonio capture --wait's
 output; request.json keeps it, so an aborted capture resumed is checked
 too; a rig without a rotation axis and an unknown check are refused before
-anything is created.
+anything is created. The check "out-of-plane" (alone on the default rig,
+or with "isotropy") reaches the same places: "insufficient" for an
+anisotropic material, "sufficient" for an isotropic one.
 
 Run from ctest (the environment names the binaries), or by hand:
   GONIO_BIN=build/bin GONIO_TESTS_BIN=build/tests GONIO_CONFIG=configs \\
@@ -46,7 +48,9 @@ class ChecksTests(DaemonTest):
     def test_isotropic_in_stop_document(self):
         c = self.d.connect()
         self.assertEqual(c.request("watch")["class"], "OK")
-        r = c.request("capture", plan="ds2", name="iso", scene="lab", rig="rotating",
+        # ideal: goniod names no calibration here, and lab's detector gives
+        # counts (tests/cli/test_checks.py holds the verdict on lab, calibrated)
+        r = c.request("capture", plan="ds2", name="iso", scene="ideal", rig="rotating",
                       material=ISO, check="isotropy")
         self.assertEqual(r["class"], "OK", r)
         docs = c.until_stop("iso")
@@ -61,20 +65,47 @@ class ChecksTests(DaemonTest):
         self.assertSame(load_json(os.path.join(capdir, "results.json"))["checks"]["isotropy"], iso)
         self.assertEqual(load_json(os.path.join(capdir, "request.json"))["check"], "isotropy")
 
+    def test_out_of_plane_in_stop_document(self):
+        c = self.d.connect()
+        self.assertEqual(c.request("watch")["class"], "OK")
+        r = c.request("capture", plan="ds2", name="oop", scene="lab", material=ISO,
+                      check="out-of-plane")
+        self.assertEqual(r["class"], "OK", r)
+        docs = c.until_stop("oop")
+        self.assertEqual(docs[0]["check"], "out-of-plane")
+        self.assertEqual(docs[-1]["exit_status"], "success", docs[-1])
+        oop = docs[-1]["checks"]["out_of_plane"]
+        self.assertNotIn("isotropy", docs[-1]["checks"])
+        self.assertEqual(oop["verdict"], "sufficient", oop["why"])
+        self.assertLess(oop["ratio"], oop["threshold"])
+        self.assertEqual(oop["measurements"], 12)
+        self.assertGreater(oop["rig_time_s"], 0)
+        self.assertLess(oop["rig_time_s"], 0.25 * docs[-1]["rig_time_s"])
+        capdir = os.path.join(self.d.root, "oop")
+        self.assertSame(load_json(os.path.join(capdir, "results.json"))["checks"]["out_of_plane"],
+                        oop)
+        self.assertEqual(load_json(os.path.join(capdir, "request.json"))["check"],
+                         "out-of-plane")
+
     def test_anisotropic_with_wait_and_event_model(self):
         validators, why = load_validators()
         ev = self.d.connect()
         if validators:
             self.assertEqual(ev.request("watch", format="event-model")["class"], "OK")
         r = self.d.gonio("capture", "--plan", "ds2", "--name", "aniso", "--rig", "rotating",
-                         "--material", ANISO, "--check", "isotropy", "--wait", "--quiet")
+                         "--material", ANISO, "--check", "isotropy,out-of-plane", "--wait",
+                         "--quiet")
         self.assertEqual(r.returncode, 0, r.stderr)
         self.assertIn("isotropy check: anisotropic", r.stdout)
+        self.assertIn("out-of-plane check: in-plane insufficient", r.stdout)
         res = load_json(os.path.join(self.d.root, "aniso", "results.json"))
         iso = res["checks"]["isotropy"]
         self.assertEqual(iso["verdict"], "anisotropic")
         self.assertGreater(iso["significance"], iso["threshold"])
         self.assertIn("against %.1f" % iso["threshold"], r.stdout)
+        oop = res["checks"]["out_of_plane"]
+        self.assertEqual(oop["verdict"], "insufficient", oop["why"])
+        self.assertGreater(oop["ratio"], oop["threshold"])
         if not validators:
             sys.stderr.write(why + "\n")
             return
@@ -91,6 +122,10 @@ class ChecksTests(DaemonTest):
         self.assertAlmostEqual(event["data"]["isotropy_rig_time_s"], iso["rig_time_s"],
                                delta=1e-9 * iso["rig_time_s"])
         self.assertEqual(fit[0]["data_keys"]["isotropy_rig_time_s"]["units"], "s")
+        self.assertEqual(event["data"]["oop_verdict"], "insufficient")
+        self.assertAlmostEqual(event["data"]["oop_ratio"], oop["ratio"],
+                               delta=1e-9 * oop["ratio"])
+        self.assertEqual(fit[0]["data_keys"]["oop_rig_time_s"]["units"], "s")
 
 
     def test_refusals(self):

@@ -126,6 +126,22 @@ class ModbusTests(ModbusRig):
         self.assertEqual(sorted(pts), list(range(plan_total(os.path.join(self.d.root, "tcp")))))
         self.same_as_offline("tcp")
 
+    def test_out_of_plane_check_over_tcp(self):
+        """The in-plane sufficiency check opens the Modbus devices again after
+        the final fit and drives the azimuth axis: its twelve readings are
+        all taken, and gonio-sim's isotropic material passes."""
+        self.d = Daemon(self.folder, driver=self.tcp_driver(1000)).start()
+        c = self.d.connect()
+        c.request("watch")
+        r = c.request("capture", plan="ds3", name="oop", check="out-of-plane")
+        self.assertEqual(r["class"], "OK", r)
+        stop = c.until_stop("oop")[-1]
+        self.assertEqual(stop["reason"], "complete", stop)
+        oop = stop["checks"]["out_of_plane"]
+        self.assertEqual(oop["measurements"], 12, oop["why"])
+        self.assertEqual(oop["verdict"], "sufficient", oop["why"])
+        self.assertGreater(oop["rig_time_s"], 0)
+
     def test_no_rig_answering(self):
         self.stop_sim()
         c = self.capture("  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n"

@@ -1,5 +1,8 @@
 """An adaptive capture through goniod over Modbus TCP and RTU
-against gonio-sim on the lab scene: the policy chooses from the
+against gonio-sim on a scene whose detector meters its integration (lab's
+noise read by the simulator's ideal meter, tests/gonio_cal.py: the policy
+needs BRDF, and lab's counts would need a calibration goniod can name):
+the policy chooses from the
 inplane-1deg pool within a small rig-time budget, while the rig settles and
 integrates. The simulator runs 20 times faster than real time, not the
 matrix's 1000: the rig clock runs on while the engine waits for a decision,
@@ -21,6 +24,7 @@ import pytest
 
 import test_matrix as tm
 import goniod_harness as tg
+import gonio_cal
 
 BUDGET_MIN = 2
 POOL = 12322  # inplane-1deg on the default rig
@@ -32,7 +36,7 @@ TRANSPORTS = ("tcp",) if tg.VALGRIND else ("tcp", "rtu")
 @pytest.mark.parametrize("transport", TRANSPORTS)
 def test_adaptive_over_modbus(transport):
     folder = tg.tmpdir()
-    sim = tm.Sim(folder, "lab", scale=SCALE)
+    sim = tm.Sim(folder, gonio_cal.metered_scene(folder), scale=SCALE)
     d = None
     try:
         d = tg.Daemon(folder, driver=sim.driver(transport)).start()
@@ -63,14 +67,14 @@ def test_adaptive_over_modbus(transport):
         assert res["stop_reason"] == stop["reason"] == ad["stop"]
         assert ad["decisions"] == len(points)
         assert res["errors"]["full"]["log"] > 0  # the truth is known: checkable
-        # The lab detector integrates longer where the material is dark than
+        # The metering detector integrates longer where the material is dark than
         # the rig profile says, which goniod cannot know in advance: the
         # policy learns it from the journal and the budget still holds.
         assert res["rig_time_s"] <= 60 * BUDGET_MIN, res["rig_time_s"]
         with open(os.path.join(capdir, "setup.json")) as f:
             settle = json.load(f)["rig"]["settle_s"]
         sys.stderr.write(
-            "adaptive over Modbus %s, lab, inplane-1deg pool, %.1f min budget: %d samples, "
+            "adaptive over Modbus %s, metered, inplane-1deg pool, %.1f min budget: %d samples, "
             "rig time %.1f s, stop %s; decision %.4f s mean, %.4f s max per point (settle "
             "%.2f s), the rig waited %.3f s wall for them; predicted full-domain log error "
             "%.4f, true %.4f\n" % (
@@ -83,7 +87,7 @@ def test_adaptive_over_modbus(transport):
 
 def test_kill9_during_adaptive_then_resume():
     folder = tg.tmpdir()
-    sim = tm.Sim(folder, "lab", scale=SCALE)
+    sim = tm.Sim(folder, gonio_cal.metered_scene(folder), scale=SCALE)
     d = None
     cut_at = 8 if tg.VALGRIND else 12  # past the six seeds: the policy's own picks
     # Under memcheck a decision takes 20-50x longer while the rig clock runs

@@ -1,7 +1,8 @@
 """The ETA on a rig whose material goniod cannot meter in advance
 (docs/plans.md, "The ETA as the capture goes"): goniod captures DS3
-over Modbus RTU and TCP against gonio-sim on the lab scene, whose detector
-auto-exposes. The start document's estimate, made with the rig profile's
+over Modbus RTU and TCP against gonio-sim on a scene whose detector
+auto-exposes (lab's noise read by the simulator's ideal meter,
+tests/gonio_cal.py: lab itself gives counts, ranged). The start document's estimate, made with the rig profile's
 fixed integration, is short by more than 10 %; the ETA right after the
 pre-scan (rig time so far plus ETA) is within TOLERANCE of the rig time the
 capture took. And a goniod killed with SIGKILL during a pre-scan resumes
@@ -20,6 +21,7 @@ import pytest
 
 import test_matrix as tm
 import goniod_harness as tg
+import gonio_cal
 
 PLAN = "ds3"
 POINTS = 52
@@ -27,7 +29,7 @@ TOLERANCE = 0.05  # the target
 
 
 def run_capture(folder, transport, **request):
-    sim = tm.Sim(folder, "lab", scale=None)  # the simulated clock
+    sim = tm.Sim(folder, gonio_cal.metered_scene(folder), scale=None)  # the simulated clock
     d = None
     try:
         d = tg.Daemon(folder, driver=sim.driver(transport)).start()
@@ -57,7 +59,7 @@ def test_eta_after_prescan(transport):
         after = next(e for e in events if e["done"] == start["prescan"])
         actual = tm.results(capdir)["rig_time_s"]
         total = after["rig_time_s"] + after["eta_s"]
-        sys.stderr.write("ETA over Modbus %s, lab, %s: fixed estimate %.1f s, after the "
+        sys.stderr.write("ETA over Modbus %s, metered, %s: fixed estimate %.1f s, after the "
                          "pre-scan %.1f s, actual %.1f s (%+.1f %%)\n" % (
                              transport.upper(), PLAN, start["estimate_s"], total, actual,
                              100 * (total - actual) / actual))
@@ -70,7 +72,8 @@ def test_eta_after_prescan(transport):
 
 def test_kill9_during_prescan_then_resume():
     folder = tg.tmpdir()
-    sim = tm.Sim(folder, "lab", scale=10)  # slow enough to land the kill in the pre-scan
+    # slow enough to land the kill in the pre-scan
+    sim = tm.Sim(folder, gonio_cal.metered_scene(folder), scale=10)
     d = None
     try:
         d = tg.Daemon(folder, driver=sim.driver("tcp")).start()

@@ -1,5 +1,5 @@
 """Auto-ranging on hardware (docs/plans.md, "Auto-ranging"): goniod over
-Modbus TCP against gonio-sim on the lab-raw scene, whose detector gives
+Modbus TCP against gonio-sim on the lab scene, whose detector gives
 counts, on gonio-sim's simulated clock, so every figure is rig time, not
 wall time. The request names no scene: what goniod knows of the detector is
 what it says on the bus. It declares counts at open (status RAW), so a
@@ -23,9 +23,9 @@ DARK = 2
 
 
 def run(folder, name, **request):
-    """One goniod capture on lab-raw (the metal) over TCP: its documents,
+    """One goniod capture on lab (the metal) over TCP: its documents,
     directory and gonio-sim's stats."""
-    sim = tm.Sim(folder, "lab-raw", scale=None, extra=["--material", METAL])
+    sim = tm.Sim(folder, "lab", scale=None, extra=["--material", METAL])
     d = None
     try:
         d = tg.Daemon(folder, driver=sim.driver("tcp")).start()
@@ -77,7 +77,7 @@ def test_metal_ds1_no_clip_and_eta_within_5_percent():
         worst = max(abs(e["rig_time_s"] + e["eta_s"] - actual) / actual
                     for e in events if e["done"] >= len(samples) // 4)
         after = next(e for e in events if e["done"] == start["prescan"])
-        sys.stderr.write("lab-raw DS1 %s over TCP: rig time %.1f s, estimate %+.1f %%, after "
+        sys.stderr.write("lab DS1 %s over TCP: rig time %.1f s, estimate %+.1f %%, after "
                          "the pre-scan %+.1f %%, worst from a quarter on %.1f %%\n" % (
                              METAL, actual, 100 * (start["estimate_s"] / actual - 1),
                              100 * ((after["rig_time_s"] + after["eta_s"]) / actual - 1),

@@ -1,6 +1,6 @@
 """The detector's raw mode as an independent master sees it (the hand-built
 RTU master of conftest.py, docs/protocol-modbus.md "Raw mode"): gonio-sim on
-the lab-raw scene sets RAW, publishes uint32 counts between the ADC's offset
+the lab scene sets RAW, publishes uint32 counts between the ADC's offset
 and full scale with the raw block of the same reading, and its shutter
 leaves offset and dark; the calibrated scene leaves RAW clear; the gap
 between the channels and the raw block is unmapped."""
@@ -37,7 +37,7 @@ def counts(m):
 @pytest.fixture(scope="module")
 def raw_sim():
     pytest.importorskip("serial")
-    with gonio_sim("--scene", "lab-raw", "--time-scale", str(TIME_SCALE)) as s:
+    with gonio_sim("--scene", "lab", "--time-scale", str(TIME_SCALE)) as s:
         m = RtuMaster(s["pty"])
         yield m
         m.close()

@@ -1,4 +1,4 @@
-/* Auto-ranging on a detector that gives counts (the lab-raw scene): a
+/* Auto-ranging on a detector that gives counts (the lab scene): a
  * capture without a calibration is refused before anything is written,
  * naming the fix; with --uncalibrated every sample is counts, none is kept
  * clipped while a shorter integration exists, none sits below the floor
@@ -66,7 +66,7 @@ static void test_counts_without_calibration_refused(void **state)
     struct capture_config cfg = config(out);
     struct capture_summary sum;
     struct gonio_err err = {0};
-    int rc = sim_source_capture("lab-raw", &cfg, NULL, &sum, &err);
+    int rc = sim_source_capture("lab", &cfg, NULL, &sum, &err);
     assert_int_equal(rc, -GONIO_EUSAGE);
     assert_int_equal(gonio_exit_status(rc), 2);
     assert_non_null(strstr(err.msg, "--calibration ID"));
@@ -77,7 +77,7 @@ static void test_counts_without_calibration_refused(void **state)
     snprintf(out, sizeof out, "%s/brdf", dir);
     cfg = config(out);
     cfg.plan = "ds4";
-    assert_int_equal(sim_source_capture("lab", &cfg, NULL, &sum, &err), 0);
+    assert_int_equal(sim_source_capture("ideal", &cfg, NULL, &sum, &err), 0);
 }
 
 static const double *dark_of(const struct journal_sample *js, size_t n, double t)
@@ -97,7 +97,7 @@ static void test_uncalibrated_capture_ranges(void **state)
     cfg.uncalibrated = 1;
     struct capture_summary sum;
     struct gonio_err err = {0};
-    int rc = sim_source_capture("lab-raw", &cfg, NULL, &sum, &err);
+    int rc = sim_source_capture("lab", &cfg, NULL, &sum, &err);
     if (rc)
         fail_msg("%s", err.msg);
     snprintf(path, sizeof path, "%s/samples.csv", out);
@@ -106,7 +106,7 @@ static void test_uncalibrated_capture_ranges(void **state)
     assert_int_equal(journal_read(path, &js, &n, &err), 0);
     struct rig_profile rig;
     assert_int_equal(rig_profile_load(rig_path, &rig, &err), 0);
-    const double fs = 65535; /* lab-raw's 16-bit ADC */
+    const double fs = 65535; /* lab's 16-bit ADC */
     size_t samples = 0, darks = 0, retaken = 0, down = 0;
     double detector_s = 0;
     for (size_t i = 0; i < n; i++) {
@@ -172,7 +172,7 @@ static void test_model_walks_the_journal(void **state)
     cfg.uncalibrated = 1;
     struct capture_summary sum;
     struct gonio_err err = {0};
-    if (sim_source_capture("lab-raw", &cfg, NULL, &sum, &err))
+    if (sim_source_capture("lab", &cfg, NULL, &sum, &err))
         fail_msg("%s", err.msg);
     snprintf(path, sizeof path, "%s/samples.csv", out);
     struct journal_sample *js;

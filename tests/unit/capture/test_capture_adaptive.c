@@ -5,8 +5,10 @@
  * order, with the same readings, as one never interrupted; a resume that
  * changes the policy's options is refused and leaves the journal as it
  * was, also on the lab scene with a budget, where the policy learns the
- * rig's pace from the journal; on the lab and bad-day scenes, whose
- * detector chooses its integration, the budget holds; a budget or target
+ * rig's pace from the journal; on the lab and bad-day scenes the budget
+ * holds. Their detectors give counts: each is calibrated once (dark, then
+ * the reference at the pool's points, tests/gonio_test_cal.h) and every
+ * capture on it reduces its counts with that; a budget or target
  * outside the adaptive order is refused before anything is written, and so
  * is an uncalibrated adaptive capture. The
  * pool is DS2 and the material the embedded default, so the test needs no
@@ -20,13 +22,31 @@
 #include "sim_source/sim_source.h"
 #include "journal/journal.h"
 #include "tests/gonio_test.h"
+#include "tests/gonio_test_cal.h"
 
 static char dir[256];
+
+/* The calibrations of the realistic scenes, one folder each: both are of
+ * rig default and detector rgb, so a capture takes the newest of its own. */
+static const char *const realistic[] = {"lab", "bad-day"};
+
+static void cal_root(const char *scene, char *root, size_t size)
+{
+    snprintf(root, size, "%s/cal-%s", dir, scene);
+}
 
 static int setup(void **state)
 {
     (void)state;
-    return gonio_test_dir_make(dir, sizeof dir, "adaptive");
+    if (gonio_test_dir_make(dir, sizeof dir, "adaptive") < 0)
+        return -1;
+    for (int i = 0; i < 2; i++) {
+        char root[300];
+        cal_root(realistic[i], root, sizeof root);
+        if (gonio_test_calibrate(root, realistic[i], NULL, "ds2", NULL, 0) < 0)
+            return -1;
+    }
+    return 0;
 }
 
 static int teardown(void **state)
@@ -164,7 +184,7 @@ static void test_resume_continues_the_same_sequence(void **state)
 }
 
 /* On the lab scene with a budget, where the policy costs points with what
- * the rig took for the ones before (auto-exposure): the resumed run learns
+ * the rig took for the ones before: the resumed run learns
  * it again from the journal, so it goes on with the points the
  * uninterrupted one chose, and both end within the budget. The lab
  * simulator's noise and drift do not resume where they were (sim/), so
@@ -178,6 +198,9 @@ static void test_resume_on_lab_within_budget(void **state)
     snprintf(whole, sizeof whole, "%s/lab-ref", dir);
     snprintf(part, sizeof part, "%s/lab-part", dir);
     struct capture_config cw = config(whole, "ds2", 1), cp = config(part, "ds2", 1);
+    char cal[300];
+    cal_root("lab", cal, sizeof cal);
+    cw.calibrations = cp.calibrations = cal;
     struct capture_summary s;
     struct gonio_err err = {0};
     assert_int_equal(sim_source_capture("lab", &cw, NULL, &s, &err), 0);
@@ -200,22 +223,26 @@ static void test_resume_on_lab_within_budget(void **state)
     free(b);
 }
 
-/* Where the detector chooses its integration (lab: longer where the
- * material is dark; bad day: slow, faulty axes too), the capture's rig
- * time stays within its budget. */
+/* On the realistic scenes, calibrated (lab; bad day: slow, faulty axes
+ * too), the capture's rig time stays within its budget. */
 static void test_budget_held_on_lab_and_bad_day(void **state)
 {
     (void)state;
-    const char *scenes[] = {"lab", "bad-day"};
+    const char *const *scenes = realistic;
     const double budgets[] = {0.25, 0.5, 1};
     for (size_t i = 0; i < 2; i++)
         for (size_t k = 0; k < 3; k++) {
             char out[300];
             snprintf(out, sizeof out, "%s/%s-%g", dir, scenes[i], budgets[k]);
             struct capture_config cfg = config(out, "ds2", budgets[k]);
+            char cal[300];
+            cal_root(scenes[i], cal, sizeof cal);
+            cfg.calibrations = cal;
             struct capture_summary s;
             struct gonio_err err = {0};
-            assert_int_equal(sim_source_capture(scenes[i], &cfg, NULL, &s, &err), 0);
+            int rc = sim_source_capture(scenes[i], &cfg, NULL, &s, &err);
+            if (rc)
+                fail_msg("%s: %s", scenes[i], err.msg);
             assert_string_equal(s.stop_reason, "budget");
             printf("%s, %.2f min budget: %zu samples, rig time %.2f s\n", scenes[i],
                    budgets[k], s.samples, s.rig_time_s);
@@ -248,7 +275,7 @@ static void test_budget_needs_adaptive_order(void **state)
 }
 
 /* The adaptive policy chooses its points from BRDF values: an uncalibrated
- * capture (counts, lab-raw) is refused before anything is written, naming
+ * capture (counts, lab) is refused before anything is written, naming
  * both options, as it is on a detector of BRDF. */
 static void test_uncalibrated_refused(void **state)
 {
@@ -257,7 +284,7 @@ static void test_uncalibrated_refused(void **state)
     snprintf(out, sizeof out, "%s/uncalibrated", dir);
     struct capture_config cfg = config(out, "ds2", BUDGET_MIN);
     cfg.uncalibrated = 1;
-    static const char *const scenes[] = {"lab-raw", "ideal"};
+    static const char *const scenes[] = {"lab", "ideal"};
     for (int i = 0; i < 2; i++) {
         struct capture_summary s;
         struct gonio_err err = {0};

@@ -11,9 +11,10 @@
  * The pre-scan a host's rig makes by default (capture_config.prescan):
  * its points come first, each journalled once, and the plan's order skips
  * them; a capture interrupted in it resumes to the same journal, point for
- * point, as one never interrupted; and on the lab scene, whose detector
- * auto-exposes, the ETA right after it is within 5 % of the rig time the
- * capture takes, where the fixed estimate is not. */
+ * point, as one never interrupted; and on a detector that auto-exposes
+ * (lab's noise read by the simulator's ideal meter, tests/gonio_test_cal.h),
+ * the ETA right after it is within 5 % of the rig time the capture takes,
+ * where the fixed estimate is not. */
 #include <string.h>
 #include <sys/stat.h>
 
@@ -26,6 +27,7 @@
 #include "sim/scene.h"
 #include "sim/sim.h"
 #include "tests/gonio_test.h"
+#include "tests/gonio_test_cal.h"
 
 static char dir[256];
 
@@ -382,17 +384,19 @@ static void test_prescan_resume(void **state)
     brdf_material_free(h.material);
 }
 
-/* The lab scene's detector integrates longer than the rig profile's fixed
+/* A metering detector integrates longer than the rig profile's fixed
  * integration where the material is dark: the first ETA (the fixed
  * estimate) is short by more than 10 %, the one after the pre-scan within
  * 5 % of the rig time the capture takes. Deterministic: the host's rig is
  * the in-process simulator, its clock simulated. */
-static void test_prescan_eta_on_lab(void **state)
+static void test_prescan_eta_metered(void **state)
 {
     (void)state;
     struct gonio_err err = {0};
+    char path[300];
+    gonio_test_metered_scene(dir, path, sizeof path);
     struct sim_scene lab;
-    assert_int_equal(sim_scene_load("lab", &lab, &err), 0);
+    assert_int_equal(sim_scene_load(path, &lab, &err), 0);
     struct host h = new_host();
     h.scene = &lab;
     h.eta_at = 2; /* the default pre-scan of DS3 */
@@ -400,7 +404,7 @@ static void test_prescan_eta_on_lab(void **state)
     assert_int_equal(run("pre-lab", NULL, &h, &s, &err), 0);
     host_done(&h);
     double first = h.first_eta_s, after = h.total_at_s, actual = s.rig_time_s;
-    fprintf(stderr, "# lab, DS3 on a host's rig: fixed estimate %.1f s, after the pre-scan "
+    fprintf(stderr, "# metered, DS3 on a host's rig: fixed estimate %.1f s, after the pre-scan "
             "%.1f s, actual %.1f s (%+.1f %%, %+.1f %%)\n", first, after, actual,
             100 * (first - actual) / actual, 100 * (after - actual) / actual);
     assert_true(first < 0.9 * actual);
@@ -416,7 +420,7 @@ int main(void)
         cmocka_unit_test(test_rig_clock_continues_and_pause_is_apart),
         cmocka_unit_test(test_prescan_first_once_then_plan_order),
         cmocka_unit_test(test_prescan_resume),
-        cmocka_unit_test(test_prescan_eta_on_lab),
+        cmocka_unit_test(test_prescan_eta_metered),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

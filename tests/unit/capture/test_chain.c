@@ -1,5 +1,5 @@
 /* The calibration chain end to end on the simulated lab rig with raw
- * counts (scene lab-raw): dark frames behind the shutter, the shipped
+ * counts (scene lab): dark frames behind the shutter, the shipped
  * Spectralon standard mounted as the sample and read at the plan's points,
  * then a diffuse, a glossy and a metal sample read there, reduced with
  * the calibration (capture/calibration.h, radiometry/reduce.h). The BRDF
@@ -14,7 +14,7 @@
 #include "sim_source/sim_source.h"
 #include "tests/gonio_test.h"
 
-#define SCENE "lab-raw"
+#define SCENE "lab"
 #define PLAN "ds3"
 
 static char dir[64], rig_file[128];

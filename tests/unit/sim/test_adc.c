@@ -255,13 +255,13 @@ static void test_driver_reports_counts(void **state)
     sim_rig_free(rig);
 }
 
-/* The shipped raw scene loads with the parameters docs/scenes.md gives. */
-static void test_lab_raw_scene(void **state)
+/* The lab scene reads out raw counts with the parameters docs/scenes.md gives. */
+static void test_lab_scene(void **state)
 {
     (void)state;
     struct sim_scene sc;
     struct gonio_err err = {0};
-    if (sim_scene_load("lab-raw", &sc, &err) != 0) {
+    if (sim_scene_load("lab", &sc, &err) != 0) {
         print_error("%s\n", err.msg);
         fail();
     }
@@ -283,7 +283,7 @@ int main(void)
         cmocka_unit_test(test_shutter_leaves_dark_and_offset),
         cmocka_unit_test(test_lamp_monitor_follows_the_lamp),
         cmocka_unit_test(test_driver_reports_counts),
-        cmocka_unit_test(test_lab_raw_scene),
+        cmocka_unit_test(test_lab_scene),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

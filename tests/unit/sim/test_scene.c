@@ -45,8 +45,7 @@ static void test_shipped_scenes_load(void **state)
                                   "spectral-cyan", "spectral-magenta", "spectral-gonio",
                                   "spectral-lab", "ideal-specular-black-phenolic",
                                   "ideal-gold-metallic-paint", "ideal-white-diffuse-bball",
-                                  "ideal-red-plastic", "ideal-alum-bronze", "ideal-pearl-paint",
-                                  "lab-raw"};
+                                  "ideal-red-plastic", "ideal-alum-bronze", "ideal-pearl-paint"};
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
         struct sim_scene sc;
         struct gonio_err err = {0};
@@ -58,10 +57,20 @@ static void test_shipped_scenes_load(void **state)
         if (!strncmp(names[i], "ideal", 5)) {
             assert_int_equal(sc.n_effects, 0);
             assert_int_equal(sc.detector, SIM_DETECTOR_RGB);
+        } else if (sc.detector == SIM_DETECTOR_RGB) {
+            /* A realistic scene hands the engine what a real detector
+             * would: counts through an ADC, and a monitor of the lamp. */
+            int adc = 0, monitor = 0;
+            for (int k = 0; k < sc.n_effects; k++) {
+                adc += sc.effects[k].kind == SIM_FX_ADC;
+                monitor += sc.effects[k].kind == SIM_FX_LAMP_MONITOR;
+            }
+            if (adc != 1 || monitor != 1)
+                fail_msg("%s: a realistic scene without raw counts or a lamp monitor", names[i]);
         }
     }
     struct sim_scene sc;
-    assert_int_equal(sim_scene_load("lab-raw", &sc, NULL), 0);
+    assert_int_equal(sim_scene_load("lab", &sc, NULL), 0);
     assert_int_equal(sc.n_effects, 10);
     assert_int_equal(sc.effects[8].kind, SIM_FX_ADC);
     assert_int_equal(sc.effects[8].bits, 16);
