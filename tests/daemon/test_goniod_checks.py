@@ -68,7 +68,7 @@ class ChecksTests(DaemonTest):
     def test_out_of_plane_in_stop_document(self):
         c = self.d.connect()
         self.assertEqual(c.request("watch")["class"], "OK")
-        r = c.request("capture", plan="ds2", name="oop", scene="lab", material=ISO,
+        r = c.request("capture", plan="ds2", name="oop", scene="ideal", material=ISO,
                       check="out-of-plane")
         self.assertEqual(r["class"], "OK", r)
         docs = c.until_stop("oop")
