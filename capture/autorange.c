@@ -65,9 +65,10 @@ static void keep_dark(struct autorange *a, double t, const double counts[3])
 
 void autorange_note(struct autorange *a, const struct journal_sample *s)
 {
-    if (s->flags & JOURNAL_FLAG_DARK)
+    if (s->flags & JOURNAL_FLAG_DARK) {
         keep_dark(a, s->integration_s, s->raw);
-    else if (s->integration_s > 0)
+        a->dark_total_s += s->integration_s;
+    } else if (s->integration_s > 0)
         a->next_s = s->integration_s;
 }
 
@@ -92,6 +93,7 @@ static int take_dark(struct autorange *a, drv_detector *d, double t, autorange_d
     rc = rc < 0 ? rc : reopen;
     if (rc == 0) {
         keep_dark(a, r.integration_s, r.rgb);
+        a->dark_total_s += r.integration_s;
         rc = dark ? dark(user, &r, err) : 0;
     }
     return rc;
@@ -109,18 +111,28 @@ static double peak_signal(const struct autorange *a, const struct drv_reading *r
     return peak;
 }
 
+/* The integration to try after a reading at t whose peak channel's signal
+ * is peak (saturated or not): t itself when it is to be kept. The one rule
+ * of the ladder, which a point's readings follow and autorange_model
+ * predicts with. */
+static double decide(const struct autorange *a, double t, double peak, int saturated,
+                     double full_scale, int went_down)
+{
+    if (saturated)
+        return autorange_rung(a, t, -1); /* t at the shortest: kept, flagged */
+    if (went_down || peak >= AUTORANGE_FLOOR * full_scale)
+        return t;
+    double k = round(index_of(a, t));
+    double want = index_of(a, t * AUTORANGE_AIM * full_scale / fmax(peak, 1.0));
+    return rung_of(a, fmax(k + 1, floor(want)));
+}
+
 /* The integration to try after r at t: t itself when r is to be kept. */
 static double next_try(const struct autorange *a, const struct drv_reading *r, double t,
                        int went_down)
 {
-    if (r->flags & DRV_READING_SATURATED)
-        return autorange_rung(a, t, -1); /* t at the shortest: kept, flagged */
-    double peak = peak_signal(a, r);
-    if (went_down || peak >= AUTORANGE_FLOOR * r->full_scale)
-        return t;
-    double k = round(index_of(a, t));
-    double want = index_of(a, t * AUTORANGE_AIM * r->full_scale / fmax(peak, 1.0));
-    return rung_of(a, fmax(k + 1, floor(want)));
+    return decide(a, t, peak_signal(a, r), (r->flags & DRV_READING_SATURATED) != 0,
+                  r->full_scale, went_down);
 }
 
 int autorange_acquire(struct autorange *a, drv_detector *d, autorange_dark_fn dark,
@@ -139,6 +151,7 @@ int autorange_acquire(struct autorange *a, drv_detector *d, autorange_dark_fn da
         out->tries++;
         if (out->r.unit != DRV_UNIT_COUNTS || !(out->r.full_scale > 0))
             return 0; /* a detector that reduces its readings itself: read once */
+        a->full_scale = out->r.full_scale;
         if ((rc = take_dark(a, d, t, dark, user, err)) < 0)
             return rc;
         double next = t != autorange_rung(a, t, 0) ? autorange_rung(a, t, 0)
@@ -151,4 +164,70 @@ int autorange_acquire(struct autorange *a, drv_detector *d, autorange_dark_fn da
     }
     a->next_s = t;
     return 0;
+}
+
+double autorange_rate(const struct autorange *a, const struct journal_sample *s)
+{
+    if (!s->counts || (s->flags & JOURNAL_FLAG_DARK) || !(s->integration_s > 0))
+        return NAN;
+    const double *dk = dark_at(a, s->integration_s);
+    double peak = -INFINITY;
+    for (int c = 0; c < 3; c++)
+        peak = fmax(peak, s->raw[c] - (dk ? dk[c] : 0));
+    return fmax(peak, 0.0) / s->integration_s;
+}
+
+int autorange_model_start(const struct autorange *a, struct autorange_model *m)
+{
+    memset(m, 0, sizeof *m);
+    if (!(a->full_scale > 0))
+        return 0;
+    m->t = autorange_rung(a, a->next_s > 0 ? a->next_s : a->fixed_s, 0);
+    m->n_dark = a->n_dark;
+    memcpy(m->dark_s, a->dark_s, sizeof m->dark_s);
+    return 1;
+}
+
+/* The dark offset a reading at t carries on its peak channel: the dark
+ * frame's at t, else the nearest shorter one's (the offset dominates). */
+static double model_offset(const struct autorange *a, double t)
+{
+    double off = 0, best = -1;
+    for (size_t i = 0; i < a->n_dark; i++)
+        if (a->dark_s[i] <= t * (1 + 1e-9) && a->dark_s[i] > best) {
+            best = a->dark_s[i];
+            off = fmax(fmax(a->dark[i][0], a->dark[i][1]), a->dark[i][2]);
+        }
+    return off;
+}
+
+/* A rung's dark frame, the first time the walk uses it: its time. */
+static double model_dark(const struct autorange *a, struct autorange_model *m, double t)
+{
+    if (a->no_shutter)
+        return 0;
+    for (size_t i = 0; i < m->n_dark; i++)
+        if (fabs(m->dark_s[i] - t) <= 1e-9 * t)
+            return 0;
+    if (m->n_dark < AUTORANGE_RUNGS)
+        m->dark_s[m->n_dark++] = t;
+    return t;
+}
+
+double autorange_model_point(const struct autorange *a, struct autorange_model *m, double rate)
+{
+    double t = m->t, cost = 0, fs = a->full_scale;
+    int went_down = 0;
+    for (int tries = 1;; tries++) {
+        double signal = rate * t;
+        int saturated = signal + model_offset(a, t) >= fs;
+        cost += t + model_dark(a, m, t);
+        double next = decide(a, t, fmin(signal, fs), saturated, fs, went_down);
+        if (next == t || tries >= AUTORANGE_TRIES)
+            break;
+        went_down |= next < t;
+        t = next;
+    }
+    m->t = t;
+    return cost;
 }

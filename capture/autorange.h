@@ -41,6 +41,8 @@ struct autorange {
     double dark_s[AUTORANGE_RUNGS];
     double dark[AUTORANGE_RUNGS][3]; /* its counts per channel */
     size_t retakes;       /* readings taken again, this run */
+    double full_scale;    /* the detector's, as its last reading of counts said; 0: none yet */
+    double dark_total_s;  /* the dark frames' integrations, journalled ones included */
 };
 
 /* Ranging on rig's integration bounds. */
@@ -75,5 +77,28 @@ size_t autorange_ladder(const struct autorange *a, double *out, size_t max);
 /* The rung the ladder holds next above (dir 1) or below (dir -1) t, or t
  * itself (dir 0) snapped to the ladder; held to the bounds. */
 double autorange_rung(const struct autorange *a, double t, int dir);
+
+/* The peak channel's signal per second of a journalled sample of counts,
+ * its dark at that integration taken off where known (a clipped one's is
+ * a lower bound); NAN for a sample of BRDF or a dark frame. The material's
+ * brightness at the point, whatever rung it was read on. */
+double autorange_rate(const struct autorange *a, const struct journal_sample *s);
+
+/* The ladder walked ahead, as autorange_acquire would walk it: the rung
+ * it stands on and the rungs that have their dark frame. */
+struct autorange_model {
+    double t;
+    size_t n_dark;
+    double dark_s[AUTORANGE_RUNGS];
+};
+
+/* The walk from where a stands now. 0 (m unusable) until a reading of
+ * counts has stated the full scale. */
+int autorange_model_start(const struct autorange *a, struct autorange_model *m);
+
+/* The detector time of the next point of the walk, a point whose signal
+ * runs at rate (autorange_rate): every try and the dark frame of each
+ * rung used the first time; m moves to the rung the point ends on. */
+double autorange_model_point(const struct autorange *a, struct autorange_model *m, double rate);
 
 #endif

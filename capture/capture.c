@@ -244,8 +244,9 @@ static void progress(const struct capture_hooks *hooks, const struct capture_job
  * progress counts down its budget, nor for a host that shows no progress
  * (the study): metering costs O(points) per sample. */
 static int eta_new(const struct capture_job *in, const struct capture_hooks *hooks,
-                   const sequence *seq, const struct journal_sample *js, size_t n,
-                   capture_eta **out, struct gonio_err *err)
+                   const sequence *seq, const struct autorange *ar,
+                   const struct journal_sample *js, size_t n, capture_eta **out,
+                   struct gonio_err *err)
 {
     *out = NULL;
     if (in->adaptive || !hooks->on_progress)
@@ -259,6 +260,7 @@ static int eta_new(const struct capture_job *in, const struct capture_hooks *hoo
     free(order);
     if (!e)
         return -abs(err ? err->code : ENOMEM);
+    capture_eta_ranging(e, ar);
     for (size_t i = 0; i < n; i++)
         capture_eta_observe(e, &js[i]);
     *out = e;
@@ -345,6 +347,10 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
         rc = measure_point(dev, clk, hooks, &job->rig, pt, 0.0, (int)k, &r->ranging, &s, err);
     if (rc == 0) /* a source that could not say so before: its first reading tells */
         rc = capture_calibration_check(&job->cfg, s.counts, job->src->detector, err);
+    if (rc == 0 && dev->counts && !s.counts) /* never BRDF from a detector of counts */
+        rc = gonio_err_set(err, GONIO_EDEVICE,
+                           "the detector said at open that it gives counts, and its reading "
+                           "is BRDF: a detector that changed its mode is not trusted");
     if (rc < 0) {
         stop_axes(dev); /* a failed point leaves no axis moving */
         if (err) { /* name the point the operator will find in plan.json */
@@ -498,7 +504,7 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
         return gonio_err_set(err, ENOMEM, "out of memory");
     r->samples = all;
     r->already = r->n;
-    int rc = eta_new(job, hooks, r->seq, all, r->n, &r->eta, err);
+    int rc = eta_new(job, hooks, r->seq, &r->ranging.ar, all, r->n, &r->eta, err);
     if (rc < 0)
         return rc;
     double rig_s = r->n > 0 ? all[r->n - 1].rig_time_s : 0;
@@ -510,7 +516,10 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
     }
     struct capture_devices dev;
     rc = open_devices(r, &dev, err);
-    if (rc == 0 && r->eta && (rc = eta_from_axes(r->eta, &dev, err)) < 0)
+    if (rc == 0 && dev.counts && /* the detector said so at open: before the first move */
+        (rc = capture_calibration_check(&job->cfg, 1, job->src->detector, err)) < 0)
+        job->src->close(job->src->user, &dev);
+    else if (rc == 0 && r->eta && (rc = eta_from_axes(r->eta, &dev, err)) < 0)
         job->src->close(job->src->user, &dev);
     progress(hooks, job, r->eta, &r->fit, r->seq, r->n, r->already, rig_s);
     if (rc < 0) {
@@ -594,6 +603,7 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
     autorange_init(&r->ranging.ar, &job->rig);
     if (job->cal) /* a calibration covers the fixed integration: no ranging off it */
         r->ranging.ar.min_s = r->ranging.ar.max_s = r->ranging.ar.fixed_s;
+    r->ranging.ar.full_scale = src->counts ? src->counts_full_scale : 0;
     r->ranging.j = r->j;
     size_t kept = 0;
     for (size_t i = 0; i < r->n; i++) {

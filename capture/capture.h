@@ -161,6 +161,11 @@ struct capture_devices {
     struct drv_axis *rotation; /* the sample about its normal; NULL on rigs without */
     struct drv_detector *detector;
     struct drv_clock *clock;
+    /* 1: the detector said at open that it gives counts (a Modbus
+     * detector's status RAW): the capture is refused before the first
+     * move without a calibration or --uncalibrated, and a reading of BRDF
+     * from it is a device fault. */
+    int counts;
 };
 
 /* A rig source: the devices a host hands the engine, and what it knows of

@@ -3,6 +3,9 @@
 #include <errno.h>
 #include <stdlib.h>
 
+#include <math.h>
+
+#include "capture/autorange.h"
 #include "planner/meter.h"
 
 /* Metering a record and counting the points left each cost O(points): a
@@ -34,6 +37,13 @@ struct capture_eta {
     double estimate_s; /* capture_eta_left before any observation */
     size_t stride;     /* meter and recount every stride-th record */
     double left;       /* the points left, as last counted and counted off */
+    /* A detector of counts (capture_eta_ranging): the ranging, the signal
+     * rate measured at each point (NAN where not measured) and the dark
+     * frames' time as last seen. */
+    const struct autorange *ar;
+    double *rate;
+    size_t n_rates;
+    double dark_seen_s;
 };
 
 static double count_left(const capture_eta *e);
@@ -48,9 +58,10 @@ capture_eta *capture_eta_new(const struct plan *plan, const struct rig_profile *
         e->move = malloc((n ? n : 1) * sizeof *e->move);
         e->order = malloc((n ? n : 1) * sizeof *e->order);
         e->done = calloc(n ? n : 1, 1);
+        e->rate = malloc((n ? n : 1) * sizeof *e->rate);
         e->meter = plan_meter_new(plan, rig, expected_s, err);
     }
-    if (!e || !e->move || !e->order || !e->done || !e->meter) {
+    if (!e || !e->move || !e->order || !e->done || !e->rate || !e->meter) {
         capture_eta_free(e);
         gonio_err_set(err, ENOMEM, "ETA: out of memory");
         return NULL;
@@ -59,6 +70,8 @@ capture_eta *capture_eta_new(const struct plan *plan, const struct rig_profile *
     e->rig = rig;
     e->n = n;
     e->last = -1;
+    for (size_t i = 0; i < n; i++)
+        e->rate[i] = NAN;
     const struct rig_axes *at = &e->start;
     for (size_t k = 0; k < n; k++) {
         size_t i = order ? (size_t)order[k] : k;
@@ -80,6 +93,7 @@ void capture_eta_free(capture_eta *e)
     free(e->move);
     free(e->order);
     free(e->done);
+    free(e->rate);
     free(e);
 }
 
@@ -96,7 +110,19 @@ void capture_eta_observe(capture_eta *e, const struct journal_sample *s)
     double share = e->done[i] ? 0
                               : e->move[i] + capture_eta_overhead(e) +
                                     plan_meter_integration(e->meter, i);
-    e->overhead_sum += s->rig_time_s - e->last_rig_s - move - s->integration_s;
+    /* The detector's time is every try's and the dark frames' since the
+     * record before: the ranging model counts them, not the overhead. */
+    double detector_s = s->integration_total_s > 0 ? s->integration_total_s : s->integration_s;
+    if (e->ar) {
+        detector_s += e->ar->dark_total_s - e->dark_seen_s;
+        e->dark_seen_s = e->ar->dark_total_s;
+        double rate = autorange_rate(e->ar, s);
+        if (!isnan(rate)) {
+            e->n_rates += isnan(e->rate[i]);
+            e->rate[i] = rate;
+        }
+    }
+    e->overhead_sum += s->rig_time_s - e->last_rig_s - move - detector_s;
     e->n_obs++;
     e->last = s->point;
     e->last_rig_s = s->rig_time_s;
@@ -125,6 +151,12 @@ void capture_eta_start(capture_eta *e, const struct rig_axes *at)
         e->estimate_s = e->left;
 }
 
+void capture_eta_ranging(capture_eta *e, const struct autorange *ar)
+{
+    e->ar = ar;
+    e->dark_seen_s = 0;
+}
+
 double capture_eta_estimate(const capture_eta *e)
 {
     return e->estimate_s;
@@ -140,8 +172,36 @@ double capture_eta_left(const capture_eta *e)
     return e->left;
 }
 
+/* The signal rate expected at i: the nearest measured point's. */
+static double rate_at(const capture_eta *e, size_t i)
+{
+    long j = plan_meter_nearest(e->meter, i);
+    return j >= 0 && !isnan(e->rate[j]) ? e->rate[j] : NAN;
+}
+
+/* The points left on a detector of counts, in the capture's order: the
+ * ladder walked from the rung the last point ended on, each point at the
+ * rate of the point measured nearest it. */
+static double count_left_ranged(const capture_eta *e, struct autorange_model *m)
+{
+    double overhead = capture_eta_overhead(e), left = 0;
+    for (size_t k = 0; k < e->n; k++) {
+        size_t i = (size_t)e->order[k];
+        if (e->done[i])
+            continue;
+        double rate = rate_at(e, i);
+        left += e->move[i] + overhead +
+                (isnan(rate) ? plan_meter_integration(e->meter, i)
+                             : autorange_model_point(e->ar, m, rate));
+    }
+    return left;
+}
+
 static double count_left(const capture_eta *e)
 {
+    struct autorange_model m;
+    if (e->ar && e->n_rates > 0 && autorange_model_start(e->ar, &m))
+        return count_left_ranged(e, &m);
     double overhead = capture_eta_overhead(e), left = 0;
     for (size_t i = 0; i < e->n; i++)
         if (!e->done[i])

@@ -48,6 +48,16 @@ void capture_eta_observe(capture_eta *e, const struct journal_sample *s);
  * observation the estimate counts from there too. */
 void capture_eta_start(capture_eta *e, const struct rig_axes *at);
 
+/* The capture's auto-ranging (borrowed, outliving e): once a sample of
+ * counts is observed, each point left counts the detector time the ladder
+ * would take there (capture/autorange.h's model: its tries, from the rung
+ * the point before it ended on, and the dark frame of each rung used the
+ * first time) at the signal rate of the point measured nearest it; the
+ * overhead per point then leaves out each record's tries and dark frames.
+ * Call it before observing. */
+struct autorange;
+void capture_eta_ranging(capture_eta *e, const struct autorange *ar);
+
 /* The rig time of the points not observed yet. */
 double capture_eta_left(const capture_eta *e);
 

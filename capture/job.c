@@ -157,6 +157,12 @@ static int resolve_inputs(const struct capture_config *cfg, const struct capture
     if (cfg->stop && strcmp(cfg->stop, "all") && strcmp(cfg->stop, "converge"))
         return gonio_err_set(err, GONIO_EUSAGE, "--stop '%s': use all or converge", cfg->stop);
     in->adaptive = plan_current_order(in->plan) == PLAN_ORDER_ADAPTIVE;
+    if (in->adaptive && cfg->uncalibrated) /* its policy predicts and scores BRDF values */
+        return gonio_err_set(err, GONIO_EUSAGE,
+                             "--uncalibrated with --order adaptive (plan '%s'): the adaptive "
+                             "order chooses its points from BRDF values, which an uncalibrated "
+                             "capture does not have; give a calibration, or another order",
+                             plan_name(in->plan));
     int converge = capture_stop_kind(cfg, in->plan) == PLAN_STOP_CONVERGE;
     if ((rc = sequence_options(cfg, in->plan, converge, &in->policy, err)) < 0 ||
         (rc = resolve_prescan(cfg, in, err)) < 0 || (rc = resolve_materials(cfg, in, err)) < 0)

@@ -100,6 +100,12 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profil
         open_usb_detector(cfg, cancelled, user, dev, err);
     } else if (axes_ok) {
         dev->detector = drv_detector_new_modbus(bus, cfg->slaves.detector, err);
+        /* It says whether it gives counts before anything moves. */
+        if (dev->detector &&
+            drv_modbus_detector_counts(bus, cfg->slaves.detector, &dev->counts, err) < 0) {
+            drv_detector_free(dev->detector);
+            dev->detector = NULL;
+        }
         if (dev->detector)
             dev->clock = drv_clock_new_modbus(bus, cfg->slaves.detector, err);
     }

@@ -130,6 +130,13 @@ drv_detector *drv_detector_new_modbus(drv_modbus_bus *bus, int slave, struct gon
 int drv_modbus_detector_probe(drv_modbus_bus *bus, int slave, unsigned *status, int *channels,
                               struct gonio_err *err);
 
+/* What the detector at slave id `slave` reports, asked at open without
+ * integrating: *counts 1 when its status says RAW (it gives counts, which
+ * a calibration must turn into BRDF: docs/protocol-modbus.md, "Raw
+ * mode"), 0 when it reports BRDF. */
+int drv_modbus_detector_counts(drv_modbus_bus *bus, int slave, int *counts,
+                               struct gonio_err *err);
+
 /* The rig clock: seconds since the clock was created, read from the
  * detector's rig-clock register when it is non-zero (a simulator), else
  * wall time; monotonic across late answers and restarts of the device

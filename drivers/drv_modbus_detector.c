@@ -237,6 +237,16 @@ drv_detector *drv_detector_new_modbus(drv_modbus_bus *bus, int slave, struct gon
     return det;
 }
 
+int drv_modbus_detector_counts(drv_modbus_bus *bus, int slave, int *counts,
+                               struct gonio_err *err)
+{
+    unsigned status = 0;
+    int channels = 0;
+    int rc = drv_modbus_detector_probe(bus, slave, &status, &channels, err);
+    *counts = rc == 0 && (status & ST_RAW) != 0;
+    return rc;
+}
+
 int drv_modbus_detector_probe(drv_modbus_bus *bus, int slave, unsigned *status, int *channels,
                               struct gonio_err *err)
 {

@@ -260,7 +260,7 @@ void msim_det_refresh(msim *m)
     }
     put32(r, DET_STATUS, (d->busy ? DST_BUSY : 0u) | (d->ready ? DST_READY : 0u) |
                              (d->ready && (d->flags & SIM_SIGNAL_SATURATED) ? DST_SATURATED : 0u) |
-                             (d->ready && d->raw ? DST_RAW : 0u) |
+                             (sim_rig_counts(m->rig) ? DST_RAW : 0u) |
                              (m->cfg.simulated_clock ? DST_CLOCK_SIMULATED : 0u) |
                              (m->cfg.simulated_clock && m->cfg.baud > 0 ? DST_LINE_TIMED : 0u));
     put32(r, DET_SEQUENCE, d->sequence);

@@ -96,6 +96,11 @@ void sim_rig_free(sim_rig *rig)
     free(rig);
 }
 
+int sim_rig_counts(const sim_rig *rig)
+{
+    return rig->fx && sim_effects_adc(rig->fx, NULL);
+}
+
 const struct rig_profile *sim_rig_profile(const sim_rig *rig)
 {
     return rig->profile;

@@ -43,6 +43,9 @@ sim_rig *sim_rig_new_scene(const struct rig_profile *profile, const brdf_materia
                            const struct sim_scene *scene, const char *out_dir,
                            struct gonio_err *err);
 
+/* 1 when the rig's detector gives counts (the scene has an adc effect). */
+int sim_rig_counts(const sim_rig *rig);
+
 /* The rig profile the rig runs (its axes and mechanics). */
 const struct rig_profile *sim_rig_profile(const sim_rig *rig);
 

@@ -63,7 +63,7 @@ class Sim:
     at a time scale, or with scale=None on its simulated clock (the drivers
     then pace nothing by a scale: theirs is 1)."""
 
-    def __init__(self, folder, scene, scale=SCALE):
+    def __init__(self, folder, scene, scale=SCALE, extra=()):
         self.folder = folder
         self.scale = scale
         self.stats = os.path.join(folder, "sim-stats.json")
@@ -71,7 +71,7 @@ class Sim:
         clock = (["--clock", "simulated"] if scale is None else ["--time-scale", str(scale)])
         self.proc = subprocess.Popen(
             tg.wrap([os.path.join(tg.BIN, "gonio-sim"), "--scene", scene] + clock +
-                    ["--tcp", "127.0.0.1:0", "--stats", self.stats], folder),
+                    ["--tcp", "127.0.0.1:0", "--stats", self.stats] + list(extra), folder),
             stdout=open(out, "w"), stderr=open(os.path.join(folder, "sim.err"), "w"))
         deadline = time.time() + tg.START_S
         text = ""

@@ -5,7 +5,8 @@
  * while a longer one exists unless it came down from a clip, every
  * integration used has its dark frame in the journal, the retakes' time is
  * recorded and charged to the rig clock, and results.json says why nothing
- * was fitted. Runs without the shared data. */
+ * was fitted; the ETA's model of the ladder walks the journal as the
+ * readings did. Runs without the shared data. */
 #include <jansson.h>
 #include <math.h>
 #include <string.h>
@@ -158,11 +159,62 @@ static void test_uncalibrated_capture_ranges(void **state)
     json_decref(setup);
 }
 
+/* The ETA's model of the ladder (autorange_model_point) walks a capture's
+ * journal as the readings did: given each point's signal rate, read back
+ * from its counts, it keeps the integration the capture kept and costs the
+ * tries and first dark frames the capture spent. */
+static void test_model_walks_the_journal(void **state)
+{
+    (void)state;
+    char out[300], path[400];
+    snprintf(out, sizeof out, "%s/walked", dir);
+    struct capture_config cfg = config(out);
+    cfg.uncalibrated = 1;
+    struct capture_summary sum;
+    struct gonio_err err = {0};
+    if (sim_source_capture("lab", &cfg, NULL, &sum, &err))
+        fail_msg("%s", err.msg);
+    snprintf(path, sizeof path, "%s/samples.csv", out);
+    struct journal_sample *js;
+    size_t n;
+    assert_int_equal(journal_read(path, &js, &n, &err), 0);
+    struct rig_profile rig;
+    assert_int_equal(rig_profile_load(rig_path, &rig, &err), 0);
+    struct autorange known; /* every dark frame, for the rates */
+    autorange_init(&known, &rig);
+    known.full_scale = 65535;
+    double spent = 0, walked = 0;
+    for (size_t i = 0; i < n; i++)
+        if (js[i].flags & JOURNAL_FLAG_DARK) {
+            autorange_note(&known, &js[i]);
+            spent += js[i].integration_s;
+        }
+    struct autorange_model m;
+    assert_int_equal(autorange_model_start(&known, &m), 1);
+    m.n_dark = 0; /* the walk takes its dark frames as the capture did */
+    size_t samples = 0, kept_as_taken = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (js[i].flags & JOURNAL_FLAG_DARK)
+            continue;
+        samples++;
+        spent += js[i].integration_total_s;
+        walked += autorange_model_point(&known, &m, autorange_rate(&known, &js[i]));
+        kept_as_taken += m.t == js[i].integration_s;
+        m.t = js[i].integration_s; /* the next point starts where the capture's did */
+    }
+    free(js);
+    printf("model: %zu of %zu kept as taken, %.3f s walked, %.3f s spent\n", kept_as_taken,
+           samples, walked, spent);
+    assert_true(kept_as_taken >= samples - samples / 20);
+    assert_true(fabs(walked / spent - 1) < 0.02);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_counts_without_calibration_refused),
         cmocka_unit_test(test_uncalibrated_capture_ranges),
+        cmocka_unit_test(test_model_walks_the_journal),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -9,7 +9,8 @@
  * holds. Their detectors give counts: each is calibrated once (dark, then
  * the reference at the pool's points, tests/gonio_test_cal.h) and every
  * capture on it reduces its counts with that; a budget or target
- * outside the adaptive order is refused before anything is written. The
+ * outside the adaptive order is refused before anything is written, and so
+ * is an uncalibrated adaptive capture. The
  * pool is DS2 and the material the embedded default, so the test needs no
  * shared data. */
 #include <stdio.h>
@@ -273,6 +274,29 @@ static void test_budget_needs_adaptive_order(void **state)
     assert_false(exists(out));
 }
 
+/* The adaptive policy chooses its points from BRDF values: an uncalibrated
+ * capture (counts, lab) is refused before anything is written, naming
+ * both options, as it is on a detector of BRDF. */
+static void test_uncalibrated_refused(void **state)
+{
+    (void)state;
+    char out[300];
+    snprintf(out, sizeof out, "%s/uncalibrated", dir);
+    struct capture_config cfg = config(out, "ds2", BUDGET_MIN);
+    cfg.uncalibrated = 1;
+    static const char *const scenes[] = {"lab", "ideal"};
+    for (int i = 0; i < 2; i++) {
+        struct capture_summary s;
+        struct gonio_err err = {0};
+        int rc = sim_source_capture(scenes[i], &cfg, NULL, &s, &err);
+        assert_int_equal(rc, -GONIO_EUSAGE);
+        assert_int_equal(gonio_exit_status(rc), 2);
+        assert_non_null(strstr(err.msg, "--uncalibrated"));
+        assert_non_null(strstr(err.msg, "--order adaptive"));
+        assert_false(exists(out));
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -281,6 +305,7 @@ int main(void)
         cmocka_unit_test(test_resume_on_lab_within_budget),
         cmocka_unit_test(test_budget_held_on_lab_and_bad_day),
         cmocka_unit_test(test_budget_needs_adaptive_order),
+        cmocka_unit_test(test_uncalibrated_refused),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
