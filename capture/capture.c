@@ -559,16 +559,25 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
 
 /* A calibrated capture ranges only where its calibration has a dark
  * frame at every rung of the ladder (gonio calibrate dark --ladder); else
- * it stays at the fixed integration, which every calibration covers. */
+ * it stays at the fixed integration, which every calibration covers. A
+ * rung counts as covered by a dark within a microsecond of it: a device
+ * takes its integration in whole microseconds (the Modbus register), and
+ * the rung's readings, like the dark's, carry the integration it took. */
 static void range_within(struct autorange *ar, const struct cal_loaded *cal)
 {
     double ladder[AUTORANGE_RUNGS];
     size_t n = autorange_ladder(ar, ladder, AUTORANGE_RUNGS);
-    for (size_t k = 0; k < n; k++)
-        if (!rad_find_dark(&cal->cal, ladder[k], cal->meta.gain_state)) {
+    for (size_t k = 0; k < n; k++) {
+        size_t j = 0;
+        while (j < cal->cal.n_darks &&
+               !(cal->cal.darks[j].gain_state == cal->meta.gain_state &&
+                 fabs(cal->cal.darks[j].integration_s - ladder[k]) <= 1e-6))
+            j++;
+        if (j == cal->cal.n_darks) {
             ar->min_s = ar->max_s = ar->fixed_s;
             return;
         }
+    }
 }
 
 /* Prepare the directory (or take up a resumed one), open the journal and
