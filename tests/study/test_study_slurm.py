@@ -7,6 +7,7 @@ columns aside). The daemons run as the user running the test (root or not:
 slurmd then runs only that user's jobs, which are all there are); skipped
 where they are missing. Every daemon is stopped at the end, also on failure;
 nothing is written outside the temporary folder."""
+import ctypes
 import os
 import pwd
 import re
@@ -23,6 +24,12 @@ from test_study_parallel import BIN, SMALL, block, rows
 DAEMONS = ["munged", "slurmctld", "slurmd", "sbatch", "squeue", "sinfo", "scancel"]
 SHARES = 3
 WAIT_S = 600  # jobs take seconds; the bound only turns a stuck cluster into a failure
+
+
+def die_with_parent():
+    """Run in the daemon's child: a SIGTERM when the test's process dies, so
+    a test killed by ctest's timeout leaves no daemon behind (PR_SET_PDEATHSIG)."""
+    ctypes.CDLL(None, use_errno=True).prctl(1, 15, 0, 0, 0)
 
 
 def free_port():
@@ -106,7 +113,8 @@ def cluster():
     def start(name, args):
         out = open(os.path.join(d, name + ".out"), "w")
         procs.append(subprocess.Popen(args, env=env, stdout=out, stderr=subprocess.STDOUT,
-                                      stdin=subprocess.DEVNULL))
+                                      stdin=subprocess.DEVNULL,
+                                      preexec_fn=die_with_parent))
         out.close()
 
     try:
