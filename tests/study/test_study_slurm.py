@@ -8,6 +8,7 @@ slurmd then runs only that user's jobs, which are all there are); skipped
 where they are missing. Every daemon is stopped at the end, also on failure;
 nothing is written outside the temporary folder."""
 import ctypes
+import json
 import os
 import pwd
 import re
@@ -160,6 +161,10 @@ def test_slurm_array_merges_to_the_unsharded_study(cluster):
     wait_for("all jobs done", lambda: query(["squeue", "-h"], env) == "", d, WAIT_S)
     merged = os.path.join(work, "study", "all")
     assert os.path.isfile(os.path.join(merged, "results.csv")), "no merge\n" + logs(d)
+    with open(os.path.join(merged, "results.json")) as f:
+        summary = json.load(f)
+    assert summary["complete"] and summary["missing"] == [], "merge incomplete: %s\n%s" % (
+        summary["missing"], logs(d))
     shards = sorted(x for x in os.listdir(os.path.join(work, "study")) if x.startswith("shard-"))
     assert shards == ["shard-%d" % i for i in range(1, SHARES + 1)], logs(d)
     one = os.path.join(d, "one")
