@@ -173,6 +173,20 @@ int cal_reduce_sample(const struct cal_loaded *cl, const struct journal_plan *pl
                       const struct journal_sample *done, size_t n_done,
                       struct journal_sample *s, struct rad_value *v, struct gonio_err *err);
 
+/* Reduce a reading taken at pt that is no record of the capture's plan
+ * (a premise check's): as cal_reduce_sample, with the calibration's dark
+ * at the reading's integration, and no neighbours (the angle term from the
+ * standard's slopes alone). */
+int cal_reduce_reading(const struct cal_loaded *cl, const struct plan_point *pt,
+                       struct journal_sample *s, struct gonio_err *err);
+
+/* The theta_r at which the reference's instrument factor is taken for a
+ * reading at pt: its own in the plane; out of it, +theta_o, the in-plane
+ * pair whose sample tilt and arm angle the rig's three-axis mapping
+ * shares (planner/planner.h, plan_point_place: the azimuth turns the
+ * detector's plane, not the arm). */
+double cal_instrument_theta_r(const struct plan_point *pt);
+
 /* Add the budget table (cal_budget_json) of the capture's counts records,
  * reduced together, to DIR/results.json as its "calibration" member. */
 int cal_results_budget(const struct cal_loaded *cl, const struct journal_plan *plan,

@@ -26,13 +26,19 @@ static void to_raw(const struct journal_sample *s, const struct journal_plan *pl
 {
     const struct plan_point *pt = point_of(plan, s->point);
     memset(r, 0, sizeof *r);
-    r->theta_i = pt->theta_i, r->theta_r = pt->theta_r;
+    r->theta_i = pt->theta_i;
+    r->theta_r = cal_instrument_theta_r(pt);
     memcpy(r->counts, s->raw, sizeof r->counts);
     r->integration_s = s->integration_s;
     r->gain_state = s->gain_state == JOURNAL_GAIN_NONE ? 0 : s->gain_state;
     r->monitor = s->monitor;
     r->full_scale = cl->full_scale;
     r->nonlinearity = cl->nonlinearity;
+}
+
+double cal_instrument_theta_r(const struct plan_point *pt)
+{
+    return pt->out_of_plane ? pt->theta_o : pt->theta_r;
 }
 
 int cal_reduce_sample(const struct cal_loaded *cl, const struct journal_plan *plan,
@@ -117,5 +123,17 @@ int cal_results_budget(const struct cal_loaded *cl, const struct journal_plan *p
     json_decref(res);
     free(raw);
     free(v);
+    return rc;
+}
+
+int cal_reduce_reading(const struct cal_loaded *cl, const struct plan_point *pt,
+                       struct journal_sample *s, struct gonio_err *err)
+{
+    struct journal_plan one = {.points = pt, .count = 1};
+    int point = s->point;
+    struct rad_value v;
+    s->point = 0;
+    int rc = cal_reduce_sample(cl, &one, NULL, 0, s, &v, err);
+    s->point = point;
     return rc;
 }
