@@ -57,7 +57,11 @@ int cal_measure_dark(struct capture_devices *dev, const double *integrations, si
                      int frames, struct cal_frame **out, size_t *n_out, struct gonio_err *err);
 
 /* The standard in the sample's place, read repeats times at each of the
- * plan's points (the shutter opened first). */
+ * plan's points (the shutter opened first). The standard's shape is known
+ * in the plane of incidence only: for an out-of-plane plan it is read on
+ * an in-plane grid every 5 deg covering the plan's theta_i and the
+ * theta_r its points' instrument factor is taken at
+ * (cal_instrument_theta_r), which serves them (docs/radiometry.md). */
 int cal_measure_reference(struct capture_devices *dev, const struct rig_profile *rig,
                           const struct plan *plan, int repeats, struct cal_frame **out,
                           size_t *n_out, struct gonio_err *err);

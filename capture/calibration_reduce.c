@@ -60,10 +60,16 @@ int cal_reduce_sample(const struct cal_loaded *cl, const struct journal_plan *pl
     }
     size_t n = 0;
     to_raw(s, plan, cl, &raw[n++]);
+    /* An out-of-plane sample has no neighbours on its lines: the records
+     * of its theta_i and theta_o lie at other azimuths, and their slope is
+     * not the one its axes' band moves it along. Its angle term is the
+     * standard's slopes alone. */
+    if (point_of(plan, s->point)->out_of_plane)
+        n_done = 0;
     for (size_t k = 0; k < n_done; k++) {
         const struct journal_sample *d = &done[k];
         if (!d->counts || (d->flags & JOURNAL_FLAG_DARK) || d->point < 0 ||
-            (size_t)d->point >= plan->count)
+            (size_t)d->point >= plan->count || point_of(plan, d->point)->out_of_plane)
             continue;
         struct rad_raw r;
         to_raw(d, plan, cl, &r);
