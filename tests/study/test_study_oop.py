@@ -3,7 +3,9 @@ study's calibration reads its reference in the plane, on a grid covering
 the plan's theta_i and theta_o, and the capture reduces every out-of-plane
 sample through it (docs/radiometry.md, "Out of the plane"). The job
 completes, and its values agree with the same plan on the ideal scene (the
-material's BRDF at the axes' positions) within lab's noise."""
+material's BRDF at the axes' positions) within lab's noise. An adaptive plan
+whose budget is another plan's rig time estimates it with the job's
+calibration on such a scene."""
 import csv
 import math
 import os
@@ -55,3 +57,16 @@ def test_out_of_plane_plan_on_counts_scene():
         assert err[len(err) // 2] < 0.015, err[len(err) // 2]
         assert err[int(0.9 * len(err))] < 0.04
         assert float(rows["lab"]["full_log"]) < 2 * float(rows["ideal"]["full_log"]) + 0.01
+
+
+def test_adaptive_budget_of_another_plan_on_counts_scene():
+    with tempfile.TemporaryDirectory(prefix="study_oop_") as tmp:
+        out = os.path.join(tmp, "out")
+        r = subprocess.run([BIN, "study", "--materials", "default", "--plans", "adaptive-ds4",
+                            "--models", "abc", "--scenes", "lab", "--jobs", "1", "--out", out],
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr
+        with open(os.path.join(out, "results.csv"), newline="") as f:
+            (row,) = list(csv.DictReader(f))
+        assert row["status"] == "ok" and row["stop_reason"] == "budget"
+        assert 0 < float(row["full_log"]) < 0.2  # 0.094 measured: a fit of BRDF, not counts
