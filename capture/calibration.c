@@ -10,6 +10,7 @@
 #include <sys/stat.h>
 
 #include "brdf/angles.h"
+#include "capture/autorange.h"
 #include "capture/calibration_private.h"
 #include "drivers/drivers.h"
 
@@ -168,5 +169,20 @@ void cal_new_id(const char *root, enum cal_kind kind, time_t now, char *id, size
         if (stat(path, &st) != 0)
             return;
         snprintf(id, size, "%s-%s-%d", what, stamp, k);
+    }
+}
+
+void cal_add_ladder(struct cal_meta *m, const struct rig_profile *rig)
+{
+    struct autorange ar;
+    autorange_init(&ar, rig);
+    double ladder[AUTORANGE_RUNGS];
+    size_t n = autorange_ladder(&ar, ladder, AUTORANGE_RUNGS);
+    for (size_t k = 0; k < n && m->n_integrations < CAL_MAX_INTEGRATIONS; k++) {
+        size_t i = 0;
+        while (i < m->n_integrations && fabs(m->integrations[i] - ladder[k]) > 1e-9 * ladder[k])
+            i++;
+        if (i == m->n_integrations)
+            m->integrations[m->n_integrations++] = ladder[k];
     }
 }

@@ -23,7 +23,7 @@
 #include "radiometry/reduce.h"
 #include "rig/rig.h"
 
-#define CAL_MAX_INTEGRATIONS 8
+#define CAL_MAX_INTEGRATIONS 16
 
 enum cal_kind { CAL_DARK = 0, CAL_REFERENCE = 1 };
 
@@ -41,6 +41,12 @@ struct cal_meta {
     double in_position_deg;
     enum rad_spot spot; /* how the rig's detector sees the lit spot */
 };
+
+/* Add to m's integrations every rung of the rig's auto-ranging ladder
+ * (capture/autorange.h) it lacks, as far as room allows: a dark over
+ * them all lets a capture with this calibration range (docs/radiometry.md,
+ * "The chain"). */
+void cal_add_ladder(struct cal_meta *m, const struct rig_profile *rig);
 
 /* One raw reading of a calibration (a frames.csv row). */
 struct cal_frame {

@@ -569,6 +569,29 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
     return rc;
 }
 
+/* A calibrated capture ranges only where its calibration has a dark
+ * frame at every rung of the ladder (gonio calibrate dark --ladder); else
+ * it stays at the fixed integration, which every calibration covers. A
+ * rung counts as covered by a dark within a microsecond of it: a device
+ * takes its integration in whole microseconds (the Modbus register), and
+ * the rung's readings, like the dark's, carry the integration it took. */
+static void range_within(struct autorange *ar, const struct cal_loaded *cal)
+{
+    double ladder[AUTORANGE_RUNGS];
+    size_t n = autorange_ladder(ar, ladder, AUTORANGE_RUNGS);
+    for (size_t k = 0; k < n; k++) {
+        size_t j = 0;
+        while (j < cal->cal.n_darks &&
+               !(cal->cal.darks[j].gain_state == cal->meta.gain_state &&
+                 fabs(cal->cal.darks[j].integration_s - ladder[k]) <= 1e-6))
+            j++;
+        if (j == cal->cal.n_darks) {
+            ar->min_s = ar->max_s = ar->fixed_s;
+            return;
+        }
+    }
+}
+
 /* Prepare the directory (or take up a resumed one), open the journal and
  * the sequence after what it holds; *first: the first point to measure. */
 static int open_capture(struct run *r, long *first, struct gonio_err *err)
@@ -593,6 +616,8 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
     struct autorange ar;
     double ladder[AUTORANGE_RUNGS];
     autorange_init(&ar, &job->rig);
+    if (job->cal)
+        range_within(&ar, job->cal);
     if (src->counts) {
         setup.ladder = ladder;
         setup.n_ladder = autorange_ladder(&ar, ladder, AUTORANGE_RUNGS);
@@ -613,8 +638,8 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
         return rc;
     /* Dark frames are the ranging's, not samples of the plan. */
     autorange_init(&r->ranging.ar, &job->rig);
-    if (job->cal) /* a calibration covers the fixed integration: no ranging off it */
-        r->ranging.ar.min_s = r->ranging.ar.max_s = r->ranging.ar.fixed_s;
+    if (job->cal)
+        range_within(&r->ranging.ar, job->cal);
     r->ranging.ar.full_scale = src->counts ? src->counts_full_scale : 0;
     r->ranging.j = r->j;
     size_t kept = 0;

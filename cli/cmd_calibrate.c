@@ -22,13 +22,16 @@ static void usage(FILE *out)
     fprintf(out,
             "usage: gonio calibrate dark|reference [--name ID] [--socket PATH] [options below]\n"
             "       gonio calibrate dark --offline --scene NAME|FILE --out ROOT [--rig NAME|FILE]\n"
-            "                       [--integration SECONDS]... [--frames N] [--valid MINUTES]\n"
+            "                       [--integration SECONDS]... [--ladder] [--frames N]\n"
+            "                       [--valid MINUTES]\n"
             "       gonio calibrate reference --offline --scene NAME|FILE --plan NAME|FILE\n"
             "                       --out ROOT [--standard NAME|FILE] [--repeats N] [--dark ID]\n"
             "                       [--rig NAME|FILE] [--valid MINUTES]\n"
             "                       [--spot overfilled|underfilled]\n"
             "  dark: the shutter closed, N frames (default 16) at the rig profile's\n"
-            "  integration and at each --integration; valid 60 minutes by default.\n"
+            "  integration and at each --integration, with --ladder at every rung of its\n"
+            "  auto-ranging ladder too (a capture with it ranges; without, it stays at\n"
+            "  the fixed integration); valid 60 minutes by default.\n"
             "  reference: the standard (default spectralon-99, configs/standards/) in the\n"
             "  sample's place, read --repeats times (default 4) at each of the plan's\n"
             "  points, with the dark --dark ID or the newest valid one in ROOT; valid 480\n"
@@ -55,6 +58,7 @@ struct opts {
     double valid_min;
     int offline;
     int underfilled;
+    int ladder;
 };
 
 static int parse(int argc, char **argv, struct opts *o)
@@ -67,7 +71,7 @@ static int parse(int argc, char **argv, struct opts *o)
         {"frames", required_argument, NULL, 'f'}, {"repeats", required_argument, NULL, 'n'},
         {"valid", required_argument, NULL, 'v'}, {"help", no_argument, NULL, 'h'},
         {"spot", required_argument, NULL, 'F'}, {"name", required_argument, NULL, 'N'},
-        {"socket", required_argument, NULL, 'K'},
+        {"socket", required_argument, NULL, 'K'}, {"ladder", no_argument, NULL, 'L'},
         {NULL, 0, NULL, 0},
     };
     int c;
@@ -87,6 +91,7 @@ static int parse(int argc, char **argv, struct opts *o)
         }
         switch (c) {
         case 'O': o->offline = 1; break;
+        case 'L': o->ladder = 1; break;
         case 's': o->scene = optarg; break;
         case 'r': o->rig = optarg; break;
         case 'd': o->root = optarg; break;
@@ -146,6 +151,8 @@ static int measure(const struct opts *o, enum cal_kind kind, struct cal_meta *m,
     m->n_integrations = 1;
     for (size_t k = 0; k < o->n_int; k++)
         m->integrations[m->n_integrations++] = o->integrations[k];
+    if (rc >= 0 && o->ladder)
+        cal_add_ladder(m, &prof);
     if (rc >= 0 && kind == CAL_REFERENCE) {
         struct cal_need need = {.rig = m->rig, .detector = m->detector,
                                 .integration_s = prof.integration_s, .now = m->created};
@@ -205,6 +212,8 @@ static int through_goniod(const struct opts *o, enum cal_kind kind, const char *
         json_object_set_new(req, "repeats", json_integer(o->repeats));
     if (o->n_int)
         json_object_set_new(req, "integration", json_real(o->integrations[0]));
+    if (o->ladder)
+        json_object_set_new(req, "ladder", json_true());
     if (o->valid_min > 0)
         json_object_set_new(req, "valid", json_real(o->valid_min));
     return cmd_calibrate_goniod(req, o->sock);

@@ -32,7 +32,8 @@ static int from_request(control *c, json_t *req, struct worker_calibration *k,
                *standard = jstr(req, "standard"), *dark = jstr(req, "dark"),
                *spot = jstr(req, "spot");
     json_t *frames = json_object_get(req, "frames"), *repeats = json_object_get(req, "repeats"),
-           *integ = json_object_get(req, "integration"), *valid = json_object_get(req, "valid");
+           *integ = json_object_get(req, "integration"), *valid = json_object_get(req, "valid"),
+           *ladder = json_object_get(req, "ladder");
     if (!kind || (strcmp(kind, "dark") && strcmp(kind, "reference")))
         return gonio_err_set(err, GONIO_EUSAGE, "calibrate: field 'kind' '%.40s': dark or "
                              "reference", kind ? kind : "");
@@ -41,7 +42,7 @@ static int from_request(control *c, json_t *req, struct worker_calibration *k,
                                                : standard ? "standard" : dark ? "dark"
                                                : spot ? "spot" : NULL)
                                             : (frames ? "frames" : integ ? "integration"
-                                                                         : NULL);
+                                               : ladder ? "ladder" : NULL);
     if (other)
         return gonio_err_set(err, GONIO_EUSAGE, "calibrate: field '%s' is not a %s "
                              "calibration's", other, kind);
@@ -76,6 +77,7 @@ static int from_request(control *c, json_t *req, struct worker_calibration *k,
     if (!k->per_point)
         k->per_point = k->kind == CAL_DARK ? 16 : 4;
     k->integration_s = integ ? json_number_value(integ) : 0;
+    k->ladder = json_is_true(ladder);
     k->valid_s = 60 * (valid ? json_number_value(valid) : k->kind == CAL_DARK ? 60 : 480);
     return 0;
 }

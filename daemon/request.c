@@ -49,6 +49,7 @@ static const struct arg_spec calibrate_args[] = {
     {.name = "frames", .type = ARG_INT, .min = 2, .max = 10000, .unit = "frames"},
     {.name = "repeats", .type = ARG_INT, .min = 2, .max = 1000, .unit = "readings a point"},
     {.name = "integration", .type = ARG_NUMBER, .min = 1e-6, .max = 60, .unit = "seconds"},
+    {.name = "ladder", .type = ARG_BOOL},
     {.name = "valid", .type = ARG_NUMBER, .min = 0.01, .max = 525600, .unit = "minutes"},
     {.name = NULL},
 };

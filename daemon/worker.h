@@ -52,6 +52,7 @@ struct worker_calibration {
     char plan[1024], rig[1024], standard[1024]; /* resolved references */
     char dark[64];          /* reference: the dark it is taken with (resolved) */
     double integration_s;   /* dark: an integration besides the rig's, 0: none */
+    int ladder;             /* dark: at every rung of the rig's ranging ladder too */
     int per_point;          /* dark: frames per integration; reference: repeats */
     double valid_s;
     int underfilled;        /* the spot (cal_meta.spot) */

@@ -57,6 +57,8 @@ static void fill_meta(const worker *w, const struct worker_calibration *c,
     m->integrations[m->n_integrations++] = prof->integration_s;
     if (c->kind == CAL_DARK && c->integration_s > 0)
         m->integrations[m->n_integrations++] = c->integration_s;
+    if (c->kind == CAL_DARK && c->ladder)
+        cal_add_ladder(m, prof);
     m->in_position_deg = prof->mech.in_position_deg;
     m->spot = c->underfilled ? RAD_SPOT_UNDERFILLED : RAD_SPOT_OVERFILLED;
 }

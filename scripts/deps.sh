@@ -23,6 +23,9 @@ PACKAGES="$PACKAGES libmicrohttpd-dev chromium-driver python3-selenium"
 # goniod's event-model documents (uids: libuuid), validated in a test against
 # Bluesky's schemas (docs/protocol.md)
 PACKAGES="$PACKAGES uuid-dev python3-jsonschema"
+# the study's Slurm job array runs in a test on a one-node Slurm it starts
+# (docs/study.md)
+PACKAGES="$PACKAGES slurmctld slurmd slurm-client munge"
 
 missing=""
 for p in $PACKAGES; do

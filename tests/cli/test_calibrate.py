@@ -110,6 +110,41 @@ def test_capture_reduced_with_its_calibration(root):
     assert 0.002 < terms["counting"]["median_relative_u"][1] < 0.02
 
 
+def test_dark_over_the_ladder_lets_a_calibrated_capture_range(root):
+    """A sharp specular peak clips at the fixed integration; a dark taken at
+    every rung of the ranging ladder lets the calibrated capture shorten
+    there (and lengthen in the dark tail), so nothing is left clipped and
+    the fit is the better for it."""
+    sharp = "analytic:aniso-ggx?ax=0.05&ay=0.05&phi=0"
+    res = {}
+    for ladder in (True, False):
+        cal = os.path.join(root, "ladder" if ladder else "fixed")
+        d = gonio("calibrate", "dark", "--offline", "--scene", "lab", "--out", cal,
+                  *(["--ladder"] if ladder else []))
+        assert d.returncode == 0, d.stderr
+        ints = json.load(open(os.path.join(cal, d.stdout.strip(), "calibration.json")))[
+            "integrations_s"]
+        assert (len(ints) == 7) == ladder, ints  # 0.001 s to 2 s in steps of 4
+        r = gonio("calibrate", "reference", "--offline", "--scene", "lab", "--plan", "ds3",
+                  "--out", cal)
+        assert r.returncode == 0, r.stderr
+        out = os.path.join(root, "cap-" + os.path.basename(cal))
+        c = gonio("capture", "--offline", "--quiet", "--scene", "lab", "--plan", "ds3",
+                  "--material", sharp, "--calibration", r.stdout.strip(), "--calibrations",
+                  cal, "--out", out)
+        assert c.returncode == 0, c.stderr
+        rows = [x for x in csv.DictReader(open(os.path.join(out, "samples.csv")))
+                if not int(x["flags"]) & 2]
+        res[ladder] = (sum(int(x["flags"]) & 1 for x in rows),
+                       sorted({float(x["integration_s"]) for x in rows}),
+                       json.load(open(os.path.join(out, "results.json")))["errors"]["full"]["log"])
+    clipped, ints, err = res[True]
+    assert clipped == 0 and ints[0] < 0.05 < ints[-1], res
+    clipped_fixed, ints_fixed, err_fixed = res[False]
+    assert clipped_fixed > 10 and ints_fixed == [0.05], res
+    assert err < 0.02 < 0.1 < err_fixed, res
+
+
 def test_capture_refuses_a_calibration_it_cannot_use(root):
     cal = os.path.join(root, "cal")
     lab = rig(root, "lab", 0.25)

@@ -204,15 +204,25 @@ class CalibrateTests(CalibrateRig):
         rows = [x for x in frames(os.path.join(capdir, "samples.csv"))
                 if not int(x["flags"]) & 2]
         self.assertEqual(len(rows), 52)
-        # The truth at each point, by brdf/material.h alone.
+        med, n = self.median_error(rows, dark_rows, SAMPLE)
+        self.assertGreaterEqual(n, 100)
+        self.assertLessEqual(med, 0.005)
+
+    def median_error(self, rows, dark_rows, material):
+        """median |measured/true - 1| over the values of rows with SNR >= 100,
+        and how many: the truth at each point by brdf/material.h alone; the
+        SNR from the counts, the signal over the dark of its integration
+        against its shot noise (the scene's ADC gain) and the dark frames'
+        spread."""
         pairs = "".join("%s %s\n" % (x["theta_i"], x["theta_r"]) for x in rows)
-        truth = subprocess.run([MATERIAL_VALUES, SAMPLE], input=pairs, capture_output=True,
+        truth = subprocess.run([MATERIAL_VALUES, material], input=pairs, capture_output=True,
                                text=True, check=True).stdout.split("\n")
-        # SNR from the counts: the signal over the dark, against its shot
-        # noise (the scene's ADC gain) and the dark frames' spread.
-        dark_g = [float(x["g"]) for x in dark_rows if abs(float(x["integration_s"]) - 0.25) < 1e-6]
         errors = []
         for k, x in enumerate(rows):
+            t = float(x["integration_s"])
+            dark_g = [float(d["g"]) for d in dark_rows
+                      if abs(float(d["integration_s"]) - t) < 1e-6 * t]
+            self.assertGreater(len(dark_g), 1, "no dark at %g s" % t)
             want = [float(v) for v in truth[k].split()]
             for ch, name in enumerate("rgb"):
                 signal = float(x["raw_" + name]) - statistics.mean(dark_g)
@@ -220,10 +230,40 @@ class CalibrateTests(CalibrateRig):
                 if signal / noise >= 100:
                     errors.append(abs(float(x[name]) / want[ch] - 1))
         med = statistics.median(errors)
-        sys.stderr.write("calibrated capture through goniod: median |measured/true - 1| "
-                         "%.3f %% over %d values with SNR >= 100\n" % (100 * med, len(errors)))
-        self.assertGreaterEqual(len(errors), 100)
-        self.assertLessEqual(med, 0.005)
+        sys.stderr.write("%s through goniod: median |measured/true - 1| %.3f %% over %d "
+                         "values with SNR >= 100\n" % (material, 100 * med, len(errors)))
+        return med, len(errors)
+
+    def test_glossy_and_metal_ranged_through_goniod(self):
+        """A dark over the ladder lets the calibrated captures range over
+        Modbus: a glossy plastic's and a metal's peaks are read short, not
+        clipped, and reduce as the diffuse sample does."""
+        self.start_daemon()
+        d = self.calibrate("dark", "--ladder")
+        self.assertEqual(d.returncode, 0, d.stderr)
+        dark_rows = frames(os.path.join(self.cal_root, d.stdout.strip(), "frames.csv"))
+        self.assertEqual(len({x["integration_s"] for x in dark_rows}), 7)  # the ladder's rungs
+        r = self.calibrate("reference", "--plan", "ds3", "--repeats", "8",
+                           operator=self.mount_standard)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        for name, material in (("glossy", "builtin:red-plastic"),
+                               ("metal", "builtin:gold-metallic-paint")):
+            self.start_sim(material)
+            c = self.d.gonio("capture", "--plan", "ds3", "--name", name, "--calibration",
+                             "newest", "--wait", "--quiet")
+            self.assertEqual(c.returncode, 0, c.stderr + c.stdout)
+            rows = [x for x in frames(os.path.join(self.d.root, name, "samples.csv"))
+                    if not int(x["flags"]) & 2]
+            self.assertEqual(len(rows), 52)
+            clipped = [(x["point"], x["integration_s"]) for x in rows if int(x["flags"]) & 1]
+            self.assertEqual(clipped, [], name)
+            if name == "metal":  # its peak clips at the rig's 0.25 s: read shorter
+                self.assertLess(min(float(x["integration_s"]) for x in rows), 0.25)
+            med, n = self.median_error(rows, dark_rows, material)
+            self.assertGreaterEqual(n, 50, name)
+            # the metal reduces less well: 0.57 % here against the plastics'
+            # 0.45-0.46 % (why is not yet known: docs/radiometry.md)
+            self.assertLessEqual(med, 0.005 if name == "glossy" else 0.0075, name)
 
     def test_operator_covers_a_detector_without_shutter(self):
         self.d = None

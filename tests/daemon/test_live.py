@@ -12,6 +12,7 @@ import json
 import os
 import select
 import shutil
+import socket
 import subprocess
 import sys
 import time
@@ -192,7 +193,7 @@ class Stream:
         while True:
             if time.time() > deadline:
                 raise AssertionError("no such event in time")
-            line = self.r.fp.readline().decode()
+            line = self.r.readline().decode()  # through the chunked coding
             if not line:
                 raise AssertionError("the event stream ended")
             line = line.rstrip("\n")
@@ -237,6 +238,55 @@ class StreamTests(DaemonTest):
             self.assertNotIn("results", info)
             st.close()
         finally:
+            self.assertEqual(live.stop(), 0, live.err)
+
+
+def unsent_bytes(server_port, client_port):
+    """What the kernel holds unsent on gonio live's side of the connection
+    from client_port (/proc/net/tcp's tx_queue), or None."""
+    for path in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            with open(path) as f:
+                lines = f.read().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            f = line.split()
+            local, remote = f[1].rsplit(":", 1)[1], f[2].rsplit(":", 1)[1]
+            if int(local, 16) == server_port and int(remote, 16) == client_port:
+                return int(f[4].split(":")[0], 16)
+    return None
+
+
+class SlowReaderTests(DaemonTest):
+    """A browser that stops reading /events slows neither goniod's capture
+    nor gonio live's other readers."""
+
+    def test_stalled_reader(self):
+        live = Live(env=dict(self.d.env, GONIO_SOCKET=self.d.sock))
+        stalled = socket.socket()
+        try:
+            stalled.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1024)
+            stalled.connect(("127.0.0.1", live.port))
+            stalled.sendall(b"GET /events HTTP/1.1\r\nHost: localhost\r\n\r\n")
+            st = Stream(live.port)
+            r = self.d.gonio("capture", "--plan", "ds1", "--name", "slow1", "--wait", "--quiet")
+            self.assertEqual(r.returncode, 0, r.stderr + r.stdout)
+            # the reading client saw all of it, the stalled one still holds
+            # its connection with data it has not taken
+            info = st.until(lambda n, d: n == "info" and d["state"] == "complete")
+            self.assertEqual(info["capture_id"], "slow1")
+            st.close()
+            pending = unsent_bytes(live.port, stalled.getsockname()[1])
+            sys.stderr.write("stalled reader: %r bytes unsent\n" % pending)
+            if pending is not None:  # /proc/net/tcp readable: the stall was real
+                self.assertGreater(pending, 0)
+            c = http.client.HTTPConnection("127.0.0.1", live.port, timeout=2 * START_S)
+            c.request("GET", "/")
+            self.assertEqual(c.getresponse().status, 200)
+            c.close()
+        finally:
+            stalled.close()
             self.assertEqual(live.stop(), 0, live.err)
 
 

@@ -112,13 +112,15 @@ def test_no_answer_to_bad_crc_or_absent_slave(rtu):
 
 
 def test_move_follows_the_trapezoid(rtu):
-    """60 deg at 10 deg/s and 20 deg/s^2 (not the profile's 15 and 30): the
+    """60 deg at 2 deg/s and 4 deg/s^2 (not the profile's 15 and 30): the
     drive runs at what it is told. Each (clock, position, status, clock)
     read brackets the instant the position was taken, so the position must
     lie between the trapezoid at the bracket's ends; IN-POS appears within
-    the bracket of the move's end at T = 60/10 + 10/20 = 6.5 s."""
+    the bracket of the move's end at T = 60/2 + 2/4 = 30.5 s (0.6 s of the
+    host's at the time scale: long enough to be watched on a loaded
+    machine, whose four reads may take a tenth of a second)."""
     move(rtu, ARM, 0)
-    dist, v, a = 60.0, 10.0, 20.0
+    dist, v, a = 60.0, 2.0, 4.0
     total = dist / v + v / a
     tr1 = clock(rtu)
     start(rtu, ARM, dist, v, a)
@@ -141,7 +143,7 @@ def test_move_follows_the_trapezoid(rtu):
         mid += 0 < pos < dist
     else:
         raise AssertionError("the move never ended")
-    assert mid >= 5  # the move was watched, not only its ends
+    assert mid >= 2  # the move was watched, not only its ends
     assert rtu.read32(ARM, FEEDBACK, signed=True) == 6000
     move(rtu, ARM, 0)
 
