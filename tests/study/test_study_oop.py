@@ -1,8 +1,8 @@
 """An out-of-plane plan on a scene whose detector gives counts (lab): the
 study's calibration reads its reference in the plane, on a grid covering
 the plan's theta_i and theta_o, and the capture reduces every out-of-plane
-sample through it (docs/radiometry.md, "Out of the plane"). The job
-completes, and its values agree with the same plan on the ideal scene (the
+sample through it (docs/radiometry.md, "Measurement equations", its
+paragraph "Out of the plane"). The job completes, and its values agree with the same plan on the ideal scene (the
 material's BRDF at the axes' positions) within lab's noise. An adaptive plan
 whose budget is another plan's rig time estimates it with the job's
 calibration on such a scene."""
