@@ -82,16 +82,57 @@ int cal_go_to(struct capture_devices *dev, const struct rig_profile *rig,
     return 0;
 }
 
+/* The reference's points for an out-of-plane plan: in the plane, every
+ * REF_GRID_STEP deg of theta_i from 0 to the plan's largest and of theta_r
+ * from -REF_GRID_STEP (so that a row brackets theta_r = 0 across the blind
+ * zone) to its largest theta_o, the instrument factor's theta_r for an
+ * out-of-plane point (cal_instrument_theta_r); rows in snake order, the
+ * points the rig cannot reach left out. *out malloc'd. */
+#define REF_GRID_STEP 5.0
+static int oop_reference_points(const struct plan *plan, const struct rig_profile *rig,
+                                 struct plan_point **out, size_t *n, struct gonio_err *err)
+{
+    double ti_max = 0, tr_max = 0;
+    for (size_t p = 0; p < plan_count(plan); p++) {
+        const struct plan_point *pt = plan_point(plan, p);
+        ti_max = fmax(ti_max, pt->theta_i);
+        tr_max = fmax(tr_max, cal_instrument_theta_r(pt));
+    }
+    int rows = (int)ceil(ti_max / REF_GRID_STEP - 1e-9) + 1;
+    int cols = (int)ceil(tr_max / REF_GRID_STEP - 1e-9) + 2;
+    struct plan_point *v = malloc((size_t)rows * (size_t)cols * sizeof *v);
+    if (!v)
+        return gonio_err_set(err, ENOMEM, "calibration: out of memory");
+    size_t m = 0;
+    for (int i = 0; i < rows; i++)
+        for (int k = 0; k < cols; k++) {
+            int col = i % 2 ? cols - 1 - k : k;
+            struct plan_point pt = {.theta_i = i * REF_GRID_STEP,
+                                    .theta_r = (col - 1) * REF_GRID_STEP};
+            char why[160];
+            if (plan_point_place(&pt, rig, why, sizeof why) == 0)
+                v[m++] = pt;
+        }
+    *out = v, *n = m;
+    return 0;
+}
+
 int cal_measure_reference(struct capture_devices *dev, const struct rig_profile *rig,
                           const struct plan *plan, int repeats, struct cal_frame **out,
                           size_t *n_out, struct gonio_err *err)
 {
     struct cal_frames f = {0};
-    int rc = drv_detector_shutter(dev->detector, 0, err);
+    struct plan_point *grid = NULL;
+    size_t n_grid = 0;
+    int oop = plan_is_out_of_plane(plan);
+    int rc = oop ? oop_reference_points(plan, rig, &grid, &n_grid, err) : 0;
+    if (rc >= 0)
+        rc = drv_detector_shutter(dev->detector, 0, err);
     if (rc == -ENOTSUP)
         rc = 0; /* no shutter: the light path is open */
-    for (size_t p = 0; rc >= 0 && p < plan_count(plan); p++) {
-        const struct plan_point *pt = plan_point(plan, p);
+    size_t count = oop ? n_grid : plan_count(plan);
+    for (size_t p = 0; rc >= 0 && p < count; p++) {
+        const struct plan_point *pt = oop ? &grid[p] : plan_point(plan, p);
         if (pt->out_of_plane) {
             rc = gonio_err_set(err, GONIO_EUSAGE, "calibration: the reference is read in "
                                "plane only (point %zu is out of plane)", p + 1);
@@ -104,6 +145,7 @@ int cal_measure_reference(struct capture_devices *dev, const struct rig_profile 
             rc = cal_read_frame(dev, CAL_REFERENCE, pt->theta_i, pt->theta_r, rig->integration_s,
                             &f, err);
     }
+    free(grid);
     if (rc < 0) {
         free(f.v);
         return rc;

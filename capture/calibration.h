@@ -63,7 +63,11 @@ int cal_measure_dark(struct capture_devices *dev, const double *integrations, si
                      int frames, struct cal_frame **out, size_t *n_out, struct gonio_err *err);
 
 /* The standard in the sample's place, read repeats times at each of the
- * plan's points (the shutter opened first). */
+ * plan's points (the shutter opened first). The standard's shape is known
+ * in the plane of incidence only: for an out-of-plane plan it is read on
+ * an in-plane grid every 5 deg covering the plan's theta_i and the
+ * theta_r its points' instrument factor is taken at
+ * (cal_instrument_theta_r), which serves them (docs/radiometry.md). */
 int cal_measure_reference(struct capture_devices *dev, const struct rig_profile *rig,
                           const struct plan *plan, int repeats, struct cal_frame **out,
                           size_t *n_out, struct gonio_err *err);
@@ -178,6 +182,20 @@ struct journal_sample;
 int cal_reduce_sample(const struct cal_loaded *cl, const struct journal_plan *plan,
                       const struct journal_sample *done, size_t n_done,
                       struct journal_sample *s, struct rad_value *v, struct gonio_err *err);
+
+/* Reduce a reading taken at pt that is no record of the capture's plan
+ * (a premise check's): as cal_reduce_sample, with the calibration's dark
+ * at the reading's integration, and no neighbours (the angle term from the
+ * standard's slopes alone). */
+int cal_reduce_reading(const struct cal_loaded *cl, const struct plan_point *pt,
+                       struct journal_sample *s, struct gonio_err *err);
+
+/* The theta_r at which the reference's instrument factor is taken for a
+ * reading at pt: its own in the plane; out of it, +theta_o, the in-plane
+ * pair whose sample tilt and arm angle the rig's three-axis mapping
+ * shares (planner/planner.h, plan_point_place: the azimuth turns the
+ * detector's plane, not the arm). */
+double cal_instrument_theta_r(const struct plan_point *pt);
 
 /* Add the budget table (cal_budget_json) of the capture's counts records,
  * reduced together, to DIR/results.json as its "calibration" member. */

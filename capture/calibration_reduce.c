@@ -26,13 +26,19 @@ static void to_raw(const struct journal_sample *s, const struct journal_plan *pl
 {
     const struct plan_point *pt = point_of(plan, s->point);
     memset(r, 0, sizeof *r);
-    r->theta_i = pt->theta_i, r->theta_r = pt->theta_r;
+    r->theta_i = pt->theta_i;
+    r->theta_r = cal_instrument_theta_r(pt);
     memcpy(r->counts, s->raw, sizeof r->counts);
     r->integration_s = s->integration_s;
     r->gain_state = s->gain_state == JOURNAL_GAIN_NONE ? 0 : s->gain_state;
     r->monitor = s->monitor;
     r->full_scale = cl->full_scale;
     r->nonlinearity = cl->nonlinearity;
+}
+
+double cal_instrument_theta_r(const struct plan_point *pt)
+{
+    return pt->out_of_plane ? pt->theta_o : pt->theta_r;
 }
 
 int cal_reduce_sample(const struct cal_loaded *cl, const struct journal_plan *plan,
@@ -54,10 +60,16 @@ int cal_reduce_sample(const struct cal_loaded *cl, const struct journal_plan *pl
     }
     size_t n = 0;
     to_raw(s, plan, cl, &raw[n++]);
+    /* An out-of-plane sample has no neighbours on its lines: the records
+     * of its theta_i and theta_o lie at other azimuths, and their slope is
+     * not the one its axes' band moves it along. Its angle term is the
+     * standard's slopes alone. */
+    if (point_of(plan, s->point)->out_of_plane)
+        n_done = 0;
     for (size_t k = 0; k < n_done; k++) {
         const struct journal_sample *d = &done[k];
         if (!d->counts || (d->flags & JOURNAL_FLAG_DARK) || d->point < 0 ||
-            (size_t)d->point >= plan->count)
+            (size_t)d->point >= plan->count || point_of(plan, d->point)->out_of_plane)
             continue;
         struct rad_raw r;
         to_raw(d, plan, cl, &r);
@@ -117,5 +129,17 @@ int cal_results_budget(const struct cal_loaded *cl, const struct journal_plan *p
     json_decref(res);
     free(raw);
     free(v);
+    return rc;
+}
+
+int cal_reduce_reading(const struct cal_loaded *cl, const struct plan_point *pt,
+                       struct journal_sample *s, struct gonio_err *err)
+{
+    struct journal_plan one = {.points = pt, .count = 1};
+    int point = s->point;
+    struct rad_value v;
+    s->point = 0;
+    int rc = cal_reduce_sample(cl, &one, NULL, 0, s, &v, err);
+    s->point = point;
     return rc;
 }

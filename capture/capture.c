@@ -390,8 +390,9 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
 }
 
 /* A premise check's reading: the placed point pt with the sample turned
- * rotation_deg, on the capture's devices, not journalled (no plan point);
- * NAN when saturated. */
+ * rotation_deg, on the capture's devices, not journalled (no plan point),
+ * counts reduced through the capture's calibration; NAN when saturated or
+ * outside the calibration's reference. */
 struct check_ctx {
     struct run *r;
     struct capture_devices *dev;
@@ -409,7 +410,18 @@ static int check_read(struct check_ctx *c, const struct plan_point *pt, double r
         stop_axes(c->dev);
         return rc;
     }
-    *value = s.flags & JOURNAL_FLAG_SATURATED ? NAN : (s.rgb[0] + s.rgb[1] + s.rgb[2]) / 3.0;
+    *value = NAN;
+    if (c->r->job->cal) { /* counts to BRDF as the capture's samples are */
+        /* A geometry the reference does not cover gives no value, as one
+         * the rig cannot reach: the check decides on the others. */
+        rc = cal_reduce_reading(c->r->job->cal, pt, &s, err);
+        if (rc == -GONIO_EBADCONFIG)
+            return 0;
+        if (rc < 0)
+            return rc;
+    }
+    if (!(s.flags & JOURNAL_FLAG_SATURATED))
+        *value = (s.rgb[0] + s.rgb[1] + s.rgb[2]) / 3.0;
     return 0;
 }
 

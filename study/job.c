@@ -283,7 +283,9 @@ static enum capture_control stop_control(void *user)
 static int budget_of(struct capture_config *cfg, const char *scene, const char *plan,
                      struct gonio_err *err)
 {
-    struct capture_config c = {.plan = plan, .material = cfg->material, .model = "abc"};
+    /* the job's calibration: a scene of counts is refused without one */
+    struct capture_config c = {.plan = plan, .material = cfg->material, .model = "abc",
+                               .calibrations = cfg->calibrations};
     struct plan_estimate est;
     int rc = sim_source_check(scene, &c, &est, err);
     if (rc == 0)

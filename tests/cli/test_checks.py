@@ -25,16 +25,29 @@ def gonio(*args):
     return subprocess.run([GONIO, *args], capture_output=True, text=True, timeout=300)
 
 
+@pytest.fixture(scope="module")
+def calibrations():
+    """lab calibrated once on the rotating and the default rig, its
+    reference read over the checks' whole theta range."""
+    with tempfile.TemporaryDirectory(prefix="checks_cal_") as d:
+        grid = gonio_cal.reference_grid(d)
+        for rig in ("rotating", "default"):
+            gonio_cal.calibrate(d, scene="lab", plan=grid, rig=rig)
+        yield d
+
+
 @pytest.fixture
 def tmp():
     with tempfile.TemporaryDirectory(prefix="checks_") as d:
         yield d
 
 
-def check(tmp, material, scene="ideal"):
+def check(tmp, material, scene="ideal", calibrations=None):
     out = os.path.join(tmp, "cap")
+    cal = ["--calibrations", calibrations] if calibrations else []
     r = gonio("capture", "--offline", "--quiet", "--scene", scene, "--rig", "rotating",
-              "--plan", "ds2", "--material", material, "--check", "isotropy", "--out", out)
+              "--plan", "ds2", "--material", material, "--check", "isotropy", "--out", out,
+              *cal)
     assert r.returncode == 0, r.stderr
     with open(os.path.join(out, "results.json")) as f:
         return out, r.stdout, json.load(f)
@@ -56,13 +69,15 @@ def test_anisotropic_material_found(tmp):
     assert rows[0]["isotropy_s"] == pytest.approx(c["rig_time_s"])
 
 
-def test_isotropic_material_passes(tmp):
-    # With detector noise: lab's, read by the simulator's ideal meter (the
-    # check's own readings on lab's counts are not reduced by a calibration)
-    _, _, res = check(tmp, "analytic:plastic-ggx", scene=gonio_cal.metered_scene(tmp))
+def test_isotropic_material_passes(tmp, calibrations):
+    # With lab's detector noise: the check's readings are counts, reduced
+    # through the capture's calibration as its samples are
+    _, _, res = check(tmp, "analytic:plastic-ggx", scene="lab", calibrations=calibrations)
     c = res["checks"]["isotropy"]
     assert c["verdict"] == "isotropic", c["why"]
     assert c["significance"] < c["threshold"]
+    assert c["measurements"] == 3 * c["pairs"] >= 9  # every reading reduced
+    assert 0.01 <= c["noise"] < 0.05  # lab's noise (at least the floor), in log BRDF
 
 
 def test_rig_without_rotation_refused(tmp):
@@ -77,7 +92,7 @@ def test_rig_without_rotation_refused(tmp):
     assert r.returncode == 2 and "'planarity'" in r.stderr
 
 
-def test_out_of_plane_check(tmp):
+def test_out_of_plane_check(tmp, calibrations):
     out = os.path.join(tmp, "cap")
     r = gonio("capture", "--offline", "--quiet", "--scene", "ideal", "--rig", "rotating",
               "--plan", "ds2", "--material", ANISO, "--check", "isotropy,out-of-plane",
@@ -100,17 +115,22 @@ def test_out_of_plane_check(tmp):
     rows = json.loads(gonio("results", "--json", out).stdout)
     assert rows[0]["oop"] == "insufficient"
     assert rows[0]["oop_s"] == pytest.approx(c["rig_time_s"])
-    # an isotropic material with lab's noise (read as BRDF: the checks' own
-    # readings are not reduced from counts), the default rig (no rotation axis)
+    # an isotropic material on lab's counts, the check's readings (out of
+    # the plane too) reduced through the calibration, the default rig (no
+    # rotation axis)
     out2 = os.path.join(tmp, "cap2")
-    r = gonio("capture", "--offline", "--scene", gonio_cal.metered_scene(tmp), "--plan", "ds2",
-              "--material", "analytic:plastic-ggx", "--check", "out-of-plane", "--out", out2)
+    r = gonio("capture", "--offline", "--scene", "lab", "--calibrations", calibrations,
+              "--plan", "ds2", "--material", "analytic:plastic-ggx", "--check", "out-of-plane",
+              "--out", out2)
     assert r.returncode == 0, r.stderr
     assert "out-of-plane check: in-plane sufficient" in r.stdout
     with open(os.path.join(out2, "results.json")) as f:
         res = json.load(f)
     c = res["checks"]["out_of_plane"]
     assert c["verdict"] == "sufficient" and c["ratio"] < 1.5, c["why"]
+    assert c["measurements"] == 2 * c["pairs"] >= 6  # every reading reduced
+    # BRDF, not counts: the model's error at the out-of-plane pairs is small
+    assert 0 < c["error_oop"] < 0.05 and 0 < c["worst"]["predicted"] < 10
     assert "isotropy" not in res["checks"]
 
 

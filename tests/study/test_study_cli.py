@@ -156,8 +156,8 @@ def test_interrupted_run_stops_cleanly_and_resumes(tmp):
     """SIGINT (or SIGTERM) to gonio study: the job under way ends at a point
     boundary with its journal whole, no temporary file is left, the command
     says how to resume and exits 130; the rerun says it resumes and measures
-    only what the journal lacks. On the ideal scene: a realistic one's
-    reference is read in plane only, so no oop200k job of it calibrates."""
+    only what the journal lacks. On the ideal scene, which has no calibration
+    to measure before the oop200k journal grows."""
     out = os.path.join(tmp, "out")
     args = ["study", "--materials", "default", "--plans", "ds4,oop200k", "--models", "abc",
             "--scenes", "ideal", "--jobs", "1", "--out", out]

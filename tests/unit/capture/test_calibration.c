@@ -3,10 +3,13 @@
  * photon-transfer gain, the dark's spread, the monitor's noise recovered
  * from a synthetic rig's readings); and the lookup that picks the newest
  * valid reference and refuses, naming the difference, one that is missing,
- * expired, of another rig or detector, or without the integration. */
+ * expired, of another rig or detector, or without the integration; a
+ * reading out of the plane of incidence reduced with the instrument factor
+ * at theta_r = +theta_o and the spot's factor at its own angles. */
 #include <jansson.h>
 
 #include "capture/calibration.h"
+#include "journal/journal.h"
 #include "tests/gonio_test.h"
 #include "tests/unit/radiometry/synth.h"
 
@@ -208,12 +211,69 @@ static void test_budget_table(void **state)
     json_decref(j);
 }
 
+/* A rig whose instrument factor leans with theta_r (brighter toward the
+ * mirror side), an underfilled spot (cos theta_r): a reading out of the
+ * plane at (20, 35 / phi 100) is reduced with the factor at theta_r = +35,
+ * cos 35, and nothing of the standard's in-plane shape. */
+static double lean(double tr)
+{
+    return 1e5 * (1.0 + 0.004 * tr);
+}
+
+static void test_out_of_plane_reading(void **state)
+{
+    (void)state;
+    static struct rad_ref refs[3 * 13];
+    struct rad_dark dark = {.integration_s = 0.1, .mean = {100, 100, 100}, .sd = {1, 1, 1},
+                            .n = 32};
+    struct cal_loaded cl;
+    memset(&cl, 0, sizeof cl);
+    syn_standard(&cl.cal.standard);
+    size_t n = 0;
+    for (int ti = 0; ti <= 40; ti += 20)
+        for (int tr = -60; tr <= 60; tr += 10, n++) {
+            double f[3];
+            brdf_standard_brdf(&cl.cal.standard, ti, tr, f);
+            refs[n] = (struct rad_ref){.theta_i = ti, .theta_r = tr, .integration_s = 0.1,
+                                       .n = 4, .monitor = NAN};
+            for (int c = 0; c < 3; c++)
+                refs[n].counts[c] = 100 + lean(tr) * f[c] * cos(tr * BRDF_DEG) * 0.1;
+        }
+    cl.cal.darks = &dark, cl.cal.n_darks = 1;
+    cl.cal.refs = refs, cl.cal.n_refs = n;
+    cl.cal.setup = (struct rad_setup){.adu_per_electron = {1, 1, 1}, .in_position_deg = 0.05,
+                                      .spot = RAD_SPOT_UNDERFILLED};
+    const double brdf = 0.3;
+    struct plan_point pt = {.theta_i = 20, .theta_o = 35, .phi_o = 100, .out_of_plane = 1};
+    struct journal_sample s;
+    journal_sample_clear(&s);
+    s.point = -1;
+    s.counts = 1;
+    s.integration_s = 0.1;
+    s.gain_state = 0;
+    s.monitor = NAN;
+    for (int c = 0; c < 3; c++)
+        s.raw[c] = 100 + lean(35) * brdf * cos(35 * BRDF_DEG) * 0.1;
+    struct gonio_err err = {0};
+    assert_int_equal(cal_reduce_reading(&cl, &pt, &s, &err), 0);
+    assert_int_equal(s.point, -1);
+    for (int c = 0; c < 3; c++) {
+        assert_close(s.rgb[c], brdf, 1e-9);
+        assert_true(s.u[c] > 0 && s.u[c] < 0.05 * brdf);
+    }
+    /* beyond the reference's incidences: refused, naming the geometry */
+    pt.theta_i = 50;
+    assert_int_equal(cal_reduce_reading(&cl, &pt, &s, &err), -GONIO_EBADCONFIG);
+    assert_non_null(strstr(err.msg, "50"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_write_read_derive),
         cmocka_unit_test(test_select_and_refusals),
         cmocka_unit_test(test_budget_table),
+        cmocka_unit_test(test_out_of_plane_reading),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
