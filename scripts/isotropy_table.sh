@@ -3,7 +3,9 @@
 # anisotropic materials (roughness ratio 1.5-3, several orientations) and on
 # the ten held-out MERL materials, on the ideal and lab scenes, DS1 with
 # --check isotropy on the rotating rig; then the false-alarm rate over N
-# seeded isotropic lab captures (DS3, the held-out materials in turn).
+# seeded isotropic lab captures (DS3, the held-out materials in turn). lab
+# gives counts: its captures name a calibration taken first
+# (scripts/lab_calibration.sh).
 #   scripts/isotropy_table.sh [BUILD_BIN] [N] [PART]
 # (defaults build/bin, 300; PART verdicts or alarms: only that half)
 set -eu
@@ -12,13 +14,15 @@ N=${2:-300}
 PART=${3:-all}
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
+. "$(dirname "$0")/lab_calibration.sh"
+lab_calibrate "$BIN" "$T" rotating
 HELD="alum-bronze blue-acrylic brass gold-metallic-paint nylon pearl-paint red-plastic specular-black-phenolic tungsten-carbide white-diffuse-bball"
 
 # capture SCENE PLAN MATERIAL: prints verdict, significance, rig-time share
 capture() {
     rm -rf "$T/c"
     "$BIN/gonio" capture --offline --quiet --scene "$1" --rig rotating --plan "$2" \
-        --material "$3" --check isotropy --out "$T/c" >/dev/null
+        --material "$3" --check isotropy $(lab_cal "$1") --out "$T/c" >/dev/null
     python3 -c '
 import json, sys
 r = json.load(open(sys.argv[1]))

@@ -8,11 +8,15 @@
 # The full domain is isotropic (phi_h = 0) and cannot see an anisotropy:
 # for the anisotropic materials the truth is "insufficient" by
 # construction (an isotropic model of one slice misses the other azimuths).
+# lab gives counts: its captures name a calibration taken first
+# (scripts/lab_calibration.sh).
 #   scripts/oop_table.sh [BUILD_BIN]
 set -eu
 BIN=${1:-build/bin}
 T=$(mktemp -d "${TMPDIR:-/dev/shm}/gonio-oop-table.XXXXXX" 2>/dev/null || mktemp -d)
 trap 'rm -rf "$T"' EXIT
+. "$(dirname "$0")/lab_calibration.sh"
+lab_calibrate "$BIN" "$T" default
 HELD="alum-bronze blue-acrylic brass gold-metallic-paint nylon pearl-paint red-plastic specular-black-phenolic tungsten-carbide white-diffuse-bball"
 ANISO="ax=0.1&ay=0.15&phi=0 ax=0.1&ay=0.15&phi=45 ax=0.1&ay=0.15&phi=90 ax=0.06&ay=0.18&phi=0 ax=0.06&ay=0.18&phi=45 ax=0.06&ay=0.18&phi=90"
 ISO="analytic:ggx-gold analytic:layered-paint analytic:rough-diffuse analytic:plastic-ggx analytic:two-lobe?a1=0.05&w1=0.6&a2=0.3&w2=0.4 analytic:two-lobe?a1=0.02&w1=1&a2=0.4&w2=0.5"
@@ -27,12 +31,12 @@ row() {
         if [ "$3" != - ]; then
             rm -rf "$T/o"
             "$BIN/gonio" capture --offline --quiet --scene $sc --plan oop200k --material "$2" \
-                --out "$T/o" >/dev/null
+                $(lab_cal $sc) --out "$T/o" >/dev/null
             oop=$(full "$T/o")
         fi
         rm -rf "$T/c"
         "$BIN/gonio" capture --offline --quiet --scene $sc --plan ds1 --material "$2" \
-            --check out-of-plane --out "$T/c" >/dev/null
+            --check out-of-plane $(lab_cal $sc) --out "$T/c" >/dev/null
         python3 -c '
 import json, sys
 r = json.load(open(sys.argv[1]))
