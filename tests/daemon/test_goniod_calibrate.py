@@ -93,14 +93,16 @@ class CalibrateRig(unittest.TestCase):
             else:
                 shutil.rmtree(self.folder, ignore_errors=True)
 
-    def start_sim(self, material):
-        """gonio-sim measuring material: what is mounted in the sample's place."""
+    def start_sim(self, material, time_scale=None):
+        """gonio-sim measuring material: what is mounted in the sample's place;
+        on its simulated clock, or on wall time at time_scale."""
         self.stop_sim()
         out_path = os.path.join(self.folder, "sim.out")
         open(out_path, "w").close()
         self.sim = subprocess.Popen(
-            wrap([SIM, "--scene", "lab", "--material", material, "--clock", "simulated",
-                  "--tcp", "127.0.0.1:%d" % (self.port or 0)], self.folder),
+            wrap([SIM, "--scene", "lab", "--material", material] +
+                 (["--time-scale", str(time_scale)] if time_scale else ["--clock", "simulated"]) +
+                 ["--tcp", "127.0.0.1:%d" % (self.port or 0)], self.folder),
             stdout=open(out_path, "w"), stderr=open(os.path.join(self.folder, "sim.err"), "a"),
             preexec_fn=child_procs.die_with_parent)
         deadline = time.time() + START_S
@@ -120,10 +122,10 @@ class CalibrateRig(unittest.TestCase):
         self.sim = None
         return rc
 
-    def start_daemon(self, rig=None):
+    def start_daemon(self, rig=None, time_scale=1):
         driver = ("  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n  timeout_s: %g\n"
-                  "  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
-                  % (self.port, 0.5 * SLOW))
+                  "  time_scale: %d\n  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
+                  % (self.port, 0.5 * SLOW, time_scale))
         self.d = Daemon(self.folder, driver=driver)
         text = open(self.d.config).read().replace("rig: default", "rig: %s" % (rig or self.rig))
         with open(self.d.config, "w") as f:
@@ -370,7 +372,11 @@ class CalibrateCrashTests(CalibrateRig):
     """goniod killed mid-calibration, then gonio resume ID."""
 
     def test_kill9_mid_reference_then_resume(self):
-        self.start_daemon()
+        # On wall time (the reference's 104 readings of 0.25 s over about 3 s
+        # at the scale), so that the kill lands mid-way on a loaded machine:
+        # on the simulated clock a starved test could see the run end first.
+        self.start_sim(STANDARD, time_scale=10)
+        self.start_daemon(time_scale=10)
         dark_id, whole_id = self.dark_and_reference()
         whole = frames(os.path.join(self.cal_root, whole_id, "frames.csv"))
         env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
