@@ -40,10 +40,14 @@ class OneDaemonTests(DaemonTest):
         self.assertEqual(os.lstat(self.d.sock).st_ino, inode)
         deadline = time.monotonic() + START_S
         while True:
-            c = self.d.connect()
-            if c.version["class"] == "VERSION":
+            try:
+                c = self.d.connect()
+            except BlockingIOError:  # the backlog not drained yet (a slow goniod: memcheck)
+                c = None
+            if c and c.version["class"] == "VERSION":
                 break
-            self.assertEqual(c.version.get("code"), "too-many-clients", c.version)
+            if c:
+                self.assertEqual(c.version.get("code"), "too-many-clients", c.version)
             self.assertLess(time.monotonic(), deadline, "goniod never served again")
             time.sleep(0.1)
         self.assertEqual(c.request("status")["class"], "STATUS")
