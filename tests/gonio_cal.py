@@ -23,32 +23,6 @@ def calibrate(root, scene="lab", plan="ds3", rig=None, repeats=2):
     return r.stdout.strip()
 
 
-GRID = """name: reference-grid
-description: the reference at every incidence and view to 80 deg, 5 deg apart
-grid:
-  theta_i_step: 5
-  theta_i_max: 80
-  diffuse_step: 5
-  glossy_step: 5
-  glossy_half_width: 15
-  theta_r_min: -80
-  theta_r_max: 80
-  blind: 5
-order: travel
-stop: all
-"""
-
-
-def reference_grid(folder):
-    """A reference plan covering every geometry a premise check may read
-    (its out-of-plane pairs and their in-plane counterparts reach theta 80
-    at any incidence), which DS plans' own grids do not. Its path."""
-    path = os.path.join(folder, "reference-grid.yaml")
-    with open(path, "w") as f:
-        f.write(GRID)
-    return path
-
-
 METERED = """name: metered
 material: default
 rig: default
