@@ -18,6 +18,7 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from goniod_harness import (GONIO, GONIOD, START_S, Daemon, DaemonTest, journal_points, plan_total)
+import child_procs  # noqa: E402
 
 
 class CaptureTests(DaemonTest):
@@ -542,7 +543,8 @@ class ClientTests(DaemonTest):
     def test_watch_shows_pause_and_resume(self):
         env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
         w = subprocess.Popen([GONIO, "capture", "--plan", "ds3", "--name", "pw", "--wait"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                             preexec_fn=child_procs.die_with_parent)
         deadline = time.monotonic() + 2 * START_S
         while not (json.loads(self.d.gonio("status", "--json").stdout)["capture"] or
                    {}).get("points_total"):
