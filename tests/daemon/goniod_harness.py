@@ -236,8 +236,9 @@ class Daemon:
                 time.sleep(0.02)
         raise AssertionError("goniod did not listen")
 
-    def connect(self):
-        c = Conn(self.sock)
+    def connect(self, timeout=2 * START_S):
+        """A client connection; timeout: the longest wait for a document."""
+        c = Conn(self.sock, timeout)
         self.conns.append(c)
         return c
 

@@ -383,7 +383,10 @@ class CaptureTests(DaemonTest):
         """Any RGB model of the registry is a capture's final fit; every
         model writes its model file in the capture, ABC models also report
         their parameters."""
-        c = self.d.connect()
+        # No document comes while the final fit and the full-domain errors
+        # are computed: seconds of CPU for the latent model, several times
+        # that on a loaded machine.
+        c = self.d.connect(timeout=6 * START_S)
         c.request("watch")
         for name, model in (("ap", "abc-prior"), ("lt", "latent")):
             r = c.request("capture", plan="ds4", name=name, model=model,
