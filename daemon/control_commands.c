@@ -119,13 +119,16 @@ static int capture_inputs(control *c, json_t *req, const struct control_sent *se
                *model = jstr(req, "model"), *order = jstr(req, "order"),
                *stop = jstr(req, "stop"), *truth = jstr(req, "truth");
     const char *sent_plan = control_sent_path(sent, "plan"),
-               *sent_rig = control_sent_path(sent, "rig");
+               *sent_rig = control_sent_path(sent, "rig"),
+               *sent_scene = control_sent_path(sent, "scene");
     int rc;
     if (sent_plan)
         snprintf(r->plan, sizeof r->plan, "%s", sent_plan);
     else if ((rc = control_resolve_ref(c, "plan", plan, r->plan, sizeof r->plan, err)) < 0)
         return rc;
-    if (scene) {
+    if (sent_scene) {
+        snprintf(r->scene, sizeof r->scene, "%s", sent_scene);
+    } else if (scene) {
         if ((rc = control_resolve_ref(c, "scene", scene, r->scene, sizeof r->scene, err)) < 0)
             return rc;
     } else if (c->cfg->driver == GONIOD_DRIVER_SIM) {
