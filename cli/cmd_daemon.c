@@ -464,7 +464,11 @@ static int show_reply(struct conn *c, const char *cmd, json_t *rep, int json_out
             show_list(json_object_get(rep, "captures"));
     } else {
         const char *id = json_string_value(json_object_get(rep, "capture_id"));
-        printf("goniod: %s%s%s\n", cmd, id ? " " : "", id ? id : "");
+        const char *bringup = json_string_value(json_object_get(rep, "bringup"));
+        if (bringup)
+            printf("goniod: %s bring-up '%s': its axes stop\n", cmd, bringup);
+        else
+            printf("goniod: %s%s%s\n", cmd, id ? " " : "", id ? id : "");
         if (id && !strcmp(cmd, "abort"))
             print_resume_hint(id, sock);
     }
@@ -553,7 +557,8 @@ int cmd_abort(int argc, char **argv)
 {
     return simple(argc, argv, "abort", "",
                   "stop the capture at the next point boundary; its samples are kept, and\n"
-                  "  the command that resumes it is printed");
+                  "  the command that resumes it is printed. A running bring-up command\n"
+                  "  (home, move, limits) ends at once, its axes stopped where they are");
 }
 
 int cmd_shutdown(int argc, char **argv)

@@ -433,7 +433,9 @@ static int cmd_abort(control *c, struct control_client *cl, json_t *req, json_t 
     struct worker_status st;
     worker_get_status(c->w, &st);
     int rc = worker_abort(c->w, "aborted", err);
-    if (rc == 0) /* what `resume` takes to continue it */
+    if (rc == 0 && st.state == WORKER_IDLE) /* a bring-up command: its own reply says aborted */
+        json_object_set_new(reply, "bringup", json_string(st.bringup));
+    else if (rc == 0) /* what `resume` takes to continue it */
         json_object_set_new(reply, "capture_id", json_string(st.id));
     return rc;
 }
@@ -534,7 +536,8 @@ int control_handle_line(control *c, struct control_client *cl, const char *line,
         control_request_free(&rq);
         return 1;
     }
-    if (cmd->need == NEED_ACTIVE && st.state == WORKER_IDLE) {
+    if (cmd->need == NEED_ACTIVE && st.state == WORKER_IDLE &&
+        !(cmd->run == cmd_abort && st.bringup[0])) {
         control_send_error(cl, "not-running", id, "%s: no capture is running", name);
         control_request_free(&rq);
         return 1;
