@@ -86,6 +86,40 @@ class ConfigRigTests(unittest.TestCase):
             self.assertEqual(r.returncode, 0, (rig, az, r.stderr))
             self.assertIn("    azimuth: %d\n" % az, r.stdout)
 
+    def test_sample_changer_not_wired_refused(self):
+        """A rig profile with a sample changer on a driver without its
+        drive: refused at --check and at start, naming the field; wired,
+        accepted and printed."""
+        with open(os.path.join(self.folder, "changer.yaml"), "w") as f:
+            f.write(INPLANE_RIG.replace("name: inplane", "name: changer")
+                    + "sample_changer: true\n")
+        path = self.write("changer.yaml", 0)
+        r = run_wrapped([GONIOD, "--config", path, "--check"], self.folder)
+        self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+        self.assertEqual(r.stdout, "")
+        self.assertIn("%s:7:" % path, r.stderr)
+        self.assertIn("key 'sample_changer'", r.stderr)
+        self.assertIn("driver.slaves.sample_changer is 0 (none), but rig profile '%s' has a "
+                      "sample changer" % os.path.join(self.folder, "changer.yaml"), r.stderr)
+        r = run_wrapped([GONIOD, "--config", path], self.folder, timeout=30)
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("driver.slaves.sample_changer is 0", r.stderr)
+        self.assertFalse(os.path.exists(os.path.join(self.folder, "caps")))
+        with open(path) as f:
+            text = f.read()
+        with open(path, "w") as f:
+            f.write(text.replace("    detector: 3\n", "    detector: 3\n    sample_changer: 5\n"))
+        r = run_wrapped([GONIOD, "--config", path, "--check"], self.folder)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("    sample_changer: 5\n", r.stdout)
+        # its own slave id, as every device
+        with open(path, "w") as f:
+            f.write(text.replace("    detector: 3\n", "    detector: 3\n    sample_changer: 2\n"))
+        r = run_wrapped([GONIOD, "--config", path, "--check"], self.folder)
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("every device needs its own slave id", r.stderr)
+        self.assertIn("sample_changer 2", r.stderr)
+
     def test_every_shipped_config(self):
         """Every configs/goniod/*.yaml with the rig profile it names passes
         --check (modbus-tcp.yaml once named the out-of-plane default rig
@@ -136,6 +170,18 @@ class RequestRigTests(unittest.TestCase):
         self.assertIn("driver.slaves.azimuth is 0", r["message"])
         self.assertIn("'default' is out of plane", r["message"])
         self.assertFalse(os.path.exists(os.path.join(self.d.root, "x")))
+
+    def test_sample_changer_rig_refused_at_request(self):
+        with open(os.path.join(self.d.root, "changer.yaml"), "w") as f:
+            f.write(INPLANE_RIG.replace("name: inplane", "name: changer")
+                    + "sample_changer: true\n")
+        c = self.d.connect()
+        r = c.request("capture", plan="ds3", rig="changer.yaml", name="z")
+        self.assertEqual((r["class"], r["code"]), ("ERROR", "bad-value"), r)
+        self.assertIn(self.d.config, r["message"])
+        self.assertIn("driver.slaves.sample_changer is 0", r["message"])
+        self.assertIn("has a sample changer", r["message"])
+        self.assertFalse(os.path.exists(os.path.join(self.d.root, "z")))
 
     def test_out_of_plane_plan_refused_on_inplane_rig(self):
         c = self.d.connect()
