@@ -604,7 +604,9 @@ static int steer(worker *w, int what, const char *reason, struct gonio_err *err)
 {
     pthread_mutex_lock(&w->mu);
     int rc = 0;
-    if (!w->running)
+    if (what == 2 && !w->running && w->bringup_active)
+        w->abort = 1; /* bringup_run stops the axes and reports aborted */
+    else if (!w->running)
         rc = gonio_err_set(err, GONIO_EUSAGE, "no capture is running");
     else if (what == 0 && w->paused)
         rc = gonio_err_set(err, GONIO_EUSAGE, "capture '%s' is already paused", w->req.id);
