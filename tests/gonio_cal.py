@@ -5,8 +5,10 @@ test's own. A capture then names it with --calibrations ROOT (the newest
 valid reference for its rig and detector). The C tests' twin is
 tests/gonio_test_cal.h."""
 import csv
+import json
 import os
 import re
+import shutil
 import statistics
 import subprocess
 
@@ -127,3 +129,58 @@ def chain_errors(rows, dark_rows, material, scene="lab", standard="standard:spec
         return {"n": 0, "material": float("nan"), "chain": float("nan")}
     return {"n": len(e_mat), "material": statistics.median(e_mat),
             "chain": statistics.median(e_chain)}
+
+
+def without_a_step(root, ref_id, out_root):
+    """Two calibrations that each leave a step of the chain out, from
+    reference ref_id in root, under out_root: "nodark", its dark frames
+    read as zero counts (nothing subtracted), and "lambertian", its standard
+    without the angular shape (rho / pi: the certificate's reflectance and
+    u, as docs/radiometry.md warns against). Their id (ref_id) serves
+    gonio recalibrate --calibrations out_root/KIND. The two roots."""
+    with open(os.path.join(root, ref_id, "calibration.json")) as f:
+        dark_id = json.load(f)["dark"]
+    roots = {}
+    for kind in ("nodark", "lambertian"):
+        dest = os.path.join(out_root, kind)
+        for cid in (dark_id, ref_id):
+            shutil.copytree(os.path.join(root, cid), os.path.join(dest, cid))
+        roots[kind] = dest
+    path = os.path.join(roots["nodark"], dark_id, "frames.csv")
+    rows = frames(path)
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]), lineterminator="\n")
+        w.writeheader()
+        for x in rows:
+            w.writerow(dict(x, r="0", g="0", b="0"))
+    with open(os.path.join(os.environ.get("GONIO_CONFIG", "configs"), "standards",
+                           "spectralon-99.yaml")) as f:
+        text = f.read()
+    flat = os.path.join(roots["lambertian"], "spectralon-99-lambertian.yaml")
+    with open(flat, "w") as f:
+        f.write(text[:text.index("\nangular:")].replace("name: spectralon-99",
+                                                           "name: spectralon-99-lambertian")
+                + "\n")
+    meta_path = os.path.join(roots["lambertian"], ref_id, "calibration.json")
+    with open(meta_path) as f:
+        meta = json.load(f)
+    meta["standard"] = flat
+    with open(meta_path, "w") as f:
+        json.dump(meta, f)
+    return roots
+
+
+def recalibrated_errors(capdir, ref_id, roots, dark_rows, material, out_root):
+    """capdir reduced again (gonio recalibrate) with each calibration of
+    without_a_step's roots: its chain_errors "chain" median by kind."""
+    got = {}
+    for kind, cal_root in roots.items():
+        out = os.path.join(out_root, "%s-%s" % (os.path.basename(capdir), kind))
+        r = subprocess.run([os.path.join(BIN, "gonio"), "recalibrate", capdir, "--calibration",
+                            ref_id, "--calibrations", cal_root, "-o", out],
+                           capture_output=True, text=True, timeout=300)
+        if r.returncode != 0:
+            raise AssertionError("gonio recalibrate %s (%s): %s" % (capdir, kind, r.stderr))
+        got[kind] = chain_errors(frames(os.path.join(out, "samples.csv")), dark_rows,
+                                 material)["chain"]
+    return got

@@ -283,7 +283,9 @@ class CalibrateDS1Tests(CalibrateRig):
         values with SNR >= 100, the truth the chain
         measures on a rig with the lab's stray light (gonio_cal.chain_errors);
         against the material alone the metal is worse, by that light on its
-        dim values, which the dark does not see."""
+        dim values, which the dark does not see. Reduced again without the
+        dark, or with the standard as Lambertian, each is measurably
+        worse."""
         if VALGRIND:
             self.skipTest("DS1's 912 points x 3 and 4000 reference readings take about a "
                           "minute natively and too long under memcheck; the DS3 groups run "
@@ -295,6 +297,8 @@ class CalibrateDS1Tests(CalibrateRig):
         r = self.calibrate("reference", "--plan", "reference-grid", "--repeats", "8",
                            operator=self.mount_standard)
         self.assertEqual(r.returncode, 0, r.stderr)
+        ref_id = r.stdout.strip()
+        less = gonio_cal.without_a_step(self.cal_root, ref_id, os.path.join(self.folder, "less"))
         got = {}
         for name, material in (("diffuse", SAMPLE), ("glossy", "builtin:red-plastic"),
                                ("metal", "builtin:gold-metallic-paint")):
@@ -313,6 +317,15 @@ class CalibrateDS1Tests(CalibrateRig):
             self.assertGreaterEqual(e["n"], 1000, name)
             self.assertLessEqual(e["chain"], gonio_cal.DS1_LIMIT[name], name)
             got[name] = e
+            # Each step is needed: the same capture reduced again without
+            # the dark, or with the standard as Lambertian, is worse.
+            worse = gonio_cal.recalibrated_errors(os.path.join(self.d.root, name), ref_id, less,
+                                                  dark_rows, material, self.folder)
+            sys.stderr.write("  without dark %.3f %%, standard as Lambertian %.3f %%\n"
+                             % (100 * worse["nodark"], 100 * worse["lambertian"]))
+            for kind, med in worse.items():
+                self.assertGreaterEqual(med, 2 * e["chain"], (name, kind))
+                self.assertGreater(med, 0.01, (name, kind))
         self.assertGreater(got["metal"]["material"], got["metal"]["chain"] + 0.0003)
 
     def test_operator_covers_a_detector_without_shutter(self):
