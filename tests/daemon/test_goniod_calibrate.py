@@ -158,7 +158,8 @@ class CalibrateRig(unittest.TestCase):
         goniod's pause, then gonio resume. Returns the finished command."""
         env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
         p = subprocess.Popen([GONIO, "calibrate", *args], stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True, env=env)
+                             stderr=subprocess.PIPE, text=True, env=env,
+                             preexec_fn=child_procs.die_with_parent)
         if operator:
             st = self.wait_state("paused", "asking the operator")
             operator(st)
@@ -455,7 +456,8 @@ class CalibrateCrashTests(CalibrateRig):
         env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
         p = subprocess.Popen([GONIO, "calibrate", "reference", "--plan", "ds3", "--repeats",
                               "2", "--name", "ref-killed"], stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True, env=env)
+                             stderr=subprocess.PIPE, text=True, env=env,
+                             preexec_fn=child_procs.die_with_parent)
         self.mount_standard(self.wait_state("paused", "asking for the standard"))
         journal = os.path.join(self.cal_root, "ref-killed", "journal.csv")
         self.assertEqual(self.d.gonio("resume").returncode, 0)
