@@ -192,6 +192,17 @@ static brdf_material *open_spectral(const char *spec, const char *arg, struct go
     return brdf_spectral_material_open(spec, err); /* brdf/spectral.h */
 }
 
+/* A light trap: nothing reflected, so that what a detector reads with it
+ * in the sample's place is the rig's stray light. */
+static void trap_eval(const void *priv, const struct brdf_pair *pairs, size_t n, double *rgb)
+{
+    (void)priv, (void)pairs;
+    for (size_t i = 0; i < 3 * n; i++)
+        rgb[i] = 0.0;
+}
+
+static const struct brdf_material_ops trap_ops = {.kind = "trap", .eval = trap_eval};
+
 brdf_material *brdf_material_open(const char *spec, struct gonio_err *err)
 {
     static const struct {
@@ -206,6 +217,8 @@ brdf_material *brdf_material_open(const char *spec, struct gonio_err *err)
         gonio_err_set(err, GONIO_EBADCONFIG, "material: empty specification");
         return NULL;
     }
+    if (strcmp(spec, "trap") == 0)
+        return brdf_material_new(&trap_ops, NULL, spec);
     if (strcmp(spec, "default") == 0) {
         const char *def = brdf_embedded_default_spec();
         return open_builtin(spec, def + strlen("builtin:"), err);
@@ -227,7 +240,8 @@ brdf_material *brdf_material_open(const char *spec, struct gonio_err *err)
     }
     gonio_err_set(err, GONIO_EBADCONFIG,
                   "%s: unknown material kind (use nbrdf:NAME, merl:PATH, abc:NAME, sgd:NAME, "
-                  "builtin:NAME, spectral:NAME, analytic:NAME, standard:NAME or default)",
+                  "builtin:NAME, spectral:NAME, analytic:NAME, standard:NAME, trap or "
+                  "default)",
                   spec);
     return NULL;
 }

@@ -26,6 +26,7 @@ typedef struct brdf_material brdf_material;
  *                (brdf/analytic_spec.h)
  *   standard:NAME a reflectance standard (brdf/standard.h), NAME a file or
  *                <config>/standards/NAME.yaml
+ *   trap         a light trap: reflects nothing (the stray-light calibration)
  *   default      the embedded default (no shared data needed)
  * NAME may also be a path to a file of that kind. Errors name the spec, the
  * file and the problem. */

@@ -160,7 +160,7 @@ void cal_new_id(const char *root, enum cal_kind kind, time_t now, char *id, size
     gmtime_r(&now, &tm);
     char stamp[32];
     strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm);
-    const char *what = kind == CAL_DARK ? "dark" : "reference";
+    const char *what = cal_kind_name(kind);
     snprintf(id, size, "%s-%s", what, stamp);
     for (int k = 2; k < 1000; k++) {
         char path[4096];

@@ -25,7 +25,14 @@
 
 #define CAL_MAX_INTEGRATIONS 16
 
-enum cal_kind { CAL_DARK = 0, CAL_REFERENCE = 1 };
+/* dark: the shutter closed; reference: the standard in the sample's place;
+ * stray: the sample removed (a light trap in its place), what the rig's
+ * stray light puts into every reading with the light path open. */
+enum cal_kind { CAL_DARK = 0, CAL_REFERENCE = 1, CAL_STRAY = 2 };
+
+/* "dark", "reference", "stray"; and back (-1: none of them). */
+const char *cal_kind_name(enum cal_kind k);
+int cal_kind_parse(const char *name);
 
 struct cal_meta {
     char id[64];
@@ -34,7 +41,8 @@ struct cal_meta {
     double valid_s;   /* expires at created + valid_s */
     char rig[64], detector[32];
     char standard[128]; /* reference: the standard's name or file */
-    char dark[64];      /* reference: the dark calibration it was taken with */
+    char dark[64];      /* reference, stray: the dark calibration it was taken with */
+    char stray[64];     /* reference: the stray calibration it subtracts ("": none) */
     double integrations[CAL_MAX_INTEGRATIONS];
     size_t n_integrations;
     int gain_state;     /* the gain state the frames were read at */
@@ -77,8 +85,8 @@ struct cal_run {
     const char *root;
     const struct cal_meta *meta; /* id, kind, integrations (dark), standard */
     const struct rig_profile *rig; /* its shutter, settle and integration */
-    const struct plan *plan;     /* reference: the points */
-    int per_point;               /* dark: frames per integration; reference: repeats */
+    const struct plan *plan;     /* reference, stray: the points */
+    int per_point;               /* dark: frames per integration; else repeats */
 };
 
 /* How a host steers a run and hears from it. control is asked before each
@@ -146,17 +154,25 @@ int cal_select(const char *root, const char *id, const struct cal_need *need,
 int cal_select_dark(const char *root, const char *id, const struct cal_need *need,
                     struct cal_meta *meta_out, struct gonio_err *err);
 
+/* The stray calibration a reference subtracts: id, or ("newest") the
+ * newest valid one for the rig and detector; it must have been taken with
+ * dark (the reference's dark, by which its frames are reduced). */
+int cal_select_stray(const char *root, const char *id, const char *dark,
+                     const struct cal_need *need, struct cal_meta *meta_out,
+                     struct gonio_err *err);
+
 /* A loaded calibration: the reduction's inputs, owning their arrays. */
 struct cal_loaded {
     struct cal_meta meta, dark_meta;
     double full_scale, nonlinearity; /* the detector's, as its reference frames said */
     struct rad_dark *darks;
     struct rad_ref *refs;
+    struct rad_ref *strays; /* NULL: the reference names no stray calibration */
     struct rad_calibration cal;
 };
 
-/* Load reference calibration id and its dark, derive the reduction's
- * inputs, and load its standard. */
+/* Load reference calibration id and its dark (and its stray light when it
+ * names one), derive the reduction's inputs, and load its standard. */
 int cal_load(const char *root, const char *id, struct cal_loaded *out, struct gonio_err *err);
 void cal_loaded_free(struct cal_loaded *c);
 
@@ -206,5 +222,10 @@ int cal_results_budget(const struct cal_loaded *cl, const struct journal_plan *p
 /* The derivation alone, from frames (tests, recalibration). */
 int cal_derive(const struct cal_frame *dark, size_t n_dark, const struct cal_frame *ref,
                size_t n_ref, struct cal_loaded *out, struct gonio_err *err);
+
+/* The stray readings' means per geometry from a stray calibration's frames,
+ * into out (after cal_derive). */
+int cal_derive_stray(const struct cal_frame *stray, size_t n, struct cal_loaded *out,
+                     struct gonio_err *err);
 
 #endif

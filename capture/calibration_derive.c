@@ -54,13 +54,14 @@ static int derive_darks(const struct cal_frame *f, size_t n, struct cal_loaded *
     return nd ? 0 : gonio_err_set(err, GONIO_EBADDATA, "calibration: no dark frames");
 }
 
-/* Reference readings are grouped by consecutive runs at one geometry. */
-static int derive_refs(const struct cal_frame *f, size_t n, struct cal_loaded *out,
-                       double var_sum[][3], double *mon_rel_var, size_t *mon_groups,
-                       struct gonio_err *err)
+/* Reference (or stray) readings are grouped by consecutive runs at one
+ * geometry, into *refs (malloc'd) and *n_refs. */
+static int group_readings(const struct cal_frame *f, size_t n, struct rad_ref **refs,
+                          size_t *n_refs, double var_sum[][3], double *mon_rel_var,
+                          size_t *mon_groups, struct gonio_err *err)
 {
-    out->refs = calloc(n ? n : 1, sizeof *out->refs);
-    if (!out->refs)
+    struct rad_ref *out = *refs = calloc(n ? n : 1, sizeof *out);
+    if (!out)
         return gonio_err_set(err, ENOMEM, "calibration: out of memory");
     size_t nr = 0;
     for (size_t k = 0; k < n;) {
@@ -71,11 +72,12 @@ static int derive_refs(const struct cal_frame *f, size_t n, struct cal_loaded *o
         for (size_t j = k; j < e; j++)
             for (int c = 0; c < 3; c++)
                 if (f[j].full_scale > 0 && f[j].counts[c] >= f[j].full_scale)
-                    return gonio_err_set(err, GONIO_EBADDATA, "calibration: the reference at "
+                    return gonio_err_set(err, GONIO_EBADDATA, "calibration: the %s at "
                                          "(%g, %g) deg clipped (%g counts, full scale %g): "
-                                         "calibrate at a shorter integration", f[j].theta_i,
+                                         "calibrate at a shorter integration",
+                                         cal_kind_name(f[j].kind), f[j].theta_i,
                                          f[j].theta_r, f[j].counts[c], f[j].full_scale);
-        struct rad_ref *r = &out->refs[nr];
+        struct rad_ref *r = &out[nr];
         r->theta_i = f[k].theta_i, r->theta_r = f[k].theta_r;
         r->integration_s = f[k].integration_s, r->gain_state = f[k].gain_state;
         r->n = (int)(e - k);
@@ -97,8 +99,37 @@ static int derive_refs(const struct cal_frame *f, size_t n, struct cal_loaded *o
         nr++;
         k = e;
     }
-    out->cal.refs = out->refs, out->cal.n_refs = nr;
-    return nr ? 0 : gonio_err_set(err, GONIO_EBADDATA, "calibration: no reference readings");
+    *n_refs = nr;
+    return 0;
+}
+
+static int derive_refs(const struct cal_frame *f, size_t n, struct cal_loaded *out,
+                       double var_sum[][3], double *mon_rel_var, size_t *mon_groups,
+                       struct gonio_err *err)
+{
+    int rc = group_readings(f, n, &out->refs, &out->cal.n_refs, var_sum, mon_rel_var,
+                            mon_groups, err);
+    out->cal.refs = out->refs;
+    if (rc >= 0 && !out->cal.n_refs)
+        rc = gonio_err_set(err, GONIO_EBADDATA, "calibration: no reference readings");
+    return rc;
+}
+
+int cal_derive_stray(const struct cal_frame *stray, size_t n, struct cal_loaded *out,
+                     struct gonio_err *err)
+{
+    double (*var)[3] = calloc(n ? n : 1, sizeof *var);
+    if (!var)
+        return gonio_err_set(err, ENOMEM, "calibration: out of memory");
+    double mon_rel_var = 0;
+    size_t mon_groups = 0;
+    int rc = group_readings(stray, n, &out->strays, &out->cal.n_strays, var, &mon_rel_var,
+                            &mon_groups, err);
+    free(var);
+    out->cal.strays = out->strays;
+    if (rc >= 0 && !out->cal.n_strays)
+        rc = gonio_err_set(err, GONIO_EBADDATA, "calibration: no stray-light readings");
+    return rc;
 }
 
 int cal_derive(const struct cal_frame *dark, size_t n_dark, const struct cal_frame *ref,
@@ -145,7 +176,30 @@ void cal_loaded_free(struct cal_loaded *c)
 {
     free(c->darks);
     free(c->refs);
+    free(c->strays);
     memset(c, 0, sizeof *c);
+}
+
+/* The stray calibration a reference names, reduced with the reference's
+ * dark (which it must have been taken with). */
+static int load_stray(const char *root, const struct cal_meta *ref, struct cal_loaded *out,
+                      struct gonio_err *err)
+{
+    struct cal_meta sm;
+    struct cal_frame *sf = NULL;
+    size_t ns = 0;
+    int rc = cal_read(root, ref->stray, &sm, &sf, &ns, err);
+    if (rc >= 0 && sm.kind != CAL_STRAY)
+        rc = gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s: its stray light %s is a "
+                           "%s calibration", ref->id, sm.id, cal_kind_name(sm.kind));
+    if (rc >= 0 && strcmp(sm.dark, ref->dark) != 0)
+        rc = gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s: its stray light %s was "
+                           "taken with dark %s, the reference with %s", ref->id, sm.id,
+                           sm.dark, ref->dark);
+    if (rc >= 0)
+        rc = cal_derive_stray(sf, ns, out, err);
+    free(sf);
+    return rc;
 }
 
 int cal_load(const char *root, const char *id, struct cal_loaded *out, struct gonio_err *err)
@@ -161,6 +215,8 @@ int cal_load(const char *root, const char *id, struct cal_loaded *out, struct go
         rc = cal_read(root, out->meta.dark, &out->dark_meta, &df, &nd, err);
     if (rc >= 0)
         rc = cal_derive(df, nd, rf, nr, out, err);
+    if (rc >= 0 && out->meta.stray[0])
+        rc = load_stray(root, &out->meta, out, err);
     if (rc >= 0)
         rc = brdf_standard_load(out->meta.standard, &out->cal.standard, err);
     out->cal.setup.in_position_deg = out->meta.in_position_deg;

@@ -17,11 +17,26 @@
 
 #define FRAMES_HEADER CAL_FRAMES_HEADER
 
+static const char *const kind_names[] = {"dark", "reference", "stray"};
+
+const char *cal_kind_name(enum cal_kind k)
+{
+    return k >= CAL_DARK && k <= CAL_STRAY ? kind_names[k] : "?";
+}
+
+int cal_kind_parse(const char *name)
+{
+    for (int k = CAL_DARK; k <= CAL_STRAY; k++)
+        if (strcmp(name, kind_names[k]) == 0)
+            return k;
+    return -1;
+}
+
 int cal_frame_line(const struct cal_frame *f, char *buf, size_t size)
 {
     return snprintf(buf, size,
                     "%s,%.17g,%.17g,%.17g,%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n",
-                    f->kind == CAL_DARK ? "dark" : "reference", f->theta_i, f->theta_r,
+                    cal_kind_name(f->kind), f->theta_i, f->theta_r,
                     f->integration_s, f->gain_state, f->counts[0], f->counts[1], f->counts[2],
                     f->monitor, f->full_scale, f->nonlinearity, f->rig_time_s);
 }
@@ -72,11 +87,11 @@ int cal_frames_read(const char *path, struct cal_frame **out, size_t *n,
                    &f->theta_i, &f->theta_r, &f->integration_s, &f->gain_state, &f->counts[0],
                    &f->counts[1], &f->counts[2], &f->monitor, &f->full_scale,
                    &f->nonlinearity, &f->rig_time_s) != 12 ||
-            (strcmp(kind, "dark") != 0 && strcmp(kind, "reference") != 0)) {
+            cal_kind_parse(kind) < 0) {
             rc = gonio_err_set(err, GONIO_EBADDATA, "%s:%zu: not a frame record", path, lineno);
             break;
         }
-        f->kind = strcmp(kind, "dark") == 0 ? CAL_DARK : CAL_REFERENCE;
+        f->kind = (enum cal_kind)cal_kind_parse(kind);
         (*n)++;
     }
     fclose(fp);
@@ -108,7 +123,7 @@ int cal_write(const char *root, const struct cal_meta *m, const struct cal_frame
     for (size_t k = 0; k < m->n_integrations; k++)
         json_array_append_new(ints, json_real(m->integrations[k]));
     json_t *j = json_pack("{s:s, s:s, s:I, s:s, s:f, s:s, s:s, s:s, s:o, s:[i], s:f, s:I}",
-                          "id", m->id, "kind", m->kind == CAL_DARK ? "dark" : "reference",
+                          "id", m->id, "kind", cal_kind_name(m->kind),
                           "created_unix", (json_int_t)m->created, "created", when,
                           "valid_s", m->valid_s, "expires", until, "rig", m->rig,
                           "detector", m->detector, "integrations_s", ints, "gain_states",
@@ -117,10 +132,12 @@ int cal_write(const char *root, const struct cal_meta *m, const struct cal_frame
     if (j)
         json_object_set_new(j, "spot", json_string(m->spot == RAD_SPOT_OVERFILLED
                                                        ? "overfilled" : "underfilled"));
-    if (j && m->kind == CAL_REFERENCE) {
+    if (j && m->kind == CAL_REFERENCE)
         json_object_set_new(j, "standard", json_string(m->standard));
+    if (j && m->kind != CAL_DARK)
         json_object_set_new(j, "dark", json_string(m->dark));
-    }
+    if (j && m->kind == CAL_REFERENCE && m->stray[0])
+        json_object_set_new(j, "stray", json_string(m->stray));
     char *text = j ? json_dumps(j, JSON_INDENT(2) | JSON_REAL_PRECISION(12)) : NULL;
     json_decref(j);
     if (!text)
@@ -136,7 +153,8 @@ int cal_write(const char *root, const struct cal_meta *m, const struct cal_frame
 static int meta_from_json(const char *path, json_t *j, struct cal_meta *m,
                           struct gonio_err *err)
 {
-    const char *id, *kind, *rig, *det, *std = "", *dark = "", *spot = "underfilled";
+    const char *id, *kind, *rig, *det, *std = "", *dark = "", *spot = "underfilled",
+               *stray = "";
     json_int_t created;
     json_t *ints, *gains;
     double valid, band;
@@ -144,19 +162,20 @@ static int meta_from_json(const char *path, json_t *j, struct cal_meta *m,
                     "kind", &kind, "created_unix", &created, "valid_s", &valid, "rig", &rig,
                     "detector", &det, "integrations_s", &ints, "gain_states", &gains,
                     "in_position_deg", &band, "standard", &std, "dark", &dark) != 0 ||
-        json_unpack(j, "{s?s}", "spot", &spot) != 0 ||
-        !json_is_array(ints) || !json_is_array(gains) || json_array_size(gains) != 1)
+        json_unpack(j, "{s?s, s?s}", "spot", &spot, "stray", &stray) != 0 ||
+        cal_kind_parse(kind) < 0 || !json_is_array(ints) || !json_is_array(gains) || json_array_size(gains) != 1)
         return gonio_err_set(err, GONIO_EBADDATA, "%s: not a calibration (a member is missing "
                              "or of the wrong type)", path);
     memset(m, 0, sizeof *m);
     snprintf(m->id, sizeof m->id, "%s", id);
-    m->kind = strcmp(kind, "dark") == 0 ? CAL_DARK : CAL_REFERENCE;
+    m->kind = (enum cal_kind)cal_kind_parse(kind);
     m->created = (time_t)created, m->valid_s = valid, m->in_position_deg = band;
     m->spot = strcmp(spot, "overfilled") == 0 ? RAD_SPOT_OVERFILLED : RAD_SPOT_UNDERFILLED;
     snprintf(m->rig, sizeof m->rig, "%s", rig);
     snprintf(m->detector, sizeof m->detector, "%s", det);
     snprintf(m->standard, sizeof m->standard, "%s", std);
     snprintf(m->dark, sizeof m->dark, "%s", dark);
+    snprintf(m->stray, sizeof m->stray, "%s", stray);
     for (size_t k = 0; k < json_array_size(ints) && k < CAL_MAX_INTEGRATIONS; k++)
         m->integrations[m->n_integrations++] = json_number_value(json_array_get(ints, k));
     m->gain_state = (int)json_integer_value(json_array_get(gains, 0));
@@ -214,7 +233,7 @@ static int check(const char *root, const struct cal_meta *m, const struct cal_ne
                          "%g s (it has %s)", m->id, need->integration_s, have);
 }
 
-/* A reference calibration and its dark both checked. */
+/* A reference calibration, its dark and its stray light all checked. */
 static int check_pair(const char *root, const struct cal_meta *m, const struct cal_need *need,
                       struct gonio_err *err)
 {
@@ -231,6 +250,16 @@ static int check_pair(const char *root, const struct cal_meta *m, const struct c
     if (check(root, &d, need, &inner) < 0)
         return gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s: its dark: %s", m->id,
                              inner.msg);
+    if (!m->stray[0])
+        return 0;
+    if ((rc = cal_read(root, m->stray, &d, NULL, NULL, err)) < 0)
+        return rc;
+    /* The stray light is read at the reference's integration only. */
+    struct cal_need at_ref = *need;
+    at_ref.integration_s = d.n_integrations ? d.integrations[0] : need->integration_s;
+    if (check(root, &d, &at_ref, &inner) < 0)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s: its stray light: %s",
+                             m->id, inner.msg);
     return 0;
 }
 
@@ -264,7 +293,7 @@ static int newest(const char *root, enum cal_kind kind, const struct cal_need *n
     closedir(d);
     if (!found)
         return gonio_err_set(err, GONIO_EBADCONFIG, "no valid %s calibration in %s for rig "
-                             "'%s', detector '%s'%s%s", kind == CAL_DARK ? "dark" : "reference",
+                             "'%s', detector '%s'%s%s", cal_kind_name(kind),
                              root, need->rig, need->detector, *why ? ": " : "", why);
     *out = best;
     return 0;
@@ -282,6 +311,32 @@ int cal_select(const char *root, const char *id, const struct cal_need *need,
     } else if ((rc = newest(root, CAL_REFERENCE, need, &m, err)) < 0) {
         return rc;
     }
+    if (meta_out)
+        *meta_out = m;
+    return 0;
+}
+
+int cal_select_stray(const char *root, const char *id, const char *dark,
+                     const struct cal_need *need, struct cal_meta *meta_out,
+                     struct gonio_err *err)
+{
+    struct cal_meta m;
+    int rc;
+    if (strcmp(id, "newest") != 0) {
+        if ((rc = cal_read(root, id, &m, NULL, NULL, err)) < 0)
+            return rc;
+        if (m.kind != CAL_STRAY)
+            return gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s is not a stray-light "
+                                 "calibration", id);
+        if ((rc = check(root, &m, need, err)) < 0)
+            return rc;
+    } else if ((rc = newest(root, CAL_STRAY, need, &m, err)) < 0) {
+        return rc;
+    }
+    if (strcmp(m.dark, dark) != 0)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s was taken with dark %s, "
+                             "not the reference's %s: take the stray light and the "
+                             "reference with one dark", m.id, m.dark, dark);
     if (meta_out)
         *meta_out = m;
     return 0;

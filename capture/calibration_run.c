@@ -19,6 +19,7 @@ size_t cal_run_total(const struct cal_run *run)
     size_t per = run->per_point > 0 ? (size_t)run->per_point : 0;
     if (run->meta->kind == CAL_DARK)
         return run->meta->n_integrations * per;
+    /* reference and stray: the plan's points */
     return run->plan ? plan_count(run->plan) * per : 0;
 }
 
@@ -57,10 +58,9 @@ static int check_journal(const struct cal_run *run, const char *path, const stru
             !same(f[k].theta_r, tr, 1e-9) || !same(f[k].integration_s, t, 1e-6))
             return gonio_err_set(err, GONIO_EBADDATA, "%s: frame %zu (%s at %g, %g, %g s) is "
                                  "not the run's (%s at %g, %g, %g s): not this calibration's "
-                                 "journal", path, k + 1, f[k].kind == CAL_DARK ? "dark"
-                                 : "reference", f[k].theta_i, f[k].theta_r,
-                                 f[k].integration_s, run->meta->kind == CAL_DARK ? "dark"
-                                 : "reference", ti, tr, t);
+                                 "journal", path, k + 1, cal_kind_name(f[k].kind),
+                                 f[k].theta_i, f[k].theta_r, f[k].integration_s,
+                                 cal_kind_name(run->meta->kind), ti, tr, t);
     }
     return 0;
 }
@@ -144,8 +144,12 @@ static int prepare(struct capture_devices *dev, const struct cal_run *run,
             return rc;
         if (!h->ask)
             return 0;
-        snprintf(say, sizeof say, "reference: mount the standard '%s' in the sample's place, "
-                 "then: gonio resume", run->meta->standard);
+        if (run->meta->kind == CAL_STRAY)
+            snprintf(say, sizeof say, "stray light: remove the sample (a light trap in its "
+                     "place), then: gonio resume");
+        else
+            snprintf(say, sizeof say, "reference: mount the standard '%s' in the sample's "
+                     "place, then: gonio resume", run->meta->standard);
     }
     *aborted = h->ask(h->user, say) == CAPTURE_ABORT;
     return 0;
@@ -180,7 +184,7 @@ int cal_run_measure(struct capture_devices *dev, const struct cal_run *run,
         double ti, tr, t;
         expected(run, idx, &ti, &tr, &t);
         size_t point = idx / (size_t)run->per_point;
-        if (run->meta->kind == CAL_REFERENCE && point != moved_to) {
+        if (run->meta->kind != CAL_DARK && point != moved_to) {
             if ((rc = cal_go_to(dev, run->rig, plan_point(run->plan, point), err)) < 0)
                 break;
             moved_to = point;

@@ -1,4 +1,4 @@
-/* gonio calibrate dark|reference: a calibration measured on goniod's rig
+/* gonio calibrate dark|stray|reference: a calibration measured on goniod's rig
  * (cmd_calibrate_daemon.c), or with --offline on the in-process simulated
  * rig, and written as ROOT/ID (capture/calibration.h, docs/radiometry.md
  * "Calibrations"). */
@@ -27,7 +27,9 @@ static void usage(FILE *out)
             "       gonio calibrate reference --offline --scene NAME|FILE --plan NAME|FILE\n"
             "                       --out ROOT [--standard NAME|FILE] [--repeats N] [--dark ID]\n"
             "                       [--rig NAME|FILE] [--valid MINUTES]\n"
-            "                       [--spot overfilled|underfilled]\n"
+            "                       [--spot overfilled|underfilled] [--stray ID|newest]\n"
+            "       gonio calibrate stray --offline --scene NAME|FILE --plan NAME|FILE\n"
+            "                       --out ROOT [--repeats N] [--dark ID] [--rig NAME|FILE]\n"
             "  dark: the shutter closed, N frames (default 16) at the rig profile's\n"
             "  integration and at each --integration, with --ladder at every rung of its\n"
             "  auto-ranging ladder too (a capture with it ranges; without, it stays at\n"
@@ -35,7 +37,10 @@ static void usage(FILE *out)
             "  reference: the standard (default spectralon-99, configs/standards/) in the\n"
             "  sample's place, read --repeats times (default 4) at each of the plan's\n"
             "  points, with the dark --dark ID or the newest valid one in ROOT; valid 480\n"
-            "  minutes by default. Writes ROOT/ID (calibration.json, frames.csv) and prints\n"
+            "  minutes by default; --stray: the stray light it and the captures with it\n"
+            "  subtract (taken with the same dark).\n"
+            "  stray: the sample removed (on the simulated rig a light trap, the material\n"
+            "  'trap'), read as the reference is, before it. Writes ROOT/ID (calibration.json, frames.csv) and prints\n"
             "  the id, by which a capture names it. --spot: how the detector\n"
             "  sees the lit spot, for a reference interpolated between its geometries\n"
             "  (default overfilled: the simulated rig's signal goes with cos theta_i).\n"
@@ -49,7 +54,7 @@ static void usage(FILE *out)
 }
 
 struct opts {
-    const char *scene, *rig, *root, *plan, *standard, *dark, *name, *sock;
+    const char *scene, *rig, *root, *plan, *standard, *dark, *name, *sock, *stray;
     int standard_given;
     double integrations[CAL_MAX_INTEGRATIONS];
     size_t n_int;
@@ -72,6 +77,7 @@ static int parse(int argc, char **argv, struct opts *o)
         {"valid", required_argument, NULL, 'v'}, {"help", no_argument, NULL, 'h'},
         {"spot", required_argument, NULL, 'F'}, {"name", required_argument, NULL, 'N'},
         {"socket", required_argument, NULL, 'K'}, {"ladder", no_argument, NULL, 'L'},
+        {"stray", required_argument, NULL, 'T'},
         {NULL, 0, NULL, 0},
     };
     int c;
@@ -100,6 +106,7 @@ static int parse(int argc, char **argv, struct opts *o)
         case 'N': o->name = optarg; break;
         case 'K': o->sock = optarg; break;
         case 'D': o->dark = optarg; break;
+        case 'T': o->stray = optarg; break;
         case 'i':
             if (o->n_int + 1 >= CAL_MAX_INTEGRATIONS) {
                 fprintf(stderr, "gonio calibrate: at most %d integrations\n",
@@ -131,8 +138,9 @@ static int measure(const struct opts *o, enum cal_kind kind, struct cal_meta *m,
                    struct cal_frame **frames, size_t *n, struct gonio_err *err)
 {
     char material[256];
-    snprintf(material, sizeof material, "standard:%s", o->standard);
-    sim_source *src = sim_source_new(o->scene, kind == CAL_REFERENCE ? material : NULL, o->rig,
+    snprintf(material, sizeof material, "%s%s", kind == CAL_STRAY ? "trap" : "standard:",
+             kind == CAL_STRAY ? "" : o->standard);
+    sim_source *src = sim_source_new(o->scene, kind != CAL_DARK ? material : NULL, o->rig,
                                      err);
     if (!src)
         return -abs(err->code ? err->code : EINVAL);
@@ -142,7 +150,7 @@ static int measure(const struct opts *o, enum cal_kind kind, struct cal_meta *m,
     memset(&prof, 0, sizeof prof);
     struct plan *plan = NULL;
     int rc = rig_profile_load(o->rig ? o->rig : crig.profile, &prof, err);
-    if (rc >= 0 && kind == CAL_REFERENCE && (rc = plan_load(o->plan, &prof, &plan, err)) > 0)
+    if (rc >= 0 && kind != CAL_DARK && (rc = plan_load(o->plan, &prof, &plan, err)) > 0)
         rc = 0;
     snprintf(m->rig, sizeof m->rig, "%s", prof.name);
     snprintf(m->detector, sizeof m->detector, "%s", crig.detector ? crig.detector : "unknown");
@@ -153,12 +161,15 @@ static int measure(const struct opts *o, enum cal_kind kind, struct cal_meta *m,
         m->integrations[m->n_integrations++] = o->integrations[k];
     if (rc >= 0 && o->ladder)
         cal_add_ladder(m, &prof);
-    if (rc >= 0 && kind == CAL_REFERENCE) {
+    if (rc >= 0 && kind != CAL_DARK) {
         struct cal_need need = {.rig = m->rig, .detector = m->detector,
                                 .integration_s = prof.integration_s, .now = m->created};
-        struct cal_meta dark;
+        struct cal_meta dark, stray;
         if ((rc = cal_select_dark(o->root, o->dark, &need, &dark, err)) >= 0)
             snprintf(m->dark, sizeof m->dark, "%s", dark.id);
+        if (rc >= 0 && kind == CAL_REFERENCE && o->stray &&
+            (rc = cal_select_stray(o->root, o->stray, m->dark, &need, &stray, err)) >= 0)
+            snprintf(m->stray, sizeof m->stray, "%s", stray.id);
         m->n_integrations = 1;
     }
     struct capture_devices dev;
@@ -221,16 +232,16 @@ static int through_goniod(const struct opts *o, enum cal_kind kind, const char *
 
 int cmd_calibrate(int argc, char **argv)
 {
-    if (argc < 2 || (strcmp(argv[1], "dark") != 0 && strcmp(argv[1], "reference") != 0)) {
+    if (argc < 2 || cal_kind_parse(argv[1]) < 0) {
         if (argc >= 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
             usage(stdout);
             return 0;
         }
-        fprintf(stderr, "gonio calibrate: say what to calibrate: dark or reference\n");
+        fprintf(stderr, "gonio calibrate: say what to calibrate: dark, stray or reference\n");
         usage(stderr);
         return 2;
     }
-    enum cal_kind kind = strcmp(argv[1], "dark") == 0 ? CAL_DARK : CAL_REFERENCE;
+    enum cal_kind kind = (enum cal_kind)cal_kind_parse(argv[1]);
     struct opts o = {.standard = "spectralon-99", .frames = 16, .repeats = 4};
     int prc = parse(argc - 1, argv + 1, &o);
     if (prc)
@@ -239,15 +250,19 @@ int cmd_calibrate(int argc, char **argv)
         fprintf(stderr, "gonio calibrate: unexpected argument '%s'\n", argv[optind + 1]);
         return 2;
     }
+    if (!o.offline && (kind == CAL_STRAY || o.stray)) {
+        fprintf(stderr, "gonio calibrate: stray light is calibrated --offline only\n");
+        return 2;
+    }
     if (!o.offline)
         return through_goniod(&o, kind, argv[1]);
-    if (!o.scene || !o.root || (kind == CAL_REFERENCE && !o.plan)) {
-        fprintf(stderr, "gonio calibrate: --offline needs --scene and --out (reference: and "
-                        "--plan)\n");
+    if (!o.scene || !o.root || (kind != CAL_DARK && !o.plan)) {
+        fprintf(stderr, "gonio calibrate: --offline needs --scene and --out (reference, "
+                        "stray: and --plan)\n");
         usage(stderr);
         return 2;
     }
-    if (o.repeats < 2 && kind == CAL_REFERENCE) {
+    if (o.repeats < 2 && kind != CAL_DARK) {
         fprintf(stderr, "gonio calibrate: --repeats must be at least 2 (the photon-transfer "
                         "gain comes from their spread)\n");
         return 2;
@@ -255,6 +270,10 @@ int cmd_calibrate(int argc, char **argv)
     struct cal_meta m = {.kind = kind, .created = time(NULL)};
     m.spot = o.underfilled ? RAD_SPOT_UNDERFILLED : RAD_SPOT_OVERFILLED;
     m.valid_s = 60 * (o.valid_min > 0 ? o.valid_min : kind == CAL_DARK ? 60 : 480);
+    if (kind != CAL_REFERENCE && o.stray) {
+        fprintf(stderr, "gonio calibrate: --stray is a reference's\n");
+        return 2;
+    }
     snprintf(m.standard, sizeof m.standard, "%s", kind == CAL_REFERENCE ? o.standard : "");
     struct gonio_err err = {0};
     struct cal_frame *frames = NULL;
@@ -271,7 +290,7 @@ int cmd_calibrate(int argc, char **argv)
     }
     printf("%s\n", m.id);
     fprintf(stderr, "calibration %s: %zu frames, rig %s, detector %s%s%s, valid %g min\n",
-            m.id, n, m.rig, m.detector, kind == CAL_REFERENCE ? ", dark " : "",
-            kind == CAL_REFERENCE ? m.dark : "", m.valid_s / 60);
+            m.id, n, m.rig, m.detector, kind != CAL_DARK ? ", dark " : "",
+            kind != CAL_DARK ? m.dark : "", m.valid_s / 60);
     return 0;
 }

@@ -10,7 +10,7 @@
 
 static const char *const term_names[RAD_N_TERMS] = {
     "counting", "dark", "reference", "reference_noise", "drift", "nonlinearity", "angle",
-    "geometry",
+    "geometry", "stray",
 };
 
 const char *rad_term_name(enum rad_term t)
@@ -89,10 +89,14 @@ static double spot_factor(enum rad_spot spot, double theta_i, double theta_r)
  * its dark per monitor count (or per second), or -1 when it has no dark. */
 struct response {
     double k[3];               /* x_r / m_r */
-    double x[3];               /* x_r */
+    double x[3];               /* x_r (its stray light taken off) */
+    double stray_var[3];       /* the variance of the stray light taken off x_r */
     const struct rad_ref *ref; /* the (nearest) reading */
     const struct rad_dark *dark;
 };
+
+static int stray_at(const struct rad_calibration *cal, const struct rad_raw *s, int mon,
+                    double ti, double tr, double rate[3], double var[3], struct gonio_err *err);
 
 static int ref_response(const struct rad_calibration *cal, const struct rad_ref *r,
                         const struct rad_raw *s, int use_monitor, struct response *out,
@@ -104,8 +108,14 @@ static int ref_response(const struct rad_calibration *cal, const struct rad_ref 
                              "at integration %g s, gain state %d", r->theta_i, r->theta_r,
                              r->integration_s, r->gain_state);
     double m = use_monitor ? r->monitor : r->integration_s;
+    double stray[3], stray_var[3];
+    int rc = stray_at(cal, s, use_monitor, r->theta_i, r->theta_r, stray, stray_var, err);
+    if (rc < 0)
+        return rc;
     for (int c = 0; c < 3; c++) {
-        out->x[c] = rad_linearise(r->counts[c] - d->mean[c], s->nonlinearity, s->full_scale);
+        out->x[c] = rad_linearise(r->counts[c] - d->mean[c], s->nonlinearity, s->full_scale) -
+                    m * stray[c];
+        out->stray_var[c] = m * m * stray_var[c];
         if (!(out->x[c] > 0.0))
             return gonio_err_set(err, GONIO_EBADDATA, "reference at (%g, %g) deg: channel %d "
                                  "reads %g counts, not above its dark %g", r->theta_i,
@@ -132,12 +142,12 @@ static void normalised(const struct rad_calibration *cal, const struct response 
 
 /* The two reference readings of gain state g at incidence ti bracketing tr
  * (lo == hi on an exact match); -1 when tr is outside the row. */
-static int bracket_row(const struct rad_calibration *cal, int g, double ti, double tr,
+static int bracket_row(const struct rad_ref *refs, size_t n, int g, double ti, double tr,
                        const struct rad_ref **lo, const struct rad_ref **hi)
 {
     *lo = *hi = NULL;
-    for (size_t k = 0; k < cal->n_refs; k++) {
-        const struct rad_ref *r = &cal->refs[k];
+    for (size_t k = 0; k < n; k++) {
+        const struct rad_ref *r = &refs[k];
         if (r->gain_state != g || fabs(r->theta_i - ti) > GEOM_TOL_DEG)
             continue;
         if (fabs(r->theta_r - tr) <= GEOM_TOL_DEG) {
@@ -153,12 +163,12 @@ static int bracket_row(const struct rad_calibration *cal, int g, double ti, doub
 }
 
 /* The incidence rows of gain state g bracketing ti (equal on a match). */
-static int bracket_incidence(const struct rad_calibration *cal, int g, double ti, double *lo,
-                             double *hi)
+static int bracket_incidence(const struct rad_ref *refs, size_t n, int g, double ti,
+                             double *lo, double *hi)
 {
     *lo = -INFINITY, *hi = INFINITY;
-    for (size_t k = 0; k < cal->n_refs; k++) {
-        const struct rad_ref *r = &cal->refs[k];
+    for (size_t k = 0; k < n; k++) {
+        const struct rad_ref *r = &refs[k];
         if (r->gain_state != g)
             continue;
         if (fabs(r->theta_i - ti) <= GEOM_TOL_DEG) {
@@ -173,12 +183,82 @@ static int bracket_incidence(const struct rad_calibration *cal, int g, double ti
     return isfinite(*lo) && isfinite(*hi) ? 0 : -1;
 }
 
+/* The stray rate of one stray reading (linearised counts above its dark
+ * per monitor count or per second) and that rate's variance: the
+ * readings' shot and read noise over their number, and the dark mean's. */
+static int stray_rate(const struct rad_calibration *cal, const struct rad_ref *r,
+                      const struct rad_raw *s, int mon, double rate[3], double var[3],
+                      struct gonio_err *err)
+{
+    const struct rad_dark *d = rad_find_dark(cal, r->integration_s, r->gain_state);
+    if (!d)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "stray light at (%g, %g) deg: no dark "
+                             "frame at integration %g s, gain state %d", r->theta_i,
+                             r->theta_r, r->integration_s, r->gain_state);
+    double m = mon ? r->monitor : r->integration_s;
+    for (int c = 0; c < 3; c++) {
+        double x = rad_linearise(r->counts[c] - d->mean[c], s->nonlinearity, s->full_scale);
+        double sd2 = d->sd[c] * d->sd[c];
+        rate[c] = x / m;
+        var[c] = ((cal->setup.adu_per_electron[c] * fmax(x, 0.0) + sd2) / r->n + sd2 / d->n) /
+                 (m * m);
+    }
+    return 0;
+}
+
+/* The stray rate at (ti, tr) from one incidence row of the stray readings,
+ * linear in theta_r between the two around it. */
+static int stray_row(const struct rad_calibration *cal, const struct rad_raw *s, int mon,
+                     double ti, double tr, double rate[3], double var[3], struct gonio_err *err)
+{
+    const struct rad_ref *lo, *hi;
+    if (bracket_row(cal->strays, cal->n_strays, s->gain_state, ti, tr, &lo, &hi) < 0)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "(%g, %g) deg: outside the stray light's "
+                             "geometries at incidence %g deg (gain state %d)", s->theta_i, tr,
+                             ti, s->gain_state);
+    double ra[3], va[3], rb[3], vb[3];
+    int rc = stray_rate(cal, lo, s, mon, ra, va, err);
+    if (rc < 0 || (rc = stray_rate(cal, hi, s, mon, rb, vb, err)) < 0)
+        return rc;
+    double t = lo == hi ? 0.0 : (tr - lo->theta_r) / (hi->theta_r - lo->theta_r);
+    for (int c = 0; c < 3; c++) {
+        rate[c] = ra[c] * (1 - t) + rb[c] * t;
+        var[c] = va[c] * (1 - t) * (1 - t) + (lo == hi ? 0.0 : vb[c] * t * t);
+    }
+    return 0;
+}
+
+/* The stray rate at (ti, tr), bilinear in the stray readings' grid, and
+ * its variance; 0 and 0 for a calibration without stray readings. */
+static int stray_at(const struct rad_calibration *cal, const struct rad_raw *s, int mon,
+                    double ti, double tr, double rate[3], double var[3], struct gonio_err *err)
+{
+    for (int c = 0; c < 3; c++)
+        rate[c] = var[c] = 0.0;
+    if (!cal->n_strays)
+        return 0;
+    double lo_i, hi_i, ra[3], va[3], rb[3], vb[3];
+    if (bracket_incidence(cal->strays, cal->n_strays, s->gain_state, ti, &lo_i, &hi_i) < 0)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "(%g, %g) deg: no stray-light readings "
+                             "around incidence %g deg at gain state %d", ti, tr, ti,
+                             s->gain_state);
+    int rc = stray_row(cal, s, mon, lo_i, tr, ra, va, err);
+    if (rc < 0 || (rc = stray_row(cal, s, mon, hi_i, tr, rb, vb, err)) < 0)
+        return rc;
+    double t = lo_i == hi_i ? 0.0 : (ti - lo_i) / (hi_i - lo_i);
+    for (int c = 0; c < 3; c++) {
+        rate[c] = ra[c] * (1 - t) + rb[c] * t;
+        var[c] = va[c] * (1 - t) * (1 - t) + (lo_i == hi_i ? 0.0 : vb[c] * t * t);
+    }
+    return 0;
+}
+
 /* The normalised response at (ti, tr) from one incidence row. */
 static int row_value(const struct rad_calibration *cal, const struct rad_raw *s, int mon,
                      double ti, double n[3], struct response *nearest, struct gonio_err *err)
 {
     const struct rad_ref *lo, *hi;
-    if (bracket_row(cal, s->gain_state, ti, s->theta_r, &lo, &hi) < 0)
+    if (bracket_row(cal->refs, cal->n_refs, s->gain_state, ti, s->theta_r, &lo, &hi) < 0)
         return gonio_err_set(err, GONIO_EBADCONFIG, "sample at (%g, %g) deg: outside the "
                              "reference's geometries at incidence %g deg (gain state %d)",
                              s->theta_i, s->theta_r, ti, s->gain_state);
@@ -203,7 +283,7 @@ static int reference_at(const struct rad_calibration *cal, const struct rad_raw 
                         struct response *out, struct gonio_err *err)
 {
     double lo_i, hi_i;
-    if (bracket_incidence(cal, s->gain_state, s->theta_i, &lo_i, &hi_i) < 0)
+    if (bracket_incidence(cal->refs, cal->n_refs, s->gain_state, s->theta_i, &lo_i, &hi_i) < 0)
         return gonio_err_set(err, GONIO_EBADCONFIG, "sample at (%g, %g) deg: no reference "
                              "readings around incidence %g deg at gain state %d", s->theta_i,
                              s->theta_r, s->theta_i, s->gain_state);
@@ -260,9 +340,12 @@ static int reduce_one(const struct rad_calibration *cal, const struct rad_raw *s
     int mon = isfinite(s->monitor) && s->monitor > 0;
     for (size_t k = 0; mon && k < cal->n_refs; k++)
         mon = isfinite(cal->refs[k].monitor) && cal->refs[k].monitor > 0;
+    for (size_t k = 0; mon && k < cal->n_strays; k++)
+        mon = isfinite(cal->strays[k].monitor) && cal->strays[k].monitor > 0;
     struct response ref = {0};
+    double stray[3], stray_var[3];
     int rc = reference_at(cal, s, mon, &ref, err);
-    if (rc < 0)
+    if (rc < 0 || (rc = stray_at(cal, s, mon, s->theta_i, s->theta_r, stray, stray_var, err)) < 0)
         return rc;
     const struct rad_dark *dr = ref.dark;
     double f[3], fs_sl[2] = {0, 0};
@@ -276,11 +359,14 @@ static int reduce_one(const struct rad_calibration *cal, const struct rad_raw *s
                 v->rel[t][c] = NAN;
             continue;
         }
-        double x_s = rad_linearise(s->counts[c] - ds->mean[c], s->nonlinearity, s->full_scale);
+        /* The stray light's photons are counted with the sample's. */
+        double x_all = rad_linearise(s->counts[c] - ds->mean[c], s->nonlinearity,
+                                     s->full_scale);
+        double x_s = x_all - m_s * stray[c];
         double A = f[c] / (ref.k[c] * m_s); /* BRDF per linearised count */
         double b = x_s * A;
         double g = su->adu_per_electron[c];
-        double var_s = g * fmax(x_s, 0.0) + ds->sd[c] * ds->sd[c];
+        double var_s = g * fmax(x_all, 0.0) + ds->sd[c] * ds->sd[c];
         double ab = fabs(b) > 0 ? fabs(b) : NAN;
         double r[RAD_N_TERMS] = {0};
         r[RAD_U_COUNTING] = A * sqrt(var_s) / ab;
@@ -303,6 +389,11 @@ static int reduce_one(const struct rad_calibration *cal, const struct rad_raw *s
                                                   : 0.0;
         r[RAD_U_ANGLE] = sqrt(angle_var(fs_sl, su->in_position_deg)); /* sample's: pass 2 */
         r[RAD_U_GEOMETRY] = su->geometry_rel_u;
+        /* The sample's and the reference's stray estimates taken as
+         * independent (they share readings only at a reference geometry,
+         * where their errors partly cancel). */
+        r[RAD_U_STRAY] = sqrt(m_s * m_s * stray_var[c] / (x_s * x_s) +
+                              ref.stray_var[c] / (xr * xr));
         v->brdf[c] = b;
         v->snr[c] = x_s / sqrt(var_s);
         for (int t = 0; t < RAD_N_TERMS; t++)

@@ -8,6 +8,10 @@
  *   x_s = NL^-1(S - D_s)   x_r = NL^-1(R - D_r)     (nonlinearity undone)
  *   BRDF = (x_s / x_r) * (m_r / m_s) * f_ref(theta_i, theta_r)
  *
+ * and, where the calibration has stray-light readings (the rig with the
+ * sample removed), x_s and x_r less the stray rate at their geometry times
+ * their monitor counts (or integration).
+ *
  * where m is the lamp monitor's counts when both readings have one (the
  * drift correction), else the integration time, and f_ref the standard's
  * BRDF (brdf/standard.h). Where the reference was not taken at the
@@ -65,6 +69,13 @@ struct rad_calibration {
     size_t n_darks;
     const struct rad_ref *refs;
     size_t n_refs;
+    /* Stray light: the rig read with the sample removed (a light trap in
+     * its place), at the reference's geometries, dark from the reference's
+     * set. Its rate (linearised counts above the dark per monitor count,
+     * or per second) interpolated at a reading's geometry is subtracted
+     * from the sample's and the standard's readings alike. None: n 0. */
+    const struct rad_ref *strays;
+    size_t n_strays;
     struct rad_setup setup;
 };
 
@@ -88,6 +99,7 @@ enum rad_term {
     RAD_U_NONLINEARITY, /* the stated nonlinearity's uncertainty */
     RAD_U_ANGLE,        /* in-position band times the local slopes */
     RAD_U_GEOMETRY,     /* placement, solid angle (systematic) */
+    RAD_U_STRAY,        /* the stray-light readings' noise (0 without them) */
     RAD_N_TERMS
 };
 

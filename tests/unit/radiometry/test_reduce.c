@@ -34,7 +34,7 @@ static void calibrate(struct syn_rig *r, const double (*geo)[2], size_t n, struc
     syn_dark(r, 0.4, 8, &st->darks[1]);
     for (size_t k = 0; k < n; k++)
         syn_reference(r, geo[k][0], geo[k][1], 0.1, 2, &st->refs[k]);
-    st->cal.standard = r->cert;
+    st->cal = (struct rad_calibration){.standard = r->cert};
     st->cal.darks = st->darks, st->cal.n_darks = 2;
     st->cal.refs = st->refs, st->cal.n_refs = n;
     syn_setup(r, &st->cal.setup);
