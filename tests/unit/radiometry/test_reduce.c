@@ -175,6 +175,46 @@ static void test_budget_terms_by_formula(void **state)
     assert_string_equal(rad_term_name(RAD_U_ANGLE), "angle");
 }
 
+static void test_stray_light_subtracted(void **state)
+{
+    (void)state;
+    /* Hand-made: the stray readings at two theta_r around the sample's
+     * and at the reference's, per second (no monitor); the sample's and the
+     * standard's readings each lose the stray rate times their integration. */
+    struct rad_dark d = {.integration_s = 0.1, .n = 16, .mean = {100, 100, 100},
+                         .sd = {8, 8, 8}};
+    struct rad_ref ref = {.theta_i = 0, .theta_r = 30, .integration_s = 0.1, .n = 4,
+                          .monitor = NAN, .counts = {10100, 10100, 10100}};
+    struct rad_ref st[2] = {{.theta_i = 0, .theta_r = 20, .integration_s = 0.1, .n = 8,
+                             .monitor = NAN, .counts = {110, 110, 110}},
+                            {.theta_i = 0, .theta_r = 40, .integration_s = 0.1, .n = 8,
+                             .monitor = NAN, .counts = {130, 130, 130}}};
+    struct rad_calibration cal = {.darks = &d, .n_darks = 1, .refs = &ref, .n_refs = 1};
+    syn_standard(&cal.standard);
+    cal.setup = (struct rad_setup){.adu_per_electron = {2, 2, 2}};
+    struct rad_raw s = {.theta_i = 0, .theta_r = 30, .integration_s = 0.1, .monitor = NAN,
+                        .counts = {5100, 5100, 5100}};
+    struct rad_value plain, v;
+    assert_int_equal(rad_reduce(&cal, &s, 1, &plain, NULL), 0);
+    cal.strays = st, cal.n_strays = 2;
+    assert_int_equal(rad_reduce(&cal, &s, 1, &v, NULL), 0);
+    /* At 30 deg the stray reads 20 counts above the dark: 200 per second. */
+    assert_rel_close(v.brdf[0], plain.brdf[0] * (5000.0 - 20) / 5000 * 10000 / (10000 - 20),
+                     1e-12);
+    assert_close(plain.rel[RAD_U_STRAY][0], 0.0, 0);
+    /* Halfway between the two: each rate's variance with weight 1/4. */
+    double var_rate = 0.25 * ((2 * 10.0 + 64) / 8 + 64.0 / 16) / 0.01 +
+               0.25 * ((2 * 30.0 + 64) / 8 + 64.0 / 16) / 0.01;
+    double vx = 0.01 * var_rate;
+    assert_rel_close(v.rel[RAD_U_STRAY][0],
+                     sqrt(vx / (4980.0 * 4980.0) + vx / (9980.0 * 9980.0)), 1e-12);
+    /* Outside the stray readings' grid: refused, naming it. */
+    st[1].theta_r = 25;
+    struct gonio_err err = {0};
+    assert_true(rad_reduce(&cal, &s, 1, &v, &err) < 0);
+    assert_non_null(strstr(err.msg, "stray light"));
+}
+
 static void test_uncovered_calibration_refused(void **state)
 {
     (void)state;
@@ -204,6 +244,7 @@ int main(void)
         cmocka_unit_test(test_dark_and_nonlinearity_together),
         cmocka_unit_test(test_reference_interpolated),
         cmocka_unit_test(test_budget_terms_by_formula),
+        cmocka_unit_test(test_stray_light_subtracted),
         cmocka_unit_test(test_uncovered_calibration_refused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
