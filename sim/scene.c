@@ -297,12 +297,28 @@ static int parse_effects(const struct cfg_doc *doc, const struct cfg_node *root,
     }
     scene->n_effects = (int)n;
     if (seen[SIM_FX_ADC] && scene->detector == SIM_DETECTOR_SPECTRAL) {
-        const struct cfg_node *adc = cfg_seq_item(doc, effects, (size_t)seen[SIM_FX_ADC] - 1);
-        const struct cfg_node *at = cfg_is_map(doc, adc) ? cfg_get(doc, adc, "name") : adc;
-        return cfg_error(doc, at ? at : adc, "name", err, "effect 'adc' needs an rgb detector (raw counts of a spectral "
-                         "detector are not simulated)");
+        /* a spectral detector's counts leave in three bins as well (its
+         * RGB): each must hold a band */
+        int in_bin[3] = {0};
+        for (int k = 0; k < scene->n_bands; k++)
+            in_bin[sim_scene_count_bin(scene->bands_nm[k])]++;
+        for (int c = 0; c < 3; c++)
+            if (!in_bin[c]) {
+                const struct cfg_node *adc =
+                    cfg_seq_item(doc, effects, (size_t)seen[SIM_FX_ADC] - 1);
+                const struct cfg_node *at = cfg_is_map(doc, adc) ? cfg_get(doc, adc, "name") : adc;
+                return cfg_error(doc, at ? at : adc, "name", err,
+                                 "effect 'adc' on a spectral detector needs bands on both sides "
+                                 "of 495 and 595 nm (its counts' %s bin is empty)",
+                                 c == 0 ? "595 nm and up" : c == 1 ? "495-595 nm" : "below 495 nm");
+            }
     }
     return 0;
+}
+
+int sim_scene_count_bin(double nm)
+{
+    return nm >= 595 ? 0 : nm >= 495 ? 1 : 2;
 }
 
 /* bands: {first_nm, last_nm, step_nm} or a list of wavelengths. */

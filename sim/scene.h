@@ -90,4 +90,10 @@ int sim_scene_load(const char *path_or_name, struct sim_scene *scene, struct gon
  * callers that simulate without a file. */
 void sim_scene_ideal(struct sim_scene *scene, const char *material);
 
+/* The bin of a spectral detector's counts a band at nm falls in: 0 (R,
+ * 595 nm and up), 1 (G, 495-595 nm), 2 (B, below 495 nm), the USB
+ * spectrometer's bins (docs/usb-spectrometer.md). With an adc, the
+ * reading's three channels are the rounded mean counts of each bin. */
+int sim_scene_count_bin(double nm);
+
 #endif
