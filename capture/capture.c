@@ -10,6 +10,7 @@
 #include "capture/journal_plan.h"
 #include "capture/autorange.h"
 #include "capture/calibration.h"
+#include "capture/capture_bands.h"
 #include "capture/calibration_check.h"
 #include "capture/eta.h"
 #include "capture/final_fit.h"
@@ -72,6 +73,7 @@ struct ranging {
     struct rig_clock *clk;
     const struct journal_sample *at;
     size_t darks; /* journalled by this run */
+    struct capture_bands_reading bands; /* the kept reading's (a spectral detector's) */
 };
 
 static int journal_dark(void *user, const struct drv_reading *r, struct gonio_err *err)
@@ -168,6 +170,7 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
     if ((rc = autorange_acquire(&rg->ar, d->detector, journal_dark, rg, &take, err)) < 0)
         return rc;
     const struct drv_reading r = take.r;
+    capture_bands_take(&rg->bands, &r);
     if (r.unit == DRV_UNIT_COUNTS) { /* the record is the counts; BRDF is derived */
         s->counts = 1;
         memcpy(s->raw, r.rgb, sizeof s->raw);
@@ -368,6 +371,8 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
     if (rc == 0) {
         capture_phase_enter(hooks, CAPTURE_PHASE_JOURNAL, (int)k);
         rc = journal_append(r->j, &s, err);
+        if (rc == 0)
+            rc = capture_bands_append(job->cfg.out_dir, &s, &r->ranging.bands, err);
         capture_phase_enter(hooks, CAPTURE_PHASE_BETWEEN, (int)k);
     }
     *next = -1;
@@ -699,9 +704,14 @@ static int finish(struct run *r, struct gonio_err *err)
     }
     capture_phase_enter(r->hooks, CAPTURE_PHASE_FIT, -1);
     double usys[3] = {0}; /* the calibration's shared error, for fits weighted by u */
+    struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
     if (job->cal)
         rad_systematic_rel_u(&job->cal->cal, usys);
-    int rc = capture_fit_samples(
+    int rc = job->cal ? capture_bands_reduce(job->cal, &jp, r->samples, r->n, job->cfg.out_dir,
+                                             err)
+                      : 0;
+    if (rc == 0)
+        rc = capture_fit_samples(
         r->samples, r->n, lf->fs && !lf->progress ? fit_stream_params(lf->fs) : NULL,
         job->model, job->cfg.out_dir,
         job->material_name[0] ? job->material_name
@@ -716,7 +726,6 @@ static int finish(struct run *r, struct gonio_err *err)
         rc = capture_assess_truth(job->truth, fitted, job->cfg.assess_nodes, out, err);
     if (rc == 0)
         rc = capture_files_results(job->cfg.out_dir, out, err);
-    struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
     if (rc == 0 && job->cal)
         rc = cal_results_budget(job->cal, &jp, r->samples, r->n, job->cfg.out_dir, err);
     brdf_material_free(fitted);

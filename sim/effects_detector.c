@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 
 #include "brdf/spectral.h"
+#include "brdf/standard.h"
 #include "sim/exposure.h"
 
 struct sim_detector {
@@ -31,9 +32,16 @@ static int open_spectral(sim_detector *d, const struct sim_scene *scene,
                          struct gonio_err *err)
 {
     const char *name = brdf_material_name(d->material);
-    if (strncmp(name, "spectral:", 9) == 0)
+    struct brdf_standard std;
+    if (strncmp(name, "spectral:", 9) == 0) {
         d->spectral = brdf_spectral_open(name, err);
-    else
+    } else if (strncmp(name, "standard:", 9) == 0) {
+        /* the standard as its certificate states it per wavelength, which
+         * the reduction of a spectral detector's bands uses */
+        if (brdf_standard_load(name + 9, &std, err) < 0)
+            return -abs(err ? err->code : GONIO_EBADCONFIG);
+        d->spectral = brdf_standard_spectral(&std, name, err);
+    } else
         d->spectral = brdf_spectral_lift(d->material, err);
     if (!d->spectral)
         return -abs(err ? err->code : ENOMEM);

@@ -38,7 +38,7 @@ static const char *const *effect_keys(enum sim_effect_kind k)
     static const char *const read[] = {"name", "sigma_e", NULL};
     static const char *const sat[] = {"name", "full_well_e", NULL};
     static const char *const adc[] = {"name", "gain_adu_per_e", "bits", "offset_adu",
-                                      "nonlinearity", NULL};
+                                      "nonlinearity", "offset_spread_adu", NULL};
     static const char *const monitor[] = {"name", "rate_counts_per_s", NULL};
     static const char *const jitter[] = {"name", "sigma_deg", "axes", NULL};
     static const char *const backlash[] = {"name", "deg", "axes", NULL};
@@ -150,11 +150,17 @@ static int parse_adc(const struct cfg_doc *doc, const struct cfg_node *item,
         (rc = cfg_double(doc, item, "offset_adu", CFG_OPTIONAL, 0, 4294967295.0, &fx->offset,
                          err)) < 0 ||
         (rc = cfg_double(doc, item, "nonlinearity", CFG_OPTIONAL, 0, 0.4, &fx->nonlinearity,
-                         err)) < 0)
+                         err)) < 0 ||
+        (rc = cfg_double(doc, item, "offset_spread_adu", CFG_OPTIONAL, 0, 4294967295.0,
+                         &fx->offset_spread, err)) < 0)
         return rc;
+    if (fx->offset_spread > fx->offset)
+        return cfg_error(doc, cfg_get(doc, item, "offset_spread_adu"), "offset_spread_adu", err,
+                         "%g ADU is more than the offset (%g ADU): an offset cannot go below 0",
+                         fx->offset_spread, fx->offset);
     fx->bits = (int)bits;
     double full = ldexp(1.0, fx->bits) - 1;
-    if (fx->offset >= full / 2)
+    if (fx->offset + fx->offset_spread >= full / 2)
         return cfg_error(doc, cfg_get(doc, item, "offset_adu"), "offset_adu", err,
                          "%g ADU leaves less than half of the %d-bit range (%g) for the signal",
                          fx->offset, fx->bits, full);

@@ -49,6 +49,8 @@ struct sim_effect_spec {
                             * deg, lamp_monitor counts/s */
     double gain;           /* adc: ADU per electron */
     double offset;         /* adc: ADU with no light and no dark */
+    double offset_spread;  /* adc: each channel's offset departs from offset by up to this
+                            * (a fixed pattern, as a spectrometer's pixels' do) */
     double nonlinearity;   /* adc: k, x ADU above the offset read x - k x^2 / full scale */
     int bits;              /* adc: resolution; counts clip at 2^bits - 1 */
     double rate;           /* stall/alarm: probability per move */
