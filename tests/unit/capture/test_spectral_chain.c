@@ -8,7 +8,8 @@
  * comes back to a median |measured / true - 1| of at most 0.5 % over the
  * values with u at most 1 % (a signal-to-noise ratio of 100 or more:
  * u holds the counting noise and more); reduced again with one band's dark
- * for every band, it is measurably worse: the dark is per band. */
+ * for every band, it is measurably worse: the dark is per band; `gonio
+ * recalibrate` with the same calibration reduces the bands alike. */
 #include <math.h>
 #include <sys/stat.h>
 
@@ -165,6 +166,20 @@ static void test_bands_recover_the_brdf(void **state)
     assert_true(r.band_bias_rms <= 0.002); /* no band off by its own dark or certificate */
 }
 
+/* gonio recalibrate with the capture's own calibration reduces its bands
+ * to the same spectra.csv, byte for byte. */
+static void test_recalibrate_reduces_the_bands_alike(void **state)
+{
+    (void)state;
+    const char *bin = getenv("GONIO_BIN");
+    char cmd[1024];
+    snprintf(cmd, sizeof cmd, "'%s/gonio' recalibrate '%s' --calibration '%s' --calibrations "
+             "'%s' -o '%s/recal' >/dev/null", bin ? bin : "build/bin", cap, id, cal, dir);
+    assert_int_equal(system(cmd), 0);
+    snprintf(cmd, sizeof cmd, "cmp -s '%s/spectra.csv' '%s/recal/spectra.csv'", cap, dir);
+    assert_int_equal(system(cmd), 0);
+}
+
 /* The same records reduced with the first band's dark for every band. */
 static void test_one_dark_for_all_bands_is_worse(void **state)
 {
@@ -211,6 +226,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_bands_recover_the_brdf),
         cmocka_unit_test(test_one_dark_for_all_bands_is_worse),
+        cmocka_unit_test(test_recalibrate_reduces_the_bands_alike),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
