@@ -707,11 +707,7 @@ static int finish(struct run *r, struct gonio_err *err)
     struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
     if (job->cal)
         rad_systematic_rel_u(&job->cal->cal, usys);
-    int rc = job->cal ? capture_bands_reduce(job->cal, &jp, r->samples, r->n, job->cfg.out_dir,
-                                             err)
-                      : 0;
-    if (rc == 0)
-        rc = capture_fit_samples(
+    int rc = capture_fit_samples(
         r->samples, r->n, lf->fs && !lf->progress ? fit_stream_params(lf->fs) : NULL,
         job->model, job->cfg.out_dir,
         job->material_name[0] ? job->material_name
@@ -767,6 +763,9 @@ int capture_job_run(capture_job *job, const struct capture_hooks *hooks,
     sequence_free(r.seq);
     if (rc == 0)
         summarize(&r, out);
+    struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
+    if (rc == 0 && !r.aborted && job->cal) /* a spectral detector's bands, whole */
+        rc = capture_bands_reduce(job->cal, &jp, r.samples, r.n, job->cfg.out_dir, err);
     /* the journal stays open for the dark frames of a check after the fit */
     if (rc == 0 && !r.aborted && !job->cfg.measure_only)
         rc = finish(&r, err);
