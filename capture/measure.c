@@ -123,6 +123,7 @@ int capture_measure_point(struct capture_devices *d, struct capture_clock *clk,
     if ((rc = autorange_acquire(&rg->ar, d->detector, journal_dark, rg, &take, err)) < 0)
         return rc;
     const struct drv_reading r = take.r;
+    capture_bands_take(&rg->bands, &r);
     if (r.unit == DRV_UNIT_COUNTS) { /* the record is the counts; BRDF is derived */
         s->counts = 1;
         memcpy(s->raw, r.rgb, sizeof s->raw);
