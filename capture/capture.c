@@ -156,12 +156,13 @@ static int measure_point(struct capture_devices *d, struct rig_clock *clk,
     journal_sample_clear(s);
     s->point = index;
     s->s = at[0];
-    s->a = at[1];
-    /* Angles from the axes, with the planner's mapping (sim.c explains). */
+    s->a = at[1]; /* angles from the axes, with the planner's mapping (sim.c explains) */
     brdf_axes_to_inplane(s->s, s->a, &s->theta_i, &s->theta_r);
     s->theta_o = fabs(s->theta_r);
     s->phi_i = 0.0;
     s->phi_o = fmod((d->azimuth ? at[2] : 0.0) + (s->theta_r >= 0 ? 180.0 : 0.0) + 360.0, 360.0);
+    if (d->rotation && rotation_deg != 0) /* the pair on the turned sample, as it read */
+        journal_sample_turn(s, at[n - 1]);
     rg->clk = clk;
     rg->at = s;
     struct autorange_take take;
@@ -201,12 +202,10 @@ static void add_axis_stats(const struct capture_devices *d, struct drv_axis_stat
 
 static void stop_axes(struct capture_devices *d)
 {
-    drv_axis_stop(d->sample, NULL);
-    drv_axis_stop(d->arm, NULL);
-    if (d->azimuth)
-        drv_axis_stop(d->azimuth, NULL);
-    if (d->rotation)
-        drv_axis_stop(d->rotation, NULL);
+    drv_axis *axes[4] = {d->sample, d->arm, d->azimuth, d->rotation};
+    for (int i = 0; i < 4; i++)
+        if (axes[i])
+            drv_axis_stop(axes[i], NULL);
 }
 
 /* The ETA a host shows: capture/eta.h's, metered from the journal. */
@@ -315,8 +314,8 @@ static int replay_journal(struct run *r, struct gonio_err *err)
     return 0;
 }
 
-/* Open the source's devices; a resumed capture's where its journal left
- * them (the journal keeps the sample's axes; the azimuth is the plan's). */
+/* Open the source's devices; a resumed capture's where its journal left them
+ * (the journal keeps the sample's axes; the azimuth is the plan's). */
 static int open_devices(const struct run *r, struct capture_devices *dev, struct gonio_err *err)
 {
     const struct capture_job *job = r->job;
@@ -344,7 +343,8 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
     /* The adaptive order decides the point after k meanwhile. */
     int rc = sequence_begin(r->seq, k, err);
     if (rc == 0)
-        rc = measure_point(dev, clk, hooks, &job->rig, pt, 0.0, (int)k, &r->ranging, &s, err);
+        rc = measure_point(dev, clk, hooks, &job->rig, pt, pt->rotation, (int)k, &r->ranging, &s,
+                           err);
     if (rc == 0) /* a source that could not say so before: its first reading tells */
         rc = capture_calibration_check(&job->cfg, s.counts, job->src->detector, err);
     if (rc == 0 && dev->counts && !s.counts) /* never BRDF from a detector of counts */
