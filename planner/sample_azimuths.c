@@ -12,8 +12,10 @@
 
 #define MAX_AZIMUTHS 36
 
-/* The azimuths asked for: a count K (K azimuths 180/K apart from 0: a
- * lobe is the same turned 180 degrees) or a list of degrees. */
+/* The azimuths asked for: a count K (K azimuths 180/(K + 1) apart from 0,
+ * within the half turn that holds every view of a lobe, which is the same
+ * turned 180 degrees; not 180/K: two turns 90 apart are refused, below) or
+ * a list of degrees. */
 static int read_azimuths(const struct cfg_doc *d, const struct cfg_node *root, double **az,
                          size_t *k, struct gonio_err *err)
 {
@@ -27,7 +29,7 @@ static int read_azimuths(const struct cfg_doc *d, const struct cfg_node *root, d
     if (!(*az = malloc((size_t)n * sizeof **az)))
         return gonio_err_set(err, ENOMEM, "%s: out of memory", cfg_path(d));
     for (long i = 0; i < n; i++)
-        (*az)[i] = 180.0 * (double)i / (double)n;
+        (*az)[i] = 180.0 * (double)i / (double)(n + 1);
     *k = (size_t)n;
     return 0;
 }
@@ -55,6 +57,13 @@ static int check_azimuths(const struct cfg_doc *d, const struct cfg_node *node,
                 return cfg_error(d, node, "sample_azimuths", err, "%g deg is given twice",
                                  az[i]);
     }
+    /* A reflection of the sample about either turn maps both slices onto
+     * themselves: a grain at +phi and one at -phi read alike. Three turns,
+     * or two not 90 apart, tell them apart. */
+    if (k == 2 && fabs(fmod(fabs(az[1] - az[0]), 180.0) - 90.0) < 1e-9)
+        return cfg_error(d, node, "sample_azimuths", err,
+                         "two turns 90 deg apart (%g, %g) cannot tell a grain at +phi from "
+                         "one at -phi; turn the second less (60) or add a third", az[0], az[1]);
     return 0;
 }
 
@@ -68,6 +77,8 @@ int plan_load_sample_azimuths(const struct cfg_doc *d, const struct cfg_node *ro
     double *az = NULL;
     size_t k = 0;
     int rc = read_azimuths(d, root, &az, &k, err);
+    if (rc > 0) /* cfg_doubles' count */
+        rc = 0;
     if (rc == 0)
         rc = check_azimuths(d, node, rig, p, az, k, err);
     struct plan_point *pts = rc == 0 ? malloc((p->n > 0 ? p->n * k : 1) * sizeof *pts) : NULL;
