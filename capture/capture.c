@@ -16,10 +16,10 @@
 #include "capture/isotropy_check.h"
 #include "capture/job.h"
 #include "capture/live_fit.h"
+#include "capture/measure.h"
 #include "capture/sequence.h"
 #include "journal/journal.h"
 #include "planner/planner.h"
-#include "rig/motion.h"
 
 const char *capture_phase_name(enum capture_phase phase)
 {
@@ -31,181 +31,6 @@ void capture_phase_enter(const struct capture_hooks *hooks, enum capture_phase p
 {
     if (hooks->on_phase)
         hooks->on_phase(hooks->user, ph, point);
-}
-
-/* The rig time a capture reports. A resumed run continues from the last
- * journalled sample (base) by what the rig clock measured since its devices
- * opened (t0), on every driver; clock that ran while the host held the
- * capture paused is kept apart (paused), not counted as rig time. */
-struct rig_clock {
-    drv_clock *clock;
-    double base, t0, last, paused;
-};
-
-static void rig_clock_start(struct rig_clock *rc, drv_clock *clock, double base)
-{
-    rc->clock = clock;
-    rc->base = base;
-    rc->t0 = rc->last = drv_clock_now(clock);
-    rc->paused = 0;
-}
-
-static double rig_clock_now(struct rig_clock *rc)
-{
-    rc->last = drv_clock_now(rc->clock);
-    return rc->base + (rc->last - rc->t0) - rc->paused;
-}
-
-/* The host held the capture paused since the last reading. */
-static void rig_clock_paused(struct rig_clock *rc)
-{
-    double now = drv_clock_now(rc->clock);
-    rc->paused += now - rc->last;
-    rc->last = now;
-}
-
-/* Auto-ranging across a run's points, and where its dark frames go: the
- * journal, as records of the point being measured (at). */
-struct ranging {
-    struct autorange ar;
-    journal *j;
-    struct rig_clock *clk;
-    const struct journal_sample *at;
-    size_t darks; /* journalled by this run */
-};
-
-static int journal_dark(void *user, const struct drv_reading *r, struct gonio_err *err)
-{
-    struct ranging *rg = user;
-    struct journal_sample s = *rg->at;
-    s.counts = 1;
-    memcpy(s.raw, r->rgb, sizeof s.raw);
-    for (int c = 0; c < 3; c++)
-        s.rgb[c] = NAN;
-    s.integration_s = s.integration_total_s = r->integration_s;
-    s.gain_state = r->gain_state;
-    s.monitor = r->monitor;
-    s.flags = JOURNAL_FLAG_DARK | ((r->flags & DRV_READING_SATURATED) ? JOURNAL_FLAG_SATURATED : 0);
-    s.rig_time_s = rig_clock_now(rg->clk);
-    int rc = journal_append(rg->j, &s, err);
-    rg->darks += rc == 0;
-    return rc;
-}
-
-/* Move the axes together, settle, integrate, and record where the axes
- * actually were: the sample is what the rig measured, not what was asked.
- * The settle runs from when the last axis came to rest, as its drive said
- * (drv_axis_rested); the encoders are read while it runs, so that their
- * reads add nothing to the point's time where the bus is slow. */
-static int measure_point(struct capture_devices *d, struct rig_clock *clk,
-                         const struct capture_hooks *hooks, const struct rig_profile *rig,
-                         const struct plan_point *pt, double rotation_deg, int index,
-                         struct ranging *rg, struct journal_sample *s, struct gonio_err *err)
-{
-    /* the axes the rig has: sample, arm, then azimuth and rotation if any */
-    drv_axis *axes[4] = {d->sample, d->arm};
-    double to[4] = {pt->ax.s, pt->ax.a};
-    const struct rig_axis *prof[4] = {&rig->sample, &rig->arm};
-    double at[4] = {0, 0, 0, 0}, rested = INFINITY;
-    int n = 2, rc;
-    if (d->azimuth) {
-        axes[n] = d->azimuth;
-        prof[n] = &rig->azimuth;
-        to[n++] = pt->ax.az;
-    }
-    if (d->rotation) {
-        axes[n] = d->rotation;
-        prof[n] = &rig->rotation;
-        to[n++] = rotation_deg;
-    }
-    for (int i = 0; i < n; i++)
-        if ((rc = drv_axis_start_move(axes[i], to[i], err)) < 0)
-            return rc;
-    capture_phase_enter(hooks, CAPTURE_PHASE_MOVE, index);
-    /* An axis moving against its approach direction stops beyond the
-     * target, then comes back: each such approach leg is sent as its first
-     * leg ends, the axes whose first legs end first first, so the move
-     * lasts as long as its slowest axis (rig/motion.h). */
-    int by_leg[4] = {0, 1, 2, 3};
-    double leg[4];
-    for (int i = 0; i < n; i++)
-        leg[i] = rig_axis_time(drv_axis_leg_deg(axes[i]), prof[i]->speed, prof[i]->accel);
-    for (int i = 1; i < n; i++)
-        for (int k = i; k > 0 && leg[by_leg[k]] < leg[by_leg[k - 1]]; k--) {
-            int tmp = by_leg[k];
-            by_leg[k] = by_leg[k - 1];
-            by_leg[k - 1] = tmp;
-        }
-    for (int k = 0; k < n; k++)
-        if ((rc = drv_axis_wait_leg(axes[by_leg[k]], err)) < 0)
-            return rc;
-    for (int i = 0; i < n; i++)
-        if ((rc = drv_axis_wait(axes[i], err)) < 0)
-            return rc;
-    capture_phase_enter(hooks, CAPTURE_PHASE_ACQUIRE, index);
-    for (int i = 0; i < n; i++)
-        if ((rc = drv_axis_position(axes[i], &at[i], err)) < 0)
-            return rc;
-    for (int i = 0; i < n; i++)
-        rested = fmin(rested, drv_axis_rested(axes[i]));
-    /* The integration starts no sooner than the detector's lag after the
-     * call: the settle is over by then. */
-    double left = rig->settle_s - rested - drv_detector_lag(d->detector);
-    if (left > 0 && (rc = drv_clock_sleep(d->clock, left)) < 0)
-        return gonio_err_set(err, -rc, "settle: %s", gonio_strerror(rc));
-    journal_sample_clear(s);
-    s->point = index;
-    s->s = at[0];
-    s->a = at[1]; /* angles from the axes, with the planner's mapping (sim.c explains) */
-    brdf_axes_to_inplane(s->s, s->a, &s->theta_i, &s->theta_r);
-    s->theta_o = fabs(s->theta_r);
-    s->phi_i = 0.0;
-    s->phi_o = fmod((d->azimuth ? at[2] : 0.0) + (s->theta_r >= 0 ? 180.0 : 0.0) + 360.0, 360.0);
-    if (d->rotation && rotation_deg != 0) /* the pair on the turned sample, as it read */
-        journal_sample_turn(s, at[n - 1]);
-    rg->clk = clk;
-    rg->at = s;
-    struct autorange_take take;
-    if ((rc = autorange_acquire(&rg->ar, d->detector, journal_dark, rg, &take, err)) < 0)
-        return rc;
-    const struct drv_reading r = take.r;
-    if (r.unit == DRV_UNIT_COUNTS) { /* the record is the counts; BRDF is derived */
-        s->counts = 1;
-        memcpy(s->raw, r.rgb, sizeof s->raw);
-        s->gain_state = r.gain_state;
-    } else {
-        memcpy(s->rgb, r.rgb, sizeof s->rgb);
-    }
-    s->monitor = r.monitor;
-    s->integration_s = r.integration_s;
-    s->integration_total_s = take.total_s;
-    s->flags = (r.flags & DRV_READING_SATURATED) ? JOURNAL_FLAG_SATURATED : 0;
-    s->rig_time_s = rig_clock_now(clk);
-    return 0;
-}
-
-/* What the axes' mechanics cost (re-commands, alarms, re-homes), summed. */
-static void add_axis_stats(const struct capture_devices *d, struct drv_axis_stats *sum)
-{
-    const drv_axis *axes[4] = {d->sample, d->arm, d->azimuth, d->rotation};
-    for (int i = 0; i < 4; i++) {
-        struct drv_axis_stats st;
-        if (!axes[i])
-            continue;
-        drv_axis_stats(axes[i], &st);
-        sum->moves += st.moves;
-        sum->recommands += st.recommands;
-        sum->alarms_recovered += st.alarms_recovered;
-        sum->rehomes += st.rehomes;
-    }
-}
-
-static void stop_axes(struct capture_devices *d)
-{
-    drv_axis *axes[4] = {d->sample, d->arm, d->azimuth, d->rotation};
-    for (int i = 0; i < 4; i++)
-        if (axes[i])
-            drv_axis_stop(axes[i], NULL);
 }
 
 /* The ETA a host shows: capture/eta.h's, metered from the journal. */
@@ -293,7 +118,7 @@ struct run {
     struct sequence_setup order;
     sequence *seq;
     struct journal_sample *samples; /* the journal's, then this run's (room for the plan) */
-    struct ranging ranging;         /* its dark frames are journalled, not samples */
+    struct capture_ranging ranging; /* its dark frames are journalled, not samples */
     size_t n, already;              /* samples, of which journalled by earlier runs */
     struct live_fit fit;
     capture_eta *eta;
@@ -314,8 +139,8 @@ static int replay_journal(struct run *r, struct gonio_err *err)
     return 0;
 }
 
-/* Open the source's devices; a resumed capture's where its journal left them
- * (the journal keeps the sample's axes; the azimuth is the plan's). */
+/* Open the source's devices; a resumed capture's where its journal left
+ * them (the journal keeps the sample's axes; the azimuth is the plan's). */
 static int open_devices(const struct run *r, struct capture_devices *dev, struct gonio_err *err)
 {
     const struct capture_job *job = r->job;
@@ -333,7 +158,7 @@ static int open_devices(const struct run *r, struct capture_devices *dev, struct
 
 /* Measure point k and journal it; *next receives the point after it (-1:
  * none). Returns 1 when the streaming fit decided. */
-static int measure_one(struct run *r, struct capture_devices *dev, struct rig_clock *clk,
+static int measure_one(struct run *r, struct capture_devices *dev, struct capture_clock *clk,
                        long k, long *next, struct gonio_err *err)
 {
     const struct capture_job *job = r->job;
@@ -343,8 +168,8 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
     /* The adaptive order decides the point after k meanwhile. */
     int rc = sequence_begin(r->seq, k, err);
     if (rc == 0)
-        rc = measure_point(dev, clk, hooks, &job->rig, pt, pt->rotation, (int)k, &r->ranging, &s,
-                           err);
+        rc = capture_measure_point(dev, clk, hooks, &job->rig, pt, pt->rotation, (int)k,
+                                   &r->ranging, &s, err);
     if (rc == 0) /* a source that could not say so before: its first reading tells */
         rc = capture_calibration_check(&job->cfg, s.counts, job->src->detector, err);
     if (rc == 0 && dev->counts && !s.counts) /* never BRDF from a detector of counts */
@@ -352,7 +177,7 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
                            "the detector said at open that it gives counts, and its reading "
                            "is BRDF: a detector that changed its mode is not trusted");
     if (rc < 0) {
-        stop_axes(dev); /* a failed point leaves no axis moving */
+        capture_axes_stop(dev); /* a failed point leaves no axis moving */
         if (err) { /* name the point the operator will find in plan.json */
             char msg[GONIO_ERR_MSG_MAX];
             snprintf(msg, sizeof msg, "%s", err->msg);
@@ -396,7 +221,7 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct rig_cl
 struct check_ctx {
     struct run *r;
     struct capture_devices *dev;
-    struct rig_clock *clk;
+    struct capture_clock *clk;
 };
 
 static int check_read(struct check_ctx *c, const struct plan_point *pt, double rotation_deg,
@@ -404,10 +229,10 @@ static int check_read(struct check_ctx *c, const struct plan_point *pt, double r
 {
     static const struct capture_hooks no_hooks;
     struct journal_sample s;
-    int rc = measure_point(c->dev, c->clk, &no_hooks, &c->r->job->rig, pt, rotation_deg, -1,
-                           &c->r->ranging, &s, err);
+    int rc = capture_measure_point(c->dev, c->clk, &no_hooks, &c->r->job->rig, pt, rotation_deg,
+                                   -1, &c->r->ranging, &s, err);
     if (rc < 0) {
-        stop_axes(c->dev);
+        capture_axes_stop(c->dev);
         return rc;
     }
     *value = NAN;
@@ -468,35 +293,35 @@ static int check_out_of_plane(struct run *r, const brdf_material *model, struct 
     int rc = open_devices(r, &dev, err);
     if (rc < 0)
         return rc;
-    struct rig_clock clk;
-    rig_clock_start(&clk, dev.clock, 0);
+    struct capture_clock clk;
+    capture_clock_start(&clk, dev.clock, 0);
     struct check_ctx c = {r, &dev, &clk};
     if (!dev.azimuth)
         rc = gonio_err_set(err, GONIO_EUSAGE, "--check out-of-plane: the rig source has no "
                            "azimuth axis device");
     else
         rc = oop_check_run(oop_predict, (void *)model, oop_measure, &c, &r->out->oop, err);
-    r->out->oop.rig_time_s = rig_clock_now(&clk);
+    r->out->oop.rig_time_s = capture_clock_now(&clk);
     r->out->has_oop = rc == 0;
-    add_axis_stats(&dev, &r->out->mech);
+    capture_axis_stats_add(&dev, &r->out->mech);
     r->job->src->close(r->job->src->user, &dev);
     return rc;
 }
 
 /* The isotropy check after the capture's last point (capture_config
  * checks), on the rig's rotation axis; its rig time apart. */
-static int check_isotropy(struct run *r, struct capture_devices *dev, struct rig_clock *clk,
-                          struct gonio_err *err)
+static int check_isotropy(struct run *r, struct capture_devices *dev,
+                          struct capture_clock *clk, struct gonio_err *err)
 {
     if (!dev->rotation)
         return gonio_err_set(err, GONIO_EUSAGE, "--check isotropy: the rig source has no "
                              "rotation axis device");
     struct check_ctx c = {r, dev, clk};
-    double t0 = rig_clock_now(clk);
+    double t0 = capture_clock_now(clk);
     int rc = iso_check_run(r->samples, r->n, check_measure, &c, &r->out->isotropy, err);
     if (rc < 0)
         return rc;
-    r->out->isotropy.rig_time_s = rig_clock_now(clk) - t0;
+    r->out->isotropy.rig_time_s = capture_clock_now(clk) - t0;
     r->out->has_isotropy = 1;
     return 0;
 }
@@ -538,17 +363,17 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
         r->aborted = rc == -ECANCELED; /* the host stopped it while the devices opened */
         return r->aborted ? 0 : rc;
     }
-    struct rig_clock clk;
-    rig_clock_start(&clk, dev.clock, rig_s);
+    struct capture_clock clk;
+    capture_clock_start(&clk, dev.clock, rig_s);
     for (long k = first; k >= 0 && rc == 0;) {
         enum capture_control c = hooks->control ? hooks->control(hooks->user) : CAPTURE_GO;
         if (c == CAPTURE_ABORT) {
-            stop_axes(&dev);
+            capture_axes_stop(&dev);
             r->aborted = 1;
             break;
         }
         if (c == CAPTURE_PAUSED)
-            rig_clock_paused(&clk);
+            capture_clock_paused(&clk);
         rc = measure_one(r, &dev, &clk, k, &k, err);
         if (rc == -ECANCELED) { /* the host's abort ended the point's waits: nothing journalled */
             r->aborted = 1;
@@ -564,7 +389,7 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
     if (rc == 0 && !r->aborted && (r->job->cfg.checks & CAPTURE_CHECK_ISOTROPY))
         rc = check_isotropy(r, &dev, &clk, err);
     r->out->paused_s = clk.paused;
-    add_axis_stats(&dev, &r->out->mech);
+    capture_axis_stats_add(&dev, &r->out->mech);
     job->src->close(job->src->user, &dev);
     return rc;
 }

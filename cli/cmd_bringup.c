@@ -26,6 +26,8 @@ static void usage(FILE *out, const char *cmd)
             "  soft limits and back, to prove the rig profile on a new rig\n"
             "  Each prints where the axes stand once it ended (--json: goniod's reply).\n"
             "  Needs goniod on a Modbus rig; refused while a capture runs.\n"
+            "  gonio abort (from another terminal) ends it: the axes stop where they\n"
+            "  are, it prints 'aborted' and that table, and exits 1.\n"
             "  The socket is --socket, else $GONIO_SOCKET, else " GONIO_SOCKET_DEFAULT ".\n",
             cmd, args, 0.25);
 }
@@ -121,10 +123,13 @@ static int bringup(int argc, char **argv, const char *cmd, int min_args, int max
     }
     json_t *rep = conn_request(&c, req);
     int rc = reply_failed(rep);
-    if (!rc && json) {
+    /* Aborted (gonio abort): exit 1, and where the axes stopped. */
+    const char *code = rc ? json_string_value(json_object_get(rep, "code")) : NULL;
+    int aborted = code && !strcmp(code, "aborted");
+    if ((!rc || aborted) && json) {
         json_dumpf(rep, stdout, JSON_INDENT(2));
         putchar('\n');
-    } else if (!rc) {
+    } else if (!rc || aborted) {
         show_axes(rep);
     }
     json_decref(rep);

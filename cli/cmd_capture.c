@@ -144,6 +144,60 @@ static void print_policy(const struct capture_summary *s)
            s->decisions, s->decision_mean_s, s->decision_max_s, s->decision_wait_s);
 }
 
+/* What the capture measured, how the fit went and what the checks said. */
+static void print_summary(const char *out_dir, const struct capture_summary *s)
+{
+    printf("capture %s: plan %s, material %s, model %s\n", out_dir, s->plan, s->material,
+           s->model);
+    if (s->not_fitted[0]) { /* --uncalibrated: counts journalled, no fit to show */
+        printf("  %zu samples, rig time %.1f s (move %.1f, settle %.1f, integration %.1f)\n"
+               "  auto-ranging: %zu readings taken again, %zu dark frames\n"
+               "  not fitted: %s\n",
+               s->samples, s->rig_time_s, s->move_s, s->settle_s, s->integration_s, s->retakes,
+               s->darks, s->not_fitted);
+        return;
+    }
+    printf("  %zu samples, rig time %.1f s (move %.1f, settle %.1f, integration %.1f), fit "
+           "%.3f s%s\n",
+           s->samples, s->rig_time_s, s->move_s, s->settle_s, s->integration_s, s->fit_time_s,
+           s->converged ? "" : " (fit did not converge)");
+    if (s->paused_s > 0)
+        printf("  paused %.1f s of rig clock (not in the rig time)\n", s->paused_s);
+    char status[400];
+    fit_status_line(&s->status, status, sizeof status);
+    printf("  fit status: %s\n", status);
+    const struct fit_model_kind *kind = fit_model_find(s->model);
+    if (s->saturated)
+        printf("  %zu saturated readings, fitted %s\n", s->saturated,
+               kind && fit_model_censors(kind, FIT_SATURATED_DEFAULT)
+                   ? "as lower bounds (censored)"
+                   : "at their clipped values (lower bounds of the truth)");
+    if (s->adaptive)
+        print_policy(s);
+    else if (!strcmp(s->stop_reason, "converged"))
+        printf("  stopped on convergence after %zu samples\n", s->samples);
+    if (s->model_file[0])
+        printf("  model file %s/%s\n", out_dir, s->model_file);
+    if (s->warning[0]) /* abc-prior: too few samples to pin the lobe */
+        printf("  %s\n", s->warning);
+    print_errors("plan", &s->err_plan);
+    if (s->has_truth) {
+        printf("  against %s:\n", s->truth);
+        print_errors("in-plane", &s->err_inplane);
+        print_errors("full", &s->err_full);
+    }
+    if (s->has_isotropy)
+        printf("  isotropy check: %s (%s; %zu pairs, %.0f s of rig time, %.1f%% of the "
+               "capture's)\n",
+               s->isotropy.verdict, s->isotropy.why, s->isotropy.pairs, s->isotropy.rig_time_s,
+               s->rig_time_s > 0 ? 100.0 * s->isotropy.rig_time_s / s->rig_time_s : 0.0);
+    if (s->has_oop)
+        printf("  out-of-plane check: in-plane %s (%s; %zu pairs, %.0f s of rig time, %.1f%% "
+               "of the capture's)\n",
+               s->oop.verdict, s->oop.why, s->oop.pairs, s->oop.rig_time_s,
+               s->rig_time_s > 0 ? 100.0 * s->oop.rig_time_s / s->rig_time_s : 0.0);
+}
+
 int cmd_capture(int argc, char **argv)
 {
     static const struct option opts[] = {
@@ -250,54 +304,6 @@ int cmd_capture(int argc, char **argv)
                     o.pool ? "" : " points", cfg.out_dir);
         return INTERRUPT_EXIT;
     }
-    printf("capture %s: plan %s, material %s, model %s\n", cfg.out_dir, s.plan, s.material,
-           s.model);
-    if (s.not_fitted[0]) { /* --uncalibrated: counts journalled, no fit to show */
-        printf("  %zu samples, rig time %.1f s (move %.1f, settle %.1f, integration %.1f)\n"
-               "  auto-ranging: %zu readings taken again, %zu dark frames\n"
-               "  not fitted: %s\n",
-               s.samples, s.rig_time_s, s.move_s, s.settle_s, s.integration_s, s.retakes,
-               s.darks, s.not_fitted);
-        return 0;
-    }
-    printf("  %zu samples, rig time %.1f s (move %.1f, settle %.1f, integration %.1f), fit "
-           "%.3f s%s\n",
-           s.samples, s.rig_time_s, s.move_s, s.settle_s, s.integration_s, s.fit_time_s,
-           s.converged ? "" : " (fit did not converge)");
-    if (s.paused_s > 0)
-        printf("  paused %.1f s of rig clock (not in the rig time)\n", s.paused_s);
-    char status[400];
-    fit_status_line(&s.status, status, sizeof status);
-    printf("  fit status: %s\n", status);
-    const struct fit_model_kind *kind = fit_model_find(s.model);
-    if (s.saturated)
-        printf("  %zu saturated readings, fitted %s\n", s.saturated,
-               kind && fit_model_censors(kind, FIT_SATURATED_DEFAULT)
-                   ? "as lower bounds (censored)"
-                   : "at their clipped values (lower bounds of the truth)");
-    if (s.adaptive)
-        print_policy(&s);
-    else if (!strcmp(s.stop_reason, "converged"))
-        printf("  stopped on convergence after %zu samples\n", s.samples);
-    if (s.model_file[0])
-        printf("  model file %s/%s\n", cfg.out_dir, s.model_file);
-    if (s.warning[0]) /* abc-prior: too few samples to pin the lobe */
-        printf("  %s\n", s.warning);
-    print_errors("plan", &s.err_plan);
-    if (s.has_truth) {
-        printf("  against %s:\n", s.truth);
-        print_errors("in-plane", &s.err_inplane);
-        print_errors("full", &s.err_full);
-    }
-    if (s.has_isotropy)
-        printf("  isotropy check: %s (%s; %zu pairs, %.0f s of rig time, %.1f%% of the "
-               "capture's)\n",
-               s.isotropy.verdict, s.isotropy.why, s.isotropy.pairs, s.isotropy.rig_time_s,
-               s.rig_time_s > 0 ? 100.0 * s.isotropy.rig_time_s / s.rig_time_s : 0.0);
-    if (s.has_oop)
-        printf("  out-of-plane check: in-plane %s (%s; %zu pairs, %.0f s of rig time, %.1f%% "
-               "of the capture's)\n",
-               s.oop.verdict, s.oop.why, s.oop.pairs, s.oop.rig_time_s,
-               s.rig_time_s > 0 ? 100.0 * s.oop.rig_time_s / s.rig_time_s : 0.0);
+    print_summary(cfg.out_dir, &s);
     return 0;
 }

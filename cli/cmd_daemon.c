@@ -464,7 +464,11 @@ static int show_reply(struct conn *c, const char *cmd, json_t *rep, int json_out
             show_list(json_object_get(rep, "captures"));
     } else {
         const char *id = json_string_value(json_object_get(rep, "capture_id"));
-        printf("goniod: %s%s%s\n", cmd, id ? " " : "", id ? id : "");
+        const char *bringup = json_string_value(json_object_get(rep, "bringup"));
+        if (bringup)
+            printf("goniod: %s bring-up '%s': its axes stop\n", cmd, bringup);
+        else
+            printf("goniod: %s%s%s\n", cmd, id ? " " : "", id ? id : "");
         if (id && !strcmp(cmd, "abort"))
             print_resume_hint(id, sock);
     }
@@ -553,7 +557,8 @@ int cmd_abort(int argc, char **argv)
 {
     return simple(argc, argv, "abort", "",
                   "stop the capture at the next point boundary; its samples are kept, and\n"
-                  "  the command that resumes it is printed");
+                  "  the command that resumes it is printed. A running bring-up command\n"
+                  "  (home, move, limits) ends at once, its axes stopped where they are");
 }
 
 int cmd_shutdown(int argc, char **argv)
@@ -605,10 +610,11 @@ static void capture_usage(FILE *out)
             "                     [--uncalibrated] [--calibration ID|newest]\n"
             "                     [--check CHECK[,CHECK]] [--wait] [--quiet] [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
-            "  'gonio capture --offline --help'). A --plan or --rig FILE is read here and\n"
-            "  sent with the request (at most 16384 bytes); goniod keeps a copy in the\n"
-            "  capture directory, which a resume reads. A --scene FILE and merl: files are\n"
-            "  relative to goniod's capture root. --model: the final fit's model, any RGB\n"
+            "  'gonio capture --offline --help'). A --plan, --rig or --scene FILE is read\n"
+            "  here and sent with the request (at most 16384 bytes); goniod keeps a copy in\n"
+            "  the capture directory, which a resume reads; a sent scene names its material\n"
+            "  and rig, not files. merl: files are relative to goniod's capture root.\n"
+            "  --model: the final fit's model, any RGB\n"
             "  model of 'gonio fit --help' (default abc). --truth SPEC: the reference\n"
             "  material of the in-plane and full-domain errors (on hardware there are none\n"
             "  without it; on the simulator the default is the material it measures). On a\n"
@@ -704,17 +710,20 @@ int cmd_capture_daemon(int argc, char **argv)
         fprintf(stderr, "gonio capture: --stop '%s': use all or converge\n", vals[6]);
         return 2;
     }
-    /* A plan or rig named as a file is read here and travels with the
-     * request (cli/request_file.h); the rest are names or values. */
+    /* A plan, rig or scene named as a file is read here and travels with
+     * the request (cli/request_file.h); the rest are names or values. */
     json_t *req = json_pack("{s:s}", "cmd", "capture");
     int rc = 0;
     for (int i = 0; i < N_KEYS && !rc; i++) {
         if (!vals[i])
             continue;
-        if (!strcmp(keys[i], "plan") || !strcmp(keys[i], "rig"))
-            rc = request_file_attach(req, keys[i], i == 0 ? "--plan" : "--rig", vals[i]);
-        else
+        if (!strcmp(keys[i], "plan") || !strcmp(keys[i], "rig") || !strcmp(keys[i], "scene")) {
+            char opt[16];
+            snprintf(opt, sizeof opt, "--%s", keys[i]);
+            rc = request_file_attach(req, keys[i], opt, vals[i]);
+        } else {
             json_object_set_new(req, keys[i], json_string(vals[i]));
+        }
     }
     if (budget > 0)
         json_object_set_new(req, "budget", json_real(budget));

@@ -77,6 +77,20 @@ static int parse_theta_list(const char *text, double *out, size_t *n)
     return *n ? 0 : -1;
 }
 
+static int parse_channel(const char *text, enum report_channel *out)
+{
+    static const struct {
+        const char *name;
+        enum report_channel channel;
+    } channels[] = {{"y", REPORT_Y}, {"r", REPORT_R}, {"g", REPORT_G}, {"b", REPORT_B}};
+    for (size_t i = 0; i < sizeof channels / sizeof *channels; i++)
+        if (!strcmp(text, channels[i].name)) {
+            *out = channels[i].channel;
+            return 0;
+        }
+    return -1;
+}
+
 static int plot_slices(int argc, char **argv)
 {
     static const struct option opts[] = {
@@ -120,15 +134,7 @@ static int plot_slices(int argc, char **argv)
             }
             break;
         case 'c':
-            if (!strcmp(optarg, "y"))
-                channel = REPORT_Y;
-            else if (!strcmp(optarg, "r"))
-                channel = REPORT_R;
-            else if (!strcmp(optarg, "g"))
-                channel = REPORT_G;
-            else if (!strcmp(optarg, "b"))
-                channel = REPORT_B;
-            else {
+            if (parse_channel(optarg, &channel) < 0) {
                 fprintf(stderr, "gonio plot: --channel '%s' is not y, r, g or b\n", optarg);
                 return 2;
             }

@@ -1,5 +1,6 @@
 #include "daemon/bringup.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -106,6 +107,16 @@ void bringup_run(const struct goniod_config *cfg, const struct rig_profile *rig,
     if (out->rc < 0)
         return;
     out->rc = run_op(&axes, rig, job, out);
+    /* Cancelled mid-way: a drive still runs its move, which the operator
+     * asked to end; STOP goes through although the bus is cancelled. */
+    if (out->rc < 0 && cancelled && cancelled(user)) {
+        for (int i = 0; i < axes.n; i++)
+            drv_axis_stop(axes.ax[i], NULL);
+        out->aborted = 1;
+        out->rc = gonio_err_set(&out->err, ECANCELED, "%s%s%s: aborted; the axes stopped where "
+                                "they stand", bringup_op_name(job->op), job->axis[0] ? " " : "",
+                                job->axis);
+    }
     /* Where every axis stands now, also after a failure (what the operator
      * needs to see then); the first error is the one reported. */
     for (int i = 0; i < axes.n; i++) {

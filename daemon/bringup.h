@@ -33,6 +33,7 @@ struct bringup_axis {
 struct bringup_result {
     int rc;
     struct gonio_err err;
+    int aborted; /* cancelled (gonio abort, shutdown): the axes were stopped */
     int n;
     struct bringup_axis axes[GONIOD_AXES_MAX]; /* where every axis stands at the end */
     /* limits: where the axis reached its min and max soft limits, and came back to */
@@ -50,7 +51,8 @@ int bringup_check(const struct goniod_config *cfg, const struct rig_profile *rig
                   const struct bringup_job *job, struct gonio_err *err);
 
 /* Run job on the configured drives (opened and closed here); cancelled
- * (with user) ends a wait under way (shutdown). */
+ * (with user) ends a wait under way (abort, shutdown): every axis is then
+ * told to stop, and out says aborted with rc -ECANCELED. */
 void bringup_run(const struct goniod_config *cfg, const struct rig_profile *rig,
                  const struct bringup_job *job, int (*cancelled)(void *user), void *user,
                  struct bringup_result *out);

@@ -98,10 +98,11 @@ static int load_sim(const struct cfg_doc *d, const struct cfg_node *drv,
 static int load_slaves(const struct cfg_doc *d, const struct cfg_node *drv,
                        struct goniod_config *cfg, struct gonio_err *err)
 {
-    static const char *const keys[] = {"sample", "arm", "azimuth", "detector", NULL};
+    static const char *const keys[] = {"sample", "arm", "azimuth", "detector", "sample_changer",
+                                       NULL};
     const struct cfg_node *m;
     /* Defaults: docs/protocol-modbus.md's map. */
-    long s = 1, a = 2, det = 3, az = 0;
+    long s = 1, a = 2, det = 3, az = 0, ch = 0;
     int rc = cfg_map(d, drv, "slaves", CFG_OPTIONAL, &m, err);
     if (rc < 0)
         return rc;
@@ -109,14 +110,16 @@ static int load_slaves(const struct cfg_doc *d, const struct cfg_node *drv,
               (rc = cfg_int(d, m, "sample", CFG_OPTIONAL, 1, 247, &s, err)) < 0 ||
               (rc = cfg_int(d, m, "arm", CFG_OPTIONAL, 1, 247, &a, err)) < 0 ||
               (rc = cfg_int(d, m, "azimuth", CFG_OPTIONAL, 0, 247, &az, err)) < 0 ||
-              (rc = cfg_int(d, m, "detector", CFG_OPTIONAL, 1, 247, &det, err)) < 0))
+              (rc = cfg_int(d, m, "detector", CFG_OPTIONAL, 1, 247, &det, err)) < 0 ||
+              (rc = cfg_int(d, m, "sample_changer", CFG_OPTIONAL, 0, 247, &ch, err)) < 0))
         return rc;
-    if (s == a || s == det || a == det || (az && (az == s || az == a || az == det)))
+    if (s == a || s == det || a == det || (az && (az == s || az == a || az == det)) ||
+        (ch && (ch == s || ch == a || ch == det || ch == az)))
         return cfg_error(d, m ? m : drv, "slaves", err,
                          "every device needs its own slave id (sample %ld, arm %ld, "
-                         "azimuth %ld, detector %ld)",
-                         s, a, az, det);
-    cfg->slaves = (struct goniod_slaves){(int)s, (int)a, (int)az, (int)det};
+                         "azimuth %ld, detector %ld, sample_changer %ld)",
+                         s, a, az, det, ch);
+    cfg->slaves = (struct goniod_slaves){(int)s, (int)a, (int)az, (int)det, (int)ch};
     return 0;
 }
 
@@ -270,7 +273,20 @@ static int load_socket(const struct cfg_doc *d, const struct cfg_node *root,
 int goniod_config_rig_gap(const struct goniod_config *cfg, const struct rig_profile *rig,
                           const char *rig_ref, char *why, size_t size)
 {
-    if (cfg->driver == GONIOD_DRIVER_SIM || !rig->out_of_plane || cfg->slaves.azimuth)
+    if (cfg->driver == GONIOD_DRIVER_SIM)
+        return 0;
+    if (rig->sample_changer && !cfg->slaves.sample_changer) {
+        /* The profile says samples can be changed on this rig; a driver
+         * that cannot reach the changer would find out at the first
+         * change, with a sample under the beam that is not the one named. */
+        snprintf(why, size,
+                 "driver.slaves.sample_changer is %d (none), but rig profile '%s' has a "
+                 "sample changer (sample_changer: true); set driver.slaves.sample_changer to "
+                 "the changer's slave id, or name a rig profile without one",
+                 cfg->slaves.sample_changer, rig_ref);
+        return -GONIO_EBADCONFIG;
+    }
+    if (!rig->out_of_plane || cfg->slaves.azimuth)
         return 0;
     /* Without the drive the engine would leave the azimuth where it is and
      * record in-plane samples as the out-of-plane pairs they were planned as. */
@@ -358,9 +374,11 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
     }
     char why[1400];
     if (goniod_config_rig_gap(cfg, &rig, cfg->rig, why, sizeof why) < 0) {
+        const char *key = rig.sample_changer && !cfg->slaves.sample_changer ? "sample_changer"
+                                                                             : "azimuth";
         const struct cfg_node *slaves = cfg_get(d, drv, "slaves");
-        const struct cfg_node *az = slaves ? cfg_get(d, slaves, "azimuth") : NULL;
-        rc = cfg_error(d, az ? az : slaves ? slaves : drv, "azimuth", err, "%s", why);
+        const struct cfg_node *at = slaves ? cfg_get(d, slaves, key) : NULL;
+        rc = cfg_error(d, at ? at : slaves ? slaves : drv, key, err, "%s", why);
         goto out;
     }
     rc = 0;
@@ -419,6 +437,8 @@ void goniod_config_print(FILE *out, const struct goniod_config *c)
         fprintf(out, "  slaves:\n    sample: %d\n    arm: %d\n    azimuth: %d\n"
                      "    detector: %d\n",
                 c->slaves.sample, c->slaves.arm, c->slaves.azimuth, c->slaves.detector);
+        if (c->slaves.sample_changer)
+            fprintf(out, "    sample_changer: %d\n", c->slaves.sample_changer);
         fprintf(out, "  steps_per_deg: %g\n  time_scale: %g\n  timeout_s: %g\n  retries: %d\n",
                 c->steps_per_deg, c->time_scale, c->timeout_s, c->retries);
         if (c->detector == GONIOD_DETECTOR_USB) {

@@ -76,7 +76,15 @@ void control_bringup_reply(control *c, const struct worker_msg_bringup *m)
     json_t *id = c->bringup_id;
     c->bringup_client = NULL;
     c->bringup_id = NULL;
-    if (cl && r->rc < 0) {
+    if (cl && r->aborted) {
+        /* an error that still says where the axes came to rest */
+        json_t *reply = json_pack("{s:s, s:s, s:s}", "class", "ERROR", "code", "aborted",
+                                  "message", r->err.msg);
+        if (id)
+            json_object_set(reply, "id", id);
+        json_object_set_new(reply, "axes", axes_doc(r));
+        control_client_send(cl, reply);
+    } else if (cl && r->rc < 0) {
         control_send_error(cl, "device", id, "%s: %s", op, r->err.msg);
     } else if (cl) {
         json_t *reply = json_pack("{s:s, s:s}", "class", "OK", "cmd", op);

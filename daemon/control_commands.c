@@ -119,13 +119,16 @@ static int capture_inputs(control *c, json_t *req, const struct control_sent *se
                *model = jstr(req, "model"), *order = jstr(req, "order"),
                *stop = jstr(req, "stop"), *truth = jstr(req, "truth");
     const char *sent_plan = control_sent_path(sent, "plan"),
-               *sent_rig = control_sent_path(sent, "rig");
+               *sent_rig = control_sent_path(sent, "rig"),
+               *sent_scene = control_sent_path(sent, "scene");
     int rc;
     if (sent_plan)
         snprintf(r->plan, sizeof r->plan, "%s", sent_plan);
     else if ((rc = control_resolve_ref(c, "plan", plan, r->plan, sizeof r->plan, err)) < 0)
         return rc;
-    if (scene) {
+    if (sent_scene) {
+        snprintf(r->scene, sizeof r->scene, "%s", sent_scene);
+    } else if (scene) {
         if ((rc = control_resolve_ref(c, "scene", scene, r->scene, sizeof r->scene, err)) < 0)
             return rc;
     } else if (c->cfg->driver == GONIOD_DRIVER_SIM) {
@@ -430,7 +433,9 @@ static int cmd_abort(control *c, struct control_client *cl, json_t *req, json_t 
     struct worker_status st;
     worker_get_status(c->w, &st);
     int rc = worker_abort(c->w, "aborted", err);
-    if (rc == 0) /* what `resume` takes to continue it */
+    if (rc == 0 && st.state == WORKER_IDLE) /* a bring-up command: its own reply says aborted */
+        json_object_set_new(reply, "bringup", json_string(st.bringup));
+    else if (rc == 0) /* what `resume` takes to continue it */
         json_object_set_new(reply, "capture_id", json_string(st.id));
     return rc;
 }
@@ -531,7 +536,8 @@ int control_handle_line(control *c, struct control_client *cl, const char *line,
         control_request_free(&rq);
         return 1;
     }
-    if (cmd->need == NEED_ACTIVE && st.state == WORKER_IDLE) {
+    if (cmd->need == NEED_ACTIVE && st.state == WORKER_IDLE &&
+        !(cmd->run == cmd_abort && st.bringup[0])) {
         control_send_error(cl, "not-running", id, "%s: no capture is running", name);
         control_request_free(&rq);
         return 1;

@@ -1,5 +1,5 @@
 /* The files a capture request carries (docs/protocol.md, "Files sent with a
- * request"): an operator's own plan or rig profile lies where the operator
+ * request"): an operator's own plan, rig profile or scene lies where the operator
  * can read it, not goniod (another user, another working directory, maybe
  * another machine), so gonio sends the file's text and goniod keeps a copy
  * in the capture directory, under the file's own name, which the plan's
@@ -18,7 +18,7 @@
 #include "daemon/request.h"
 
 /* The folder of the copies inside a capture directory, one subfolder per
- * field (request/plan/NAME, request/rig/NAME). */
+ * field (request/plan/NAME, request/rig/NAME, request/scene/NAME). */
 static const char sent_dir[] = "request";
 
 static const char *base_name(const char *path)
@@ -29,7 +29,7 @@ static const char *base_name(const char *path)
 
 int control_sent_take(json_t *req, struct control_sent *s, struct gonio_err *err)
 {
-    static const char *const fields[CONTROL_SENT_MAX] = {"plan", "rig"};
+    static const char *const fields[CONTROL_SENT_MAX] = {"plan", "rig", "scene"};
     memset(s, 0, sizeof *s);
     for (int i = 0; i < CONTROL_SENT_MAX; i++) {
         char text_key[32];
@@ -99,6 +99,34 @@ static int levels_are_names(const struct control_sent_file *f, struct gonio_err 
     return rc;
 }
 
+/* A sent scene names its material and rig: goniod may open only its own
+ * (names), never a file the sender chose, as for a plan's levels. A file
+ * the parser refuses is left to the scene loader. */
+static int scene_refs_are_names(const struct control_sent_file *f, struct gonio_err *err)
+{
+    struct cfg_doc *d = NULL;
+    struct gonio_err ignored = {0};
+    if (cfg_load(f->path, &d, &ignored) < 0)
+        return 0;
+    int rc = 0;
+    static const char *const keys[] = {"material", "rig"};
+    for (int k = 0; rc == 0 && k < 2 && cfg_is_map(d, cfg_root(d)); k++) {
+        const char *v = NULL;
+        if (cfg_string(d, cfg_root(d), keys[k], CFG_OPTIONAL, &v, &ignored) <= 0)
+            continue;
+        int file = k == 0 ? !strncmp(v, "merl:", 5) || strchr(v, '/') != NULL
+                          : gonio_ref_is_file(v);
+        if (file)
+            rc = gonio_err_set(err, GONIO_EUSAGE,
+                               "scene '%.200s': field '%s' names the file '%.200s'; a scene "
+                               "sent with the request names its %s from goniod's (%s)",
+                               f->name, keys[k], v, keys[k],
+                               k == 0 ? "such as default or nbrdf:NAME" : "such as default");
+    }
+    cfg_free(d);
+    return rc;
+}
+
 int control_sent_write(struct control_sent *s, const char *dir, struct gonio_err *err)
 {
     for (int i = 0; i < s->n; i++) {
@@ -116,6 +144,8 @@ int control_sent_write(struct control_sent *s, const char *dir, struct gonio_err
             return rc;
         f->written = 1;
         if (!strcmp(f->field, "plan") && (rc = levels_are_names(f, err)) < 0)
+            return rc;
+        if (!strcmp(f->field, "scene") && (rc = scene_refs_are_names(f, err)) < 0)
             return rc;
     }
     return 0;

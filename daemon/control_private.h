@@ -195,10 +195,10 @@ void control_discard_request(const struct worker_request *r);
 /* ---- control_files.c -------------------------------------------------- */
 
 /* The files a capture request carries: plan_text with plan, rig_text with
- * rig (docs/protocol.md). */
-enum { CONTROL_SENT_MAX = 2 };
+ * rig, scene_text with scene (docs/protocol.md). */
+enum { CONTROL_SENT_MAX = 3 };
 struct control_sent_file {
-    const char *field; /* "plan" or "rig" */
+    const char *field; /* "plan", "rig" or "scene" */
     const char *name;  /* the file as the operator named it (messages) */
     const char *base;  /* its last component: the copy's name */
     const char *text;  /* borrowed from the request */
@@ -216,7 +216,7 @@ int control_sent_take(json_t *req, struct control_sent *s, struct gonio_err *err
 /* Write each copy into dir/request/FIELD/NAME (dir exists); a plan's
  * progressive levels must be names. On error, control_sent_discard. */
 int control_sent_write(struct control_sent *s, const char *dir, struct gonio_err *err);
-/* The copy of field ("plan", "rig") once written, else NULL. */
+/* The copy of field ("plan", "rig", "scene") once written, else NULL. */
 const char *control_sent_path(const struct control_sent *s, const char *field);
 /* Remove the copies written and their folders (dir itself stays). */
 void control_sent_discard(const struct control_sent *s, const char *dir);

@@ -11,6 +11,23 @@
 #include "drivers/drv_usbspec.h"
 #endif
 
+#ifdef GONIOD_HAVE_USB
+/* The spectrometer's driver settings from goniod's config. */
+static void usb_cfg(const struct goniod_config *cfg, struct drv_usbspec_cfg *uc)
+{
+    drv_usbspec_cfg_default(uc);
+    uc->vendor = cfg->usb.vendor;
+    uc->product = cfg->usb.product;
+    uc->serial = cfg->usb.serial;
+    uc->timeout_s = cfg->usb.timeout_s;
+    uc->scale = cfg->usb.scale;
+    if (cfg->usb.bands_390) {
+        uc->first_nm = 390;
+        uc->n_bands = 35;
+    }
+}
+#endif
+
 /* The USB spectrometer as the rig's detector, its transfers cancellable
  * like the bus's waits; its clock is wall time. */
 static int open_usb_detector(const struct goniod_config *cfg, int (*cancelled)(void *user),
@@ -18,16 +35,7 @@ static int open_usb_detector(const struct goniod_config *cfg, int (*cancelled)(v
 {
 #ifdef GONIOD_HAVE_USB
     struct drv_usbspec_cfg uc;
-    drv_usbspec_cfg_default(&uc);
-    uc.vendor = cfg->usb.vendor;
-    uc.product = cfg->usb.product;
-    uc.serial = cfg->usb.serial;
-    uc.timeout_s = cfg->usb.timeout_s;
-    uc.scale = cfg->usb.scale;
-    if (cfg->usb.bands_390) {
-        uc.first_nm = 390;
-        uc.n_bands = 35;
-    }
+    usb_cfg(cfg, &uc);
     drv_usbspec *s = drv_usbspec_open(&uc, err);
     if (!s)
         return -GONIO_EDEVICE;
@@ -199,6 +207,45 @@ static void probe_line(FILE *out, const char *who, int rc, const char *what,
         *first = *e;
 }
 
+/* The USB spectrometer: opened as a capture opens it (initialised, its
+ * wavelength calibration and status read), nothing measured; its bands
+ * must lie within the wavelengths its calibration gives its pixels. */
+static void probe_usb(const struct goniod_config *cfg, FILE *out, struct gonio_err *first)
+{
+    const char *who = "detector (usb)";
+#ifdef GONIOD_HAVE_USB
+    struct drv_usbspec_cfg uc;
+    usb_cfg(cfg, &uc);
+    struct gonio_err e = {0};
+    char what[256] = "";
+    int rc = -GONIO_EDEVICE;
+    drv_usbspec *s = drv_usbspec_open(&uc, &e);
+    if (s) {
+        double c[4], lambda[DRV_USBSPEC_PIXELS];
+        drv_usbspec_coefficients(s, c);
+        drv_usbspec_wavelengths(c, DRV_USBSPEC_PIXELS, lambda);
+        double lo = uc.first_nm - uc.step_nm / 2;
+        double hi = uc.first_nm + (uc.n_bands - 0.5) * uc.step_nm;
+        const double first_px = lambda[0], last_px = lambda[DRV_USBSPEC_PIXELS - 1];
+        snprintf(what, sizeof what, "answered: serial %s, %d pixels, %.1f-%.1f nm, %d bands "
+                 "%g-%g nm", drv_usbspec_serial(s), DRV_USBSPEC_PIXELS, first_px, last_px,
+                 uc.n_bands, uc.first_nm, uc.first_nm + (uc.n_bands - 1) * uc.step_nm);
+        rc = 0;
+        if (!(first_px <= lo && hi <= last_px))
+            rc = gonio_err_set(&e, GONIO_EDEVICE, "%s: its pixels span %.1f-%.1f nm, which "
+                               "does not hold the configured bands' %g-%g nm (driver.detector."
+                               "bands)", who, first_px, last_px, lo, hi);
+        drv_usbspec_close(s);
+    }
+    probe_line(out, who, rc, what, &e, first);
+#else
+    (void)cfg;
+    (void)first;
+    fprintf(out, "# probe: %-22s not probed (this goniod was built without the USB "
+            "backend)\n", who);
+#endif
+}
+
 int goniod_probe(const struct goniod_config *cfg, const struct rig_profile *rig, FILE *out,
                  struct gonio_err *err)
 {
@@ -238,8 +285,7 @@ int goniod_probe(const struct goniod_config *cfg, const struct rig_profile *rig,
         }
         probe_line(out, who, rc, what, &e, &first);
     } else {
-        fprintf(out, "# probe: %-22s not probed (the USB spectrometer opens at a capture)\n",
-                "detector (usb)");
+        probe_usb(cfg, out, &first);
     }
     goniod_axes_close(&axes);
     if (first.msg[0]) {

@@ -40,8 +40,9 @@ static void usage(FILE *out)
                  "  --config FILE  the daemon's configuration (goniod.yaml(5))\n"
                  "  --check        validate FILE, print the resolved configuration and exit\n"
                  "                 (0 when valid, 2 with path:line:col: problem when not)\n"
-                 "  --probe        with --check: open the bus, ask every device what it is\n"
-                 "                 (a line each); 2 naming the first that did not answer\n"
+                 "  --probe        with --check: open the bus and a USB spectrometer, ask\n"
+                 "                 every device what it is (a line each); 2 naming the\n"
+                 "                 first that did not answer\n"
                  "  --version      print the release and exit\n"
                  "Keys and the protocol: docs/goniod.md, docs/protocol.md.\n");
 }

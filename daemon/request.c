@@ -39,6 +39,7 @@ static const struct arg_spec capture_args[] = {
      * length in bytes. */
     {.name = "plan_text", .type = ARG_STRING, .max = CONTROL_FILE_MAX, .unit = "bytes"},
     {.name = "rig_text", .type = ARG_STRING, .max = CONTROL_FILE_MAX, .unit = "bytes"},
+    {.name = "scene_text", .type = ARG_STRING, .max = CONTROL_FILE_MAX, .unit = "bytes"},
     STRING_ARG("calibration"),
     {.name = NULL},
 };

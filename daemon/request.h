@@ -13,9 +13,10 @@
 
 #define CONTROL_MAX_LINE 65536 /* bytes of one request, newline excluded */
 
-/* The most bytes of a file a capture request carries (plan_text, rig_text):
- * shipped plans and rigs are under 2 KiB, and two such files escaped for
- * JSON must fit in one request line (CONTROL_MAX_LINE). */
+/* The most bytes of a file a capture request carries (plan_text, rig_text,
+ * scene_text): shipped plans, rigs and scenes are under 2 KiB, and such
+ * files escaped for JSON must fit in one request line (CONTROL_MAX_LINE;
+ * gonio refuses a request that does not, cli/request_file.h). */
 #define CONTROL_FILE_MAX 16384
 
 enum control_cmd {

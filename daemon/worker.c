@@ -498,6 +498,48 @@ static void join_if_finished(worker *w)
     }
 }
 
+/* One thread at a time runs on the rig (a capture, a bring-up command or
+ * a calibration): lock the worker for the next one. 0 with the lock held,
+ * or -GONIO_EUSAGE, the lock released, naming what runs now. */
+int worker_lock_idle(worker *w, struct gonio_err *err)
+{
+    join_if_finished(w);
+    pthread_mutex_lock(&w->mu);
+    if (!w->running && !w->thread_live)
+        return 0;
+    int rc = w->bringup_active
+                 ? gonio_err_set(err, GONIO_EUSAGE, "bring-up '%s %s' is running; wait for it "
+                                 "to finish", bringup_op_name(w->bringup.op), w->bringup.axis)
+                 : gonio_err_set(err, GONIO_EUSAGE, "%s '%s' is running; abort it or wait for "
+                                 "it to finish", w->calibration[0] ? "calibration" : "capture",
+                                 w->req.id);
+    pthread_mutex_unlock(&w->mu);
+    return rc;
+}
+
+void worker_run_begin_locked(worker *w)
+{
+    w->running = 1;
+    w->paused = w->abort = 0;
+    w->abort_reason[0] = '\0';
+    w->done = w->total = 0;
+    w->rig_time_s = 0;
+    w->estimate_s = w->eta_s = NAN;
+    w->has_capture = 1;
+    w->end_state[0] = w->end_message[0] = '\0';
+}
+
+/* Run body on the worker's thread, its state set under worker_lock_idle's
+ * lock (released by now); on failure the caller puts the state back. */
+int worker_spawn(worker *w, void *(*body)(void *), const char *what, struct gonio_err *err)
+{
+    int rc = pthread_create(&w->thread, NULL, body, w);
+    if (rc != 0)
+        return gonio_err_set(err, rc, "%s thread: %s", what, strerror(rc));
+    w->thread_live = 1;
+    return 0;
+}
+
 void worker_free(worker *w)
 {
     if (!w)
@@ -532,20 +574,9 @@ int worker_wake_fd(const worker *w)
 
 int worker_start(worker *w, const struct worker_request *req, struct gonio_err *err)
 {
-    join_if_finished(w);
-    pthread_mutex_lock(&w->mu);
-    if (w->running || w->thread_live) {
-        int rc = w->bringup_active
-                     ? gonio_err_set(err, GONIO_EUSAGE, "bring-up '%s %s' is running; wait for "
-                                     "it to finish", bringup_op_name(w->bringup.op),
-                                     w->bringup.axis)
-                     : gonio_err_set(err, GONIO_EUSAGE,
-                                     "capture '%s' is running; abort it or wait for it to "
-                                     "finish before starting another",
-                                     w->req.id);
-        pthread_mutex_unlock(&w->mu);
+    int rc = worker_lock_idle(w, err);
+    if (rc < 0)
         return rc;
-    }
     w->req = *req;
     /* The capture worker_check prepared for this request, if it did. */
     struct prepared *p = w->pending;
@@ -555,35 +586,27 @@ int worker_start(worker *w, const struct worker_request *req, struct gonio_err *
         p = NULL;
     }
     w->current = p;
-    w->running = 1;
-    w->paused = w->abort = 0;
-    w->abort_reason[0] = '\0';
-    w->done = w->total = 0;
-    w->rig_time_s = 0;
-    w->estimate_s = w->eta_s = NAN;
-    w->has_capture = 1;
+    worker_run_begin_locked(w);
     w->announced = 0;
-    w->end_state[0] = w->end_message[0] = '\0';
     w->calibration[0] = w->prompt[0] = '\0';
     pthread_mutex_unlock(&w->mu);
-    int rc = pthread_create(&w->thread, NULL, run, w);
-    if (rc != 0) {
+    if ((rc = worker_spawn(w, run, "capture", err)) < 0) {
         pthread_mutex_lock(&w->mu);
         w->running = 0;
         prepared_free(w->current);
         w->current = NULL;
         pthread_mutex_unlock(&w->mu);
-        return gonio_err_set(err, rc, "capture thread: %s", strerror(rc));
     }
-    w->thread_live = 1;
-    return 0;
+    return rc;
 }
 
 static int steer(worker *w, int what, const char *reason, struct gonio_err *err)
 {
     pthread_mutex_lock(&w->mu);
     int rc = 0;
-    if (!w->running)
+    if (what == 2 && !w->running && w->bringup_active)
+        w->abort = 1; /* bringup_run stops the axes and reports aborted */
+    else if (!w->running)
         rc = gonio_err_set(err, GONIO_EUSAGE, "no capture is running");
     else if (what == 0 && w->paused)
         rc = gonio_err_set(err, GONIO_EUSAGE, "capture '%s' is already paused", w->req.id);
@@ -700,32 +723,20 @@ static void *run_bringup(void *arg)
 int worker_bringup(worker *w, const struct bringup_job *job, unsigned long ticket,
                    struct gonio_err *err)
 {
-    join_if_finished(w);
-    pthread_mutex_lock(&w->mu);
-    if (w->running || w->thread_live) {
-        int rc = w->bringup_active
-                     ? gonio_err_set(err, GONIO_EUSAGE, "bring-up '%s %s' is running; wait "
-                                     "for it to finish", bringup_op_name(w->bringup.op),
-                                     w->bringup.axis)
-                     : gonio_err_set(err, GONIO_EUSAGE, "capture '%s' is running; abort it "
-                                     "or wait for it to finish", w->req.id);
-        pthread_mutex_unlock(&w->mu);
+    int rc = worker_lock_idle(w, err);
+    if (rc < 0)
         return rc;
-    }
     w->bringup = *job;
     w->bringup_ticket = ticket;
     w->bringup_active = 1;
     w->abort = 0;
     pthread_mutex_unlock(&w->mu);
-    int rc = pthread_create(&w->thread, NULL, run_bringup, w);
-    if (rc != 0) {
+    if ((rc = worker_spawn(w, run_bringup, "bring-up", err)) < 0) {
         pthread_mutex_lock(&w->mu);
         w->bringup_active = 0;
         pthread_mutex_unlock(&w->mu);
-        return gonio_err_set(err, rc, "bring-up thread: %s", strerror(rc));
     }
-    w->thread_live = 1;
-    return 0;
+    return rc;
 }
 
 /* ---- for the calibration run (daemon/worker_calibrate.c) ------------- */
@@ -759,9 +770,4 @@ int worker_hook_open(void *user, const struct rig_profile *rig, const char *dir,
 void worker_hook_close(void *user, struct capture_devices *dev)
 {
     hook_close(user, dev);
-}
-
-void worker_join_if_finished(worker *w)
-{
-    join_if_finished(w);
 }

@@ -178,7 +178,8 @@ int worker_start(worker *w, const struct worker_request *req, struct gonio_err *
 int worker_pause(worker *w, struct gonio_err *err);
 int worker_continue(worker *w, struct gonio_err *err);
 /* Abort the running capture at the next point boundary; reason goes into
- * the stop document ("aborted", "shutdown"). */
+ * the stop document ("aborted", "shutdown"). A running bring-up command
+ * ends at once instead, its axes stopped (daemon/bringup.h). */
 int worker_abort(worker *w, const char *reason, struct gonio_err *err);
 
 void worker_get_status(worker *w, struct worker_status *st);

@@ -228,13 +228,9 @@ static void *run_calibration(void *arg)
 
 int worker_calibrate(worker *w, const struct worker_calibration *c, struct gonio_err *err)
 {
-    worker_join_if_finished(w);
-    pthread_mutex_lock(&w->mu);
-    if (w->running || w->thread_live) {
-        pthread_mutex_unlock(&w->mu);
-        return gonio_err_set(err, GONIO_EUSAGE, "the rig is busy; wait for what runs to "
-                             "finish");
-    }
+    int rc = worker_lock_idle(w, err);
+    if (rc < 0)
+        return rc;
     w->cal = *c;
     memset(&w->req, 0, sizeof w->req); /* status and abort name the calibration */
     snprintf(w->req.id, sizeof w->req.id, "%s", c->id);
@@ -242,23 +238,13 @@ int worker_calibrate(worker *w, const struct worker_calibration *c, struct gonio
     snprintf(w->calibration, sizeof w->calibration, "%s",
              c->kind == CAL_DARK ? "dark" : "reference");
     w->prompt[0] = '\0';
-    w->running = 1;
-    w->paused = w->abort = 0;
-    w->abort_reason[0] = '\0';
-    w->done = w->total = 0;
-    w->rig_time_s = 0;
-    w->estimate_s = w->eta_s = NAN;
-    w->has_capture = 1;
+    worker_run_begin_locked(w);
     w->announced = 1; /* no capture start document */
-    w->end_state[0] = w->end_message[0] = '\0';
     pthread_mutex_unlock(&w->mu);
-    int rc = pthread_create(&w->thread, NULL, run_calibration, w);
-    if (rc != 0) {
+    if ((rc = worker_spawn(w, run_calibration, "calibration", err)) < 0) {
         pthread_mutex_lock(&w->mu);
         w->running = 0;
         pthread_mutex_unlock(&w->mu);
-        return gonio_err_set(err, rc, "calibration thread: %s", strerror(rc));
     }
-    w->thread_live = 1;
-    return 0;
+    return rc;
 }

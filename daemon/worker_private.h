@@ -83,6 +83,13 @@ enum capture_control worker_hook_control(void *user);
 int worker_hook_open(void *user, const struct rig_profile *rig, const char *dir,
                      struct capture_devices *dev, struct gonio_err *err);
 void worker_hook_close(void *user, struct capture_devices *dev);
-void worker_join_if_finished(worker *w);
+/* One run on the rig at a time: worker_lock_idle takes the lock when
+ * nothing runs (else refuses, naming what does), the caller sets the run's
+ * state (a capture's or a calibration's from worker_run_begin_locked:
+ * running, not paused or aborted, no progress or end yet) and unlocks, and
+ * worker_spawn starts its thread. */
+int worker_lock_idle(worker *w, struct gonio_err *err);
+void worker_run_begin_locked(worker *w);
+int worker_spawn(worker *w, void *(*body)(void *), const char *what, struct gonio_err *err);
 
 #endif

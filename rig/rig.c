@@ -78,7 +78,8 @@ int rig_profile_load(const char *path_or_name, struct rig_profile *rig, struct g
      * check them; the planner only reads motion and timing. */
     static const char *const top_keys[] = {"name", "description", "out_of_plane", "blind_deg",
                                            "settle_s", "integration", "axes", "driver",
-                                           "drivers", "detector", "mechanics", "shutter", NULL};
+                                           "drivers", "detector", "mechanics", "shutter",
+                                           "sample_changer", NULL};
     static const char *const int_keys[] = {"fixed_s", "auto_min_s", "auto_max_s", NULL};
     static const char *const axis_keys[] = {"sample", "arm", "azimuth", "rotation", NULL};
     char path[4096];
@@ -112,7 +113,8 @@ int rig_profile_load(const char *path_or_name, struct rig_profile *rig, struct g
         (rc = has_az = load_axis(d, axes, "azimuth", 360, &rig->azimuth, err)) < 0 ||
         (rc = rig->has_rotation = load_axis(d, axes, "rotation", 360, &rig->rotation, err)) < 0 ||
         (rc = load_mechanics(d, root, &rig->mech, err)) < 0 ||
-        (rc = cfg_bool(d, root, "shutter", CFG_OPTIONAL, &rig->shutter, err)) < 0)
+        (rc = cfg_bool(d, root, "shutter", CFG_OPTIONAL, &rig->shutter, err)) < 0 ||
+        (rc = cfg_bool(d, root, "sample_changer", CFG_OPTIONAL, &rig->sample_changer, err)) < 0)
         goto out;
     if (!cfg_get(d, axes, "sample") || !cfg_get(d, axes, "arm")) {
         rc = cfg_error(d, axes, cfg_get(d, axes, "sample") ? "arm" : "sample", err,

@@ -47,6 +47,10 @@ struct rig_profile {
     /* The detector has a shutter the dark frames close (shutter, default
      * true); without one the operator covers it when asked. */
     int shutter;
+    /* The rig has a sample changer (sample_changer, default false): a
+     * hardware rig's driver must wire its drive (goniod's
+     * driver.slaves.sample_changer) or goniod refuses the profile. */
+    int sample_changer;
 };
 
 /* The design's default profile (DESIGN.md section 9), without a file. */

@@ -13,9 +13,9 @@ CAPTURE_FIELDS = {"plan": str, "scene": str, "material": str, "rig": str, "model
                   "order": str, "stop": str, "name": str, "truth": str,
                   "sample": str, "operator": str, "note": str, "check": str,
                   "budget": (int, float), "stop_target": (int, float), "prescan": int,
-                  # a plan's or rig profile's text sent with the request; plan or
-                  # rig then names the file (docs/protocol.md)
-                  "plan_text": str, "rig_text": str}
+                  # a plan's, rig profile's or scene's text sent with the request;
+                  # plan, rig or scene then names the file (docs/protocol.md)
+                  "plan_text": str, "rig_text": str, "scene_text": str}
 
 
 class GonioError(Exception):

@@ -19,6 +19,8 @@ import time
 
 import pytest
 
+import child_procs  # tests/, on PYTHONPATH
+
 BIN = os.environ.get("GONIO_BIN", "build/bin")
 GONIO = os.path.join(BIN, "gonio")
 GONIOD = os.path.join(BIN, "goniod")
@@ -118,6 +120,7 @@ def test_gonio_sim_says_what_it_serves_on_a_terminal():
     path (programs read it), and the terminal is told what is served."""
     pid, fd = pty.fork()
     if pid == 0:
+        child_procs.die_with_parent()
         os.execv(SIM, [SIM])
     out = b""
     deadline = time.monotonic() + 20
@@ -153,7 +156,7 @@ def read_lines(fd, n, timeout=20):
 
 def test_gonio_sim_stdout_is_only_the_path():
     p = subprocess.Popen([SIM, "--tcp", "127.0.0.1:0"], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE)
+                         stderr=subprocess.PIPE, preexec_fn=child_procs.die_with_parent)
     try:
         first, second = read_lines(p.stdout.fileno(), 2)[:2]
         announce = read_lines(p.stderr.fileno(), 1)[0]

@@ -17,6 +17,8 @@ import tempfile
 
 import pytest
 
+import child_procs  # tests/, on PYTHONPATH
+
 BUILD = os.path.abspath(os.environ.get("GONIO_BUILD", "build"))
 SOURCE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
 
@@ -115,7 +117,8 @@ def goniod(pkg):
     env = {k: v for k, v in os.environ.items() if not k.startswith("GONIO_")}
     log = open(os.path.join(folder, "goniod.log"), "w")
     proc = subprocess.Popen([os.path.join(root, "usr/bin/goniod"), "--config", config],
-                            stdout=log, stderr=log, env=env, cwd="/")
+                            stdout=log, stderr=log, env=env, cwd="/",
+                            preexec_fn=child_procs.die_with_parent)
     sock = os.path.join(folder, "s.sock")
     try:
         for _ in range(500):

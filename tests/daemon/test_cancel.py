@@ -34,6 +34,7 @@ import unittest
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from goniod_harness import (GONIO, START_S, SLOW, Daemon, journal_points, plan_total,  # noqa: E402
                             tmpdir, wrap, assert_valgrind_clean)
+import child_procs  # noqa: E402
 from test_goniod_modbus import ModbusRig  # noqa: E402
 
 STOP_S = 2.0 * SLOW  # from the signal or the abort to the end of the capture
@@ -159,7 +160,8 @@ class OfflineTests(unittest.TestCase):
     def signal_ends_capture(self, scene, sig):
         out = os.path.join(self.folder, "long-" + scene)
         proc = subprocess.Popen(self.capture(scene, out, LONG), stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True)
+                                stderr=subprocess.PIPE, text=True,
+                                preexec_fn=child_procs.die_with_parent)
         try:
             wait_for_samples(os.path.join(out, "samples.csv"), 3, proc, 3 * START_S)
             sent = time.monotonic()

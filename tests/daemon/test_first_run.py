@@ -22,6 +22,7 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from goniod_harness import BIN, SOURCE, START_S, Conn, assert_valgrind_clean, tmpdir, wrap  # noqa: E402
+import child_procs  # noqa: E402
 
 README = os.path.join(SOURCE, "README.md")
 
@@ -66,7 +67,8 @@ class FirstRunTests(unittest.TestCase):
 
         with open(self.log, "w") as logf:
             self.proc = subprocess.Popen(wrap(daemon, self.top), cwd=self.top, env=self.env,
-                                         stdout=logf, stderr=logf)
+                                         stdout=logf, stderr=logf,
+                                         preexec_fn=child_procs.die_with_parent)
         deadline = time.time() + START_S
         while True:
             try:

@@ -13,12 +13,14 @@ import glob
 import os
 import shutil
 import socket
+import subprocess
 import sys
+import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from goniod_harness import (GONIOD, SLOW, SOURCE, Daemon, run_wrapped,  # noqa: E402
-                            shipped_config, tmpdir)
+from goniod_harness import (GONIO, GONIOD, SLOW, SOURCE, START_S, Daemon,  # noqa: E402
+                            run_wrapped, shipped_config, tmpdir)
 import test_goniod_modbus  # noqa: E402  (ModbusRig)
 
 # configs/rigs/default.yaml with the azimuth axis taken away: an in-plane rig.
@@ -84,6 +86,40 @@ class ConfigRigTests(unittest.TestCase):
             self.assertEqual(r.returncode, 0, (rig, az, r.stderr))
             self.assertIn("    azimuth: %d\n" % az, r.stdout)
 
+    def test_sample_changer_not_wired_refused(self):
+        """A rig profile with a sample changer on a driver without its
+        drive: refused at --check and at start, naming the field; wired,
+        accepted and printed."""
+        with open(os.path.join(self.folder, "changer.yaml"), "w") as f:
+            f.write(INPLANE_RIG.replace("name: inplane", "name: changer")
+                    + "sample_changer: true\n")
+        path = self.write("changer.yaml", 0)
+        r = run_wrapped([GONIOD, "--config", path, "--check"], self.folder)
+        self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+        self.assertEqual(r.stdout, "")
+        self.assertIn("%s:7:" % path, r.stderr)
+        self.assertIn("key 'sample_changer'", r.stderr)
+        self.assertIn("driver.slaves.sample_changer is 0 (none), but rig profile '%s' has a "
+                      "sample changer" % os.path.join(self.folder, "changer.yaml"), r.stderr)
+        r = run_wrapped([GONIOD, "--config", path], self.folder, timeout=30)
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("driver.slaves.sample_changer is 0", r.stderr)
+        self.assertFalse(os.path.exists(os.path.join(self.folder, "caps")))
+        with open(path) as f:
+            text = f.read()
+        with open(path, "w") as f:
+            f.write(text.replace("    detector: 3\n", "    detector: 3\n    sample_changer: 5\n"))
+        r = run_wrapped([GONIOD, "--config", path, "--check"], self.folder)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("    sample_changer: 5\n", r.stdout)
+        # its own slave id, as every device
+        with open(path, "w") as f:
+            f.write(text.replace("    detector: 3\n", "    detector: 3\n    sample_changer: 2\n"))
+        r = run_wrapped([GONIOD, "--config", path, "--check"], self.folder)
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("every device needs its own slave id", r.stderr)
+        self.assertIn("sample_changer 2", r.stderr)
+
     def test_every_shipped_config(self):
         """Every configs/goniod/*.yaml with the rig profile it names passes
         --check (modbus-tcp.yaml once named the out-of-plane default rig
@@ -134,6 +170,18 @@ class RequestRigTests(unittest.TestCase):
         self.assertIn("driver.slaves.azimuth is 0", r["message"])
         self.assertIn("'default' is out of plane", r["message"])
         self.assertFalse(os.path.exists(os.path.join(self.d.root, "x")))
+
+    def test_sample_changer_rig_refused_at_request(self):
+        with open(os.path.join(self.d.root, "changer.yaml"), "w") as f:
+            f.write(INPLANE_RIG.replace("name: inplane", "name: changer")
+                    + "sample_changer: true\n")
+        c = self.d.connect()
+        r = c.request("capture", plan="ds3", rig="changer.yaml", name="z")
+        self.assertEqual((r["class"], r["code"]), ("ERROR", "bad-value"), r)
+        self.assertIn(self.d.config, r["message"])
+        self.assertIn("driver.slaves.sample_changer is 0", r["message"])
+        self.assertIn("has a sample changer", r["message"])
+        self.assertFalse(os.path.exists(os.path.join(self.d.root, "z")))
 
     def test_out_of_plane_plan_refused_on_inplane_rig(self):
         c = self.d.connect()
@@ -353,6 +401,46 @@ class BringupSlowTests(test_goniod_modbus.ModbusRig):
         r = c.read()
         self.assertEqual((r["class"], r["id"]), ("OK", "lim"), r)
         self.assertIsNone(other.request("status")["bringup"])
+
+
+class BringupAbortTests(test_goniod_modbus.ModbusRig):
+    """gonio abort ends a limits run (gonio-sim at 5 x: 360 deg at 5 deg/s
+    of rig time take 14 s here): the axis stops where it is, gonio limits
+    says aborted with that table and exits 1."""
+    SIM_SCALE = 5
+
+    def test_abort_stops_limits(self):
+        self.d = Daemon(self.folder, driver=self.tcp_driver(self.SIM_SCALE)).start()
+        c = self.d.connect()
+        env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
+        lim = subprocess.Popen([GONIO, "limits", "sample"], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, env=env)
+        self.addCleanup(lim.kill)
+        deadline = time.time() + START_S
+        while c.request("status")["bringup"] != "limits sample":
+            self.assertLess(time.time(), deadline, "the limits run never started")
+            time.sleep(0.05)
+        time.sleep(0.3)  # the sample is on its way to -90
+        ab = self.d.gonio("abort")
+        self.assertEqual(ab.returncode, 0, ab.stderr)
+        self.assertIn("abort bring-up 'limits sample'", ab.stdout)
+        out, err = lim.communicate(timeout=2 * START_S)
+        self.assertEqual(lim.returncode, 1, out + err)
+        self.assertIn("limits sample: aborted; the axes stopped where they stand", err)
+        row = [l for l in out.splitlines() if l.startswith("sample")][0]
+        self.assertNotIn("MOVE", row)
+        # Stopped, not still running its move to a limit: two readings apart
+        # agree, short of both limits.
+        first = axes_by_name(c.request("where"))["sample"]
+        time.sleep(0.5)
+        second = axes_by_name(c.request("where"))["sample"]
+        self.assertFalse(first["moving"], first)
+        self.assertEqual(first["position_deg"], second["position_deg"])
+        self.assertLess(abs(first["position_deg"]), 85, first)
+        self.assertAlmostEqual(float(row.split()[2]), first["position_deg"], delta=0.01)
+        # Nothing runs now: abort is refused as before.
+        r = c.request("abort")
+        self.assertEqual((r["class"], r["code"]), ("ERROR", "not-running"), r)
 
 
 class BringupSimTests(unittest.TestCase):

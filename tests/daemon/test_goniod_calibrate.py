@@ -30,7 +30,8 @@ import unittest
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 import child_procs  # noqa: E402
-from goniod_harness import (BIN, GONIO, SLOW, START_S, TESTS_BIN, Daemon,
+import gonio_cal  # noqa: E402
+from goniod_harness import (BIN, GONIO, SLOW, START_S, TESTS_BIN, VALGRIND, Daemon,
                             assert_valgrind_clean, tmpdir, wrap)
 
 SIM = os.path.join(BIN, "gonio-sim")
@@ -157,7 +158,8 @@ class CalibrateRig(unittest.TestCase):
         goniod's pause, then gonio resume. Returns the finished command."""
         env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
         p = subprocess.Popen([GONIO, "calibrate", *args], stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True, env=env)
+                             stderr=subprocess.PIPE, text=True, env=env,
+                             preexec_fn=child_procs.die_with_parent)
         if operator:
             st = self.wait_state("paused", "asking the operator")
             operator(st)
@@ -263,9 +265,81 @@ class CalibrateTests(CalibrateRig):
                 self.assertLess(min(float(x["integration_s"]) for x in rows), 0.25)
             med, n = self.median_error(rows, dark_rows, material)
             self.assertGreaterEqual(n, 50, name)
-            # the metal reduces less well: 0.57 % here against the plastics'
-            # 0.45-0.46 % (why is not yet known: docs/radiometry.md)
+            # DS3's few values make a noisy median: the metal's 0.57 % is
+            # the lab's stray light on its dim values and noise (DS1 below
+            # and docs/radiometry.md hold it to 0.5 %)
             self.assertLessEqual(med, 0.005 if name == "glossy" else 0.0075, name)
+
+
+class CalibrateDS1Tests(CalibrateRig):
+    """The three materials on DS1 through goniod over Modbus TCP, each
+    median held to 0.5 %."""
+
+    def test_three_materials_ds1(self):
+        """A dark over the ladder and a reference on the shipped 5-degree
+        grid (8 repeats; DS1's points between its geometries interpolated),
+        then a diffuse, a glossy and a metal sample on DS1 (912 points),
+        ranged: each recovers its BRDF to a median |measured/true - 1| of
+        at most 0.5 % (the glossy 0.55 %: gonio_cal.DS1_LIMIT) over its
+        values with SNR >= 100, the truth the chain
+        measures on a rig with the lab's stray light (gonio_cal.chain_errors);
+        against the material alone the metal is worse, by that light on its
+        dim values, which the dark does not see. Reduced again without the
+        dark, or with the standard as Lambertian, each is measurably
+        worse; with its own calibration, it is the capture byte for
+        byte."""
+        if VALGRIND:
+            self.skipTest("DS1's 912 points x 3 and 4000 reference readings take about a "
+                          "minute natively and too long under memcheck; the DS3 groups run "
+                          "the same code there")
+        self.start_daemon()
+        d = self.calibrate("dark", "--ladder")
+        self.assertEqual(d.returncode, 0, d.stderr)
+        dark_rows = frames(os.path.join(self.cal_root, d.stdout.strip(), "frames.csv"))
+        r = self.calibrate("reference", "--plan", "reference-grid", "--repeats", "8",
+                           operator=self.mount_standard)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        ref_id = r.stdout.strip()
+        less = gonio_cal.without_a_step(self.cal_root, ref_id, os.path.join(self.folder, "less"))
+        got = {}
+        for name, material in (("diffuse", SAMPLE), ("glossy", "builtin:red-plastic"),
+                               ("metal", "builtin:gold-metallic-paint")):
+            self.start_sim(material)
+            c = self.d.gonio("capture", "--plan", "ds1", "--name", name, "--calibration",
+                             "newest", "--wait", "--quiet")
+            self.assertEqual(c.returncode, 0, c.stderr + c.stdout)
+            rows = frames(os.path.join(self.d.root, name, "samples.csv"))
+            kept = [x for x in rows if not int(x["flags"]) & 2]
+            self.assertEqual(len(kept), 912, name)
+            self.assertEqual([x["point"] for x in kept if int(x["flags"]) & 1], [], name)
+            e = gonio_cal.chain_errors(kept, dark_rows, material)
+            sys.stderr.write("%s DS1 through goniod: median |measured/true - 1| %.3f %% "
+                             "(material alone %.3f %%) over %d values with SNR >= 100\n"
+                             % (material, 100 * e["chain"], 100 * e["material"], e["n"]))
+            self.assertGreaterEqual(e["n"], 1000, name)
+            self.assertLessEqual(e["chain"], gonio_cal.DS1_LIMIT[name], name)
+            got[name] = e
+            # Reduced again with its own calibration: the capture's samples
+            # and model, byte for byte (its ranging's dark frames included).
+            capdir, again = os.path.join(self.d.root, name), os.path.join(self.folder, name)
+            rc = subprocess.run([GONIO, "recalibrate", capdir, "--calibration", ref_id,
+                                 "--calibrations", self.cal_root, "-o", again],
+                                capture_output=True, text=True, timeout=300)
+            self.assertEqual(rc.returncode, 0, rc.stderr)
+            for f in ("samples.csv", "abc.model"):
+                with open(os.path.join(capdir, f), "rb") as a, \
+                        open(os.path.join(again, f), "rb") as b:
+                    self.assertEqual(a.read(), b.read(), (name, f))
+            # Each step is needed: the same capture reduced again without
+            # the dark, or with the standard as Lambertian, is worse.
+            worse = gonio_cal.recalibrated_errors(os.path.join(self.d.root, name), ref_id, less,
+                                                  dark_rows, material, self.folder)
+            sys.stderr.write("  without dark %.3f %%, standard as Lambertian %.3f %%\n"
+                             % (100 * worse["nodark"], 100 * worse["lambertian"]))
+            for kind, med in worse.items():
+                self.assertGreaterEqual(med, 2 * e["chain"], (name, kind))
+                self.assertGreater(med, 0.01, (name, kind))
+        self.assertGreater(got["metal"]["material"], got["metal"]["chain"] + 0.0003)
 
     def test_operator_covers_a_detector_without_shutter(self):
         self.d = None
@@ -382,7 +456,8 @@ class CalibrateCrashTests(CalibrateRig):
         env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
         p = subprocess.Popen([GONIO, "calibrate", "reference", "--plan", "ds3", "--repeats",
                               "2", "--name", "ref-killed"], stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True, env=env)
+                             stderr=subprocess.PIPE, text=True, env=env,
+                             preexec_fn=child_procs.die_with_parent)
         self.mount_standard(self.wait_state("paused", "asking for the standard"))
         journal = os.path.join(self.cal_root, "ref-killed", "journal.csv")
         self.assertEqual(self.d.gonio("resume").returncode, 0)

@@ -18,6 +18,7 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from goniod_harness import (GONIO, GONIOD, START_S, Daemon, DaemonTest, journal_points, plan_total)
+import child_procs  # noqa: E402
 
 
 class CaptureTests(DaemonTest):
@@ -382,7 +383,10 @@ class CaptureTests(DaemonTest):
         """Any RGB model of the registry is a capture's final fit; every
         model writes its model file in the capture, ABC models also report
         their parameters."""
-        c = self.d.connect()
+        # No document comes while the final fit and the full-domain errors
+        # are computed: seconds of CPU for the latent model, several times
+        # that on a loaded machine.
+        c = self.d.connect(timeout=6 * START_S)
         c.request("watch")
         for name, model in (("ap", "abc-prior"), ("lt", "latent")):
             r = c.request("capture", plan="ds4", name=name, model=model,
@@ -542,7 +546,8 @@ class ClientTests(DaemonTest):
     def test_watch_shows_pause_and_resume(self):
         env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
         w = subprocess.Popen([GONIO, "capture", "--plan", "ds3", "--name", "pw", "--wait"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                             preexec_fn=child_procs.die_with_parent)
         deadline = time.monotonic() + 2 * START_S
         while not (json.loads(self.d.gonio("status", "--json").stdout)["capture"] or
                    {}).get("points_total"):

@@ -235,11 +235,12 @@ class OfflineTests(unittest.TestCase):
 
     def test_interrupt_while_planning_leaves_nothing(self):
         """SIGINT while the plan is made (oop200k: 2 s before its first
-        point; inplane-full's 8710 pairs now order in a quarter second): no
-        directory, no plan.json.tmp.PID."""
+        point; inplane-full's 8710 pairs now order in a quarter second),
+        sent as soon as gonio catches it, which it does just before it
+        plans: no directory, no plan.json.tmp.PID."""
         out = os.path.join(self.folder, "plan")
         rc, text = run_on_pty(self.capture(out, "oop200k", "ideal"), self.env,
-                              interrupt_after_s=0.3)
+                              interrupt_when_caught=True)
         self.assertEqual(rc, 130, text)
         self.assertIn("SIGINT before the first point; nothing written", text)
         self.assertFalse(os.path.exists(out), os.listdir(out) if os.path.exists(out) else "")

@@ -89,6 +89,14 @@ class UsbCaptureTests(unittest.TestCase):
         test_goniod_modbus.ModbusRig.tearDown(self)
 
     def start(self, recording, detector=""):
+        self.d = self.make(recording, detector)
+        self.d.start()
+        c = self.d.connect()
+        c.request("watch")
+        return c
+
+    def make(self, recording, detector=""):
+        """A goniod (not started) whose command runs it in the testbed."""
         cap = os.path.join(self.folder, "cap")
         os.makedirs(cap)
         rig = open(os.path.join(g.SOURCE, "configs", "rigs", "default.yaml")).read()
@@ -114,15 +122,11 @@ class UsbCaptureTests(unittest.TestCase):
                        " ".join(shlex.quote(a) for a in
                                 g.wrap([os.path.abspath(g.GONIOD)], self.folder))))
         os.chmod(wrapper, 0o755)
-        self.d = g.Daemon(self.folder, command=[wrapper], driver=(
+        return g.Daemon(self.folder, command=[wrapper], driver=(
             "  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n  time_scale: 1000\n"
             "  timeout_s: %g\n  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
             "  detector: {kind: usb-spectrometer, serial: USB2+F01234, timeout_s: 2%s}\n"
             % (self.port, 0.5 * g.SLOW, detector)))
-        self.d.start()
-        c = self.d.connect()
-        c.request("watch")
-        return c
 
     def finish(self, c):
         """shutdown over the socket: umockdev-run passes no signal on."""
@@ -130,6 +134,37 @@ class UsbCaptureTests(unittest.TestCase):
         rc = self.d.proc.wait(timeout=2 * g.START_S)
         with open(self.d.log) as f:
             self.assertEqual(rc, 0, f.read()[-2000:])
+
+    def probe(self, d):
+        r = subprocess.run(d.command + ["--config", d.config, "--check", "--probe"],
+                           capture_output=True, text=True, cwd=self.folder,
+                           timeout=2 * g.START_S)
+        return r, [l for l in r.stdout.splitlines() if l.startswith("# probe: detector")]
+
+    def test_probe_opens_the_spectrometer(self):
+        """--check --probe opens the spectrometer as a capture would and
+        says what it is: its serial, pixels, the wavelengths its calibration
+        gives them and the configured bands; a serial no device has exits 2
+        naming the detector."""
+        r, line = self.probe(self.make("spectrum.ioctl"))
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        self.assertEqual(len(line), 1, r.stdout)
+        self.assertRegex(line[0], r"^# probe: detector \(usb\) +answered: serial USB2\+F01234, "
+                         r"2048 pixels, \d+\.\d-\d+\.\d nm, 31 bands 400-700 nm$")
+        lo, hi = (float(x) for x in line[0].split(" pixels, ")[1].split(" nm")[0].split("-"))
+        self.assertTrue(lo < 395 and hi > 705, line)
+        self.assertEqual(len([l for l in r.stdout.splitlines() if l.startswith("# probe: axis")
+                              and "answered" in l]), 3, r.stdout)
+        shutil.rmtree(os.path.join(self.folder, "cap"))
+        d = self.make("spectrum.ioctl")
+        with open(d.config) as f:
+            text = f.read()
+        with open(d.config, "w") as f:
+            f.write(text.replace("serial: USB2+F01234", "serial: USB2+NOPE"))
+        r, line = self.probe(d)
+        self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+        self.assertIn("did not answer: usb spectrometer 2457:101e (serial USB2+NOPE)", line[0])
+        self.assertIn("goniod: probe: usb spectrometer 2457:101e (serial USB2+NOPE)", r.stderr)
 
     def test_counts_refused_without_calibration(self):
         """The spectrometer gives counts: a capture naming no calibration

@@ -23,6 +23,7 @@ import unittest
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from goniod_harness import (GONIO, START_S, Daemon, DaemonTest, tmpdir, journal_points, load_json,  # noqa: E402
                             plan_total, rig_times)
+import child_procs  # noqa: E402
 
 
 def wait_idle(t):
@@ -170,7 +171,8 @@ class VerdictTests(DaemonTest):
         self.assertEqual(c.request("pause")["class"], "OK")
         env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
         watch = subprocess.Popen([GONIO, "watch", "--quiet"], stdout=subprocess.PIPE,
-                                 stderr=subprocess.PIPE, text=True, env=env)
+                                 stderr=subprocess.PIPE, text=True, env=env,
+                                 preexec_fn=child_procs.die_with_parent)
         self.assertTrue(watch.stdout.readline().startswith("capture few: plan ds4"))
         self.assertEqual(c.request("resume")["class"], "OK")
         out, err = watch.communicate(timeout=2 * START_S)

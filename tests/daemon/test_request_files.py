@@ -1,11 +1,12 @@
 #!/usr/bin/python3
-"""The plan and rig files gonio capture sends with its request
+"""The plan, rig and scene files gonio capture sends with its request
 (docs/protocol.md, "Files sent with a request"), end to end on the simulated
 rig: an operator's own plan, named from the operator's working directory,
 is captured as written and kept in the capture directory (SentTests); a bad
 one is refused naming the file as the operator named it, the field and the
 value, and creates nothing; a resume reads the kept copy after the
-operator's file is gone. UnreadableTests runs goniod as nobody, so that the
+operator's file is gone. SceneTests does the same for an operator's scene
+on goniod's in-process simulated rig. UnreadableTests runs goniod as nobody, so that the
 plan lies in a folder goniod cannot read (root and setpriv needed, else
 skipped).
 
@@ -191,6 +192,76 @@ class SentTests(DaemonTest):
         self.assertEqual(pairs_of(capdir), CUSTOM_PAIRS)
         self.assertEqual(load_json(os.path.join(capdir, "request.json"))["plan"],
                          os.path.join(os.path.realpath(capdir), "request", "plan", "mine.yaml"))
+
+
+# An operator's scene: the ideal rig's, under its own name and seed, with a
+# little jitter, so that setup.json shows which scene the capture read.
+SCENE = """name: op-bench
+material: default
+rig: default
+detector: rgb
+seed: 7
+effects:
+  - {name: jitter, sigma_deg: 0.01}
+"""
+
+
+class SceneTests(DaemonTest):
+    pace_s = 1.0  # the abort lands after the first point on a loaded machine
+
+    def setUp(self):
+        super().setUp()
+        self.op = operator_folder(self)
+        os.makedirs(os.path.join(self.op, "scenes"))
+        write(os.path.join(self.op, "scenes", "bench.yaml"), SCENE)
+
+    def test_scene_travels_and_resume_reads_the_copy(self):
+        c = self.d.connect()
+        c.request("watch")
+        r = run_gonio(self.d, self.op, "capture", "--plan", "ds4", "--scene",
+                      "scenes/bench.yaml", "--name", "sc")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        while c.read()["class"] != "event":
+            pass
+        self.assertEqual(self.d.gonio("abort").returncode, 0)
+        c.until_stop("sc")
+        capdir = os.path.join(self.d.root, "sc")
+        with open(os.path.join(capdir, "request", "scene", "bench.yaml")) as f:
+            self.assertEqual(f.read(), SCENE)
+        scene = load_json(os.path.join(capdir, "setup.json"))["scene"]
+        self.assertEqual((scene["name"], scene["seed"], scene["effects"]), ("op-bench", 7, 1))
+        total = len(load_json(os.path.join(capdir, "plan.json"))["pairs"])
+        self.assertLess(len(journal_points(os.path.join(capdir, "samples.csv"))), total)
+        os.unlink(os.path.join(self.op, "scenes", "bench.yaml"))
+        r = run_gonio(self.d, "/", "resume", "sc")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        docs = c.until_stop("sc")
+        self.assertEqual(docs[-1]["reason"], "complete", docs[-1])
+        self.assertEqual(sorted(journal_points(os.path.join(capdir, "samples.csv"))),
+                         list(range(total)))
+        self.assertEqual(load_json(os.path.join(capdir, "setup.json"))["scene"]["name"],
+                         "op-bench")
+        self.assertEqual(load_json(os.path.join(capdir, "request.json"))["scene"],
+                         os.path.join(os.path.realpath(capdir), "request", "scene", "bench.yaml"))
+
+    def test_bad_scene_is_refused_naming_file_field_value(self):
+        cases = (
+            ("seed.yaml", SCENE.replace("seed: 7", "seed: banana"),
+             ["scenes/seed.yaml:5:", "seed", "banana"]),
+            ("merl.yaml", SCENE.replace("material: default", "material: merl:/etc/passwd"),
+             ["scene 'scenes/merl.yaml'", "material", "merl:/etc/passwd"]),
+            ("rig.yaml", SCENE.replace("rig: default", "rig: /etc/passwd"),
+             ["scene 'scenes/rig.yaml'", "'rig'", "/etc/passwd"]),
+        )
+        for name, text, wanted in cases:
+            write(os.path.join(self.op, "scenes", name), text)
+            r = run_gonio(self.d, self.op, "capture", "--plan", "ds4", "--scene",
+                          "scenes/" + name, "--name", "b")
+            self.assertEqual(r.returncode, 2, (name, r.stdout, r.stderr))
+            for w in wanted:
+                self.assertIn(w, r.stderr, name)
+            self.assertNotIn(self.d.root, r.stderr, name)
+            self.assertEqual(os.listdir(self.d.root) if os.path.isdir(self.d.root) else [], [])
 
 
 def nobody():

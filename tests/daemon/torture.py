@@ -47,6 +47,7 @@ import goniod_harness as tg  # noqa: E402  (Daemon, Conn, journal_points)
 PHASES = ("move", "journal", "fit", "move", "journal", "final-fit")
 KINDS = ("move", "journal", "fit", "final-fit")
 HOLD_S = 0.04
+MISSES_MAX = 3  # kills again at a target whose kill landed elsewhere
 MATERIAL = "builtin:nylon"
 MATERIAL_VALUES = os.path.join(tg.TESTS_BIN, "material_values")
 
@@ -217,9 +218,13 @@ class Torture:
         c = self.d.connect()
         c.request("watch")
         self.new_capture(c)
-        k = 0
-        while k < self.kills:
-            target = self.phases[k % len(self.phases)]
+        # A kill that misses its window (on a loaded machine the torture can
+        # see a phase line late) is made again at the same target, up to
+        # MISSES_MAX times, so that the phases are covered as aimed; the
+        # misses are kills too, and checked as any other.
+        k = aim = misses = 0
+        while aim < self.kills:
+            target = self.phases[aim % len(self.phases)]
             self.wait_for_phase(c, target, phase_lines(self.phase_log))
             # Inside the hold (or the fit itself), not at its edge.
             time.sleep(self.rng.uniform(0.1, 0.7) * HOLD_S)
@@ -234,6 +239,10 @@ class Torture:
                 self.landed[phase] += 1
             else:
                 self.landed_other[phase] = self.landed_other.get(phase, 0) + 1
+            if phase == target or misses == MISSES_MAX:
+                aim, misses = aim + 1, 0
+            else:
+                misses += 1
             journal = os.path.join(self.d.root, name, "samples.csv")
             pts = tg.journal_points(journal) if os.path.exists(journal) else []
             whole, torn = whole_records(journal)
@@ -259,6 +268,7 @@ class Torture:
             raise AssertionError(docs[-1])
         self.d.stop()
         self.wall_s = time.time() - t0
+        self.made = k
         return self.report()
 
     def poll_stop(self, c, name):
@@ -288,7 +298,7 @@ class Torture:
             totals["wrong"] += len(wrong)
             for w in wrong[:5]:
                 self.problems.append("%s: wrong %r" % (name, w))
-        return dict(kills=self.kills, landed=self.landed, landed_other=self.landed_other,
+        return dict(kills=self.made, landed=self.landed, landed_other=self.landed_other,
                     torn_tails_seen=self.torn_seen, captures=len(self.captures),
                     wall_s=round(self.wall_s, 1), problems=self.problems, **totals)
 
@@ -329,7 +339,7 @@ class AdaptiveTorture(Torture):
                 self.problems.append("%s measured %r, uninterrupted %r" % (name, got, want))
             if not os.path.exists(os.path.join(capdir, "results.json")):
                 self.problems.append("%s: no results.json" % name)
-        return dict(kills=self.kills, landed=self.landed, captures=len(self.captures),
+        return dict(kills=self.made, landed=self.landed, captures=len(self.captures),
                     torn_tails_seen=self.torn_seen, problems=self.problems, points=len(want))
 
 

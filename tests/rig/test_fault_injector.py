@@ -143,7 +143,8 @@ def rig():
     folder = tg.tmpdir()
     out = os.path.join(folder, "sim.out")
     sim = subprocess.Popen(tg.wrap([SIM, "--scene", "ideal", "--time-scale", str(SCALE)], folder),
-                           stdout=open(out, "w"), stderr=subprocess.DEVNULL)
+                           stdout=open(out, "w"), stderr=subprocess.DEVNULL,
+                           preexec_fn=tg.child_procs.die_with_parent)
     deadline = time.time() + tg.START_S
     text = ""
     while time.time() < deadline and "\n" not in text:

@@ -35,7 +35,8 @@ def jittery():
         f.write(SCENE)
     proc = subprocess.Popen(tg.wrap([os.path.join(gonio_bin(), "gonio-sim"), "--scene", scene,
                                      "--time-scale", str(TIME_SCALE), "--in-pos-deg",
-                                     str(BAND)], folder), stdout=subprocess.PIPE, text=True)
+                                     str(BAND)], folder), stdout=subprocess.PIPE, text=True,
+                            preexec_fn=tg.child_procs.die_with_parent)
     try:
         pty = proc.stdout.readline().strip()
         m = RtuMaster(pty)

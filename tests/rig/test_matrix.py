@@ -70,7 +70,8 @@ class Sim:
         self.proc = subprocess.Popen(
             tg.wrap([os.path.join(tg.BIN, "gonio-sim"), "--scene", scene] + clock +
                     ["--tcp", "127.0.0.1:0", "--stats", self.stats] + list(extra), folder),
-            stdout=open(out, "w"), stderr=open(os.path.join(folder, "sim.err"), "w"))
+            stdout=open(out, "w"), stderr=open(os.path.join(folder, "sim.err"), "w"),
+            preexec_fn=tg.child_procs.die_with_parent)
         deadline = time.time() + tg.START_S
         text = ""
         while time.time() < deadline and "tcp" not in text:

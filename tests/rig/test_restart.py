@@ -56,7 +56,8 @@ class Sim:
             tg.wrap([os.path.join(tg.BIN, "gonio-sim"), "--scene", self.scene, "--time-scale",
                      str(SCALE), "--tcp", "127.0.0.1:%d" % self.port, "--link", self.link],
                     self.folder),
-            stdout=open(out, "w"), stderr=open(os.path.join(self.folder, "sim.err"), "a"))
+            stdout=open(out, "w"), stderr=open(os.path.join(self.folder, "sim.err"), "a"),
+            preexec_fn=tg.child_procs.die_with_parent)
         deadline = time.time() + tg.START_S
         text = ""
         while time.time() < deadline and "tcp" not in text:

@@ -12,6 +12,8 @@ import time
 
 import pytest
 
+import child_procs  # tests/, on PYTHONPATH
+
 BIN = os.path.join(os.environ.get("GONIO_BIN", "build/bin"), "gonio")
 # Cheap and independent of the shared data: the embedded default material.
 TINY = ["--materials", "default", "--plans", "ds4,ds3", "--models", "abc",
@@ -127,7 +129,8 @@ def test_killed_run_resumes_without_redoing_rows(tmp):
     out = os.path.join(tmp, "out")
     args = ["study", "--materials", "default", "--plans", "ds4,ds3,ds2", "--models", "abc",
             "--scenes", "ideal,lab", "--jobs", "1", "--out", out]
-    p = subprocess.Popen([BIN, *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    p = subprocess.Popen([BIN, *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                         preexec_fn=child_procs.die_with_parent)
     jobs = os.path.join(out, "jobs")
     done = []
     deadline = time.time() + 240
@@ -162,7 +165,7 @@ def test_interrupted_run_stops_cleanly_and_resumes(tmp):
     args = ["study", "--materials", "default", "--plans", "ds4,oop200k", "--models", "abc",
             "--scenes", "ideal", "--jobs", "1", "--out", out]
     p = subprocess.Popen([BIN, *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                         text=True)
+                         text=True, preexec_fn=child_procs.die_with_parent)
     journal = os.path.join(out, "jobs", "default.ideal.oop200k", "samples.csv")
     deadline = time.time() + 240
     while time.time() < deadline and p.poll() is None:

@@ -203,7 +203,7 @@ static int full_tmpfs_child(void)
 static void test_full_tmpfs(void **state)
 {
     (void)state;
-    pid_t pid = fork();
+    pid_t pid = gonio_test_fork();
     assert_true(pid >= 0);
     if (pid == 0)
         _exit(full_tmpfs_child());

@@ -172,7 +172,7 @@ static int capture_child(const char *capdir, const char *image, const char *repo
 {
     int pipefd[2];
     assert_int_equal(pipe(pipefd), 0);
-    pid_t pid = fork();
+    pid_t pid = gonio_test_fork();
     assert_true(pid >= 0);
     if (pid == 0) {
         close(pipefd[0]);

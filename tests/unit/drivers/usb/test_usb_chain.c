@@ -19,6 +19,7 @@
 #include <umockdev.h>
 
 #include "tests/gonio_test.h"
+#include "tests/unit/drivers/usb/usb_test.h"
 
 #include "brdf/material.h"
 #include "capture/calibration.h"
@@ -28,7 +29,6 @@
 #include "journal/journal.h"
 #include "radiometry/reduce.h"
 
-#define DEVNODE "/dev/bus/usb/001/005"
 #define N_DARK 8
 #define REPEATS 3
 #define N_GEOM 6
@@ -70,20 +70,6 @@ static int teardown(void **state)
     return gonio_test_dir_remove(dir);
 }
 
-static UMockdevTestbed *testbed(const char *recording)
-{
-    UMockdevTestbed *tb = umockdev_testbed_new();
-    GError *e = NULL;
-    char path[1024];
-    snprintf(path, sizeof path, "%s/usb2000plus.umockdev", USB_DATA_DIR);
-    if (!umockdev_testbed_add_from_file(tb, path, &e))
-        fail_msg("%s: %s", path, e->message);
-    snprintf(path, sizeof path, "%s/%s", USB_DATA_DIR, recording);
-    if (!umockdev_testbed_load_ioctl(tb, DEVNODE, path, &e))
-        fail_msg("%s: %s", path, e->message);
-    return tb;
-}
-
 static void read_frame(drv_detector *det, enum cal_kind kind, double ti, double tr,
                        struct cal_frame *f)
 {
@@ -105,14 +91,7 @@ static drv_detector *open_detector(void)
     struct drv_usbspec_cfg cfg;
     drv_usbspec_cfg_default(&cfg);
     cfg.timeout_s = 2.0;
-    struct gonio_err err = {0};
-    drv_usbspec *s = drv_usbspec_open(&cfg, &err);
-    if (!s)
-        fail_msg("open: %s", err.msg);
-    drv_detector *det = drv_detector_new_usbspec(s, &cfg, &err);
-    if (!det)
-        fail_msg("detector: %s", err.msg);
-    return det;
+    return usb_test_detector(&cfg);
 }
 
 /* Dark frames and the standard through the driver, written to root as
@@ -147,7 +126,7 @@ static void calibrate(drv_detector *det, const char *root)
  * journals counts. */
 static void measure(struct cal_loaded *cl, struct journal_sample *js)
 {
-    UMockdevTestbed *tb = testbed("chain.ioctl");
+    UMockdevTestbed *tb = usb_test_testbed("chain.ioctl");
     drv_detector *det = open_detector();
     char root[128];
     snprintf(root, sizeof root, "%s/records", dir);
@@ -268,7 +247,7 @@ static void test_capture_engine_reduces_the_counts(void **state)
     (void)state;
     char root[128], path[400], out[256];
     snprintf(root, sizeof root, "%s/engine", dir);
-    UMockdevTestbed *tb = testbed("chain.ioctl");
+    UMockdevTestbed *tb = usb_test_testbed("chain.ioctl");
     struct usb_rig u = {.det = open_detector()};
     calibrate(u.det, root);
     /* the rig: integration 0.1 s, as calibrated and recorded, nothing to range */
@@ -329,12 +308,8 @@ static void test_capture_engine_reduces_the_counts(void **state)
 
 int main(void)
 {
-    const char *preload = getenv("LD_PRELOAD");
-    if (!preload || !strstr(preload, "libumockdev-preload")) {
-        fprintf(stderr, "SKIPPED: needs libumockdev-preload in LD_PRELOAD (ctest sets it; "
-                        "or run through umockdev-wrapper)\n");
+    if (usb_test_no_preload())
         return 77;
-    }
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_calibrated_capture_recovers_the_brdf),
         cmocka_unit_test(test_capture_engine_reduces_the_counts),

@@ -21,28 +21,11 @@
 #include <umockdev.h>
 
 #include "tests/gonio_test.h"
+#include "tests/unit/drivers/usb/usb_test.h"
 
 #include "brdf/colour.h"
 #include "common/clock.h"
 #include "drivers/drv_usbspec.h"
-
-#define DEVNODE "/dev/bus/usb/001/005"
-
-static UMockdevTestbed *testbed(const char *recording)
-{
-    UMockdevTestbed *tb = umockdev_testbed_new();
-    GError *e = NULL;
-    char path[1024];
-    snprintf(path, sizeof path, "%s/usb2000plus.umockdev", USB_DATA_DIR);
-    if (!umockdev_testbed_add_from_file(tb, path, &e))
-        fail_msg("%s: %s", path, e->message);
-    if (recording) {
-        snprintf(path, sizeof path, "%s/%s", USB_DATA_DIR, recording);
-        if (!umockdev_testbed_load_ioctl(tb, DEVNODE, path, &e))
-            fail_msg("%s: %s", path, e->message);
-    }
-    return tb;
-}
 
 /* ---- reading the recording back ------------------------------------- */
 
@@ -109,6 +92,22 @@ static void recorded_counts(const struct urb_rec *r, int n, double *counts)
     }
 }
 
+/* Each pixel's wavelength (the calibration's cubic) and its counts above
+ * the electric dark, the mean of pixels 6-20 (the masked ones). */
+static void recorded_pixels(const struct urb_rec *r, int n, double *lam, double *y)
+{
+    double c[4], counts[DRV_USBSPEC_PIXELS], dark = 0;
+    recorded_coefficients(r, n, c);
+    recorded_counts(r, n, counts);
+    for (int p = 6; p <= 20; p++)
+        dark += counts[p] / 15.0;
+    for (int p = 0; p < DRV_USBSPEC_PIXELS; p++) {
+        double x = p;
+        lam[p] = c[0] + c[1] * x + c[2] * x * x + c[3] * x * x * x;
+        y[p] = counts[p] - dark;
+    }
+}
+
 /* The band mean of the nearest-pixel spectrum, by midpoint quadrature on M
  * cells. Only a cell holding a pixel boundary is misassigned, by at most
  * the jump there over M: *bound receives the sum of those, the quadrature's
@@ -151,7 +150,7 @@ static struct drv_usbspec_cfg cfg_default(void)
 static void test_open_reads_calibration(void **state)
 {
     (void)state;
-    UMockdevTestbed *tb = testbed("spectrum.ioctl");
+    UMockdevTestbed *tb = usb_test_testbed("spectrum.ioctl");
     struct urb_rec rec[64];
     int n = read_recording("spectrum.ioctl", rec, 64);
     double want[4], got[4];
@@ -173,7 +172,7 @@ static void test_open_reads_calibration(void **state)
 static void test_other_serial_is_not_opened(void **state)
 {
     (void)state;
-    UMockdevTestbed *tb = testbed("spectrum.ioctl");
+    UMockdevTestbed *tb = usb_test_testbed("spectrum.ioctl");
     struct drv_usbspec_cfg cfg = cfg_default();
     cfg.serial = "USB2+F99999";
     struct gonio_err err = {0};
@@ -188,32 +187,17 @@ static void test_other_serial_is_not_opened(void **state)
  * any other bytes find no URB to replay and fail), then the spectrum. */
 static void check_spectrum(double first_nm, int n_bands)
 {
-    UMockdevTestbed *tb = testbed("spectrum.ioctl");
+    UMockdevTestbed *tb = usb_test_testbed("spectrum.ioctl");
     struct urb_rec rec[64];
     int n = read_recording("spectrum.ioctl", rec, 64);
-    double c[4], counts[DRV_USBSPEC_PIXELS], lam[DRV_USBSPEC_PIXELS], v[DRV_USBSPEC_PIXELS];
-    recorded_coefficients(rec, n, c);
-    recorded_counts(rec, n, counts);
-    double dark = 0;
-    for (int p = 6; p <= 20; p++)
-        dark += counts[p] / 15.0;
-    for (int p = 0; p < DRV_USBSPEC_PIXELS; p++) {
-        double x = p;
-        lam[p] = c[0] + c[1] * x + c[2] * x * x + c[3] * x * x * x;
-        v[p] = counts[p] - dark;
-    }
-
+    double lam[DRV_USBSPEC_PIXELS], v[DRV_USBSPEC_PIXELS];
+    recorded_pixels(rec, n, lam, v);
     struct drv_usbspec_cfg cfg = cfg_default();
     cfg.first_nm = first_nm;
     cfg.n_bands = n_bands;
     cfg.scale = 2.5e-5;
     struct gonio_err err = {0};
-    drv_usbspec *s = drv_usbspec_open(&cfg, &err);
-    if (!s)
-        fail_msg("open: %s", err.msg);
-    drv_detector *det = drv_detector_new_usbspec(s, &cfg, &err);
-    if (!det)
-        fail_msg("detector: %s", err.msg);
+    drv_detector *det = usb_test_detector(&cfg);
     struct drv_reading r;
     if (drv_detector_acquire(det, 0.1, &r, &err) < 0)
         fail_msg("acquire: %s", err.msg);
@@ -249,33 +233,24 @@ static void check_spectrum(double first_nm, int n_bands)
  * quadrature. */
 static void check_counts(double first_nm, int n_bands)
 {
-    UMockdevTestbed *tb = testbed("spectrum.ioctl");
+    UMockdevTestbed *tb = usb_test_testbed("spectrum.ioctl");
     struct urb_rec rec[64];
     int n = read_recording("spectrum.ioctl", rec, 64);
-    double c[4], counts[DRV_USBSPEC_PIXELS], lam[DRV_USBSPEC_PIXELS], v[DRV_USBSPEC_PIXELS];
-    recorded_coefficients(rec, n, c);
-    recorded_counts(rec, n, counts);
+    double lam[DRV_USBSPEC_PIXELS], v[DRV_USBSPEC_PIXELS];
+    recorded_pixels(rec, n, lam, v);
     int order = (int)recorded_slot(rec, n, 14);
     assert_int_equal(order, 2);
-    double dark = 0, nl[3] = {recorded_slot(rec, n, 6), recorded_slot(rec, n, 7),
-                              recorded_slot(rec, n, 8)};
-    for (int p = 6; p <= 20; p++)
-        dark += counts[p] / 15.0;
+    double nl[3] = {recorded_slot(rec, n, 6), recorded_slot(rec, n, 7),
+                    recorded_slot(rec, n, 8)};
     for (int p = 0; p < DRV_USBSPEC_PIXELS; p++) {
-        double x = p, y = counts[p] - dark;
-        lam[p] = c[0] + c[1] * x + c[2] * x * x + c[3] * x * x * x;
+        double y = v[p];
         v[p] = y / (nl[0] + nl[1] * y + nl[2] * y * y);
     }
     struct drv_usbspec_cfg cfg = cfg_default();
     cfg.first_nm = first_nm;
     cfg.n_bands = n_bands;
     struct gonio_err err = {0};
-    drv_usbspec *s = drv_usbspec_open(&cfg, &err);
-    if (!s)
-        fail_msg("open: %s", err.msg);
-    drv_detector *det = drv_detector_new_usbspec(s, &cfg, &err);
-    if (!det)
-        fail_msg("detector: %s", err.msg);
+    drv_detector *det = usb_test_detector(&cfg);
     struct drv_reading r;
     if (drv_detector_acquire(det, 0.1, &r, &err) < 0)
         fail_msg("acquire: %s", err.msg);
@@ -321,7 +296,7 @@ static void test_counts_35_bands(void **state)
 static void test_bad_nonlinearity_refused(void **state)
 {
     (void)state;
-    UMockdevTestbed *tb = testbed("bad_nonlinearity.ioctl");
+    UMockdevTestbed *tb = usb_test_testbed("bad_nonlinearity.ioctl");
     struct drv_usbspec_cfg cfg = cfg_default();
     struct gonio_err err = {0};
     assert_null(drv_usbspec_open(&cfg, &err));
@@ -351,14 +326,10 @@ static void test_spectrum_35_bands(void **state)
 static void test_saturated_pixel_flags_the_reading(void **state)
 {
     (void)state;
-    UMockdevTestbed *tb = testbed("saturated.ioctl");
+    UMockdevTestbed *tb = usb_test_testbed("saturated.ioctl");
     struct drv_usbspec_cfg cfg = cfg_default();
     struct gonio_err err = {0};
-    drv_usbspec *s = drv_usbspec_open(&cfg, &err);
-    if (!s)
-        fail_msg("open: %s", err.msg);
-    drv_detector *det = drv_detector_new_usbspec(s, &cfg, &err);
-    assert_non_null(det);
+    drv_detector *det = usb_test_detector(&cfg);
     struct drv_reading r;
     if (drv_detector_acquire(det, 0.1, &r, &err) < 0)
         fail_msg("acquire: %s", err.msg);
@@ -377,11 +348,7 @@ static void expect_acquire_failure(const char *recording, const char *a, const c
 {
     struct drv_usbspec_cfg cfg = cfg_default();
     struct gonio_err err = {0};
-    drv_usbspec *s = drv_usbspec_open(&cfg, &err);
-    if (!s)
-        fail_msg("%s: open: %s", recording, err.msg);
-    drv_detector *det = drv_detector_new_usbspec(s, &cfg, &err);
-    assert_non_null(det);
+    drv_detector *det = usb_test_detector(&cfg);
     struct drv_reading r;
     assert_int_equal(drv_detector_acquire(det, 0.1, &r, &err), -GONIO_EDEVICE);
     assert_int_equal(err.code, GONIO_EDEVICE);
@@ -397,7 +364,7 @@ static void expect_acquire_failure(const char *recording, const char *a, const c
 static void test_short_read(void **state)
 {
     (void)state;
-    UMockdevTestbed *tb = testbed("short_read.ioctl");
+    UMockdevTestbed *tb = usb_test_testbed("short_read.ioctl");
     expect_acquire_failure("short_read.ioctl", "packet 3 of 8",
                            "short read: 100 of 512 bytes from EP 0x82", NULL);
     g_object_unref(tb);
@@ -406,7 +373,7 @@ static void test_short_read(void **state)
 static void test_wrong_sync_byte(void **state)
 {
     (void)state;
-    UMockdevTestbed *tb = testbed("bad_sync.ioctl");
+    UMockdevTestbed *tb = usb_test_testbed("bad_sync.ioctl");
     expect_acquire_failure("bad_sync.ioctl", "read spectrum", "sync byte 0x00, expected 0x69",
                            NULL);
     g_object_unref(tb);
@@ -417,7 +384,7 @@ static void test_wrong_sync_byte(void **state)
 static void test_unplugged_mid_read(void **state)
 {
     (void)state;
-    UMockdevTestbed *tb = testbed("unplug.ioctl");
+    UMockdevTestbed *tb = usb_test_testbed("unplug.ioctl");
     drv_detector *det = NULL;
     expect_acquire_failure("unplug.ioctl", "packet 4 of 8", "device unplugged", &det);
     struct drv_reading r;
@@ -431,7 +398,7 @@ static void test_unplugged_mid_read(void **state)
 static void test_bad_calibration_reply(void **state)
 {
     (void)state;
-    UMockdevTestbed *tb = testbed("bad_calibration.ioctl");
+    UMockdevTestbed *tb = usb_test_testbed("bad_calibration.ioctl");
     struct drv_usbspec_cfg cfg = cfg_default();
     struct gonio_err err = {0};
     assert_null(drv_usbspec_open(&cfg, &err));
@@ -564,12 +531,12 @@ static gboolean silent_ioctl(UMockdevIoctlBase *base, UMockdevIoctlClient *clien
 /* A testbed whose USB2000+ is the scripted dev. */
 static UMockdevTestbed *silent_testbed(struct silent_dev *dev, UMockdevIoctlBase **handler)
 {
-    UMockdevTestbed *tb = testbed(NULL);
+    UMockdevTestbed *tb = usb_test_testbed(NULL);
     g_queue_init(&dev->done);
     *handler = umockdev_ioctl_base_new();
     g_signal_connect(*handler, "handle-ioctl", G_CALLBACK(silent_ioctl), dev);
     GError *e = NULL;
-    if (!umockdev_testbed_attach_ioctl(tb, DEVNODE, *handler, &e))
+    if (!umockdev_testbed_attach_ioctl(tb, USB_TEST_DEVNODE, *handler, &e))
         fail_msg("attach: %s", e->message);
     return tb;
 }
@@ -677,14 +644,8 @@ static void test_resample_flat_and_bounds(void **state)
 
 int main(void)
 {
-    /* umockdev_in_mock_environment() answers 0 under the wrapper in
-     * umockdev 0.17.16, so look for the preload library itself */
-    const char *preload = getenv("LD_PRELOAD");
-    if (!preload || !strstr(preload, "libumockdev-preload")) {
-        fprintf(stderr, "SKIPPED: needs libumockdev-preload in LD_PRELOAD (ctest sets it; "
-                        "or run through umockdev-wrapper)\n");
+    if (usb_test_no_preload())
         return 77;
-    }
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_resample_flat_and_bounds),
         cmocka_unit_test(test_open_reads_calibration),
