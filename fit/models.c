@@ -29,7 +29,7 @@ static const struct fit_model_kind models[] = {
      fit_mlp_spectral_fit, fit_mlp_spectral_open},
     {"latent", "latent", "latent-code neural BRDF: frozen decoder, z fitted (docs/latent.md)",
      0, 1, fit_latent_model_fit, fit_latent_model_open},
-    {"auto", "abc|latent",
+    {"auto", "abc|latent|aniso-ggx",
      "the out-of-plane model (abc, abc-prior, latent) of lowest 5-fold CV log error "
      "(fit/auto_model.h)",
      0, 1, fit_auto_model_fit, NULL},
