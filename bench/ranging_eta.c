@@ -77,6 +77,9 @@ int main(int argc, char **argv)
             return 1;
         }
         double t = sum.rig_time_s;
+        if (getenv("RANGING_ETA_TRACE")) /* rig time so far plus ETA, every 20th point */
+            for (size_t i = 0; i < s.n; i += (i < 60 ? 2 : 20))
+                fprintf(stderr, "%s %zu %+.1f%%\n", mat, i + 1, 100 * (s.whole[i] / t - 1));
         printf("%-30s %9.1f %+8.1f%% %+8.1f%% %+8.1f%% %+8.1f%% %8.1f%% %8.1f%% %8zu %6zu\n",
                mat, t, 100 * (s.estimate / t - 1), 100 * (s.at_prescan / t - 1),
                100 * (s.at_quarter / t - 1), 100 * (s.at_half / t - 1),

@@ -1,6 +1,7 @@
 /* Auto-ranging (autorange.h): a ladder of integrations, a dark frame per
  * rung, retakes until the peak sits between the floor and the clip. */
 #include "capture/autorange.h"
+#include "capture/capture.h"
 
 #include <errno.h>
 #include <math.h>
@@ -40,6 +41,17 @@ size_t autorange_ladder(const struct autorange *a, double *out, size_t max)
             break;
     }
     return n;
+}
+
+double capture_ranging_bound_s(const struct rig_profile *rig, size_t points)
+{
+    struct autorange a;
+    autorange_init(&a, rig);
+    double ladder[AUTORANGE_RUNGS], darks = 0;
+    size_t n = autorange_ladder(&a, ladder, AUTORANGE_RUNGS);
+    for (size_t k = 0; k < n; k++)
+        darks += ladder[k];
+    return a.max_s > a.fixed_s ? (double)points * (a.max_s - a.fixed_s) + darks : 0;
 }
 
 double autorange_rung(const struct autorange *a, double t, int dir)

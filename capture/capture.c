@@ -84,7 +84,7 @@ static int eta_new(const struct capture_job *in, const struct capture_hooks *hoo
     free(order);
     if (!e)
         return -abs(err ? err->code : ENOMEM);
-    capture_eta_ranging(e, ar);
+    capture_eta_ranging(e, ar, in->prescan);
     for (size_t i = 0; i < n; i++)
         capture_eta_observe(e, &js[i]);
     *out = e;

@@ -330,4 +330,11 @@ int capture_check(const struct capture_config *cfg, const struct capture_rig *ri
 int capture_recalibrate(const char *dir, const char *root, const char *id, const char *out,
                         struct gonio_err *err);
 
+/* The most rig time auto-ranging (a detector of counts) can add to an
+ * estimate at rig's fixed integration over `points` points: each at the
+ * longest rung instead, and a dark frame at every rung. An estimate
+ * before the first move cannot know the material; this is its bound
+ * (docs/plans.md, "Auto-ranging"). 0 where the rig cannot range longer. */
+double capture_ranging_bound_s(const struct rig_profile *rig, size_t points);
+
 #endif

@@ -6,6 +6,7 @@
 #include <math.h>
 
 #include "capture/autorange.h"
+#include "capture/rate_map.h"
 #include "planner/meter.h"
 
 /* Metering a record and counting the points left each cost O(points): a
@@ -38,11 +39,10 @@ struct capture_eta {
     size_t stride;     /* meter and recount every stride-th record */
     double left;       /* the points left, as last counted and counted off */
     /* A detector of counts (capture_eta_ranging): the ranging, the signal
-     * rate measured at each point (NAN where not measured) and the dark
-     * frames' time as last seen. */
+     * rates measured (capture/rate_map.h) and the dark frames' time as
+     * last seen. */
     const struct autorange *ar;
-    double *rate;
-    size_t n_rates;
+    rate_map *rates;
     double dark_seen_s;
 };
 
@@ -58,10 +58,10 @@ capture_eta *capture_eta_new(const struct plan *plan, const struct rig_profile *
         e->move = malloc((n ? n : 1) * sizeof *e->move);
         e->order = malloc((n ? n : 1) * sizeof *e->order);
         e->done = calloc(n ? n : 1, 1);
-        e->rate = malloc((n ? n : 1) * sizeof *e->rate);
+        e->rates = rate_map_new(plan, err);
         e->meter = plan_meter_new(plan, rig, expected_s, err);
     }
-    if (!e || !e->move || !e->order || !e->done || !e->rate || !e->meter) {
+    if (!e || !e->move || !e->order || !e->done || !e->rates || !e->meter) {
         capture_eta_free(e);
         gonio_err_set(err, ENOMEM, "ETA: out of memory");
         return NULL;
@@ -70,8 +70,6 @@ capture_eta *capture_eta_new(const struct plan *plan, const struct rig_profile *
     e->rig = rig;
     e->n = n;
     e->last = -1;
-    for (size_t i = 0; i < n; i++)
-        e->rate[i] = NAN;
     const struct rig_axes *at = &e->start;
     for (size_t k = 0; k < n; k++) {
         size_t i = order ? (size_t)order[k] : k;
@@ -93,7 +91,7 @@ void capture_eta_free(capture_eta *e)
     free(e->move);
     free(e->order);
     free(e->done);
-    free(e->rate);
+    rate_map_free(e->rates);
     free(e);
 }
 
@@ -113,14 +111,11 @@ void capture_eta_observe(capture_eta *e, const struct journal_sample *s)
     /* The detector's time is every try's and the dark frames' since the
      * record before: the ranging model counts them, not the overhead. */
     double detector_s = s->integration_total_s > 0 ? s->integration_total_s : s->integration_s;
+    double rate = NAN;
     if (e->ar) {
         detector_s += e->ar->dark_total_s - e->dark_seen_s;
         e->dark_seen_s = e->ar->dark_total_s;
-        double rate = autorange_rate(e->ar, s);
-        if (!isnan(rate)) {
-            e->n_rates += isnan(e->rate[i]);
-            e->rate[i] = rate;
-        }
+        rate = autorange_rate(e->ar, s);
     }
     e->overhead_sum += s->rig_time_s - e->last_rig_s - move - detector_s;
     e->n_obs++;
@@ -129,6 +124,10 @@ void capture_eta_observe(capture_eta *e, const struct journal_sample *s)
     e->done[i] = 1;
     if (e->n_obs % e->stride == 0) {
         plan_meter_observe(e->meter, i, s->integration_s);
+        /* a reading at or below its dark is as dark as one count over
+         * its integration: what the reading resolves */
+        if (!isnan(rate))
+            rate_map_observe(e->rates, i, fmax(rate, 1 / s->integration_s));
         e->left = count_left(e);
     } else {
         e->left = e->left > share ? e->left - share : 0;
@@ -151,9 +150,10 @@ void capture_eta_start(capture_eta *e, const struct rig_axes *at)
         e->estimate_s = e->left;
 }
 
-void capture_eta_ranging(capture_eta *e, const struct autorange *ar)
+void capture_eta_ranging(capture_eta *e, const struct autorange *ar, size_t prescan)
 {
     e->ar = ar;
+    rate_map_spread_over(e->rates, prescan);
     e->dark_seen_s = 0;
 }
 
@@ -172,39 +172,48 @@ double capture_eta_left(const capture_eta *e)
     return e->left;
 }
 
-/* The signal rate expected at i: the nearest measured point's. */
-static double rate_at(const capture_eta *e, size_t i)
-{
-    long j = plan_meter_nearest(e->meter, i);
-    return j >= 0 && !isnan(e->rate[j]) ? e->rate[j] : NAN;
-}
+/* Gauss-Hermite nodes and weights for a standard normal variable. */
+static const double SPREAD_Z[] = {-2.856970013872806, -1.355626179974266, 0,
+                                  1.355626179974266, 2.856970013872806};
+static const double SPREAD_W[] = {0.011257411327721, 0.222075922005613, 0.533333333333333,
+                                  0.222075922005613, 0.011257411327721};
 
-/* The points left on a detector of counts, in the capture's order: the
- * ladder walked from the rung the last point ended on, each point at the
- * rate of the point measured nearest it. */
-static double count_left_ranged(const capture_eta *e, struct autorange_model *m)
+/* The detector time of the points left on a detector of counts, in the
+ * capture's order: the ladder walked from the rung the last point ended
+ * on, each point at its interpolated rate (capture/rate_map.h). Where
+ * the walk changes rung is a threshold on the rate (the floor, the clip),
+ * so the time of one walk on the rates as interpolated jumps when a rate
+ * does: a glossy material whose peak sits a few per cent under the clip
+ * costs a longer rung on every point left, or none. The time counted is
+ * the mean over the interpolation's spread instead, the rates scaled
+ * together by exp(spread z) for z normal (Gauss-Hermite, five walks): the
+ * error of an interpolation is shared by a region, not drawn per point. */
+static double detector_left(const capture_eta *e)
 {
-    double overhead = capture_eta_overhead(e), left = 0;
-    for (size_t k = 0; k < e->n; k++) {
-        size_t i = (size_t)e->order[k];
-        if (e->done[i])
-            continue;
-        double rate = rate_at(e, i);
-        left += e->move[i] + overhead +
-                (isnan(rate) ? plan_meter_integration(e->meter, i)
-                             : autorange_model_point(e->ar, m, rate));
+    double spread = rate_map_spread(e->rates), sum = 0;
+    for (size_t q = 0; q < sizeof SPREAD_Z / sizeof *SPREAD_Z; q++) {
+        struct autorange_model m;
+        autorange_model_start(e->ar, &m);
+        double scale = exp(spread * SPREAD_Z[q]), walk = 0;
+        for (size_t k = 0; k < e->n; k++) {
+            size_t i = (size_t)e->order[k];
+            if (!e->done[i])
+                walk += autorange_model_point(e->ar, &m, scale * rate_map_at(e->rates, i));
+        }
+        sum += SPREAD_W[q] * walk;
+        if (spread == 0)
+            return walk;
     }
-    return left;
+    return sum;
 }
 
 static double count_left(const capture_eta *e)
 {
     struct autorange_model m;
-    if (e->ar && e->n_rates > 0 && autorange_model_start(e->ar, &m))
-        return count_left_ranged(e, &m);
+    int ranged = e->ar && rate_map_count(e->rates) > 0 && autorange_model_start(e->ar, &m);
     double overhead = capture_eta_overhead(e), left = 0;
     for (size_t i = 0; i < e->n; i++)
         if (!e->done[i])
-            left += e->move[i] + overhead + plan_meter_integration(e->meter, i);
-    return left;
+            left += e->move[i] + overhead + (ranged ? 0 : plan_meter_integration(e->meter, i));
+    return ranged ? left + detector_left(e) : left;
 }

@@ -56,7 +56,7 @@ void capture_eta_start(capture_eta *e, const struct rig_axes *at);
  * overhead per point then leaves out each record's tries and dark frames.
  * Call it before observing. */
 struct autorange;
-void capture_eta_ranging(capture_eta *e, const struct autorange *ar);
+void capture_eta_ranging(capture_eta *e, const struct autorange *ar, size_t prescan);
 
 /* The rig time of the points not observed yet. */
 double capture_eta_left(const capture_eta *e);

@@ -643,6 +643,41 @@ static void capture_usage(FILE *out)
             "  The socket is --socket, else $GONIO_SOCKET, else " GONIO_SOCKET_DEFAULT ".\n");
 }
 
+/* Send the capture request req (taken) to goniod on sock and say where it
+ * started; with wait, follow it to its end. The exit status. */
+static int capture_send(const char *sock, json_t *req, int wait, int quiet)
+{
+    struct conn c;
+    if (conn_open(&c, socket_path(sock)) < 0) {
+        json_decref(req);
+        return 1;
+    }
+    int rc = 0;
+    if (wait) { /* subscribe first, so not even a quick capture's start is missed */
+        json_t *rep = conn_request(&c, json_pack("{s:s}", "cmd", "watch"));
+        rc = reply_failed(rep);
+        json_decref(rep);
+    }
+    json_t *rep = NULL;
+    if (!rc) {
+        rep = conn_request(&c, req);
+        rc = reply_failed(rep);
+    } else {
+        json_decref(req);
+    }
+    if (!rc) {
+        char id[128];
+        snprintf(id, sizeof id, "%s", json_string_value(json_object_get(rep, "capture_id")));
+        printf("capture %s started in %s\n", id, json_string_value(json_object_get(rep, "dir")));
+        fflush(stdout);
+        if (wait)
+            rc = follow(&c, id, quiet);
+    }
+    json_decref(rep);
+    conn_close(&c);
+    return rc;
+}
+
 int cmd_capture_daemon(int argc, char **argv)
 {
     static const struct option opts[] = {
@@ -737,34 +772,7 @@ int cmd_capture_daemon(int argc, char **argv)
         json_decref(req);
         return rc;
     }
-    struct conn c;
-    if (conn_open(&c, socket_path(sock)) < 0) {
-        json_decref(req);
-        return 1;
-    }
-    if (wait) { /* subscribe first, so not even a quick capture's start is missed */
-        json_t *rep = conn_request(&c, json_pack("{s:s}", "cmd", "watch"));
-        rc = reply_failed(rep);
-        json_decref(rep);
-    }
-    json_t *rep = NULL;
-    if (!rc) {
-        rep = conn_request(&c, req);
-        rc = reply_failed(rep);
-    } else {
-        json_decref(req);
-    }
-    if (!rc) {
-        char id[128];
-        snprintf(id, sizeof id, "%s", json_string_value(json_object_get(rep, "capture_id")));
-        printf("capture %s started in %s\n", id, json_string_value(json_object_get(rep, "dir")));
-        fflush(stdout);
-        if (wait)
-            rc = follow(&c, id, quiet);
-    }
-    json_decref(rep);
-    conn_close(&c);
-    return rc;
+    return capture_send(sock, req, wait, quiet);
 }
 
 int cmd_capture_any(int argc, char **argv)

@@ -98,6 +98,15 @@ static void print_summary(const struct plan *plan, const char *rig_arg,
            "integration %s (%.1f s)\n",
            t[0], est->total_s, t[1], est->move_s, t[2], est->settle_s, t[3],
            est->integration_s);
+    /* A detector of counts ranges each point: the estimate cannot know
+     * the material, so it says how far ranging could take it. */
+    double up = capture_ranging_bound_s(rig, plan_count(plan));
+    if (up > 0) {
+        gonio_duration_words(est->total_s + up, t[0], sizeof t[0]);
+        printf("with auto-ranging (a detector of counts): up to %s (%.1f s), every point at "
+               "the longest integration\n",
+               t[0], est->total_s + up);
+    }
     double lb = plan_move_lower_bound(plan, rig);
     if (!isnan(lb))
         printf("move time lower bound (any order): %.1f s\n", lb);

@@ -290,11 +290,17 @@ def test_plan_summary_first_and_alone():
     total = json.loads(gonio("plan", "ds1", "--json").stdout)["estimate"]["total_s"]
     words = f"{round(total) // 60} min {round(total) % 60} s"
     assert lines[2].startswith(f"estimate: total {words} ({total:.1f} s)"), lines[2]
+    # what auto-ranging could add: every point at the default rig's longest
+    # rung (2 s, not 0.05 s) and a dark frame at each of its seven rungs
+    rungs = 0.001 + 0.003125 + 0.0125 + 0.05 + 0.2 + 0.8 + 2.0
+    up = total + 912 * (2.0 - 0.05) + rungs
+    assert lines[3].startswith("with auto-ranging (a detector of counts): up to ") and \
+        lines[3].endswith(f"({up:.1f} s), every point at the longest integration"), lines[3]
     summary = gonio("plan", "ds1", "--summary")
     assert summary.returncode == 0
     assert full.stdout.startswith(summary.stdout)
-    assert len(summary.stdout.splitlines()) == 4  # no table
-    assert len(lines) == 4 + 1 + 912
+    assert len(summary.stdout.splitlines()) == 5  # no table
+    assert len(lines) == 5 + 1 + 912
 
 
 def test_plan_hours():

@@ -77,6 +77,11 @@ def pkg():
     # Under the build tree, not /tmp (which the operator's commands see
     # empty), in folders everyone may traverse.
     base = os.path.join(BUILD, "tmp")
+    hidden = [d for d in ("/tmp", "/var/tmp", "/dev/shm")
+              if os.path.realpath(base).startswith(d + "/")]
+    if hidden:
+        pytest.skip("the build tree is under %s, which the operator's commands see as a fresh "
+                    "tmpfs: build outside it to run this test" % hidden[0])
     os.makedirs(base, exist_ok=True)
     top = tempfile.mkdtemp(prefix="pkgop", dir=base)
     os.chmod(top, 0o755)

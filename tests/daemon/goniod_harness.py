@@ -272,9 +272,12 @@ class Daemon:
         return self.proc.poll() is None
 
     def gonio(self, *args):
+        """gonio ARGS against this goniod. With --wait it lasts the whole
+        capture, its final fit and its errors: seconds here, several times
+        that on a loaded machine, minutes under memcheck."""
         env = dict(self.env, GONIO_SOCKET=self.sock)
         return subprocess.run([GONIO] + list(args), capture_output=True, text=True, env=env,
-                              timeout=30)
+                              timeout=12 * START_S)
 
 
 class DaemonTest(unittest.TestCase):

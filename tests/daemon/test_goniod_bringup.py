@@ -22,6 +22,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from goniod_harness import (GONIO, GONIOD, SLOW, SOURCE, START_S, Daemon,  # noqa: E402
                             run_wrapped, shipped_config, tmpdir)
 import test_goniod_modbus  # noqa: E402  (ModbusRig)
+import child_procs  # noqa: E402
 
 # configs/rigs/default.yaml with the azimuth axis taken away: an in-plane rig.
 with open(os.path.join(SOURCE, "configs", "rigs", "default.yaml")) as _f:
@@ -414,7 +415,8 @@ class BringupAbortTests(test_goniod_modbus.ModbusRig):
         c = self.d.connect()
         env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
         lim = subprocess.Popen([GONIO, "limits", "sample"], stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, text=True, env=env)
+                               stderr=subprocess.PIPE, text=True, env=env,
+                               preexec_fn=child_procs.die_with_parent)
         self.addCleanup(lim.kill)
         deadline = time.time() + START_S
         while c.request("status")["bringup"] != "limits sample":

@@ -6,10 +6,13 @@ what it says on the bus. It declares counts at open (status RAW), so a
 capture that names neither a calibration nor --uncalibrated is refused
 before any axis moves. A metal's DS1 --uncalibrated is auto-ranged: no
 sample is left clipped, and the rig time so far plus the ETA is within 5 %
-of the rig time the capture took from a quarter of the points on (before
-that the points left are guessed from too few measured: docs/plans.md)."""
+of the rig time the capture took right after the pre-scan and from a
+quarter of the points on (docs/plans.md, "Auto-ranging"). A glossy
+plastic's DS1, whose peak sits a few per cent under the clip at its
+longest rung, is held to the same 5 % right after the pre-scan."""
 import csv
 import os
+import pytest
 import shutil
 import sys
 
@@ -17,15 +20,16 @@ import test_matrix as tm
 import goniod_harness as tg
 
 METAL = "builtin:gold-metallic-paint"
+GLOSSY = "builtin:red-plastic"
 TOLERANCE = 0.05
 SATURATED = 1  # samples.csv flags
 DARK = 2
 
 
-def run(folder, name, **request):
-    """One goniod capture on lab (the metal) over TCP: its documents,
-    directory and gonio-sim's stats."""
-    sim = tm.Sim(folder, "lab", scale=None, extra=["--material", METAL])
+def run(folder, name, material=METAL, **request):
+    """One goniod capture on lab (the metal unless told) over TCP: its
+    documents, directory and gonio-sim's stats."""
+    sim = tm.Sim(folder, "lab", scale=None, extra=["--material", material])
     d = None
     try:
         d = tg.Daemon(folder, driver=sim.driver("tcp")).start()
@@ -56,10 +60,11 @@ def test_counts_declared_at_open_refuse_before_a_move():
         shutil.rmtree(folder, ignore_errors=True)
 
 
-def test_metal_ds1_no_clip_and_eta_within_5_percent():
+@pytest.mark.parametrize("material", [METAL, GLOSSY])
+def test_ds1_no_clip_and_eta_within_5_percent(material):
     folder = tg.tmpdir()
     try:
-        docs, capdir, _ = run(folder, "metal", plan="ds1", uncalibrated=True)
+        docs, capdir, _ = run(folder, "ds1", material, plan="ds1", uncalibrated=True)
         stop = docs[-1]
         assert stop["exit_status"] == "success", stop
         with open(os.path.join(capdir, "samples.csv")) as f:
@@ -79,13 +84,13 @@ def test_metal_ds1_no_clip_and_eta_within_5_percent():
         after = next(e for e in events if e["done"] == start["prescan"])
         sys.stderr.write("lab DS1 %s over TCP: rig time %.1f s, estimate %+.1f %%, after "
                          "the pre-scan %+.1f %%, worst from a quarter on %.1f %%\n" % (
-                             METAL, actual, 100 * (start["estimate_s"] / actual - 1),
+                             material, actual, 100 * (start["estimate_s"] / actual - 1),
                              100 * ((after["rig_time_s"] + after["eta_s"]) / actual - 1),
                              100 * worst))
-        assert worst <= TOLERANCE
-        # right after the pre-scan the points left are guessed from 12: the
-        # ladder's walk keeps it within 15 % (docs/plans.md; the mean
-        # overhead per point it replaced was 30 % long)
-        assert abs((after["rig_time_s"] + after["eta_s"]) / actual - 1) <= 0.15
+        if material == METAL:  # the glossy one's is 9 % (docs/plans.md)
+            assert worst <= TOLERANCE
+        # right after the pre-scan the points left are interpolated from 12
+        # (capture/rate_map.h; from the nearest one alone it was 9 % short)
+        assert abs((after["rig_time_s"] + after["eta_s"]) / actual - 1) <= TOLERANCE
     finally:
         shutil.rmtree(folder, ignore_errors=True)
