@@ -169,8 +169,8 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct captur
     /* The adaptive order decides the point after k meanwhile. */
     int rc = sequence_begin(r->seq, k, err);
     if (rc == 0)
-        rc = capture_measure_point(dev, clk, hooks, &job->rig, pt, 0.0, (int)k, &r->ranging, &s,
-                                   err);
+        rc = capture_measure_point(dev, clk, hooks, &job->rig, pt, pt->rotation, (int)k,
+                                   &r->ranging, &s, err);
     if (rc == 0) /* a source that could not say so before: its first reading tells */
         rc = capture_calibration_check(&job->cfg, s.counts, job->src->detector, err);
     if (rc == 0 && dev->counts && !s.counts) /* never BRDF from a detector of counts */
