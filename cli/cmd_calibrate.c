@@ -20,7 +20,7 @@
 static void usage(FILE *out)
 {
     fprintf(out,
-            "usage: gonio calibrate dark|reference [--name ID] [--socket PATH] [options below]\n"
+            "usage: gonio calibrate dark|stray|reference [--name ID] [--socket PATH] [options]\n"
             "       gonio calibrate dark --offline --scene NAME|FILE --out ROOT [--rig NAME|FILE]\n"
             "                       [--integration SECONDS]... [--ladder] [--frames N]\n"
             "                       [--valid MINUTES]\n"

@@ -57,7 +57,7 @@ def test_refusals(root):
               "--frames", "-3")
     assert r.returncode == 2 and "--frames: not a positive number: '-3'" in r.stderr
     r = gonio("calibrate", "white", "--offline")
-    assert r.returncode == 2 and "dark or reference" in r.stderr
+    assert r.returncode == 2 and "dark, stray or reference" in r.stderr
     assert os.listdir(root) == []
 
 
