@@ -522,7 +522,8 @@ class CalibrateListTests(CalibrateRig):
         standard); the watching connection."""
         c = self.d.connect()
         c.request("watch")
-        r = c.request("calibrate", kind="reference", plan="ds3", repeats=2, name=name)
+        r = c.request("calibrate", kind="reference", plan="ds3", repeats=2, name=name,
+                      dark="dark-ok")
         self.assertEqual(r["class"], "OK", r)
         self.mount_standard(self.wait_state("paused", "asking for the standard"))
         return c
@@ -580,7 +581,8 @@ class CalibrateListTests(CalibrateRig):
         # Resumed, it completes, and says so everywhere.
         c = self.d.connect()
         c.request("watch")
-        self.assertEqual(c.request("resume", capture_id="ref-cut")["class"], "OK")
+        r = c.request("resume", capture_id="ref-cut")
+        self.assertEqual(r["class"], "OK", r)
         self.mount_standard(self.wait_state("paused", "asking for the standard again"))
         self.assertEqual(self.d.gonio("resume").returncode, 0)
         self.assertEqual(c.until_stop("ref-cut")[-1]["exit_status"], "success")
