@@ -4,6 +4,9 @@
 #include "brdf/analytic_aniso.h"
 
 #include <math.h>
+#include <stdlib.h>
+
+#include "brdf/material_private.h"
 
 #define AA_PI 3.14159265358979323846
 
@@ -47,4 +50,29 @@ void brdf_aniso_ggx_eval(const struct brdf_aniso_ggx *a, const struct brdf_pair 
     double m = 1.0 - (vh > 1 ? 1 : vh), m5 = m * m * m * m * m;
     for (int k = 0; k < 3; k++)
         rgb[k] = a->rho[k] / AA_PI + (a->f0[k] + (1.0 - a->f0[k]) * m5) * spec;
+}
+
+static void aniso_material_eval(const void *priv, const struct brdf_pair *pairs, size_t n,
+                                double *rgb)
+{
+    for (size_t i = 0; i < n; i++)
+        brdf_aniso_ggx_eval(priv, &pairs[i], rgb + 3 * i);
+}
+
+static const struct brdf_material_ops aniso_ops = {
+    .kind = "analytic",
+    .eval = aniso_material_eval,
+    .free_priv = free,
+};
+
+brdf_material *brdf_aniso_ggx_material(const struct brdf_aniso_ggx *a, const char *name)
+{
+    struct brdf_aniso_ggx *copy = malloc(sizeof *copy);
+    if (!copy)
+        return NULL;
+    *copy = *a;
+    brdf_material *m = brdf_material_new(&aniso_ops, copy, name);
+    if (m)
+        brdf_material_set_anisotropic(m);
+    return m;
 }

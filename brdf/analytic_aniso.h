@@ -16,6 +16,7 @@
 #define GONIO_BRDF_ANALYTIC_ANISO_H
 
 #include "brdf/angles.h"
+#include "brdf/material.h"
 
 struct brdf_aniso_ggx {
     double ax, ay;   /* GGX roughness along the tangent and the bitangent */
@@ -26,5 +27,9 @@ struct brdf_aniso_ggx {
 
 void brdf_aniso_ggx_eval(const struct brdf_aniso_ggx *a, const struct brdf_pair *g,
                          double rgb[3]);
+
+/* The material of these parameters, labelled name (anisotropic:
+ * brdf_material_isotropic says 0); NULL when out of memory. */
+brdf_material *brdf_aniso_ggx_material(const struct brdf_aniso_ggx *a, const char *name);
 
 #endif

@@ -187,25 +187,12 @@ int brdf_analytic_spec_two_lobe(const char *spec, const char *name, struct brdf_
     return 0;
 }
 
-static void aniso_material_eval(const void *priv, const struct brdf_pair *pairs, size_t n,
-                                double *rgb)
-{
-    for (size_t i = 0; i < n; i++)
-        brdf_aniso_ggx_eval(priv, &pairs[i], rgb + 3 * i);
-}
-
 static void two_lobe_material_eval(const void *priv, const struct brdf_pair *pairs, size_t n,
                                    double *rgb)
 {
     for (size_t i = 0; i < n; i++)
         brdf_analytic_eval(priv, &pairs[i], rgb + 3 * i);
 }
-
-static const struct brdf_material_ops aniso_ops = {
-    .kind = "analytic",
-    .eval = aniso_material_eval,
-    .free_priv = free,
-};
 
 static const struct brdf_material_ops two_lobe_ops = {
     .kind = "analytic",
@@ -219,14 +206,10 @@ brdf_material *brdf_analytic_spec_open(const char *spec, const char *name,
     const struct kind *k = kind_of(name);
     brdf_material *m = NULL;
     if (k == &aniso_kind) {
-        struct brdf_aniso_ggx *a = malloc(sizeof *a);
-        if (a && brdf_analytic_spec_aniso(spec, name, a, err) < 0) {
-            free(a);
+        struct brdf_aniso_ggx a;
+        if (brdf_analytic_spec_aniso(spec, name, &a, err) < 0)
             return NULL;
-        }
-        m = a ? brdf_material_new(&aniso_ops, a, spec) : NULL;
-        if (m)
-            brdf_material_set_anisotropic(m);
+        m = brdf_aniso_ggx_material(&a, spec);
     } else if (k == &two_lobe_kind) {
         struct brdf_analytic *a = malloc(sizeof *a);
         if (a && brdf_analytic_spec_two_lobe(spec, name, a, err) < 0) {

@@ -242,3 +242,10 @@ void brdf_domain_free(struct brdf_domain *d)
     d->pairs = NULL;
     d->n = 0;
 }
+
+void brdf_domain_turn(struct brdf_domain *d)
+{
+    const double golden = 180.0 * (3.0 - sqrt(5.0)); /* 137.5... degrees */
+    for (size_t n = 0; n < d->n; n++)
+        brdf_pair_rotate(&d->pairs[n], fmod((double)n * golden, 360.0));
+}

@@ -43,6 +43,13 @@ int brdf_domain_inplane(struct brdf_domain *d, struct gonio_err *err);
 int brdf_domain_oop_random(struct brdf_domain *d, size_t n, uint64_t seed,
                            struct gonio_err *err);
 
+/* The full domain for an anisotropic material, whose value depends on where
+ * a pair lies on the sample: every node of d turned about the normal by its
+ * own sample azimuth (brdf_pair_rotate), node n by n times the golden angle
+ * (137.5...) modulo 360, so that the turns spread evenly over the circle
+ * whatever d's order, and theta_h, theta_d, phi_d stay the node's. */
+void brdf_domain_turn(struct brdf_domain *d);
+
 /* A pair's place in the coordinates the MERL nodes are uniform in,
  * u = sqrt(theta_h / 90 deg) and v = theta_d / 90 deg (node (i, j) at
  * (i / 90, j / 90); a pair and its reciprocal at one place): where coverage

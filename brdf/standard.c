@@ -10,10 +10,11 @@
 
 #include "brdf/colour.h"
 #include "brdf/material_private.h"
+#include "brdf/spectral_private.h"
 #include "common/cfg.h"
 #include "common/paths.h"
 
-#define MAX_BANDS 128
+#define MAX_BANDS BRDF_STANDARD_MAX_NM
 #define STD_PI 3.14159265358979323846
 
 static int load_rgb(const struct cfg_doc *doc, const struct cfg_node *refl,
@@ -53,6 +54,10 @@ static int load_spectral(const struct cfg_doc *doc, const struct cfg_node *refl,
                            "not increasing at item %zu (value %g after %g)", k + 1, nm[k],
                            nm[k - 1]);
     double xyz[3];
+    for (size_t k = 0; rc >= 0 && k < nn; k++)
+        s->nm[k] = nm[k], s->rho_nm[k] = v[k], s->u_nm[k] = u[k];
+    if (rc >= 0)
+        s->n_nm = nn;
     if (rc >= 0)
         rc = brdf_colour_spectrum_to_xyz(nm, v, nn, xyz, err);
     if (rc >= 0) {
@@ -233,26 +238,84 @@ void brdf_standard_as_lambertian(struct brdf_standard *s)
     s->u_shape = 0.0;
 }
 
+/* The in-plane angles the shape is read at for a pair; 0 below the
+ * horizon (no light). */
+static int pair_angles(const struct brdf_pair *p, double *ti, double *tr)
+{
+    if (p->wi[2] <= 0.0 || p->wo[2] <= 0.0)
+        return 0;
+    if (brdf_pair_to_inplane(p, ti, tr) < 0) {
+        /* Out of plane: the polar angles, on the mirror side when the
+         * two directions' azimuths are more than 90 deg apart. */
+        *ti = brdf_pair_theta_i_deg(p);
+        double to = brdf_pair_theta_o_deg(p);
+        double dot = p->wi[0] * p->wo[0] + p->wi[1] * p->wo[1];
+        *tr = dot < 0.0 ? to : -to;
+    }
+    return 1;
+}
+
 static void standard_eval(const void *priv, const struct brdf_pair *pairs, size_t n, double *rgb)
 {
     const struct brdf_standard *s = priv;
     for (size_t k = 0; k < n; k++) {
-        const struct brdf_pair *p = &pairs[k];
-        if (p->wi[2] <= 0.0 || p->wo[2] <= 0.0) {
+        double ti, tr;
+        if (!pair_angles(&pairs[k], &ti, &tr)) {
             rgb[3 * k] = rgb[3 * k + 1] = rgb[3 * k + 2] = 0.0;
             continue;
         }
-        double ti, tr;
-        if (brdf_pair_to_inplane(p, &ti, &tr) < 0) {
-            /* Out of plane: the polar angles, on the mirror side when the
-             * two directions' azimuths are more than 90 deg apart. */
-            ti = brdf_pair_theta_i_deg(p);
-            double to = brdf_pair_theta_o_deg(p);
-            double dot = p->wi[0] * p->wo[0] + p->wi[1] * p->wo[1];
-            tr = dot < 0.0 ? to : -to;
-        }
         brdf_standard_brdf(s, ti, tr, &rgb[3 * k]);
     }
+}
+
+void brdf_standard_rho_at(const struct brdf_standard *s, double nm, double *rho, double *u)
+{
+    if (s->n_nm == 0) {
+        brdf_spectral_from_rgb(s->rho, &nm, 1, rho);
+        brdf_spectral_from_rgb(s->u_rho, &nm, 1, u);
+        *u = fabs(*u);
+        return;
+    }
+    size_t k;
+    double t;
+    locate(s->nm, s->n_nm, nm, &k, &t);
+    size_t k1 = s->n_nm > 1 ? k + 1 : k;
+    *rho = s->rho_nm[k] * (1 - t) + s->rho_nm[k1] * t;
+    *u = s->u_nm[k] * (1 - t) + s->u_nm[k1] * t;
+}
+
+static void standard_spectral_eval(const void *priv, const struct brdf_pair *p,
+                                   const double *lambda_nm, size_t n, double *out)
+{
+    const struct brdf_standard *s = priv;
+    double ti, tr;
+    int lit = pair_angles(p, &ti, &tr);
+    double f = lit ? brdf_standard_shape(s, ti, tr) / STD_PI : 0.0;
+    for (size_t k = 0; k < n; k++) {
+        double rho, u;
+        brdf_standard_rho_at(s, lambda_nm[k], &rho, &u);
+        out[k] = rho * f;
+    }
+}
+
+static const struct brdf_spectral_ops standard_spectral_ops = {
+    .kind = "standard", .eval = standard_spectral_eval, .free_priv = free,
+};
+
+brdf_spectral *brdf_standard_spectral(const struct brdf_standard *s, const char *spec,
+                                      struct gonio_err *err)
+{
+    struct brdf_standard *copy = malloc(sizeof *copy);
+    if (!copy) {
+        gonio_err_set(err, ENOMEM, "%s: out of memory", spec);
+        return NULL;
+    }
+    *copy = *s;
+    /* defined everywhere: beyond a certificate's rows its ends hold */
+    brdf_spectral *m = brdf_spectral_new(&standard_spectral_ops, copy, spec, 200.0, 3000.0);
+    if (!m)
+        gonio_err_set(err, ENOMEM, "%s: out of memory", spec);
+    return m;
 }
 
 static const struct brdf_material_ops standard_ops = {

@@ -21,6 +21,7 @@
 #include "common/err.h"
 
 #define BRDF_STANDARD_MAX_GRID 32
+#define BRDF_STANDARD_MAX_NM 128
 
 struct brdf_standard {
     char name[64];
@@ -34,6 +35,11 @@ struct brdf_standard {
     double inc_deg[BRDF_STANDARD_MAX_GRID], view_deg[BRDF_STANDARD_MAX_GRID];
     double shape[BRDF_STANDARD_MAX_GRID][BRDF_STANDARD_MAX_GRID]; /* [inc][view] */
     double u_shape;        /* relative standard uncertainty of the shape */
+    /* A certificate per wavelength as it was given (n_nm 0: per RGB
+     * channel or a bare rho): what a spectral detector's bands are
+     * reduced against (brdf_standard_rho_at). */
+    size_t n_nm;
+    double nm[BRDF_STANDARD_MAX_NM], rho_nm[BRDF_STANDARD_MAX_NM], u_nm[BRDF_STANDARD_MAX_NM];
     char warning[256];     /* "" or why the standard is weaker than it could be */
 };
 
@@ -50,6 +56,19 @@ double brdf_standard_shape(const struct brdf_standard *s, double theta_i_deg,
 /* The standard's BRDF, 1/sr, per channel at an in-plane geometry. */
 void brdf_standard_brdf(const struct brdf_standard *s, double theta_i_deg, double theta_r_deg,
                         double rgb[3]);
+
+/* The reflectance factor and its standard uncertainty at a wavelength: a
+ * certificate per wavelength linearly between its rows (held beyond its
+ * ends); one per RGB channel lifted to a spectrum as the simulator lifts
+ * RGB materials (brdf/spectral.h; a bare or grey rho is flat). */
+void brdf_standard_rho_at(const struct brdf_standard *s, double nm, double *rho, double *u);
+
+/* The standard as a spectral detector sees it (`standard:NAME` on a
+ * spectral detector): brdf_standard_rho_at times the shape / pi, at the
+ * pairs brdf_standard_material takes. */
+struct brdf_spectral;
+struct brdf_spectral *brdf_standard_spectral(const struct brdf_standard *s, const char *spec,
+                                             struct gonio_err *err);
 
 /* The same standard with its shape dropped: what taking it as rho/pi means. */
 void brdf_standard_as_lambertian(struct brdf_standard *s);

@@ -111,6 +111,20 @@ static int take_dark(struct autorange *a, drv_detector *d, double t, autorange_d
     return rc;
 }
 
+/* A spectral detector's bands held in the take (beyond its room: none). */
+static void keep_bands(struct autorange_take *out)
+{
+    struct drv_reading *r = &out->r;
+    if (r->n_bands > AUTORANGE_MAX_BANDS || !r->bands)
+        r->n_bands = 0;
+    if (r->n_bands) {
+        memcpy(out->bands_nm, r->bands_nm, (size_t)r->n_bands * sizeof *out->bands_nm);
+        memcpy(out->bands, r->bands, (size_t)r->n_bands * sizeof *out->bands);
+    }
+    r->bands_nm = r->n_bands ? out->bands_nm : NULL;
+    r->bands = r->n_bands ? out->bands : NULL;
+}
+
 /* The peak channel's signal: counts less the dark at the reading's
  * integration, where it is known (else the offset counts as signal, which
  * only errs towards fewer retakes). */
@@ -159,6 +173,7 @@ int autorange_acquire(struct autorange *a, drv_detector *d, autorange_dark_fn da
     for (;;) {
         if ((rc = drv_detector_acquire(d, t, &out->r, err)) < 0)
             return rc;
+        keep_bands(out);
         out->total_s += out->r.integration_s;
         out->tries++;
         if (out->r.unit != DRV_UNIT_COUNTS || !(out->r.full_scale > 0))

@@ -55,10 +55,15 @@ void autorange_note(struct autorange *a, const struct journal_sample *s);
 
 /* What a point's reading cost: the one kept, the detector time of every
  * try (the kept one's included) and how many were taken. */
+#define AUTORANGE_MAX_BANDS 64
+
 struct autorange_take {
     struct drv_reading r;
     double total_s;
     int tries;
+    /* r's bands, copied (the detector's are its next reading's once the
+     * dark frame is taken): r.bands_nm and r.bands point here */
+    double bands_nm[AUTORANGE_MAX_BANDS], bands[AUTORANGE_MAX_BANDS];
 };
 
 /* Take the dark frame reading r (shutter closed) of the point: the caller

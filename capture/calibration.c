@@ -43,6 +43,12 @@ int cal_read_frame(struct capture_devices *dev, enum cal_kind kind, double ti, d
                            .nonlinearity = r.nonlinearity,
                            .rig_time_s = drv_clock_now(dev->clock)};
     memcpy(fr.counts, r.rgb, sizeof fr.counts);
+    if (r.n_bands > CAL_MAX_BANDS)
+        return gonio_err_set(err, GONIO_EDEVICE, "calibration: the detector gives %d bands, "
+                             "at most %d are kept", r.n_bands, CAL_MAX_BANDS);
+    fr.n_bands = r.n_bands;
+    for (int k = 0; k < r.n_bands; k++)
+        fr.bands_nm[k] = r.bands_nm[k], fr.bands[k] = r.bands[k];
     return cal_frames_push(f, &fr, err);
 }
 

@@ -48,12 +48,17 @@ struct cal_meta {
  * "The chain"). */
 void cal_add_ladder(struct cal_meta *m, const struct rig_profile *rig);
 
+#define CAL_MAX_BANDS 64
+
 /* One raw reading of a calibration (a frames.csv row). */
 struct cal_frame {
     enum cal_kind kind;
     double theta_i, theta_r, integration_s;
     int gain_state;
     double counts[3], monitor, full_scale, nonlinearity, rig_time_s;
+    /* a spectral detector's band counts (drv_reading's), 0 bands: none */
+    int n_bands;
+    double bands_nm[CAL_MAX_BANDS], bands[CAL_MAX_BANDS];
 };
 
 /* Dark frames: the shutter closed (or the lamp off), frames readings at
@@ -147,12 +152,16 @@ int cal_select_dark(const char *root, const char *id, const struct cal_need *nee
                     struct cal_meta *meta_out, struct gonio_err *err);
 
 /* A loaded calibration: the reduction's inputs, owning their arrays. */
+struct cal_bands;
 struct cal_loaded {
     struct cal_meta meta, dark_meta;
     double full_scale, nonlinearity; /* the detector's, as its reference frames said */
     struct rad_dark *darks;
     struct rad_ref *refs;
     struct rad_calibration cal;
+    /* a spectral detector's: the same per band (capture/calibration_bands.h);
+     * NULL when its frames hold no bands */
+    struct cal_bands *bands;
 };
 
 /* Load reference calibration id and its dark, derive the reduction's

@@ -3,6 +3,7 @@
  * reference's means per geometry, the photon-transfer gain from the
  * reference's repeats, and the lamp monitor's noise. */
 #include "capture/calibration.h"
+#include "capture/calibration_bands.h"
 
 #include <errno.h>
 #include <math.h>
@@ -143,6 +144,7 @@ int cal_derive(const struct cal_frame *dark, size_t n_dark, const struct cal_fra
 
 void cal_loaded_free(struct cal_loaded *c)
 {
+    cal_bands_free(c->bands);
     free(c->darks);
     free(c->refs);
     memset(c, 0, sizeof *c);
@@ -165,6 +167,8 @@ int cal_load(const char *root, const char *id, struct cal_loaded *out, struct go
         rc = brdf_standard_load(out->meta.standard, &out->cal.standard, err);
     out->cal.setup.in_position_deg = out->meta.in_position_deg;
     out->cal.setup.spot = out->meta.spot;
+    if (rc >= 0 && nr && rf[0].n_bands) /* a spectral detector's: per band too */
+        rc = cal_bands_derive(df, nd, rf, nr, out, &out->bands, err);
     free(rf);
     free(df);
     if (rc < 0)

@@ -19,17 +19,51 @@
 
 int cal_frame_line(const struct cal_frame *f, char *buf, size_t size)
 {
-    return snprintf(buf, size,
-                    "%s,%.17g,%.17g,%.17g,%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n",
-                    f->kind == CAL_DARK ? "dark" : "reference", f->theta_i, f->theta_r,
-                    f->integration_s, f->gain_state, f->counts[0], f->counts[1], f->counts[2],
-                    f->monitor, f->full_scale, f->nonlinearity, f->rig_time_s);
+    int len = snprintf(buf, size,
+                       "%s,%.17g,%.17g,%.17g,%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g",
+                       f->kind == CAL_DARK ? "dark" : "reference", f->theta_i, f->theta_r,
+                       f->integration_s, f->gain_state, f->counts[0], f->counts[1],
+                       f->counts[2], f->monitor, f->full_scale, f->nonlinearity, f->rig_time_s);
+    for (int k = 0; k < f->n_bands && len >= 0 && (size_t)len < size; k++)
+        len += snprintf(buf + len, size - (size_t)len, "%s%.10g:%.17g", k ? " " : ",",
+                        f->bands_nm[k], f->bands[k]);
+    if (len >= 0 && (size_t)len < size)
+        len += snprintf(buf + len, size - (size_t)len, "\n");
+    return len;
+}
+
+/* The bands field of a frame line (after the twelfth comma), if any. */
+static int parse_bands(const char *line, struct cal_frame *f)
+{
+    const char *p = line;
+    f->n_bands = 0;
+    for (int commas = 0; commas < 12; p++)
+        if (!*p)
+            return 0;
+        else if (*p == ',')
+            commas++;
+    while (*p && *p != '\n') {
+        char *end;
+        if (f->n_bands == CAL_MAX_BANDS)
+            return -1;
+        f->bands_nm[f->n_bands] = strtod(p, &end);
+        if (end == p || *end != ':')
+            return -1;
+        p = end + 1;
+        f->bands[f->n_bands++] = strtod(p, &end);
+        if (end == p || (*end != ' ' && *end != '\n' && *end))
+            return -1;
+        p = *end == ' ' ? end + 1 : end;
+    }
+    return 0;
 }
 
 static int write_frames(const char *path, const struct cal_frame *f, size_t n,
                         struct gonio_err *err)
 {
-    size_t cap = 128 + n * 256, len = 0;
+    size_t cap = 128, len = 0;
+    for (size_t k = 0; k < n; k++)
+        cap += 256 + 56 * (size_t)f[k].n_bands;
     char *buf = malloc(cap);
     if (!buf)
         return gonio_err_set(err, ENOMEM, "%s: out of memory", path);
@@ -48,7 +82,7 @@ int cal_frames_read(const char *path, struct cal_frame **out, size_t *n,
     if (!fp)
         return gonio_err_set(err, errno == ENOENT ? GONIO_ENOTFOUND : errno, "%s: %s", path,
                              strerror(errno));
-    char line[1024];
+    char line[CAL_FRAME_LINE_MAX];
     size_t cap = 0, lineno = 1;
     struct cal_frame *v = NULL;
     *n = 0;
@@ -72,7 +106,8 @@ int cal_frames_read(const char *path, struct cal_frame **out, size_t *n,
                    &f->theta_i, &f->theta_r, &f->integration_s, &f->gain_state, &f->counts[0],
                    &f->counts[1], &f->counts[2], &f->monitor, &f->full_scale,
                    &f->nonlinearity, &f->rig_time_s) != 12 ||
-            (strcmp(kind, "dark") != 0 && strcmp(kind, "reference") != 0)) {
+            (strcmp(kind, "dark") != 0 && strcmp(kind, "reference") != 0) ||
+            parse_bands(line, f) < 0) {
             rc = gonio_err_set(err, GONIO_EBADDATA, "%s:%zu: not a frame record", path, lineno);
             break;
         }

@@ -24,7 +24,10 @@ int cal_go_to(struct capture_devices *dev, const struct rig_profile *rig,
 #define CAL_FRAMES_HEADER "kind,theta_i,theta_r,integration_s,gain_state,r,g,b,monitor," \
                           "full_scale,nonlinearity,rig_time_s\n"
 
-/* A frame as a frames.csv line (with its newline); the length written. */
+/* A frame as a frames.csv line (with its newline); the length written.
+ * A spectral detector's frame adds one field after rig_time_s, its bands
+ * as "nm:counts" separated by spaces; an RGB frame's line is unchanged. */
+#define CAL_FRAME_LINE_MAX (512 + 56 * CAL_MAX_BANDS)
 int cal_frame_line(const struct cal_frame *f, char *buf, size_t size);
 
 /* Read a frames file (the header and lines of cal_frame_line); *out is

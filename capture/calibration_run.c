@@ -114,7 +114,7 @@ static int open_journal(const struct cal_run *run, const char *path, struct cal_
 
 static int append(int fd, const char *path, const struct cal_frame *fr, struct gonio_err *err)
 {
-    char line[512];
+    char line[CAL_FRAME_LINE_MAX];
     int len = cal_frame_line(fr, line, sizeof line);
     if (write(fd, line, (size_t)len) != len || fdatasync(fd) < 0)
         return gonio_err_set(err, errno ? errno : EIO, "%s: %s", path, strerror(errno));

@@ -10,6 +10,7 @@
 #include "capture/journal_plan.h"
 #include "capture/autorange.h"
 #include "capture/calibration.h"
+#include "capture/capture_bands.h"
 #include "capture/calibration_check.h"
 #include "capture/eta.h"
 #include "capture/final_fit.h"
@@ -168,8 +169,8 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct captur
     /* The adaptive order decides the point after k meanwhile. */
     int rc = sequence_begin(r->seq, k, err);
     if (rc == 0)
-        rc = capture_measure_point(dev, clk, hooks, &job->rig, pt, 0.0, (int)k, &r->ranging, &s,
-                                   err);
+        rc = capture_measure_point(dev, clk, hooks, &job->rig, pt, pt->rotation, (int)k,
+                                   &r->ranging, &s, err);
     if (rc == 0) /* a source that could not say so before: its first reading tells */
         rc = capture_calibration_check(&job->cfg, s.counts, job->src->detector, err);
     if (rc == 0 && dev->counts && !s.counts) /* never BRDF from a detector of counts */
@@ -193,6 +194,8 @@ static int measure_one(struct run *r, struct capture_devices *dev, struct captur
     if (rc == 0) {
         capture_phase_enter(hooks, CAPTURE_PHASE_JOURNAL, (int)k);
         rc = journal_append(r->j, &s, err);
+        if (rc == 0)
+            rc = capture_bands_append(job->cfg.out_dir, &s, &r->ranging.bands, err);
         capture_phase_enter(hooks, CAPTURE_PHASE_BETWEEN, (int)k);
     }
     *next = -1;
@@ -524,6 +527,7 @@ static int finish(struct run *r, struct gonio_err *err)
     }
     capture_phase_enter(r->hooks, CAPTURE_PHASE_FIT, -1);
     double usys[3] = {0}; /* the calibration's shared error, for fits weighted by u */
+    struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
     if (job->cal)
         rad_systematic_rel_u(&job->cal->cal, usys);
     int rc = capture_fit_samples(
@@ -541,7 +545,6 @@ static int finish(struct run *r, struct gonio_err *err)
         rc = capture_assess_truth(job->truth, fitted, job->cfg.assess_nodes, out, err);
     if (rc == 0)
         rc = capture_files_results(job->cfg.out_dir, out, err);
-    struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
     if (rc == 0 && job->cal)
         rc = cal_results_budget(job->cal, &jp, r->samples, r->n, job->cfg.out_dir, err);
     brdf_material_free(fitted);
@@ -583,6 +586,9 @@ int capture_job_run(capture_job *job, const struct capture_hooks *hooks,
     sequence_free(r.seq);
     if (rc == 0)
         summarize(&r, out);
+    struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
+    if (rc == 0 && !r.aborted && job->cal) /* a spectral detector's bands, whole */
+        rc = capture_bands_reduce(job->cal, &jp, r.samples, r.n, job->cfg.out_dir, err);
     /* the journal stays open for the dark frames of a check after the fit */
     if (rc == 0 && !r.aborted && !job->cfg.measure_only)
         rc = finish(&r, err);

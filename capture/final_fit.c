@@ -79,6 +79,8 @@ int capture_assess_truth(const brdf_material *truth, const brdf_material *model,
                           : brdf_domain_full(&full, err);
     if (rc >= 0)
         rc = brdf_errors_material(truth, model, &inplane, &out->err_inplane, err);
+    if (rc >= 0 && !brdf_material_isotropic(truth))
+        brdf_domain_turn(&full); /* the sample's every azimuth, not phi_h = 0 only */
     if (rc >= 0)
         rc = brdf_errors_material(truth, model, &full, &out->err_full, err);
     if (rc >= 0) {

@@ -27,7 +27,7 @@ static double value_of(const struct journal_sample *s)
 static int usable(const struct journal_sample *s)
 {
     double ph = fmod(s->phi_o, 180.0);
-    int inplane = fabs(ph) < 1e-6 || fabs(ph - 180.0) < 1e-6;
+    int inplane = s->phi_i == 0 && (fabs(ph) < 1e-6 || fabs(ph - 180.0) < 1e-6);
     return inplane && !(s->flags & JOURNAL_FLAG_SATURATED) && value_of(s) > 0 &&
            isfinite(value_of(s));
 }

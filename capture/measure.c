@@ -117,12 +117,15 @@ int capture_measure_point(struct capture_devices *d, struct capture_clock *clk,
     s->theta_o = fabs(s->theta_r);
     s->phi_i = 0.0;
     s->phi_o = fmod((d->azimuth ? at[2] : 0.0) + (s->theta_r >= 0 ? 180.0 : 0.0) + 360.0, 360.0);
+    if (d->rotation && rotation_deg != 0) /* the pair on the turned sample, as it read */
+        journal_sample_turn(s, at[n - 1]);
     rg->clk = clk;
     rg->at = s;
     struct autorange_take take;
     if ((rc = autorange_acquire(&rg->ar, d->detector, journal_dark, rg, &take, err)) < 0)
         return rc;
     const struct drv_reading r = take.r;
+    capture_bands_take(&rg->bands, &r);
     if (r.unit == DRV_UNIT_COUNTS) { /* the record is the counts; BRDF is derived */
         s->counts = 1;
         memcpy(s->raw, r.rgb, sizeof s->raw);

@@ -10,6 +10,7 @@
 
 #include "capture/autorange.h"
 #include "capture/capture.h"
+#include "capture/capture_bands.h"
 #include "common/err.h"
 #include "drivers/drivers.h"
 #include "journal/journal.h"
@@ -42,6 +43,7 @@ struct capture_ranging {
     struct capture_clock *clk;
     const struct journal_sample *at;
     size_t darks; /* journalled by this run */
+    struct capture_bands_reading bands; /* the kept reading's (a spectral detector's) */
 };
 
 /* Measure pt on d with the sample turned rotation_deg into *s (index: the

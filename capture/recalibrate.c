@@ -11,6 +11,7 @@
 #include <jansson.h>
 
 #include "capture/calibration.h"
+#include "capture/capture_bands.h"
 #include "capture/capture_files.h"
 #include "capture/final_fit.h"
 #include "capture/journal_plan.h"
@@ -108,6 +109,11 @@ static int prepare_out(const char *dir, const char *out, struct recal_setup *su,
     snprintf(from, sizeof from, "%s/plan.json", dir);
     snprintf(to, sizeof to, "%s/plan.json", out);
     if (rc == 0)
+        rc = copy_text(from, to, err);
+    /* a spectral detector's bands: the record its spectra.csv is reduced from */
+    snprintf(from, sizeof from, "%s/bands.csv", dir);
+    snprintf(to, sizeof to, "%s/bands.csv", out);
+    if (rc == 0 && stat(from, &st) == 0)
         rc = copy_text(from, to, err);
     json_object_set_new(su->setup, "calibration", json_string(id));
     json_object_set_new(su->setup, "recalibrated_from", json_string(dir));
@@ -219,6 +225,8 @@ int capture_recalibrate(const char *dir, const char *root, const char *id, const
         rc = prepare_out(dir, out, &su, id, err);
     if (rc == 0)
         rc = reduce_all(&cl, &jp, s, n, out, err);
+    if (rc == 0)
+        rc = capture_bands_reduce(&cl, &jp, s, n, out, err);
     if (rc == 0)
         rc = refit(&su, &cl, &jp, s, n, out, err);
     if (loaded)

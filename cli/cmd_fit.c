@@ -73,6 +73,8 @@ static int truth_errors(const char *label, const brdf_material *truth, const brd
     int rc = full ? brdf_domain_full(&d, err) : brdf_domain_inplane(&d, err);
     if (rc < 0)
         return rc;
+    if (full && !brdf_material_isotropic(truth)) /* every azimuth of the sample */
+        brdf_domain_turn(&d);
     struct brdf_errors e;
     rc = brdf_errors_material(truth, m, &d, &e, err);
     brdf_domain_free(&d);

@@ -125,6 +125,11 @@ struct drv_reading {
     double nonlinearity;
     double monitor;       /* the lamp monitor's counts over the integration; NAN: no monitor */
     int gain_state;       /* the detector's gain setting, 0 where it has none */
+    /* DRV_UNIT_COUNTS from a spectral detector: its n_bands band counts
+     * (offset included, as rgb's) at the wavelengths bands_nm, of which
+     * rgb holds three bins' means; valid until its next reading. 0: none. */
+    int n_bands;
+    const double *bands_nm, *bands;
 };
 
 /* Zeroes *out (monitor NAN) before the backend fills it. */

@@ -202,6 +202,9 @@ static int sim_acquire(void *priv, double integration_s, struct drv_reading *out
         out->unit = DRV_UNIT_COUNTS;
         out->full_scale = r.full_scale;
         out->nonlinearity = r.nonlinearity;
+        out->n_bands = r.n_bands;
+        out->bands_nm = r.bands_nm;
+        out->bands = r.spectrum;
     }
     return 0;
 }

@@ -86,6 +86,9 @@ static int usb_acquire(void *priv, double integration_s, struct drv_reading *out
                 out->rgb[c] = d->top;
         out->unit = DRV_UNIT_COUNTS;
         out->full_scale = d->top;
+        out->n_bands = d->n_bands;
+        out->bands_nm = d->centres;
+        out->bands = d->spectrum;
     } else {
         for (int b = 0; b < d->n_bands; b++)
             d->spectrum[b] *= d->scale / t;

@@ -18,9 +18,21 @@
 /* The folds' draw is kept apart from the draws of the fits (same seed). */
 #define AUTO_SEED_SALT UINT64_C(0x6175746f2d637631)
 
-/* The models that predict out of plane, in the order a tie is broken. */
-static const char *const candidates[] = {"abc", "abc-prior", "latent"};
+/* The models that predict out of plane, in the order a tie is broken; the
+ * last only for samples taken with the sample turned (turned_samples). */
+static const char *const candidates[] = {"abc", "abc-prior", "latent", "aniso-ggx"};
 #define N_CANDIDATES (sizeof candidates / sizeof *candidates)
+
+/* 1 when a sample's incidence lies off the sample's x-z plane: the sample
+ * was turned (a plan's sample_azimuths), and the samples see the lobe along
+ * more than one of its directions, which the anisotropic model needs. */
+static int turned_samples(const struct fit_sample *s, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (fabs(s[i].g.wi[1]) > 1e-9)
+            return 1;
+    return 0;
+}
 
 struct geo_key {
     double k[3];
@@ -229,8 +241,9 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
                            out->geometries, n, FIT_AUTO_FOLDS, FIT_AUTO_MIN_GEOMETRIES);
         goto done;
     }
-    out->n = N_CANDIDATES;
-    for (size_t c = 0; c < N_CANDIDATES; c++)
+    const size_t nc = N_CANDIDATES - !turned_samples(data->rgb, n);
+    out->n = nc;
+    for (size_t c = 0; c < nc; c++)
         out->model[c] = candidates[c];
     for (int k = 0; k < FIT_AUTO_FOLDS; k++) {
         size_t nt = 0;
@@ -239,7 +252,7 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
                 train[nt] = data->rgb[i];
                 tlower[nt++] = data->rgb_lower ? data->rgb_lower[i] : 0;
             }
-        for (size_t c = 0; c < N_CANDIDATES; c++) {
+        for (size_t c = 0; c < nc; c++) {
             if (out->failed[c][0])
                 continue;
             const struct fit_model_kind *kind = fit_model_find(candidates[c]);
@@ -268,7 +281,7 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
         }
     }
     int any = 0;
-    for (size_t c = 0; c < N_CANDIDATES; c++) {
+    for (size_t c = 0; c < nc; c++) {
         int none = !(count[c] > 0);
         out->cv[c] = out->failed[c][0] || none ? INFINITY : sum[c] / count[c];
         out->cv_rms[c] = out->failed[c][0] || none ? INFINITY : sqrt(sum2[c] / count[c]);

@@ -2,7 +2,10 @@
  * on the captured samples, then fit the chosen one to all of them.
  *
  * The candidates are the registry models that predict out of plane (abc,
- * abc-prior, latent; not the in-plane MLP). The samples are grouped by
+ * abc-prior, latent; not the in-plane MLP), and aniso-ggx when the samples
+ * were taken with the sample turned (a plan's sample_azimuths: an incidence
+ * off the sample's x-z plane), so that an anisotropic material captured at
+ * a few azimuths gets the anisotropic model when it predicts best. The samples are grouped by
  * geometry, (theta_h, theta_d, phi_d mod pi) on a 1e-9 rad grid, so that a
  * repeated pair and its reciprocal (phi_d + pi) are held out together: a
  * reciprocal model predicts a held-out sample from its twin in the

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "fit/abc_model.h"
+#include "fit/aniso_ggx_model.h"
 #include "fit/auto_model.h"
 #include "fit/abc_prior.h"
 #include "fit/latent.h"
@@ -18,13 +19,17 @@ static const struct fit_model_kind models[] = {
      0, 0, fit_abc_prior_model_fit, NULL},
     {"abc-pseudo", "abc", "ABC fitted to the capture densified by the RGB MLP on DS1", 0, 0,
      fit_abc_pseudo_fit, NULL},
+    {"aniso-ggx", "aniso-ggx",
+     "anisotropic GGX (ax, ay, orientation), from samples at several sample azimuths "
+     "(fit/aniso_ggx_model.h)",
+     0, 1, fit_aniso_ggx_model_fit, fit_aniso_ggx_model_open},
     {"mlp", "mlp", "RGB MLP on (theta_i, theta_r), in-plane only", 0, 1, fit_mlp_rgb_fit,
      fit_mlp_rgb_open},
     {"mlp-spectral", "mlp-spectral", "spectral MLP on (theta_i, theta_r, wavelength)", 1, 1,
      fit_mlp_spectral_fit, fit_mlp_spectral_open},
     {"latent", "latent", "latent-code neural BRDF: frozen decoder, z fitted (docs/latent.md)",
      0, 1, fit_latent_model_fit, fit_latent_model_open},
-    {"auto", "abc|latent",
+    {"auto", "abc|latent|aniso-ggx",
      "the out-of-plane model (abc, abc-prior, latent) of lowest 5-fold CV log error "
      "(fit/auto_model.h)",
      0, 1, fit_auto_model_fit, NULL},

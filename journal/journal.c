@@ -1,6 +1,7 @@
 #include "journal/journal.h"
 
 #include <errno.h>
+#include <math.h>
 #include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -200,6 +201,18 @@ void journal_close(journal *j)
         close(j->fd);
     }
     free(j);
+}
+
+static double wrap360(double deg)
+{
+    double w = fmod(deg, 360.0);
+    return w < 0 ? w + 360.0 : w;
+}
+
+void journal_sample_turn(struct journal_sample *s, double rotation_deg)
+{
+    s->phi_i = wrap360(s->phi_i - rotation_deg);
+    s->phi_o = wrap360(s->phi_o - rotation_deg);
 }
 
 void journal_sample_pair(const struct journal_sample *s, struct brdf_pair *p)

@@ -57,6 +57,14 @@ int journal_sample_has_brdf(const struct journal_sample *s);
  * spherical angles. */
 void journal_sample_pair(const struct journal_sample *s, struct brdf_pair *p);
 
+/* Record s, measured in the plane of incidence with the sample turned
+ * rotation_deg about its normal (a plan's sample_azimuths), as the pair the
+ * turned sample's frame sees: phi_i and phi_o less rotation_deg, in
+ * [0, 360) (brdf_pair_rotate's convention), so that journal_sample_pair
+ * gives the pair on the sample. theta_i, theta_r and the axes stay the
+ * rig's. */
+void journal_sample_turn(struct journal_sample *s, double rotation_deg);
+
 typedef struct journal journal;
 
 /* Open (creating if needed) the journal at path for appending. Records

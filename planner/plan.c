@@ -431,7 +431,7 @@ static int load_file(const char *path_or_name, const struct rig_profile *rig, in
                      struct plan **out, struct gonio_err *err)
 {
     static const char *const keys[] = {"name", "description", "grid", "pairs", "domain",
-                                       "order", "stop", "progressive", NULL};
+                                       "order", "stop", "progressive", "sample_azimuths", NULL};
     *out = NULL;
     struct plan *p = calloc(1, sizeof *p);
     if (!p)
@@ -492,7 +492,8 @@ static int load_file(const char *path_or_name, const struct rig_profile *rig, in
             goto fail;
         }
     }
-    if (depth == 0 && (rc = load_ladder(d, root, rig, depth, p, err)) < 0)
+    if (depth == 0 && ((rc = load_ladder(d, root, rig, depth, p, err)) < 0 ||
+                       (rc = plan_load_sample_azimuths(d, root, rig, p, err)) < 0))
         goto fail;
     if (name) {
         snprintf(p->name, sizeof p->name, "%s", name);
@@ -586,7 +587,15 @@ void plan_free(struct plan *plan)
 
 int plan_order(struct plan *plan, enum plan_order_mode mode, const struct rig_profile *rig)
 {
-    int rc = plan_order_indices(plan->pts, plan->n, mode, rig, plan->order);
+    /* A plan that turns the sample orders each azimuth's points apart: one
+     * turn per azimuth, not one between any two points. */
+    size_t blocks = plan->sample_azimuths ? plan->sample_azimuths : 1, m = plan->n / blocks;
+    int rc = 0;
+    for (size_t b = 0; b < blocks && rc == 0; b++) {
+        rc = plan_order_indices(plan->pts + b * m, m, mode, rig, plan->order + b * m);
+        for (size_t i = 0; i < m && b > 0; i++)
+            plan->order[b * m + i] += b * m;
+    }
     if (rc == 0)
         plan->current = mode;
     return rc;
@@ -615,6 +624,11 @@ const char *plan_path(const struct plan *plan)
 enum plan_kind plan_kind(const struct plan *plan)
 {
     return plan->kind;
+}
+
+size_t plan_sample_azimuths(const struct plan *plan)
+{
+    return plan->sample_azimuths;
 }
 
 int plan_is_out_of_plane(const struct plan *plan)

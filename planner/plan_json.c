@@ -6,8 +6,11 @@
 
 #include "planner/planner.h"
 
-static json_t *point_json(const struct plan_point *pt, int oop)
+static json_t *point_json(const struct plan_point *pt, int oop, int turns)
 {
+    if (turns) /* in-plane, the sample turned about its normal */
+        return json_pack("{s:f,s:f,s:f,s:f,s:f}", "theta_i", pt->theta_i, "theta_r",
+                         pt->theta_r, "s", pt->ax.s, "a", pt->ax.a, "rotation", pt->rotation);
     if (oop)
         return json_pack("{s:f,s:f,s:f,s:f,s:f,s:f,s:f}", "theta_i", pt->theta_i, "phi_i",
                          pt->phi_i, "theta_o", pt->theta_o, "phi_o", pt->phi_o, "s", pt->ax.s,
@@ -23,7 +26,7 @@ char *plan_json_text(const struct plan *plan, const struct plan_estimate *est)
         return NULL;
     int oop = plan_is_out_of_plane(plan);
     for (size_t i = 0; i < plan_count(plan); i++) {
-        if (json_array_append_new(pairs, point_json(plan_point(plan, i), oop)) < 0) {
+        if (json_array_append_new(pairs, point_json(plan_point(plan, i), oop, plan_sample_azimuths(plan) > 0)) < 0) {
             json_decref(pairs);
             return NULL;
         }

@@ -15,10 +15,19 @@ struct plan {
     size_t n;
     size_t dropped; /* grid pairs and domain nodes in the rig's blind zone */
     size_t *order; /* execution order: indices into pts */
+    size_t sample_azimuths; /* 0, or the sample azimuths each pair is measured at */
 };
 
 /* planner/order.c */
 int plan_order_indices(const struct plan_point *pts, size_t n, enum plan_order_mode mode,
                        const struct rig_profile *rig, size_t *order);
+
+/* planner/sample_azimuths.c: the plan's sample_azimuths key, if any, applied
+ * to the placed points (each repeated at every azimuth: plan_point.rotation). */
+struct cfg_doc;
+struct cfg_node;
+int plan_load_sample_azimuths(const struct cfg_doc *d, const struct cfg_node *root,
+                              const struct rig_profile *rig, struct plan *p,
+                              struct gonio_err *err);
 
 #endif

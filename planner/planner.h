@@ -62,6 +62,11 @@ struct plan_point {
     double phi_i, theta_o, phi_o;
     int out_of_plane;
     struct rig_axes ax;
+    /* The sample turned about its normal, degrees, on the rig's rotation
+     * axis (a plan's sample_azimuths); 0: unturned. theta_i, theta_r and
+     * the spherical angles are the rig's; the sample sees the pair turned
+     * by -rotation (brdf_pair_rotate). */
+    double rotation;
     int level;     /* progressive level: 0 is the coarsest */
     int line, col; /* where the pair is written in the plan file (0: generated) */
 };
@@ -127,6 +132,10 @@ const char *plan_name(const struct plan *plan);
 const char *plan_path(const struct plan *plan);
 enum plan_kind plan_kind(const struct plan *plan);
 int plan_is_out_of_plane(const struct plan *plan);
+/* The sample azimuths each in-plane pair is measured at (the plan's
+ * sample_azimuths, plan_point.rotation), or 0 when the plan does not turn the
+ * sample. */
+size_t plan_sample_azimuths(const struct plan *plan);
 enum plan_order_mode plan_declared_order(const struct plan *plan); /* the file's order */
 enum plan_order_mode plan_current_order(const struct plan *plan);
 const struct plan_stop *plan_stop(const struct plan *plan);

@@ -17,9 +17,10 @@ T=$(mktemp -d "${TMPDIR:-/dev/shm}/gonio-oop-table.XXXXXX" 2>/dev/null || mktemp
 trap 'rm -rf "$T"' EXIT
 . "$(dirname "$0")/lab_calibration.sh"
 lab_calibrate "$BIN" "$T" default
-HELD="alum-bronze blue-acrylic brass gold-metallic-paint nylon pearl-paint red-plastic specular-black-phenolic tungsten-carbide white-diffuse-bball"
-ANISO="ax=0.1&ay=0.15&phi=0 ax=0.1&ay=0.15&phi=45 ax=0.1&ay=0.15&phi=90 ax=0.06&ay=0.18&phi=0 ax=0.06&ay=0.18&phi=45 ax=0.06&ay=0.18&phi=90"
-ISO="analytic:ggx-gold analytic:layered-paint analytic:rough-diffuse analytic:plastic-ggx analytic:two-lobe?a1=0.05&w1=0.6&a2=0.3&w2=0.4 analytic:two-lobe?a1=0.02&w1=1&a2=0.4&w2=0.5"
+# env HELD, ANISO, ISO (empty: none) narrow the run to those materials
+HELD=${HELD-alum-bronze blue-acrylic brass gold-metallic-paint nylon pearl-paint red-plastic specular-black-phenolic tungsten-carbide white-diffuse-bball}
+ANISO=${ANISO-ax=0.1&ay=0.15&phi=0 ax=0.1&ay=0.15&phi=45 ax=0.1&ay=0.15&phi=90 ax=0.06&ay=0.18&phi=0 ax=0.06&ay=0.18&phi=45 ax=0.06&ay=0.18&phi=90}
+ISO=${ISO-analytic:ggx-gold analytic:layered-paint analytic:rough-diffuse analytic:plastic-ggx analytic:two-lobe?a1=0.05&w1=0.6&a2=0.3&w2=0.4 analytic:two-lobe?a1=0.02&w1=1&a2=0.4&w2=0.5}
 
 full() { python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["errors"]["full"]["log"])' "$1/results.json"; }
 
@@ -49,8 +50,11 @@ else:
     truth = "insufficient" if ds1 > 1.5 * float(oop) else "sufficient"
     ratio = "%.2f" % (ds1 / float(oop))
 agree = "yes" if truth == c["verdict"] else "**no**"
-print("| %s | %s | %s | %.2f | %.3f | %.3f | %.1f | %.4f | %s | %s | %s |" % (
-    sys.argv[2], sys.argv[3], c["verdict"], c["ratio"], c["error_oop"], c["error_inplane"],
+def fmt(f, x):  # an undetermined check has no ratio or errors
+    return "-" if x is None else f % x
+print("| %s | %s | %s | %s | %s | %s | %.1f | %.4f | %s | %s | %s |" % (
+    sys.argv[2], sys.argv[3], c["verdict"], fmt("%.2f", c["ratio"]),
+    fmt("%.3f", c["error_oop"]), fmt("%.3f", c["error_inplane"]),
     100 * c["rig_time_share"], ds1, ratio, truth, agree))
 ' "$T/c/results.json" "$1" $sc "$oop"
     done

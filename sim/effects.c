@@ -135,13 +135,26 @@ static void fx_saturation(struct fx_state *st, struct sim_signal *s)
  * the ADC quantises it (rounded to the nearest count) and clipped to
  * 0..2^bits - 1; a reading at the top is flagged saturated, as the full
  * well's is. The values leave the pipeline as counts (s->counts). */
+static uint64_t mix64(uint64_t z);
+
+/* Channel k's offset: the scene's, moved by its fixed pattern (the same
+ * on every reading and run: a property of the device, drawn from no
+ * stream) within +-offset_spread. */
+static double adc_offset(const struct fx_state *st, int k)
+{
+    if (!(st->spec.offset_spread > 0))
+        return st->spec.offset;
+    double z = (double)(mix64(0x0ff5e7ull + (uint64_t)k) >> 11) * 0x1p-53;
+    return st->spec.offset + st->spec.offset_spread * (2 * z - 1);
+}
+
 static void fx_adc(struct fx_state *st, struct sim_signal *s)
 {
     double scale = electrons_per_unit(s);
     double full = ldexp(1.0, st->spec.bits) - 1;
     for (int k = 0; k < s->n; k++) {
         double x = st->spec.gain * s->v[k] * scale;
-        double adu = floor(st->spec.offset + x - st->spec.nonlinearity * x * x / full + 0.5);
+        double adu = floor(adc_offset(st, k) + x - st->spec.nonlinearity * x * x / full + 0.5);
         if (isnan(adu) || adu >= full) { /* NAN: no data, which no ADC gives */
             adu = full;
             s->flags |= SIM_SIGNAL_SATURATED;

@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 
 #include "brdf/spectral.h"
+#include "brdf/standard.h"
 #include "sim/exposure.h"
 
 struct sim_detector {
@@ -31,9 +32,16 @@ static int open_spectral(sim_detector *d, const struct sim_scene *scene,
                          struct gonio_err *err)
 {
     const char *name = brdf_material_name(d->material);
-    if (strncmp(name, "spectral:", 9) == 0)
+    struct brdf_standard std;
+    if (strncmp(name, "spectral:", 9) == 0) {
         d->spectral = brdf_spectral_open(name, err);
-    else
+    } else if (strncmp(name, "standard:", 9) == 0) {
+        /* the standard as its certificate states it per wavelength, which
+         * the reduction of a spectral detector's bands uses */
+        if (brdf_standard_load(name + 9, &std, err) < 0)
+            return -abs(err ? err->code : GONIO_EBADCONFIG);
+        d->spectral = brdf_standard_spectral(&std, name, err);
+    } else
         d->spectral = brdf_spectral_lift(d->material, err);
     if (!d->spectral)
         return -abs(err ? err->code : ENOMEM);
@@ -81,7 +89,8 @@ sim_detector *sim_detector_new(const struct rig_profile *rig, const brdf_materia
     int rc = 0;
     if (scene->detector == SIM_DETECTOR_SPECTRAL) {
         rc = open_spectral(d, scene, err);
-        if (rc == 0 && spectra_csv)
+        /* counts: the capture keeps and reduces the bands (its bands.csv) */
+        if (rc == 0 && spectra_csv && !d->counts)
             rc = open_csv(d, spectra_csv, err);
     }
     if (rc < 0) {
@@ -143,6 +152,24 @@ static void expose(sim_detector *d, struct sim_signal *s, double cos_i)
     sim_effects_sensor(d->fx, s);
 }
 
+/* A spectral detector's counts as three channels: the mean counts of each
+ * bin of bands (sim_scene_count_bin), rounded as an ADC's output is, so
+ * that every transport carries the same integers. Colour weights would
+ * mix counts with their offset and negative weights: a bin mean is what
+ * a calibration can reduce, channel by channel. */
+static void bin_counts(const sim_detector *d, const double *v, double rgb[3])
+{
+    double sum[3] = {0};
+    int n[3] = {0};
+    for (int k = 0; k < d->n_bands; k++) {
+        int c = sim_scene_count_bin(d->bands[k]);
+        sum[c] += v[k];
+        n[c]++;
+    }
+    for (int c = 0; c < 3; c++)
+        rgb[c] = n[c] ? nearbyint(sum[c] / n[c]) : NAN;
+}
+
 int sim_detector_read(sim_detector *d, const struct brdf_pair *p, double cos_i, double now_s,
                       double requested_s, double theta_i, double theta_r,
                       struct sim_reading *out, struct gonio_err *err)
@@ -171,12 +198,15 @@ int sim_detector_read(sim_detector *d, const struct brdf_pair *p, double cos_i, 
     }
     if (!d->n_bands)
         return 0;
-    for (int c = 0; c < 3; c++) {
-        double sum = 0;
-        for (int k = 0; k < n; k++)
-            sum += d->w[3 * k + c] * v[k];
-        out->rgb[c] = sum;
-    }
+    if (d->counts)
+        bin_counts(d, v, out->rgb);
+    else
+        for (int c = 0; c < 3; c++) {
+            double sum = 0;
+            for (int k = 0; k < n; k++)
+                sum += d->w[3 * k + c] * v[k];
+            out->rgb[c] = sum;
+        }
     out->n_bands = n;
     out->bands_nm = d->bands;
     out->spectrum = v;

@@ -38,7 +38,7 @@ static const char *const *effect_keys(enum sim_effect_kind k)
     static const char *const read[] = {"name", "sigma_e", NULL};
     static const char *const sat[] = {"name", "full_well_e", NULL};
     static const char *const adc[] = {"name", "gain_adu_per_e", "bits", "offset_adu",
-                                      "nonlinearity", NULL};
+                                      "nonlinearity", "offset_spread_adu", NULL};
     static const char *const monitor[] = {"name", "rate_counts_per_s", NULL};
     static const char *const jitter[] = {"name", "sigma_deg", "axes", NULL};
     static const char *const backlash[] = {"name", "deg", "axes", NULL};
@@ -150,11 +150,17 @@ static int parse_adc(const struct cfg_doc *doc, const struct cfg_node *item,
         (rc = cfg_double(doc, item, "offset_adu", CFG_OPTIONAL, 0, 4294967295.0, &fx->offset,
                          err)) < 0 ||
         (rc = cfg_double(doc, item, "nonlinearity", CFG_OPTIONAL, 0, 0.4, &fx->nonlinearity,
-                         err)) < 0)
+                         err)) < 0 ||
+        (rc = cfg_double(doc, item, "offset_spread_adu", CFG_OPTIONAL, 0, 4294967295.0,
+                         &fx->offset_spread, err)) < 0)
         return rc;
+    if (fx->offset_spread > fx->offset)
+        return cfg_error(doc, cfg_get(doc, item, "offset_spread_adu"), "offset_spread_adu", err,
+                         "%g ADU is more than the offset (%g ADU): an offset cannot go below 0",
+                         fx->offset_spread, fx->offset);
     fx->bits = (int)bits;
     double full = ldexp(1.0, fx->bits) - 1;
-    if (fx->offset >= full / 2)
+    if (fx->offset + fx->offset_spread >= full / 2)
         return cfg_error(doc, cfg_get(doc, item, "offset_adu"), "offset_adu", err,
                          "%g ADU leaves less than half of the %d-bit range (%g) for the signal",
                          fx->offset, fx->bits, full);
@@ -297,12 +303,28 @@ static int parse_effects(const struct cfg_doc *doc, const struct cfg_node *root,
     }
     scene->n_effects = (int)n;
     if (seen[SIM_FX_ADC] && scene->detector == SIM_DETECTOR_SPECTRAL) {
-        const struct cfg_node *adc = cfg_seq_item(doc, effects, (size_t)seen[SIM_FX_ADC] - 1);
-        const struct cfg_node *at = cfg_is_map(doc, adc) ? cfg_get(doc, adc, "name") : adc;
-        return cfg_error(doc, at ? at : adc, "name", err, "effect 'adc' needs an rgb detector (raw counts of a spectral "
-                         "detector are not simulated)");
+        /* a spectral detector's counts leave in three bins as well (its
+         * RGB): each must hold a band */
+        int in_bin[3] = {0};
+        for (int k = 0; k < scene->n_bands; k++)
+            in_bin[sim_scene_count_bin(scene->bands_nm[k])]++;
+        for (int c = 0; c < 3; c++)
+            if (!in_bin[c]) {
+                const struct cfg_node *adc =
+                    cfg_seq_item(doc, effects, (size_t)seen[SIM_FX_ADC] - 1);
+                const struct cfg_node *at = cfg_is_map(doc, adc) ? cfg_get(doc, adc, "name") : adc;
+                return cfg_error(doc, at ? at : adc, "name", err,
+                                 "effect 'adc' on a spectral detector needs bands on both sides "
+                                 "of 495 and 595 nm (its counts' %s bin is empty)",
+                                 c == 0 ? "595 nm and up" : c == 1 ? "495-595 nm" : "below 495 nm");
+            }
     }
     return 0;
+}
+
+int sim_scene_count_bin(double nm)
+{
+    return nm >= 595 ? 0 : nm >= 495 ? 1 : 2;
 }
 
 /* bands: {first_nm, last_nm, step_nm} or a list of wavelengths. */

@@ -49,6 +49,8 @@ struct sim_effect_spec {
                             * deg, lamp_monitor counts/s */
     double gain;           /* adc: ADU per electron */
     double offset;         /* adc: ADU with no light and no dark */
+    double offset_spread;  /* adc: each channel's offset departs from offset by up to this
+                            * (a fixed pattern, as a spectrometer's pixels' do) */
     double nonlinearity;   /* adc: k, x ADU above the offset read x - k x^2 / full scale */
     int bits;              /* adc: resolution; counts clip at 2^bits - 1 */
     double rate;           /* stall/alarm: probability per move */
@@ -89,5 +91,11 @@ int sim_scene_load(const char *path_or_name, struct sim_scene *scene, struct gon
 /* A scene with no effects and the defaults (RGB detector, seed 1): for
  * callers that simulate without a file. */
 void sim_scene_ideal(struct sim_scene *scene, const char *material);
+
+/* The bin of a spectral detector's counts a band at nm falls in: 0 (R,
+ * 595 nm and up), 1 (G, 495-595 nm), 2 (B, below 495 nm), the USB
+ * spectrometer's bins (docs/usb-spectrometer.md). With an adc, the
+ * reading's three channels are the rounded mean counts of each bin. */
+int sim_scene_count_bin(double nm);
 
 #endif

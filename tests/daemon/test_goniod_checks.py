@@ -6,7 +6,9 @@ output; request.json keeps it, so an aborted capture resumed is checked
 too; a rig without a rotation axis and an unknown check are refused before
 anything is created. The check "out-of-plane" (alone on the default rig,
 or with "isotropy") reaches the same places: "insufficient" for an
-anisotropic material, "sufficient" for an isotropic one.
+anisotropic material, "sufficient" for an isotropic one. A plan sent
+with the request that turns the sample (sample_azimuths) fits the
+anisotropic model (aniso-ggx).
 
 Run from ctest (the environment names the binaries), or by hand:
   GONIO_BIN=build/bin GONIO_TESTS_BIN=build/tests GONIO_CONFIG=configs \\
@@ -154,6 +156,27 @@ class ChecksTests(DaemonTest):
         self.assertEqual(r["class"], "OK", r)
         stop = c.until_stop("none")[-1]
         self.assertEqual(stop["checks"], {})
+
+    def test_sample_azimuths_fit_the_anisotropic_model(self):
+        """A plan sent with the request turns the sample to three azimuths
+        (sample_azimuths: 3, 45 deg apart); the journal records each pair on
+        the turned sample and aniso-ggx fitted to them is the material."""
+        c = self.d.connect()
+        c.request("watch")
+        plan = ("grid: {theta_i_step: 30, diffuse_step: 20, glossy_step: 3}\n"
+                "sample_azimuths: 3\n")
+        r = c.request("capture", plan="ds3-az3.yaml", plan_text=plan, name="az",
+                      scene="ideal", rig="rotating", material=ANISO, model="aniso-ggx")
+        self.assertEqual(r["class"], "OK", r)
+        stop = c.until_stop("az")[-1]
+        self.assertEqual(stop["exit_status"], "success", stop)
+        with open(os.path.join(self.d.root, "az", "samples.csv")) as f:
+            rows = [l.split(",") for l in f.read().splitlines()[1:]]
+        self.assertEqual(len(rows), 3 * 52)
+        self.assertEqual(sorted({round(float(r[3]), 6) for r in rows}), [0, 270, 315])
+        res = load_json(os.path.join(self.d.root, "az", "results.json"))
+        self.assertEqual(res["model"], "aniso-ggx")
+        self.assertLess(res["errors"]["full"]["log"], 1e-3)
 
 
 class ChecksResumeTests(DaemonTest):

@@ -4,7 +4,7 @@
  * interpolated between its geometries; each budget term as its formula
  * says for a hand-made case; clipped readings NAN; and a calibration that
  * lacks the sample's integration, gain state or geometry refused naming
- * it. */
+ * it; the angle term from each sample's nearest neighbours. */
 #include "tests/gonio_test.h"
 #include "tests/unit/radiometry/synth.h"
 
@@ -196,6 +196,79 @@ static void test_uncovered_calibration_refused(void **state)
     assert_non_null(strstr(err.msg, "integration 0.8 s"));
 }
 
+/* The slope the angle term takes from sample k's nearest neighbours along
+ * one angle with the other equal, found by passing over every sample (the
+ * definition; the reduction may find them faster). NAN: none within 12 deg. */
+static double slope_by_pass(const struct rad_raw *raw, const struct rad_value *v, size_t n,
+                            size_t k, int c, int along_r)
+{
+    long lo = -1, hi = -1;
+    for (size_t j = 0; j < n; j++) {
+        double aj = along_r ? raw[j].theta_i : raw[j].theta_r;
+        double ak = along_r ? raw[k].theta_i : raw[k].theta_r;
+        if (j == k || fabs(aj - ak) > 0.01 || !(v[j].brdf[c] > 0))
+            continue;
+        double x = along_r ? raw[j].theta_r : raw[j].theta_i;
+        double x0 = along_r ? raw[k].theta_r : raw[k].theta_i;
+        double xl = lo < 0 ? 0 : along_r ? raw[lo].theta_r : raw[lo].theta_i;
+        double xh = hi < 0 ? 0 : along_r ? raw[hi].theta_r : raw[hi].theta_i;
+        if (x < x0 - 0.01 && x >= x0 - 12 && (lo < 0 || x > xl))
+            lo = (long)j;
+        if (x > x0 + 0.01 && x <= x0 + 12 && (hi < 0 || x < xh))
+            hi = (long)j;
+    }
+    long a = lo >= 0 ? lo : (long)k, b = hi >= 0 ? hi : (long)k;
+    if (a == b)
+        return NAN;
+    double xa = along_r ? raw[a].theta_r : raw[a].theta_i;
+    double xb = along_r ? raw[b].theta_r : raw[b].theta_i;
+    return log(v[b].brdf[c] / v[a].brdf[c]) / (xb - xa);
+}
+
+/* The angle term of every sample of a capture given in no particular
+ * order: the reference's share (the sample reduced alone, without
+ * neighbours) and the sample's own slopes from its nearest neighbours,
+ * rows of equal theta_i and columns of equal theta_r, a repeat and a
+ * geometry within the tolerance among them, one row too far from the next
+ * (15 deg) to give a slope along theta_i. */
+static void test_angle_term_from_nearest_neighbours(void **state)
+{
+    (void)state;
+    struct syn_rig r;
+    syn_rig_init(&r, 5, 0);
+    r.band_deg = 0.1;
+    const double rows[] = {20, 0, 35, 10}, cols[] = {30, -40, 5, -25, 45, 0, -20, 10, -30};
+    double geo[40][2];
+    size_t n = 0;
+    for (size_t i = 0; i < 4; i++)
+        for (size_t j = 0; j < 9; j++)
+            geo[n][0] = rows[i], geo[n][1] = cols[(j * 4 + i) % 9], n++;
+    geo[n][0] = 10, geo[n][1] = 5, n++;        /* a repeat */
+    geo[n][0] = 20.005, geo[n][1] = -25, n++;  /* the same row, within 0.01 deg */
+    struct cal_store st;
+    calibrate(&r, (const double(*)[2])geo, n, &st);
+    struct rad_raw raw[40];
+    for (size_t k = 0; k < n; k++)
+        syn_sample(&r, geo[k][0], geo[k][1], 0.1, &raw[k]);
+    struct rad_value v[40], alone;
+    assert_int_equal(rad_reduce(&st.cal, raw, n, v, NULL), 0);
+    const double u2 = 0.1 * 0.1 / 3.0;
+    size_t sloped = 0;
+    for (size_t k = 0; k < n; k++) {
+        assert_int_equal(rad_reduce(&st.cal, &raw[k], 1, &alone, NULL), 0);
+        for (int c = 0; c < 3; c++) {
+            double dr = slope_by_pass(raw, v, n, k, c, 1), di = slope_by_pass(raw, v, n, k, c, 0);
+            dr = isnan(dr) ? 0.0 : dr;
+            di = isnan(di) ? -dr : di;
+            double ds = di - dr, ref_a = alone.rel[RAD_U_ANGLE][c];
+            double want = sqrt(ref_a * ref_a + (ds * ds + dr * dr) * u2);
+            assert_rel_close(v[k].rel[RAD_U_ANGLE][c], want, 1e-12);
+            sloped += want > 1.01 * ref_a;
+        }
+    }
+    assert_true(sloped > 3 * n / 2); /* most samples sit on a slope */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -205,6 +278,7 @@ int main(void)
         cmocka_unit_test(test_reference_interpolated),
         cmocka_unit_test(test_budget_terms_by_formula),
         cmocka_unit_test(test_uncovered_calibration_refused),
+        cmocka_unit_test(test_angle_term_from_nearest_neighbours),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -167,9 +167,9 @@ static void test_bad_effects_refused_at_their_position(void **state)
          "offset_adu", "3000 ADU leaves less than half of the 12-bit range (4095)");
     CASE("  - lamp_monitor\n", 3, 5, "rate_counts_per_s", "needs parameters");
 #undef CASE
-    expect_error("material: default\ndetector: spectral\neffects:\n  - shot_noise\n"
-                 "  - {name: adc, gain_adu_per_e: 1}\n",
-                 5, 12, "name", "effect 'adc' needs an rgb detector");
+    expect_error("material: default\ndetector: {kind: spectral, bands: [400, 450, 480]}\n"
+                 "effects:\n  - shot_noise\n  - {name: adc, gain_adu_per_e: 1}\n",
+                 5, 12, "name", "its counts' 595 nm and up bin is empty");
     expect_error("material: default\ndetector: {kind: spectral, bands: {first_nm: 400, "
                  "last_nm: 705, step_nm: 10}}\n",
                  2, 35, "bands", "whole steps");
