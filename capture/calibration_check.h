@@ -11,7 +11,7 @@
 #include "common/err.h"
 
 /* 0 when cfg may capture from a detector that gives counts (counts 1) or
- * BRDF (counts 0); else -GONIO_EUSAGE (exit 2) with a message naming the
+ * BRDF (counts 0), or only wants the estimate (estimate_only); else -GONIO_EUSAGE (exit 2) with a message naming the
  * detector (setup.json's name for it; NULL: "unknown") and the fix. */
 int capture_calibration_check(const struct capture_config *cfg, int counts,
                               const char *detector, struct gonio_err *err);

@@ -103,6 +103,9 @@ struct capture_config {
      * not_fitted says why). Without it such a capture is refused before
      * the first move (capture/calibration.h). */
     int uncalibrated;
+    /* Only the estimate is wanted (gonio plan --scene, capture_check): nothing
+     * is measured, so a detector of counts needs no calibration. */
+    int estimate_only;
 };
 
 #define CAPTURE_PRESCAN_OFF (-1)

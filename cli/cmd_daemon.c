@@ -15,6 +15,7 @@
 #include <jansson.h>
 
 #include "capture/capture.h"
+#include "cli/calibration_list.h"
 #include "cli/commands.h"
 #include "cli/daemon_client.h"
 #include "cli/progress.h"
@@ -380,7 +381,7 @@ static void show_newest(const char *sock, json_t *newest)
         print_resume_hint(id, sock);
 }
 
-static void show_status(json_t *rep, json_t *newest, const char *sock)
+static void show_status(json_t *rep, json_t *newest, json_t *newest_cal, const char *sock)
 {
     const char *state = json_string_value(json_object_get(rep, "state"));
     const char *kind = json_string_value(json_object_get(json_object_get(rep, "capture"),
@@ -405,6 +406,7 @@ static void show_status(json_t *rep, json_t *newest, const char *sock)
                verdict ? verdict : "");
     }
     show_newest(sock, newest);
+    calibration_list_newest(newest_cal, sock);
     /* the daemon's release, as goniod --version prints it: the one that
      * answers may differ from this gonio's (an older one does not say) */
     const char *release = json_string_value(json_object_get(rep, "release"));
@@ -450,18 +452,22 @@ static int show_reply(struct conn *c, const char *cmd, json_t *rep, int json_out
         if (!list)
             return 1;
         json_t *newest = json_array_get(json_object_get(list, "captures"), 0);
+        json_t *cal = json_array_get(json_object_get(list, "calibrations"), 0);
         if (json_out) {
             json_object_set(rep, "newest_capture", newest ? newest : json_null());
+            json_object_set(rep, "newest_calibration", cal ? cal : json_null());
             print_json(rep);
         } else {
-            show_status(rep, newest, sock);
+            show_status(rep, newest, cal, sock);
         }
         json_decref(list);
     } else if (!strcmp(cmd, "list")) {
-        if (json_out)
+        if (json_out) {
             print_json(rep);
-        else
+        } else {
             show_list(json_object_get(rep, "captures"));
+            calibration_list_table(json_object_get(rep, "calibrations"), sock);
+        }
     } else {
         const char *id = json_string_value(json_object_get(rep, "capture_id"));
         const char *bringup = json_string_value(json_object_get(rep, "bringup"));
@@ -528,7 +534,8 @@ int cmd_status(int argc, char **argv)
     return simple(argc, argv, "status", "[--json] ",
                   "state (idle, running, paused), capture id, points done, rig time, last "
                   "fit error,\n  the newest capture in the capture root (and the command "
-                  "that resumes it\n  when it was interrupted or aborted), goniod's release");
+                  "that resumes it\n  when it was interrupted or aborted), the newest "
+                  "calibration (the same), goniod's release");
 }
 
 int cmd_pause(int argc, char **argv)
@@ -550,7 +557,10 @@ int cmd_list(int argc, char **argv)
     return simple(argc, argv, "list", "[--json] ",
                   "the captures in goniod's capture root, newest first: id, plan, state\n"
                   "  (running, paused, complete, interrupted, failed, aborted), samples done/"
-                  "total,\n  rig time, last change (UTC)");
+                  "total,\n  rig time, last change (UTC); then the calibrations in its "
+                  "calibration root: id,\n  kind, state (the same, or expired), frames, rig, "
+                  "detector, created, expires,\n  and the command that resumes one "
+                  "interrupted or aborted");
 }
 
 int cmd_abort(int argc, char **argv)

@@ -30,7 +30,9 @@ static void plan_usage(FILE *out)
                  "  --json     the plan document (DESIGN.md section 8) with its rig\n"
                  "  --scene    the estimate counts the integration the scene's detector will\n"
                  "             choose for its material (a noisy scene auto-exposes: longer\n"
-                 "             where the material is dark), as a capture's ETA\n"
+                 "             where the material is dark), as a capture's ETA; a detector\n"
+                 "             of counts: the fixed integration and the bound auto-ranging\n"
+                 "             can reach (a dry run needs no calibration)\n"
                  "NAME resolves to <config>/plans/NAME.yaml; the rig defaults to the scene's,\n"
                  "else <config>/rigs/default.yaml.\n");
 }
@@ -204,7 +206,8 @@ int cmd_plan(int argc, char **argv)
     /* With a scene, the estimate a capture of it makes (capture/capture.h). */
     struct plan_estimate est;
     struct capture_config cc = {.plan = plan_arg, .rig = rig_arg, .model = "abc",
-                                .order = order >= 0 ? plan_order_name(order) : NULL};
+                                .order = order >= 0 ? plan_order_name(order) : NULL,
+                                .estimate_only = 1}; /* a dry run measures nothing */
     if (scene_arg && (rc = sim_source_check(scene_arg, &cc, &est, &err)) < 0) {
         plan_free(plan);
         return report_failure(&err, rc);

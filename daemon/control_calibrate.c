@@ -94,6 +94,9 @@ static int save_record(const struct worker_calibration *k, json_t *req, struct g
         json_object_set_new(d, "created", json_integer(k->created));
         if (k->dark[0]) /* the dark it was checked with, for good */
             json_object_set_new(d, "dark", json_string(k->dark));
+        /* what it is of, for gonio list before calibration.json says */
+        json_object_set_new(d, "rig_name", json_string(k->rig_name));
+        json_object_set_new(d, "detector", json_string(k->detector));
     }
     char *text = d ? control_json_text(d) : NULL;
     if (!text)

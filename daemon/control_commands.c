@@ -12,6 +12,7 @@
 #include "brdf/material.h"
 #include "common/paths.h"
 #include "common/version.h"
+#include "daemon/calibrations.h"
 #include "daemon/captures.h"
 #include "daemon/control_private.h"
 #include "daemon/request.h"
@@ -453,12 +454,19 @@ static int cmd_list(control *c, struct control_client *cl, json_t *req, json_t *
         .total = st.total,
         .rig_time_s = st.rig_time_s,
     };
-    json_t *list = captures_list(c->cfg->capture_root, &live);
-    if (!list) {
+    /* the run is a capture's or a calibration's: the other list has none */
+    struct captures_live none = {0};
+    int cal = live.id && st.cap_kind[0] && strcmp(st.cap_kind, "capture") != 0;
+    json_t *list = captures_list(c->cfg->capture_root, cal ? &none : &live);
+    json_t *cals = calibrations_list(c->cfg->calibration_root, cal ? &live : &none, time(NULL));
+    if (!list || !cals) {
+        json_decref(list);
+        json_decref(cals);
         *code = "io";
         return gonio_err_set(err, ENOMEM, "out of memory");
     }
     json_object_set_new(reply, "captures", list);
+    json_object_set_new(reply, "calibrations", cals);
     return 0;
 }
 

@@ -57,6 +57,7 @@ struct worker_calibration {
     double valid_s;
     int underfilled;        /* the spot (cal_meta.spot) */
     long long created;      /* unix seconds: the id's and calibration.json's */
+    char rig_name[64], detector[32]; /* what it is of (worker_calibrate_check) */
 };
 
 enum worker_state { WORKER_IDLE, WORKER_RUNNING, WORKER_PAUSED };
@@ -192,7 +193,8 @@ int worker_bringup(worker *w, const struct bringup_job *job, unsigned long ticke
 
 /* Check a calibration as its run will (rig profile, plan, standard, and a
  * reference's dark, which c->dark gets resolved), without measuring or
- * writing anything; err names the field and value of what is wrong. */
+ * writing anything (c->rig_name and c->detector get what it is of); err
+ * names the field and value of what is wrong. */
 int worker_calibrate_check(worker *w, struct worker_calibration *c, struct gonio_err *err);
 
 /* Start measuring calibration c (new, or continuing its journal) in the

@@ -11,6 +11,7 @@
 
 #include "brdf/standard.h"
 #include "capture/calibration.h"
+#include "daemon/captures.h"
 #include "daemon/worker_private.h"
 
 /* The detector a calibration is of: as the capture names it (request_rig
@@ -69,21 +70,24 @@ int worker_calibrate_check(worker *w, struct worker_calibration *c, struct gonio
     struct brdf_standard std;
     struct plan *plan = NULL;
     int rc = rig_profile_load(c->rig, &prof, err);
-    if (rc < 0 || c->kind == CAL_DARK)
+    if (rc < 0)
         return rc;
     struct gonio_err why = {0};
-    if (brdf_standard_load(c->standard, &std, &why) < 0)
+    if (c->kind == CAL_REFERENCE && brdf_standard_load(c->standard, &std, &why) < 0)
         return gonio_err_set(err, GONIO_EUSAGE, "standard '%s': %s", c->standard, why.msg);
-    if ((rc = plan_load(c->plan, &prof, &plan, err)) < 0)
+    if (c->kind == CAL_REFERENCE && (rc = plan_load(c->plan, &prof, &plan, err)) < 0)
         return rc;
     plan_free(plan);
     sim_source *sim = sim_rig(w, c, err);
     if (w->cfg->driver == GONIOD_DRIVER_SIM && !sim)
         return -abs(err && err->code ? err->code : EINVAL);
-    char detector[32];
-    detector_name(w, sim, detector, sizeof detector);
+    /* what the calibration will be of, for its record and gonio list */
+    snprintf(c->rig_name, sizeof c->rig_name, "%s", prof.name);
+    detector_name(w, sim, c->detector, sizeof c->detector);
     sim_source_free(sim);
-    struct cal_need need = {.rig = prof.name, .detector = detector,
+    if (c->kind == CAL_DARK)
+        return 0;
+    struct cal_need need = {.rig = prof.name, .detector = c->detector,
                             .integration_s = prof.integration_s, .gain_state = -1,
                             .now = time(NULL)};
     struct cal_meta dark;
@@ -186,11 +190,34 @@ static void finish(worker *w, int rc, int aborted, size_t n, double rig_time_s,
         worker_wake(w);
 }
 
+/* A run that stopped short records why in its directory, as a capture's
+ * does (daemon/calibrations.h), before the stop is reported; a complete
+ * one has its calibration.json. */
+static void record_stop(worker *w, int rc, int aborted, const struct gonio_err *err)
+{
+    if (rc == 0 && !aborted)
+        return;
+    pthread_mutex_lock(&w->mu);
+    char reason[32];
+    snprintf(reason, sizeof reason, "%s",
+             rc < 0 ? "error" : w->abort_reason[0] ? w->abort_reason : "aborted");
+    pthread_mutex_unlock(&w->mu);
+    struct captures_stop stop = {.state = rc < 0 ? "failed"
+                                          : !strcmp(reason, "shutdown") ? "interrupted"
+                                                                        : "aborted",
+                                 .reason = reason, .message = rc < 0 ? err->msg : ""};
+    struct gonio_err werr = {0};
+    if (captures_record_stop(w->cal.dir, &stop, &werr) < 0)
+        fprintf(stderr, "goniod: calibration %s: %s\n", w->cal.id, werr.msg);
+}
+
 static void *run_calibration(void *arg)
 {
     worker *w = arg;
     const struct worker_calibration *c = &w->cal;
     struct gonio_err err = {0};
+    /* until this run ends it runs or, if goniod dies, is interrupted */
+    captures_clear_stop(c->dir);
     struct rig_profile prof;
     struct plan *plan = NULL;
     struct cal_frame *frames = NULL;
@@ -219,6 +246,7 @@ static void *run_calibration(void *arg)
     fprintf(stderr, "goniod: calibration %s %s: %zu frames%s%s\n", c->id,
             rc < 0 ? "failed" : aborted ? "stopped" : "complete", n, rc < 0 ? ": " : "",
             rc < 0 ? err.msg : "");
+    record_stop(w, rc, aborted, &err);
     finish(w, rc, aborted, n, n ? frames[n - 1].rig_time_s : NAN, &err);
     free(frames);
     plan_free(plan);

@@ -303,6 +303,28 @@ def test_plan_summary_first_and_alone():
     assert len(lines) == 5 + 1 + 912
 
 
+def test_plan_on_a_scene_of_counts(tmp):
+    """A dry run measures nothing, so a scene whose detector gives counts
+    (lab) needs no calibration to be planned: its estimate is the rig's
+    fixed integration (the material is not known before the first
+    reading) with the bound auto-ranging could reach, as the plan's own;
+    a capture of it is still refused without one."""
+    for order in ((), ("--order", "adaptive")):
+        fixed = gonio("plan", "ds3", "--summary", *order)
+        lab = gonio("plan", "ds3", "--scene", "lab", "--summary", *order)
+        assert lab.returncode == 0, lab.stderr
+        lines = lab.stdout.splitlines()
+        assert lines[1:] == fixed.stdout.splitlines()[1:], (order, lab.stdout)
+        assert lines[3].startswith("with auto-ranging (a detector of counts): up to ")
+    doc = json.loads(gonio("plan", "ds3", "--scene", "lab", "--json").stdout)
+    assert doc["estimate"] == json.loads(gonio("plan", "ds3", "--json").stdout)["estimate"]
+    out = os.path.join(tmp, "cap")
+    r = gonio("capture", "--offline", "--scene", "lab", "--plan", "ds3", "--out", out)
+    assert r.returncode == 2 and "gives counts and the capture names no calibration" \
+        in r.stderr, r.stderr
+    assert not os.path.exists(out)
+
+
 def test_plan_hours():
     r = gonio("plan", "oop200k", "--summary")
     assert r.returncode == 0, r.stderr

@@ -505,5 +505,93 @@ class CalibrateCrashTests(CalibrateRig):
         self.assertIn("is complete", r.stderr)
 
 
+class CalibrateListTests(CalibrateRig):
+    """The calibrations an operator finds (goniod's simulated rig, lab):
+    gonio list names each one's kind, state, rig, detector and time, and
+    the command that resumes one cut short; gonio status names the newest
+    and its resume command."""
+
+    def listed(self):
+        r = self.d.gonio("list", "--json")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        doc = json.loads(r.stdout)
+        return {e["id"]: e for e in doc["calibrations"]}, [e["id"] for e in doc["calibrations"]]
+
+    def reference_waiting(self, name):
+        """A reference started and paused on the operator (mount the
+        standard); the watching connection."""
+        c = self.d.connect()
+        c.request("watch")
+        r = c.request("calibrate", kind="reference", plan="ds3", repeats=2, name=name,
+                      dark="dark-ok")
+        self.assertEqual(r["class"], "OK", r)
+        self.mount_standard(self.wait_state("paused", "asking for the standard"))
+        return c
+
+    def test_list_and_status_name_calibrations(self):
+        self.d = Daemon(self.folder, scene="lab").start()
+        self.cal_root = os.path.join(self.folder, "calibrations")
+        for name, valid in (("dark-old", ["--valid", "0.01"]), ("dark-ok", [])):
+            r = self.calibrate("dark", "--frames", "2", "--name", name, *valid)
+            self.assertEqual(r.returncode, 0, r.stderr)
+        with open(os.path.join(self.cal_root, "dark-ok", "calibration.json")) as f:
+            made = json.load(f)
+
+        # Aborted while it waits on the operator; listed as paused before.
+        c = self.reference_waiting("ref-ab")
+        self.assertEqual(self.listed()[0]["ref-ab"]["state"], "paused")
+        self.assertEqual(self.d.gonio("abort").returncode, 0)
+        c.until_stop("ref-ab")
+        # Interrupted: goniod killed while it waits, then started again.
+        self.reference_waiting("ref-cut")
+        self.d.kill9()
+        self.d.conns = []
+        self.d.start()
+        while time.time() <= made["created_unix"] + 1:  # dark-old's 0.6 s have passed
+            time.sleep(0.05)
+
+        cals, order = self.listed()
+        self.assertEqual(order, ["ref-cut", "ref-ab", "dark-ok", "dark-old"])
+        for cid, kind, state, n in (("ref-cut", "reference", "interrupted", 0),
+                                    ("ref-ab", "reference", "aborted", 0),
+                                    ("dark-ok", "dark", "complete", 2),
+                                    ("dark-old", "dark", "expired", 2)):
+            e = cals[cid]
+            self.assertEqual((e["kind"], e["state"], e["frames_done"]), (kind, state, n), e)
+            # what it is of, before calibration.json says it too
+            self.assertEqual((e["rig"], e["detector"]), (made["rig"], made["detector"]), e)
+            self.assertRegex(e["created"], r"^\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ$")
+        self.assertEqual(cals["dark-ok"]["expires"], made["expires"])
+        self.assertEqual(cals["ref-ab"]["reason"], "aborted")
+
+        # The table, after the captures' (none here), with the resume commands.
+        table = self.d.gonio("list").stdout.splitlines()
+        head = table.index(next(x for x in table if x.startswith("CALIBRATION")))
+        self.assertEqual([x.split()[:3] for x in table[head + 1:]],
+                         [["ref-cut", "reference", "interrupted"],
+                          ["resume", "it", "with:"],
+                          ["ref-ab", "reference", "aborted"],
+                          ["resume", "it", "with:"],
+                          ["dark-ok", "dark", "complete"], ["dark-old", "dark", "expired"]])
+        self.assertEqual(table[head + 2].strip(), "resume it with: gonio resume ref-cut")
+        out = self.d.gonio("status").stdout
+        self.assertIn("newest calibration ref-cut (reference): interrupted, 0 frames", out)
+        self.assertIn("resume it with: gonio resume ref-cut", out)
+
+        # Resumed, it completes, and says so everywhere.
+        c = self.d.connect()
+        c.request("watch")
+        r = c.request("resume", capture_id="ref-cut")
+        self.assertEqual(r["class"], "OK", r)
+        self.mount_standard(self.wait_state("paused", "asking for the standard again"))
+        self.assertEqual(self.d.gonio("resume").returncode, 0)
+        self.assertEqual(c.until_stop("ref-cut")[-1]["exit_status"], "success")
+        e = self.listed()[0]["ref-cut"]
+        self.assertEqual((e["state"], e["frames_done"], e["frames_total"]), ("complete", 104, 104))
+        out = self.d.gonio("status").stdout
+        self.assertIn("newest calibration ref-cut (reference): complete, 104/104 frames", out)
+        self.assertNotIn("gonio resume ref-cut", out)
+
+
 if __name__ == "__main__":
     unittest.main()
