@@ -2,9 +2,7 @@
  * (daemon/calibrations.h). */
 #include "daemon/calibrations.h"
 
-#include <dirent.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 
@@ -136,58 +134,20 @@ out:
     return e;
 }
 
-struct listed {
-    json_t *e;
-    struct timespec changed;
+struct entry_context {
+    const struct captures_live *live;
+    time_t now;
 };
 
-static int newest_first(const void *a, const void *b)
+static json_t *calibration_entry(const char *root, const char *id, const void *ctx,
+                                 struct timespec *changed)
 {
-    const struct listed *x = a, *y = b;
-    if (x->changed.tv_sec != y->changed.tv_sec)
-        return x->changed.tv_sec < y->changed.tv_sec ? 1 : -1;
-    if (x->changed.tv_nsec != y->changed.tv_nsec)
-        return x->changed.tv_nsec < y->changed.tv_nsec ? 1 : -1;
-    return -strcmp(json_string_value(json_object_get(x->e, "id")),
-                   json_string_value(json_object_get(y->e, "id")));
+    const struct entry_context *c = ctx;
+    return entry(root, id, c->live, c->now, changed);
 }
 
 json_t *calibrations_list(const char *root, const struct captures_live *live, time_t now)
 {
-    json_t *out = json_array();
-    DIR *d = opendir(root);
-    if (!d || !out) {
-        if (d)
-            closedir(d);
-        return out;
-    }
-    struct listed *v = NULL;
-    size_t n = 0, cap = 0;
-    struct dirent *de;
-    while ((de = readdir(d))) {
-        if (de->d_name[0] == '.')
-            continue;
-        struct timespec changed = {0, 0};
-        json_t *e = entry(root, de->d_name, live, now, &changed);
-        if (!e)
-            continue;
-        if (n == cap) {
-            size_t ncap = cap ? 2 * cap : 16;
-            struct listed *nv = realloc(v, ncap * sizeof *nv);
-            if (!nv) {
-                json_decref(e);
-                break;
-            }
-            v = nv;
-            cap = ncap;
-        }
-        v[n++] = (struct listed){e, changed};
-    }
-    closedir(d);
-    if (n)
-        qsort(v, n, sizeof *v, newest_first);
-    for (size_t i = 0; i < n; i++)
-        json_array_append_new(out, v[i].e);
-    free(v);
-    return out;
+    struct entry_context c = {live, now};
+    return captures_list_dir(root, calibration_entry, &c);
 }

@@ -201,12 +201,15 @@ static int newest_first(const void *a, const void *b)
                    json_string_value(json_object_get(y->e, "id")));
 }
 
-json_t *captures_list(const char *root, const struct captures_live *live)
+json_t *captures_list_dir(const char *root, captures_entry_fn *entry_of, const void *ctx)
 {
     json_t *out = json_array();
     DIR *d = opendir(root);
-    if (!d || !out)
+    if (!d || !out) {
+        if (d)
+            closedir(d);
         return out;
+    }
     struct listed *v = NULL;
     size_t n = 0, cap = 0;
     struct dirent *de;
@@ -214,7 +217,7 @@ json_t *captures_list(const char *root, const struct captures_live *live)
         if (de->d_name[0] == '.')
             continue;
         struct timespec changed = {0, 0};
-        json_t *e = entry(root, de->d_name, live, &changed);
+        json_t *e = entry_of(root, de->d_name, ctx, &changed);
         if (!e)
             continue;
         if (n == cap) {
@@ -236,4 +239,15 @@ json_t *captures_list(const char *root, const struct captures_live *live)
         json_array_append_new(out, v[i].e);
     free(v);
     return out;
+}
+
+static json_t *capture_entry(const char *root, const char *id, const void *live,
+                             struct timespec *changed)
+{
+    return entry(root, id, live, changed);
+}
+
+json_t *captures_list(const char *root, const struct captures_live *live)
+{
+    return captures_list_dir(root, capture_entry, live);
 }

@@ -12,6 +12,7 @@
 #define GONIO_DAEMON_CAPTURES_H
 
 #include <stddef.h>
+#include <time.h>
 
 #include <jansson.h>
 
@@ -54,5 +55,14 @@ struct captures_live {
  * note} (docs/protocol.md, "list"). NULL when out of memory; a root that
  * does not exist yet lists nothing. */
 json_t *captures_list(const char *root, const struct captures_live *live);
+
+/* One directory's entry for a listing: NULL when root/name is not one
+ * (skipped); *changed is its last change, by which the list sorts. */
+typedef json_t *captures_entry_fn(const char *root, const char *name, const void *ctx,
+                                  struct timespec *changed);
+/* Every directory under root that entry_of makes an entry of, newest change
+ * first (the same instant: by id, descending). NULL when out of memory; a
+ * root that does not exist yet lists nothing. */
+json_t *captures_list_dir(const char *root, captures_entry_fn *entry_of, const void *ctx);
 
 #endif
