@@ -13,6 +13,7 @@ void autorange_init(struct autorange *a, const struct rig_profile *rig)
     a->fixed_s = rig->integration_s > 0 ? rig->integration_s : rig->auto_min_s;
     a->min_s = rig->auto_min_s;
     a->max_s = rig->auto_max_s;
+    a->no_shutter = !rig->shutter; /* the profile says there is nothing to close */
 }
 
 static double held(const struct autorange *a, double t)

@@ -36,7 +36,7 @@
 struct autorange {
     double fixed_s, min_s, max_s;
     double next_s;        /* where the next point starts (0: the fixed integration) */
-    int no_shutter;       /* the detector said it has none: no dark frames */
+    int no_shutter;       /* the rig profile or the detector says it has none: no dark frames */
     size_t n_dark;
     double dark_s[AUTORANGE_RUNGS];
     double dark[AUTORANGE_RUNGS][3]; /* its counts per channel */

@@ -270,12 +270,31 @@ static int load_socket(const struct cfg_doc *d, const struct cfg_node *root,
     return 0;
 }
 
+/* The first device the rig profile names that the driver cannot work: the
+ * key of the config that would wire it, or NULL when there is none. */
+static const char *rig_gap_key(const struct goniod_config *cfg, const struct rig_profile *rig)
+{
+    if (cfg->driver == GONIOD_DRIVER_SIM)
+        return NULL;
+    if (rig->sample_changer && !cfg->slaves.sample_changer)
+        return "sample_changer";
+    /* The USB spectrometer has no shutter to close (drv_usbspec.h): with a
+     * profile that says it has one, a dark calibration would read the lit
+     * scene as dark instead of asking the operator to cover the detector. */
+    if (rig->shutter && cfg->detector == GONIOD_DETECTOR_USB)
+        return "detector";
+    if (rig->out_of_plane && !cfg->slaves.azimuth)
+        return "azimuth";
+    return NULL;
+}
+
 int goniod_config_rig_gap(const struct goniod_config *cfg, const struct rig_profile *rig,
                           const char *rig_ref, char *why, size_t size)
 {
-    if (cfg->driver == GONIOD_DRIVER_SIM)
+    const char *key = rig_gap_key(cfg, rig);
+    if (!key)
         return 0;
-    if (rig->sample_changer && !cfg->slaves.sample_changer) {
+    if (!strcmp(key, "sample_changer"))
         /* The profile says samples can be changed on this rig; a driver
          * that cannot reach the changer would find out at the first
          * change, with a sample under the beam that is not the one named. */
@@ -284,17 +303,21 @@ int goniod_config_rig_gap(const struct goniod_config *cfg, const struct rig_prof
                  "sample changer (sample_changer: true); set driver.slaves.sample_changer to "
                  "the changer's slave id, or name a rig profile without one",
                  cfg->slaves.sample_changer, rig_ref);
-        return -GONIO_EBADCONFIG;
-    }
-    if (!rig->out_of_plane || cfg->slaves.azimuth)
-        return 0;
-    /* Without the drive the engine would leave the azimuth where it is and
-     * record in-plane samples as the out-of-plane pairs they were planned as. */
-    snprintf(why, size,
-             "driver.slaves.azimuth is %d (none), but rig profile '%s' is out of plane "
-             "(out_of_plane: true) and moves an azimuth axis; set driver.slaves.azimuth to "
-             "the azimuth drive's slave id, or name an in-plane rig profile",
-             cfg->slaves.azimuth, rig_ref);
+    else if (!strcmp(key, "detector"))
+        snprintf(why, size,
+                 "driver.detector.kind is usb-spectrometer, which has no shutter, but rig "
+                 "profile '%s' has one (shutter: true, the default); name a rig profile with "
+                 "shutter: false (the shipped usb-spectrometer), on which dark frames pause "
+                 "for the operator to cover the detector or turn the lamp off", rig_ref);
+    else
+        /* Without the drive the engine would leave the azimuth where it is
+         * and record in-plane samples as the out-of-plane pairs they were
+         * planned as. */
+        snprintf(why, size,
+                 "driver.slaves.azimuth is %d (none), but rig profile '%s' is out of plane "
+                 "(out_of_plane: true) and moves an azimuth axis; set driver.slaves.azimuth to "
+                 "the azimuth drive's slave id, or name an in-plane rig profile",
+                 cfg->slaves.azimuth, rig_ref);
     return -GONIO_EBADCONFIG;
 }
 
@@ -374,11 +397,12 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
     }
     char why[1400];
     if (goniod_config_rig_gap(cfg, &rig, cfg->rig, why, sizeof why) < 0) {
-        const char *key = rig.sample_changer && !cfg->slaves.sample_changer ? "sample_changer"
-                                                                             : "azimuth";
-        const struct cfg_node *slaves = cfg_get(d, drv, "slaves");
-        const struct cfg_node *at = slaves ? cfg_get(d, slaves, key) : NULL;
-        rc = cfg_error(d, at ? at : slaves ? slaves : drv, key, err, "%s", why);
+        /* where the file wires it: driver.detector.kind, or the slave */
+        const char *key = rig_gap_key(cfg, &rig);
+        int det = !strcmp(key, "detector");
+        const struct cfg_node *map = cfg_get(d, drv, det ? "detector" : "slaves");
+        const struct cfg_node *at = map ? cfg_get(d, map, det ? "kind" : key) : NULL;
+        rc = cfg_error(d, at ? at : map ? map : drv, det ? "kind" : key, err, "%s", why);
         goto out;
     }
     rc = 0;

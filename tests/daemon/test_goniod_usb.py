@@ -6,12 +6,14 @@ spectrometer replayed by umockdev-run from the driver tests' recording.
 Run from ctest, or by hand like test_goniod.py (its helpers are goniod_harness.py's;
 its fixtures, test_goniod.py's CheckTests and test_goniod_modbus.py's ModbusRig).
 """
+import csv
 import math
 import os
 import shlex
 import shutil
 import subprocess
 import sys
+import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -24,7 +26,7 @@ UMOCKDEV_RUN = shutil.which("umockdev-run")
 
 
 class UsbConfigTests(unittest.TestCase):
-    DRIVER = ("rig: default\n"
+    DRIVER = ("rig: usb-spectrometer\n"
               "driver:\n  kind: modbus-tcp\n  host: 127.0.0.1\n"
               "  detector: {kind: usb-spectrometer, vendor: 0x2457, product: 0x101E,\n"
               "             serial: USB2+F01234, bands: 390-730, scale: 2.5e-5}\n"
@@ -99,7 +101,8 @@ class UsbCaptureTests(unittest.TestCase):
         """A goniod (not started) whose command runs it in the testbed."""
         cap = os.path.join(self.folder, "cap")
         os.makedirs(cap)
-        rig = open(os.path.join(g.SOURCE, "configs", "rigs", "default.yaml")).read()
+        # (the spectrometer has no shutter: its profile says so)
+        rig = open(os.path.join(g.SOURCE, "configs", "rigs", "usb-spectrometer.yaml")).read()
         # one integration, as recorded: counts are auto-ranged within these
         rig = rig.replace("settle_s: 0.3", "settle_s: 0.01").replace(
             "fixed_s: 0.05", "fixed_s: 0.1").replace("auto_min_s: 0.001", "auto_min_s: 0.1") \
@@ -122,11 +125,16 @@ class UsbCaptureTests(unittest.TestCase):
                        " ".join(shlex.quote(a) for a in
                                 g.wrap([os.path.abspath(g.GONIOD)], self.folder))))
         os.chmod(wrapper, 0o755)
-        return g.Daemon(self.folder, command=[wrapper], driver=(
+        d = g.Daemon(self.folder, command=[wrapper], driver=(
             "  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n  time_scale: 1000\n"
             "  timeout_s: %g\n  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
             "  detector: {kind: usb-spectrometer, serial: USB2+F01234, timeout_s: 2%s}\n"
             % (self.port, 0.5 * g.SLOW, detector)))
+        with open(d.config) as f:
+            text = f.read()
+        with open(d.config, "w") as f:
+            f.write(text.replace("rig: default", "rig: usb-spectrometer"))
+        return d
 
     def finish(self, c):
         """shutdown over the socket: umockdev-run passes no signal on."""
@@ -218,6 +226,33 @@ class UsbCaptureTests(unittest.TestCase):
             self.assertEqual(got[p], first)
         self.assertTrue(all(v > 0 and math.isfinite(v) for v in first), first)
         self.assertGreater(first[0], first[2])
+        self.finish(c)
+
+    def test_dark_asks_the_operator_to_cover_it(self):
+        """The spectrometer has no shutter: a dark calibration on its rig
+        profile pauses before the first frame, asking the operator to cover
+        the detector or turn the lamp off, and reads its frames after
+        gonio resume."""
+        c = self.start("spectrum.ioctl")
+        self.assertEqual(c.request("calibrate", kind="dark", frames=2, rig="fast.yaml",
+                                   name="dark")["class"], "OK")
+        deadline = time.time() + 2 * g.START_S
+        st = c.request("status")
+        while st["state"] != "paused":
+            self.assertLess(time.time(), deadline, st)
+            time.sleep(0.05)
+            st = c.request("status")
+        self.assertIn("rig 'usb-spectrometer' has no shutter: cover the detector (or turn "
+                      "the lamp off), then: gonio resume", st["capture"]["message"])
+        self.assertEqual(st["points_done"], 0, "nothing read before the operator acted")
+        self.assertEqual(c.request("resume")["class"], "OK")
+        stop = c.until_stop("dark")[-1]
+        self.assertEqual(stop["exit_status"], "success", stop)
+        with open(os.path.join(self.folder, "calibrations", "dark", "frames.csv")) as f:
+            rows = list(csv.DictReader(f))
+        self.assertEqual(len(rows), 2)
+        # the lamp-lit recording, read as the "dark": the cover is the operator's
+        self.assertTrue(all(float(r["r"]) > 1000 for r in rows), rows)
         self.finish(c)
 
     def test_unplugged_device_fails_the_capture(self):

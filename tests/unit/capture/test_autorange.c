@@ -6,7 +6,8 @@
  * integration used has its dark frame in the journal, the retakes' time is
  * recorded and charged to the rig clock, and results.json says why nothing
  * was fitted; the ETA's model of the ladder walks the journal as the
- * readings did. Runs without the shared data. */
+ * readings did; a rig profile without a shutter takes no dark frames.
+ * Runs without the shared data. */
 #include <jansson.h>
 #include <math.h>
 #include <string.h>
@@ -159,6 +160,47 @@ static void test_uncalibrated_capture_ranges(void **state)
     json_decref(setup);
 }
 
+/* A rig profile without a shutter (shutter: false, as the USB
+ * spectrometer's): the capture takes no dark frame at any rung, though the
+ * simulated detector has a shutter it could close; the profile is what
+ * the rig has. */
+static void test_no_shutter_no_dark_frames(void **state)
+{
+    (void)state;
+    char out[300], path[400], noshut[400];
+    snprintf(noshut, sizeof noshut, "%s/noshutter.yaml", dir);
+    FILE *in = fopen(rig_path, "r"), *o = fopen(noshut, "w");
+    assert_non_null(in);
+    assert_non_null(o);
+    char line[512];
+    while (fgets(line, sizeof line, in))
+        fputs(line, o);
+    fputs("shutter: false\n", o);
+    fclose(in);
+    fclose(o);
+    snprintf(out, sizeof out, "%s/noshutter", dir);
+    struct capture_config cfg = config(out);
+    cfg.rig = noshut;
+    cfg.uncalibrated = 1;
+    struct capture_summary sum;
+    struct gonio_err err = {0};
+    if (sim_source_capture("lab", &cfg, NULL, &sum, &err))
+        fail_msg("%s", err.msg);
+    snprintf(path, sizeof path, "%s/samples.csv", out);
+    struct journal_sample *js;
+    size_t n, darks = 0, samples = 0;
+    assert_int_equal(journal_read(path, &js, &n, &err), 0);
+    for (size_t i = 0; i < n; i++) {
+        darks += (js[i].flags & JOURNAL_FLAG_DARK) != 0;
+        samples += !(js[i].flags & JOURNAL_FLAG_DARK);
+    }
+    free(js);
+    assert_true(samples > 0);
+    assert_int_equal(samples, sum.samples);
+    assert_int_equal(darks, 0);
+    assert_int_equal(sum.darks, 0);
+}
+
 /* The ETA's model of the ladder (autorange_model_point) walks a capture's
  * journal as the readings did: given each point's signal rate, read back
  * from its counts, it keeps the integration the capture kept and costs the
@@ -215,6 +257,7 @@ int main(void)
         cmocka_unit_test(test_counts_without_calibration_refused),
         cmocka_unit_test(test_uncalibrated_capture_ranges),
         cmocka_unit_test(test_model_walks_the_journal),
+        cmocka_unit_test(test_no_shutter_no_dark_frames),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
