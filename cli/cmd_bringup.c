@@ -8,8 +8,10 @@
 
 #include <jansson.h>
 
+#include "cli/bringup_wait.h"
 #include "cli/commands.h"
 #include "cli/daemon_client.h"
+#include "cli/interrupt.h"
 
 static void usage(FILE *out, const char *cmd)
 {
@@ -27,7 +29,10 @@ static void usage(FILE *out, const char *cmd)
             "  Each prints where the axes stand once it ended (--json: goniod's reply).\n"
             "  Needs goniod on a Modbus rig; refused while a capture runs.\n"
             "  gonio abort (from another terminal) ends it: the axes stop where they\n"
-            "  are, it prints 'aborted' and that table, and exits 1.\n"
+            "  are, it prints 'aborted' and that table, and exits 1. Ctrl-C (SIGINT,\n"
+            "  SIGTERM) during home, move or limits sends goniod that abort, waits for\n"
+            "  the axes to stop, prints the same and exits 130; a second one stops\n"
+            "  waiting.\n"
             "  The socket is --socket, else $GONIO_SOCKET, else " GONIO_SOCKET_DEFAULT ".\n",
             cmd, args, 0.25);
 }
@@ -121,9 +126,13 @@ static int bringup(int argc, char **argv, const char *cmd, int min_args, int max
         json_decref(req);
         return 1;
     }
-    json_t *rep = conn_request(&c, req);
+    /* where only reads: nothing to stop on Ctrl-C */
+    int sig = 0;
+    json_t *rep = strcmp(cmd, "where") ? bringup_request(&c, req, cmd, &sig)
+                                       : conn_request(&c, req);
     int rc = reply_failed(rep);
-    /* Aborted (gonio abort): exit 1, and where the axes stopped. */
+    /* Aborted (gonio abort, or Ctrl-C): exit 1 (130 for Ctrl-C), and where
+     * the axes stopped. */
     const char *code = rc ? json_string_value(json_object_get(rep, "code")) : NULL;
     int aborted = code && !strcmp(code, "aborted");
     if ((!rc || aborted) && json) {
@@ -134,7 +143,7 @@ static int bringup(int argc, char **argv, const char *cmd, int min_args, int max
     }
     json_decref(rep);
     conn_close(&c);
-    return rc;
+    return sig ? INTERRUPT_EXIT : rc;
 }
 
 int cmd_home(int argc, char **argv)

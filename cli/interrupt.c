@@ -28,3 +28,8 @@ int interrupt_signal(void)
 {
     return caught;
 }
+
+void interrupt_reset(void)
+{
+    caught = 0;
+}

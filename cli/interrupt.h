@@ -11,6 +11,10 @@ void interrupt_catch(void);
 /* The signal caught (SIGINT, SIGTERM), 0 when none. */
 int interrupt_signal(void);
 
+/* Forget the signal caught: the next interrupt_signal says whether
+ * another came since (a second Ctrl-C). */
+void interrupt_reset(void);
+
 /* The exit status of a command a signal ended: 128 + SIGINT, as a shell
  * reports an interrupted command. */
 #define INTERRUPT_EXIT 130

@@ -12,6 +12,7 @@ Run from ctest (the environment names the binaries), or by hand:
 import glob
 import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -443,6 +444,51 @@ class BringupAbortTests(test_goniod_modbus.ModbusRig):
         # Nothing runs now: abort is refused as before.
         r = c.request("abort")
         self.assertEqual((r["class"], r["code"]), ("ERROR", "not-running"), r)
+
+
+class BringupInterruptTests(test_goniod_modbus.ModbusRig):
+    """Ctrl-C on gonio limits or move (gonio-sim at 5 x): gonio sends goniod
+    abort, waits for the reply, prints where the axes stopped and exits
+    130; the axis stands there, short of where it was going (closing the
+    connection alone left goniod driving it)."""
+    SIM_SCALE = 5
+
+    def interrupt(self, args, what):
+        c = self.d.connect()
+        env = dict(self.d.env, GONIO_SOCKET=self.d.sock)
+        p = subprocess.Popen([GONIO, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True, env=env, preexec_fn=child_procs.die_with_parent)
+        self.addCleanup(p.kill)
+        deadline = time.time() + START_S
+        while c.request("status")["bringup"] != what:
+            self.assertLess(time.time(), deadline, "%s never started" % what)
+            time.sleep(0.05)
+        time.sleep(0.3)  # on its way
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=2 * START_S)
+        self.assertEqual(p.returncode, 130, out + err)
+        self.assertIn("gonio %s: SIGINT: asking goniod to abort" % args[0], err)
+        self.assertIn("%s: aborted; the axes stopped where they stand" % what, err)
+        row = [l for l in out.splitlines() if l.startswith(args[1])][0]
+        self.assertNotIn("MOVE", row)
+        # Stopped: two readings apart agree, and say what the table said.
+        first = axes_by_name(c.request("where"))[args[1]]
+        time.sleep(0.5)
+        second = axes_by_name(c.request("where"))[args[1]]
+        self.assertFalse(first["moving"], first)
+        self.assertEqual(first["position_deg"], second["position_deg"])
+        self.assertAlmostEqual(float(row.split()[2]), first["position_deg"], delta=0.01)
+        self.assertIsNone(c.request("status")["bringup"])
+        return first["position_deg"]
+
+    def test_ctrl_c_stops_limits_and_move(self):
+        self.d = Daemon(self.folder, driver=self.tcp_driver(self.SIM_SCALE)).start()
+        at = self.interrupt(["limits", "sample"], "limits sample")
+        self.assertLess(abs(at), 85)
+        # 160 deg at 15 deg/s of rig time: 2 s here
+        at = self.interrupt(["move", "arm", "160"], "move arm")
+        self.assertGreater(at, 0)
+        self.assertLess(at, 150)
 
 
 class BringupSimTests(unittest.TestCase):
