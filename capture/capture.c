@@ -92,20 +92,18 @@ static int eta_new(const struct capture_job *in, const struct capture_hooks *hoo
     return 0;
 }
 
-/* The ETA from the axes' present positions (the encoders, read once the
- * devices are open, before the first move): a capture starts wherever
- * the last one, or a bring-up command, left them. */
-static int eta_from_axes(capture_eta *eta, const struct capture_devices *dev,
-                         struct gonio_err *err)
+/* The axes' present positions (the encoders, read once the devices are
+ * open, before the first move): a capture starts wherever the last one, or
+ * a bring-up command, left them. */
+static int axes_now(const struct capture_devices *dev, struct rig_axes *at,
+                    struct gonio_err *err)
 {
-    struct rig_axes at = {0, 0, 0};
-    int rc = drv_axis_position(dev->sample, &at.s, err);
+    *at = (struct rig_axes){0, 0, 0};
+    int rc = drv_axis_position(dev->sample, &at->s, err);
     if (rc == 0)
-        rc = drv_axis_position(dev->arm, &at.a, err);
+        rc = drv_axis_position(dev->arm, &at->a, err);
     if (rc == 0 && dev->azimuth)
-        rc = drv_axis_position(dev->azimuth, &at.az, err);
-    if (rc == 0)
-        capture_eta_start(eta, &at);
+        rc = drv_axis_position(dev->azimuth, &at->az, err);
     return rc;
 }
 
@@ -138,6 +136,34 @@ static int replay_journal(struct run *r, struct gonio_err *err)
         r->converged = rc;
     }
     return 0;
+}
+
+/* A new capture whose axes stand away from home (beyond the in-position
+ * band) orders its travel from where they stand, before its first record:
+ * plan.json is written again with that order and its start, and the
+ * sequence made again over it. *first: its first point. The orders that do
+ * not travel (as written, adaptive) and a capture with records keep theirs. */
+static int order_from(struct run *r, const struct rig_axes *at, long *first,
+                      struct gonio_err *err)
+{
+    capture_job *job = r->job;
+    enum plan_order_mode mode = plan_current_order(job->plan);
+    double band = job->rig.mech.in_position_deg;
+    if (r->n > 0 || r->ranging.ar.n_dark > 0 || mode == PLAN_ORDER_AS_WRITTEN ||
+        mode == PLAN_ORDER_ADAPTIVE ||
+        (fabs(at->s) <= band && fabs(at->a) <= band && fabs(at->az) <= band))
+        return 0;
+    int rc = plan_order_from(job->plan, mode, &job->rig, at);
+    if (rc < 0)
+        return gonio_err_set(err, -rc, "ordering plan: %s", gonio_strerror(rc));
+    if ((rc = capture_files_plan_rewrite(job->cfg.out_dir, job->plan, &job->rig, err)) < 0)
+        return rc;
+    sequence_free(r->seq);
+    r->seq = NULL;
+    if ((rc = sequence_new(&r->order, r->samples, r->n, &r->seq, first, err)) < 0)
+        return rc;
+    capture_eta_free(r->eta);
+    return eta_new(job, r->hooks, r->seq, &r->ranging.ar, r->samples, r->n, &r->eta, err);
 }
 
 /* Open the source's devices; a resumed capture's where its journal left
@@ -355,12 +381,16 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
         return rc;
     }
     struct capture_devices dev;
+    struct rig_axes at;
     rc = open_devices(r, &dev, err);
     if (rc == 0 && dev.counts && /* the detector said so at open: before the first move */
         (rc = capture_calibration_check(&job->cfg, 1, job->src->detector, err)) < 0)
         job->src->close(job->src->user, &dev);
-    else if (rc == 0 && r->eta && (rc = eta_from_axes(r->eta, &dev, err)) < 0)
+    else if (rc == 0 && ((rc = axes_now(&dev, &at, err)) < 0 ||
+                         (rc = order_from(r, &at, &first, err)) < 0))
         job->src->close(job->src->user, &dev);
+    else if (rc == 0 && r->eta)
+        capture_eta_start(r->eta, &at);
     progress(hooks, job, r->eta, &r->fit, r->seq, r->n, r->already, rig_s);
     if (rc < 0) {
         r->aborted = rc == -ECANCELED; /* the host stopped it while the devices opened */
@@ -451,7 +481,14 @@ static int open_capture(struct run *r, long *first, struct gonio_err *err)
         setup.n_ladder = autorange_ladder(&ar, ladder, AUTORANGE_RUNGS);
     }
     const char *dir = job->cfg.out_dir;
-    int rc = capture_files_prepare(dir, &setup, &r->lock_fd, err);
+    /* A capture ordered from where it found the axes resumes in that order:
+     * its journal's points are that order's. */
+    struct rig_axes start;
+    int rc = 0;
+    if (capture_files_plan_start(dir, &start) &&
+        (rc = plan_order_from(job->plan, plan_current_order(job->plan), &job->rig, &start)) < 0)
+        return gonio_err_set(err, -rc, "ordering plan: %s", gonio_strerror(rc));
+    rc = capture_files_prepare(dir, &setup, &r->lock_fd, err);
     if (rc < 0)
         return rc;
     char path[4096];

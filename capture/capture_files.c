@@ -288,6 +288,36 @@ static int prepare_locked(const char *dir, const char *text, json_t *setup,
     return rc;
 }
 
+int capture_files_plan_start(const char *dir, struct rig_axes *start)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/plan.json", dir);
+    json_t *doc = json_load_file(path, 0, NULL);
+    json_t *at = json_object_get(doc, "start");
+    int found = json_is_object(at);
+    if (found)
+        *start = (struct rig_axes){json_number_value(json_object_get(at, "s")),
+                                   json_number_value(json_object_get(at, "a")),
+                                   json_number_value(json_object_get(at, "az"))};
+    json_decref(doc);
+    return found;
+}
+
+int capture_files_plan_rewrite(const char *dir, const struct plan *plan,
+                               const struct rig_profile *rig, struct gonio_err *err)
+{
+    struct plan_estimate est;
+    plan_estimate(plan, rig, &est);
+    char *text = plan_json_text(plan, &est);
+    if (!text)
+        return gonio_err_set(err, ENOMEM, "out of memory");
+    char path[4096];
+    snprintf(path, sizeof path, "%s/plan.json", dir);
+    int rc = gonio_write_file_atomic(path, text, strlen(text), err);
+    free(text);
+    return rc;
+}
+
 int capture_files_prepare(const char *dir, const struct capture_setup *su, int *lock_fd,
                           struct gonio_err *err)
 {

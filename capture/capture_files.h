@@ -37,6 +37,16 @@ struct capture_setup {
  * options (model, budget, target, stop rule); otherwise, or
  * when another process holds the directory, an error names what differs
  * (or the pid) and nothing is written. */
+/* Where the order recorded in dir/plan.json starts: 1 with *start set when
+ * it names a start (an order from where the capture found the axes), 0
+ * when it does not or there is no plan.json (home). */
+int capture_files_plan_start(const char *dir, struct rig_axes *start);
+
+/* Write dir/plan.json again for plan in its present order (a new capture
+ * ordered again from where it found the axes, before its first record). */
+int capture_files_plan_rewrite(const char *dir, const struct plan *plan,
+                               const struct rig_profile *rig, struct gonio_err *err);
+
 int capture_files_prepare(const char *dir, const struct capture_setup *setup, int *lock_fd,
                           struct gonio_err *err);
 

@@ -136,8 +136,8 @@ static long next_undone(sequence *q)
  * together, so the stretches spread over the plan's domain in proportion
  * to its density of points: each pre-scanned point stands for its stretch,
  * which is what a sum over the points (the ETA) weighs it by. In each
- * stretch the point the axes reach soonest from the one before (home for
- * the first): the pre-scan crosses the domain once, in as little rig time
+ * stretch the point the axes reach soonest from the one before (where the
+ * order starts for the first): the pre-scan crosses the domain once, in as little rig time
  * as the stretches allow, rather than zigzagging through their middles. */
 static int prescan_points(sequence *q, size_t n, struct gonio_err *err)
 {
@@ -147,7 +147,8 @@ static int prescan_points(sequence *q, size_t n, struct gonio_err *err)
         return 0;
     if (!(q->prescan = malloc(n * sizeof *q->prescan)))
         return gonio_err_set(err, ENOMEM, "out of memory");
-    struct rig_axes at = home;
+    struct rig_axes at;
+    plan_order_start(q->plan, &at); /* home, or where the capture found the axes */
     for (size_t j = 0; j < n; j++) {
         size_t lo = j * q->count / n, hi = (j + 1) * q->count / n;
         double best = INFINITY;

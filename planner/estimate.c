@@ -9,7 +9,7 @@ void plan_estimate_from(const struct plan *plan, const struct rig_profile *rig,
                         const struct rig_axes *start, plan_integration_fn integration,
                         void *user, double *point_s, struct plan_estimate *est)
 {
-    struct rig_axes at = {0, 0, 0};
+    struct rig_axes at = plan->start;
     double rot = 0;
     if (start)
         at = *start;

@@ -4,7 +4,8 @@
  * distance: with a trapezoidal profile a 1-degree move costs a third of a
  * second while a 10-degree one costs barely twice that, so short-hop
  * heuristics on degrees mislead. Paths are open and start at home (all axes
- * at 0), where the rig is after homing. */
+ * at 0), where the rig is after homing, or where a capture finds the axes
+ * (plan_order_from). */
 #include <errno.h>
 #include <math.h>
 #include <stdlib.h>
@@ -696,9 +697,10 @@ static int progressive(const struct tour *t, size_t *seq, size_t n)
 }
 
 int plan_order_indices(const struct plan_point *pts, size_t n, enum plan_order_mode mode,
-                       const struct rig_profile *rig, size_t *order)
+                       const struct rig_profile *rig, const struct rig_axes *start,
+                       size_t *order)
 {
-    struct tour t = {pts, rig, {0, 0, 0}, n};
+    struct tour t = {pts, rig, *start, n};
     for (size_t i = 0; i < n; i++)
         order[i] = i;
     if (mode == PLAN_ORDER_AS_WRITTEN || mode == PLAN_ORDER_ADAPTIVE)

@@ -587,18 +587,34 @@ void plan_free(struct plan *plan)
 
 int plan_order(struct plan *plan, enum plan_order_mode mode, const struct rig_profile *rig)
 {
+    return plan_order_from(plan, mode, rig, NULL);
+}
+
+int plan_order_from(struct plan *plan, enum plan_order_mode mode, const struct rig_profile *rig,
+                    const struct rig_axes *start)
+{
+    static const struct rig_axes home = {0, 0, 0};
     /* A plan that turns the sample orders each azimuth's points apart: one
-     * turn per azimuth, not one between any two points. */
+     * turn per azimuth, not one between any two points; the first from
+     * start, the others from home as before. */
     size_t blocks = plan->sample_azimuths ? plan->sample_azimuths : 1, m = plan->n / blocks;
     int rc = 0;
     for (size_t b = 0; b < blocks && rc == 0; b++) {
-        rc = plan_order_indices(plan->pts + b * m, m, mode, rig, plan->order + b * m);
+        rc = plan_order_indices(plan->pts + b * m, m, mode, rig, b == 0 && start ? start : &home,
+                                plan->order + b * m);
         for (size_t i = 0; i < m && b > 0; i++)
             plan->order[b * m + i] += b * m;
     }
-    if (rc == 0)
+    if (rc == 0) {
         plan->current = mode;
+        plan->start = start ? *start : home;
+    }
     return rc;
+}
+
+void plan_order_start(const struct plan *plan, struct rig_axes *start)
+{
+    *start = plan->start;
 }
 
 size_t plan_count(const struct plan *plan)

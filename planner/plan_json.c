@@ -39,6 +39,16 @@ char *plan_json_text(const struct plan *plan, const struct plan_estimate *est)
                              "settle_s", est->settle_s, "integration_s", est->integration_s);
     if (!root)
         return NULL;
+    /* An order from where a capture found the axes says so: a resume orders
+     * the plan from there again, and the file reads true. */
+    struct rig_axes at;
+    plan_order_start(plan, &at);
+    if ((at.s != 0 || at.a != 0 || at.az != 0) &&
+        json_object_set_new(root, "start", json_pack("{s:f,s:f,s:f}", "s", at.s, "a", at.a,
+                                                     "az", at.az)) < 0) {
+        json_decref(root);
+        return NULL;
+    }
     char *text = json_dumps(root, JSON_REAL_PRECISION(10));
     json_decref(root);
     return text;

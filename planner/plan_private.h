@@ -15,12 +15,16 @@ struct plan {
     size_t n;
     size_t dropped; /* grid pairs and domain nodes in the rig's blind zone */
     size_t *order; /* execution order: indices into pts */
+    /* where the order starts: home, or the axes' present positions
+     * (plan_order_from) */
+    struct rig_axes start;
     size_t sample_azimuths; /* 0, or the sample azimuths each pair is measured at */
 };
 
 /* planner/order.c */
 int plan_order_indices(const struct plan_point *pts, size_t n, enum plan_order_mode mode,
-                       const struct rig_profile *rig, size_t *order);
+                       const struct rig_profile *rig, const struct rig_axes *start,
+                       size_t *order);
 
 /* planner/sample_azimuths.c: the plan's sample_azimuths key, if any, applied
  * to the placed points (each repeated at every azimuth: plan_point.rotation). */

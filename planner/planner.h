@@ -95,8 +95,17 @@ int plan_grid_generate(const struct plan_grid *grid, struct plan_point **out);
  * or -ENOMEM. */
 int plan_order(struct plan *plan, enum plan_order_mode mode, const struct rig_profile *rig);
 
-/* Rig time from home (all axes at 0) through every point in the current
- * order: move + settle + fixed integration per point. */
+/* plan_order with the path starting at start (the axes' present positions:
+ * a capture starts where the last one, or a bring-up command, left them)
+ * instead of home; start NULL: home. The as-written and adaptive orders do
+ * not depend on it. plan_order_start says where the current order starts. */
+int plan_order_from(struct plan *plan, enum plan_order_mode mode, const struct rig_profile *rig,
+                    const struct rig_axes *start);
+void plan_order_start(const struct plan *plan, struct rig_axes *start);
+
+/* Rig time from where the current order starts (home, all axes at 0,
+ * unless plan_order_from said otherwise) through every point in the
+ * current order: move + settle + fixed integration per point. */
 void plan_estimate(const struct plan *plan, const struct rig_profile *rig,
                    struct plan_estimate *est);
 
@@ -112,8 +121,8 @@ void plan_estimate_points(const struct plan *plan, const struct rig_profile *rig
                           struct plan_estimate *est);
 
 /* plan_estimate_points with the first move from start (the axes' present
- * positions: sample, arm, azimuth) instead of home; start NULL: home. A
- * capture starts wherever the last one left the axes. */
+ * positions: sample, arm, azimuth); start NULL: where the order starts
+ * (plan_order_start). A capture starts wherever the last one left the axes. */
 void plan_estimate_from(const struct plan *plan, const struct rig_profile *rig,
                         const struct rig_axes *start, plan_integration_fn integration,
                         void *user, double *point_s, struct plan_estimate *est);

@@ -9,6 +9,7 @@ simulator's bus time). The start document's estimate, and the ETA as the
 first point ends (rig time so far plus ETA), are within TOLERANCE of the
 rig time the capture took; counted from home they were off by the axes'
 way back."""
+import json
 import os
 import shutil
 import sys
@@ -54,4 +55,65 @@ def test_estimate_from_present_position(plan):
         assert abs(start["estimate_s"] - actual) <= TOLERANCE * actual
         assert abs(eta - actual) <= TOLERANCE * actual
     finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def axis_time(d, speed, accel):
+    """rig/motion.c's rig_axis_time: a trapezoidal move of d degrees."""
+    d = abs(d)
+    if d == 0:
+        return 0.0
+    if d <= speed * speed / accel:
+        return 2 * (d / accel) ** 0.5
+    return d / speed + speed / accel
+
+
+def move_time(start, pair):
+    """rig_move_time on the default profile: the slowest axis."""
+    return max(axis_time(pair["s"] - start["s"], 20, 40), axis_time(pair["a"] - start["a"], 15, 30))
+
+
+def test_order_from_present_position():
+    """A capture that finds the arm far from home orders its travel from
+    there: plan.json records that start and the order used (not the one
+    from home), and the first point measured is plan.json's first, the one
+    nearest the axes in the greedy order."""
+    folder = tg.tmpdir()
+    sim = tm.Sim(folder, "ideal", scale=None)
+    d = None
+    try:
+        d = tg.Daemon(folder, driver=sim.driver("tcp")).start()
+        c = d.connect()
+        c.request("watch")
+        plans = {}
+        for name, far in (("home", {}), ("far", FAR)):
+            for axis, deg in far.items():
+                assert c.request("move", axis=axis, deg=deg)["class"] == "OK"
+            reply = c.request("capture", plan="ds3", order="greedy", name=name)
+            assert reply["class"] == "OK", reply
+            assert c.until_stop(name)[-1]["exit_status"] == "success"
+            with open(os.path.join(d.root, name, "plan.json")) as f:
+                plans[name] = json.load(f)
+        home, far = plans["home"], plans["far"]
+        assert "start" not in home
+        start = far["start"]
+        assert abs(start["a"] - FAR["arm"]) < 0.2 and abs(start["s"] - FAR["sample"]) < 0.2, start
+        key = lambda p: (p["theta_i"], p["theta_r"])
+        assert sorted(map(key, home["pairs"])) == sorted(map(key, far["pairs"]))
+        assert list(map(key, home["pairs"])) != list(map(key, far["pairs"]))
+        # the greedy order's first point: the nearest to where the axes stood
+        times = [move_time(start, p) for p in far["pairs"]]
+        assert times[0] == min(times), (far["pairs"][0], min(times))
+        assert move_time(start, home["pairs"][0]) > times[0]
+        # what was measured first is plan.json's first pair (the pre-scan's
+        # first point, the soonest reached in its stretch), then every one
+        with open(os.path.join(d.root, "far", "samples.csv")) as f:
+            rows = [l.split(",") for l in f.read().splitlines()[1:]]
+        points = [int(r[0]) for r in rows]
+        assert points[0] == 0, points
+        assert sorted(points) == list(range(len(far["pairs"]))), points
+    finally:
+        if d:
+            d.stop()
+        sim.stop()
         shutil.rmtree(folder, ignore_errors=True)

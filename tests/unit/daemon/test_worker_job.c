@@ -17,16 +17,16 @@ static size_t orderings;
 
 int __real_plan_order_indices(const struct plan_point *pts, size_t n,
                               enum plan_order_mode mode, const struct rig_profile *rig,
-                              size_t *order);
+                              const struct rig_axes *start, size_t *order);
 int __wrap_plan_order_indices(const struct plan_point *pts, size_t n,
                               enum plan_order_mode mode, const struct rig_profile *rig,
-                              size_t *order);
+                              const struct rig_axes *start, size_t *order);
 int __wrap_plan_order_indices(const struct plan_point *pts, size_t n,
                               enum plan_order_mode mode, const struct rig_profile *rig,
-                              size_t *order)
+                              const struct rig_axes *start, size_t *order)
 {
     orderings++;
-    return __real_plan_order_indices(pts, n, mode, rig, order);
+    return __real_plan_order_indices(pts, n, mode, rig, start, order);
 }
 
 static char dir[64];
