@@ -585,6 +585,32 @@ void plan_free(struct plan *plan)
     free(plan);
 }
 
+/* The travel order's search is a heuristic: from a far start the tour it
+ * finds may cost more than the tour from home with the way from the start
+ * to its first point. The cheaper of the two from plan->start is kept, so
+ * that ordering from where the axes stand never costs rig time. */
+static int keep_cheaper_than_home(struct plan *plan, const struct rig_profile *rig)
+{
+    static const struct rig_axes home = {0, 0, 0};
+    size_t *from_start = malloc((plan->n ? plan->n : 1) * sizeof *from_start);
+    if (!from_start)
+        return -ENOMEM;
+    memcpy(from_start, plan->order, plan->n * sizeof *from_start);
+    struct plan_estimate a, b;
+    plan_estimate(plan, rig, &a);
+    struct rig_axes start = plan->start;
+    size_t blocks = plan->sample_azimuths ? plan->sample_azimuths : 1, m = plan->n / blocks;
+    int rc = plan_order_indices(plan->pts, m, PLAN_ORDER_TRAVEL, rig, &home, plan->order);
+    if (rc == 0) {
+        plan_estimate(plan, rig, &b); /* from plan->start still */
+        if (b.move_s >= a.move_s)
+            memcpy(plan->order, from_start, plan->n * sizeof *from_start);
+    }
+    plan->start = start;
+    free(from_start);
+    return rc;
+}
+
 int plan_order(struct plan *plan, enum plan_order_mode mode, const struct rig_profile *rig)
 {
     return plan_order_from(plan, mode, rig, NULL);
@@ -609,6 +635,8 @@ int plan_order_from(struct plan *plan, enum plan_order_mode mode, const struct r
         plan->current = mode;
         plan->start = start ? *start : home;
     }
+    if (rc == 0 && mode == PLAN_ORDER_TRAVEL && start)
+        rc = keep_cheaper_than_home(plan, rig);
     return rc;
 }
 

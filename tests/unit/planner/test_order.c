@@ -1,9 +1,11 @@
 /* Execution orders: permutations of the written points, travel no worse
  * than the written and greedy orders, the estimate equal to an independent
  * sum (backlash approach legs included), DS1's travel order within 2 % of the best DS1
- * order known, and progressive prefixes that are the coarse plans. */
+ * order known, progressive prefixes that are the coarse plans, and orders
+ * from a far start. */
 #include "tests/gonio_test.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 #include "planner/planner.h"
@@ -343,6 +345,47 @@ static void test_progressive_spread(void **state)
     plan_free(p);
 }
 
+/* Ordered from a far start (the arm at -165, the sample at 85, where an
+ * earlier capture left them): greedy's first point is the one the axes
+ * reach soonest, the travel order costs no more from there than the tour
+ * from home does with the way to its first point, and each says where it
+ * starts (the estimate counts from there, plan.json names it). */
+static void test_order_from_far_start(void **state)
+{
+    (void)state;
+    static const struct rig_axes far = {85, -165, 0};
+    static const char *const plans[] = {"ds2", "ds3"};
+    struct gonio_err err = {0};
+    for (size_t k = 0; k < 2; k++) {
+        struct plan *p;
+        assert_true(plan_load(plans[k], &rig, &p, &err) > 0);
+        struct plan_estimate home, from;
+        assert_int_equal(plan_order(p, PLAN_ORDER_TRAVEL, &rig), 0);
+        plan_estimate_from(p, &rig, &far, NULL, NULL, NULL, &home);
+        assert_int_equal(plan_order_from(p, PLAN_ORDER_TRAVEL, &rig, &far), 0);
+        plan_estimate(p, &rig, &from); /* from where the order starts */
+        printf("%s travel from the far start: %.1f s of moves, the tour from home %.1f s\n",
+               plans[k], from.move_s, home.move_s);
+        assert_true(from.move_s <= home.move_s + 1e-9);
+        struct rig_axes at;
+        plan_order_start(p, &at);
+        assert_true(at.s == far.s && at.a == far.a && at.az == far.az);
+        char *text = plan_json_text(p, &from);
+        assert_non_null(strstr(text, "\"start\": {\"s\": 85.0, \"a\": -165.0, \"az\": 0.0}"));
+        free(text);
+        assert_int_equal(plan_order_from(p, PLAN_ORDER_GREEDY, &rig, &far), 0);
+        double first = rig_move_time(&rig, &far, &plan_point(p, 0)->ax);
+        for (size_t i = 1; i < plan_count(p); i++)
+            assert_true(first <= rig_move_time(&rig, &far, &plan_point(p, i)->ax));
+        /* from home again: no start in plan.json */
+        assert_int_equal(plan_order(p, PLAN_ORDER_GREEDY, &rig), 0);
+        text = plan_json_text(p, &from);
+        assert_null(strstr(text, "\"start\""));
+        free(text);
+        plan_free(p);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -354,6 +397,7 @@ int main(void)
         cmocka_unit_test(test_sweep_alternates),
         cmocka_unit_test(test_progressive_levels),
         cmocka_unit_test(test_progressive_spread),
+        cmocka_unit_test(test_order_from_far_start),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }
