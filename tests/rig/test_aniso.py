@@ -11,7 +11,9 @@ within the rig profile's in-position band; gonio-sim's rotation drive went
 to each turn; the fitted roughnesses and orientation are the material's,
 and its full-domain error against the material is that of an exact fit on
 ideal, within 1.25x the same model fitted to an out-of-plane reference
-capture (in-process) on lab, calibrated (tests/gonio_cal.py). goniod
+capture (in-process) on lab, calibrated through goniod; on ideal the
+isotropy check, which turns the sample on the same drive, finds the
+material anisotropic. goniod
 refuses a rotating rig profile on a driver without the rotation drive, and
 a plan that turns the sample on a rig profile without a rotation axis.
 
@@ -132,7 +134,7 @@ def reference(folder, scene, root):
     return tm.results(out)["errors"]["full"]["log"]
 
 
-def capture(folder, scene, transport, calibrated=False):
+def capture(folder, scene, transport, calibrated=False, **extra):
     """goniod over Modbus captures the turned plan of MATERIAL on scene:
     (stop document, capture dir, gonio-sim's stats). calibrated: the
     detector gives counts; goniod calibrates it first, on the standard."""
@@ -155,7 +157,7 @@ def capture(folder, scene, transport, calibrated=False):
         c.request("watch")
         reply = c.request("capture", plan="ds3-turned.yaml", plan_text=PLAN, name="az",
                           rig="rotating", material=MATERIAL, truth=MATERIAL, model="aniso-ggx",
-                          **request)
+                          **request, **extra)
         assert reply["class"] == "OK", reply
         stop = c.until_stop("az")[-1]
     finally:
@@ -203,16 +205,20 @@ def phi_off(a, b):
 def test_ideal(transport):
     folder = tg.tmpdir()
     try:
-        stop, capdir, stats = capture(folder, "ideal", transport)
+        # the isotropy check turns the sample on the same drive after the last point
+        stop, capdir, stats = capture(folder, "ideal", transport, check="isotropy")
         assert stop["exit_status"] == "success", stop
+        iso = stop["checks"]["isotropy"]
+        assert iso["verdict"] == "anisotropic", iso
         worst = check_turns(capdir, stats)
         res = tm.results(capdir)
         ax, ay, phi = fitted(capdir)
         sys.stderr.write("aniso over Modbus %s, ideal, %s: turns within %.3f deg; fitted ax "
                          "%.4f ay %.4f phi %.2f (material %g %g %g); full-domain log error %.2e; "
-                         "rig time %.0f s\n" % (transport.upper(), MATERIAL, worst, ax, ay, phi,
-                                                AX, AY, PHI, res["errors"]["full"]["log"],
-                                                res["rig_time_s"]))
+                         "rig time %.0f s; isotropy check %s, significance %.1f against %.1f\n"
+                         % (transport.upper(), MATERIAL, worst, ax, ay, phi, AX, AY, PHI,
+                            res["errors"]["full"]["log"], res["rig_time_s"], iso["verdict"],
+                            iso["significance"], iso["threshold"]))
         assert res["model"] == "aniso-ggx"
         assert abs(ax / AX - 1) < 0.01 and abs(ay / AY - 1) < 0.01, (ax, ay)
         assert phi_off(phi, PHI) < 0.5, phi
