@@ -46,13 +46,6 @@ def excess(rows, dark_rows, t):
 
 class CalibrateStrayTests(CalibrateRig):
 
-    def remove_sample(self, st):
-        self.assertEqual(st["capture"]["kind"], "stray")
-        self.assertIn("stray light: remove the sample (a light trap in its place)",
-                      st["capture"]["message"])
-        out = self.d.gonio("status").stdout
-        self.assertIn("stray calibration %s: paused" % st["capture_id"], out)
-
     def test_stray_subtracted_through_goniod(self):
         self.start_daemon()
         d = self.calibrate("dark", "--ladder")
