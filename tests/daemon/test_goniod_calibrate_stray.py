@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """gonio calibrate stray through goniod: the rig's stray light read with the
 sample removed, a reference naming it (--stray ID|newest), and captures
-with that reference subtracting it (docs/radiometry.md, "Stray light").
+with that reference subtracting it (docs/radiometry.md, "Calibrations").
 
 Over Modbus TCP against gonio-sim (lab, counts) the operator removes the
 sample as on a real rig: gonio-sim is started again with the light trap
