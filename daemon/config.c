@@ -99,10 +99,10 @@ static int load_slaves(const struct cfg_doc *d, const struct cfg_node *drv,
                        struct goniod_config *cfg, struct gonio_err *err)
 {
     static const char *const keys[] = {"sample", "arm", "azimuth", "detector", "sample_changer",
-                                       NULL};
+                                       "rotation", NULL};
     const struct cfg_node *m;
     /* Defaults: docs/protocol-modbus.md's map. */
-    long s = 1, a = 2, det = 3, az = 0, ch = 0;
+    long s = 1, a = 2, det = 3, az = 0, ch = 0, rot = 0;
     int rc = cfg_map(d, drv, "slaves", CFG_OPTIONAL, &m, err);
     if (rc < 0)
         return rc;
@@ -111,15 +111,17 @@ static int load_slaves(const struct cfg_doc *d, const struct cfg_node *drv,
               (rc = cfg_int(d, m, "arm", CFG_OPTIONAL, 1, 247, &a, err)) < 0 ||
               (rc = cfg_int(d, m, "azimuth", CFG_OPTIONAL, 0, 247, &az, err)) < 0 ||
               (rc = cfg_int(d, m, "detector", CFG_OPTIONAL, 1, 247, &det, err)) < 0 ||
-              (rc = cfg_int(d, m, "sample_changer", CFG_OPTIONAL, 0, 247, &ch, err)) < 0))
+              (rc = cfg_int(d, m, "sample_changer", CFG_OPTIONAL, 0, 247, &ch, err)) < 0 ||
+              (rc = cfg_int(d, m, "rotation", CFG_OPTIONAL, 0, 247, &rot, err)) < 0))
         return rc;
     if (s == a || s == det || a == det || (az && (az == s || az == a || az == det)) ||
-        (ch && (ch == s || ch == a || ch == det || ch == az)))
+        (ch && (ch == s || ch == a || ch == det || ch == az)) ||
+        (rot && (rot == s || rot == a || rot == det || rot == az || rot == ch)))
         return cfg_error(d, m ? m : drv, "slaves", err,
                          "every device needs its own slave id (sample %ld, arm %ld, "
-                         "azimuth %ld, detector %ld, sample_changer %ld)",
-                         s, a, az, det, ch);
-    cfg->slaves = (struct goniod_slaves){(int)s, (int)a, (int)az, (int)det, (int)ch};
+                         "azimuth %ld, detector %ld, sample_changer %ld, rotation %ld)",
+                         s, a, az, det, ch, rot);
+    cfg->slaves = (struct goniod_slaves){(int)s, (int)a, (int)az, (int)det, (int)ch, (int)rot};
     return 0;
 }
 
@@ -285,6 +287,8 @@ static const char *rig_gap_key(const struct goniod_config *cfg, const struct rig
         return "detector";
     if (rig->out_of_plane && !cfg->slaves.azimuth)
         return "azimuth";
+    if (rig->has_rotation && !cfg->slaves.rotation)
+        return "rotation";
     return NULL;
 }
 
@@ -309,6 +313,14 @@ int goniod_config_rig_gap(const struct goniod_config *cfg, const struct rig_prof
                  "profile '%s' has one (shutter: true, the default); name a rig profile with "
                  "shutter: false (the shipped usb-spectrometer), on which dark frames pause "
                  "for the operator to cover the detector or turn the lamp off", rig_ref);
+    else if (!strcmp(key, "rotation"))
+        /* Without the drive a plan's sample_azimuths and the isotropy check
+         * would measure the unturned sample each time. */
+        snprintf(why, size,
+                 "driver.slaves.rotation is %d (none), but rig profile '%s' turns the sample "
+                 "about its normal (axes.rotation); set driver.slaves.rotation to the rotation "
+                 "drive's slave id (gonio-sim: 5), or name a rig profile without a rotation "
+                 "axis", cfg->slaves.rotation, rig_ref);
     else
         /* Without the drive the engine would leave the azimuth where it is
          * and record in-plane samples as the out-of-plane pairs they were
@@ -463,6 +475,8 @@ void goniod_config_print(FILE *out, const struct goniod_config *c)
                 c->slaves.sample, c->slaves.arm, c->slaves.azimuth, c->slaves.detector);
         if (c->slaves.sample_changer)
             fprintf(out, "    sample_changer: %d\n", c->slaves.sample_changer);
+        if (c->slaves.rotation)
+            fprintf(out, "    rotation: %d\n", c->slaves.rotation);
         fprintf(out, "  steps_per_deg: %g\n  time_scale: %g\n  timeout_s: %g\n  retries: %d\n",
                 c->steps_per_deg, c->time_scale, c->timeout_s, c->retries);
         if (c->detector == GONIOD_DETECTOR_USB) {
