@@ -50,6 +50,10 @@ struct drv_modbus_bus_cfg {
     int port;
     double timeout_s; /* response timeout per request; 0: 0.5 s */
     int retries;      /* extra attempts after a failed one (default 4: docs/torture.md) */
+    /* After a failed exchange the line must stay quiet this long before the
+     * next attempt, so that an answer later than the timeout is flushed
+     * rather than taken for the next; 0: the timeout, at most 0.1 s. */
+    double drain_s;
     /* Simulated time runs time_scale times faster than wall time (gonio-sim
      * --time-scale); the devices pace their polling and the clock its
      * sleeps by it. 0: 1 (hardware). */

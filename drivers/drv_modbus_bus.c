@@ -16,7 +16,7 @@
 struct drv_modbus_bus {
     modbus_t *ctx;
     char where[300]; /* "/dev/pts/3" or "127.0.0.1:1502", for messages */
-    double timeout_s, time_scale;
+    double timeout_s, time_scale, drain_s;
     int retries, trace, tcp;
     struct drv_modbus_stats stats;
     int last_exception; /* of the last transaction: its exception code, 0 none */
@@ -79,10 +79,11 @@ static drv_modbus_bus *bus_finish(modbus_t *ctx, const struct drv_modbus_bus_cfg
     }
     double timeout = cfg->timeout_s > 0 ? cfg->timeout_s : 0.5;
     double scale = cfg->time_scale > 0 ? cfg->time_scale : 1.0;
-    if (!isfinite(timeout) || timeout > 3600 || !isfinite(scale)) {
+    double drain = cfg->drain_s > 0 ? cfg->drain_s : fmin(timeout, 0.1);
+    if (!isfinite(timeout) || timeout > 3600 || !isfinite(scale) || !(drain <= 3600)) {
         modbus_free(ctx);
-        gonio_err_set(err, EINVAL, "modbus %s: timeout %g s, time scale %g", where, timeout,
-                      scale);
+        gonio_err_set(err, EINVAL, "modbus %s: timeout %g s, drain %g s, time scale %g", where,
+                      timeout, drain, scale);
         return NULL;
     }
     uint32_t sec = (uint32_t)timeout;
@@ -104,6 +105,7 @@ static drv_modbus_bus *bus_finish(modbus_t *ctx, const struct drv_modbus_bus_cfg
     bus->ctx = ctx;
     snprintf(bus->where, sizeof bus->where, "%s", where);
     bus->timeout_s = timeout;
+    bus->drain_s = drain;
     bus->time_scale = scale;
     bus->retries = cfg->retries > 0 ? cfg->retries : 0;
     bus->trace = cfg->trace;
@@ -336,13 +338,13 @@ static void trace(const drv_modbus_bus *bus, int slave, int write, int addr, int
 /* Whatever went wrong (no answer, a garbled or foreign one), drop what
  * the line holds before trying again. A device that is merely slow
  * answers after the timeout, and the rest of a garbled frame may still be
- * on its way: wait for the line to stay quiet for a window (the timeout,
- * at most 0.1 s), dropping whatever arrives, so that a late answer is
- * flushed rather than read as the answer to the next request. Bounded: a
- * line that never goes quiet gets the retry anyway. */
+ * on its way: wait for the line to stay quiet for a window (drain_s: by
+ * default the timeout, at most 0.1 s), dropping whatever arrives, so that
+ * a late answer is flushed rather than read as the answer to the next
+ * request. Bounded: a line that never goes quiet gets the retry anyway. */
 static void drain(drv_modbus_bus *bus)
 {
-    int window_ms = (int)ceil(1e3 * fmin(bus->timeout_s, 0.1));
+    int window_ms = (int)ceil(1e3 * bus->drain_s);
     int fd = modbus_get_socket(bus->ctx);
     for (int i = 0; i < 10; i++) {
         struct pollfd p = {.fd = fd, .events = POLLIN};

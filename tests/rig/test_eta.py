@@ -70,21 +70,27 @@ def test_eta_after_prescan(transport):
         shutil.rmtree(folder, ignore_errors=True)
 
 
+PRESCAN = 20  # of the 52: the kill after 2 has 18 points' rig time to land in it
+
+
 def test_kill9_during_prescan_then_resume():
     folder = tg.tmpdir()
-    # slow enough to land the kill in the pre-scan
+    # The kill must land within the pre-scan: the capture runs on (at ten
+    # times real time, 2-4 s of wall time for the 18 points) while the
+    # test reads the second point's event and kills, which takes
+    # milliseconds; 4 points (0.5-1 s) were too few on a loaded host.
     sim = tm.Sim(folder, gonio_cal.metered_scene(folder), scale=10)
     d = None
     try:
         d = tg.Daemon(folder, driver=sim.driver("tcp")).start()
         c = d.connect()
         c.request("watch")
-        reply = c.request("capture", plan=PLAN, name="cut", prescan=6)
+        reply = c.request("capture", plan=PLAN, name="cut", prescan=PRESCAN)
         assert reply["class"] == "OK", reply
         docs = tm.kill9_and_resume(d, c, "cut", 2)
         assert docs[0]["class"] == "start", docs[0]
         cut = docs[0]["already_done"]  # what the journal held after the kill
-        assert 2 <= cut < 6, cut  # killed within the pre-scan
+        assert 2 <= cut < PRESCAN, cut  # killed within the pre-scan
         assert docs[-1]["exit_status"] == "success", docs[-1]
     finally:
         if d:
@@ -93,9 +99,9 @@ def test_kill9_during_prescan_then_resume():
     try:
         pts, _ = tm.read_rows(os.path.join(d.root, "cut", "samples.csv"))
         assert sorted(pts) == list(range(POINTS))  # every point once
-        for j in range(6):  # one in each of 6 equal stretches of the plan's order
-            assert j * POINTS // 6 <= pts[j] < (j + 1) * POINTS // 6, pts
-        rest = pts[6:]
+        for j in range(PRESCAN):  # one in each of PRESCAN equal stretches of the plan's order
+            assert j * POINTS // PRESCAN <= pts[j] < (j + 1) * POINTS // PRESCAN, pts
+        rest = pts[PRESCAN:]
         assert rest == sorted(rest)  # then the plan's order
     finally:
         shutil.rmtree(folder, ignore_errors=True)

@@ -5,13 +5,15 @@ clock, homing, soft-limit alarm and reset (docs/protocol-modbus.md)."""
 import math
 import time
 
-from conftest import TIME_SCALE, crc16, frame
+import pytest
+
+from conftest import RtuMaster, TIME_SCALE, crc16, frame, gonio_sim
 
 SAMPLE, ARM, DETECTOR, AZIMUTH = 1, 2, 3, 4
 DIRECT, INPUT, STATUS, ALARM, FEEDBACK = 0x58, 0x7C, 0x7E, 0x80, 0xCC
 ZHOME, STOP, ALM_RST = 1 << 4, 1 << 5, 1 << 7
 HOME_END, READY, ALM_A, MOVE, IN_POS = 1 << 4, 1 << 5, 1 << 7, 1 << 13, 1 << 14
-CLOCK = 0x0A
+CLOCK, WAIT = 0x0A, 0x0200
 STEPS = 100  # steps per degree (gonio-sim's default)
 
 
@@ -161,20 +163,32 @@ def test_homing(rtu):
     move(rtu, SAMPLE, 0)
 
 
-def test_stop_holds_position(rtu):
-    start(rtu, AZIMUTH, 170, 30, 60)  # about 6 s of rig time
-    deadline = time.monotonic() + 2
-    while rtu.read32(AZIMUTH, FEEDBACK, signed=True) < 100 and time.monotonic() < deadline:
-        time.sleep(0.0005)  # stop as soon as it is seen moving
-    rtu.write32(AZIMUTH, INPUT, [STOP])
-    rtu.write32(AZIMUTH, INPUT, [0])
-    here = rtu.read32(AZIMUTH, FEEDBACK, signed=True)
-    assert 0 < here < 17000
-    time.sleep(2.0 / TIME_SCALE)
-    st = rtu.read32(AZIMUTH, STATUS)
-    assert not st & MOVE and not st & IN_POS and st & READY
-    assert rtu.read32(AZIMUTH, FEEDBACK, signed=True) == here
-    move(rtu, AZIMUTH, 0)
+def test_stop_holds_position():
+    """STOP halts the azimuth where it is, and it stays there. On a
+    gonio-sim of its own on the simulated clock, so that where the STOP
+    lands is the rig's doing: the move runs for exactly the second of rig
+    time the wait register passes (docs/gonio-sim.md, "The simulated
+    clock"), whatever the host spends. At 30 deg/s and 60 deg/s^2 that is
+    7.5 deg of acceleration and 15 deg of cruise: 22.5 deg. On the wall
+    clock a host that held the test for the move's 6 s of rig time (0.12 s
+    of wall time at the time scale) let it arrive."""
+    pytest.importorskip("serial")
+    with gonio_sim("--clock", "simulated") as s:
+        m = RtuMaster(s["pty"])
+        try:
+            start(m, AZIMUTH, 170, 30, 60)  # about 6 s of rig time
+            m.write32(DETECTOR, WAIT, [1_000_000])  # 1 s of rig time
+            m.write32(AZIMUTH, INPUT, [STOP])
+            m.write32(AZIMUTH, INPUT, [0])
+            here = m.read32(AZIMUTH, FEEDBACK, signed=True)
+            assert here == 2250
+            m.write32(DETECTOR, WAIT, [1_000_000])  # moving, it would be at 52.5 deg
+            st = m.read32(AZIMUTH, STATUS)
+            assert not st & MOVE and not st & IN_POS and st & READY
+            assert m.read32(AZIMUTH, FEEDBACK, signed=True) == here
+            move(m, AZIMUTH, 0)
+        finally:
+            m.close()
 
 
 def test_soft_limit_alarm_and_reset(rtu):

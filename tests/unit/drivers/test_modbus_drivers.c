@@ -38,7 +38,9 @@ static int group_setup(void **state)
     drv_modbus_bus_cfg_default(&cfg);
     cfg.device = sim.pty;
     cfg.time_scale = SCALE;
-    cfg.timeout_s = 0.2;
+    /* Nothing here waits for a timeout but the absent slave (its own bus):
+     * the timeout only bounds how long the host may take to answer. */
+    cfg.timeout_s = 2.0 * gonio_test_time_factor();
     rtu = drv_modbus_bus_new_rtu(&cfg, &err);
     cfg.host = "127.0.0.1";
     cfg.port = sim.port;
@@ -129,27 +131,48 @@ static void test_home(void **state)
 }
 
 /* Stopped half-way, the axis stays where it stopped and waiting for the
- * target fails instead of hanging. */
+ * target fails instead of hanging. On a gonio-sim of its own on the
+ * simulated clock, so that where the stop lands is the rig's doing, not
+ * the host's: the move runs for exactly the second of rig time the clock
+ * is told to pass (the wait register), whatever the host spends around
+ * it. The azimuth's trapezoid at 30 deg/s and 60 deg/s^2 covers 7.5 deg
+ * in its 0.5 s of acceleration and 15 deg in the next 0.5 s: it is
+ * stopped at 22.5 deg (2250 steps), and another second of rig time later
+ * it is still there. On the wall clock a host that held the test for
+ * the move's 6 s of rig time (0.12 s of wall time) let it arrive. */
+static struct sim_proc simclk;
+
+static int stop_simclk(void **state)
+{
+    (void)state;
+    return simclk.pid > 0 && sim_proc_stop(&simclk) != 0 ? -1 : 0;
+}
+
 static void test_stop(void **state)
 {
     (void)state;
-    drv_axis *az = axis(rtu, 4, &rig.azimuth, "azimuth");
+    static const char *const args[] = {"--clock", "simulated", NULL};
+    assert_int_equal(sim_proc_start(&simclk, args), 0);
+    drv_modbus_bus *bus = sim_proc_rtu(&simclk, 1);
+    assert_non_null(bus);
     struct gonio_err err = {0};
-    /* 170 deg at 30 deg/s: about 6 s of rig time, 0.12 s of wall time.
-     * Stop as soon as the axis is seen moving, so a slow host still stops
-     * it well before the end. */
+    drv_clock *c = drv_clock_new_modbus(bus, 3, &err);
+    assert_non_null(c);
+    drv_axis *az = axis(bus, 4, &rig.azimuth, "azimuth");
     assert_int_equal(drv_axis_start_move(az, 170, &err), 0);
-    for (int i = 0; i < 2000 && position(az) < 1; i++)
-        sim_proc_nap(1);
+    assert_int_equal(drv_clock_sleep(c, 1.0), 0);
     assert_int_equal(drv_axis_stop(az, &err), 0);
     double here = position(az);
-    assert_true(here > 1 && here < 169);
-    sim_proc_nap(60);
+    assert_close(here, 22.5, 0.011);
+    assert_int_equal(drv_clock_sleep(c, 1.0), 0); /* moving, it would be at 52.5 */
     assert_close(position(az), here, 0);
     assert_int_equal(drv_axis_wait(az, &err), -GONIO_EDEVICE);
     assert_non_null(strstr(err.msg, "short of 170"));
     move(az, 0);
+    assert_close(position(az), 0, 0);
     drv_axis_free(az);
+    drv_clock_free(c);
+    drv_modbus_bus_free(bus);
 }
 
 /* The detector reads the material at the axes: an independent evaluation
@@ -229,26 +252,40 @@ static void test_soft_limits(void **state)
     drv_axis_free(s);
 }
 
-/* No slave 7 on the bus: the request times out (after its retries), and
- * the next request to a present slave gets its own answer. */
+/* No slave 7 on the bus: the request times out (after its retry), and
+ * the next request to a present slave gets its own answer. On a bus and a
+ * gonio-sim of their own, with one retry: every attempt at the ghost
+ * waits the whole timeout, which must still be long enough for the
+ * present slaves' answers on a loaded host (1 s; 4 s under valgrind). */
 static void test_absent_slave(void **state)
 {
     (void)state;
+    static const char *const args[] = {"--clock", "simulated", NULL};
+    assert_int_equal(sim_proc_start(&simclk, args), 0);
+    struct drv_modbus_bus_cfg cfg;
+    drv_modbus_bus_cfg_default(&cfg);
+    cfg.device = simclk.pty;
+    cfg.timeout_s = 1.0 * gonio_test_time_factor();
+    cfg.retries = 1;
     struct gonio_err err = {0};
-    drv_axis *s = axis(rtu, 1, &rig.sample, "sample");
-    drv_axis *ghost = axis(rtu, 7, &rig.sample, "ghost");
+    drv_modbus_bus *bus = drv_modbus_bus_new_rtu(&cfg, &err);
+    assert_non_null(bus);
+    drv_axis *s = axis(bus, 1, &rig.sample, "sample");
+    drv_axis *ghost = axis(bus, 7, &rig.sample, "ghost");
     move(s, 3.21);
     double deg;
     assert_int_equal(drv_axis_position(ghost, &deg, &err), -ETIMEDOUT);
     assert_non_null(strstr(err.msg, "no answer"));
+    assert_non_null(strstr(err.msg, "(2 attempts)"));
     assert_close(position(s), 3.21, 1e-12);
     assert_int_equal(drv_axis_position(ghost, &deg, &err), -ETIMEDOUT);
-    drv_axis *a = axis(rtu, 2, &rig.arm, "arm");
+    drv_axis *a = axis(bus, 2, &rig.arm, "arm");
     assert_close(position(a), 0, 0);
     move(s, 0);
     drv_axis_free(a);
     drv_axis_free(ghost);
     drv_axis_free(s);
+    drv_modbus_bus_free(bus);
 }
 
 /* With backlash compensation a target below the axis is reached through
@@ -302,14 +339,6 @@ static long requests(const drv_modbus_bus *bus)
  * settle is one write of the wait register and passes exactly; an
  * exchange that models no time (a position read on a free line) adds
  * none, though the clock reads the register again after it. */
-static struct sim_proc simclk;
-
-static int stop_simclk(void **state)
-{
-    (void)state;
-    return simclk.pid > 0 && sim_proc_stop(&simclk) != 0 ? -1 : 0;
-}
-
 static void test_clock_from_detector(void **state)
 {
     (void)state;
@@ -352,9 +381,11 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_move_rtu),     cmocka_unit_test(test_move_tcp),
-        cmocka_unit_test(test_home),         cmocka_unit_test(test_stop),
+        cmocka_unit_test(test_home),
+        cmocka_unit_test_teardown(test_stop, stop_simclk),
         cmocka_unit_test(test_detector_rtu), cmocka_unit_test(test_detector_tcp),
-        cmocka_unit_test(test_soft_limits),  cmocka_unit_test(test_absent_slave),
+        cmocka_unit_test(test_soft_limits),
+        cmocka_unit_test_teardown(test_absent_slave, stop_simclk),
         cmocka_unit_test(test_backlash),     cmocka_unit_test(test_clock),
         cmocka_unit_test_teardown(test_clock_from_detector, stop_simclk),
     };

@@ -144,12 +144,17 @@ static void test_capture_stops_on_alarm(void **state)
  * meanwhile, as a slow device holds an RTU bus. Its late answer must be
  * flushed, not read as the arm's: with no retries a foreign answer would
  * fail the arm's request (or, from the same slave, be taken for it). What
- * is tested is wall time (a timeout, and the drain after it, quiet for
- * the timeout but at most 100 ms: drivers/drv_modbus_bus.c), so the
- * answer is placed in the middle of the drain's window, as far from both
- * of its ends as it can be: 200 ms of timeout (800 under valgrind), the
- * answer 50 ms after it. A host that holds up the driver or the server by
- * less than those 50 ms cannot move the answer out of the window. */
+ * is tested is wall time by design (a timeout, and the drain after it
+ * that waits for the line to stay quiet: drivers/drv_modbus_bus.c), so
+ * the answer is placed in the middle of the drain's window, as far from
+ * both of its ends as it can be: 1 s of timeout (4 s under valgrind), a
+ * drain of 1 s, the answer 0.5 s after the timeout. The host's delays
+ * are what move the answer (gonio-sim woken late, the driver's timeout
+ * started late): an ordinary exchange takes under 20 ms here and was seen
+ * at 0.2 s with four busy loops beside a test under nice 19, so the 0.5 s
+ * on either side, and the 1 s an ordinary answer may take, hold on a
+ * host 10x slower than that. The default drain (the timeout, at most
+ * 0.1 s) would leave 50 ms on either side. */
 static struct sim_proc slow;
 
 static int stop_slow(void **state)
@@ -161,7 +166,7 @@ static int stop_slow(void **state)
 static void test_late_reply_is_not_taken(void **state)
 {
     (void)state;
-    double timeout = 0.2 * gonio_test_time_factor(), window = fmin(timeout, 0.1);
+    double timeout = 1.0 * gonio_test_time_factor(), window = 1.0;
     char delay[32];
     snprintf(delay, sizeof delay, "1:%.0f", 1e3 * (timeout + 0.5 * window));
     const char *const args[] = {"--time-scale", "50", "--delay", delay, NULL};
@@ -172,6 +177,7 @@ static void test_late_reply_is_not_taken(void **state)
     cfg.device = slow.pty;
     cfg.time_scale = 50;
     cfg.timeout_s = timeout;
+    cfg.drain_s = window;
     cfg.retries = 0;
     drv_modbus_bus *b = drv_modbus_bus_new_rtu(&cfg, &err);
     assert_non_null(b);
