@@ -185,11 +185,12 @@ static int load_modbus(const struct cfg_doc *d, const struct cfg_node *drv,
     static const char *const rtu_keys[] = {"kind",     "device",        "baud",
                                            "parity",   "data_bits",     "stop_bits",
                                            "slaves",   "steps_per_deg", "time_scale",
-                                           "timeout_s", "retries",     "detector", NULL};
+                                           "timeout_s", "drain_s",     "retries",
+                                           "detector", NULL};
     static const char *const tcp_keys[] = {"kind",          "host",       "port",
                                            "slaves",        "steps_per_deg",
-                                           "time_scale",    "timeout_s",  "retries",
-                                           "detector",      NULL};
+                                           "time_scale",    "timeout_s",  "drain_s",
+                                           "retries",       "detector",   NULL};
     static const char *const parities[] = {"none", "even", "odd", NULL};
     int rtu = cfg->driver == GONIOD_DRIVER_MODBUS_RTU, rc;
     long v;
@@ -200,7 +201,8 @@ static int load_modbus(const struct cfg_doc *d, const struct cfg_node *drv,
         (rc = cfg_double(d, drv, "time_scale", CFG_OPTIONAL, 1e-3, 1e4, &cfg->time_scale,
                          err)) < 0 ||
         (rc = cfg_double(d, drv, "timeout_s", CFG_OPTIONAL, 0.01, 60, &cfg->timeout_s, err)) <
-            0)
+            0 ||
+        (rc = cfg_double(d, drv, "drain_s", CFG_OPTIONAL, 0.001, 60, &cfg->drain_s, err)) < 0)
         return rc;
     v = cfg->retries;
     if ((rc = cfg_int(d, drv, "retries", CFG_OPTIONAL, 0, 10, &v, err)) < 0)

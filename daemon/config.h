@@ -50,6 +50,7 @@ struct goniod_config {
     enum goniod_detector detector;
     struct goniod_usb_detector usb;
     double steps_per_deg, time_scale, timeout_s;
+    double drain_s; /* quiet window after a failed exchange; 0: the bus's default */
     int retries; /* attempts after the first for a request that failed */
     /* files and socket */
     char capture_root[1024];

@@ -60,6 +60,7 @@ static drv_modbus_bus *open_bus(const struct goniod_config *cfg, struct gonio_er
     struct drv_modbus_bus_cfg bc;
     drv_modbus_bus_cfg_default(&bc);
     bc.timeout_s = cfg->timeout_s;
+    bc.drain_s = cfg->drain_s;
     bc.retries = cfg->retries;
     bc.time_scale = cfg->time_scale;
     if (cfg->driver == GONIOD_DRIVER_MODBUS_RTU) {
