@@ -46,19 +46,23 @@ static int group_frames(const struct cal_bands *b, int g, const struct cal_frame
     return 0;
 }
 
-static int derive_group(struct cal_bands *b, int g, const struct cal_frame *dark, size_t nd,
-                        const struct cal_frame *ref, size_t nr, const struct cal_loaded *whole,
-                        struct gonio_err *err)
+static int derive_group(struct cal_bands *b, int g, const struct cal_band_frames *f,
+                        const struct cal_loaded *whole, struct gonio_err *err)
 {
-    struct cal_frame *gd = NULL, *gr = NULL;
+    struct cal_frame *gd = NULL, *gr = NULL, *gs = NULL;
     struct cal_loaded *cl = &b->group[g];
-    int rc = group_frames(b, g, dark, nd, "dark", &gd, err);
+    int rc = group_frames(b, g, f->dark, f->n_dark, "dark", &gd, err);
     if (rc >= 0)
-        rc = group_frames(b, g, ref, nr, "reference", &gr, err);
+        rc = group_frames(b, g, f->ref, f->n_ref, "reference", &gr, err);
     if (rc >= 0)
-        rc = cal_derive(gd, nd, gr, nr, cl, err);
+        rc = cal_derive(gd, f->n_dark, gr, f->n_ref, cl, err);
+    /* the stray light band by band, with the reference's dark per band */
+    if (rc >= 0 && f->n_stray && (rc = group_frames(b, g, f->stray, f->n_stray, "stray-light",
+                                                    &gs, err)) >= 0)
+        rc = cal_derive_stray(gs, f->n_stray, cl, err);
     free(gd);
     free(gr);
+    free(gs);
     if (rc < 0)
         return rc;
     cl->meta = whole->meta;
@@ -72,21 +76,20 @@ static int derive_group(struct cal_bands *b, int g, const struct cal_frame *dark
     return 0;
 }
 
-int cal_bands_derive(const struct cal_frame *dark, size_t n_dark, const struct cal_frame *ref,
-                     size_t n_ref, const struct cal_loaded *whole, struct cal_bands **out,
-                     struct gonio_err *err)
+int cal_bands_derive(const struct cal_band_frames *f, const struct cal_loaded *whole,
+                     struct cal_bands **out, struct gonio_err *err)
 {
     *out = NULL;
-    if (!n_ref || ref[0].n_bands < 1)
+    if (!f->n_ref || f->ref[0].n_bands < 1)
         return gonio_err_set(err, GONIO_EBADDATA, "calibration: no band counts to derive");
     struct cal_bands *b = calloc(1, sizeof *b);
     if (!b)
         return gonio_err_set(err, ENOMEM, "calibration: out of memory");
-    b->n_bands = ref[0].n_bands;
-    memcpy(b->nm, ref[0].bands_nm, (size_t)b->n_bands * sizeof *b->nm);
+    b->n_bands = f->ref[0].n_bands;
+    memcpy(b->nm, f->ref[0].bands_nm, (size_t)b->n_bands * sizeof *b->nm);
     int rc = 0;
     for (int g = 0; rc >= 0 && 3 * g < b->n_bands; g++) {
-        rc = derive_group(b, g, dark, n_dark, ref, n_ref, whole, err);
+        rc = derive_group(b, g, f, whole, err);
         b->n_groups = g + 1;
     }
     if (rc < 0) {

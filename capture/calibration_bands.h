@@ -3,7 +3,8 @@
  * its frames keep, and the standard's reflectance at each band's
  * wavelength (brdf_standard_rho_at), so that every band is reduced as an
  * RGB detector's channel is (radiometry/reduce.h), with its own dark and
- * its own instrument factor. The reduction takes three bands at a time,
+ * its own instrument factor (and its own stray light, where the reference
+ * names a stray calibration). The reduction takes three bands at a time,
  * as the three channels it is written for; channels never mix in it, so
  * each band's value is exactly what a reduction of that band alone gives. */
 #ifndef GONIO_CAPTURE_CALIBRATION_BANDS_H
@@ -21,13 +22,20 @@ struct cal_bands {
     struct cal_loaded group[CAL_BAND_GROUPS];
 };
 
-/* Derive *out (malloc'd) from a reference calibration's frames and its
- * dark's, all holding the same bands; whole is the calibration loaded from
- * them (its standard, placement and spot). -GONIO_EBADDATA naming the
- * frame when the bands differ or the dark holds none. */
-int cal_bands_derive(const struct cal_frame *dark, size_t n_dark, const struct cal_frame *ref,
-                     size_t n_ref, const struct cal_loaded *whole, struct cal_bands **out,
-                     struct gonio_err *err);
+/* The frames a band calibration is derived from: the reference's, its
+ * dark's and (n_stray 0: none) its stray light's, all holding the same
+ * bands. */
+struct cal_band_frames {
+    const struct cal_frame *dark, *ref, *stray;
+    size_t n_dark, n_ref, n_stray;
+};
+
+/* Derive *out (malloc'd) from f; whole is the calibration loaded from them
+ * (its standard, placement and spot). Each band subtracts its own stray
+ * light where f has some. -GONIO_EBADDATA naming the frame when the bands
+ * differ or the dark holds none. */
+int cal_bands_derive(const struct cal_band_frames *f, const struct cal_loaded *whole,
+                     struct cal_bands **out, struct gonio_err *err);
 void cal_bands_free(struct cal_bands *b);
 
 /* One capture record's band counts: the journal record it belongs to, and

@@ -183,14 +183,13 @@ void cal_loaded_free(struct cal_loaded *c)
 }
 
 /* The stray calibration a reference names, reduced with the reference's
- * dark (which it must have been taken with). */
+ * dark (which it must have been taken with); its frames in *sf (malloc'd),
+ * for the bands. */
 static int load_stray(const char *root, const struct cal_meta *ref, struct cal_loaded *out,
-                      struct gonio_err *err)
+                      struct cal_frame **sf, size_t *ns, struct gonio_err *err)
 {
     struct cal_meta sm;
-    struct cal_frame *sf = NULL;
-    size_t ns = 0;
-    int rc = cal_read(root, ref->stray, &sm, &sf, &ns, err);
+    int rc = cal_read(root, ref->stray, &sm, sf, ns, err);
     if (rc >= 0 && sm.kind != CAL_STRAY)
         rc = gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s: its stray light %s is a "
                            "%s calibration", ref->id, sm.id, cal_kind_name(sm.kind));
@@ -199,16 +198,15 @@ static int load_stray(const char *root, const struct cal_meta *ref, struct cal_l
                            "taken with dark %s, the reference with %s", ref->id, sm.id,
                            sm.dark, ref->dark);
     if (rc >= 0)
-        rc = cal_derive_stray(sf, ns, out, err);
-    free(sf);
+        rc = cal_derive_stray(*sf, *ns, out, err);
     return rc;
 }
 
 int cal_load(const char *root, const char *id, struct cal_loaded *out, struct gonio_err *err)
 {
     memset(out, 0, sizeof *out);
-    struct cal_frame *rf = NULL, *df = NULL;
-    size_t nr = 0, nd = 0;
+    struct cal_frame *rf = NULL, *df = NULL, *sf = NULL;
+    size_t nr = 0, nd = 0, ns = 0;
     int rc = cal_read(root, id, &out->meta, &rf, &nr, err);
     if (rc >= 0 && out->meta.kind != CAL_REFERENCE)
         rc = gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s is a %s calibration: name "
@@ -219,13 +217,16 @@ int cal_load(const char *root, const char *id, struct cal_loaded *out, struct go
     if (rc >= 0)
         rc = cal_derive(df, nd, rf, nr, out, err);
     if (rc >= 0 && out->meta.stray[0])
-        rc = load_stray(root, &out->meta, out, err);
+        rc = load_stray(root, &out->meta, out, &sf, &ns, err);
     if (rc >= 0)
         rc = brdf_standard_load(out->meta.standard, &out->cal.standard, err);
     out->cal.setup.in_position_deg = out->meta.in_position_deg;
     out->cal.setup.spot = out->meta.spot;
+    struct cal_band_frames bf = {.dark = df, .ref = rf, .stray = sf, .n_dark = nd,
+                                 .n_ref = nr, .n_stray = ns};
     if (rc >= 0 && nr && rf[0].n_bands) /* a spectral detector's: per band too */
-        rc = cal_bands_derive(df, nd, rf, nr, out, &out->bands, err);
+        rc = cal_bands_derive(&bf, out, &out->bands, err);
+    free(sf);
     free(rf);
     free(df);
     if (rc < 0)

@@ -63,6 +63,10 @@ int capture_measure_point(struct capture_devices *d, struct capture_clock *clk,
     const struct rig_axis *prof[4] = {&rig->sample, &rig->arm};
     double at[4] = {0, 0, 0, 0}, rested = INFINITY;
     int n = 2, rc;
+    /* A turn without the drive would journal the unturned sample as turned. */
+    if (!d->rotation && rotation_deg != 0)
+        return gonio_err_set(err, GONIO_EUSAGE, "the plan turns the sample to %g deg, but the "
+                             "rig source has no rotation axis device", rotation_deg);
     if (d->azimuth) {
         axes[n] = d->azimuth;
         prof[n] = &rig->azimuth;

@@ -19,7 +19,7 @@ static void usage(FILE *out, const char *cmd)
                                                 : "";
     fprintf(out,
             "usage: gonio %s%s [--socket PATH] [--json]\n"
-            "  home: home AXIS (sample, arm or azimuth), else every axis the rig has\n"
+            "  home: home AXIS (sample, arm, azimuth or rotation), else every axis the rig has\n"
             "  move: move AXIS to DEG degrees, within the rig profile's soft limits\n"
             "  where: every axis's encoder position, drive status and alarm\n"
             "  limits: drive AXIS slowly (%g x the profile's speed) to its min and max\n"

@@ -40,7 +40,7 @@ static void usage(FILE *out)
             "  minutes by default; --stray: the stray light it and the captures with it\n"
             "  subtract (taken with the same dark).\n"
             "  stray: the sample removed (on the simulated rig a light trap, the material\n"
-            "  'trap'), read as the reference is, before it (offline only).\n"
+            "  'trap'), read as the reference is, before it.\n"
             "  Writes ROOT/ID (calibration.json, frames.csv) and prints the id, by\n"
             "  which a capture names it. --spot: how the detector\n"
             "  sees the lit spot, for a reference interpolated between its geometries\n"
@@ -48,8 +48,9 @@ static void usage(FILE *out)
             "  Without --offline goniod measures it on its rig into its calibration root\n"
             "  (--scene and --out are the offline rig's; one --integration at most),\n"
             "  where a capture names it (gonio capture --calibration ID|newest): a rig\n"
-            "  without a shutter, and every reference, pause for the operator (cover the\n"
-            "  detector, mount the standard), who continues with gonio resume; it prints\n"
+            "  without a shutter, and every reference and stray light, pause for the\n"
+            "  operator (cover the detector, mount the standard, remove the sample), who\n"
+            "  continues with gonio resume; it prints\n"
             "  what goniod asks on stderr and the id on stdout once complete. A run\n"
             "  stopped early (abort, goniod killed) keeps its frames: gonio resume ID.\n");
 }
@@ -205,15 +206,15 @@ static int through_goniod(const struct opts *o, enum cal_kind kind, const char *
                                                                              : "--integration");
         return 2;
     }
-    if (kind == CAL_REFERENCE && !o->plan) {
-        fprintf(stderr, "gonio calibrate: a reference needs --plan\n");
+    if (kind != CAL_DARK && !o->plan) {
+        fprintf(stderr, "gonio calibrate: a %s needs --plan\n", what);
         return 2;
     }
     json_t *req = json_pack("{s:s, s:s}", "cmd", "calibrate", "kind", what);
-    const char *keys[] = {"plan", "rig", "standard", "dark", "name"};
+    const char *keys[] = {"plan", "rig", "standard", "dark", "name", "stray"};
     const char *vals[] = {o->plan, o->rig, o->standard_given ? o->standard : NULL, o->dark,
-                          o->name};
-    for (int k = 0; k < 5; k++)
+                          o->name, o->stray};
+    for (int k = 0; k < 6; k++)
         if (vals[k])
             json_object_set_new(req, keys[k], json_string(vals[k]));
     if (o->underfilled)
@@ -251,8 +252,8 @@ int cmd_calibrate(int argc, char **argv)
         fprintf(stderr, "gonio calibrate: unexpected argument '%s'\n", argv[optind + 1]);
         return 2;
     }
-    if (!o.offline && (kind == CAL_STRAY || o.stray)) {
-        fprintf(stderr, "gonio calibrate: stray light is calibrated --offline only\n");
+    if (kind != CAL_REFERENCE && o.stray) {
+        fprintf(stderr, "gonio calibrate: --stray is a reference's\n");
         return 2;
     }
     if (!o.offline)
@@ -271,10 +272,6 @@ int cmd_calibrate(int argc, char **argv)
     struct cal_meta m = {.kind = kind, .created = time(NULL)};
     m.spot = o.underfilled ? RAD_SPOT_UNDERFILLED : RAD_SPOT_OVERFILLED;
     m.valid_s = 60 * (o.valid_min > 0 ? o.valid_min : kind == CAL_DARK ? 60 : 480);
-    if (kind != CAL_REFERENCE && o.stray) {
-        fprintf(stderr, "gonio calibrate: --stray is a reference's\n");
-        return 2;
-    }
     snprintf(m.standard, sizeof m.standard, "%s", kind == CAL_REFERENCE ? o.standard : "");
     struct gonio_err err = {0};
     struct cal_frame *frames = NULL;

@@ -13,9 +13,10 @@ const char *bringup_op_name(enum bringup_op op)
 
 static const struct rig_axis *profile_axis(const struct rig_profile *rig, const char *name)
 {
-    return !strcmp(name, "sample") ? &rig->sample
-           : !strcmp(name, "arm")  ? &rig->arm
-                                   : &rig->azimuth;
+    return !strcmp(name, "sample")    ? &rig->sample
+           : !strcmp(name, "arm")     ? &rig->arm
+           : !strcmp(name, "rotation") ? &rig->rotation
+                                       : &rig->azimuth;
 }
 
 int bringup_check(const struct goniod_config *cfg, const struct rig_profile *rig,
@@ -29,12 +30,16 @@ int bringup_check(const struct goniod_config *cfg, const struct rig_profile *rig
         return job->op == BRINGUP_MOVE || job->op == BRINGUP_LIMITS
                    ? gonio_err_set(err, GONIO_EUSAGE, "%s: an axis is required", op)
                    : 0;
-    if (strcmp(job->axis, "sample") && strcmp(job->axis, "arm") && strcmp(job->axis, "azimuth"))
-        return gonio_err_set(err, GONIO_EUSAGE, "%s: axis '%s': use sample, arm or azimuth", op,
-                             job->axis);
+    if (strcmp(job->axis, "sample") && strcmp(job->axis, "arm") && strcmp(job->axis, "azimuth") &&
+        strcmp(job->axis, "rotation"))
+        return gonio_err_set(err, GONIO_EUSAGE, "%s: axis '%s': use sample, arm, azimuth or "
+                             "rotation", op, job->axis);
     if (!strcmp(job->axis, "azimuth") && !cfg->slaves.azimuth)
         return gonio_err_set(err, GONIO_EUSAGE, "%s: axis 'azimuth': %s has no azimuth drive "
                              "(driver.slaves.azimuth is 0)", op, cfg->path);
+    if (!strcmp(job->axis, "rotation") && !cfg->slaves.rotation)
+        return gonio_err_set(err, GONIO_EUSAGE, "%s: axis 'rotation': %s has no rotation drive "
+                             "(driver.slaves.rotation is 0)", op, cfg->path);
     if (job->op != BRINGUP_MOVE)
         return 0;
     const struct rig_axis *ax = profile_axis(rig, job->axis);

@@ -20,7 +20,7 @@ enum bringup_op { BRINGUP_WHERE, BRINGUP_HOME, BRINGUP_MOVE, BRINGUP_LIMITS };
 
 struct bringup_job {
     enum bringup_op op;
-    char axis[16]; /* "sample", "arm", "azimuth"; "" all (where, home) */
+    char axis[16]; /* "sample", "arm", "azimuth", "rotation"; "" all (where, home) */
     double deg;    /* move's target */
 };
 

@@ -99,10 +99,10 @@ static int load_slaves(const struct cfg_doc *d, const struct cfg_node *drv,
                        struct goniod_config *cfg, struct gonio_err *err)
 {
     static const char *const keys[] = {"sample", "arm", "azimuth", "detector", "sample_changer",
-                                       NULL};
+                                       "rotation", NULL};
     const struct cfg_node *m;
     /* Defaults: docs/protocol-modbus.md's map. */
-    long s = 1, a = 2, det = 3, az = 0, ch = 0;
+    long s = 1, a = 2, det = 3, az = 0, ch = 0, rot = 0;
     int rc = cfg_map(d, drv, "slaves", CFG_OPTIONAL, &m, err);
     if (rc < 0)
         return rc;
@@ -111,15 +111,17 @@ static int load_slaves(const struct cfg_doc *d, const struct cfg_node *drv,
               (rc = cfg_int(d, m, "arm", CFG_OPTIONAL, 1, 247, &a, err)) < 0 ||
               (rc = cfg_int(d, m, "azimuth", CFG_OPTIONAL, 0, 247, &az, err)) < 0 ||
               (rc = cfg_int(d, m, "detector", CFG_OPTIONAL, 1, 247, &det, err)) < 0 ||
-              (rc = cfg_int(d, m, "sample_changer", CFG_OPTIONAL, 0, 247, &ch, err)) < 0))
+              (rc = cfg_int(d, m, "sample_changer", CFG_OPTIONAL, 0, 247, &ch, err)) < 0 ||
+              (rc = cfg_int(d, m, "rotation", CFG_OPTIONAL, 0, 247, &rot, err)) < 0))
         return rc;
     if (s == a || s == det || a == det || (az && (az == s || az == a || az == det)) ||
-        (ch && (ch == s || ch == a || ch == det || ch == az)))
+        (ch && (ch == s || ch == a || ch == det || ch == az)) ||
+        (rot && (rot == s || rot == a || rot == det || rot == az || rot == ch)))
         return cfg_error(d, m ? m : drv, "slaves", err,
                          "every device needs its own slave id (sample %ld, arm %ld, "
-                         "azimuth %ld, detector %ld, sample_changer %ld)",
-                         s, a, az, det, ch);
-    cfg->slaves = (struct goniod_slaves){(int)s, (int)a, (int)az, (int)det, (int)ch};
+                         "azimuth %ld, detector %ld, sample_changer %ld, rotation %ld)",
+                         s, a, az, det, ch, rot);
+    cfg->slaves = (struct goniod_slaves){(int)s, (int)a, (int)az, (int)det, (int)ch, (int)rot};
     return 0;
 }
 
@@ -286,15 +288,25 @@ int goniod_config_rig_gap(const struct goniod_config *cfg, const struct rig_prof
                  cfg->slaves.sample_changer, rig_ref);
         return -GONIO_EBADCONFIG;
     }
-    if (!rig->out_of_plane || cfg->slaves.azimuth)
+    if (rig->out_of_plane && !cfg->slaves.azimuth) {
+        /* Without the drive the engine would leave the azimuth where it is and
+         * record in-plane samples as the out-of-plane pairs they were planned as. */
+        snprintf(why, size,
+                 "driver.slaves.azimuth is %d (none), but rig profile '%s' is out of plane "
+                 "(out_of_plane: true) and moves an azimuth axis; set driver.slaves.azimuth to "
+                 "the azimuth drive's slave id, or name an in-plane rig profile",
+                 cfg->slaves.azimuth, rig_ref);
+        return -GONIO_EBADCONFIG;
+    }
+    if (!rig->has_rotation || cfg->slaves.rotation)
         return 0;
-    /* Without the drive the engine would leave the azimuth where it is and
-     * record in-plane samples as the out-of-plane pairs they were planned as. */
+    /* Without the drive a plan's sample_azimuths and the isotropy check
+     * would measure the unturned sample each time. */
     snprintf(why, size,
-             "driver.slaves.azimuth is %d (none), but rig profile '%s' is out of plane "
-             "(out_of_plane: true) and moves an azimuth axis; set driver.slaves.azimuth to "
-             "the azimuth drive's slave id, or name an in-plane rig profile",
-             cfg->slaves.azimuth, rig_ref);
+             "driver.slaves.rotation is %d (none), but rig profile '%s' turns the sample about "
+             "its normal (axes.rotation); set driver.slaves.rotation to the rotation drive's "
+             "slave id (gonio-sim: 5), or name a rig profile without a rotation axis",
+             cfg->slaves.rotation, rig_ref);
     return -GONIO_EBADCONFIG;
 }
 
@@ -375,7 +387,8 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
     char why[1400];
     if (goniod_config_rig_gap(cfg, &rig, cfg->rig, why, sizeof why) < 0) {
         const char *key = rig.sample_changer && !cfg->slaves.sample_changer ? "sample_changer"
-                                                                             : "azimuth";
+                          : rig.out_of_plane && !cfg->slaves.azimuth          ? "azimuth"
+                                                                              : "rotation";
         const struct cfg_node *slaves = cfg_get(d, drv, "slaves");
         const struct cfg_node *at = slaves ? cfg_get(d, slaves, key) : NULL;
         rc = cfg_error(d, at ? at : slaves ? slaves : drv, key, err, "%s", why);
@@ -439,6 +452,8 @@ void goniod_config_print(FILE *out, const struct goniod_config *c)
                 c->slaves.sample, c->slaves.arm, c->slaves.azimuth, c->slaves.detector);
         if (c->slaves.sample_changer)
             fprintf(out, "    sample_changer: %d\n", c->slaves.sample_changer);
+        if (c->slaves.rotation)
+            fprintf(out, "    rotation: %d\n", c->slaves.rotation);
         fprintf(out, "  steps_per_deg: %g\n  time_scale: %g\n  timeout_s: %g\n  retries: %d\n",
                 c->steps_per_deg, c->time_scale, c->timeout_s, c->retries);
         if (c->detector == GONIOD_DETECTOR_USB) {

@@ -15,6 +15,7 @@ enum goniod_driver { GONIOD_DRIVER_SIM, GONIOD_DRIVER_MODBUS_RTU, GONIOD_DRIVER_
 struct goniod_slaves {
     int sample, arm, azimuth, detector; /* Modbus slave ids; azimuth 0: none */
     int sample_changer;                 /* the sample changer's drive; 0: none */
+    int rotation;                       /* the sample's turn about its normal; 0: none */
 };
 
 /* The detector of a Modbus rig: the detector slave on the bus, or a USB
@@ -74,12 +75,13 @@ int goniod_config_load(const char *path, struct goniod_config *cfg, struct gonio
 
 /* Whether the driver has every device the rig profile names: the sim
  * driver has all of them; a Modbus rig has an azimuth drive only where
- * driver.slaves.azimuth names its slave, and a sample changer only where
- * driver.slaves.sample_changer does. 0 when it does; else
+ * driver.slaves.azimuth names its slave, a sample changer only where
+ * driver.slaves.sample_changer does, and a rotation axis (axes.rotation)
+ * only where driver.slaves.rotation does. 0 when it does; else
  * -GONIO_EBADCONFIG with why (size bytes) saying what is missing, the
  * field of the config that would wire it (driver.slaves.azimuth,
- * driver.slaves.sample_changer) and its value, and the fix; rig_ref names
- * the profile in it. */
+ * driver.slaves.sample_changer, driver.slaves.rotation) and its value,
+ * and the fix; rig_ref names the profile in it. */
 int goniod_config_rig_gap(const struct goniod_config *cfg, const struct rig_profile *rig,
                           const char *rig_ref, char *why, size_t size);
 

@@ -39,8 +39,8 @@ int control_cmd_bringup(control *c, enum bringup_op op, json_t *req, const char 
     json_t *deg = json_object_get(req, "deg");
     *code = "bad-value";
     if (axis && strlen(axis) >= sizeof job.axis)
-        return gonio_err_set(err, GONIO_EUSAGE, "%s: axis '%.40s': use sample, arm or azimuth",
-                             bringup_op_name(op), axis);
+        return gonio_err_set(err, GONIO_EUSAGE, "%s: axis '%.40s': use sample, arm, azimuth or "
+                             "rotation", bringup_op_name(op), axis);
     snprintf(job.axis, sizeof job.axis, "%s", axis ? axis : "");
     if (op == BRINGUP_MOVE && !deg)
         return gonio_err_set(err, GONIO_EUSAGE, "move: field 'deg' is required");

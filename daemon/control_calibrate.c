@@ -1,4 +1,4 @@
-/* The calibrate command (docs/protocol.md, "calibrate"): a dark or
+/* The calibrate command (docs/protocol.md, "calibrate"): a dark, stray or
  * reference calibration checked, given its directory in goniod's
  * calibration root with the request recorded there, and handed to the
  * worker (worker_calibrate); and `resume ID` of a calibration that did not
@@ -30,26 +30,30 @@ static int from_request(control *c, json_t *req, struct worker_calibration *k,
 {
     const char *kind = jstr(req, "kind"), *plan = jstr(req, "plan"), *rig = jstr(req, "rig"),
                *standard = jstr(req, "standard"), *dark = jstr(req, "dark"),
-               *spot = jstr(req, "spot");
+               *spot = jstr(req, "spot"), *stray = jstr(req, "stray");
     json_t *frames = json_object_get(req, "frames"), *repeats = json_object_get(req, "repeats"),
            *integ = json_object_get(req, "integration"), *valid = json_object_get(req, "valid"),
            *ladder = json_object_get(req, "ladder");
-    if (!kind || (strcmp(kind, "dark") && strcmp(kind, "reference")))
-        return gonio_err_set(err, GONIO_EUSAGE, "calibrate: field 'kind' '%.40s': dark or "
-                             "reference", kind ? kind : "");
-    k->kind = strcmp(kind, "dark") ? CAL_REFERENCE : CAL_DARK;
-    const char *other = k->kind == CAL_DARK ? (plan ? "plan" : repeats ? "repeats"
-                                               : standard ? "standard" : dark ? "dark"
-                                               : spot ? "spot" : NULL)
-                                            : (frames ? "frames" : integ ? "integration"
-                                               : ladder ? "ladder" : NULL);
+    if (!kind || cal_kind_parse(kind) < 0)
+        return gonio_err_set(err, GONIO_EUSAGE, "calibrate: field 'kind' '%.40s': dark, "
+                             "stray or reference", kind ? kind : "");
+    k->kind = cal_kind_parse(kind);
+    /* the fields each kind takes: a dark's frames, the others' points */
+    const char *dark_only = frames ? "frames" : integ ? "integration" : ladder ? "ladder" : NULL;
+    const char *other = k->kind == CAL_DARK
+                            ? (plan ? "plan" : repeats ? "repeats" : standard ? "standard"
+                               : dark ? "dark" : spot ? "spot" : stray ? "stray" : NULL)
+                        : k->kind == CAL_STRAY
+                            ? (dark_only ? dark_only : standard ? "standard" : spot ? "spot"
+                               : stray ? "stray" : NULL)
+                            : dark_only;
     if (other)
         return gonio_err_set(err, GONIO_EUSAGE, "calibrate: field '%s' is not a %s "
                              "calibration's", other, kind);
     int rc;
-    if (k->kind == CAL_REFERENCE && !plan)
+    if (k->kind != CAL_DARK && !plan)
         return gonio_err_set(err, GONIO_EUSAGE, "calibrate: field 'plan' is required for a "
-                             "reference");
+                             "%s", kind);
     if (plan && (rc = control_resolve_ref(c, "plan", plan, k->plan, sizeof k->plan, err)) < 0)
         return rc;
     if (rig && (rc = control_resolve_ref(c, "rig", rig, k->rig, sizeof k->rig, err)) < 0)
@@ -69,6 +73,10 @@ static int from_request(control *c, json_t *req, struct worker_calibration *k,
         return gonio_err_set(err, GONIO_EUSAGE, "calibrate: field 'dark' '%.60s': not a "
                              "calibration id", dark);
     snprintf(k->dark, sizeof k->dark, "%s", dark ? dark : "");
+    if (stray && (!control_valid_id(stray) || strlen(stray) >= sizeof k->stray))
+        return gonio_err_set(err, GONIO_EUSAGE, "calibrate: field 'stray' '%.60s': not a "
+                             "calibration id or newest", stray);
+    snprintf(k->stray, sizeof k->stray, "%s", stray ? stray : "");
     if (spot && strcmp(spot, "overfilled") && strcmp(spot, "underfilled"))
         return gonio_err_set(err, GONIO_EUSAGE, "calibrate: field 'spot' '%.40s': overfilled "
                              "or underfilled", spot);
@@ -94,6 +102,8 @@ static int save_record(const struct worker_calibration *k, json_t *req, struct g
         json_object_set_new(d, "created", json_integer(k->created));
         if (k->dark[0]) /* the dark it was checked with, for good */
             json_object_set_new(d, "dark", json_string(k->dark));
+        if (k->stray[0]) /* and the stray light, "newest" resolved */
+            json_object_set_new(d, "stray", json_string(k->stray));
         /* what it is of, for gonio list before calibration.json says */
         json_object_set_new(d, "rig_name", json_string(k->rig_name));
         json_object_set_new(d, "detector", json_string(k->detector));
@@ -151,8 +161,8 @@ int control_cmd_calibrate(control *c, json_t *req, json_t *reply, const char **c
     fprintf(stderr, "goniod: calibration %s started\n", k.id);
     json_object_set_new(reply, "capture_id", json_string(k.id));
     json_object_set_new(reply, "dir", json_string(k.dir));
-    json_object_set_new(reply, "calibration", json_string(k.kind == CAL_DARK ? "dark"
-                                                                            : "reference"));
+    json_object_set_new(reply, "calibration",
+                        json_string(cal_kind_name((enum cal_kind)k.kind)));
     return 0;
 }
 
@@ -203,7 +213,7 @@ int control_resume_calibration(control *c, const char *id, json_t *reply, const 
     fprintf(stderr, "goniod: calibration %s resumed\n", id);
     json_object_set_new(reply, "capture_id", json_string(id));
     json_object_set_new(reply, "dir", json_string(k.dir));
-    json_object_set_new(reply, "calibration", json_string(k.kind == CAL_DARK ? "dark"
-                                                                            : "reference"));
+    json_object_set_new(reply, "calibration",
+                        json_string(cal_kind_name((enum cal_kind)k.kind)));
     return 0;
 }

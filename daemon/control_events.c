@@ -234,6 +234,8 @@ static json_t *rig_configuration(const struct worker_msg_start *m, double t)
     set_axis(d, "arm", &rig.arm);
     if (rig.out_of_plane)
         set_axis(d, "azimuth", &rig.azimuth);
+    if (rig.has_rotation)
+        set_axis(d, "rotation", &rig.rotation);
     json_object_set_new(d, "out_of_plane", json_boolean(rig.out_of_plane));
     json_object_set_new(d, "blind_deg", control_json_number(rig.blind_deg));
     json_object_set_new(d, "settle_s", control_json_number(rig.settle_s));
@@ -267,6 +269,7 @@ static json_t *driver_configuration(const control *c, const struct worker_msg_st
         json_object_set_new(d, "slave_sample", json_integer(cfg->slaves.sample));
         json_object_set_new(d, "slave_arm", json_integer(cfg->slaves.arm));
         json_object_set_new(d, "slave_azimuth", json_integer(cfg->slaves.azimuth));
+        json_object_set_new(d, "slave_rotation", json_integer(cfg->slaves.rotation));
         json_object_set_new(d, "slave_detector", json_integer(cfg->slaves.detector));
         json_object_set_new(d, "steps_per_deg", control_json_number(cfg->steps_per_deg));
         json_object_set_new(d, "time_scale", control_json_number(cfg->time_scale));

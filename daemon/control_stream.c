@@ -123,9 +123,10 @@ static json_t *descriptor_doc(const control *c, const struct worker_msg_start *m
             json_object_set_new(drv, "port", json_integer(cfg->port));
         }
         json_object_set_new(drv, "slaves",
-                            json_pack("{s:i, s:i, s:i, s:i}", "sample", cfg->slaves.sample,
+                            json_pack("{s:i, s:i, s:i, s:i, s:i}", "sample", cfg->slaves.sample,
                                       "arm", cfg->slaves.arm, "azimuth", cfg->slaves.azimuth,
-                                      "detector", cfg->slaves.detector));
+                                      "detector", cfg->slaves.detector, "rotation",
+                                      cfg->slaves.rotation));
         json_object_set_new(drv, "steps_per_deg", control_json_number(cfg->steps_per_deg));
         json_object_set_new(drv, "time_scale", control_json_number(cfg->time_scale));
     }
@@ -142,6 +143,8 @@ static json_t *descriptor_doc(const control *c, const struct worker_msg_start *m
         json_object_set_new(r, "arm", axis_doc(&rig.arm));
         if (rig.out_of_plane)
             json_object_set_new(r, "azimuth", axis_doc(&rig.azimuth));
+        if (rig.has_rotation)
+            json_object_set_new(r, "rotation", axis_doc(&rig.rotation));
         json_object_set_new(r, "out_of_plane", json_boolean(rig.out_of_plane));
         json_object_set_new(r, "blind_deg", control_json_number(rig.blind_deg));
         json_object_set_new(r, "settle_s", control_json_number(rig.settle_s));

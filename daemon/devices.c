@@ -103,7 +103,11 @@ int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profil
     if (dev->arm && rig->out_of_plane)
         dev->azimuth = drv_axis_new_modbus(bus, cfg->slaves.azimuth, &rig->azimuth, &opts,
                                            "azimuth", err);
-    int axes_ok = dev->arm && (dev->azimuth || !rig->out_of_plane);
+    if (dev->arm && (dev->azimuth || !rig->out_of_plane) && rig->has_rotation)
+        dev->rotation = drv_axis_new_modbus(bus, cfg->slaves.rotation, &rig->rotation, &opts,
+                                            "rotation", err);
+    int axes_ok = dev->arm && (dev->azimuth || !rig->out_of_plane) &&
+                  (dev->rotation || !rig->has_rotation);
     if (axes_ok && cfg->detector == GONIOD_DETECTOR_USB) {
         open_usb_detector(cfg, cancelled, user, dev, err);
     } else if (axes_ok) {
@@ -142,6 +146,7 @@ void goniod_devices_close(struct capture_devices *dev, void *bus)
     drv_axis_free(dev->sample);
     drv_axis_free(dev->arm);
     drv_axis_free(dev->azimuth);
+    drv_axis_free(dev->rotation);
     drv_detector_free(dev->detector);
     drv_clock_free(dev->clock);
     memset(dev, 0, sizeof *dev);
@@ -166,9 +171,10 @@ int goniod_axes_open(const struct goniod_config *cfg, const struct rig_profile *
                                         .backlash_deg = rig->mech.backlash_deg,
                                         .approach = rig->mech.approach,
                                         .move_retries = rig->mech.move_retries};
-    const struct rig_axis *prof[] = {&rig->sample, &rig->arm, &rig->azimuth};
-    static const char *const names[] = {"sample", "arm", "azimuth"};
-    const int slaves[] = {cfg->slaves.sample, cfg->slaves.arm, cfg->slaves.azimuth};
+    const struct rig_axis *prof[] = {&rig->sample, &rig->arm, &rig->azimuth, &rig->rotation};
+    static const char *const names[] = {"sample", "arm", "azimuth", "rotation"};
+    const int slaves[] = {cfg->slaves.sample, cfg->slaves.arm, cfg->slaves.azimuth,
+                          cfg->slaves.rotation};
     for (int i = 0; i < GONIOD_AXES_MAX; i++) {
         if (!slaves[i])
             continue;

@@ -14,7 +14,8 @@
 
 /* Open the bus and the devices on it; *bus receives the bus handle for
  * goniod_devices_close. The azimuth axis is opened when the configuration
- * names its slave and the rig profile is out-of-plane. cancelled (with
+ * names its slave and the rig profile is out-of-plane, the rotation axis
+ * when it names that slave and the profile has axes.rotation. cancelled (with
  * user; may be NULL) is the bus's cancel check (drv_modbus_bus_set_cancel):
  * once it says so, the devices' waits end and fail with -ECANCELED. */
 int goniod_devices_open(const struct goniod_config *cfg, const struct rig_profile *rig,
@@ -34,10 +35,10 @@ void goniod_devices_close(struct capture_devices *dev, void *bus);
 
 /* The rig's axes alone, for bring-up and the probe: every
  * axis the configuration wires (the azimuth where slaves.azimuth names
- * it), with the rig profile's limits and mechanics and its speeds and
+ * it, the rotation where slaves.rotation does), with the rig profile's limits and mechanics and its speeds and
  * accelerations times speed_factor (1: the profile's). names[i] and
  * slaves[i] go with ax[i]. The sim driver has no drives: GONIO_EUSAGE. */
-#define GONIOD_AXES_MAX 3
+#define GONIOD_AXES_MAX 4
 struct goniod_axes {
     drv_axis *ax[GONIOD_AXES_MAX];
     const char *names[GONIOD_AXES_MAX];

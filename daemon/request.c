@@ -46,7 +46,7 @@ static const struct arg_spec capture_args[] = {
 /* gonio calibrate through goniod (docs/protocol.md, "calibrate") */
 static const struct arg_spec calibrate_args[] = {
     STRING_ARG("kind"), STRING_ARG("name"), STRING_ARG("plan"), STRING_ARG("rig"),
-    STRING_ARG("standard"), STRING_ARG("dark"), STRING_ARG("spot"),
+    STRING_ARG("standard"), STRING_ARG("dark"), STRING_ARG("spot"), STRING_ARG("stray"),
     {.name = "frames", .type = ARG_INT, .min = 2, .max = 10000, .unit = "frames"},
     {.name = "repeats", .type = ARG_INT, .min = 2, .max = 1000, .unit = "readings a point"},
     {.name = "integration", .type = ARG_NUMBER, .min = 1e-6, .max = 60, .unit = "seconds"},

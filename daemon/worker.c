@@ -212,9 +212,9 @@ static int hook_cancelled(void *user)
 static int check_start(const struct rig_profile *rig, struct capture_devices *dev,
                        struct gonio_err *err)
 {
-    drv_axis *axes[] = {dev->sample, dev->arm, dev->azimuth};
-    const struct rig_axis *prof[] = {&rig->sample, &rig->arm, &rig->azimuth};
-    for (int i = 0; i < 3; i++) {
+    drv_axis *axes[] = {dev->sample, dev->arm, dev->azimuth, dev->rotation};
+    const struct rig_axis *prof[] = {&rig->sample, &rig->arm, &rig->azimuth, &rig->rotation};
+    for (int i = 0; i < 4; i++) {
         double at;
         if (!axes[i])
             continue;

@@ -50,10 +50,11 @@ struct worker_calibration {
     char id[64], dir[2048]; /* cal_meta's id */
     int kind;               /* enum cal_kind */
     char plan[1024], rig[1024], standard[1024]; /* resolved references */
-    char dark[64];          /* reference: the dark it is taken with (resolved) */
+    char dark[64];          /* reference, stray: the dark it is taken with (resolved) */
+    char stray[64];         /* reference: the stray light it subtracts (resolved; "": none) */
     double integration_s;   /* dark: an integration besides the rig's, 0: none */
     int ladder;             /* dark: at every rung of the rig's ranging ladder too */
-    int per_point;          /* dark: frames per integration; reference: repeats */
+    int per_point;          /* dark: frames per integration; reference, stray: repeats */
     double valid_s;
     int underfilled;        /* the spot (cal_meta.spot) */
     long long created;      /* unix seconds: the id's and calibration.json's */

@@ -28,7 +28,8 @@ static void detector_name(const worker *w, sim_source *sim, char *out, size_t si
 }
 
 /* The in-process simulated rig of a sim-driver goniod: the configured
- * scene, measuring the standard for a reference. NULL on any other. */
+ * scene, measuring the standard for a reference and a light trap (nothing
+ * mounted) for the stray light. NULL on any other. */
 static sim_source *sim_rig(const worker *w, const struct worker_calibration *c,
                            struct gonio_err *err)
 {
@@ -36,8 +37,9 @@ static sim_source *sim_rig(const worker *w, const struct worker_calibration *c,
         return NULL;
     char material[1100];
     snprintf(material, sizeof material, "standard:%s", c->standard);
-    return sim_source_new(w->cfg->scene, c->kind == CAL_REFERENCE ? material : NULL, c->rig,
-                          err);
+    return sim_source_new(w->cfg->scene, c->kind == CAL_REFERENCE ? material
+                                         : c->kind == CAL_STRAY   ? "trap"
+                                                                  : NULL, c->rig, err);
 }
 
 /* The run's description, as calibration.json will have it. */
@@ -54,7 +56,8 @@ static void fill_meta(const worker *w, const struct worker_calibration *c,
     /* control_calibrate.c held the standard to calibration.json's length */
     snprintf(m->standard, sizeof m->standard, "%.*s", (int)sizeof m->standard - 1,
              c->kind == CAL_REFERENCE ? c->standard : "");
-    snprintf(m->dark, sizeof m->dark, "%s", c->kind == CAL_REFERENCE ? c->dark : "");
+    snprintf(m->dark, sizeof m->dark, "%s", c->kind != CAL_DARK ? c->dark : "");
+    snprintf(m->stray, sizeof m->stray, "%s", c->kind == CAL_REFERENCE ? c->stray : "");
     m->integrations[m->n_integrations++] = prof->integration_s;
     if (c->kind == CAL_DARK && c->integration_s > 0)
         m->integrations[m->n_integrations++] = c->integration_s;
@@ -75,7 +78,7 @@ int worker_calibrate_check(worker *w, struct worker_calibration *c, struct gonio
     struct gonio_err why = {0};
     if (c->kind == CAL_REFERENCE && brdf_standard_load(c->standard, &std, &why) < 0)
         return gonio_err_set(err, GONIO_EUSAGE, "standard '%s': %s", c->standard, why.msg);
-    if (c->kind == CAL_REFERENCE && (rc = plan_load(c->plan, &prof, &plan, err)) < 0)
+    if (c->kind != CAL_DARK && (rc = plan_load(c->plan, &prof, &plan, err)) < 0)
         return rc;
     plan_free(plan);
     sim_source *sim = sim_rig(w, c, err);
@@ -95,6 +98,13 @@ int worker_calibrate_check(worker *w, struct worker_calibration *c, struct gonio
                               &dark, err)) < 0)
         return rc;
     snprintf(c->dark, sizeof c->dark, "%s", dark.id);
+    struct cal_meta stray;
+    if (c->kind == CAL_REFERENCE && c->stray[0] &&
+        (rc = cal_select_stray(w->cfg->calibration_root, c->stray, c->dark, &need, &stray,
+                               err)) < 0)
+        return rc;
+    if (c->kind == CAL_REFERENCE && c->stray[0])
+        snprintf(c->stray, sizeof c->stray, "%s", stray.id);
     return 0;
 }
 
@@ -225,7 +235,7 @@ static void *run_calibration(void *arg)
     int aborted = 0;
     w->has_comm = 0;
     int rc = rig_profile_load(c->rig, &prof, &err);
-    if (rc == 0 && c->kind == CAL_REFERENCE && (rc = plan_load(c->plan, &prof, &plan, &err)) > 0)
+    if (rc == 0 && c->kind != CAL_DARK && (rc = plan_load(c->plan, &prof, &plan, &err)) > 0)
         rc = 0;
     sim_source *sim = rc == 0 ? sim_rig(w, c, &err) : NULL;
     if (rc == 0 && w->cfg->driver == GONIOD_DRIVER_SIM && !sim)
@@ -264,7 +274,7 @@ int worker_calibrate(worker *w, const struct worker_calibration *c, struct gonio
     snprintf(w->req.id, sizeof w->req.id, "%s", c->id);
     snprintf(w->req.dir, sizeof w->req.dir, "%s", c->dir);
     snprintf(w->calibration, sizeof w->calibration, "%s",
-             c->kind == CAL_DARK ? "dark" : "reference");
+             cal_kind_name((enum cal_kind)c->kind));
     w->prompt[0] = '\0';
     worker_run_begin_locked(w);
     w->announced = 1; /* no capture start document */

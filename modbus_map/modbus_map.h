@@ -13,7 +13,7 @@
 
 /* The rig's devices and their usual slave ids on its one bus. */
 enum mb_slave { MB_SLAVE_SAMPLE = 1, MB_SLAVE_ARM = 2, MB_SLAVE_DETECTOR = 3,
-                MB_SLAVE_AZIMUTH = 4 };
+                MB_SLAVE_AZIMUTH = 4, MB_SLAVE_ROTATION = 5 };
 
 /* Axis drives (AZ style). Every value is 32 bits: the first of its two
  * registers. The direct-data block runs from MB_AX_DATA_NO to the trigger. */

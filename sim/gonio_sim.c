@@ -223,19 +223,23 @@ static void print_setup(const struct sim_opts *o, const struct sim_setup *su)
 {
     const struct msim_cfg *cfg = &o->cfg;
     const struct rig_profile *rig = &su->rig;
-    printf("scene %s (%s)\nmaterial %s\nrig %s%s\n", su->scene.name, su->scene.path,
+    printf("scene %s (%s)\nmaterial %s\nrig %s%s%s\n", su->scene.name, su->scene.path,
            brdf_material_name(su->material), rig->name,
-           rig->out_of_plane ? " (out of plane: azimuth slave 4)" : "");
+           rig->out_of_plane ? " (out of plane: azimuth slave 4)" : "",
+           rig->has_rotation ? " (sample rotation: slave 5)" : "");
     if (cfg->simulated_clock)
         printf("clock simulated\n");
     else
         printf("time scale %g\n", cfg->time_scale);
     printf("steps per degree %g\nIN-POS band %g deg\n", cfg->steps_per_deg, cfg->in_pos_deg);
-    const struct rig_axis *ax[3] = {&rig->sample, &rig->arm, &rig->azimuth};
-    static const char *names[3] = {"sample (slave 1)", "arm (slave 2)", "azimuth (slave 4)"};
-    for (int i = 0; i < (rig->out_of_plane ? 3 : 2); i++)
-        printf("axis %s: limits [%g, %g] deg, profile %g deg/s, %g deg/s^2\n", names[i],
-               ax[i]->min, ax[i]->max, ax[i]->speed, ax[i]->accel);
+    const struct rig_axis *ax[4] = {&rig->sample, &rig->arm, &rig->azimuth, &rig->rotation};
+    const int has[4] = {1, 1, rig->out_of_plane, rig->has_rotation};
+    static const char *names[4] = {"sample (slave 1)", "arm (slave 2)", "azimuth (slave 4)",
+                                   "rotation (slave 5)"};
+    for (int i = 0; i < 4; i++)
+        if (has[i])
+            printf("axis %s: limits [%g, %g] deg, profile %g deg/s, %g deg/s^2\n", names[i],
+                   ax[i]->min, ax[i]->max, ax[i]->speed, ax[i]->accel);
     printf("detector (slave 3): rgb\n");
     if (cfg->baud > 0)
         printf("RTU line %ld baud\n", cfg->baud);

@@ -303,14 +303,21 @@ void msim_det_shutter(msim *m)
     sim_rig_shutter(m->rig, closed);
 }
 
+/* Each axis's slave id, in enum sim_axis_id's order. */
+static const int axis_slave[SIM_N_AXES] = {MB_SLAVE_SAMPLE, MB_SLAVE_ARM, MB_SLAVE_AZIMUTH,
+                                           MB_SLAVE_ROTATION};
+
+struct msim_axis *msim_axis_of(msim *m, int slave)
+{
+    for (int i = 0; i < SIM_N_AXES; i++)
+        if (m->served[i] && axis_slave[i] == slave)
+            return &m->axis[i];
+    return NULL;
+}
+
 int msim_jam(msim *m, int slave, enum msim_jam_kind kind, double deg, struct gonio_err *err)
 {
-    struct msim_axis *ax = NULL;
-    if (slave == MB_SLAVE_SAMPLE || slave == MB_SLAVE_ARM ||
-        (slave == MB_SLAVE_AZIMUTH && m->n_axes > 2))
-        ax = &m->axis[slave == MB_SLAVE_SAMPLE ? SIM_AXIS_SAMPLE
-                      : slave == MB_SLAVE_ARM  ? SIM_AXIS_ARM
-                                                 : SIM_AXIS_AZIMUTH];
+    struct msim_axis *ax = msim_axis_of(m, slave);
     if (!ax || !isfinite(deg) || deg < ax->prof->min || deg > ax->prof->max)
         return gonio_err_set(err, GONIO_EUSAGE, "jam: no axis at slave %d, or %g deg outside "
                              "its limits", slave, deg);
@@ -337,9 +344,10 @@ void msim_write_stats(const msim *m, FILE *out)
             "\"late\": %ld},\n \"detector\": {\"exchanges\": %ld},\n \"axes\": {",
             m->exchanges, c[SIM_FAULT_DROP], c[SIM_FAULT_CORRUPT], c[SIM_FAULT_LATE],
             m->slave_exchanges[MB_SLAVE_DETECTOR]);
-    static const char *names[SIM_N_AXES] = {"sample", "arm", "azimuth"};
-    static const int slaves[SIM_N_AXES] = {MB_SLAVE_SAMPLE, MB_SLAVE_ARM, MB_SLAVE_AZIMUTH};
-    for (int i = 0; i < m->n_axes; i++) {
+    static const char *names[SIM_N_AXES] = {"sample", "arm", "azimuth", "rotation"};
+    for (int i = 0, first = 1; i < SIM_N_AXES; i++) {
+        if (!m->served[i])
+            continue;
         const struct msim_axis *ax = &m->axis[i];
         /* JSON has no infinity: an axis never commanded reports nulls. */
         char cmd[64] = "null, null", pos[64] = "null, null";
@@ -349,8 +357,9 @@ void msim_write_stats(const msim *m, FILE *out)
             snprintf(pos, sizeof pos, "%.17g, %.17g", ax->pos_min, ax->pos_max);
         fprintf(out, "%s\n  \"%s\": {\"exchanges\": %ld, \"moves\": %ld, \"refused\": %ld, "
                 "\"limits\": [%.17g, %.17g], \"commanded\": [%s], \"positions\": [%s], "
-                "\"alarms\": %ld}", i ? "," : "", names[i], m->slave_exchanges[slaves[i]], ax->moves,
-                ax->refused, ax->prof->min, ax->prof->max, cmd, pos, ax->alarms);
+                "\"alarms\": %ld}", first ? "" : ",", names[i], m->slave_exchanges[axis_slave[i]],
+                ax->moves, ax->refused, ax->prof->min, ax->prof->max, cmd, pos, ax->alarms);
+        first = 0;
     }
     fprintf(out, "}}\n");
 }

@@ -62,16 +62,6 @@ static int overlaps(int addr, int n, int reg)
     return addr <= reg + 1 && reg < addr + n;
 }
 
-static struct msim_axis *axis_of(msim *m, int slave)
-{
-    switch (slave) {
-    case MB_SLAVE_SAMPLE: return &m->axis[SIM_AXIS_SAMPLE];
-    case MB_SLAVE_ARM: return &m->axis[SIM_AXIS_ARM];
-    case MB_SLAVE_AZIMUTH: return m->n_axes > 2 ? &m->axis[SIM_AXIS_AZIMUTH] : NULL;
-    default: return NULL;
-    }
-}
-
 /* Seconds a frame of n bytes holds an RTU line at baud, with the silence
  * that must follow it (t3.5 of the Modbus serial line guide: 3.5
  * characters, fixed at 1.75 ms above 19200 baud). RTU characters are 11
@@ -147,7 +137,7 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
                          int len)
 {
     int slave = req[hdr - 1];
-    struct msim_axis *ax = axis_of(m, slave);
+    struct msim_axis *ax = msim_axis_of(m, slave);
     int is_det = slave == MB_SLAVE_DETECTOR;
     const uint8_t *pdu = req + hdr;
     int fn = pdu[0];

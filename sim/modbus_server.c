@@ -53,7 +53,9 @@ msim *msim_new(const struct rig_profile *profile, const brdf_material *material,
     }
     const struct rig_axis *profs[SIM_N_AXES] = {&profile->sample, &profile->arm,
                                                  &profile->azimuth, &profile->rotation};
-    m->n_axes = profile->out_of_plane ? 3 : 2;
+    m->served[SIM_AXIS_SAMPLE] = m->served[SIM_AXIS_ARM] = 1;
+    m->served[SIM_AXIS_AZIMUTH] = profile->out_of_plane;
+    m->served[SIM_AXIS_ROTATION] = profile->has_rotation;
     for (int i = 0; i < SIM_N_AXES; i++) {
         m->axis[i].id = (enum sim_axis_id)i;
         m->axis[i].cmd_min = m->axis[i].pos_min = INFINITY;

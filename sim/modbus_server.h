@@ -52,7 +52,9 @@ struct sim_scene;
  * the detector reads through them (noise, auto-exposure, saturation), move
  * effects (jitter, backlash, stall) act on the axes, and comm_faults drops,
  * corrupts or delays exchanges. The azimuth slave exists only when the
- * profile is out_of_plane. */
+ * profile is out_of_plane, the rotation slave only when it has a rotation
+ * axis (axes.rotation); the detector reads the material turned by the
+ * rotation drive's position (sim/sim.h). */
 msim *msim_new(const struct rig_profile *profile, const brdf_material *material,
                const struct sim_scene *scene, const struct msim_cfg *cfg,
                struct gonio_err *err);

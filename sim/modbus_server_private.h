@@ -88,7 +88,7 @@ struct msim {
     sim_rig *rig;
     double wall0;
     struct msim_axis axis[SIM_N_AXES];
-    int n_axes;
+    int served[SIM_N_AXES]; /* the axes the profile has: sample, arm; azimuth, rotation if so */
     struct msim_detector det;
     double delay_ms[256]; /* per slave id: answers this late (msim_delay) */
     /* RTU: the pty master, a held-open slave (so the master never sees a
@@ -139,6 +139,8 @@ void msim_wait_late(msim *m, double seconds);
 void msim_poll_jump(msim *m, struct msim_axis *ax, int addr, int n);
 /* The simulated clock's wait register written: let its time pass. */
 void msim_det_wait(msim *m);
+/* The axis served at slave id (docs/protocol-modbus.md), NULL for none. */
+struct msim_axis *msim_axis_of(msim *m, int slave);
 /* Refresh an axis's read-only registers from the simulation. */
 void msim_axis_refresh(msim *m, struct msim_axis *ax);
 /* A trigger register written 1: start the operation its registers describe. */

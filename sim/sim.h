@@ -17,7 +17,9 @@
 
 /* SIM_AXIS_ROTATION turns the sample about its own normal (a rig profile's
  * optional axes.rotation): the material is read in the turned sample's
- * frame (brdf_pair_rotate). The Modbus server serves the first three. */
+ * frame (brdf_pair_rotate). The Modbus server serves each axis the profile
+ * has as a drive of its own (docs/protocol-modbus.md), on this same rig: a
+ * turn commanded over the bus reads the material turned as in-process. */
 enum sim_axis_id { SIM_AXIS_SAMPLE, SIM_AXIS_ARM, SIM_AXIS_AZIMUTH, SIM_AXIS_ROTATION, SIM_N_AXES };
 
 /* The pair the optics see with the axes at s, a, az (the planner's mapping

@@ -141,13 +141,15 @@ def without_a_step(root, ref_id, out_root):
     read as zero counts (nothing subtracted), and "lambertian", its standard
     without the angular shape (rho / pi: the certificate's reflectance and
     u, as docs/radiometry.md warns against). Their id (ref_id) serves
-    gonio recalibrate --calibrations out_root/KIND. The two roots."""
+    gonio recalibrate --calibrations out_root/KIND; the stray light the
+    reference names comes along. The two roots."""
     with open(os.path.join(root, ref_id, "calibration.json")) as f:
-        dark_id = json.load(f)["dark"]
+        ref_meta = json.load(f)
+    dark_id = ref_meta["dark"]
     roots = {}
     for kind in ("nodark", "lambertian"):
         dest = os.path.join(out_root, kind)
-        for cid in (dark_id, ref_id):
+        for cid in (dark_id, ref_id) + ((ref_meta["stray"],) if "stray" in ref_meta else ()):
             shutil.copytree(os.path.join(root, cid), os.path.join(dest, cid))
         roots[kind] = dest
     path = os.path.join(roots["nodark"], dark_id, "frames.csv")
@@ -188,29 +190,32 @@ def without_stray(root, ref_id, out_root):
     return out_root
 
 
-def recalibrated_material_error(capdir, ref_id, cal_root, dark_rows, material, out):
+def recalibrated_chain_errors(capdir, ref_id, cal_root, dark_rows, material, out):
     """capdir reduced again (gonio recalibrate) with ref_id of cal_root into
-    out: its chain_errors "material" median."""
+    out: its chain_errors."""
     r = subprocess.run([os.path.join(BIN, "gonio"), "recalibrate", capdir, "--calibration",
                         ref_id, "--calibrations", cal_root, "-o", out],
                        capture_output=True, text=True, timeout=300)
     if r.returncode != 0:
         raise AssertionError("gonio recalibrate %s: %s" % (capdir, r.stderr))
-    return chain_errors(frames(os.path.join(out, "samples.csv")), dark_rows,
-                        material)["material"]
+    return chain_errors(frames(os.path.join(out, "samples.csv")), dark_rows, material)
 
 
-def recalibrated_errors(capdir, ref_id, roots, dark_rows, material, out_root):
+def recalibrated_material_error(capdir, ref_id, cal_root, dark_rows, material, out):
+    """capdir reduced again with ref_id of cal_root into out: its
+    chain_errors "material" median."""
+    return recalibrated_chain_errors(capdir, ref_id, cal_root, dark_rows, material,
+                                     out)["material"]
+
+
+def recalibrated_errors(capdir, ref_id, roots, dark_rows, material, out_root, truth="chain"):
     """capdir reduced again (gonio recalibrate) with each calibration of
-    without_a_step's roots: its chain_errors "chain" median by kind."""
+    without_a_step's roots: its chain_errors median against truth ("chain",
+    or "material" for a reference that subtracts the stray light) by
+    kind."""
     got = {}
     for kind, cal_root in roots.items():
         out = os.path.join(out_root, "%s-%s" % (os.path.basename(capdir), kind))
-        r = subprocess.run([os.path.join(BIN, "gonio"), "recalibrate", capdir, "--calibration",
-                            ref_id, "--calibrations", cal_root, "-o", out],
-                           capture_output=True, text=True, timeout=300)
-        if r.returncode != 0:
-            raise AssertionError("gonio recalibrate %s (%s): %s" % (capdir, kind, r.stderr))
-        got[kind] = chain_errors(frames(os.path.join(out, "samples.csv")), dark_rows,
-                                 material)["chain"]
+        got[kind] = recalibrated_chain_errors(capdir, ref_id, cal_root, dark_rows, material,
+                                              out)[truth]
     return got

@@ -100,7 +100,8 @@ class CheckTests(unittest.TestCase):
         self.assertIn("%s:1:" % path, r.stderr)
 
     def test_shipped_configs(self):
-        for name in ("sim.yaml", "modbus-rtu.yaml", "modbus-tcp.yaml", "source-tree.yaml"):
+        for name in ("sim.yaml", "modbus-rtu.yaml", "modbus-tcp.yaml", "source-tree.yaml",
+                     "modbus-tcp-rotating.yaml"):
             path = shipped_config(name, self.folder)
             r = run_wrapped([GONIOD, "--config", path, "--check"], self.folder)
             self.assertEqual(r.returncode, 0, name + ": " + r.stderr)

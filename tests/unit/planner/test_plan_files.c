@@ -288,7 +288,7 @@ static void test_default_rig(void **state)
     assert_close(rig.mech.in_position_deg, 0.1, 0);
     assert_close(rig.mech.backlash_deg, 0.05, 0);
     assert_int_equal(rig.mech.approach, 1);
-    assert_int_equal(rig.mech.move_retries, 5);
+    assert_int_equal(rig.mech.move_retries, 10);
     /* a profile without them gets the defaults; approach negative is -1 */
     const char *path = write_yaml("rig.yaml", "out_of_plane: false\nblind_deg: 5\nsettle_s: 0\n"
                                   "integration: {fixed_s: 0.05, auto_min_s: 0.001, "
