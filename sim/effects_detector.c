@@ -10,6 +10,7 @@
 #include "brdf/spectral.h"
 #include "brdf/standard.h"
 #include "sim/exposure.h"
+#include "sim/standard_draw.h"
 
 struct sim_detector {
     const brdf_material *material;
@@ -36,9 +37,10 @@ static int open_spectral(sim_detector *d, const struct sim_scene *scene,
     if (strncmp(name, "spectral:", 9) == 0) {
         d->spectral = brdf_spectral_open(name, err);
     } else if (strncmp(name, "standard:", 9) == 0) {
-        /* the standard as its certificate states it per wavelength, which
-         * the reduction of a spectral detector's bands uses */
-        if (brdf_standard_load(name + 9, &std, err) < 0)
+        /* the standard per wavelength, as its certificate states it (which
+         * the reduction of a spectral detector's bands uses), or the plaque
+         * the scene draws from it */
+        if (sim_standard_truth(scene, name + 9, &std, err) < 0)
             return -abs(err ? err->code : GONIO_EBADCONFIG);
         d->spectral = brdf_standard_spectral(&std, name, err);
     } else

@@ -14,6 +14,7 @@
 #include "rig/rig.h"
 #include "sim/modbus_server.h"
 #include "sim/scene.h"
+#include "sim/standard_draw.h"
 
 static volatile sig_atomic_t stop_flag, hangup_flag;
 
@@ -210,7 +211,7 @@ static int load_setup(const struct sim_opts *o, struct sim_setup *su)
     const char *spec = o->material_spec ? o->material_spec : su->scene.material;
     if (!strcmp(spec, "default"))
         spec = brdf_material_default_spec();
-    su->material = brdf_material_open(spec, &err);
+    su->material = sim_material_open(&su->scene, spec, &err);
     if (!su->material) {
         fprintf(stderr, "gonio-sim: %s\n", err.msg);
         return 2;

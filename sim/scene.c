@@ -25,7 +25,7 @@ static const char *const effect_names[SIM_FX_KINDS] = {
     [SIM_FX_ADC] = "adc",                 [SIM_FX_LAMP_MONITOR] = "lamp_monitor",
     [SIM_FX_JITTER] = "jitter",           [SIM_FX_BACKLASH] = "backlash",
     [SIM_FX_STALL] = "stall",             [SIM_FX_ALARM] = "alarm",
-    [SIM_FX_COMM_FAULTS] = "comm_faults",
+    [SIM_FX_COMM_FAULTS] = "comm_faults", [SIM_FX_STANDARD_DRAW] = "standard_draw",
 };
 
 /* The keys each effect accepts besides "name" (NULL-terminated). */

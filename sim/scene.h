@@ -30,6 +30,7 @@ enum sim_effect_kind {
     SIM_FX_STALL,       /* motor stall: the axis stops short with an alarm */
     SIM_FX_ALARM,       /* a driver alarm at the start of a move */
     SIM_FX_COMM_FAULTS, /* dropped, corrupted, late replies */
+    SIM_FX_STANDARD_DRAW, /* the mounted standard drawn from its certificate (sim/standard_draw.h) */
     SIM_FX_KINDS
 };
 

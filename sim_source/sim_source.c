@@ -13,6 +13,7 @@
 #include "sim/effects_detector.h"
 #include "sim/scene.h"
 #include "sim/sim.h"
+#include "sim/standard_draw.h"
 
 struct sim_source {
     struct sim_scene scene;
@@ -79,7 +80,7 @@ sim_source *sim_source_new(const char *scene, const char *material, const char *
         return NULL;
     const char *spec = material_spec(material ? material : src->scene.material);
     if (rig_profile_load(rig ? rig : src->scene.rig, &src->rig, err) < 0 ||
-        !(src->material = brdf_material_open(spec, err)) ||
+        !(src->material = sim_material_open(&src->scene, spec, err)) ||
         !(src->fx = sim_effects_new(&src->scene, err)) ||
         !(src->meter = sim_detector_new(&src->rig, src->material, &src->scene, src->fx, NULL,
                                         err))) {
