@@ -329,7 +329,8 @@ static int check_out_of_plane(struct run *r, const brdf_material *model, struct 
         rc = gonio_err_set(err, GONIO_EUSAGE, "--check out-of-plane: the rig source has no "
                            "azimuth axis device");
     else
-        rc = oop_check_run(oop_predict, (void *)model, oop_measure, &c, &r->out->oop, err);
+        rc = oop_check_run(oop_predict, (void *)model, oop_measure, &c,
+                           r->job->rig.mech.in_position_deg, &r->out->oop, err);
     r->out->oop.rig_time_s = capture_clock_now(&clk);
     r->out->has_oop = rc == 0;
     capture_axis_stats_add(&dev, &r->out->mech);

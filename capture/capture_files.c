@@ -444,13 +444,15 @@ static json_t *oop_json(const struct oop_check_result *c, double rig_time_s)
                                                 "theta_o", w->theta_o, "phi_o", w->phi_o,
                                                 "error", c->worst_error, "predicted",
                                                 w->predicted);
-    return json_pack("{s:s,s:s,s:I,s:I,s:o,s:o,s:o,s:f,s:f,s:o,s:f,s:o}", "verdict", c->verdict,
-                     "why", c->why, "pairs", (json_int_t)c->pairs, "measurements",
+    return json_pack("{s:s,s:s,s:I,s:I,s:o,s:o,s:o,s:f,s:f,s:o,s:f,s:o,s:o,s:f,s:b}", "verdict",
+                     c->verdict, "why", c->why, "pairs", (json_int_t)c->pairs, "measurements",
                      (json_int_t)c->measurements, "error_oop", num_or_null(c->error_oop),
                      "error_inplane", num_or_null(c->error_inplane), "ratio",
                      num_or_null(c->ratio), "threshold", c->threshold, "error_floor",
                      OOP_CHECK_FLOOR, "worst", worst, "rig_time_s", c->rig_time_s,
-                     "rig_time_share", share_of(c->rig_time_s, rig_time_s));
+                     "rig_time_share", share_of(c->rig_time_s, rig_time_s), "lobe_deg",
+                     num_or_null(c->lobe_deg), "resolution_deg", c->resolution_deg,
+                     "lobe_unresolved", c->unresolved);
 }
 
 /* The checks' verdicts with their evidence and rig time (docs/checks.md). */

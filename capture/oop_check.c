@@ -41,6 +41,28 @@ static int build(double theta_i, double tilt, double psi, struct oop_check_pair 
     return 0;
 }
 
+/* Where between tilt hi - STEP_DEG and hi the model, at theta_i and
+ * azimuth psi, falls by OOP_CHECK_DROP from top (its ln f at the mirror):
+ * the lobe's width, finer than the search's step (a spike the data never
+ * resolved falls within hundredths of a degree). */
+static double crossing(oop_check_predict_fn predict, void *user, double theta_i, double psi,
+                       double top, double hi)
+{
+    double lo = hi - STEP_DEG;
+    for (int k = 0; k < 30; k++) {
+        double mid = 0.5 * (lo + hi), v = 0;
+        struct oop_check_pair c;
+        struct brdf_pair bp, in;
+        if (build(theta_i, mid, psi, &c, &bp, &in) == 0)
+            v = predict(user, &bp);
+        if (v > 0 && top - log(v) < OOP_CHECK_DROP)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
 /* The pair on the lobe's flank at theta_i, azimuth psi: the first tilt
  * where the model has fallen OOP_CHECK_DROP below the mirror, else the
  * diffuse tilt (or the last one in the domain). 0, or -1: none. */
@@ -53,7 +75,8 @@ static int flank(oop_check_predict_fn predict, void *user, double theta_i, doubl
     double top = log(predict(user, &bp));
     int found = 0, steps = 0;
     struct oop_check_pair last = *o, at_diffuse = *o;
-    for (double t = STEP_DEG; t <= MAX_TILT_DEG + 1e-9; t += STEP_DEG) {
+    double t = STEP_DEG;
+    for (; t <= MAX_TILT_DEG + 1e-9; t += STEP_DEG) {
         struct oop_check_pair c;
         if (build(theta_i, t, psi, &c, &bp, &in) < 0)
             break;
@@ -70,6 +93,7 @@ static int flank(oop_check_predict_fn predict, void *user, double theta_i, doubl
         }
     }
     *o = found ? last : at_diffuse;
+    o->lobe_deg = found ? crossing(predict, user, theta_i, psi, top, t) : NAN;
     return steps > 0 ? 0 : -1;
 }
 
@@ -91,12 +115,41 @@ static double error_of(double measured, double predicted, double theta_i)
     return fabs(log1p(measured * w) - log1p(predicted * w));
 }
 
+/* The widest lobe of the pairs (NAN when one never fell: a lobe wide
+ * enough for any rig). */
+static double widest_lobe(const struct oop_check_pair *p, size_t n)
+{
+    double w = n ? 0 : NAN;
+    for (size_t j = 0; j < n; j++) {
+        if (isnan(p[j].lobe_deg))
+            return NAN;
+        w = fmax(w, p[j].lobe_deg);
+    }
+    return w;
+}
+
+/* The verdict from the model alone: a lobe narrower than the rig positions. */
+static void decide_unresolved(struct oop_check_result *out)
+{
+    out->unresolved = 1;
+    snprintf(out->verdict, sizeof out->verdict, "insufficient");
+    snprintf(out->why, sizeof out->why,
+             "the fitted lobe falls by e^-%.1f within %.3f deg of the mirror, inside the rig's "
+             "positioning (%.2f deg): no in-plane pair resolved its core",
+             OOP_CHECK_DROP, out->lobe_deg, out->resolution_deg);
+}
+
 void oop_check_decide(const struct oop_check_pair *p, size_t n, const double *measured,
-                      const double *in_measured, struct oop_check_result *out)
+                      const double *in_measured, double resolution_deg,
+                      struct oop_check_result *out)
 {
     memset(out, 0, sizeof *out);
     out->pairs = n;
     out->threshold = OOP_CHECK_RATIO;
+    out->resolution_deg = resolution_deg;
+    out->lobe_deg = widest_lobe(p, n);
+    /* NAN compares false: a lobe that never fell is resolved */
+    int unresolved = resolution_deg > 0 && out->lobe_deg < resolution_deg;
     double so = 0, si = 0;
     size_t used = 0;
     for (size_t j = 0; j < n; j++) {
@@ -114,15 +167,23 @@ void oop_check_decide(const struct oop_check_pair *p, size_t n, const double *me
         }
     }
     if (used < 3) {
+        out->error_oop = out->error_inplane = out->ratio = NAN;
+        if (unresolved) {
+            decide_unresolved(out);
+            return;
+        }
         snprintf(out->verdict, sizeof out->verdict, "undetermined");
         snprintf(out->why, sizeof out->why,
                  "too few usable pairs (%zu of %zu with both readings; need 3)", used, n);
-        out->error_oop = out->error_inplane = out->ratio = NAN;
         return;
     }
     out->error_oop = so / (double)used;
     out->error_inplane = si / (double)used;
     out->ratio = out->error_oop / fmax(out->error_inplane, OOP_CHECK_FLOOR);
+    if (unresolved) {
+        decide_unresolved(out);
+        return;
+    }
     int bad = out->ratio > OOP_CHECK_RATIO;
     snprintf(out->verdict, sizeof out->verdict, bad ? "insufficient" : "sufficient");
     snprintf(out->why, sizeof out->why,
@@ -137,7 +198,8 @@ void oop_check_decide(const struct oop_check_pair *p, size_t n, const double *me
 }
 
 int oop_check_run(oop_check_predict_fn predict, void *puser, oop_check_measure_fn measure,
-                  void *muser, struct oop_check_result *out, struct gonio_err *err)
+                  void *muser, double resolution_deg, struct oop_check_result *out,
+                  struct gonio_err *err)
 {
     struct oop_check_pair p[OOP_CHECK_MAX_PAIRS];
     double m[OOP_CHECK_MAX_PAIRS], in[OOP_CHECK_MAX_PAIRS];
@@ -160,6 +222,6 @@ int oop_check_run(oop_check_predict_fn predict, void *puser, oop_check_measure_f
         }
         a = b;
     }
-    oop_check_decide(p, n, m, in, out);
+    oop_check_decide(p, n, m, in, resolution_deg, out);
     return 0;
 }

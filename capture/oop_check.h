@@ -16,6 +16,15 @@
  * than OOP_CHECK_FLOOR), in the units of the full-domain log error
  * (brdf/metrics.h). Beyond OOP_CHECK_RATIO: "insufficient".
  *
+ * "insufficient" too, whatever the readings, when the fitted lobe is
+ * narrower than the rig positions: when in every direction the model
+ * falls by OOP_CHECK_DROP within the rig's positioning band of the mirror
+ * (mechanics.in_position_deg), no in-plane pair the rig can place
+ * determined the lobe's core, and the fit's value there (the peak of a
+ * spike the data never resolved) is an extrapolation. Ratios cannot show
+ * it: the model is as wrong in the plane as out of it, at tilts the rig
+ * cannot resolve.
+ *
  * No devices here: the host predicts with its fitted model and measures
  * through callbacks (the capture engine on its rig; the tests with
  * materials). */
@@ -39,6 +48,8 @@
 struct oop_check_pair {
     double theta_i, theta_o, phi_o;
     double in_theta_i, in_theta_r;
+    double lobe_deg; /* the half vector's tilt where the model has fallen by
+                      * OOP_CHECK_DROP (NAN: it never does within the search) */
     double predicted, in_predicted; /* the model's (mean of R, G, B), 1/sr */
 };
 
@@ -59,6 +70,9 @@ struct oop_check_result {
     double error_inplane; /* ... at their in-plane counterparts */
     double ratio;         /* error_oop / max(error_inplane, OOP_CHECK_FLOOR) */
     double threshold;     /* OOP_CHECK_RATIO */
+    double lobe_deg;      /* the widest of the pairs' lobe_deg (NAN: a lobe that never falls) */
+    double resolution_deg; /* the rig's positioning band the lobe was held to */
+    int unresolved;       /* 1: lobe_deg within resolution_deg: the verdict's reason */
     struct oop_check_pair worst; /* the out-of-plane pair of the largest error */
     double worst_error;
     double rig_time_s;    /* filled by the host: what the check cost the rig */
@@ -71,13 +85,18 @@ size_t oop_check_choose(oop_check_predict_fn predict, void *user, struct oop_che
 
 /* The verdict from the readings: measured[j] at pair j, in_measured[j] at
  * its counterpart. A pair with either reading NAN or not positive is left
- * out; fewer than 3 left: "undetermined". */
+ * out; fewer than 3 left: "undetermined" — unless the lobe is narrower
+ * than resolution_deg (the rig's positioning band; 0: no such test), which
+ * is "insufficient" from the model alone. */
 void oop_check_decide(const struct oop_check_pair *p, size_t n, const double *measured,
-                      const double *in_measured, struct oop_check_result *out);
+                      const double *in_measured, double resolution_deg,
+                      struct oop_check_result *out);
 
 /* Choose, measure (each incidence's out-of-plane pairs, then their
- * counterparts) and decide. Returns 0, or the callback's failure. */
+ * counterparts) and decide with the rig's positioning band resolution_deg.
+ * Returns 0, or the callback's failure. */
 int oop_check_run(oop_check_predict_fn predict, void *puser, oop_check_measure_fn measure,
-                  void *muser, struct oop_check_result *out, struct gonio_err *err);
+                  void *muser, double resolution_deg, struct oop_check_result *out,
+                  struct gonio_err *err);
 
 #endif

@@ -108,6 +108,8 @@ def test_out_of_plane_check(tmp, calibrations):
                                                             c["error_floor"]))
     assert c["worst"]["error"] >= c["error_oop"] > 0.05
     assert c["worst"]["phi_o"] % 180 != 0  # out of the plane
+    # the lobe, 0.1 wide at the mirror, is resolved by the rig's 0.1 deg band
+    assert c["resolution_deg"] == 0.1 and c["lobe_deg"] > 1 and not c["lobe_unresolved"]
     assert c["pairs"] == 6 and c["measurements"] == 12
     assert 0 < c["rig_time_s"] < 0.25 * res["rig_time_s"]  # DS2 is small: 12%
     assert c["rig_time_share"] == pytest.approx(c["rig_time_s"] / res["rig_time_s"])
@@ -132,6 +134,30 @@ def test_out_of_plane_check(tmp, calibrations):
     # BRDF, not counts: the model's error at the out-of-plane pairs is small
     assert 0 < c["error_oop"] < 0.05 and 0 < c["worst"]["predicted"] < 10
     assert "isotropy" not in res["checks"]
+
+
+def test_lobe_narrower_than_the_rig_positions(tmp):
+    # a rig whose moves end within 5 deg of their targets cannot resolve a
+    # lobe that falls by e^-1.5 within 3.8 deg: insufficient from the fitted
+    # model and the rig alone, whatever the readings' ratio
+    rig = os.path.join(tmp, "loose.yaml")
+    src = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "configs",
+                       "rigs", "default.yaml")
+    with open(src) as f:
+        text = f.read()
+    assert "in_position_deg: 0.1 " in text
+    with open(rig, "w") as f:
+        f.write(text.replace("in_position_deg: 0.1 ", "in_position_deg: 5 "))
+    out = os.path.join(tmp, "cap")
+    r = gonio("capture", "--offline", "--quiet", "--scene", "ideal", "--rig", rig, "--plan",
+              "ds3", "--material", "analytic:ggx-gold", "--check", "out-of-plane", "--out", out)
+    assert r.returncode == 0, r.stderr
+    with open(os.path.join(out, "results.json")) as f:
+        c = json.load(f)["checks"]["out_of_plane"]
+    assert c["verdict"] == "insufficient" and c["lobe_unresolved"], c["why"]
+    assert c["resolution_deg"] == 5 and 3 < c["lobe_deg"] < 5
+    assert c["ratio"] < c["threshold"]  # the ratio alone would have passed it
+    assert "positioning" in c["why"]
 
 
 def test_rig_without_azimuth_refused(tmp):

@@ -6,7 +6,9 @@
  * GGX at 0 and 45 degrees), "sufficient" when the material is the model,
  * within 2% noise on 2,000 seeded checks (an isotropic GGX and a model
  * of its in-plane slice), and "undetermined" with too few
- * readings; it measures each incidence's out-of-plane pairs first. */
+ * readings; it measures each incidence's out-of-plane pairs first. A
+ * fitted lobe narrower than the rig's positioning band is "insufficient"
+ * from the model alone, and its width is found between the search's steps. */
 #include <math.h>
 #include <string.h>
 
@@ -108,7 +110,7 @@ static void run_check(const char *material, double sd, uint64_t seed,
     brdf_material *model = open_or_die(material);
     *b = (struct bench){.m = open_or_die(material), .sd = sd, .st = seed};
     struct gonio_err err = {0};
-    assert_int_equal(oop_check_run(predict, model, measure, b, r, &err), 0);
+    assert_int_equal(oop_check_run(predict, model, measure, b, 0.1, r, &err), 0);
     brdf_material_free(b->m);
     brdf_material_free(model);
 }
@@ -164,23 +166,93 @@ static void test_the_model_itself_passes(void **state)
 static void test_too_few_readings_undetermined(void **state)
 {
     (void)state;
-    struct oop_check_pair p[4] = {{.theta_i = 25, .predicted = 1, .in_predicted = 1},
-                                  {.theta_i = 25, .predicted = 1, .in_predicted = 1},
-                                  {.theta_i = 25, .predicted = 1, .in_predicted = 1},
-                                  {.theta_i = 25, .predicted = 1, .in_predicted = 1}};
+    struct oop_check_pair p[4] = {{.theta_i = 25, .predicted = 1, .in_predicted = 1, .lobe_deg = 2},
+                                  {.theta_i = 25, .predicted = 1, .in_predicted = 1, .lobe_deg = 2},
+                                  {.theta_i = 25, .predicted = 1, .in_predicted = 1, .lobe_deg = 2},
+                                  {.theta_i = 25, .predicted = 1, .in_predicted = 1, .lobe_deg = 2}};
     double m[4] = {1, NAN, 3, 1}, in[4] = {1, 1, 1, 0};
     struct oop_check_result r;
-    oop_check_decide(p, 4, m, in, &r);
+    oop_check_decide(p, 4, m, in, 0.1, &r);
     assert_string_equal(r.verdict, "undetermined");
     assert_true(isnan(r.ratio));
     assert_int_equal(r.measurements, 6);
     m[3] = 3;
     in[3] = 1;
-    oop_check_decide(p, 4, m, in, &r);
+    oop_check_decide(p, 4, m, in, 0.1, &r);
     assert_string_equal(r.verdict, "insufficient");
     double e = log1p(3 * cos(25 * BRDF_DEG)) - log1p(cos(25 * BRDF_DEG));
     assert_close(r.error_oop, (e + 0 + e) / 3, 1e-12);
     assert_close(r.ratio, r.error_oop / OOP_CHECK_FLOOR, 1e-12);
+}
+
+/* A lobe of width w (degrees of theta_h, Gaussian) over a floor: the
+ * model's prediction and, read exactly, the material measured. */
+static double spike(void *user, const struct brdf_pair *p)
+{
+    double x = p->theta_h / BRDF_DEG / *(const double *)user;
+    return 0.1 + 1000 * exp(-x * x);
+}
+
+static int read_spike(void *user, const struct oop_check_pair *p, int in_plane, double *value,
+                      struct gonio_err *err)
+{
+    (void)err;
+    struct brdf_pair bp;
+    if (in_plane)
+        brdf_pair_inplane(p->in_theta_i, p->in_theta_r, &bp);
+    else
+        brdf_pair_spherical(p->theta_i, 0, p->theta_o, p->phi_o, &bp);
+    *value = spike(user, &bp);
+    return 0;
+}
+
+static int read_nothing(void *user, const struct oop_check_pair *p, int in_plane, double *value,
+                        struct gonio_err *err)
+{
+    (void)user, (void)p, (void)in_plane, (void)err;
+    *value = NAN;
+    return 0;
+}
+
+static void test_lobe_narrower_than_the_rig_positions(void **state)
+{
+    (void)state;
+    struct gonio_err err = {0};
+    struct oop_check_result r;
+    /* the model falls by e^-1.5 at x^2 = 1.5 (the floor is 1e-4 of the
+     * peak): 1.2247 w, found between the search's steps */
+    double w = 0.005;
+    assert_int_equal(oop_check_run(spike, &w, read_spike, &w, 0.1, &r, &err), 0);
+    assert_close(r.lobe_deg, sqrt(1.5) * w, 1e-4);
+    assert_close(r.resolution_deg, 0.1, 0);
+    /* the readings agree with the model everywhere the rig reads, yet no
+     * in-plane pair resolved the core: insufficient from the model alone */
+    assert_true(r.ratio < 0.1);
+    assert_string_equal(r.verdict, "insufficient");
+    assert_int_equal(r.unresolved, 1);
+    assert_non_null(strstr(r.why, "positioning"));
+    /* with no usable reading too (a peak that saturates) */
+    assert_int_equal(oop_check_run(spike, &w, read_nothing, &w, 0.1, &r, &err), 0);
+    assert_string_equal(r.verdict, "insufficient");
+    assert_true(isnan(r.ratio));
+    /* a rig that positions finer (or a band of 0: no such test) resolves it */
+    assert_int_equal(oop_check_run(spike, &w, read_spike, &w, 0.005, &r, &err), 0);
+    assert_string_equal(r.verdict, "sufficient");
+    assert_int_equal(oop_check_run(spike, &w, read_spike, &w, 0, &r, &err), 0);
+    assert_string_equal(r.verdict, "sufficient");
+    /* a lobe of 0.3 degrees on the same rig: resolved, decided by ratio */
+    w = 0.3;
+    assert_int_equal(oop_check_run(spike, &w, read_spike, &w, 0.1, &r, &err), 0);
+    assert_close(r.lobe_deg, sqrt(1.5) * w, 1e-4);
+    assert_string_equal(r.verdict, "sufficient");
+    assert_int_equal(r.unresolved, 0);
+    assert_int_equal(oop_check_run(spike, &w, read_nothing, &w, 0.1, &r, &err), 0);
+    assert_string_equal(r.verdict, "undetermined");
+    /* a lobe that never falls by e^-1.5 within the search: no width */
+    w = 1e3;
+    assert_int_equal(oop_check_run(spike, &w, read_spike, &w, 0.1, &r, &err), 0);
+    assert_true(isnan(r.lobe_deg));
+    assert_string_equal(r.verdict, "sufficient");
 }
 
 int main(void)
@@ -190,6 +262,7 @@ int main(void)
         cmocka_unit_test(test_anisotropic_is_insufficient),
         cmocka_unit_test(test_the_model_itself_passes),
         cmocka_unit_test(test_too_few_readings_undetermined),
+        cmocka_unit_test(test_lobe_narrower_than_the_rig_positions),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
