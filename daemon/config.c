@@ -481,6 +481,8 @@ void goniod_config_print(FILE *out, const struct goniod_config *c)
             fprintf(out, "    rotation: %d\n", c->slaves.rotation);
         fprintf(out, "  steps_per_deg: %g\n  time_scale: %g\n  timeout_s: %g\n  retries: %d\n",
                 c->steps_per_deg, c->time_scale, c->timeout_s, c->retries);
+        if (c->drain_s > 0)
+            fprintf(out, "  drain_s: %g\n", c->drain_s);
         if (c->detector == GONIOD_DETECTOR_USB) {
             fprintf(out, "  detector:\n    kind: usb-spectrometer\n    vendor: 0x%04x\n"
                          "    product: 0x%04x\n",
