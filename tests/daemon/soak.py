@@ -37,10 +37,13 @@ SCALE = 200          # simulated seconds per wall second
 # The drivers' response timeout: 50 ms, 200 ms under valgrind, where a
 # daemon and a gonio-sim on memcheck answer in tens of milliseconds.
 TIMEOUT_S = 0.05 * (4 if tg.VALGRIND else 1)
-# A late reply comes this late: after the timeout, in the middle of the
-# drain that follows it (drivers/drv_modbus_bus.c: quiet for the timeout,
-# at most 0.1 s), so it is flushed, not taken for the next answer.
-LATE_S = TIMEOUT_S + min(TIMEOUT_S, 0.1) / 2
+# The quiet window the drivers wait for after a failed exchange (driver key
+# drain_s), and a late reply's delay: in the middle of that window, a
+# quarter second from either end, so a loaded host that starts goniod's wait
+# late or gonio-sim's reply late moves it neither inside the timeout nor
+# past the drain; it is flushed, not taken for the next answer.
+DRAIN_S = 0.5 * (4 if tg.VALGRIND else 1)
+LATE_S = TIMEOUT_S + DRAIN_S / 2
 MAX_RESUMES = 200
 
 
@@ -79,9 +82,9 @@ class Rig:
         where = ("  kind: modbus-rtu\n  device: %s\n" % lines[0] if transport == "rtu" else
                  "  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %s\n" %
                  lines[1].rsplit(":", 1)[1])
-        driver = (where + "  time_scale: %g\n  timeout_s: %g\n  retries: %d\n"
+        driver = (where + "  time_scale: %g\n  timeout_s: %g\n  drain_s: %g\n  retries: %d\n"
                   "  slaves: {sample: 1, arm: 2, detector: 3, azimuth: 4}\n"
-                  % (SCALE, TIMEOUT_S, retries))
+                  % (SCALE, TIMEOUT_S, DRAIN_S, retries))
         self.d = tg.Daemon(folder, driver=driver).start()
 
     def stop(self):
