@@ -10,21 +10,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/select.h>
-#include <sys/socket.h>
-
-static int send_line(struct conn *c, json_t *req, long id)
-{
-    json_object_set_new(req, "id", json_integer(id));
-    char *text = json_dumps(req, JSON_COMPACT);
-    json_decref(req);
-    if (!text)
-        return -1;
-    size_t len = strlen(text);
-    int ok = send(c->fd, text, len, MSG_NOSIGNAL) == (ssize_t)len &&
-             send(c->fd, "\n", 1, MSG_NOSIGNAL) == 1;
-    free(text);
-    return ok ? 0 : -1;
-}
 
 /* goniod's abort, over a connection of its own (the bring-up's waits for
  * its reply): what goniod answered goes to stderr. */
@@ -53,12 +38,10 @@ json_t *bringup_request(struct conn *c, json_t *req, const char *cmd, int *sig)
     sigprocmask(SIG_BLOCK, &block, &old);
     interrupt_catch();
     *sig = 0;
-    long id = c->next_id++;
     json_t *reply = NULL;
-    if (send_line(c, req, id) < 0) {
-        fprintf(stderr, "gonio: lost goniod at %s\n", c->path);
+    long id = conn_send(c, req);
+    if (id < 0)
         goto out;
-    }
     for (;;) {
         int caught = interrupt_signal();
         if (caught && *sig) { /* asked twice: the axes are goniod's now */
@@ -85,10 +68,7 @@ json_t *bringup_request(struct conn *c, json_t *req, const char *cmd, int *sig)
             fprintf(stderr, "gonio: goniod closed the connection\n");
             goto out;
         }
-        json_t *rid = json_object_get(d, "id");
-        const char *cls = json_string_value(json_object_get(d, "class"));
-        if ((json_is_integer(rid) && json_integer_value(rid) == id) ||
-            (!rid && cls && !strcmp(cls, "ERROR"))) {
+        if (conn_is_reply(d, id)) {
             reply = d;
             goto out;
         }

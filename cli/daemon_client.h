@@ -25,6 +25,12 @@ int conn_open(struct conn *c, const char *path);
 void conn_close(struct conn *c);
 /* The next document from goniod, NULL when the connection ends. */
 json_t *conn_read(struct conn *c);
+/* Send req (stolen) with the connection's next id: that id, or -1 (said
+ * on stderr) when the connection was lost. */
+long conn_send(struct conn *c, json_t *req);
+/* Whether d ends the exchange of request id: its reply, or an error
+ * without an id. */
+int conn_is_reply(json_t *d, long id);
 /* Send req (stolen) and return its reply (OK, STATUS or ERROR), NULL when
  * the connection was lost. */
 json_t *conn_request(struct conn *c, json_t *req);
