@@ -295,8 +295,11 @@ void control_dispatch(control *c, struct worker_msg *msgs)
                         ms->comm.timeouts, ms->comm.bad_replies, ms->comm.exceptions,
                         ms->comm.failed, ms->comm.reconnects);
             doc = stop_doc(ms);
-            if (!ms->calibration[0]) /* event-model documents are a capture's */
+            if (!ms->calibration[0])
                 control_events_stop(c, ms);
+            else /* a calibration's run, whole, as it ended */
+                control_events_lines(c, ms->documents);
+            free(ms->documents);
             free(c->start_doc);
             free(c->descriptor_doc);
             c->start_doc = c->descriptor_doc = NULL;

@@ -553,6 +553,8 @@ void worker_free(worker *w)
     }
     for (struct worker_msg *m = w->head, *next; m; m = next) {
         next = m->next;
+        if (m->kind == WORKER_MSG_STOP)
+            free(((struct worker_msg_stop *)m)->documents);
         free(m);
     }
     prepared_free(w->pending);
