@@ -178,6 +178,15 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
     if (exc == MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS && is_det && m->cfg.simulated_clock &&
         check_range(det_wait_range, addr, n, write) == 0)
         exc = 0;
+    if (exc == MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS && is_det && m->det.n_bands && !write) {
+        /* the band block, read only, as long as the detector's bands */
+        int nb = m->det.n_bands;
+        const struct reg_range bands[] = {
+            {MB_DET_BAND_COUNT, MB_DET_BAND_NM + 2 * nb - 1, 0},
+            {MB_DET_BAND_SEQUENCE, MB_DET_BAND_COUNTS + 2 * nb - 1, 0}, {-1, -1, 0}};
+        if (check_range(bands, addr, n, 0) == 0)
+            exc = 0;
+    }
     if (m->cfg.trace)
         fprintf(stderr, "gonio-sim: %.4f s: slave %d fn 0x%02x addr 0x%04x n %d%s%s\n",
                 sim_rig_now(m->rig), slave, fn, addr < 0 ? 0 : addr, n,

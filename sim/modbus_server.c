@@ -72,6 +72,15 @@ msim *msim_new(const struct rig_profile *profile, const brdf_material *material,
         return NULL;
     }
     put32(m->det.map->tab_registers, DET_COUNT, DET_NCHANNELS);
+    /* A spectral detector that gives counts serves its bands too. */
+    if (scene && scene->n_bands > 0 && scene->n_bands <= MB_DET_MAX_BANDS &&
+        sim_rig_counts(m->rig)) {
+        m->det.n_bands = scene->n_bands;
+        put32(m->det.map->tab_registers, MB_DET_BAND_COUNT, (uint32_t)scene->n_bands);
+        for (int k = 0; k < scene->n_bands; k++)
+            mb_put_float(m->det.map->tab_registers + MB_DET_BAND_NM + 2 * k,
+                         (float)scene->bands_nm[k]);
+    }
     m->wall0 = gonio_monotonic_s();
     return m;
 }
