@@ -79,8 +79,9 @@ class SpectralModbusTests(CalibrateRig):
         values = [float(x["value"]) for x in spectra]
         self.assertGreater(statistics.median(values), 0.25)
         self.assertLess(statistics.median(values), 0.33)
-        sys.stderr.write("spectral over Modbus: %d band values, median |band/mean - 1| %.3f %%\n"
-                         % (len(spectra), 100 * med))
+        sys.stderr.write("spectral over Modbus: %d band values, median %.4f 1/sr, median "
+                         "|band/mean - 1| %.3f %%\n" % (len(spectra), statistics.median(values),
+                                                       100 * med))
         self.assertLess(med, 0.01)
 
 
