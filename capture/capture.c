@@ -655,10 +655,7 @@ int capture_job_run(capture_job *job, const struct capture_hooks *hooks,
         fit_stream_free(r.fit.fs);
         return 0;
     }
-    if (job->cfg.reference_after && !job->cal)
-        rc = gonio_err_set(err, GONIO_EUSAGE, "--reference-after: the standard is read again "
-                           "against a calibration, and the capture has none");
-    else if (job->cfg.reference_after && !job->src->mount && !r.hooks->ask)
+    if (job->cfg.reference_after && !job->src->mount && !r.hooks->ask)
         rc = gonio_err_set(err, GONIO_EUSAGE, "--reference-after: the rig has no sample "
                            "changer and nobody is asked to mount the standard (capture "
                            "through goniod)");
