@@ -143,6 +143,10 @@ struct worker_msg_stop {
     /* A calibration's stop: its kind ("" for a capture); summary.samples
      * and rig_time_s are its frames and the last one's rig time. */
     char calibration[16];
+    /* A new capture failed before its first sample: nothing in its
+     * directory is worth keeping, and the loop removes it once the stop
+     * is sent (captures_remove). */
+    int discard_dir;
 };
 
 /* A bring-up command ended (worker_bringup): its ticket and result. */
