@@ -87,6 +87,12 @@ static int eta_new(const struct capture_job *in, const struct capture_hooks *hoo
     if (!e)
         return -abs(err ? err->code : ENOMEM);
     capture_eta_ranging(e, ar, in->prescan);
+    /* A resumed capture's first record moved from where the capture found
+     * the axes (plan.json's start), not from home. */
+    struct rig_axes start;
+    plan_order_start(in->plan, &start);
+    if (n > 0)
+        capture_eta_start(e, &start);
     for (size_t i = 0; i < n; i++)
         capture_eta_observe(e, &js[i]);
     *out = e;
@@ -139,17 +145,47 @@ static int replay_journal(struct run *r, struct gonio_err *err)
     return 0;
 }
 
+static int near(const struct rig_axes *a, const struct rig_axes *b, double band)
+{
+    return fabs(a->s - b->s) <= band && fabs(a->a - b->a) <= band && fabs(a->az - b->az) <= band;
+}
+
+/* A resumed capture whose axes stand away from where its journal left them
+ * (beyond the in-position band: moved by a bring-up command, another
+ * capture or by hand) travels the points left from where they stand.
+ * plan.json and the journal's point numbers stay as they are (a point's
+ * number is its identity, not its place on the path); the ETA follows the
+ * new path. Axes where the journal left them go on as never interrupted. */
+static int reroute_resumed(struct run *r, const struct rig_axes *at, long *first,
+                           struct gonio_err *err)
+{
+    capture_job *job = r->job;
+    const struct journal_sample *last = &r->samples[r->n - 1];
+    if (near(at, &plan_point(job->plan, (size_t)last->point)->ax,
+             job->rig.mech.in_position_deg))
+        return 0;
+    int rc = sequence_reroute(r->seq, at, first, err);
+    if (rc < 0 || !r->eta)
+        return rc;
+    capture_eta_free(r->eta);
+    r->eta = NULL;
+    return eta_new(job, r->hooks, r->seq, &r->ranging.ar, r->samples, r->n, &r->eta, err);
+}
+
 /* A new capture whose axes stand away from home (beyond the in-position
  * band) orders its travel from where they stand, before its first record:
  * plan.json is written again with that order and its start, and the
  * sequence made again over it. *first: its first point. The orders that do
- * not travel (as written, adaptive) and a capture with records keep theirs. */
+ * not travel (as written, adaptive) keep theirs; a capture with records
+ * is rerouted (reroute_resumed). */
 static int order_from(struct run *r, const struct rig_axes *at, long *first,
                       struct gonio_err *err)
 {
     capture_job *job = r->job;
     enum plan_order_mode mode = plan_current_order(job->plan);
     double band = job->rig.mech.in_position_deg;
+    if (r->n > 0 && mode != PLAN_ORDER_AS_WRITTEN && mode != PLAN_ORDER_ADAPTIVE)
+        return reroute_resumed(r, at, first, err);
     if (r->n > 0 || r->ranging.ar.n_dark > 0 || mode == PLAN_ORDER_AS_WRITTEN ||
         mode == PLAN_ORDER_ADAPTIVE ||
         (fabs(at->s) <= band && fabs(at->a) <= band && fabs(at->az) <= band))

@@ -147,6 +147,10 @@ struct worker_msg_stop {
     /* A calibration's run as event-model lines (capture/cal_documents.h),
      * each ending in '\n'; malloc'd, NULL: none. */
     char *documents;
+    /* A new capture failed before its first sample: nothing in its
+     * directory is worth keeping, and the loop removes it once the stop
+     * is sent (captures_remove). */
+    int discard_dir;
 };
 
 /* A bring-up command ended (worker_bringup): its ticket and result. */

@@ -253,13 +253,25 @@ int drv_modbus_detector_counts(drv_modbus_bus *bus, int slave, int *counts,
 int drv_modbus_detector_probe(drv_modbus_bus *bus, int slave, unsigned *status, int *channels,
                               struct gonio_err *err)
 {
-    char who[32];
     uint16_t r[4]; /* status and channel count, adjacent */
-    snprintf(who, sizeof who, "detector (slave %d)", slave);
-    int rc = drv_modbus_read(bus, slave, R_STATUS, 4, r, who, err);
+    int rc = drv_modbus_read(bus, slave, R_STATUS, 4, r, "detector", err);
     if (rc < 0)
         return rc;
     *status = drv_modbus_get32(r);
     *channels = (int)drv_modbus_get32(r + 2);
+    return 0;
+}
+
+int drv_modbus_detector_probe_shutter(drv_modbus_bus *bus, int slave, int *closed,
+                                      struct gonio_err *err)
+{
+    uint16_t r[2];
+    int rc = drv_modbus_read(bus, slave, MB_DET_SHUTTER, 2, r, "detector", err);
+    if (rc < 0 && drv_modbus_last_exception(bus) == 2)
+        return gonio_err_set(err, ENOTSUP, "detector (slave %d) has no shutter (register "
+                             "0x%04x: exception 02)", slave, (unsigned)MB_DET_SHUTTER);
+    if (rc < 0)
+        return rc;
+    *closed = drv_modbus_get32(r) != 0;
     return 0;
 }
