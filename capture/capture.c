@@ -18,6 +18,7 @@
 #include "capture/job.h"
 #include "capture/live_fit.h"
 #include "capture/measure.h"
+#include "capture/reference_after.h"
 #include "capture/sequence.h"
 #include "journal/journal.h"
 #include "planner/planner.h"
@@ -377,7 +378,11 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
     double rig_s = r->n > 0 ? all[r->n - 1].rig_time_s : 0;
     /* The first report (a host's start document) waits for the axes'
      * positions when there is a point to measure. */
-    if ((rc = replay_journal(r, err)) < 0 || r->converged || first < 0) {
+    /* The standard still to be read again after the last point (a capture
+     * resumed between the two) needs the devices too. */
+    int after_due = job->cfg.reference_after && job->cal &&
+                    reference_after_read(job->cfg.out_dir, job->cal, NULL, NULL, err) == 0;
+    if ((rc = replay_journal(r, err)) < 0 || ((r->converged || first < 0) && !after_due)) {
         progress(hooks, job, r->eta, &r->fit, r->seq, r->n, r->already, rig_s);
         return rc;
     }
@@ -399,7 +404,7 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
     }
     struct capture_clock clk;
     capture_clock_start(&clk, dev.clock, rig_s);
-    for (long k = first; k >= 0 && rc == 0;) {
+    for (long k = r->converged ? -1 : first; k >= 0 && rc == 0;) {
         enum capture_control c = hooks->control ? hooks->control(hooks->user) : CAPTURE_GO;
         if (c == CAPTURE_ABORT) {
             capture_axes_stop(&dev);
@@ -422,6 +427,13 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
     }
     if (rc == 0 && !r->aborted && (r->job->cfg.checks & CAPTURE_CHECK_ISOTROPY))
         rc = check_isotropy(r, &dev, &clk, err);
+    if (rc == 0 && !r->aborted && job->cfg.reference_after && job->cal && r->n > 0) {
+        struct cal_frame *f = NULL;
+        size_t nf = 0;
+        rc = reference_after_measure(&dev, job->src, hooks, &job->rig, job->cfg.out_dir,
+                                     job->cal, &f, &nf, &r->aborted, err);
+        free(f);
+    }
     r->out->paused_s = clk.paused;
     capture_axis_stats_add(&dev, &r->out->mech);
     job->src->close(job->src->user, &dev);
@@ -642,6 +654,37 @@ static int finish(struct run *r, struct gonio_err *err)
     return rc;
 }
 
+/* The capture's samples reduced again with the drift its standard read
+ * again shows, the journal written again with them and opened anew for
+ * what follows (a check's dark frames). */
+static int drift_correct(struct run *r, struct gonio_err *err)
+{
+    capture_job *job = r->job;
+    struct cal_frame *f = NULL;
+    size_t nf = 0;
+    char path[4200];
+    snprintf(path, sizeof path, "%s/samples.csv", job->cfg.out_dir);
+    int rc = reference_after_read(job->cfg.out_dir, job->cal, &f, &nf, err);
+    if (rc == 0)
+        rc = gonio_err_set(err, GONIO_EBADDATA, "%s/%s: the standard's readings after the "
+                           "capture are not all there (%zu)", job->cfg.out_dir,
+                           REFERENCE_AFTER_ID, nf);
+    if (rc > 0)
+        rc = reference_after_derive(job->cal, f, nf, r->samples[r->n - 1].rig_time_s, err);
+    free(f);
+    struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
+    journal_close(r->j);
+    r->j = NULL;
+    if (rc == 0)
+        rc = reference_after_apply(job->cal, &jp, path, r->samples, r->n, err);
+    struct journal_sample *again = NULL;
+    size_t n_again = 0;
+    r->j = journal_open(path, &again, &n_again, rc == 0 ? err : NULL);
+    free(again);
+    r->ranging.j = r->j;
+    return rc < 0 ? rc : r->j ? 0 : -abs(err ? err->code : EIO);
+}
+
 int capture_job_run(capture_job *job, const struct capture_hooks *hooks,
                     struct capture_summary *out, struct gonio_err *err)
 {
@@ -665,10 +708,20 @@ int capture_job_run(capture_job *job, const struct capture_hooks *hooks,
         fit_stream_free(r.fit.fs);
         return 0;
     }
+    if (job->cfg.reference_after && !job->src->mount && !r.hooks->ask)
+        rc = gonio_err_set(err, GONIO_EUSAGE, "--reference-after: the rig has no sample "
+                           "changer and nobody is asked to mount the standard (capture "
+                           "through goniod)");
+    if (rc < 0) {
+        fit_stream_free(r.fit.fs);
+        return rc;
+    }
     long first = -1;
     rc = open_capture(&r, &first, err);
     if (rc == 0)
         rc = acquire(&r, first, err);
+    if (rc == 0 && !r.aborted && job->cfg.reference_after && r.n > 0)
+        rc = drift_correct(&r, err);
     capture_eta_free(r.eta);
     if (rc == 0 && !r.aborted)
         rc = sequence_summary(r.seq, &job->policy, out, err);

@@ -275,6 +275,7 @@ static struct capture_config request_config(const worker *w, const struct worker
         .stop_target = r->stop_target,
         .prescan = r->prescan,
         .uncalibrated = r->uncalibrated,
+        .reference_after = r->reference_after,
         .calibrations = r->calibration[0] ? w->cfg->calibration_root : NULL,
         .calibration = r->calibration[0] && strcmp(r->calibration, "newest") ? r->calibration
                                                                              : NULL,
@@ -384,6 +385,7 @@ static void *run(void *arg)
         .control = hook_control,
         .on_fit = hook_on_fit,
         .on_progress = hook_on_progress,
+        .ask = worker_hook_ask,
 #ifdef GONIO_TEST_HOOKS
         .on_phase = hook_on_phase,
 #endif

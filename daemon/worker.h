@@ -36,6 +36,7 @@ struct worker_request {
     double budget_min, stop_target; /* the adaptive order's stops, 0: none */
     int prescan; /* capture_config.prescan: 0 the engine's default */
     int uncalibrated; /* capture_config.uncalibrated */
+    int reference_after; /* capture_config.reference_after */
     /* The reference calibration in the configured calibration_root: an
      * id, "newest", or "" for none (capture_config.calibration). */
     char calibration[128];

@@ -110,14 +110,15 @@ int worker_calibrate_check(worker *w, struct worker_calibration *c, struct gonio
 
 /* The operator must act: goniod pauses with the instruction until
  * `gonio resume` (or an abort). */
-static enum capture_control ask(void *user, const char *instruction)
+enum capture_control worker_hook_ask(void *user, const char *instruction)
 {
     worker *w = user;
     pthread_mutex_lock(&w->mu);
     snprintf(w->prompt, sizeof w->prompt, "%s", instruction);
     w->paused = 1;
     pthread_mutex_unlock(&w->mu);
-    fprintf(stderr, "goniod: calibration %s waits: %s\n", w->cal.id, instruction);
+    fprintf(stderr, "goniod: %s %s waits: %s\n", w->calibration[0] ? "calibration" : "capture",
+            w->calibration[0] ? w->cal.id : w->req.id, instruction);
     struct worker_msg *m = calloc(1, sizeof *m);
     if (m) {
         m->kind = WORKER_MSG_PROMPT;
@@ -153,7 +154,7 @@ static int measure(worker *w, const struct cal_run *run, sim_source *sim, int *a
                  : worker_hook_open(w, run->rig, run->root, &dev, err);
     if (rc < 0)
         return rc;
-    struct cal_hooks hooks = {.control = worker_hook_control, .ask = ask,
+    struct cal_hooks hooks = {.control = worker_hook_control, .ask = worker_hook_ask,
                               .on_frame = on_frame, .user = w};
     pthread_mutex_lock(&w->mu);
     w->total = cal_run_total(run);

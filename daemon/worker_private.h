@@ -80,6 +80,9 @@ void worker_push_msg(worker *w, struct worker_msg *m);
 void worker_enqueue_locked(worker *w, struct worker_msg *m);
 void worker_wake(worker *w);
 enum capture_control worker_hook_control(void *user);
+/* The operator must act (capture_hooks.ask, cal_hooks.ask): goniod pauses
+ * with the instruction in status until gonio resume, or an abort. */
+enum capture_control worker_hook_ask(void *user, const char *instruction);
 int worker_hook_open(void *user, const struct rig_profile *rig, const char *dir,
                      struct capture_devices *dev, struct gonio_err *err);
 void worker_hook_close(void *user, struct capture_devices *dev);
