@@ -45,7 +45,9 @@ def capture(tmp, name, plan, material, model, check):
               "--out", out)
     assert r.returncode == 0, r.stderr
     with open(os.path.join(out, "results.json")) as f:
-        return out, json.load(f)
+        res = json.load(f)
+    res["stdout"] = r.stdout
+    return out, res
 
 
 def model_keys(out):
@@ -66,6 +68,7 @@ def test_anisotropic_verdict_chooses_the_anisotropic_model(tmp):
     with open(plan, "w") as f:
         f.write(AZ3)
     out, res = capture(tmp, "aniso", plan, ANISO, "auto", "isotropy")
+    assert res["auto"]["why"] in res["stdout"] and "auto: aniso-ggx; " in res["stdout"]
     assert res["checks"]["isotropy"]["verdict"] == "anisotropic"
     a = res["auto"]
     assert a["chosen"] == "aniso-ggx" and a["isotropy"] == "anisotropic"
