@@ -9,8 +9,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <termios.h>
 #include <time.h>
 
+#include "common/line_speed.h"
 #include "drivers/drv_modbus_private.h"
 
 struct drv_modbus_bus {
@@ -136,7 +138,23 @@ drv_modbus_bus *drv_modbus_bus_new_rtu(const struct drv_modbus_bus_cfg *cfg,
      * (of 11 bits), 1.75 ms above 19200 baud. */
     double char_s = (1 + data + (parity != 'N') + stop) / (double)baud;
     double gap_s = baud > 19200 ? 1.75e-3 : 3.5 * 11.0 / baud;
-    return bus_finish(ctx, cfg, cfg->device, char_s, gap_s, err);
+    drv_modbus_bus *bus = bus_finish(ctx, cfg, cfg->device, char_s, gap_s, err);
+    /* libmodbus sets the line to 9600 baud for a speed it has no case for
+     * (1800, say), with no error: the devices would then be silent at a
+     * speed nobody configured. Read back what the line was set to. */
+    struct termios line;
+    long set = bus && tcgetattr(modbus_get_socket(bus->ctx), &line) == 0
+                   ? line_speed_baud(cfgetospeed(&line))
+                   : baud;
+    if (bus && set != baud) {
+        drv_modbus_bus_free(bus);
+        gonio_err_set(err, EINVAL,
+                      "modbus %s: baud %d: the line was set to %ld baud instead (libmodbus "
+                      "sets 1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200 and faster)",
+                      cfg->device, baud, set);
+        return NULL;
+    }
+    return bus;
 }
 
 drv_modbus_bus *drv_modbus_bus_new_tcp(const struct drv_modbus_bus_cfg *cfg,

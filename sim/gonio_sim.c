@@ -10,6 +10,7 @@
 
 #include "brdf/material.h"
 #include "common/err.h"
+#include "common/line_speed.h"
 #include "common/version.h"
 #include "rig/rig.h"
 #include "sim/modbus_server.h"
@@ -122,7 +123,8 @@ static int parse_baud(const char *arg, long *baud)
         fprintf(stderr, "gonio-sim: --baud '%s': expected a whole number\n", arg);
         return -1;
     }
-    if (!msim_line_speed((long)v)) {
+    speed_t code;
+    if (line_speed_code((long)v, &code) < 0) {
         fprintf(stderr, "gonio-sim: --baud '%s': not a speed a serial line is set to (1200, "
                 "9600, 19200, 38400, 57600, 115200, ...)\n", arg);
         return -1;

@@ -22,6 +22,7 @@
 #include <unistd.h>
 
 #include "common/clock.h"
+#include "common/line_speed.h"
 #include "sim/modbus_server_private.h"
 #include "sim/sim.h"
 
@@ -164,27 +165,6 @@ static int rtu_frame_len(const uint8_t *b, int n)
     }
 }
 
-/* The speeds a serial line (and so a pseudo-terminal) can be set to. */
-static const struct {
-    speed_t code;
-    long baud;
-} line_rates[] = {
-    {B50, 50},         {B75, 75},         {B110, 110},       {B134, 134},
-    {B150, 150},       {B200, 200},       {B300, 300},       {B600, 600},
-    {B1200, 1200},     {B1800, 1800},     {B2400, 2400},     {B4800, 4800},
-    {B9600, 9600},     {B19200, 19200},   {B38400, 38400},   {B57600, 57600},
-    {B115200, 115200}, {B230400, 230400}, {B460800, 460800}, {B500000, 500000},
-    {B576000, 576000}, {B921600, 921600}, {B1000000, 1000000},
-};
-
-int msim_line_speed(long baud)
-{
-    for (size_t i = 0; i < sizeof line_rates / sizeof *line_rates; i++)
-        if (line_rates[i].baud == baud)
-            return 1;
-    return 0;
-}
-
 /* The speed the master set on the pseudo-terminal, in baud (Linux: the
  * master side reads the slave side's termios); 0 when unknown or when
  * input and output differ, -1 when tcgetattr fails. */
@@ -196,10 +176,7 @@ static long pty_line_baud(int fd)
     speed_t out = cfgetospeed(&t), in = cfgetispeed(&t);
     if (in != 0 && in != out) /* input 0: the output's speed */
         return 0;
-    for (size_t i = 0; i < sizeof line_rates / sizeof *line_rates; i++)
-        if (line_rates[i].code == out)
-            return line_rates[i].baud;
-    return 0;
+    return line_speed_baud(out);
 }
 
 static void rtu_frame(msim *m, int len)

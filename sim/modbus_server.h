@@ -77,10 +77,6 @@ int msim_jam(msim *m, int slave, enum msim_jam_kind kind, double deg, struct gon
  * whole server meanwhile, as a slow device holds a bus. */
 int msim_delay(msim *m, int slave, double ms, struct gonio_err *err);
 
-/* 1 when baud is a speed a serial line can be set to (termios: 50 to
- * 1000000), else 0: msim_cfg.baud must be one. */
-int msim_line_speed(long baud);
-
 /* Create the RTU pseudo-terminal (raw mode); its slave path goes to path.
  * link, when not NULL, is (re)made a symlink to it. */
 int msim_open_pty(msim *m, const char *link, char *path, size_t size, struct gonio_err *err);

@@ -81,6 +81,7 @@ class UsbCaptureTests(unittest.TestCase):
     USB2000+ (the recording answers each spectrum request the same way)."""
     SIM = test_goniod_modbus.ModbusRig.SIM
     SIM_SCALE = test_goniod_modbus.ModbusRig.SIM_SCALE
+    SIM_ARGS = test_goniod_modbus.ModbusRig.SIM_ARGS
     setUp = test_goniod_modbus.ModbusRig.setUp
     stop_sim = test_goniod_modbus.ModbusRig.stop_sim
 

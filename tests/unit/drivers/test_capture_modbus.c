@@ -275,7 +275,7 @@ static void test_capture_faulty_line(void **state)
 
 /* The bus off the critical path, on a line slow enough that its frames
  * count, yet fast enough that the encoder reads fit in the settle (0.3 s):
- * 1800 baud, 6.1 ms a character of 11 bits (gonio-sim's), charged on the
+ * 2400 baud, 4.6 ms a character of 11 bits (gonio-sim's), charged on the
  * simulated clock, so the host's time adds nothing.
  * DS4's points 1 to 5 move the arm alone, upwards (no backlash leg). Had
  * the encoder reads stayed between the drive's rest and the settle, each
@@ -295,7 +295,7 @@ static void test_capture_faulty_line(void **state)
 static void test_capture_slow_line(void **state)
 {
     (void)state;
-    struct rig_host h = {.baud = 1800};
+    struct rig_host h = {.baud = 2400};
     capture_on_modbus("ds4", "ideal", "simulated", 0, &h);
     struct gonio_err err = {0};
     struct rig_profile rig;

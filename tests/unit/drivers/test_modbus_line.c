@@ -124,10 +124,33 @@ static void test_move_costs_write_and_status(void **state)
     drv_axis_free(arm);
 }
 
+/* A speed libmodbus has no case for (1800 baud) is refused when the bus
+ * opens, naming it: libmodbus would set the line to 9600 without a word
+ * and the devices would stay silent. gonio-sim's own line is 19200. */
+static void test_unsupported_speed_is_refused(void **state)
+{
+    (void)state;
+    struct drv_modbus_bus_cfg cfg;
+    drv_modbus_bus_cfg_default(&cfg);
+    cfg.device = sim.pty;
+    cfg.time_scale = SCALE;
+    struct gonio_err err = {0};
+    cfg.baud = 1800;
+    assert_null(drv_modbus_bus_new_rtu(&cfg, &err));
+    if (!strstr(err.msg, "baud 1800") || !strstr(err.msg, "9600 baud instead"))
+        fail_msg("%s", err.msg);
+    cfg.baud = 2400;
+    drv_modbus_bus *other = drv_modbus_bus_new_rtu(&cfg, &err);
+    if (!other)
+        fail_msg("%s", err.msg);
+    drv_modbus_bus_free(other);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_move_costs_write_and_status),
+        cmocka_unit_test(test_unsupported_speed_is_refused),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }
