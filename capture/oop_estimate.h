@@ -27,7 +27,7 @@
 #include "common/err.h"
 
 #define OOP_ESTIMATE_PAIRS 10  /* domain nodes measured */
-#define OOP_ESTIMATE_FLOOR 0.02 /* the draw's density where the model is dark */
+#define OOP_ESTIMATE_FLOOR 0.08 /* the draw's density where the model is dark */
 #define OOP_ESTIMATE_MIN_USED 4 /* readings below which no estimate is given */
 #define OOP_ESTIMATE_Z 1.96     /* the interval's half width in standard errors (95%) */
 
