@@ -91,6 +91,10 @@ struct cal_run {
     const struct cal_meta *meta; /* id, kind, integrations (dark), standard */
     const struct rig_profile *rig; /* its shutter, settle and integration */
     const struct plan *plan;     /* reference, stray: the points */
+    /* Instead of the plan's (points not NULL): the standard read again
+     * after a capture (capture/reference_after.h) at these geometries. */
+    const struct plan_point *points;
+    size_t n_points;
     int per_point;               /* dark: frames per integration; else repeats */
 };
 
@@ -166,6 +170,18 @@ int cal_select_stray(const char *root, const char *id, const char *dark,
                      const struct cal_need *need, struct cal_meta *meta_out,
                      struct gonio_err *err);
 
+/* The drift a capture's reference read again after its points shows
+ * (capture/reference_after.h): the standard's response then over the
+ * calibration's, per channel, and that ratio's relative standard
+ * uncertainty; t_end_s, the capture's rig time where it stands (its last
+ * sample's). The reduction interpolates it linearly in rig time from 1 at
+ * the capture's start (docs/radiometry.md, "Drift"). on 0: none. */
+struct cal_drift {
+    int on;
+    double t_end_s, q[3], u_q[3];
+    size_t geometries, frames;
+};
+
 /* A loaded calibration: the reduction's inputs, owning their arrays. */
 struct cal_bands;
 struct cal_loaded {
@@ -178,6 +194,7 @@ struct cal_loaded {
     /* a spectral detector's: the same per band (capture/calibration_bands.h);
      * NULL when its frames hold no bands */
     struct cal_bands *bands;
+    struct cal_drift drift; /* a capture's, set once its reference is read again */
 };
 
 /* Load reference calibration id and its dark (and its stray light when it

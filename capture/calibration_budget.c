@@ -61,6 +61,14 @@ struct json_t *cal_budget_json(const struct cal_loaded *cl, const struct rad_val
     if (cl->cal.standard.warning[0])
         json_object_set_new(j, "warning", json_string(cl->cal.standard.warning));
     json_object_set_new(j, "budget", terms);
+    const struct cal_drift *d = &cl->drift;
+    if (d->on) /* the drift the standard read again after the capture showed */
+        json_object_set_new(j, "reference_after",
+                            json_pack("{s:[f,f,f], s:[f,f,f], s:f, s:I, s:I}", "ratio", d->q[0],
+                                      d->q[1], d->q[2], "ratio_relative_u", d->u_q[0],
+                                      d->u_q[1], d->u_q[2], "rig_time_s", d->t_end_s,
+                                      "geometries", (json_int_t)d->geometries, "readings",
+                                      (json_int_t)d->frames));
     json_object_set_new(j, "combined_median_relative_u", row(v, n, -1, buf));
     free(buf);
     return j;

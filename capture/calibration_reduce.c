@@ -34,6 +34,18 @@ static void to_raw(const struct journal_sample *s, const struct journal_plan *pl
     r->monitor = s->monitor;
     r->full_scale = cl->full_scale;
     r->nonlinearity = cl->nonlinearity;
+    /* The drift at the record's rig time, linear from none at the capture's
+     * start to the reference read again at its end; its uncertainty the
+     * ratio's, scaled alike, and the drift's departure from the line, taken
+     * as a random walk's bridge through the two ends (the one step seen
+     * giving its rate): variance (q - 1)^2 w (1 - w). */
+    const struct cal_drift *d = &cl->drift;
+    double w = !d->on ? 0 : d->t_end_s > 0 ? fmin(fmax(s->rig_time_s / d->t_end_s, 0), 1) : 1;
+    for (int c = 0; d->on && c < 3; c++) {
+        double step = d->q[c] - 1.0;
+        r->drift_rel[c] = w * step;
+        r->drift_u[c] = sqrt(w * w * d->u_q[c] * d->u_q[c] + step * step * w * (1.0 - w));
+    }
 }
 
 double cal_instrument_theta_r(const struct plan_point *pt)

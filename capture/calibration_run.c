@@ -19,8 +19,15 @@ size_t cal_run_total(const struct cal_run *run)
     size_t per = run->per_point > 0 ? (size_t)run->per_point : 0;
     if (run->meta->kind == CAL_DARK)
         return run->meta->n_integrations * per;
-    /* reference and stray: the plan's points */
+    /* reference and stray: the plan's points, or the run's own */
+    if (run->points)
+        return run->n_points * per;
     return run->plan ? plan_count(run->plan) * per : 0;
+}
+
+static const struct plan_point *run_point(const struct cal_run *run, size_t i)
+{
+    return run->points ? &run->points[i] : plan_point(run->plan, i);
 }
 
 /* What frame idx of the run is: its integration and plan angles. */
@@ -33,7 +40,7 @@ static void expected(const struct cal_run *run, size_t idx, double *ti, double *
         *integration_s = run->meta->integrations[i];
         return;
     }
-    const struct plan_point *pt = plan_point(run->plan, i);
+    const struct plan_point *pt = run_point(run, i);
     *ti = pt->theta_i, *tr = pt->theta_r;
     *integration_s = run->rig->integration_s;
 }
@@ -185,7 +192,7 @@ int cal_run_measure(struct capture_devices *dev, const struct cal_run *run,
         expected(run, idx, &ti, &tr, &t);
         size_t point = idx / (size_t)run->per_point;
         if (run->meta->kind != CAL_DARK && point != moved_to) {
-            if ((rc = cal_go_to(dev, run->rig, plan_point(run->plan, point), err)) < 0)
+            if ((rc = cal_go_to(dev, run->rig, run_point(run, point), err)) < 0)
                 break;
             moved_to = point;
         }

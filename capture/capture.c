@@ -18,6 +18,7 @@
 #include "capture/job.h"
 #include "capture/live_fit.h"
 #include "capture/measure.h"
+#include "capture/reference_after.h"
 #include "capture/sequence.h"
 #include "journal/journal.h"
 #include "planner/planner.h"
@@ -86,6 +87,12 @@ static int eta_new(const struct capture_job *in, const struct capture_hooks *hoo
     if (!e)
         return -abs(err ? err->code : ENOMEM);
     capture_eta_ranging(e, ar, in->prescan);
+    /* A resumed capture's first record moved from where the capture found
+     * the axes (plan.json's start), not from home. */
+    struct rig_axes start;
+    plan_order_start(in->plan, &start);
+    if (n > 0)
+        capture_eta_start(e, &start);
     for (size_t i = 0; i < n; i++)
         capture_eta_observe(e, &js[i]);
     *out = e;
@@ -138,17 +145,47 @@ static int replay_journal(struct run *r, struct gonio_err *err)
     return 0;
 }
 
+static int near(const struct rig_axes *a, const struct rig_axes *b, double band)
+{
+    return fabs(a->s - b->s) <= band && fabs(a->a - b->a) <= band && fabs(a->az - b->az) <= band;
+}
+
+/* A resumed capture whose axes stand away from where its journal left them
+ * (beyond the in-position band: moved by a bring-up command, another
+ * capture or by hand) travels the points left from where they stand.
+ * plan.json and the journal's point numbers stay as they are (a point's
+ * number is its identity, not its place on the path); the ETA follows the
+ * new path. Axes where the journal left them go on as never interrupted. */
+static int reroute_resumed(struct run *r, const struct rig_axes *at, long *first,
+                           struct gonio_err *err)
+{
+    capture_job *job = r->job;
+    const struct journal_sample *last = &r->samples[r->n - 1];
+    if (near(at, &plan_point(job->plan, (size_t)last->point)->ax,
+             job->rig.mech.in_position_deg))
+        return 0;
+    int rc = sequence_reroute(r->seq, at, first, err);
+    if (rc < 0 || !r->eta)
+        return rc;
+    capture_eta_free(r->eta);
+    r->eta = NULL;
+    return eta_new(job, r->hooks, r->seq, &r->ranging.ar, r->samples, r->n, &r->eta, err);
+}
+
 /* A new capture whose axes stand away from home (beyond the in-position
  * band) orders its travel from where they stand, before its first record:
  * plan.json is written again with that order and its start, and the
  * sequence made again over it. *first: its first point. The orders that do
- * not travel (as written, adaptive) and a capture with records keep theirs. */
+ * not travel (as written, adaptive) keep theirs; a capture with records
+ * is rerouted (reroute_resumed). */
 static int order_from(struct run *r, const struct rig_axes *at, long *first,
                       struct gonio_err *err)
 {
     capture_job *job = r->job;
     enum plan_order_mode mode = plan_current_order(job->plan);
     double band = job->rig.mech.in_position_deg;
+    if (r->n > 0 && mode != PLAN_ORDER_AS_WRITTEN && mode != PLAN_ORDER_ADAPTIVE)
+        return reroute_resumed(r, at, first, err);
     if (r->n > 0 || r->ranging.ar.n_dark > 0 || mode == PLAN_ORDER_AS_WRITTEN ||
         mode == PLAN_ORDER_ADAPTIVE ||
         (fabs(at->s) <= band && fabs(at->a) <= band && fabs(at->az) <= band))
@@ -380,7 +417,11 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
     double rig_s = r->n > 0 ? all[r->n - 1].rig_time_s : 0;
     /* The first report (a host's start document) waits for the axes'
      * positions when there is a point to measure. */
-    if ((rc = replay_journal(r, err)) < 0 || r->converged || first < 0) {
+    /* The standard still to be read again after the last point (a capture
+     * resumed between the two) needs the devices too. */
+    int after_due = job->cfg.reference_after && job->cal &&
+                    reference_after_read(job->cfg.out_dir, job->cal, NULL, NULL, err) == 0;
+    if ((rc = replay_journal(r, err)) < 0 || ((r->converged || first < 0) && !after_due)) {
         progress(hooks, job, r->eta, &r->fit, r->seq, r->n, r->already, rig_s);
         return rc;
     }
@@ -402,7 +443,7 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
     }
     struct capture_clock clk;
     capture_clock_start(&clk, dev.clock, rig_s);
-    for (long k = first; k >= 0 && rc == 0;) {
+    for (long k = r->converged ? -1 : first; k >= 0 && rc == 0;) {
         enum capture_control c = hooks->control ? hooks->control(hooks->user) : CAPTURE_GO;
         if (c == CAPTURE_ABORT) {
             capture_axes_stop(&dev);
@@ -425,6 +466,13 @@ static int acquire(struct run *r, long first, struct gonio_err *err)
     }
     if (rc == 0 && !r->aborted && (r->job->cfg.checks & CAPTURE_CHECK_ISOTROPY))
         rc = check_isotropy(r, &dev, &clk, err);
+    if (rc == 0 && !r->aborted && job->cfg.reference_after && job->cal && r->n > 0) {
+        struct cal_frame *f = NULL;
+        size_t nf = 0;
+        rc = reference_after_measure(&dev, job->src, hooks, &job->rig, job->cfg.out_dir,
+                                     job->cal, &f, &nf, &r->aborted, err);
+        free(f);
+    }
     r->out->paused_s = clk.paused;
     capture_axis_stats_add(&dev, &r->out->mech);
     job->src->close(job->src->user, &dev);
@@ -547,6 +595,68 @@ static void summarize(const struct run *r, struct capture_summary *out)
                                    : "complete");
 }
 
+/* The final fit of the capture's samples into *fitted (capture_fit_samples). */
+static int final_fit(struct run *r, const double *usys, brdf_material **fitted,
+                     struct gonio_err *err)
+{
+    const capture_job *job = r->job;
+    const struct live_fit *lf = &r->fit;
+    int rc = capture_fit_samples(
+        r->samples, r->n, lf->fs && !lf->progress ? fit_stream_params(lf->fs) : NULL,
+        job->model, job->cfg.out_dir,
+        job->material_name[0] ? job->material_name
+        : job->truth_name[0]  ? job->truth_name
+                              : NULL,
+        job->adaptive, usys, r->out, fitted, err);
+    if (rc == 0 && r->converged)
+        r->out->converged = 1; /* the stop rule decided: the capture converged */
+    return rc;
+}
+
+/* The in-plane sufficiency check of the final fit. With --model auto a
+ * chosen model judged insufficient is evidence against it: the fit is made
+ * again with it (fit/auto_evidence.h), and while that chooses a candidate
+ * not yet checked, the new choice is checked too; each candidate is
+ * measured at most once. The summary keeps the final choice's check, with
+ * the rig time of them all. */
+static int check_out_of_plane_chosen(struct run *r, const double *usys, brdf_material **fitted,
+                                     struct gonio_err *err)
+{
+    struct capture_summary *out = r->out;
+    struct oop_check_result seen[FIT_AUTO_MAX_CANDIDATES];
+    char seen_model[FIT_AUTO_MAX_CANDIDATES][sizeof out->auto_chosen];
+    size_t n_seen = 0;
+    int rc = check_out_of_plane(r, *fitted, err);
+    double spent = out->oop.rig_time_s;
+    while (rc == 0 && out->auto_chosen[0] && n_seen < FIT_AUTO_MAX_CANDIDATES) {
+        seen[n_seen] = out->oop;
+        snprintf(seen_model[n_seen++], sizeof *seen_model, "%s", out->auto_chosen);
+        fit_auto_evidence_oop(&out->auto_evidence, out->auto_chosen, out->oop.verdict);
+        if (strcmp(out->oop.verdict, "insufficient")) { /* the choice stands */
+            size_t at = strlen(out->auto_why);
+            snprintf(out->auto_why + at, sizeof out->auto_why - at,
+                     "%sout-of-plane check: %.16s %.16s", at ? "; " : "", out->auto_chosen,
+                     out->oop.verdict);
+            break;
+        }
+        brdf_material_free(*fitted);
+        *fitted = NULL;
+        if ((rc = final_fit(r, usys, fitted, err)) < 0)
+            break;
+        size_t k = 0;
+        while (k < n_seen && strcmp(seen_model[k], out->auto_chosen))
+            k++;
+        if (k < n_seen) { /* every better candidate judged insufficient too */
+            out->oop = seen[k];
+            break;
+        }
+        rc = check_out_of_plane(r, *fitted, err);
+        spent += out->oop.rig_time_s;
+    }
+    out->oop.rig_time_s = spent;
+    return rc;
+}
+
 /* The final fit and its errors, and results.json. The final fit starts
  * from the stop rule's last round; progress rounds do not steer it, so a
  * capture fits the same with or without them. abc-prior leaves what was
@@ -555,7 +665,6 @@ static int finish(struct run *r, struct gonio_err *err)
 {
     const capture_job *job = r->job;
     struct capture_summary *out = r->out;
-    const struct live_fit *lf = &r->fit;
     brdf_material *fitted = NULL; /* the final fit, as a material */
     size_t valued = 0;
     for (size_t i = 0; i < r->n; i++)
@@ -571,17 +680,9 @@ static int finish(struct run *r, struct gonio_err *err)
     struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
     if (job->cal)
         rad_systematic_rel_u(&job->cal->cal, usys);
-    int rc = capture_fit_samples(
-        r->samples, r->n, lf->fs && !lf->progress ? fit_stream_params(lf->fs) : NULL,
-        job->model, job->cfg.out_dir,
-        job->material_name[0] ? job->material_name
-        : job->truth_name[0]  ? job->truth_name
-                              : NULL,
-        job->adaptive, job->cal ? usys : NULL, out, &fitted, err);
-    if (rc == 0 && r->converged)
-        out->converged = 1; /* the stop rule decided: the capture converged */
+    int rc = final_fit(r, job->cal ? usys : NULL, &fitted, err);
     if (rc == 0 && (job->cfg.checks & CAPTURE_CHECK_OUT_OF_PLANE))
-        rc = check_out_of_plane(r, fitted, err);
+        rc = check_out_of_plane_chosen(r, job->cal ? usys : NULL, &fitted, err);
     if (rc == 0 && job->truth)
         rc = capture_assess_truth(job->truth, fitted, job->cfg.assess_nodes, out, err);
     if (rc == 0)
@@ -590,6 +691,37 @@ static int finish(struct run *r, struct gonio_err *err)
         rc = cal_results_budget(job->cal, &jp, r->samples, r->n, job->cfg.out_dir, err);
     brdf_material_free(fitted);
     return rc;
+}
+
+/* The capture's samples reduced again with the drift its standard read
+ * again shows, the journal written again with them and opened anew for
+ * what follows (a check's dark frames). */
+static int drift_correct(struct run *r, struct gonio_err *err)
+{
+    capture_job *job = r->job;
+    struct cal_frame *f = NULL;
+    size_t nf = 0;
+    char path[4200];
+    snprintf(path, sizeof path, "%s/samples.csv", job->cfg.out_dir);
+    int rc = reference_after_read(job->cfg.out_dir, job->cal, &f, &nf, err);
+    if (rc == 0)
+        rc = gonio_err_set(err, GONIO_EBADDATA, "%s/%s: the standard's readings after the "
+                           "capture are not all there (%zu)", job->cfg.out_dir,
+                           REFERENCE_AFTER_ID, nf);
+    if (rc > 0)
+        rc = reference_after_derive(job->cal, f, nf, r->samples[r->n - 1].rig_time_s, err);
+    free(f);
+    struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
+    journal_close(r->j);
+    r->j = NULL;
+    if (rc == 0)
+        rc = reference_after_apply(job->cal, &jp, path, r->samples, r->n, err);
+    struct journal_sample *again = NULL;
+    size_t n_again = 0;
+    r->j = journal_open(path, &again, &n_again, rc == 0 ? err : NULL);
+    free(again);
+    r->ranging.j = r->j;
+    return rc < 0 ? rc : r->j ? 0 : -abs(err ? err->code : EIO);
 }
 
 int capture_job_run(capture_job *job, const struct capture_hooks *hooks,
@@ -615,10 +747,20 @@ int capture_job_run(capture_job *job, const struct capture_hooks *hooks,
         fit_stream_free(r.fit.fs);
         return 0;
     }
+    if (job->cfg.reference_after && !job->src->mount && !r.hooks->ask)
+        rc = gonio_err_set(err, GONIO_EUSAGE, "--reference-after: the rig has no sample "
+                           "changer and nobody is asked to mount the standard (capture "
+                           "through goniod)");
+    if (rc < 0) {
+        fit_stream_free(r.fit.fs);
+        return rc;
+    }
     long first = -1;
     rc = open_capture(&r, &first, err);
     if (rc == 0)
         rc = acquire(&r, first, err);
+    if (rc == 0 && !r.aborted && job->cfg.reference_after && r.n > 0)
+        rc = drift_correct(&r, err);
     capture_eta_free(r.eta);
     if (rc == 0 && !r.aborted)
         rc = sequence_summary(r.seq, &job->policy, out, err);

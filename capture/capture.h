@@ -18,6 +18,7 @@
 #include "capture/isotropy_check.h"
 #include "capture/oop_check.h"
 #include "brdf/abc.h"
+#include "fit/auto_evidence.h"
 #include "fit/fit.h"
 #include "brdf/material.h"
 #include "brdf/metrics.h"
@@ -103,6 +104,13 @@ struct capture_config {
      * not_fitted says why). Without it such a capture is refused before
      * the first move (capture/calibration.h). */
     int uncalibrated;
+    /* A calibrated capture reads its reference standard again after its
+     * last point, at a few of the calibration's geometries, and reduces
+     * its samples with the drift interpolated in rig time between the two
+     * (capture/reference_after.h, docs/radiometry.md "Drift"). The
+     * standard is mounted by the rig's sample changer (capture_rig.mount),
+     * else the operator is asked (capture_hooks.ask). */
+    int reference_after;
     /* Only the estimate is wanted (gonio plan --scene, capture_check): nothing
      * is measured, so a detector of counts needs no calibration. */
     int estimate_only;
@@ -152,6 +160,12 @@ struct capture_summary {
     struct iso_check_result isotropy;
     int has_oop; /* the in-plane sufficiency check ran: its verdict and rig time */
     struct oop_check_result oop;
+    /* --model auto: the model it chose, what the checks' evidence decided
+     * ("" when nothing) and the evidence (fit/auto_evidence.h; oop holds
+     * the chosen model's check, its rig time that of every candidate's). */
+    char auto_chosen[16];
+    char auto_why[320];
+    struct fit_auto_evidence auto_evidence;
     /* Why no model was fitted ("" when one was): counts not reduced. */
     char not_fitted[160];
     size_t darks;   /* dark frames journalled (auto-ranging) */
@@ -204,6 +218,11 @@ struct capture_rig {
     /* What the rig measures, when the source knows (the simulator): its
      * label, and the reference of the truth errors unless truth names one. */
     const brdf_material *material;
+    /* Put the standard (standard: its name, as calibration.json has it) in
+     * the sample's place, or the sample back (standard NULL): the rig's
+     * sample changer. NULL: the rig has none, the operator swaps them. */
+    int (*mount)(void *user, struct capture_devices *dev, const char *standard,
+                 struct gonio_err *err);
     void *user;
 };
 
@@ -271,6 +290,11 @@ struct capture_hooks {
      * run's start: done = already_done) and after each sample (before
      * on_sample): what a progress display shows. */
     void (*on_progress)(void *user, const struct capture_progress *p);
+    /* The operator must act before the engine goes on (mount the standard
+     * on a rig without a sample changer): returns once they have (the host
+     * holds the capture paused meanwhile), or CAPTURE_ABORT. NULL: nobody
+     * to ask, and what needs one is refused before the first move. */
+    enum capture_control (*ask)(void *user, const char *instruction);
     void *user;
 };
 

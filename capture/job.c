@@ -176,6 +176,9 @@ static int resolve_inputs(const struct capture_config *cfg, const struct capture
 static int resolve_calibration(const struct capture_config *cfg, struct capture_job *in,
                                struct gonio_err *err)
 {
+    if (!cfg->calibrations && cfg->reference_after && !cfg->estimate_only)
+        return gonio_err_set(err, GONIO_EUSAGE, "--reference-after: the standard is read again "
+                             "against a calibration, and the capture names none");
     if (!cfg->calibrations)
         return 0;
     struct cal_need need = {.rig = in->rig.name,

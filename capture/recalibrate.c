@@ -15,6 +15,7 @@
 #include "capture/capture_files.h"
 #include "capture/final_fit.h"
 #include "capture/journal_plan.h"
+#include "capture/reference_after.h"
 #include "common/paths.h"
 
 /* The capture's own description: setup.json's rig name, detector and
@@ -200,6 +201,25 @@ static int read_records(const char *dir, const struct journal_plan *jp, double b
     return journal_plan_check(path, *s, *n, jp, band, err);
 }
 
+/* The drift the capture's standard read again after its points shows,
+ * against this calibration, as the capture derived it (placed at its last
+ * sample's rig time); none when it read none. */
+static int drift_of(const char *dir, struct cal_loaded *cl, const struct journal_sample *s,
+                    size_t n, struct gonio_err *err)
+{
+    struct cal_frame *f = NULL;
+    size_t nf = 0;
+    double t_end = 0;
+    for (size_t k = 0; k < n; k++)
+        if (!(s[k].flags & JOURNAL_FLAG_DARK))
+            t_end = s[k].rig_time_s;
+    int rc = reference_after_read(dir, cl, &f, &nf, err);
+    if (rc > 0)
+        rc = reference_after_derive(cl, f, nf, t_end, err);
+    free(f);
+    return rc < 0 ? rc : 0;
+}
+
 int capture_recalibrate(const char *dir, const char *root, const char *id, const char *out,
                         struct gonio_err *err)
 {
@@ -221,6 +241,8 @@ int capture_recalibrate(const char *dir, const char *root, const char *id, const
     int loaded = rc == 0 && (rc = cal_load(root, id, &cl, err)) == 0;
     if (rc == 0)
         rc = check_match(dir, &su, &cl, err);
+    if (rc == 0)
+        rc = drift_of(dir, &cl, s, n, err);
     if (rc == 0)
         rc = prepare_out(dir, out, &su, id, err);
     if (rc == 0)

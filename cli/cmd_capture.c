@@ -24,6 +24,7 @@ static void usage(FILE *out)
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
             "                     [--calibration ID|newest --calibrations ROOT]\n"
             "                     [--uncalibrated] [--check CHECK[,CHECK]] [--quiet]\n"
+            "                     [--reference-after]\n"
             "                     [--sample NAME] [--operator NAME] [--note TEXT]\n"
             "  --sample, --operator, --note: the sample's name, who ran the capture and a\n"
             "  note, recorded in setup.json and results.json (a resume keeps the first).\n"
@@ -54,6 +55,10 @@ static void usage(FILE *out)
             "  detector) in ROOT (gonio calibrate, docs/radiometry.md); a calibration\n"
             "  that is missing, expired, of another rig or detector, or without the\n"
             "  rig's integration is refused before the first move (exit 2).\n"
+            "  --reference-after: after the last point the standard is read again (the\n"
+            "  simulated rig's sample changer mounts it) and the samples are reduced with\n"
+            "  the drift interpolated in rig time between it and the calibration\n"
+            "  (docs/radiometry.md, \"Drift\").\n"
             "  --check isotropy: after the last point, re-measure a few glossy pairs with\n"
             "  the sample turned about its normal and say whether it is isotropic, as the\n"
             "  in-plane premise assumes (docs/checks.md); needs a rig profile with a\n"
@@ -200,6 +205,8 @@ static void print_summary(const char *out_dir, const struct capture_summary *s)
         printf("  full-domain log error estimated %.4f (95%%: %.4f-%.4f, %zu of %zu nodes read)\n",
                s->oop.full.error, s->oop.full.low, s->oop.full.high, s->oop.full.used,
                s->oop.full.pairs);
+    if (s->auto_chosen[0]) /* --model auto: what it chose, and what the checks decided */
+        printf("  auto: %s%s%s\n", s->auto_chosen, s->auto_why[0] ? "; " : "", s->auto_why);
 }
 
 int cmd_capture(int argc, char **argv)
@@ -218,6 +225,7 @@ int cmd_capture(int argc, char **argv)
         {"calibrations", required_argument, NULL, 'R'}, {"check", required_argument, NULL, 'K'},
         {"sample", required_argument, NULL, 'n'}, {"operator", required_argument, NULL, 'w'},
         {"note", required_argument, NULL, 'N'},
+        {"reference-after", no_argument, NULL, 'A'},
         {NULL, 0, NULL, 0},
     };
     struct capture_config cfg = {.model = "abc"};
@@ -240,6 +248,7 @@ int cmd_capture(int argc, char **argv)
         case 't': cfg.truth = optarg; break;
         case 'q': cfg.quiet = 1; break;
         case 'U': cfg.uncalibrated = 1; break;
+        case 'A': cfg.reference_after = 1; break;
         case 'n': cfg.sample = optarg; break;
         case 'w': cfg.operator_name = optarg; break;
         case 'N': cfg.note = optarg; break;

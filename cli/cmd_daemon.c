@@ -476,6 +476,7 @@ static void capture_usage(FILE *out)
             "                     [--stop-target LOG_ERR] [--truth SPEC] [--prescan N]\n"
             "                     [--name ID] [--sample NAME] [--operator NAME] [--note TEXT]\n"
             "                     [--uncalibrated] [--calibration ID|newest]\n"
+            "                     [--reference-after]\n"
             "                     [--check CHECK[,CHECK]] [--wait] [--quiet] [--socket PATH]\n"
             "  Starts a capture on goniod (--offline runs one in-process instead; see\n"
             "  'gonio capture --offline --help'). A --plan, --rig or --scene FILE is read\n"
@@ -495,6 +496,9 @@ static void capture_usage(FILE *out)
             "  calibration ID in goniod's calibration root (gonio calibrate), or the newest\n"
             "  valid one for the rig and detector; refused (exit 2) before the first move\n"
             "  when it is missing, expired or of another rig or detector.\n"
+            "  --reference-after: the standard read again after the last point (goniod\n"
+            "  pauses for the operator to mount it; gonio resume goes on) and the samples\n"
+            "  reduced with the drift between it and the calibration.\n"
             "  --order adaptive, --budget, --stop-target: as 'gonio capture --offline --help'\n"
             "  says. --check isotropy: after the last point, the isotropy check on a rig\n"
             "  whose profile has a rotation axis (--rig rotating); its verdict is in the\n"
@@ -561,6 +565,7 @@ int cmd_capture_daemon(int argc, char **argv)
         {"operator", required_argument, NULL, 'O'}, {"note", required_argument, NULL, 'N'},
         {"uncalibrated", no_argument, NULL, 'U'}, {"check", required_argument, NULL, 'K'},
         {"calibration", required_argument, NULL, 'C'},
+        {"reference-after", no_argument, NULL, 'R'},
         {NULL, 0, NULL, 0},
     };
     static const char *const keys[] = {"plan",  "scene",  "material", "rig",      "model",
@@ -571,7 +576,7 @@ int cmd_capture_daemon(int argc, char **argv)
     const char *vals[N_KEYS] = {0}, *sock = NULL;
     double budget = 0, target = 0;
     long long prescan = -1; /* -1: not given, goniod's default */
-    int wait = 0, quiet = 0, uncalibrated = 0, ch, ignored;
+    int wait = 0, quiet = 0, uncalibrated = 0, reference_after = 0, ch, ignored;
     optind = 1;
     while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         const char *at = ch ? strchr(letters, ch) : NULL;
@@ -584,6 +589,7 @@ int cmd_capture_daemon(int argc, char **argv)
         case 'w': wait = 1; break;
         case 'q': quiet = 1; break;
         case 'U': uncalibrated = 1; break;
+        case 'R': reference_after = 1; break;
         case 'P':
             if (cmd_capture_prescan(optarg, &prescan, &ignored) < 0)
                 return 2;
@@ -636,6 +642,8 @@ int cmd_capture_daemon(int argc, char **argv)
         json_object_set_new(req, "prescan", json_integer((json_int_t)prescan));
     if (uncalibrated)
         json_object_set_new(req, "uncalibrated", json_true());
+    if (reference_after)
+        json_object_set_new(req, "reference_after", json_true());
     if (rc || (rc = request_file_fits(req)) != 0) {
         json_decref(req);
         return rc;

@@ -183,6 +183,7 @@ static int capture_inputs(control *c, json_t *req, const struct control_sent *se
     r->budget_min = json_number_value(json_object_get(req, "budget"));
     r->stop_target = json_number_value(json_object_get(req, "stop_target"));
     r->uncalibrated = json_is_true(json_object_get(req, "uncalibrated"));
+    r->reference_after = json_is_true(json_object_get(req, "reference_after"));
     const char *cal = jstr(req, "calibration");
     if (cal && (!control_valid_id(cal) || strlen(cal) >= sizeof r->calibration))
         return gonio_err_set(err, GONIO_EUSAGE, "calibration '%.60s': a calibration id (gonio "

@@ -188,6 +188,8 @@ int control_save_request(const struct worker_request *r, struct gonio_err *err)
                           "check", capture_checks_text(r->checks, checks, sizeof checks));
     if (d && r->calibration[0])
         json_object_set_new(d, "calibration", json_string(r->calibration));
+    if (d && r->reference_after)
+        json_object_set_new(d, "reference_after", json_true());
     char *text = d ? control_json_text(d) : NULL;
     if (!text)
         return gonio_err_set(err, ENOMEM, "out of memory");
@@ -269,6 +271,7 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
         snprintf(meta_out[k], meta_size[k], "%s", v ? v : "");
     }
     r->uncalibrated = uncalibrated;
+    r->reference_after = json_is_true(json_object_get(d, "reference_after"));
     const char *cal = json_string_value(json_object_get(d, "calibration"));
     if (cal && !control_valid_id(cal)) {
         json_decref(d);

@@ -35,6 +35,7 @@ static const struct arg_spec capture_args[] = {
      .unit = "a full-domain log error"},
     {.name = "prescan", .type = ARG_INT, .min = 0, .max = CAPTURE_PRESCAN_MAX, .unit = "points"},
     {.name = "uncalibrated", .type = ARG_BOOL},
+    {.name = "reference_after", .type = ARG_BOOL},
     /* The files the request carries (daemon/control_files.c): max is their
      * length in bytes. */
     {.name = "plan_text", .type = ARG_STRING, .max = CONTROL_FILE_MAX, .unit = "bytes"},

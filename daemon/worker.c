@@ -275,6 +275,7 @@ static struct capture_config request_config(const worker *w, const struct worker
         .stop_target = r->stop_target,
         .prescan = r->prescan,
         .uncalibrated = r->uncalibrated,
+        .reference_after = r->reference_after,
         .calibrations = r->calibration[0] ? w->cfg->calibration_root : NULL,
         .calibration = r->calibration[0] && strcmp(r->calibration, "newest") ? r->calibration
                                                                              : NULL,
@@ -373,6 +374,15 @@ static void record_stop(worker *w, int rc, const char *reason, const struct goni
         fprintf(stderr, "goniod: capture %s: %s\n", w->req.id, werr.msg);
 }
 
+/* The failure's message says the directory goes with it. */
+static void discard_note(struct gonio_err *err)
+{
+    char msg[GONIO_ERR_MSG_MAX];
+    snprintf(msg, sizeof msg, "%s", err->msg);
+    gonio_err_set(err, err->code, "%s (nothing was measured: the capture's directory is "
+                  "removed)", msg);
+}
+
 static void *run(void *arg)
 {
     worker *w = arg;
@@ -384,6 +394,7 @@ static void *run(void *arg)
         .control = hook_control,
         .on_fit = hook_on_fit,
         .on_progress = hook_on_progress,
+        .ask = worker_hook_ask,
 #ifdef GONIO_TEST_HOOKS
         .on_phase = hook_on_phase,
 #endif
@@ -404,6 +415,12 @@ static void *run(void *arg)
         snprintf(err.msg, sizeof err.msg, "%s", gonio_strerror(rc));
 
     pthread_mutex_lock(&w->mu);
+    /* A new capture that failed before its first sample (a rig that did
+     * not answer) measured nothing: its directory goes, so the same
+     * request can be sent again once the rig is fixed. */
+    int discard = rc < 0 && !w->req.resume && w->done == 0;
+    if (discard)
+        discard_note(&err);
     /* The engine says complete, converged or aborted; an abort names who
      * asked for it (a client, or the daemon shutting down). */
     int aborted = rc == 0 && !strcmp(sum.stop_reason, "aborted");
@@ -432,7 +449,8 @@ static void *run(void *arg)
     snprintf(w->end_message, sizeof w->end_message, "%s", rc < 0 ? err.msg : "");
     if (rc == 0 && !aborted)
         w->eta_s = 0;
-    record_stop(w, rc, reason, &err, &sum);
+    if (!discard)
+        record_stop(w, rc, reason, &err, &sum);
     /* The stop is queued as the worker goes idle, under one lock: a loop
      * that sees it idle (goniod shutting down) finds the stop to send. */
     if (m) {
@@ -445,6 +463,7 @@ static void *run(void *arg)
         m->summary = sum;
         m->has_comm = w->has_comm;
         m->comm = w->comm;
+        m->discard_dir = discard;
         enqueue_locked(w, &m->base);
     }
     w->running = 0;
@@ -553,6 +572,8 @@ void worker_free(worker *w)
     }
     for (struct worker_msg *m = w->head, *next; m; m = next) {
         next = m->next;
+        if (m->kind == WORKER_MSG_STOP)
+            free(((struct worker_msg_stop *)m)->documents);
         free(m);
     }
     prepared_free(w->pending);

@@ -10,6 +10,7 @@
 #include <time.h>
 
 #include "brdf/standard.h"
+#include "capture/cal_documents.h"
 #include "capture/calibration.h"
 #include "daemon/captures.h"
 #include "daemon/worker_private.h"
@@ -110,14 +111,15 @@ int worker_calibrate_check(worker *w, struct worker_calibration *c, struct gonio
 
 /* The operator must act: goniod pauses with the instruction until
  * `gonio resume` (or an abort). */
-static enum capture_control ask(void *user, const char *instruction)
+enum capture_control worker_hook_ask(void *user, const char *instruction)
 {
     worker *w = user;
     pthread_mutex_lock(&w->mu);
     snprintf(w->prompt, sizeof w->prompt, "%s", instruction);
     w->paused = 1;
     pthread_mutex_unlock(&w->mu);
-    fprintf(stderr, "goniod: calibration %s waits: %s\n", w->cal.id, instruction);
+    fprintf(stderr, "goniod: %s %s waits: %s\n", w->calibration[0] ? "calibration" : "capture",
+            w->calibration[0] ? w->cal.id : w->req.id, instruction);
     struct worker_msg *m = calloc(1, sizeof *m);
     if (m) {
         m->kind = WORKER_MSG_PROMPT;
@@ -153,7 +155,7 @@ static int measure(worker *w, const struct cal_run *run, sim_source *sim, int *a
                  : worker_hook_open(w, run->rig, run->root, &dev, err);
     if (rc < 0)
         return rc;
-    struct cal_hooks hooks = {.control = worker_hook_control, .ask = ask,
+    struct cal_hooks hooks = {.control = worker_hook_control, .ask = worker_hook_ask,
                               .on_frame = on_frame, .user = w};
     pthread_mutex_lock(&w->mu);
     w->total = cal_run_total(run);
@@ -168,7 +170,7 @@ static int measure(worker *w, const struct cal_run *run, sim_source *sim, int *a
 
 /* Queue the stop and go idle, under one lock (as a capture's run does). */
 static void finish(worker *w, int rc, int aborted, size_t n, double rig_time_s,
-                   const struct gonio_err *err)
+                   const struct gonio_err *err, char *documents)
 {
     struct worker_msg_stop *m = calloc(1, sizeof *m);
     pthread_mutex_lock(&w->mu);
@@ -190,7 +192,10 @@ static void finish(worker *w, int rc, int aborted, size_t n, double rig_time_s,
         m->summary.rig_time_s = rig_time_s;
         m->has_comm = w->has_comm;
         m->comm = w->comm;
+        m->documents = documents;
         worker_enqueue_locked(w, &m->base);
+    } else {
+        free(documents);
     }
     w->running = 0;
     w->paused = 0;
@@ -241,10 +246,14 @@ static void *run_calibration(void *arg)
     if (rc == 0 && w->cfg->driver == GONIOD_DRIVER_SIM && !sim)
         rc = -abs(err.code ? err.code : EINVAL);
     struct cal_meta meta;
+    double t_start = cal_documents_now();
+    size_t total = 0;
+    int described = rc == 0; /* meta says what the run is of */
     if (rc == 0) {
         fill_meta(w, c, &prof, sim, &meta);
         struct cal_run run = {.root = w->cfg->calibration_root, .meta = &meta, .rig = &prof,
                               .plan = plan, .per_point = c->per_point};
+        total = cal_run_total(&run);
         rc = measure(w, &run, sim, &aborted, &frames, &n, &err);
     }
     if (rc == 0 && !aborted && n > 0) {
@@ -257,7 +266,10 @@ static void *run_calibration(void *arg)
             rc < 0 ? "failed" : aborted ? "stopped" : "complete", n, rc < 0 ? ": " : "",
             rc < 0 ? err.msg : "");
     record_stop(w, rc, aborted, &err);
-    finish(w, rc, aborted, n, n ? frames[n - 1].rig_time_s : NAN, &err);
+    char *documents = described ? worker_calibration_documents(w, &meta, frames, n, total, rc,
+                                                               aborted, &err, t_start)
+                                : NULL;
+    finish(w, rc, aborted, n, n ? frames[n - 1].rig_time_s : NAN, &err, documents);
     free(frames);
     plan_free(plan);
     sim_source_free(sim);

@@ -80,6 +80,9 @@ void worker_push_msg(worker *w, struct worker_msg *m);
 void worker_enqueue_locked(worker *w, struct worker_msg *m);
 void worker_wake(worker *w);
 enum capture_control worker_hook_control(void *user);
+/* The operator must act (capture_hooks.ask, cal_hooks.ask): goniod pauses
+ * with the instruction in status until gonio resume, or an abort. */
+enum capture_control worker_hook_ask(void *user, const char *instruction);
 int worker_hook_open(void *user, const struct rig_profile *rig, const char *dir,
                      struct capture_devices *dev, struct gonio_err *err);
 void worker_hook_close(void *user, struct capture_devices *dev);
@@ -91,5 +94,15 @@ void worker_hook_close(void *user, struct capture_devices *dev);
 int worker_lock_idle(worker *w, struct gonio_err *err);
 void worker_run_begin_locked(worker *w);
 int worker_spawn(worker *w, void *(*body)(void *), const char *what, struct gonio_err *err);
+
+/* A calibration's run as event-model lines, written to its directory as
+ * well (worker_calibrate_documents.c); malloc'd, NULL when out of memory.
+ * rc, aborted and err are how it ended. */
+struct cal_meta;
+struct cal_frame;
+char *worker_calibration_documents(worker *w, const struct cal_meta *meta,
+                                   const struct cal_frame *frames, size_t n, size_t total,
+                                   int rc, int aborted, const struct gonio_err *err,
+                                   double t_start);
 
 #endif

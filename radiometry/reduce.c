@@ -364,7 +364,8 @@ static int reduce_one(const struct rad_calibration *cal, const struct rad_raw *s
         double x_all = rad_linearise(s->counts[c] - ds->mean[c], s->nonlinearity,
                                      s->full_scale);
         double x_s = x_all - m_s * stray[c];
-        double A = f[c] / (ref.k[c] * m_s); /* BRDF per linearised count */
+        /* BRDF per linearised count */
+        double A = f[c] / (ref.k[c] * (1.0 + s->drift_rel[c]) * m_s);
         double b = x_s * A;
         double g = su->adu_per_electron[c];
         double var_s = g * fmax(x_all, 0.0) + ds->sd[c] * ds->sd[c];
@@ -384,7 +385,8 @@ static int reduce_one(const struct rad_calibration *cal, const struct rad_raw *s
         r[RAD_U_REF_NOISE] = sqrt((g * xr + dr->sd[c] * dr->sd[c]) / ref.ref->n) / xr;
         double mvar = mon ? su->monitor_rel_sd * su->monitor_rel_sd * (1.0 + 1.0 / ref.ref->n)
                           : 0.0;
-        r[RAD_U_DRIFT] = sqrt(mvar + su->drift_rel_u * su->drift_rel_u);
+        r[RAD_U_DRIFT] = sqrt(mvar + su->drift_rel_u * su->drift_rel_u +
+                              s->drift_u[c] * s->drift_u[c]);
         r[RAD_U_NONLINEARITY] = s->full_scale > 0 ? su->nonlinearity_rel_u * s->nonlinearity *
                                                         fabs(x_s - xr) / s->full_scale
                                                   : 0.0;

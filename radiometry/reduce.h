@@ -88,6 +88,12 @@ struct rad_raw {
     double full_scale;   /* the ADC's largest count (0: unknown, no clip check) */
     double nonlinearity; /* k: x above the offset reads x - k x^2 / full_scale */
     double monitor;      /* NAN: none */
+    /* The reference's drift at the reading's time, interpolated between the
+     * calibration and the standard read again after the capture's points
+     * (capture/reference_after.h): its response then over the
+     * calibration's, less 1 (0: none), and that ratio's relative standard
+     * uncertainty (0: none), which joins the drift term; per channel. */
+    double drift_rel[3], drift_u[3];
 };
 
 enum rad_term {

@@ -102,6 +102,17 @@ sim_detector *sim_detector_new(const struct rig_profile *rig, const brdf_materia
     return d;
 }
 
+int sim_detector_mount(sim_detector *d, const brdf_material *material,
+                       const struct sim_scene *scene, struct gonio_err *err)
+{
+    d->material = material;
+    if (!d->n_bands)
+        return 0;
+    brdf_spectral_free(d->spectral);
+    d->spectral = NULL;
+    return open_spectral(d, scene, err);
+}
+
 void sim_detector_free(sim_detector *d)
 {
     if (!d)

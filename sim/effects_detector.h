@@ -61,4 +61,10 @@ void sim_detector_shutter(sim_detector *d, int closed);
  * reading is made (nothing changes, spectra.csv gets nothing). */
 double sim_detector_meter(sim_detector *d, const struct brdf_pair *p, double cos_i);
 
+/* Another material in the sample's place (a sample changer's slot): read
+ * from now on; the effects' state (the lamp's drift) goes on. scene: the
+ * detector's, for a spectral one's bands. The material is borrowed. */
+int sim_detector_mount(sim_detector *d, const brdf_material *material,
+                       const struct sim_scene *scene, struct gonio_err *err);
+
 #endif

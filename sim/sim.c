@@ -87,6 +87,13 @@ sim_rig *sim_rig_new(const struct rig_profile *profile, const brdf_material *mat
     return sim_rig_new_scene(profile, material, NULL, NULL, err);
 }
 
+int sim_rig_mount(sim_rig *rig, const brdf_material *material, const struct sim_scene *scene,
+                  struct gonio_err *err)
+{
+    rig->material = material;
+    return sim_detector_mount(rig->det, material, scene, err);
+}
+
 void sim_rig_free(sim_rig *rig)
 {
     if (!rig)

@@ -45,6 +45,12 @@ sim_rig *sim_rig_new_scene(const struct rig_profile *profile, const brdf_materia
                            const struct sim_scene *scene, const char *out_dir,
                            struct gonio_err *err);
 
+/* Another material in the sample's place, as a sample changer swaps it:
+ * the rig's clock, axes and effects go on (sim_detector_mount). scene: the
+ * rig's (NULL: none). The material is borrowed. */
+int sim_rig_mount(sim_rig *rig, const brdf_material *material, const struct sim_scene *scene,
+                  struct gonio_err *err);
+
 /* 1 when the rig's detector gives counts (the scene has an adc effect). */
 int sim_rig_counts(const sim_rig *rig);
 

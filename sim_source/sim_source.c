@@ -2,6 +2,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -22,6 +23,7 @@ struct sim_source {
     sim_effects *fx;              /* the meter: the scene's effects and detector */
     sim_detector *meter;
     sim_rig *sim;                 /* the open capture's rig, NULL between captures */
+    brdf_material *standard;      /* in the sample's place now (mount), else NULL */
     char *setup_json;             /* {"scene": {...}} */
 };
 
@@ -95,6 +97,7 @@ void sim_source_free(sim_source *src)
     if (!src)
         return;
     sim_rig_free(src->sim);
+    brdf_material_free(src->standard);
     sim_detector_free(src->meter);
     sim_effects_free(src->fx);
     brdf_material_free(src->material);
@@ -170,6 +173,35 @@ static void resume(void *user, struct capture_devices *d, const double at[3],
     sim_rig_advance(src->sim, fmax(0, rig_time_s - sim_rig_now(src->sim)));
 }
 
+/* The simulated rig's sample changer: the standard in the sample's
+ * place (the material standard:NAME, as gonio calibrate reference mounts
+ * it), or the sample back. */
+static int mount(void *user, struct capture_devices *d, const char *standard,
+                 struct gonio_err *err)
+{
+    (void)d;
+    sim_source *src = user;
+    brdf_material *was = src->standard;
+    src->standard = NULL;
+    int rc = 0;
+    if (standard) {
+        char spec[256];
+        snprintf(spec, sizeof spec, "standard:%s", standard);
+        if (!(src->standard = sim_material_open(&src->scene, spec, err)))
+            rc = -abs(err && err->code ? err->code : GONIO_EBADCONFIG);
+    }
+    if (rc == 0)
+        rc = sim_rig_mount(src->sim, src->standard ? src->standard : src->material, &src->scene,
+                           err);
+    if (rc < 0) { /* what was mounted stays */
+        brdf_material_free(src->standard);
+        src->standard = was;
+        return rc;
+    }
+    brdf_material_free(was);
+    return 0;
+}
+
 void sim_source_rig(sim_source *src, struct capture_rig *out)
 {
     memset(out, 0, sizeof *out);
@@ -188,6 +220,7 @@ void sim_source_rig(sim_source *src, struct capture_rig *out)
     out->counts_nonlinearity = adc.nonlinearity;
     out->integration_s = out->counts ? NULL : integration_s;
     out->resume = resume;
+    out->mount = mount;
     out->driver = "sim";
     out->material = src->material;
     out->user = src;

@@ -177,6 +177,7 @@ static inline void syn_reference(struct syn_rig *r, double ti, double tr, double
 static inline void syn_sample(struct syn_rig *r, double ti, double tr, double t,
                               struct rad_raw *s)
 {
+    memset(s, 0, sizeof *s); /* no drift, nothing left over */
     double ati, atr;
     syn_actual(r, ti, tr, &ati, &atr);
     s->theta_i = ti, s->theta_r = tr, s->integration_s = t, s->gain_state = 0;
