@@ -368,6 +368,9 @@ static int check_out_of_plane(struct run *r, const brdf_material *model, struct 
     else
         rc = oop_check_run(oop_predict, (void *)model, oop_measure, &c,
                            r->job->rig.mech.in_position_deg, &r->out->oop, err);
+    if (rc == 0) /* the fit's full-domain error, estimated (capture/oop_estimate.h) */
+        rc = oop_estimate_run(oop_predict, (void *)model, oop_measure, &c, &r->out->oop.full,
+                              err);
     r->out->oop.rig_time_s = capture_clock_now(&clk);
     r->out->has_oop = rc == 0;
     capture_axis_stats_add(&dev, &r->out->mech);

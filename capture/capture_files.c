@@ -444,7 +444,7 @@ static json_t *oop_json(const struct oop_check_result *c, double rig_time_s)
                                                 "theta_o", w->theta_o, "phi_o", w->phi_o,
                                                 "error", c->worst_error, "predicted",
                                                 w->predicted);
-    return json_pack("{s:s,s:s,s:I,s:I,s:o,s:o,s:o,s:f,s:f,s:o,s:f,s:o,s:o,s:f,s:b}", "verdict",
+    json_t *o = json_pack("{s:s,s:s,s:I,s:I,s:o,s:o,s:o,s:f,s:f,s:o,s:f,s:o,s:o,s:f,s:b}", "verdict",
                      c->verdict, "why", c->why, "pairs", (json_int_t)c->pairs, "measurements",
                      (json_int_t)c->measurements, "error_oop", num_or_null(c->error_oop),
                      "error_inplane", num_or_null(c->error_inplane), "ratio",
@@ -453,6 +453,15 @@ static json_t *oop_json(const struct oop_check_result *c, double rig_time_s)
                      "rig_time_share", share_of(c->rig_time_s, rig_time_s), "lobe_deg",
                      num_or_null(c->lobe_deg), "resolution_deg", c->resolution_deg,
                      "lobe_unresolved", c->unresolved);
+    /* the estimate of the fit's full-domain error (capture/oop_estimate.h) */
+    const struct oop_estimate *f = &c->full;
+    json_t *interval = isnan(f->error) ? json_null()
+                                       : json_pack("[f,f]", f->low, f->high);
+    json_object_set_new(o, "error_full", num_or_null(f->error));
+    json_object_set_new(o, "error_full_interval", interval);
+    json_object_set_new(o, "domain_pairs", json_integer((json_int_t)f->pairs));
+    json_object_set_new(o, "domain_pairs_used", json_integer((json_int_t)f->used));
+    return o;
 }
 
 /* The checks' verdicts with their evidence and rig time (docs/checks.md). */

@@ -109,7 +109,7 @@ size_t oop_check_choose(oop_check_predict_fn predict, void *user, struct oop_che
 
 /* The full-domain log error's term for one reading (brdf/metrics.c): the
  * log of 1 + f cos theta_i, which weighs the lobe as the domain error does. */
-static double error_of(double measured, double predicted, double theta_i)
+double oop_check_error(double measured, double predicted, double theta_i)
 {
     double w = cos(theta_i * BRDF_DEG);
     return fabs(log1p(measured * w) - log1p(predicted * w));
@@ -157,9 +157,9 @@ void oop_check_decide(const struct oop_check_pair *p, size_t n, const double *me
         if (!(measured[j] > 0) || !(in_measured[j] > 0) || !(p[j].predicted > 0) ||
             !(p[j].in_predicted > 0))
             continue;
-        double e = error_of(measured[j], p[j].predicted, p[j].theta_i);
+        double e = oop_check_error(measured[j], p[j].predicted, p[j].theta_i);
         so += e;
-        si += error_of(in_measured[j], p[j].in_predicted, p[j].in_theta_i);
+        si += oop_check_error(in_measured[j], p[j].in_predicted, p[j].in_theta_i);
         used++;
         if (e >= out->worst_error) {
             out->worst_error = e;

@@ -34,6 +34,7 @@
 #include <stddef.h>
 
 #include "brdf/angles.h"
+#include "capture/oop_estimate.h"
 #include "common/err.h"
 
 #define OOP_CHECK_INCIDENCES 2  /* 25 and 45 degrees */
@@ -75,8 +76,13 @@ struct oop_check_result {
     int unresolved;       /* 1: lobe_deg within resolution_deg: the verdict's reason */
     struct oop_check_pair worst; /* the out-of-plane pair of the largest error */
     double worst_error;
+    struct oop_estimate full; /* the fit's full-domain error (capture/oop_estimate.h) */
     double rig_time_s;    /* filled by the host: what the check cost the rig */
 };
+
+/* A reading's term of the full-domain log error (brdf/metrics.c):
+ * |ln(1 + m cos theta_i) - ln(1 + p cos theta_i)|. */
+double oop_check_error(double measured, double predicted, double theta_i);
 
 /* The validation pairs for the model predict: up to OOP_CHECK_MAX_PAIRS
  * (fewer when a pair or its counterpart would leave theta <= 80 degrees).
@@ -93,7 +99,8 @@ void oop_check_decide(const struct oop_check_pair *p, size_t n, const double *me
                       struct oop_check_result *out);
 
 /* Choose, measure (each incidence's out-of-plane pairs, then their
- * counterparts) and decide with the rig's positioning band resolution_deg.
+ * counterparts) and decide with the rig's positioning band resolution_deg
+ * (out->full zero: oop_estimate_run fills it).
  * Returns 0, or the callback's failure. */
 int oop_check_run(oop_check_predict_fn predict, void *puser, oop_check_measure_fn measure,
                   void *muser, double resolution_deg, struct oop_check_result *out,

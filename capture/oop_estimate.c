@@ -1,0 +1,151 @@
+/* The full-domain error's estimate (capture/oop_estimate.h): the draw of
+ * the MERL grid's nodes in proportion to the model's brightness, the
+ * weighted mean and its interval. */
+#include "capture/oop_estimate.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "brdf/domain.h"
+#include "capture/oop_check.h"
+
+#define GOLDEN 0.61803398874989484820 /* the golden ratio's fraction: the strata's offsets */
+#define N_HD BRDF_DOMAIN_N_HD         /* theta_h's and theta_d's nodes (brdf/domain.h) */
+#define N_PD 180                      /* phi_d's */
+#define PD_STEP 10                    /* phi_d's nodes the draw takes: every tenth */
+
+/* The pair turned about the normal so that its source is in the plane. */
+static void source_in_plane(const struct brdf_pair *bp, struct oop_check_pair *o,
+                            struct brdf_pair *placed)
+{
+    double phi_i = atan2(bp->wi[1], bp->wi[0]) / BRDF_DEG;
+    double phi_o = remainder(atan2(bp->wo[1], bp->wo[0]) / BRDF_DEG - phi_i, 360.0);
+    memset(o, 0, sizeof *o);
+    o->theta_i = brdf_pair_theta_i_deg(bp);
+    o->theta_o = brdf_pair_theta_o_deg(bp);
+    o->phi_o = phi_o;
+    o->in_theta_i = o->in_theta_r = o->lobe_deg = NAN;
+    brdf_pair_spherical(o->theta_i, 0, o->theta_o, o->phi_o, placed);
+}
+
+/* The draw's density at a pair where the model predicts v: the share of
+ * ln(1 + v cos theta_i) a relative error moves, d/dv of the error term
+ * times v, plus a floor so that the dark domain is not left out. */
+static double density(double v, double theta_i)
+{
+    double vw = fmax(v, 0.0) * cos(theta_i * BRDF_DEG);
+    return vw / (1 + vw) + OOP_ESTIMATE_FLOOR;
+}
+
+/* Walk the draw's nodes (every PD_STEP-th phi_d of every kept (theta_h,
+ * theta_d)), in the domain's order; with targets, stop at each node where
+ * the running density passes the next target and fill out[] in turn.
+ * Returns the total density and the node count in *nodes. */
+static double walk(double (*predict)(void *, const struct brdf_pair *), void *user,
+                   const double *target, size_t n_target, struct oop_check_pair *out,
+                   size_t *nodes)
+{
+    double total = 0;
+    size_t next = 0;
+    *nodes = 0;
+    for (int i = 0; i < N_HD; i++) {
+        double u = i / (double)N_HD, th = u * u * (90 * BRDF_DEG);
+        for (int j = 0; j < N_HD; j++)
+            for (int k = PD_STEP / 2; k < N_PD; k += PD_STEP) {
+                struct brdf_pair bp, placed;
+                struct oop_check_pair o;
+                brdf_pair_from_hd(th, j * BRDF_DEG, k / (double)N_PD * (180 * BRDF_DEG), &bp);
+                if (!brdf_domain_keeps(&bp))
+                    continue;
+                source_in_plane(&bp, &o, &placed);
+                o.predicted = predict(user, &placed);
+                o.in_predicted = density(o.predicted, o.theta_i);
+                total += o.in_predicted;
+                ++*nodes;
+                while (next < n_target && total > target[next])
+                    out[next++] = o;
+            }
+    }
+    return total;
+}
+
+size_t oop_estimate_choose(double (*predict)(void *user, const struct brdf_pair *p), void *user,
+                           struct oop_check_pair *out, double *mean_density)
+{
+    size_t nodes;
+    double total = walk(predict, user, NULL, 0, NULL, &nodes), target[OOP_ESTIMATE_PAIRS];
+    if (!(total > 0))
+        return 0;
+    for (size_t s = 0; s < OOP_ESTIMATE_PAIRS; s++) /* stratum s, the golden sequence's place */
+        target[s] = ((double)s + fmod(0.5 + GOLDEN * (double)s, 1.0)) / OOP_ESTIMATE_PAIRS * total;
+    walk(predict, user, target, OOP_ESTIMATE_PAIRS, out, &nodes);
+    *mean_density = total / (double)nodes;
+    return OOP_ESTIMATE_PAIRS;
+}
+
+void oop_estimate_decide(const struct oop_check_pair *p, size_t n, const double *measured,
+                         double mean_density, struct oop_estimate *out)
+{
+    memset(out, 0, sizeof *out);
+    out->pairs = n;
+    out->error = out->low = out->high = NAN;
+    double r[OOP_ESTIMATE_PAIRS]; /* each node's error over its density */
+    size_t m = 0;
+    for (size_t j = 0; j < n && m < OOP_ESTIMATE_PAIRS; j++)
+        if (measured[j] > 0 && p[j].predicted > 0 && p[j].in_predicted > 0)
+            r[m++] = oop_check_error(measured[j], p[j].predicted, p[j].theta_i) /
+                     p[j].in_predicted;
+    out->used = m;
+    if (m < OOP_ESTIMATE_MIN_USED)
+        return;
+    double sum = 0, ss = 0;
+    for (size_t j = 0; j < m; j++)
+        sum += r[j];
+    /* collapsed strata: neighbours (2k, 2k+1) differ by the spread within
+     * the pair of strata; an odd one out adds nothing to it */
+    for (size_t k = 0; k + 1 < m; k += 2)
+        ss += (r[k] - r[k + 1]) * (r[k] - r[k + 1]);
+    double se = sqrt(ss / (double)(2 * (m / 2)) / (double)m);
+    out->error = mean_density * sum / (double)m;
+    out->low = mean_density * fmax(0.0, sum / (double)m - OOP_ESTIMATE_Z * se);
+    out->high = mean_density * (sum / (double)m + OOP_ESTIMATE_Z * se);
+}
+
+/* The nodes' travel order: by theta_i in bands of TRAVEL_BAND_DEG (the
+ * sample axis), phi_o rising in one band and falling in the next (the
+ * azimuth axis snakes). */
+#define TRAVEL_BAND_DEG 15.0
+static const struct oop_check_pair *sort_base;
+static int by_travel(const void *a, const void *b)
+{
+    const struct oop_check_pair *p = &sort_base[*(const size_t *)a];
+    const struct oop_check_pair *q = &sort_base[*(const size_t *)b];
+    int bp = (int)(p->theta_i / TRAVEL_BAND_DEG), bq = (int)(q->theta_i / TRAVEL_BAND_DEG);
+    if (bp != bq)
+        return bp < bq ? -1 : 1;
+    double d = (bp % 2 ? -1 : 1) * (p->phi_o - q->phi_o);
+    return d < 0 ? -1 : d > 0;
+}
+
+int oop_estimate_run(double (*predict)(void *user, const struct brdf_pair *p), void *puser,
+                     int (*measure)(void *user, const struct oop_check_pair *p, int in_plane,
+                                    double *value, struct gonio_err *err),
+                     void *muser, struct oop_estimate *out, struct gonio_err *err)
+{
+    struct oop_check_pair d[OOP_ESTIMATE_PAIRS];
+    double m[OOP_ESTIMATE_PAIRS], mean_density = 0;
+    size_t order[OOP_ESTIMATE_PAIRS];
+    size_t n = oop_estimate_choose(predict, puser, d, &mean_density);
+    for (size_t j = 0; j < n; j++)
+        order[j] = j;
+    sort_base = d;
+    qsort(order, n, sizeof *order, by_travel);
+    for (size_t j = 0; j < n; j++) {
+        int rc = measure(muser, &d[order[j]], 0, &m[order[j]], err);
+        if (rc < 0)
+            return rc;
+    }
+    oop_estimate_decide(d, n, m, mean_density, out);
+    return 0;
+}

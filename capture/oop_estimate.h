@@ -1,0 +1,65 @@
+/* The in-plane fit's full-domain error, estimated from readings
+ * (docs/checks.md, "The full-domain error"): what the in-plane sufficiency
+ * check (capture/oop_check.h) reports as its predicted out-of-plane error.
+ *
+ * The check's validation pairs sit on the fitted lobe's flank, where the
+ * model is most likely wrong: their mean error says whether in-plane was
+ * enough, not how large the error is over the domain. The full-domain log
+ * error (brdf/metrics.h) is a mean over the MERL grid's nodes (brdf/domain.h)
+ * with every node weighing the same; so this estimate measures a few nodes
+ * drawn from that same measure, one per stratum of equal node count in the
+ * grid's order (theta_h slowest: most of the error's variation is across
+ * theta_h), the node within each stratum placed by the golden-ratio
+ * sequence so that theta_d and phi_d vary from one stratum to the next. The
+ * mean of the nodes' errors is an unbiased estimate of the domain's; its
+ * standard error comes from the differences of neighbouring strata
+ * (collapsed strata), which stratification leaves as the variance's only
+ * trace.
+ *
+ * A node is placed on the rig with its source in the plane (phi_i = 0): a
+ * turn about the normal an isotropic material does not notice. */
+#ifndef GONIO_CAPTURE_OOP_ESTIMATE_H
+#define GONIO_CAPTURE_OOP_ESTIMATE_H
+
+#include <stddef.h>
+
+#include "brdf/angles.h"
+#include "common/err.h"
+
+#define OOP_ESTIMATE_PAIRS 10  /* domain nodes measured */
+#define OOP_ESTIMATE_FLOOR 0.08 /* the draw's density where the model is dark */
+#define OOP_ESTIMATE_MIN_USED 4 /* readings below which no estimate is given */
+#define OOP_ESTIMATE_Z 1.96     /* the interval's half width in standard errors (95%) */
+
+struct oop_check_pair;
+
+/* The estimate: NAN figures when fewer than OOP_ESTIMATE_MIN_USED nodes
+ * were read. */
+struct oop_estimate {
+    size_t pairs, used;
+    double error;     /* the mean of the nodes' log errors */
+    double low, high; /* its interval, error -/+ OOP_ESTIMATE_Z standard errors (low >= 0) */
+};
+
+/* The OOP_ESTIMATE_PAIRS nodes of the full domain's stratified draw, in
+ * the strata's order, as pairs with the source in the plane (theta_i,
+ * theta_o, phi_o; theta_i of the counterpart fields unused) and the model
+ * predict's value at each (predicted). Returns the count. */
+size_t oop_estimate_choose(double (*predict)(void *user, const struct brdf_pair *p), void *user,
+                           struct oop_check_pair *out, double *mean_density);
+
+/* The estimate from the readings measured[j] (NAN or not positive: left
+ * out) at the pairs p[j], in the order oop_estimate_node gave them (the
+ * strata's order). */
+void oop_estimate_decide(const struct oop_check_pair *p, size_t n, const double *measured,
+                         double mean_density, struct oop_estimate *out);
+
+/* Choose, measure in travel order (theta_i rising, phi_o snaking) through
+ * the check's measure callback (in_plane 0: the pair out of the plane;
+ * capture/oop_check.h) and estimate. Returns 0, or the callback's failure. */
+int oop_estimate_run(double (*predict)(void *user, const struct brdf_pair *p), void *puser,
+                     int (*measure)(void *user, const struct oop_check_pair *p, int in_plane,
+                                    double *value, struct gonio_err *err),
+                     void *muser, struct oop_estimate *out, struct gonio_err *err);
+
+#endif
