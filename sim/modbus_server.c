@@ -72,6 +72,10 @@ msim *msim_new(const struct rig_profile *profile, const brdf_material *material,
         return NULL;
     }
     put32(m->det.map->tab_registers, DET_COUNT, DET_NCHANNELS);
+    if (msim_changer_new(m, material, scene, err) < 0) {
+        msim_free(m);
+        return NULL;
+    }
     m->wall0 = gonio_monotonic_s();
     return m;
 }
@@ -83,6 +87,7 @@ void msim_free(msim *m)
     for (int i = 0; i < SIM_N_AXES; i++)
         modbus_mapping_free(m->axis[i].map);
     modbus_mapping_free(m->det.map);
+    msim_changer_free(m);
     if (m->rtu)
         modbus_free(m->rtu);
     if (m->tcp)
