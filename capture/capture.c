@@ -87,6 +87,12 @@ static int eta_new(const struct capture_job *in, const struct capture_hooks *hoo
     if (!e)
         return -abs(err ? err->code : ENOMEM);
     capture_eta_ranging(e, ar, in->prescan);
+    /* A resumed capture's first record moved from where the capture found
+     * the axes (plan.json's start), not from home. */
+    struct rig_axes start;
+    plan_order_start(in->plan, &start);
+    if (n > 0)
+        capture_eta_start(e, &start);
     for (size_t i = 0; i < n; i++)
         capture_eta_observe(e, &js[i]);
     *out = e;
@@ -139,17 +145,47 @@ static int replay_journal(struct run *r, struct gonio_err *err)
     return 0;
 }
 
+static int near(const struct rig_axes *a, const struct rig_axes *b, double band)
+{
+    return fabs(a->s - b->s) <= band && fabs(a->a - b->a) <= band && fabs(a->az - b->az) <= band;
+}
+
+/* A resumed capture whose axes stand away from where its journal left them
+ * (beyond the in-position band: moved by a bring-up command, another
+ * capture or by hand) travels the points left from where they stand.
+ * plan.json and the journal's point numbers stay as they are (a point's
+ * number is its identity, not its place on the path); the ETA follows the
+ * new path. Axes where the journal left them go on as never interrupted. */
+static int reroute_resumed(struct run *r, const struct rig_axes *at, long *first,
+                           struct gonio_err *err)
+{
+    capture_job *job = r->job;
+    const struct journal_sample *last = &r->samples[r->n - 1];
+    if (near(at, &plan_point(job->plan, (size_t)last->point)->ax,
+             job->rig.mech.in_position_deg))
+        return 0;
+    int rc = sequence_reroute(r->seq, at, first, err);
+    if (rc < 0 || !r->eta)
+        return rc;
+    capture_eta_free(r->eta);
+    r->eta = NULL;
+    return eta_new(job, r->hooks, r->seq, &r->ranging.ar, r->samples, r->n, &r->eta, err);
+}
+
 /* A new capture whose axes stand away from home (beyond the in-position
  * band) orders its travel from where they stand, before its first record:
  * plan.json is written again with that order and its start, and the
  * sequence made again over it. *first: its first point. The orders that do
- * not travel (as written, adaptive) and a capture with records keep theirs. */
+ * not travel (as written, adaptive) keep theirs; a capture with records
+ * is rerouted (reroute_resumed). */
 static int order_from(struct run *r, const struct rig_axes *at, long *first,
                       struct gonio_err *err)
 {
     capture_job *job = r->job;
     enum plan_order_mode mode = plan_current_order(job->plan);
     double band = job->rig.mech.in_position_deg;
+    if (r->n > 0 && mode != PLAN_ORDER_AS_WRITTEN && mode != PLAN_ORDER_ADAPTIVE)
+        return reroute_resumed(r, at, first, err);
     if (r->n > 0 || r->ranging.ar.n_dark > 0 || mode == PLAN_ORDER_AS_WRITTEN ||
         mode == PLAN_ORDER_ADAPTIVE ||
         (fabs(at->s) <= band && fabs(at->a) <= band && fabs(at->az) <= band))
@@ -556,6 +592,68 @@ static void summarize(const struct run *r, struct capture_summary *out)
                                    : "complete");
 }
 
+/* The final fit of the capture's samples into *fitted (capture_fit_samples). */
+static int final_fit(struct run *r, const double *usys, brdf_material **fitted,
+                     struct gonio_err *err)
+{
+    const capture_job *job = r->job;
+    const struct live_fit *lf = &r->fit;
+    int rc = capture_fit_samples(
+        r->samples, r->n, lf->fs && !lf->progress ? fit_stream_params(lf->fs) : NULL,
+        job->model, job->cfg.out_dir,
+        job->material_name[0] ? job->material_name
+        : job->truth_name[0]  ? job->truth_name
+                              : NULL,
+        job->adaptive, usys, r->out, fitted, err);
+    if (rc == 0 && r->converged)
+        r->out->converged = 1; /* the stop rule decided: the capture converged */
+    return rc;
+}
+
+/* The in-plane sufficiency check of the final fit. With --model auto a
+ * chosen model judged insufficient is evidence against it: the fit is made
+ * again with it (fit/auto_evidence.h), and while that chooses a candidate
+ * not yet checked, the new choice is checked too; each candidate is
+ * measured at most once. The summary keeps the final choice's check, with
+ * the rig time of them all. */
+static int check_out_of_plane_chosen(struct run *r, const double *usys, brdf_material **fitted,
+                                     struct gonio_err *err)
+{
+    struct capture_summary *out = r->out;
+    struct oop_check_result seen[FIT_AUTO_MAX_CANDIDATES];
+    char seen_model[FIT_AUTO_MAX_CANDIDATES][sizeof out->auto_chosen];
+    size_t n_seen = 0;
+    int rc = check_out_of_plane(r, *fitted, err);
+    double spent = out->oop.rig_time_s;
+    while (rc == 0 && out->auto_chosen[0] && n_seen < FIT_AUTO_MAX_CANDIDATES) {
+        seen[n_seen] = out->oop;
+        snprintf(seen_model[n_seen++], sizeof *seen_model, "%s", out->auto_chosen);
+        fit_auto_evidence_oop(&out->auto_evidence, out->auto_chosen, out->oop.verdict);
+        if (strcmp(out->oop.verdict, "insufficient")) { /* the choice stands */
+            size_t at = strlen(out->auto_why);
+            snprintf(out->auto_why + at, sizeof out->auto_why - at,
+                     "%sout-of-plane check: %.16s %.16s", at ? "; " : "", out->auto_chosen,
+                     out->oop.verdict);
+            break;
+        }
+        brdf_material_free(*fitted);
+        *fitted = NULL;
+        if ((rc = final_fit(r, usys, fitted, err)) < 0)
+            break;
+        size_t k = 0;
+        while (k < n_seen && strcmp(seen_model[k], out->auto_chosen))
+            k++;
+        if (k < n_seen) { /* every better candidate judged insufficient too */
+            out->oop = seen[k];
+            break;
+        }
+        rc = check_out_of_plane(r, *fitted, err);
+        spent += out->oop.rig_time_s;
+    }
+    out->oop.rig_time_s = spent;
+    return rc;
+}
+
 /* The final fit and its errors, and results.json. The final fit starts
  * from the stop rule's last round; progress rounds do not steer it, so a
  * capture fits the same with or without them. abc-prior leaves what was
@@ -564,7 +662,6 @@ static int finish(struct run *r, struct gonio_err *err)
 {
     const capture_job *job = r->job;
     struct capture_summary *out = r->out;
-    const struct live_fit *lf = &r->fit;
     brdf_material *fitted = NULL; /* the final fit, as a material */
     size_t valued = 0;
     for (size_t i = 0; i < r->n; i++)
@@ -580,17 +677,9 @@ static int finish(struct run *r, struct gonio_err *err)
     struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
     if (job->cal)
         rad_systematic_rel_u(&job->cal->cal, usys);
-    int rc = capture_fit_samples(
-        r->samples, r->n, lf->fs && !lf->progress ? fit_stream_params(lf->fs) : NULL,
-        job->model, job->cfg.out_dir,
-        job->material_name[0] ? job->material_name
-        : job->truth_name[0]  ? job->truth_name
-                              : NULL,
-        job->adaptive, job->cal ? usys : NULL, out, &fitted, err);
-    if (rc == 0 && r->converged)
-        out->converged = 1; /* the stop rule decided: the capture converged */
+    int rc = final_fit(r, job->cal ? usys : NULL, &fitted, err);
     if (rc == 0 && (job->cfg.checks & CAPTURE_CHECK_OUT_OF_PLANE))
-        rc = check_out_of_plane(r, fitted, err);
+        rc = check_out_of_plane_chosen(r, job->cal ? usys : NULL, &fitted, err);
     if (rc == 0 && job->truth)
         rc = capture_assess_truth(job->truth, fitted, job->cfg.assess_nodes, out, err);
     if (rc == 0)

@@ -18,6 +18,7 @@
 #include "capture/isotropy_check.h"
 #include "capture/oop_check.h"
 #include "brdf/abc.h"
+#include "fit/auto_evidence.h"
 #include "fit/fit.h"
 #include "brdf/material.h"
 #include "brdf/metrics.h"
@@ -159,6 +160,12 @@ struct capture_summary {
     struct iso_check_result isotropy;
     int has_oop; /* the in-plane sufficiency check ran: its verdict and rig time */
     struct oop_check_result oop;
+    /* --model auto: the model it chose, what the checks' evidence decided
+     * ("" when nothing) and the evidence (fit/auto_evidence.h; oop holds
+     * the chosen model's check, its rig time that of every candidate's). */
+    char auto_chosen[16];
+    char auto_why[320];
+    struct fit_auto_evidence auto_evidence;
     /* Why no model was fitted ("" when one was): counts not reduced. */
     char not_fitted[160];
     size_t darks;   /* dark frames journalled (auto-ranging) */

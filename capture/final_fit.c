@@ -34,6 +34,10 @@ int capture_fit_samples(const struct journal_sample *js, size_t n, const struct 
         fit_journal_data_for(&jd, kind, FIT_SATURATED_DEFAULT, material, chosen);
     if (u_systematic)
         memcpy(data.u_systematic, u_systematic, sizeof data.u_systematic);
+    /* --model auto takes the premise checks' verdicts so far */
+    out->auto_evidence.isotropy = out->has_isotropy ? fit_auto_isotropy_of(out->isotropy.verdict)
+                                                    : FIT_AUTO_ISOTROPY_UNKNOWN;
+    data.auto_evidence = &out->auto_evidence;
     struct fit_model_options mo = fit_model_default_options();
     mo.warm_start = warm; /* the streaming fit's last parameters, when there is one */
     mo.warm_start_from = "the capture's streaming fit";
@@ -58,6 +62,8 @@ int capture_fit_samples(const struct journal_sample *js, size_t n, const struct 
         out->params = rep.abc;
         out->sd = rep.sd;
         out->sd_measured = rep.measured;
+        snprintf(out->auto_chosen, sizeof out->auto_chosen, "%s", rep.auto_chosen);
+        snprintf(out->auto_why, sizeof out->auto_why, "%s", rep.auto_why);
         snprintf(out->warning, sizeof out->warning, "%s", rep.warning);
         /* Plan-domain error: the model against what was measured. */
         rc = fit_sample_errors(*fitted, jd.rgb, jd.n, &out->err_plan, err);

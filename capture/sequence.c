@@ -29,11 +29,13 @@ struct sequence {
     size_t count;
     unsigned char *done; /* journalled points */
     adaptive *policy;    /* NULL: plan order */
-    /* Plan order: the pre-scan's points, measured first, and the first
-     * point in plan order that may not be done yet (the points before it
-     * are). */
+    /* Plan order: the pre-scan's points, measured first; the walk through
+     * the rest (route: the plan's order, or a resumed capture's points
+     * left travelled from where its axes stood: sequence_reroute), and
+     * the first step of it that may not be done yet (those before it are). */
     long *prescan;
     size_t n_prescan;
+    long *route;
     size_t cursor;
     /* The adaptive order: the sample journalled before the pending point
      * (has_prev), which the policy gets in the next decision unless
@@ -126,9 +128,9 @@ static long next_undone(sequence *q)
     for (size_t j = 0; j < q->n_prescan; j++)
         if (!q->done[q->prescan[j]])
             return q->prescan[j];
-    while (q->cursor < q->count && q->done[q->cursor])
+    while (q->cursor < q->count && q->done[q->route[q->cursor]])
         q->cursor++;
-    return q->cursor < q->count ? (long)q->cursor : -1;
+    return q->cursor < q->count ? q->route[q->cursor] : -1;
 }
 
 /* The pre-scan's points: one in each of n equal stretches of the plan's
@@ -194,10 +196,15 @@ int sequence_new(const struct sequence_setup *su, const struct journal_sample *j
     *out = NULL;
     sequence *q = calloc(1, sizeof *q);
     size_t count = plan_count(plan);
-    if (!q || !(q->done = calloc(count ? count : 1, 1))) {
+    if (!q || !(q->done = calloc(count ? count : 1, 1)) ||
+        !(q->route = malloc((count ? count : 1) * sizeof *q->route))) {
+        if (q)
+            free(q->done);
         free(q);
         return gonio_err_set(err, ENOMEM, "out of memory");
     }
+    for (size_t i = 0; i < count; i++)
+        q->route[i] = (long)i;
     q->plan = plan;
     q->rig = rig;
     q->count = count;
@@ -251,6 +258,7 @@ void sequence_free(sequence *q)
     join(q);
     adaptive_free(q->policy);
     free(q->prescan);
+    free(q->route);
     free(q->done);
     free(q);
 }
@@ -285,18 +293,78 @@ int sequence_end(sequence *q, const struct journal_sample *s, long *next,
     return decision_take(q, next, err);
 }
 
+static int in_prescan(const sequence *q, long i)
+{
+    for (size_t j = 0; j < q->n_prescan; j++)
+        if (q->prescan[j] == i)
+            return 1;
+    return 0;
+}
+
+/* The points measured already first (their moves are history), then those
+ * left in the order they will be measured: each counts its move from the
+ * one before it on the path the rig takes. */
 void sequence_order(const sequence *q, long *order)
 {
     size_t k = 0;
-    for (size_t j = 0; j < q->n_prescan; j++)
-        order[k++] = q->prescan[j];
-    for (size_t i = 0; i < q->count; i++) {
-        int first = 0;
-        for (size_t j = 0; j < q->n_prescan && !first; j++)
-            first = q->prescan[j] == (long)i;
-        if (!first)
-            order[k++] = (long)i;
+    for (int left = 0; left < 2; left++) {
+        for (size_t j = 0; j < q->n_prescan; j++)
+            if ((!q->done[q->prescan[j]]) == left)
+                order[k++] = q->prescan[j];
+        for (size_t i = 0; i < q->count; i++)
+            if ((!q->done[q->route[i]]) == left && !in_prescan(q, q->route[i]))
+                order[k++] = q->route[i];
     }
+}
+
+/* The points of ids (m) not done yet, in place; their count. */
+static size_t keep_left(const sequence *q, long *ids, size_t m)
+{
+    size_t n = 0;
+    for (size_t k = 0; k < m; k++)
+        if (!q->done[ids[k]])
+            ids[n++] = ids[k];
+    return n;
+}
+
+int sequence_reroute(sequence *q, const struct rig_axes *at, long *first,
+                     struct gonio_err *err)
+{
+    enum plan_order_mode mode = plan_current_order(q->plan);
+    if (q->policy || mode == PLAN_ORDER_AS_WRITTEN)
+        return 0; /* *first stays the one the sequence gave */
+    /* The pre-scan's points left, from the axes; the rest from the last of
+     * them (or the axes). The points done keep their places before them. */
+    long *pre = malloc((q->n_prescan ? q->n_prescan : 1) * sizeof *pre);
+    long *rest = malloc((q->count ? q->count : 1) * sizeof *rest);
+    int rc = pre && rest ? 0 : -ENOMEM;
+    size_t n_pre = 0, n_rest = 0, n_done = 0;
+    if (rc == 0) {
+        if (q->n_prescan)
+            memcpy(pre, q->prescan, q->n_prescan * sizeof *pre);
+        n_pre = keep_left(q, pre, q->n_prescan);
+        rc = plan_order_subset(q->plan, mode, q->rig, at, pre, n_pre);
+    }
+    for (size_t i = 0; rc == 0 && i < q->count; i++)
+        if (!q->done[q->route[i]] && !in_prescan(q, q->route[i]))
+            rest[n_rest++] = q->route[i];
+    struct rig_axes from = n_pre ? plan_point(q->plan, (size_t)pre[n_pre - 1])->ax : *at;
+    if (rc == 0)
+        rc = plan_order_subset(q->plan, mode, q->rig, &from, rest, n_rest);
+    if (rc == 0) {
+        for (size_t j = 0, k = 0; j < q->n_prescan; j++)
+            if (!q->done[q->prescan[j]])
+                q->prescan[j] = pre[k++];
+        for (size_t i = 0; i < q->count; i++)
+            if (q->done[q->route[i]] || in_prescan(q, q->route[i]))
+                q->route[n_done++] = q->route[i];
+        memcpy(q->route + n_done, rest, n_rest * sizeof *rest);
+        q->cursor = 0;
+        *first = next_undone(q);
+    }
+    free(pre);
+    free(rest);
+    return rc < 0 ? gonio_err_set(err, -rc, "ordering the points left: %s", strerror(-rc)) : 0;
 }
 
 int sequence_report(const sequence *q, struct sequence_report *r)

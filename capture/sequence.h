@@ -65,6 +65,16 @@ void sequence_free(sequence *q);
  * moves). O(count x pre-scan). */
 void sequence_order(const sequence *q, long *order);
 
+/* Plan order, resumed with the axes at `at` (sample, arm, azimuth), away
+ * from where the journal left them: the points not done yet are put in the
+ * plan's order mode (plan_order_subset) as a path from there, a pre-scan's
+ * points left first. Point numbers stay the plan's (the journal's); only
+ * the order they are measured in changes. *first receives the next point
+ * (-1: none). A no-op in the as-written and adaptive orders (*first
+ * unchanged). */
+int sequence_reroute(sequence *q, const struct rig_axes *at, long *first,
+                     struct gonio_err *err);
+
 /* Start deciding the point after k while k is measured. */
 int sequence_begin(sequence *q, long k, struct gonio_err *err);
 

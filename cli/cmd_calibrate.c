@@ -12,6 +12,7 @@
 
 #include <jansson.h>
 
+#include "capture/cal_documents.h"
 #include "capture/calibration.h"
 #include "cli/commands.h"
 #include "common/paths.h"
@@ -276,11 +277,23 @@ int cmd_calibrate(int argc, char **argv)
     struct gonio_err err = {0};
     struct cal_frame *frames = NULL;
     size_t n = 0;
+    double t_start = cal_documents_now();
     int rc = gonio_mkdir_p(o.root, &err);
     if (rc >= 0)
         rc = measure(&o, kind, &m, &frames, &n, &err);
     if (rc >= 0)
         rc = cal_write(o.root, &m, frames, n, &err);
+    if (rc >= 0) { /* its run as event-model documents, beside its frames */
+        char source[300];
+        snprintf(source, sizeof source, "in-process simulated detector (scene %s)", o.scene);
+        struct cal_doc_run r = {.meta = &m, .frames = frames, .n = n, .total = n,
+                                .plan = kind != CAL_DARK ? o.plan : NULL,
+                                .per_point = (int)(kind == CAL_DARK ? o.frames : o.repeats),
+                                .source = source, .exit_status = "success",
+                                .reason = "complete", .t_start = t_start,
+                                .t_stop = cal_documents_now()};
+        rc = cal_documents(o.root, &r, NULL, NULL, &err);
+    }
     free(frames);
     if (rc < 0) {
         fprintf(stderr, "gonio calibrate: %s\n", err.msg[0] ? err.msg : gonio_strerror(rc));

@@ -201,6 +201,8 @@ static void print_summary(const char *out_dir, const struct capture_summary *s)
                "of the capture's)\n",
                s->oop.verdict, s->oop.why, s->oop.pairs, s->oop.rig_time_s,
                s->rig_time_s > 0 ? 100.0 * s->oop.rig_time_s / s->rig_time_s : 0.0);
+    if (s->auto_chosen[0]) /* --model auto: what it chose, and what the checks decided */
+        printf("  auto: %s%s%s\n", s->auto_chosen, s->auto_why[0] ? "; " : "", s->auto_why);
 }
 
 int cmd_capture(int argc, char **argv)

@@ -15,8 +15,10 @@
 
 #include "cli/commands.h"
 #include "cli/interrupt.h"
+#include "capture/checks.h"
 #include "cli/progress.h"
 #include "common/clock.h"
+#include "rig/rig.h"
 #include "render/scene.h"
 #include "render/study.h"
 #include "report/page.h"
@@ -31,6 +33,7 @@ static void usage(FILE *out)
     fprintf(out,
             "usage: gonio study [--quick] [--materials LIST] [--plans LIST] [--models LIST]\n"
             "                   [--scenes LIST] [--jobs N] [--shard I/N] [--list] [--quiet]\n"
+            "                   [--check LIST] [--rig NAME]\n"
             "                   --out DIR\n"
             "       gonio study merge DIR... --out DIR\n"
             "  Every material x scene x plan x model on the in-process simulated rig; one\n"
@@ -48,6 +51,9 @@ static void usage(FILE *out)
             "  only share I of N (merge the shares with gonio study merge). --list: print\n"
             "  the job ids and exit. Rerunning on DIR resumes: finished rows are kept.\n"
             "  --quiet: no progress display (the summary lines and errors stay).\n"
+            "  --check isotropy,out-of-plane: the premise checks on every job's capture\n"
+            "  (docs/checks.md), on the rig profile --rig NAME (default: the default rig);\n"
+            "  their verdicts and rig time are the rows' isotropy and oop columns.\n"
             "  A complete study (or merge) also writes DIR/renders/, DIR/plots/ and\n"
             "  DIR/report.html (gonio render --study, gonio report; docs/report.md).\n");
 }
@@ -350,6 +356,20 @@ static int run_jobs(const struct study_spec *s, const char *dir, int n_workers, 
     return r.failed ? 1 : 0;
 }
 
+/* --check and --rig into the spec: the rig profile must have the axes the
+ * checks need (refused before any job runs, as gonio capture refuses). */
+static int study_checks(struct study_spec *s, unsigned checks, const char *rig,
+                        struct gonio_err *err)
+{
+    s->checks = checks;
+    snprintf(s->rig, sizeof s->rig, "%s", rig ? rig : "");
+    if (!checks)
+        return 0;
+    struct rig_profile rp;
+    int rc = rig_profile_load(rig ? rig : "default", &rp, err);
+    return rc < 0 ? rc : capture_checks_rig("--check", checks, &rp, rig ? rig : "default", err);
+}
+
 int cmd_study(int argc, char **argv)
 {
     if (argc >= 2 && !strcmp(argv[1], "merge"))
@@ -361,10 +381,13 @@ int cmd_study(int argc, char **argv)
         {"shard", required_argument, NULL, 'S'}, {"out", required_argument, NULL, 'o'},
         {"list", no_argument, NULL, 'l'},        {"help", no_argument, NULL, 'h'},
         {"saturated", required_argument, NULL, 'T'}, {"quiet", no_argument, NULL, 'Q'},
+        {"check", required_argument, NULL, 'C'}, {"rig", required_argument, NULL, 'R'},
         {NULL, 0, NULL, 0},
     };
     const char *lists[4] = {NULL, NULL, NULL, NULL}, *shard = NULL, *out = NULL,
-               *saturated = "default";
+               *saturated = "default", *rig = NULL;
+    unsigned checks = 0;
+    struct gonio_err cerr = {0};
     long n_workers = sysconf(_SC_NPROCESSORS_ONLN);
     int quick = 0, list = 0, quiet = 0, c;
     optind = 1;
@@ -381,6 +404,13 @@ int cmd_study(int argc, char **argv)
         case 'l': list = 1; break;
         case 'Q': quiet = 1; break;
         case 'T': saturated = optarg; break;
+        case 'R': rig = optarg; break;
+        case 'C':
+            if (capture_checks_parse("--check", optarg, &checks, &cerr) < 0) {
+                fprintf(stderr, "gonio study: %s\n", cerr.msg);
+                return 2;
+            }
+            break;
         case 'j':
             errno = 0;
             n_workers = strtol(optarg, &end, 10);
@@ -418,6 +448,8 @@ int cmd_study(int argc, char **argv)
             rc = study_spec_set(s, (enum study_list)i, lists[i], &err);
     if (rc == 0 && shard)
         rc = study_spec_set_shard(s, shard, &err);
+    if (rc == 0)
+        rc = study_checks(s, checks, rig, &err);
     if (rc == 0 && fit_saturated_parse(saturated, &s->saturated) < 0)
         rc = gonio_err_set(&err, GONIO_EUSAGE, "--saturated '%s': use censored or clipped",
                            saturated);

@@ -4,6 +4,7 @@
 
 #include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -17,6 +18,38 @@
 #include "journal/journal.h"
 
 static const char stop_file[] = "stop.json";
+
+/* name under the directory parent, removed: a directory with what it
+ * holds (depth bounds the descent), anything else (a link too) unlinked. */
+static int remove_at(int parent, const char *name, int depth)
+{
+    int fd = depth < 16 ? openat(parent, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW) : -1;
+    if (fd < 0)
+        return unlinkat(parent, name, 0);
+    DIR *d = fdopendir(fd);
+    if (!d) {
+        close(fd);
+        return -1;
+    }
+    int rc = 0;
+    for (struct dirent *e; (e = readdir(d));) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
+            continue;
+        struct stat st;
+        if (fstatat(fd, e->d_name, &st, AT_SYMLINK_NOFOLLOW) < 0)
+            rc = -1;
+        else if (S_ISDIR(st.st_mode) ? remove_at(fd, e->d_name, depth + 1) < 0
+                                      : unlinkat(fd, e->d_name, 0) < 0)
+            rc = -1;
+    }
+    closedir(d);
+    return unlinkat(parent, name, AT_REMOVEDIR) < 0 ? -1 : rc;
+}
+
+int captures_remove(const char *dir)
+{
+    return remove_at(AT_FDCWD, dir, 0);
+}
 
 static json_t *number_or_null(double v)
 {

@@ -36,6 +36,12 @@ int captures_record_stop(const char *dir, const struct captures_stop *stop,
 /* Remove dir/stop.json: the capture runs again. */
 void captures_clear_stop(const char *dir);
 
+/* Remove a capture's directory and everything in it, never following a
+ * link out of it: a new capture that failed before its first sample (no
+ * rig answering) leaves nothing to find, resume or clean up. 0, or -1
+ * when something stayed (errno says why). */
+int captures_remove(const char *dir);
+
 /* The state a capture directory says it ended in: stop.json's, else
  * "complete" when it has results.json, else "interrupted"; state is "" when
  * dir is no goniod capture (no request.json). */

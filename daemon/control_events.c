@@ -20,6 +20,7 @@
 
 #include <uuid/uuid.h>
 
+#include "capture/cal_documents.h"
 #include "daemon/control_private.h"
 #include "modbus_map/modbus_map.h"
 #include "rig/rig.h"
@@ -319,6 +320,23 @@ static void record_run(const char *dir, const char *uid)
 
 /* ---- the documents ------------------------------------------------------ */
 
+/* The calibration the capture reduces with, as its setup.json names it
+ * (written before its first sample), and the uid of that calibration's
+ * last run (capture/cal_documents.h): null, null for an uncalibrated
+ * capture, a uid null for a calibration that has no run recorded. */
+static void set_calibration(const control *c, json_t *d, const char *dir)
+{
+    char path[2200], uid[37] = "";
+    snprintf(path, sizeof path, "%s/setup.json", dir);
+    json_t *setup = json_load_file(path, 0, NULL);
+    const char *id = json_string_value(json_object_get(setup, "calibration"));
+    if (id && c->cfg->calibration_root[0])
+        cal_documents_last_uid(c->cfg->calibration_root, id, uid);
+    json_object_set_new(d, "calibration", string_or_null(id));
+    json_object_set_new(d, "calibration_uid", string_or_null(uid));
+    json_decref(setup);
+}
+
 static json_t *run_start_doc(control *c, const struct worker_msg_start *m, double t)
 {
     const struct worker_request *r = &m->req;
@@ -349,6 +367,7 @@ static json_t *run_start_doc(control *c, const struct worker_msg_start *m, doubl
     json_object_set_new(d, "estimate_s", control_json_number(m->estimate_s));
     json_object_set_new(d, "prescan", json_integer((json_int_t)m->prescan));
     json_object_set_new(d, "adaptive", json_boolean(m->adaptive));
+    set_calibration(c, d, r->dir);
     json_object_set_new(d, "hints",
                         json_pack("{s:[[[s],s]]}", "dimensions", "theta_r", "primary"));
     return d;
@@ -587,6 +606,16 @@ void control_events_stop(control *c, const struct worker_msg_stop *m)
     }
     send_pair(c, "stop", d);
     control_events_free(c);
+}
+
+void control_events_lines(control *c, const char *text)
+{
+    for (const char *p = text, *nl; p && (nl = strchr(p, '\n')); p = nl + 1) {
+        char *line = strndup(p, (size_t)(nl - p));
+        if (line)
+            control_broadcast_to(c, CONTROL_WATCH_EVENTS, line);
+        free(line);
+    }
 }
 
 void control_events_free(control *c)

@@ -135,6 +135,9 @@ void control_events_sample(control *c, const struct worker_msg_sample *m);
 void control_events_stop(control *c, const struct worker_msg_stop *m);
 /* A watcher that subscribes mid-run: the run's run_start and descriptor. */
 void control_events_greet(control *c, struct control_client *cl);
+/* Send event-model watchers each line of text ('\n'-terminated lines;
+ * NULL: none): a calibration's run (capture/cal_documents.h). */
+void control_events_lines(control *c, const char *text);
 void control_events_free(control *c);
 
 /* ---- control_commands.c ----------------------------------------------- */

@@ -2,12 +2,14 @@
  * descriptor when a capture begins, an event per sample, stop at its end.
  * The start and descriptor are kept while the capture runs, so a watcher
  * that subscribes late is told what it is watching. */
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
 #include "capture/capture_files.h"
+#include "daemon/captures.h"
 #include "daemon/control_private.h"
 #include "fit/fit_status.h"
 #include "rig/rig.h"
@@ -295,8 +297,14 @@ void control_dispatch(control *c, struct worker_msg *msgs)
                         ms->comm.timeouts, ms->comm.bad_replies, ms->comm.exceptions,
                         ms->comm.failed, ms->comm.reconnects);
             doc = stop_doc(ms);
-            if (!ms->calibration[0]) /* event-model documents are a capture's */
+            if (!ms->calibration[0])
                 control_events_stop(c, ms);
+            else /* a calibration's run, whole, as it ended */
+                control_events_lines(c, ms->documents);
+            free(ms->documents);
+            if (ms->discard_dir && captures_remove(ms->dir) < 0)
+                fprintf(stderr, "goniod: capture %s: %s: cannot remove: %s\n", ms->id, ms->dir,
+                        strerror(errno));
             free(c->start_doc);
             free(c->descriptor_doc);
             c->start_doc = c->descriptor_doc = NULL;

@@ -208,7 +208,8 @@ void goniod_axes_close(struct goniod_axes *a)
 static void probe_line(FILE *out, const char *who, int rc, const char *what,
                        const struct gonio_err *e, struct gonio_err *first)
 {
-    fprintf(out, "# probe: %-22s %s%s\n", who, rc == 0 ? "" : "did not answer: ",
+    fprintf(out, "# probe: %-22s %s%s\n", who,
+            rc == 0 ? "" : rc == -ENOTSUP ? "answered, but " : "did not answer: ",
             rc == 0 ? what : e->msg);
     if (rc < 0 && !first->msg[0])
         *first = *e;
@@ -253,6 +254,24 @@ static void probe_usb(const struct goniod_config *cfg, FILE *out, struct gonio_e
 #endif
 }
 
+/* A device that did not answer at all: what to check, with the settings
+ * goniod used (a slave at another speed hears framing errors and stays
+ * silent, as does one at another id). */
+static void probe_hint(const struct goniod_config *cfg, struct gonio_err *err)
+{
+    if (err->code != ETIMEDOUT)
+        return;
+    char msg[GONIO_ERR_MSG_MAX];
+    snprintf(msg, sizeof msg, "%s", err->msg);
+    if (cfg->driver == GONIOD_DRIVER_MODBUS_RTU)
+        gonio_err_set(err, err->code, "%s: check driver.device (%s), driver.baud (%ld, "
+                      "parity %c) and the slave id against the device's settings", msg,
+                      cfg->device, cfg->baud, cfg->parity);
+    else
+        gonio_err_set(err, err->code, "%s: check driver.host and driver.port (%s:%d) and the "
+                      "slave id against the device's settings", msg, cfg->host, cfg->port);
+}
+
 int goniod_probe(const struct goniod_config *cfg, const struct rig_profile *rig, FILE *out,
                  struct gonio_err *err)
 {
@@ -290,6 +309,15 @@ int goniod_probe(const struct goniod_config *cfg, const struct rig_profile *rig,
             rc = gonio_err_set(&e, GONIO_EDEVICE, "detector (slave %d): channel count %d, "
                                "not 1..64: not a gonio detector", cfg->slaves.detector, channels);
         }
+        /* The profile's dark frames close the shutter (rig shutter:
+         * true): a detector without one is found here, not at the first
+         * dark frame. */
+        int closed = 0;
+        if (rc == 0 && rig->shutter &&
+            (rc = drv_modbus_detector_probe_shutter(axes.bus, cfg->slaves.detector, &closed,
+                                                    &e)) == 0)
+            snprintf(what + strlen(what), sizeof what - strlen(what), ", shutter %s",
+                     closed ? "closed" : "open");
         probe_line(out, who, rc, what, &e, &first);
     } else {
         probe_usb(cfg, out, &first);
@@ -297,6 +325,7 @@ int goniod_probe(const struct goniod_config *cfg, const struct rig_profile *rig,
     goniod_axes_close(&axes);
     if (first.msg[0]) {
         *err = first;
+        probe_hint(cfg, err);
         return -GONIO_EDEVICE;
     }
     return 0;

@@ -384,6 +384,15 @@ static void record_stop(worker *w, int rc, const char *reason, const struct goni
         fprintf(stderr, "goniod: capture %s: %s\n", w->req.id, werr.msg);
 }
 
+/* The failure's message says the directory goes with it. */
+static void discard_note(struct gonio_err *err)
+{
+    char msg[GONIO_ERR_MSG_MAX];
+    snprintf(msg, sizeof msg, "%s", err->msg);
+    gonio_err_set(err, err->code, "%s (nothing was measured: the capture's directory is "
+                  "removed)", msg);
+}
+
 static void *run(void *arg)
 {
     worker *w = arg;
@@ -416,6 +425,12 @@ static void *run(void *arg)
         snprintf(err.msg, sizeof err.msg, "%s", gonio_strerror(rc));
 
     pthread_mutex_lock(&w->mu);
+    /* A new capture that failed before its first sample (a rig that did
+     * not answer) measured nothing: its directory goes, so the same
+     * request can be sent again once the rig is fixed. */
+    int discard = rc < 0 && !w->req.resume && w->done == 0;
+    if (discard)
+        discard_note(&err);
     /* The engine says complete, converged or aborted; an abort names who
      * asked for it (a client, or the daemon shutting down). */
     int aborted = rc == 0 && !strcmp(sum.stop_reason, "aborted");
@@ -444,7 +459,8 @@ static void *run(void *arg)
     snprintf(w->end_message, sizeof w->end_message, "%s", rc < 0 ? err.msg : "");
     if (rc == 0 && !aborted)
         w->eta_s = 0;
-    record_stop(w, rc, reason, &err, &sum);
+    if (!discard)
+        record_stop(w, rc, reason, &err, &sum);
     /* The stop is queued as the worker goes idle, under one lock: a loop
      * that sees it idle (goniod shutting down) finds the stop to send. */
     if (m) {
@@ -457,6 +473,7 @@ static void *run(void *arg)
         m->summary = sum;
         m->has_comm = w->has_comm;
         m->comm = w->comm;
+        m->discard_dir = discard;
         enqueue_locked(w, &m->base);
     }
     w->running = 0;
@@ -565,6 +582,8 @@ void worker_free(worker *w)
     }
     for (struct worker_msg *m = w->head, *next; m; m = next) {
         next = m->next;
+        if (m->kind == WORKER_MSG_STOP)
+            free(((struct worker_msg_stop *)m)->documents);
         free(m);
     }
     prepared_free(w->pending);

@@ -144,6 +144,13 @@ struct worker_msg_stop {
     /* A calibration's stop: its kind ("" for a capture); summary.samples
      * and rig_time_s are its frames and the last one's rig time. */
     char calibration[16];
+    /* A calibration's run as event-model lines (capture/cal_documents.h),
+     * each ending in '\n'; malloc'd, NULL: none. */
+    char *documents;
+    /* A new capture failed before its first sample: nothing in its
+     * directory is worth keeping, and the loop removes it once the stop
+     * is sent (captures_remove). */
+    int discard_dir;
 };
 
 /* A bring-up command ended (worker_bringup): its ticket and result. */

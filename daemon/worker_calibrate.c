@@ -10,6 +10,7 @@
 #include <time.h>
 
 #include "brdf/standard.h"
+#include "capture/cal_documents.h"
 #include "capture/calibration.h"
 #include "daemon/captures.h"
 #include "daemon/worker_private.h"
@@ -169,7 +170,7 @@ static int measure(worker *w, const struct cal_run *run, sim_source *sim, int *a
 
 /* Queue the stop and go idle, under one lock (as a capture's run does). */
 static void finish(worker *w, int rc, int aborted, size_t n, double rig_time_s,
-                   const struct gonio_err *err)
+                   const struct gonio_err *err, char *documents)
 {
     struct worker_msg_stop *m = calloc(1, sizeof *m);
     pthread_mutex_lock(&w->mu);
@@ -191,7 +192,10 @@ static void finish(worker *w, int rc, int aborted, size_t n, double rig_time_s,
         m->summary.rig_time_s = rig_time_s;
         m->has_comm = w->has_comm;
         m->comm = w->comm;
+        m->documents = documents;
         worker_enqueue_locked(w, &m->base);
+    } else {
+        free(documents);
     }
     w->running = 0;
     w->paused = 0;
@@ -242,10 +246,14 @@ static void *run_calibration(void *arg)
     if (rc == 0 && w->cfg->driver == GONIOD_DRIVER_SIM && !sim)
         rc = -abs(err.code ? err.code : EINVAL);
     struct cal_meta meta;
+    double t_start = cal_documents_now();
+    size_t total = 0;
+    int described = rc == 0; /* meta says what the run is of */
     if (rc == 0) {
         fill_meta(w, c, &prof, sim, &meta);
         struct cal_run run = {.root = w->cfg->calibration_root, .meta = &meta, .rig = &prof,
                               .plan = plan, .per_point = c->per_point};
+        total = cal_run_total(&run);
         rc = measure(w, &run, sim, &aborted, &frames, &n, &err);
     }
     if (rc == 0 && !aborted && n > 0) {
@@ -258,7 +266,10 @@ static void *run_calibration(void *arg)
             rc < 0 ? "failed" : aborted ? "stopped" : "complete", n, rc < 0 ? ": " : "",
             rc < 0 ? err.msg : "");
     record_stop(w, rc, aborted, &err);
-    finish(w, rc, aborted, n, n ? frames[n - 1].rig_time_s : NAN, &err);
+    char *documents = described ? worker_calibration_documents(w, &meta, frames, n, total, rc,
+                                                               aborted, &err, t_start)
+                                : NULL;
+    finish(w, rc, aborted, n, n ? frames[n - 1].rig_time_s : NAN, &err, documents);
     free(frames);
     plan_free(plan);
     sim_source_free(sim);

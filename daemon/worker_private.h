@@ -95,4 +95,14 @@ int worker_lock_idle(worker *w, struct gonio_err *err);
 void worker_run_begin_locked(worker *w);
 int worker_spawn(worker *w, void *(*body)(void *), const char *what, struct gonio_err *err);
 
+/* A calibration's run as event-model lines, written to its directory as
+ * well (worker_calibrate_documents.c); malloc'd, NULL when out of memory.
+ * rc, aborted and err are how it ended. */
+struct cal_meta;
+struct cal_frame;
+char *worker_calibration_documents(worker *w, const struct cal_meta *meta,
+                                   const struct cal_frame *frames, size_t n, size_t total,
+                                   int rc, int aborted, const struct gonio_err *err,
+                                   double t_start);
+
 #endif

@@ -134,6 +134,12 @@ drv_detector *drv_detector_new_modbus(drv_modbus_bus *bus, int slave, struct gon
 int drv_modbus_detector_probe(drv_modbus_bus *bus, int slave, unsigned *status, int *channels,
                               struct gonio_err *err);
 
+/* The detector's shutter register read (goniod --check --probe, on a rig
+ * profile with a shutter): *closed 1 when it reads closed. A detector
+ * without the register (exception 02): -ENOTSUP naming it. */
+int drv_modbus_detector_probe_shutter(drv_modbus_bus *bus, int slave, int *closed,
+                                      struct gonio_err *err);
+
 /* What the detector at slave id `slave` reports, asked at open without
  * integrating: *counts 1 when its status says RAW (it gives counts, which
  * a calibration must turn into BRDF: docs/protocol-modbus.md, "Raw

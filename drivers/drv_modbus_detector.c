@@ -18,7 +18,7 @@ enum { R_INTEGRATION = MB_DET_INTEGRATION, R_TRIGGER = MB_DET_TRIGGER, R_STATUS 
        R_COUNT = MB_DET_COUNT, R_SEQUENCE = MB_DET_SEQUENCE, R_CLOCK = MB_DET_CLOCK,
        R_CHANNELS = MB_DET_CHANNELS, R_NREGS = MB_DET_CHANNELS + 6 };
 enum { ST_BUSY = MB_DET_BUSY, ST_READY = MB_DET_READY, ST_SATURATED = MB_DET_SATURATED,
-       ST_RAW = MB_DET_RAW };
+       ST_RAW = MB_DET_RAW, ST_BANDS = MB_DET_BANDS };
 
 struct mb_detector {
     drv_modbus_bus *bus;
@@ -37,6 +37,7 @@ struct mb_detector {
      * device that may have restarted since is told again. */
     int shutter_closed;
     long shutter_faults;
+    struct mb_bands bands; /* a spectral detector's */
 };
 
 /* Integration, trigger, status, channel count, sequence, rig clock and
@@ -183,7 +184,9 @@ static int mb_acquire(void *priv, double integration_s, struct drv_reading *out,
         struct mb_raw_channels raw = {.seq = s.seq, .shutter_closed = d->shutter_closed,
                                       .saturated = (s.st & ST_SATURATED) != 0};
         memcpy(raw.counts, s.counts, sizeof raw.counts);
-        if ((rc = drv_modbus_read_raw(d->bus, d->slave, d->who, &raw, out, err)) < 0)
+        if ((rc = drv_modbus_read_raw(d->bus, d->slave, d->who, &raw, out, err)) < 0 ||
+            ((s.st & ST_BANDS) && (rc = drv_modbus_read_bands(d->bus, d->slave, d->who,
+                                                              &d->bands, s.seq, out, err)) < 0))
             return rc;
         return reading_taken(d, &s, out);
     }
@@ -250,13 +253,25 @@ int drv_modbus_detector_counts(drv_modbus_bus *bus, int slave, int *counts,
 int drv_modbus_detector_probe(drv_modbus_bus *bus, int slave, unsigned *status, int *channels,
                               struct gonio_err *err)
 {
-    char who[32];
     uint16_t r[4]; /* status and channel count, adjacent */
-    snprintf(who, sizeof who, "detector (slave %d)", slave);
-    int rc = drv_modbus_read(bus, slave, R_STATUS, 4, r, who, err);
+    int rc = drv_modbus_read(bus, slave, R_STATUS, 4, r, "detector", err);
     if (rc < 0)
         return rc;
     *status = drv_modbus_get32(r);
     *channels = (int)drv_modbus_get32(r + 2);
+    return 0;
+}
+
+int drv_modbus_detector_probe_shutter(drv_modbus_bus *bus, int slave, int *closed,
+                                      struct gonio_err *err)
+{
+    uint16_t r[2];
+    int rc = drv_modbus_read(bus, slave, MB_DET_SHUTTER, 2, r, "detector", err);
+    if (rc < 0 && drv_modbus_last_exception(bus) == 2)
+        return gonio_err_set(err, ENOTSUP, "detector (slave %d) has no shutter (register "
+                             "0x%04x: exception 02)", slave, (unsigned)MB_DET_SHUTTER);
+    if (rc < 0)
+        return rc;
+    *closed = drv_modbus_get32(r) != 0;
     return 0;
 }

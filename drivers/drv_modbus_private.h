@@ -34,6 +34,19 @@ int drv_modbus_read_raw(drv_modbus_bus *bus, int slave, const char *who,
                         const struct mb_raw_channels *ch, struct drv_reading *out,
                         struct gonio_err *err);
 
+/* A spectral detector's band block (docs/protocol-modbus.md, "Band
+ * block"), for a raw reading whose status says BANDS: the count and
+ * centres read at the first, then the band counts of each.
+ * drv_modbus_read_bands reads those of reading seq into out (after
+ * drv_modbus_read_raw: its full scale bounds them), checked. The counts
+ * stay valid until the next reading. */
+struct mb_bands {
+    int probed, n;
+    double nm[MB_DET_MAX_BANDS], counts[MB_DET_MAX_BANDS];
+};
+int drv_modbus_read_bands(drv_modbus_bus *bus, int slave, const char *who, struct mb_bands *b,
+                          uint32_t seq, struct drv_reading *out, struct gonio_err *err);
+
 /* The exception code the device answered the last read or write with (2:
  * no such register), 0 when it answered normally or not at all. */
 int drv_modbus_last_exception(const drv_modbus_bus *bus);

@@ -18,11 +18,6 @@
 /* The folds' draw is kept apart from the draws of the fits (same seed). */
 #define AUTO_SEED_SALT UINT64_C(0x6175746f2d637631)
 
-/* The models that predict out of plane, in the order a tie is broken; the
- * last only for samples taken with the sample turned (turned_samples). */
-static const char *const candidates[] = {"abc", "abc-prior", "latent", "aniso-ggx"};
-#define N_CANDIDATES (sizeof candidates / sizeof *candidates)
-
 /* 1 when a sample's incidence lies off the sample's x-z plane: the sample
  * was turned (a plan's sample_azimuths), and the samples see the lobe along
  * more than one of its directions, which the anisotropic model needs. */
@@ -207,7 +202,8 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
     struct fit_sample *train = malloc(n * sizeof *train);
     unsigned char *tlower = malloc(n);
     double *w = NULL; /* the held-out samples' shares, when the scores weigh them */
-    double sum[N_CANDIDATES] = {0}, sum2[N_CANDIDATES] = {0}, count[N_CANDIDATES] = {0};
+    double sum[FIT_AUTO_MAX_CANDIDATES] = {0}, sum2[FIT_AUTO_MAX_CANDIDATES] = {0},
+           count[FIT_AUTO_MAX_CANDIDATES] = {0};
     int rc = 0;
     if (!fold || !train || !tlower) {
         rc = gonio_err_set(err, ENOMEM, "auto: out of memory");
@@ -241,10 +237,9 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
                            out->geometries, n, FIT_AUTO_FOLDS, FIT_AUTO_MIN_GEOMETRIES);
         goto done;
     }
-    const size_t nc = N_CANDIDATES - !turned_samples(data->rgb, n);
+    const size_t nc = fit_auto_candidates(turned_samples(data->rgb, n), data->auto_evidence,
+                                          out->model, out->why, sizeof out->why);
     out->n = nc;
-    for (size_t c = 0; c < nc; c++)
-        out->model[c] = candidates[c];
     for (int k = 0; k < FIT_AUTO_FOLDS; k++) {
         size_t nt = 0;
         for (size_t i = 0; i < n; i++)
@@ -255,7 +250,7 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
         for (size_t c = 0; c < nc; c++) {
             if (out->failed[c][0])
                 continue;
-            const struct fit_model_kind *kind = fit_model_find(candidates[c]);
+            const struct fit_model_kind *kind = fit_model_find(out->model[c]);
             struct fit_data d = {
                 .rgb = train,
                 .n_rgb = nt,
@@ -280,19 +275,24 @@ static int cross_validate(const struct fit_data *data, struct fit_model_options 
             }
         }
     }
-    int any = 0;
+    int failed[FIT_AUTO_MAX_CANDIDATES];
     for (size_t c = 0; c < nc; c++) {
         int none = !(count[c] > 0);
         out->cv[c] = out->failed[c][0] || none ? INFINITY : sum[c] / count[c];
         out->cv_rms[c] = out->failed[c][0] || none ? INFINITY : sqrt(sum2[c] / count[c]);
         if (!out->failed[c][0] && none)
             snprintf(out->failed[c], sizeof out->failed[c], "no held-out value to score");
-        if (!out->failed[c][0] && (!any || out->cv[c] < out->cv[out->chosen])) {
-            out->chosen = c;
-            any = 1;
-        }
+        failed[c] = out->failed[c][0] != '\0';
     }
-    if (!any) {
+    char oop_why[FIT_AUTO_WHY_MAX];
+    size_t best = fit_auto_rank(out->model, out->cv, failed, nc, data->auto_evidence, oop_why,
+                                sizeof oop_why);
+    out->chosen = best < nc ? best : 0;
+    if (oop_why[0]) {
+        size_t at = strlen(out->why);
+        snprintf(out->why + at, sizeof out->why - at, "%s%s", at ? "; " : "", oop_why);
+    }
+    if (best == nc) {
         char line[512];
         fit_auto_line(out, o.seed, line, sizeof line);
         rc = gonio_err_set(err, GONIO_EFIT, "%s", line);
@@ -375,6 +375,8 @@ int fit_auto_model_fit(const struct fit_data *data, const struct fit_model_optio
         snprintf(key, sizeof key, "auto_cv_%s", cv.model[c]);
         rc = fit_model_file_set(*out, key, "%.6g", cv.cv[c]);
     }
+    if (rc == 0 && cv.why[0])
+        rc = fit_model_file_set(*out, "auto_why", "%s", cv.why);
     if (rc < 0) {
         fit_model_file_free(*out);
         *out = NULL;
@@ -387,6 +389,8 @@ int fit_auto_model_fit(const struct fit_data *data, const struct fit_model_optio
         rep->has_abc = 0;
         rep->warning[0] = '\0';
         snprintf(rep->note, sizeof rep->note, "%.300s; %s: %.180s", line, kind->name, r.note);
+        snprintf(rep->auto_chosen, sizeof rep->auto_chosen, "%s", kind->name);
+        snprintf(rep->auto_why, sizeof rep->auto_why, "%s", cv.why);
     }
     return 0;
 }

@@ -5,7 +5,9 @@
  * abc-prior, latent; not the in-plane MLP), and aniso-ggx when the samples
  * were taken with the sample turned (a plan's sample_azimuths: an incidence
  * off the sample's x-z plane), so that an anisotropic material captured at
- * a few azimuths gets the anisotropic model when it predicts best. The samples are grouped by
+ * a few azimuths gets the anisotropic model when it predicts best. A
+ * capture's premise checks (fit_data.auto_evidence) narrow the candidates
+ * and overrule the figures as fit/auto_evidence.h says. The samples are grouped by
  * geometry, (theta_h, theta_d, phi_d mod pi) on a 1e-9 rad grid, so that a
  * repeated pair and its reciprocal (phi_d + pi) are held out together: a
  * reciprocal model predicts a held-out sample from its twin in the
@@ -35,6 +37,7 @@
 
 #include <stddef.h>
 
+#include "fit/auto_evidence.h"
 #include "fit/models.h"
 
 #define FIT_AUTO_FOLDS 5
@@ -43,7 +46,6 @@
  * DS4's six pairs: 12 residuals for abc's 9 parameters) and every fold
  * holds out at least one. */
 #define FIT_AUTO_MIN_GEOMETRIES (FIT_AUTO_FOLDS + 1)
-#define FIT_AUTO_MAX_CANDIDATES 4
 
 struct fit_auto_cv {
     size_t n;                  /* candidates */
@@ -51,7 +53,8 @@ struct fit_auto_cv {
     double cv[FIT_AUTO_MAX_CANDIDATES];  /* CV log error; INFINITY: the candidate failed */
     double cv_rms[FIT_AUTO_MAX_CANDIDATES]; /* RMS of the same held-out residuals */
     char failed[FIT_AUTO_MAX_CANDIDATES][160]; /* why, or "" */
-    size_t chosen;             /* index of the lowest cv */
+    size_t chosen;             /* the lowest cv, after the checks' evidence (fit_auto_rank) */
+    char why[FIT_AUTO_WHY_MAX]; /* what the checks' evidence decided, "" when nothing */
     size_t geometries;         /* distinct geometries (groups) */
 };
 

@@ -20,6 +20,7 @@
 #include "fit/fit.h"
 
 struct fit_model_file;
+struct fit_auto_evidence;
 
 /* One spectral sample: in-plane geometry (degrees, theta_r signed as in
  * brdf/angles.h), wavelength and the BRDF value (1/sr) at that wavelength. */
@@ -53,6 +54,9 @@ struct fit_data {
     /* Per channel, the relative standard uncertainty that all samples' u
      * share (fit_options.u_systematic); {0}: none. */
     double u_systematic[3];
+    /* What the capture's premise checks said, for --model auto (NULL:
+     * nothing; fit/auto_evidence.h); the other models ignore it. */
+    const struct fit_auto_evidence *auto_evidence;
 };
 
 struct fit_model_options {
@@ -86,6 +90,10 @@ struct fit_model_report {
      * is the model file's), and its wall and CPU seconds, the fit alone. */
     int fitted;
     double fit_s, cpu_s;
+    /* --model auto: the candidate it chose and what the premise checks'
+     * evidence decided (fit/auto_evidence.h, "" when nothing); else "". */
+    char auto_chosen[16];
+    char auto_why[320];
 };
 
 struct fit_model_kind {

@@ -48,14 +48,15 @@ enum mb_det_reg {
     MB_DET_WAIT = 0x0200,
 };
 /* Detector status bits (MB_DET_STATUS). RAW: the channels of the data
- * hold counts (uint32, ADU) and the raw block describes them.
+ * hold counts (uint32, ADU) and the raw block describes them. BANDS (with
+ * RAW): a spectral detector, whose band block holds each band's counts.
  * CLOCK_SIMULATED: the clock register counts simulated time that advances
  * only by what the simulator models, never by wall time (gonio-sim --clock
  * simulated); LINE_TIMED with it: that time includes each RTU frame's time
  * on the line at its baud (gonio-sim --baud). Both at the top of the low
  * word, clear of the detector's own state bits. */
 enum { MB_DET_BUSY = 1u << 0, MB_DET_READY = 1u << 1, MB_DET_SATURATED = 1u << 2,
-       MB_DET_RAW = 1u << 3, MB_DET_LINE_TIMED = 1u << 14, MB_DET_CLOCK_SIMULATED = 1u << 15 };
+       MB_DET_RAW = 1u << 3, MB_DET_BANDS = 1u << 4, MB_DET_LINE_TIMED = 1u << 14, MB_DET_CLOCK_SIMULATED = 1u << 15 };
 /* The detector's raw block: what a raw reading's counts need beside them,
  * in one read of MB_DET_RAW_NREGS registers (a size no other read of the
  * drivers has), and the shutter. The sequence is that of the integration
@@ -65,6 +66,16 @@ enum mb_det_raw_reg {
     MB_DET_NONLINEARITY = 0x0106, MB_DET_MONITOR = 0x0108, MB_DET_SHUTTER = 0x010A,
     MB_DET_RAW_END = 0x010C, MB_DET_RAW_NREGS = MB_DET_RAW_END - MB_DET_RAW_SEQUENCE,
 };
+/* A spectral detector's band block (raw mode): the band count and each
+ * band's centre (float32 nm) at 0x0300, read once; each raw reading's band
+ * counts (uint32 ADU) with its sequence at 0x0400, one read of 2 + 2N
+ * registers. At most MB_DET_MAX_BANDS bands: that read stays within a
+ * Modbus read's 125 registers. */
+enum mb_det_band_reg {
+    MB_DET_BAND_COUNT = 0x0300, MB_DET_BAND_NM = 0x0302,
+    MB_DET_BAND_SEQUENCE = 0x0400, MB_DET_BAND_COUNTS = 0x0402,
+};
+#define MB_DET_MAX_BANDS 61
 #define MB_DET_MONITOR_NONE 0xFFFFFFFFu
 #define MB_DET_GAIN_STATE_MAX 255u /* gain states a detector may number */
 

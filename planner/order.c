@@ -715,3 +715,27 @@ int plan_order_indices(const struct plan_point *pts, size_t n, enum plan_order_m
     }
     return rc;
 }
+
+int plan_order_subset(const struct plan *plan, enum plan_order_mode mode,
+                      const struct rig_profile *rig, const struct rig_axes *start, long *ids,
+                      size_t m)
+{
+    if (m < 2 || mode == PLAN_ORDER_AS_WRITTEN || mode == PLAN_ORDER_ADAPTIVE)
+        return 0;
+    struct plan_point *pts = malloc(m * sizeof *pts);
+    size_t *order = malloc(m * sizeof *order);
+    long *was = malloc(m * sizeof *was);
+    int rc = pts && order && was ? 0 : -ENOMEM;
+    for (size_t k = 0; rc == 0 && k < m; k++) {
+        pts[k] = *plan_point(plan, (size_t)ids[k]);
+        was[k] = ids[k];
+    }
+    if (rc == 0)
+        rc = plan_order_indices(pts, m, mode, rig, start, order);
+    for (size_t k = 0; rc == 0 && k < m; k++)
+        ids[k] = was[order[k]];
+    free(pts);
+    free(order);
+    free(was);
+    return rc;
+}

@@ -103,6 +103,16 @@ int plan_order_from(struct plan *plan, enum plan_order_mode mode, const struct r
                     const struct rig_axes *start);
 void plan_order_start(const struct plan *plan, struct rig_axes *start);
 
+/* Some of the plan's points, ids[0..m) (indices into its current order),
+ * put in mode's order as a path from start: a resumed capture's points
+ * left, from where its axes stand. The plan is unchanged and the ids keep
+ * their identity (a journal's point numbers); only the order they are
+ * visited in changes. The as-written and adaptive orders leave ids as
+ * given. 0 or -ENOMEM. */
+int plan_order_subset(const struct plan *plan, enum plan_order_mode mode,
+                      const struct rig_profile *rig, const struct rig_axes *start, long *ids,
+                      size_t m);
+
 /* Rig time from where the current order starts (home, all axes at 0,
  * unless plan_order_from said otherwise) through every point in the
  * current order: move + settle + fixed integration per point. */

@@ -465,13 +465,20 @@ static void section_all_rows(struct page *p)
     FILE *f = p->f;
     const struct report_results *r = p->r;
     fputs("<h2 id=\"rows\">All results</h2>\n<p>One row per material, scene, plan and model "
-          "(results.json of the study). Fit time is CPU time.</p>\n<table><tr>", f);
+          "(results.json of the study). Fit time is CPU time. The premise checks "
+          "(docs/checks.md), when the study made them: the isotropy verdict of the capture, "
+          "the out-of-plane verdict of the model the capture fitted, each with the rig time it "
+          "cost; – where not made.</p>\n<table><tr>", f);
     static const char *heads[] = {"samples", "rig time", "move", "settle", "integration",
                                   "fit", "plan log", "plan rRMSE", "in-plane log",
                                   "in-plane rRMSE", "full log", "full rRMSE"};
     th_text(f, "l", 1, "row");
     for (size_t i = 0; i < sizeof heads / sizeof heads[0]; i++)
         th_text(f, NULL, 1, heads[i]);
+    static const char *checks[] = {"isotropy", "isotropy rig time", "out of plane",
+                                   "out-of-plane rig time"};
+    for (size_t i = 0; i < sizeof checks / sizeof checks[0]; i++)
+        th_text(f, i % 2 ? NULL : "l", 1, checks[i]);
     th_text(f, "l", 1, "status");
     fputs("</tr>\n", f);
     for (size_t i = 0; i < r->n_rows; i++) {
@@ -490,6 +497,15 @@ static void section_all_rows(struct page *p)
         for (int d = 0; d < REPORT_N_DOMAINS; d++)
             for (int m = 0; m < REPORT_N_METRICS; m++)
                 cell_number(f, w->err[d][m], 0);
+        const char *verdict[] = {w->isotropy, w->oop};
+        const double spent[] = {w->isotropy_s, w->oop_s};
+        for (int c = 0; c < 2; c++) {
+            fputs("<td class=\"l\">", f);
+            html_text(f, verdict[c][0] ? verdict[c] : "–");
+            fputs("</td><td>", f);
+            html_duration(f, spent[c]);
+            fputs("</td>", f);
+        }
         fputs("<td class=\"l\">", f);
         html_text(f, w->status[0] ? w->status : "ok");
         fputs("</td></tr>\n", f);

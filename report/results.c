@@ -107,7 +107,11 @@ static int read_row(json_t *o, struct report_row *r, const char *path, size_t i,
         (rc = get_number(o, "settle_s", &r->settle_s, path, i, err)) ||
         (rc = get_number(o, "integration_s", &r->integration_s, path, i, err)) ||
         (rc = get_number(o, "fit_wall_s", &r->fit_wall_s, path, i, err)) ||
-        (rc = get_number(o, "fit_cpu_s", &r->fit_cpu_s, path, i, err)))
+        (rc = get_number(o, "fit_cpu_s", &r->fit_cpu_s, path, i, err)) ||
+        (rc = get_string(o, "isotropy", r->isotropy, sizeof r->isotropy, 0, path, i, err)) ||
+        (rc = get_string(o, "oop", r->oop, sizeof r->oop, 0, path, i, err)) ||
+        (rc = get_number(o, "isotropy_s", &r->isotropy_s, path, i, err)) ||
+        (rc = get_number(o, "oop_s", &r->oop_s, path, i, err)))
         return rc;
     for (int d = 0; d < REPORT_N_DOMAINS; d++)
         for (int m = 0; m < REPORT_N_METRICS; m++) {

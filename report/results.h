@@ -24,6 +24,10 @@ struct report_row {
     double samples, plan_points;
     double rig_time_s, move_s, settle_s, integration_s;
     double fit_wall_s, fit_cpu_s;
+    /* The premise checks' verdicts ("" when not made) and their rig time
+     * (NAN), the study's isotropy and oop columns (docs/checks.md). */
+    char isotropy[REPORT_NAME_MAX], oop[REPORT_NAME_MAX];
+    double isotropy_s, oop_s;
     double err[REPORT_N_DOMAINS][REPORT_N_METRICS]; /* NAN: not available */
     char model_file[REPORT_PATH_MAX], samples_file[REPORT_PATH_MAX]; /* relative to DIR */
 };

@@ -35,7 +35,7 @@ static void usage(FILE *out)
             "                 [--link PATH]\n"
             "                 [--tcp 127.0.0.1:PORT] [--trace] [--check]\n"
             "                 [--stall SLAVE:DEG] [--overload SLAVE:DEG] [--delay SLAVE:MS]\n"
-            "                 [--stats FILE] [--baud N] [--tcp-latency MS]\n"
+            "                 [--stats FILE] [--baud N] [--tcp-latency MS] [--no-shutter]\n"
             "       gonio-sim --version\n"
             "  Serves the rig's Modbus bus (docs/protocol-modbus.md) as RTU on a new\n"
             "  pseudo-terminal, whose path is the first line on stdout, and with --tcp\n"
@@ -51,8 +51,10 @@ static void usage(FILE *out)
             "  --stats writes, at exit, the exchanges, the faults injected and each axis's\n"
             "  commanded and reached range as JSON.\n"
             "  --baud makes each RTU exchange take its frames' time on a serial line at N\n"
-            "  baud, --tcp-latency each TCP reply MS ms, both in rig time. SIGUSR1 closes\n"
-            "  every TCP connection (a network drop).\n"
+            "  baud, --tcp-latency each TCP reply MS ms, both in rig time; with --baud a\n"
+            "  master that set the pty to another speed gets no answer (framing errors).\n"
+            "  --no-shutter serves a detector without the shutter register (exception 02).\n"
+            "  SIGUSR1 closes every TCP connection (a network drop).\n"
             "  What is served is also announced on stderr.\n");
 }
 
@@ -120,6 +122,11 @@ static int parse_baud(const char *arg, long *baud)
         fprintf(stderr, "gonio-sim: --baud '%s': expected a whole number\n", arg);
         return -1;
     }
+    if (!msim_line_speed((long)v)) {
+        fprintf(stderr, "gonio-sim: --baud '%s': not a speed a serial line is set to (1200, "
+                "9600, 19200, 38400, 57600, 115200, ...)\n", arg);
+        return -1;
+    }
     *baud = (long)v;
     return 0;
 }
@@ -149,6 +156,7 @@ static int parse_options(int argc, char **argv, struct sim_opts *o)
         {"delay", required_argument, NULL, 'D'},     {"stats", required_argument, NULL, 'X'},
         {"in-pos-deg", required_argument, NULL, 'i'}, {"clock", required_argument, NULL, 'C'},
         {"version", no_argument, NULL, 'V'},
+        {"no-shutter", no_argument, NULL, 'N'},
         {NULL, 0, NULL, 0},
     };
     int c, bad = 0;
@@ -174,6 +182,7 @@ static int parse_options(int argc, char **argv, struct sim_opts *o)
             o->cfg.tcp_latency_s *= 1e-3;
             break;
         case 'c': o->check = 1; break;
+        case 'N': o->cfg.no_shutter = 1; break;
         case 'S':
         case 'D':
         case 'O': bad = parse_fault(c, optarg, o) < 0; break;
@@ -241,7 +250,7 @@ static void print_setup(const struct sim_opts *o, const struct sim_setup *su)
         if (has[i])
             printf("axis %s: limits [%g, %g] deg, profile %g deg/s, %g deg/s^2\n", names[i],
                    ax[i]->min, ax[i]->max, ax[i]->speed, ax[i]->accel);
-    printf("detector (slave 3): rgb\n");
+    printf("detector (slave 3): rgb%s\n", cfg->no_shutter ? ", no shutter register" : "");
     if (cfg->baud > 0)
         printf("RTU line %ld baud\n", cfg->baud);
     if (cfg->tcp_latency_s > 0)

@@ -236,6 +236,9 @@ static void publish_raw(struct msim_detector *d, uint16_t *r)
     mb_put_float(r + DET_NONLINEARITY, (float)d->pending_nonlinearity);
     put32(r, DET_MONITOR,
           isnan(d->pending_monitor) ? MB_DET_MONITOR_NONE : count32(d->pending_monitor));
+    put32(r, MB_DET_BAND_SEQUENCE, d->sequence);
+    for (int k = 0; k < d->n_bands; k++)
+        put32(r, MB_DET_BAND_COUNTS + 2 * k, count32(d->pending_bands[k]));
 }
 
 /* Completing an integration publishes its data and bumps the sequence. */
@@ -261,6 +264,7 @@ void msim_det_refresh(msim *m)
     put32(r, DET_STATUS, (d->busy ? DST_BUSY : 0u) | (d->ready ? DST_READY : 0u) |
                              (d->ready && (d->flags & SIM_SIGNAL_SATURATED) ? DST_SATURATED : 0u) |
                              (sim_rig_counts(m->rig) ? DST_RAW : 0u) |
+                             (d->n_bands ? DST_BANDS : 0u) |
                              (m->cfg.simulated_clock ? DST_CLOCK_SIMULATED : 0u) |
                              (m->cfg.simulated_clock && m->cfg.baud > 0 ? DST_LINE_TIMED : 0u));
     put32(r, DET_SEQUENCE, d->sequence);
@@ -285,6 +289,8 @@ void msim_det_trigger(msim *m)
         d->pending_full_scale = rd.full_scale;
         d->pending_nonlinearity = rd.nonlinearity;
         d->pending_monitor = rd.monitor;
+        for (int k = 0; k < d->n_bands; k++) /* the spectrum's counts, as the channels' */
+            d->pending_bands[k] = rd.counts && rd.n_bands == d->n_bands ? rd.spectrum[k] : 0;
     } else {
         sim_rig_sample(m->rig, d->pending);
     }

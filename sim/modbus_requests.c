@@ -42,6 +42,10 @@ static const struct reg_range det_ranges[] = {
     {DET_RAW_SEQUENCE, DET_SHUTTER - 1, 0}, {DET_SHUTTER, DET_SHUTTER + 1, 1}, {-1, -1, 0}};
 static const struct reg_range changer_ranges[] = {
     {MB_CH_TARGET, MB_CH_TARGET + 1, 1}, {MB_CH_STATUS, MB_CH_NREGS - 1, 0}, {-1, -1, 0}};
+/* A detector without a shutter (msim_cfg.no_shutter): no register 0x010A. */
+static const struct reg_range det_ranges_no_shutter[] = {
+    {DET_INTEGRATION, DET_TRIGGER + 1, 1}, {DET_STATUS, DET_NREGS - 1, 0},
+    {DET_RAW_SEQUENCE, DET_SHUTTER - 1, 0}, {-1, -1, 0}};
 /* A simulated clock's detector has its wait register too. */
 static const struct reg_range det_wait_range[] = {{DET_WAIT, DET_WAIT + 1, 1}, {-1, -1, 0}};
 
@@ -177,10 +181,23 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
         exc = MODBUS_EXCEPTION_ILLEGAL_FUNCTION;
     }
     if (!exc)
-        exc = check_range(ax ? axis_ranges : chg ? changer_ranges : det_ranges, addr, n, write);
+        exc = check_range(ax                  ? axis_ranges
+                          : chg               ? changer_ranges
+                          : m->cfg.no_shutter ? det_ranges_no_shutter
+                                              : det_ranges,
+                          addr, n, write);
     if (exc == MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS && is_det && m->cfg.simulated_clock &&
         check_range(det_wait_range, addr, n, write) == 0)
         exc = 0;
+    if (exc == MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS && is_det && m->det.n_bands && !write) {
+        /* the band block, read only, as long as the detector's bands */
+        int nb = m->det.n_bands;
+        const struct reg_range bands[] = {
+            {MB_DET_BAND_COUNT, MB_DET_BAND_NM + 2 * nb - 1, 0},
+            {MB_DET_BAND_SEQUENCE, MB_DET_BAND_COUNTS + 2 * nb - 1, 0}, {-1, -1, 0}};
+        if (check_range(bands, addr, n, 0) == 0)
+            exc = 0;
+    }
     if (m->cfg.trace)
         fprintf(stderr, "gonio-sim: %.4f s: slave %d fn 0x%02x addr 0x%04x n %d%s%s\n",
                 sim_rig_now(m->rig), slave, fn, addr < 0 ? 0 : addr, n,

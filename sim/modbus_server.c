@@ -72,6 +72,15 @@ msim *msim_new(const struct rig_profile *profile, const brdf_material *material,
         return NULL;
     }
     put32(m->det.map->tab_registers, DET_COUNT, DET_NCHANNELS);
+    /* A spectral detector that gives counts serves its bands too. */
+    if (scene && scene->n_bands > 0 && scene->n_bands <= MB_DET_MAX_BANDS &&
+        sim_rig_counts(m->rig)) {
+        m->det.n_bands = scene->n_bands;
+        put32(m->det.map->tab_registers, MB_DET_BAND_COUNT, (uint32_t)scene->n_bands);
+        for (int k = 0; k < scene->n_bands; k++)
+            mb_put_float(m->det.map->tab_registers + MB_DET_BAND_NM + 2 * k,
+                         (float)scene->bands_nm[k]);
+    }
     if (msim_changer_new(m, material, scene, err) < 0) {
         msim_free(m);
         return NULL;
@@ -160,9 +169,56 @@ static int rtu_frame_len(const uint8_t *b, int n)
     }
 }
 
+/* The speeds a serial line (and so a pseudo-terminal) can be set to. */
+static const struct {
+    speed_t code;
+    long baud;
+} line_rates[] = {
+    {B50, 50},         {B75, 75},         {B110, 110},       {B134, 134},
+    {B150, 150},       {B200, 200},       {B300, 300},       {B600, 600},
+    {B1200, 1200},     {B1800, 1800},     {B2400, 2400},     {B4800, 4800},
+    {B9600, 9600},     {B19200, 19200},   {B38400, 38400},   {B57600, 57600},
+    {B115200, 115200}, {B230400, 230400}, {B460800, 460800}, {B500000, 500000},
+    {B576000, 576000}, {B921600, 921600}, {B1000000, 1000000},
+};
+
+int msim_line_speed(long baud)
+{
+    for (size_t i = 0; i < sizeof line_rates / sizeof *line_rates; i++)
+        if (line_rates[i].baud == baud)
+            return 1;
+    return 0;
+}
+
+/* The speed the master set on the pseudo-terminal, in baud (Linux: the
+ * master side reads the slave side's termios); 0 when unknown or when
+ * input and output differ, -1 when tcgetattr fails. */
+static long pty_line_baud(int fd)
+{
+    struct termios t;
+    if (tcgetattr(fd, &t) < 0)
+        return -1;
+    speed_t out = cfgetospeed(&t), in = cfgetispeed(&t);
+    if (in != 0 && in != out) /* input 0: the output's speed */
+        return 0;
+    for (size_t i = 0; i < sizeof line_rates / sizeof *line_rates; i++)
+        if (line_rates[i].code == out)
+            return line_rates[i].baud;
+    return 0;
+}
+
 static void rtu_frame(msim *m, int len)
 {
     const uint8_t *b = m->rtu_buf;
+    /* A device on a wire at cfg.baud hears a master at another speed as
+     * framing errors: it answers nothing. */
+    long line = m->cfg.baud > 0 ? pty_line_baud(m->pty_master) : 0;
+    if (m->cfg.baud > 0 && line != m->cfg.baud) {
+        if (m->cfg.trace)
+            fprintf(stderr, "gonio-sim: RTU frame of %d bytes at %ld baud on a %ld-baud line "
+                    "ignored\n", len, line, m->cfg.baud);
+        return;
+    }
     /* A frame with a bad CRC is noise: a real slave says nothing. */
     if (len < 4 || msim_crc16(b, len - 2) != (uint16_t)(b[len - 2] | (b[len - 1] << 8))) {
         if (m->cfg.trace)

@@ -25,7 +25,10 @@ struct msim_cfg {
      * in wall time; docs/gonio-sim.md "Line time"): an RTU exchange takes
      * its frames' time on a serial line at baud (11 bits a character, and
      * the inter-frame silence after each frame; 0: free), a TCP reply
-     * tcp_latency_s (0: none). */
+     * tcp_latency_s (0: none). A device on a wire at baud (> 0) hears
+     * only a master at that speed: an RTU frame arriving while the line
+     * settings the master set on the pseudo-terminal say another speed is
+     * what a real device makes of it, framing errors, and gets no answer. */
     long baud;
     double tcp_latency_s;
     double time_scale;    /* simulated seconds per wall second, > 0 */
@@ -41,6 +44,9 @@ struct msim_cfg {
      * docs/protocol-modbus.md). 0: half a step. */
     double in_pos_deg;
     int trace;            /* one stderr line per request */
+    /* The detector has no shutter register (0x010A): reading or writing
+     * it gets exception 02, as from a detector built without one. */
+    int no_shutter;
 };
 
 typedef struct msim msim;
@@ -70,6 +76,10 @@ int msim_jam(msim *m, int slave, enum msim_jam_kind kind, double deg, struct gon
 /* Fault injection: the slave answers ms milliseconds late, holding up the
  * whole server meanwhile, as a slow device holds a bus. */
 int msim_delay(msim *m, int slave, double ms, struct gonio_err *err);
+
+/* 1 when baud is a speed a serial line can be set to (termios: 50 to
+ * 1000000), else 0: msim_cfg.baud must be one. */
+int msim_line_speed(long baud);
 
 /* Create the RTU pseudo-terminal (raw mode); its slave path goes to path.
  * link, when not NULL, is (re)made a symlink to it. */

@@ -28,13 +28,14 @@ enum {
     DET_RAW_SEQUENCE = MB_DET_RAW_SEQUENCE, DET_GAIN_STATE = MB_DET_GAIN_STATE,
     DET_FULL_SCALE = MB_DET_FULL_SCALE, DET_NONLINEARITY = MB_DET_NONLINEARITY,
     DET_MONITOR = MB_DET_MONITOR, DET_SHUTTER = MB_DET_SHUTTER, DET_WAIT = MB_DET_WAIT,
-    DET_MAP_NREGS = DET_WAIT + 2, /* what the map holds: the raw block's and the wait's too */
+    /* what the map holds: the raw block's, the wait's and the band block's too */
+    DET_MAP_NREGS = MB_DET_BAND_COUNTS + 2 * MB_DET_MAX_BANDS,
 };
 enum { IN_ZHOME = MB_IN_ZHOME, IN_STOP = MB_IN_STOP, IN_ALM_RST = MB_IN_ALM_RST };
 enum { ST_HOME_END = MB_ST_HOME_END, ST_READY = MB_ST_READY, ST_ALM_A = MB_ST_ALM_A,
        ST_MOVE = MB_ST_MOVE, ST_IN_POS = MB_ST_IN_POS };
 enum { DST_BUSY = MB_DET_BUSY, DST_READY = MB_DET_READY, DST_SATURATED = MB_DET_SATURATED,
-       DST_RAW = MB_DET_RAW, DST_LINE_TIMED = MB_DET_LINE_TIMED,
+       DST_RAW = MB_DET_RAW, DST_BANDS = MB_DET_BANDS, DST_LINE_TIMED = MB_DET_LINE_TIMED,
        DST_CLOCK_SIMULATED = MB_DET_CLOCK_SIMULATED };
 enum { MSIM_ALARM_OVERLOAD = MB_ALARM_OVERLOAD, MSIM_ALARM_DEVIATION = MB_ALARM_DEVIATION,
        MSIM_ALARM_OVERTRAVEL = MB_ALARM_OVERTRAVEL, MSIM_ALARM_DATA = MB_ALARM_DATA };
@@ -80,6 +81,10 @@ struct msim_detector {
      * data's. */
     int pending_raw, raw;
     double pending_full_scale, pending_nonlinearity, pending_monitor;
+    /* A spectral scene with an adc: its bands (docs/protocol-modbus.md,
+     * "Band block"), 0 else; the pending reading's band counts. */
+    int n_bands;
+    double pending_bands[MB_DET_MAX_BANDS];
 };
 
 /* The sample changer (sim/modbus_changer.c): mapped only when the rig

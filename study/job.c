@@ -145,6 +145,16 @@ static json_t *row_json(const struct row_capture *c, const struct row_fit *f)
     json_object_set_new(o, "settle_s", num(c->sum->settle_s));
     json_object_set_new(o, "integration_s", num(c->sum->integration_s));
     json_object_set_new(o, "calibration_s", num(c->calibration_s));
+    /* The checks' verdicts and rig time: the isotropy check's is the
+     * capture's, for every row; the out-of-plane check's only in the row of
+     * the model the capture fitted and checked. */
+    const struct capture_summary *sum = c->sum;
+    int oop = sum->has_oop && !strcmp(f->model, sum->model);
+    json_object_set_new(o, "isotropy",
+                        sum->has_isotropy ? json_string(sum->isotropy.verdict) : json_null());
+    json_object_set_new(o, "isotropy_s", num(sum->has_isotropy ? sum->isotropy.rig_time_s : NAN));
+    json_object_set_new(o, "oop", oop ? json_string(sum->oop.verdict) : json_null());
+    json_object_set_new(o, "oop_s", num(oop ? sum->oop.rig_time_s : NAN));
     json_object_set_new(o, "fit_wall_s", num(f->wall_s));
     json_object_set_new(o, "fit_cpu_s", num(f->cpu_s));
     json_object_set_new(o, "fit_converged", json_integer(f->converged));
@@ -317,7 +327,15 @@ int study_job_run(const struct study_spec *s, const struct study_job *job, const
         .model = plan->model ? plan->model : "abc", /* the adaptive policy's */
         .out_dir = jobdir, .order = plan->order, .stop = plan->stop, .quiet = 1,
         .measure_only = 1, .lazy_journal = 1, .budget_min = plan->budget_min,
+        .checks = s->checks, .rig = s->rig[0] ? s->rig : NULL,
     };
+    /* The out-of-plane check judges a fitted model: the capture fits the
+     * study's first model (or the adaptive policy's) and checks it. */
+    if (s->checks & CAPTURE_CHECK_OUT_OF_PLANE) {
+        cfg.measure_only = 0;
+        if (!plan->model)
+            cfg.model = s->models[0].name;
+    }
 
     struct capture_summary sum;
     struct fit_journal_data jd = {0};

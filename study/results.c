@@ -10,6 +10,7 @@
 
 #include <jansson.h>
 
+#include "capture/checks.h"
 #include "common/paths.h"
 #include "study/study_private.h"
 
@@ -22,6 +23,8 @@ const struct study_col study_cols[] = {
     {"rig_time_s", STUDY_COL_REAL},    {"move_s", STUDY_COL_REAL},
     {"settle_s", STUDY_COL_REAL},      {"integration_s", STUDY_COL_REAL},
     {"calibration_s", STUDY_COL_REAL},
+    {"isotropy", STUDY_COL_STR},       {"isotropy_s", STUDY_COL_REAL},
+    {"oop", STUDY_COL_STR},            {"oop_s", STUDY_COL_REAL},
     {"fit_wall_s", STUDY_COL_TIME},    {"fit_cpu_s", STUDY_COL_TIME},
     {"fit_converged", STUDY_COL_INT},  {"fit_status", STUDY_COL_STR},
     {"fit_findings", STUDY_COL_STR},   {"fit_geometries", STUDY_COL_INT},
@@ -81,6 +84,10 @@ json_t *study_spec_json(const struct study_spec *s, int with_shard)
     json_object_set_new(o, "plans", items_json(s->plans, s->n_plans, 0));
     json_object_set_new(o, "models", items_json(s->models, s->n_models, 0));
     json_object_set_new(o, "saturated", json_string(fit_saturated_name(s->saturated)));
+    char checks[64];
+    json_object_set_new(o, "checks", json_string(capture_checks_text(s->checks, checks,
+                                                                     sizeof checks)));
+    json_object_set_new(o, "rig", json_string(s->rig));
     if (with_shard) {
         json_object_set_new(o, "quick", json_boolean(s->quick));
         json_object_set_new(o, "shard", json_pack("[i,i]", s->shard_i, s->shard_n));
@@ -181,6 +188,15 @@ int study_spec_read(const char *dir, struct study_spec *s, struct gonio_err *err
         rc = gonio_err_set(err, GONIO_EBADDATA,
                            "%s: key 'saturated': '%s', expected default, clipped or censored",
                            path, json_is_string(sat) ? json_string_value(sat) : "(not a string)");
+    /* studies from before the keys made no check, on the default rig */
+    json_t *checks = json_object_get(root, "checks"), *rig = json_object_get(root, "rig");
+    s->checks = 0;
+    if (rc == 0 && checks && (!json_is_string(checks) ||
+                              (json_string_value(checks)[0] &&
+                               capture_checks_parse("checks", json_string_value(checks),
+                                                    &s->checks, err) < 0)))
+        rc = gonio_err_set(err, GONIO_EBADDATA, "%s: key 'checks': not a list of checks", path);
+    snprintf(s->rig, sizeof s->rig, "%s", json_is_string(rig) ? json_string_value(rig) : "");
     s->shard_i = (int)json_integer_value(json_array_get(shard, 0));
     s->shard_n = (int)json_integer_value(json_array_get(shard, 1));
     if (rc == 0 && (s->shard_n < 1 || s->shard_i < 1 || s->shard_i > s->shard_n))
@@ -207,6 +223,10 @@ int study_dir_prepare(const struct study_spec *s, const char *dir, struct gonio_
         json_object_del(theirs, "quick");
         if (!json_object_get(theirs, "saturated")) /* from before the key: clipped */
             json_object_set_new(theirs, "saturated", json_string("clipped"));
+        if (!json_object_get(theirs, "checks")) /* from before the key: none */
+            json_object_set_new(theirs, "checks", json_string(""));
+        if (!json_object_get(theirs, "rig"))
+            json_object_set_new(theirs, "rig", json_string(""));
         json_object_del(theirs, "shard");
         json_object_del(theirs, "jobs");
         int same = json_equal(a, theirs);
@@ -217,7 +237,9 @@ int study_dir_prepare(const struct study_spec *s, const char *dir, struct gonio_
             return gonio_err_set(err, GONIO_EUSAGE,
                                  "%s: holds a study with other %s; rerun with its lists or "
                                  "choose a new --out",
-                                 path, same ? "--shard" : "materials, scenes, plans or models");
+                                 path,
+                                 same ? "--shard"
+                                      : "materials, scenes, plans, models, checks or rig");
         return 0;
     }
     rc = write_json_file(path, mine, err);

@@ -31,6 +31,11 @@ struct study_spec {
     int quick;
     enum fit_saturated saturated; /* how the fits take saturated readings: each model's
                                      default (fit_model_censors), or `--saturated` */
+    /* The premise checks each job's capture makes (CAPTURE_CHECK_*,
+     * `--check`), on the rig profile rig ("" the default; `--rig`): the
+     * rows' isotropy and oop columns (docs/study.md). */
+    unsigned checks;
+    char rig[STUDY_SPEC_MAX];
     int shard_i, shard_n; /* 1-based share of the job list: jobs k with k mod n == i - 1 */
 };
 

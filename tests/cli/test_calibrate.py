@@ -295,3 +295,39 @@ def test_bad_day_reference_over_ds1_geometries(root):
         assert meta["frames"] == len(rows) > 0
         assert any(float(x["theta_i"]) == incidence for x in rows)
         assert min(float(x["g"]) for x in rows) > 2000  # the standard, lit, above the offset
+
+
+def test_offline_runs_as_event_model_documents(root):
+    """Each offline calibration writes its run as event-model documents
+    (documents.jsonl), valid against Bluesky's schemas, an event per frame
+    with its counts (a spectral detector's bands too), a results event per
+    integration (dark) or geometry (reference) with the frames' mean and
+    spread, and the reference's start naming its dark's run."""
+    import sys
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+    import gonio_cal_events as ev
+    v, why = ev.validators()
+    if v is None:
+        pytest.skip(why)
+    d = gonio("calibrate", "dark", "--offline", "--scene", "spectral-lab", "--out", root,
+              "--integration", "0.2", "--frames", "4")
+    assert d.returncode == 0, d.stderr
+    dark_id = d.stdout.strip()
+    pairs = ev.read_documents(os.path.join(root, dark_id))
+    start, stop, streams = ev.check_run(pairs, os.path.join(root, dark_id), v)
+    assert (start["kind"], start["detector"], stop["exit_status"]) == ("dark", "spectral", "success")
+    assert start["integrations"] == [0.05, 0.2] and start["continues"] is None
+    assert len(streams["primary"][1]) == 8 and len(streams["results"][1]) == 2
+    assert streams["primary"][0]["data_keys"]["bands"]["shape"] == [31]
+    assert streams["primary"][0]["configuration"]["detector"]["data"]["bands_nm"][0] == 400
+    dark_uid = open(os.path.join(root, dark_id, "run-uids.txt")).read().split()
+    assert dark_uid == [start["uid"]]
+    r = gonio("calibrate", "reference", "--offline", "--scene", "spectral-lab", "--plan", "ds3",
+              "--out", root, "--repeats", "2")
+    assert r.returncode == 0, r.stderr
+    ref_dir = os.path.join(root, r.stdout.strip())
+    start, stop, streams = ev.check_run(ev.read_documents(ref_dir), ref_dir, v)
+    assert (start["kind"], start["dark"], start["dark_uid"]) == ("reference", dark_id,
+                                                                 dark_uid[0])
+    assert start["standard"] == "spectralon-99" and start["plan"] == "ds3"
+    assert len(streams["primary"][1]) == 104 and len(streams["results"][1]) == 52

@@ -169,7 +169,11 @@ def soak(folder, rate, transport, plan, retries=4, seed=11, log=lambda s: None):
             other += not stop["message"].startswith("point ")
             messages.append(stop["message"])
             log("  %s %d%%: %s" % (transport, rate, stop["message"]))
-            r = c.request("resume", capture_id="soak")
+            # Before its first sample the capture left no directory: sent again.
+            if "nothing was measured" in stop["message"]:
+                r = c.request("capture", plan=plan, name="soak", material=MATERIAL)
+            else:
+                r = c.request("resume", capture_id="soak")
             if r["class"] != "OK":
                 raise AssertionError(r)
         if c.request("status")["state"] != "idle":

@@ -28,6 +28,7 @@ class ModbusRig(unittest.TestCase):
     its pty and TCP, for goniod on the Modbus drivers."""
     SIM = os.path.join(BIN, "gonio-sim")
     SIM_SCALE = 1000
+    SIM_ARGS = ()  # more gonio-sim options (a line speed, a detector without a shutter)
 
     def setUp(self):
         if not os.path.exists(self.SIM):
@@ -37,7 +38,8 @@ class ModbusRig(unittest.TestCase):
         self.sim = subprocess.Popen(wrap([self.SIM, "--scene", "ideal", "--time-scale",
                                           "%g" % self.SIM_SCALE,
                                           "--link", os.path.join(self.folder, "tty"), "--tcp",
-                                          "127.0.0.1:0"], self.folder), stdout=out,
+                                          "127.0.0.1:0"] + list(self.SIM_ARGS), self.folder),
+                                    stdout=out,
                                     stderr=open(os.path.join(self.folder, "sim.err"), "w"),
                                     preexec_fn=child_procs.die_with_parent)
         deadline = time.time() + START_S
@@ -150,7 +152,18 @@ class ModbusTests(ModbusRig):
         stop = c.until_stop("gone")[-1]
         self.assertEqual(stop["exit_status"], "fail")
         self.assertTrue(stop["message"])
-        self.assertEqual(c.request("status")["state"], "idle")
+        status = c.request("status")
+        self.assertEqual(status["state"], "idle")
+        # Nothing was measured: no capture directory is left behind, the
+        # failure (in status) says so, and the same request goes again.
+        self.assertFalse(os.path.exists(os.path.join(self.d.root, "gone")))
+        self.assertEqual(os.listdir(self.d.root), [])
+        self.assertEqual(status["capture"]["state"], "failed")
+        self.assertIn("nothing was measured: the capture's directory is removed",
+                      status["capture"]["message"])
+        self.assertEqual(c.request("list")["captures"], [])
+        self.assertEqual(c.request("capture", plan="ds3", name="gone")["class"], "OK")
+        self.assertEqual(c.until_stop("gone")[-1]["exit_status"], "fail")
 
 
 

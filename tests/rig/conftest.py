@@ -51,9 +51,11 @@ class RtuMaster:
     """Requests over pyserial. Replies are read by in_waiting polling: on a
     pseudo-terminal select() may report readiness with nothing to read."""
 
-    def __init__(self, path):
+    def __init__(self, path, baud=115200):
+        """baud: the line's speed, gonio-sim's --baud where it has one (a
+        device at another speed does not answer)."""
         import serial
-        self.port = serial.Serial(path, 115200, bytesize=8, parity="N", stopbits=1, timeout=0)
+        self.port = serial.Serial(path, baud, bytesize=8, parity="N", stopbits=1, timeout=0)
 
     def close(self):
         self.port.close()

@@ -30,7 +30,7 @@ def frame_s(n):
 
 
 def test_rtu_exchanges_take_their_line_time(slow_sim):
-    m = RtuMaster(slow_sim["pty"])
+    m = RtuMaster(slow_sim["pty"], BAUD)
     try:
         clocks = [m.read32(DETECTOR, CLOCK) / 1000.0 for _ in range(4)]
     finally:

@@ -66,7 +66,7 @@ def test_simulated_clock_counts_only_what_it_models():
 def test_line_timed_clock_counts_the_frames():
     # 9600 baud: 11 bits a character, t3.5 of 3.5 characters after each frame.
     with master("--clock", "simulated", "--baud", "9600") as s:
-        m = RtuMaster(s["pty"])
+        m = RtuMaster(s["pty"], 9600)
         try:
             assert m.read32(DET, STATUS) & LINE_TIMED
             ch = 11 / 9600

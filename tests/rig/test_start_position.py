@@ -155,3 +155,66 @@ def test_resume_keeps_the_order_from_its_start():
             d.stop()
         sim.stop()
         shutil.rmtree(folder, ignore_errors=True)
+
+
+def journal_points(path):
+    """The points of samples.csv, in record order."""
+    with open(path) as f:
+        return [int(l.split(",")[0]) for l in f.read().splitlines()[1:]]
+
+
+def test_resume_travels_from_the_present_position():
+    """A capture aborted far from home and resumed after `home`: the points
+    left are travelled from where the axes stand, not from where the
+    journal left them. The first point the resume measures is the one the
+    greedy order takes first from home (nearer than the one the recorded
+    order had next); the point numbers stay plan.json's, which is
+    unchanged, every point is measured once, and the ETA at the resume's
+    first point is within TOLERANCE of the rig time the capture took."""
+    folder = tg.tmpdir()
+    sim = tm.Sim(folder, "ideal", scale=None)
+    d = None
+    try:
+        d = tg.Daemon(folder, driver=sim.driver("tcp")).start()
+        c = d.connect()
+        for axis, deg in FAR.items():
+            assert c.request("move", axis=axis, deg=deg)["class"] == "OK"
+        c.request("watch")
+        r = c.request("capture", plan="ds3", order="greedy", name="cut", prescan=0)
+        assert r["class"] == "OK", r
+        while c.read().get("class") != "event":
+            pass
+        c.request("abort")
+        assert c.until_stop("cut")[-1]["reason"] == "aborted"
+        path = os.path.join(d.root, "cut", "plan.json")
+        with open(path) as f:
+            before = f.read()
+        journal = os.path.join(d.root, "cut", "samples.csv")
+        done = journal_points(journal)
+        assert c.request("home")["class"] == "OK"
+        assert c.request("resume", capture_id="cut")["class"] == "OK"
+        docs = c.until_stop("cut")
+        assert docs[-1]["exit_status"] == "success", docs[-1]
+        with open(path) as f:
+            assert f.read() == before
+        points = journal_points(journal)
+        pairs = json.loads(before)["pairs"]
+        assert sorted(points) == list(range(len(pairs))), points
+        assert points[:len(done)] == done
+        left = [k for k in range(len(pairs)) if k not in done]
+        home = {"s": 0.0, "a": 0.0}
+        times = {k: move_time(home, pairs[k]) for k in left}
+        first = points[len(done)]
+        assert times[first] == min(times.values()), (first, times)
+        # the recorded order's next point is farther: the test tells them apart
+        assert times[min(left)] > times[first], (min(left), first, times)
+        event = next(x for x in docs if x.get("class") == "event")
+        actual = tm.results(os.path.join(d.root, "cut"))["rig_time_s"]
+        eta = event["rig_time_s"] + event["eta_s"]
+        sys.stderr.write("resume from home: first ETA %.1f s, actual %.1f s\n" % (eta, actual))
+        assert abs(eta - actual) <= TOLERANCE * actual
+    finally:
+        if d:
+            d.stop()
+        sim.stop()
+        shutil.rmtree(folder, ignore_errors=True)

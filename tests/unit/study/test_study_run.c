@@ -18,7 +18,7 @@
 #include "tests/gonio_test.h"
 
 #define MAX_ROWS 16
-#define MAX_COLS 40
+#define MAX_COLS 48
 
 static char dir[1024];
 

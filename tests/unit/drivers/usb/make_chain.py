@@ -1,7 +1,10 @@
 #!/usr/bin/python3
 """Write chain.ioctl and chain-standard.yaml: a USB2000+ taking the dark
 frames, a reference standard and a sample's capture through the radiometry
-chain (test_usb_chain.c reduces them and compares with the sample's BRDF).
+chain (test_usb_chain.c reduces them and compares with the sample's BRDF);
+and chain_stray.ioctl: the same device on a rig with stray light, taking
+the dark frames, the stray light (a light trap in the sample's place), the
+standard and the sample's capture twice.
 
 The device, pixel by pixel, as make_recordings.py's: the lamp curve times
 the detector's response (far from flat, as a real one is), an electric
@@ -36,6 +39,7 @@ KD = (0.30, 0.35, 0.40)          # B, G, R
 KS, LOBE_DEG = 0.30, 12.0
 RATE = 1.5e5 / 0.315             # linear counts per second at the response's peak, per 1/sr
 G_ADU, READ_SD = 0.05, 4.0
+STRAY = 0.006                    # chain_stray.ioctl's stray light, 1/sr equivalent
 DARK_RATE = 3000.0               # counts per second, before the pattern
 
 
@@ -63,8 +67,17 @@ def f_sample(lam, ti, tr):
     return kd / math.pi + KS * math.exp(-((tr - ti) / LOBE_DEG) ** 2)
 
 
-def spectrum(rng, f, ti=0):
-    """Counts of one reading: f(lambda) the BRDF lit (None: dark)."""
+def f_stray(lam, ti, tr):
+    """The rig's stray light, as the BRDF that would give its counts: there
+    with the light path open whatever sits in the sample's place, growing
+    towards the source's side and the blue, so that only a per-band stray
+    calibration at each geometry removes it."""
+    return STRAY * (1 + 0.5 * (tr - ti) / 90) * (1.6 - (lam - 340) / 700)
+
+
+def spectrum(rng, f, ti=0, stray=None):
+    """Counts of one reading: f(lambda) the BRDF lit (None: dark); stray:
+    the stray light's (None: none)."""
     c = [float(x) for x in mr.COEF]
     peak = max(mr.shape(c, p) for p in range(mr.PIXELS))
     out = []
@@ -77,6 +90,8 @@ def spectrum(rng, f, ti=0):
         dark = T_S * DARK_RATE * (1 + 0.5 * math.sin(0.05 * p)) * (4 if p % 97 == 0 else 1)
         sig = 0.0 if f is None else T_S * RATE * mr.shape(c, p) / peak * \
             math.cos(math.radians(ti)) * f(lam)
+        if stray is not None:
+            sig += T_S * RATE * mr.shape(c, p) / peak * stray(lam)
         x = sig + dark
         x += rng.gauss(0, math.sqrt(G_ADU * x + READ_SD ** 2))
         out.append(base + nl_forward(x))
@@ -113,6 +128,33 @@ def main():
                 False)
     mr.write("chain.ioctl", lines)
     write_standard()
+    write_stray()
+
+
+def write_stray():
+    """chain_stray.ioctl: dark, stray light, standard (each as chain.ioctl's),
+    then the sample at each geometry, twice (a capture for each way of
+    reducing it), every lit reading with the stray light on top."""
+    rng = random.Random(2424)
+    lines = []
+    mr.opening(lines)
+    for k in range(N_DARK):
+        reading(lines, spectrum(rng, None), k == 0)
+    for ti, tr in GEOMETRIES:
+        for _ in range(REPEATS):
+            reading(lines, spectrum(rng, None, stray=lambda lam, ti=ti, tr=tr:
+                                    f_stray(lam, ti, tr)), False)
+    for ti, tr in GEOMETRIES:
+        for _ in range(REPEATS):
+            reading(lines, spectrum(rng, lambda lam, ti=ti, tr=tr: f_ref(ti, tr), ti,
+                                    stray=lambda lam, ti=ti, tr=tr: f_stray(lam, ti, tr)),
+                    False)
+    for _ in range(2):
+        for ti, tr in GEOMETRIES:
+            reading(lines, spectrum(rng, lambda lam, ti=ti, tr=tr: f_sample(lam, ti, tr), ti,
+                                    stray=lambda lam, ti=ti, tr=tr: f_stray(lam, ti, tr)),
+                    False)
+    mr.write("chain_stray.ioctl", lines)
 
 
 if __name__ == "__main__":
