@@ -255,6 +255,15 @@ static void hook_close(void *user, struct capture_devices *dev)
     w->bus = NULL;
 }
 
+/* The rig's sample changer (capture_rig.mount) on the capture's bus. */
+static int hook_mount(void *user, struct capture_devices *dev, const char *standard,
+                      struct gonio_err *err)
+{
+    (void)dev;
+    worker *w = user;
+    return goniod_devices_mount(w->cfg, w->bus, standard, err);
+}
+
 /* The engine's configuration of a request, the same for the check before
  * the reply and for the run. */
 static struct capture_config request_config(const worker *w, const struct worker_request *r)
@@ -313,6 +322,7 @@ static int request_rig(worker *w, const struct worker_request *r, sim_source **s
     rig->close = hook_close;
     rig->driver = goniod_driver_name(w->cfg->driver);
     rig->detector = w->cfg->detector == GONIOD_DETECTOR_USB ? "usb-spectrometer" : "modbus";
+    rig->mount = w->cfg->slaves.sample_changer ? hook_mount : NULL;
     rig->user = w;
     return 0;
 }

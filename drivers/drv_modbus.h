@@ -147,6 +147,11 @@ int drv_modbus_detector_probe_shutter(drv_modbus_bus *bus, int slave, int *close
 int drv_modbus_detector_counts(drv_modbus_bus *bus, int slave, int *counts,
                                struct gonio_err *err);
 
+/* The sample changer at slave id `slave`: put the standard (standard 1)
+ * or the sample (0) in the sample's place and wait until it is there;
+ * -GONIO_EDEVICE when it is not within 120 s. */
+int drv_modbus_changer_set(drv_modbus_bus *bus, int slave, int standard, struct gonio_err *err);
+
 /* The rig clock: seconds since the clock was created, read from the
  * detector's rig-clock register when it is non-zero (a simulator), else
  * wall time; monotonic across late answers and restarts of the device

@@ -13,7 +13,7 @@
 
 /* The rig's devices and their usual slave ids on its one bus. */
 enum mb_slave { MB_SLAVE_SAMPLE = 1, MB_SLAVE_ARM = 2, MB_SLAVE_DETECTOR = 3,
-                MB_SLAVE_AZIMUTH = 4, MB_SLAVE_ROTATION = 5 };
+                MB_SLAVE_AZIMUTH = 4, MB_SLAVE_ROTATION = 5, MB_SLAVE_CHANGER = 6 };
 
 /* Axis drives (AZ style). Every value is 32 bits: the first of its two
  * registers. The direct-data block runs from MB_AX_DATA_NO to the trigger. */
@@ -78,6 +78,13 @@ enum mb_det_band_reg {
 #define MB_DET_MAX_BANDS 61
 #define MB_DET_MONITOR_NONE 0xFFFFFFFFu
 #define MB_DET_GAIN_STATE_MAX 255u /* gain states a detector may number */
+
+/* The sample changer (our own map): the slot to hold in the sample's
+ * place (written; a write starts the swap), the status, and the slot in
+ * place now. Slots: MB_CH_SLOT_SAMPLE, MB_CH_SLOT_STANDARD. */
+enum mb_changer_reg { MB_CH_TARGET = 0x00, MB_CH_STATUS = 0x02, MB_CH_AT = 0x04, MB_CH_NREGS = 0x06 };
+enum { MB_CH_SLOT_SAMPLE = 0, MB_CH_SLOT_STANDARD = 1 };
+enum { MB_CH_BUSY = 1u << 0, MB_CH_IN_POS = 1u << 1 };
 
 /* 32-bit values as two registers, upper word first (the AZ convention). */
 static inline uint32_t mb_get32(const uint16_t *r)

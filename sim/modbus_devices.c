@@ -367,5 +367,10 @@ void msim_write_stats(const msim *m, FILE *out)
                 ax->moves, ax->refused, ax->prof->min, ax->prof->max, cmd, pos, ax->alarms);
         first = 0;
     }
-    fprintf(out, "}}\n");
+    fprintf(out, "}");
+    if (m->changer.map)
+        fprintf(out, ",\n \"sample_changer\": {\"exchanges\": %ld, \"to_sample\": %ld, "
+                "\"to_standard\": %ld}", m->slave_exchanges[MB_SLAVE_CHANGER],
+                m->changer.moves[MB_CH_SLOT_SAMPLE], m->changer.moves[MB_CH_SLOT_STANDARD]);
+    fprintf(out, "}\n");
 }

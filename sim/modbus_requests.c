@@ -40,6 +40,8 @@ static const struct reg_range axis_ranges[] = {
 static const struct reg_range det_ranges[] = {
     {DET_INTEGRATION, DET_TRIGGER + 1, 1}, {DET_STATUS, DET_NREGS - 1, 0},
     {DET_RAW_SEQUENCE, DET_SHUTTER - 1, 0}, {DET_SHUTTER, DET_SHUTTER + 1, 1}, {-1, -1, 0}};
+static const struct reg_range changer_ranges[] = {
+    {MB_CH_TARGET, MB_CH_TARGET + 1, 1}, {MB_CH_STATUS, MB_CH_NREGS - 1, 0}, {-1, -1, 0}};
 /* A detector without a shutter (msim_cfg.no_shutter): no register 0x010A. */
 static const struct reg_range det_ranges_no_shutter[] = {
     {DET_INTEGRATION, DET_TRIGGER + 1, 1}, {DET_STATUS, DET_NREGS - 1, 0},
@@ -143,6 +145,7 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
     int slave = req[hdr - 1];
     struct msim_axis *ax = msim_axis_of(m, slave);
     int is_det = slave == MB_SLAVE_DETECTOR;
+    modbus_mapping_t *chg = slave == MB_SLAVE_CHANGER ? m->changer.map : NULL;
     const uint8_t *pdu = req + hdr;
     int fn = pdu[0];
     int addr = len >= 3 ? (pdu[1] << 8) | pdu[2] : -1;
@@ -152,7 +155,7 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
                addr == DET_WAIT;
     if (!wait)
         bus_wait(m, hdr, len, 0); /* the request is on the line, whoever it is for */
-    if (!ax && !is_det)
+    if (!ax && !is_det && !chg)
         return;
     int n = 0, write = 0, exc = 0;
     switch (fn) {
@@ -179,6 +182,7 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
     }
     if (!exc)
         exc = check_range(ax                  ? axis_ranges
+                          : chg               ? changer_ranges
                           : m->cfg.no_shutter ? det_ranges_no_shutter
                                               : det_ranges,
                           addr, n, write);
@@ -225,19 +229,24 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
         return;
     }
     msim_sync_clock(m);
-    if (!write)
+    if (!write && !chg)
         msim_poll_jump(m, ax, addr, n);
     if (ax)
         msim_axis_refresh(m, ax);
-    else
+    else if (!chg)
         msim_det_refresh(m);
     /* The registers are read as the request arrived; the reply then takes
      * its time on the bus: 2 + 2n bytes of PDU for a read, 5 for a write. */
     if (!wait)
         bus_wait(m, hdr, write ? 5 : 2 + 2 * n, 1);
-    modbus_reply(ctx, req, req_len, ax ? ax->map : m->det.map);
+    modbus_reply(ctx, req, req_len, ax ? ax->map : chg ? chg : m->det.map);
     if (!write)
         return;
+    if (chg) {
+        if (overlaps(addr, n, MB_CH_TARGET))
+            msim_changer_target(m);
+        return;
+    }
     /* Act on what was written: a trigger register holding 1 starts the
      * operation and reads back 0; input commands act on rising edges. */
     if (ax) {

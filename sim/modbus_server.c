@@ -82,6 +82,10 @@ msim *msim_new(const struct rig_profile *profile, const brdf_material *material,
             mb_put_float(m->det.map->tab_registers + MB_DET_BAND_NM + 2 * k,
                          (float)scene->bands_nm[k]);
     }
+    if (msim_changer_new(m, material, scene, err) < 0) {
+        msim_free(m);
+        return NULL;
+    }
     m->wall0 = gonio_monotonic_s();
     return m;
 }
@@ -93,6 +97,7 @@ void msim_free(msim *m)
     for (int i = 0; i < SIM_N_AXES; i++)
         modbus_mapping_free(m->axis[i].map);
     modbus_mapping_free(m->det.map);
+    msim_changer_free(m);
     if (m->rtu)
         modbus_free(m->rtu);
     if (m->tcp)

@@ -87,6 +87,18 @@ struct msim_detector {
     double pending_bands[MB_DET_MAX_BANDS];
 };
 
+/* The sample changer (sim/modbus_changer.c): mapped only when the rig
+ * profile has one; slot 1 holds MSIM_CHANGER_STANDARD. */
+#define MSIM_CHANGER_STANDARD "standard:spectralon-99"
+struct msim_changer {
+    modbus_mapping_t *map;
+    const brdf_material *sample;
+    brdf_material *standard;
+    struct sim_scene scene;
+    int has_scene;
+    long moves[2]; /* swaps done to each slot */
+};
+
 struct msim {
     struct msim_cfg cfg;
     const struct rig_profile *profile;
@@ -95,6 +107,7 @@ struct msim {
     struct msim_axis axis[SIM_N_AXES];
     int served[SIM_N_AXES]; /* the axes the profile has: sample, arm; azimuth, rotation if so */
     struct msim_detector det;
+    struct msim_changer changer;
     double delay_ms[256]; /* per slave id: answers this late (msim_delay) */
     /* RTU: the pty master, a held-open slave (so the master never sees a
      * hang-up between clients) and a libmodbus context that writes replies. */
@@ -124,6 +137,15 @@ static inline void put32(uint16_t *r, int addr, uint32_t v)
 {
     mb_put32(r + addr, v);
 }
+
+/* ---- The sample changer (sim/modbus_changer.c) ---------------------------- */
+
+/* Map the changer when the profile has one, slot 0 (the sample) in place. */
+int msim_changer_new(msim *m, const brdf_material *sample, const struct sim_scene *scene,
+                     struct gonio_err *err);
+void msim_changer_free(msim *m);
+/* The target slot written: swap to it (a slot out of range is ignored). */
+void msim_changer_target(msim *m);
 
 /* ---- The devices (sim/modbus_devices.c) ---------------------------------- */
 
