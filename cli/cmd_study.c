@@ -370,6 +370,41 @@ static int study_checks(struct study_spec *s, unsigned checks, const char *rig,
     return rc < 0 ? rc : capture_checks_rig("--check", checks, &rp, rig ? rig : "default", err);
 }
 
+/* --list: the shard's job ids, one a line. */
+static void list_jobs(const struct study_spec *s)
+{
+    for (size_t k = 0; k < study_job_count(s); k++) {
+        if (!study_job_in_shard(s, k))
+            continue;
+        struct study_job job;
+        study_job_at(s, k, &job);
+        printf("%s\n", job.id);
+    }
+}
+
+/* results.csv from the jobs' results, a line on what it holds, and the
+ * report when the whole study is there: the exit status, given the run's. */
+static int write_results(const struct study_spec *s, const char *out, double t0, int status)
+{
+    struct gonio_err err = {0};
+    size_t missing = 0;
+    if (study_results_write(s, out, &missing, &err) < 0) {
+        fprintf(stderr, "gonio study: %s\n", err.msg);
+        return gonio_exit_status(err.code);
+    }
+    size_t rows = 0;
+    for (size_t k = 0; k < study_job_count(s); k++)
+        rows += study_job_in_shard(s, k) ? s->n_models : 0;
+    fprintf(stderr, "study: %s/results.csv: %zu rows, %zu missing; wall %.1f s, worker CPU "
+                    "%.1f s\n",
+            out, rows - missing, missing, gonio_monotonic_s() - t0, cpu_children_s());
+    if (missing && !status)
+        status = 1;
+    if (!missing && !status && s->shard_n == 1)
+        status = write_report(out);
+    return status;
+}
+
 int cmd_study(int argc, char **argv)
 {
     if (argc >= 2 && !strcmp(argv[1], "merge"))
@@ -459,13 +494,7 @@ int cmd_study(int argc, char **argv)
         return gonio_exit_status(err.code);
     }
     if (list) {
-        for (size_t k = 0; k < study_job_count(s); k++) {
-            if (!study_job_in_shard(s, k))
-                continue;
-            struct study_job job;
-            study_job_at(s, k, &job);
-            printf("%s\n", job.id);
-        }
+        list_jobs(s);
         free(s);
         return 0;
     }
@@ -481,22 +510,7 @@ int cmd_study(int argc, char **argv)
         free(s);
         return status;
     }
-    size_t missing = 0;
-    if ((rc = study_results_write(s, out, &missing, &err)) < 0) {
-        fprintf(stderr, "gonio study: %s\n", err.msg);
-        status = gonio_exit_status(err.code);
-    } else {
-        size_t rows = 0;
-        for (size_t k = 0; k < study_job_count(s); k++)
-            rows += study_job_in_shard(s, k) ? s->n_models : 0;
-        fprintf(stderr, "study: %s/results.csv: %zu rows, %zu missing; wall %.1f s, worker CPU "
-                        "%.1f s\n",
-                out, rows - missing, missing, gonio_monotonic_s() - t0, cpu_children_s());
-        if (missing && !status)
-            status = 1;
-        if (!missing && !status && s->shard_n == 1)
-            status = write_report(out);
-    }
+    status = write_results(s, out, t0, status);
     free(s);
     return status;
 }

@@ -725,52 +725,8 @@ struct worker_msg *worker_take(worker *w)
     return m;
 }
 
-/* ---- bring-up (daemon/bringup.h) ------------------------------------- */
-
-static void *run_bringup(void *arg)
-{
-    worker *w = arg;
-    struct worker_msg_bringup *m = calloc(1, sizeof *m);
-    struct bringup_result res;
-    struct rig_profile rig;
-    memset(&res, 0, sizeof res);
-    if ((res.rc = rig_profile_load(w->cfg->rig, &rig, &res.err)) == 0)
-        bringup_run(w->cfg, &rig, &w->bringup, hook_cancelled, w, &res);
-    pthread_mutex_lock(&w->mu);
-    if (m) { /* queued as it goes idle, as a capture's stop is */
-        m->base.kind = WORKER_MSG_BRINGUP;
-        m->ticket = w->bringup_ticket;
-        m->job = w->bringup;
-        m->result = res;
-        enqueue_locked(w, &m->base);
-    }
-    w->bringup_active = 0;
-    pthread_mutex_unlock(&w->mu);
-    if (m)
-        wake(w);
-    return NULL;
-}
-
-int worker_bringup(worker *w, const struct bringup_job *job, unsigned long ticket,
-                   struct gonio_err *err)
-{
-    int rc = worker_lock_idle(w, err);
-    if (rc < 0)
-        return rc;
-    w->bringup = *job;
-    w->bringup_ticket = ticket;
-    w->bringup_active = 1;
-    w->abort = 0;
-    pthread_mutex_unlock(&w->mu);
-    if ((rc = worker_spawn(w, run_bringup, "bring-up", err)) < 0) {
-        pthread_mutex_lock(&w->mu);
-        w->bringup_active = 0;
-        pthread_mutex_unlock(&w->mu);
-    }
-    return rc;
-}
-
-/* ---- for the calibration run (daemon/worker_calibrate.c) ------------- */
+/* ---- for the calibration run and bring-up (daemon/worker_calibrate.c,
+ * daemon/worker_bringup.c) ---------------------------------------------- */
 
 void worker_push_msg(worker *w, struct worker_msg *m)
 {
@@ -801,4 +757,9 @@ int worker_hook_open(void *user, const struct rig_profile *rig, const char *dir,
 void worker_hook_close(void *user, struct capture_devices *dev)
 {
     hook_close(user, dev);
+}
+
+int worker_hook_cancelled(void *user)
+{
+    return hook_cancelled(user);
 }

@@ -86,6 +86,7 @@ enum capture_control worker_hook_ask(void *user, const char *instruction);
 int worker_hook_open(void *user, const struct rig_profile *rig, const char *dir,
                      struct capture_devices *dev, struct gonio_err *err);
 void worker_hook_close(void *user, struct capture_devices *dev);
+int worker_hook_cancelled(void *user);
 /* One run on the rig at a time: worker_lock_idle takes the lock when
  * nothing runs (else refuses, naming what does), the caller sets the run's
  * state (a capture's or a calibration's from worker_run_begin_locked:

@@ -136,6 +136,57 @@ static void send_exception(msim *m, modbus_t *ctx, const uint8_t *req, int hdr, 
     send_pdu(ctx, req, hdr, pdu, 2, garbled);
 }
 
+/* The request's function: its register count and whether it writes into
+ * *n and *write; 0, or the exception it gets. */
+static int function_of(const uint8_t *pdu, int len, int *n, int *write)
+{
+    switch (pdu[0]) {
+    case MODBUS_FC_READ_HOLDING_REGISTERS:
+        *n = len >= 5 ? (pdu[3] << 8) | pdu[4] : 0;
+        return *n < 1 || *n > MODBUS_MAX_READ_REGISTERS ? MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE
+                                                        : 0;
+    case MODBUS_FC_WRITE_SINGLE_REGISTER:
+        *n = 1;
+        *write = 1;
+        return len < 5 ? MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE : 0;
+    case MODBUS_FC_WRITE_MULTIPLE_REGISTERS:
+        *n = len >= 5 ? (pdu[3] << 8) | pdu[4] : 0;
+        *write = 1;
+        return *n < 1 || *n > MODBUS_MAX_WRITE_REGISTERS || len < 6 || pdu[5] != 2 * *n ||
+                       len != 6 + 2 * *n
+                   ? MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE
+                   : 0;
+    default:
+        return MODBUS_EXCEPTION_ILLEGAL_FUNCTION;
+    }
+}
+
+/* 0 when n registers from addr are mapped on the slave (an axis, the
+ * changer or the detector) for the access, else the exception. */
+static int address_check(const msim *m, const struct msim_axis *ax, int changer, int addr,
+                         int n, int write)
+{
+    int exc = check_range(ax                  ? axis_ranges
+                          : changer           ? changer_ranges
+                          : m->cfg.no_shutter ? det_ranges_no_shutter
+                                              : det_ranges,
+                          addr, n, write);
+    if (exc != MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS || ax || changer)
+        return exc;
+    if (m->cfg.simulated_clock && check_range(det_wait_range, addr, n, write) == 0)
+        return 0;
+    if (m->det.n_bands && !write) {
+        /* the band block, read only, as long as the detector's bands */
+        int nb = m->det.n_bands;
+        const struct reg_range bands[] = {
+            {MB_DET_BAND_COUNT, MB_DET_BAND_NM + 2 * nb - 1, 0},
+            {MB_DET_BAND_SEQUENCE, MB_DET_BAND_COUNTS + 2 * nb - 1, 0}, {-1, -1, 0}};
+        if (check_range(bands, addr, n, 0) == 0)
+            return 0;
+    }
+    return exc;
+}
+
 /* Answer one request: req is the whole ADU (hdr bytes of header ending
  * with the unit id, then the PDU, then an RTU frame's CRC); len counts the
  * PDU's bytes. Requests to absent slaves get no answer. */
@@ -157,47 +208,10 @@ void msim_handle_request(msim *m, modbus_t *ctx, const uint8_t *req, int req_len
         bus_wait(m, hdr, len, 0); /* the request is on the line, whoever it is for */
     if (!ax && !is_det && !chg)
         return;
-    int n = 0, write = 0, exc = 0;
-    switch (fn) {
-    case MODBUS_FC_READ_HOLDING_REGISTERS:
-        n = len >= 5 ? (pdu[3] << 8) | pdu[4] : 0;
-        if (n < 1 || n > MODBUS_MAX_READ_REGISTERS)
-            exc = MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
-        break;
-    case MODBUS_FC_WRITE_SINGLE_REGISTER:
-        n = 1;
-        write = 1;
-        if (len < 5)
-            exc = MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
-        break;
-    case MODBUS_FC_WRITE_MULTIPLE_REGISTERS:
-        n = len >= 5 ? (pdu[3] << 8) | pdu[4] : 0;
-        write = 1;
-        if (n < 1 || n > MODBUS_MAX_WRITE_REGISTERS || len < 6 || pdu[5] != 2 * n ||
-            len != 6 + 2 * n)
-            exc = MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
-        break;
-    default:
-        exc = MODBUS_EXCEPTION_ILLEGAL_FUNCTION;
-    }
+    int n = 0, write = 0;
+    int exc = function_of(pdu, len, &n, &write);
     if (!exc)
-        exc = check_range(ax                  ? axis_ranges
-                          : chg               ? changer_ranges
-                          : m->cfg.no_shutter ? det_ranges_no_shutter
-                                              : det_ranges,
-                          addr, n, write);
-    if (exc == MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS && is_det && m->cfg.simulated_clock &&
-        check_range(det_wait_range, addr, n, write) == 0)
-        exc = 0;
-    if (exc == MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS && is_det && m->det.n_bands && !write) {
-        /* the band block, read only, as long as the detector's bands */
-        int nb = m->det.n_bands;
-        const struct reg_range bands[] = {
-            {MB_DET_BAND_COUNT, MB_DET_BAND_NM + 2 * nb - 1, 0},
-            {MB_DET_BAND_SEQUENCE, MB_DET_BAND_COUNTS + 2 * nb - 1, 0}, {-1, -1, 0}};
-        if (check_range(bands, addr, n, 0) == 0)
-            exc = 0;
-    }
+        exc = address_check(m, ax, chg != NULL, addr, n, write);
     if (m->cfg.trace)
         fprintf(stderr, "gonio-sim: %.4f s: slave %d fn 0x%02x addr 0x%04x n %d%s%s\n",
                 sim_rig_now(m->rig), slave, fn, addr < 0 ? 0 : addr, n,
