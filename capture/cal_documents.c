@@ -46,11 +46,11 @@ static json_t *num_array(const double *v, int n)
     return a;
 }
 
-void cal_documents_last_uid(const char *root, const char *id, char out[37])
+void run_uids_last(const char *dir, char out[37])
 {
     char path[2400], line[64];
     out[0] = 0;
-    snprintf(path, sizeof path, "%s/%s/" CAL_RUN_UIDS_FILE, root, id);
+    snprintf(path, sizeof path, "%s/" CAL_RUN_UIDS_FILE, dir);
     int fd = open(path, O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
     FILE *f = fd < 0 ? NULL : fdopen(fd, "r");
     if (!f) {
@@ -65,6 +65,13 @@ void cal_documents_last_uid(const char *root, const char *id, char out[37])
             memcpy(out, line, 37);
     }
     fclose(f);
+}
+
+void cal_documents_last_uid(const char *root, const char *id, char out[37])
+{
+    char dir[2300];
+    snprintf(dir, sizeof dir, "%s/%s", root, id);
+    run_uids_last(dir, out);
 }
 
 /* Append text to ROOT/ID/name, not through a link. */

@@ -47,6 +47,10 @@ int cal_documents(const char *root, const struct cal_doc_run *r,
  * calibration written before its runs were recorded). */
 void cal_documents_last_uid(const char *root, const char *id, char out[37]);
 
+/* The last run uid recorded in DIR/run-uids.txt, a capture's directory or
+ * a calibration's ("" when none). */
+void run_uids_last(const char *dir, char out[37]);
+
 /* Unix time now, fractional. */
 double cal_documents_now(void);
 

@@ -282,28 +282,6 @@ static json_t *driver_configuration(const control *c, const struct worker_msg_st
 
 /* ---- the run's uids on disk --------------------------------------------- */
 
-/* The last run uid recorded in dir, "" when none. */
-static void last_run(const char *dir, char out[37])
-{
-    char path[2200], line[64];
-    out[0] = 0;
-    snprintf(path, sizeof path, "%s/" RUN_UIDS, dir);
-    int fd = open(path, O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
-    FILE *f = fd < 0 ? NULL : fdopen(fd, "r");
-    if (!f) {
-        if (fd >= 0)
-            close(fd);
-        return;
-    }
-    while (fgets(line, sizeof line, f)) {
-        uuid_t u;
-        line[strcspn(line, "\n")] = 0;
-        if (strlen(line) == 36 && uuid_parse(line, u) == 0)
-            memcpy(out, line, 37);
-    }
-    fclose(f);
-}
-
 /* Append uid to dir's record; not through a link. A failure is logged:
  * the run goes on, only the next run cannot name it. */
 static void record_run(const char *dir, const char *uid)
@@ -341,7 +319,7 @@ static json_t *run_start_doc(control *c, const struct worker_msg_start *m, doubl
 {
     const struct worker_request *r = &m->req;
     char previous[37];
-    last_run(r->dir, previous);
+    run_uids_last(r->dir, previous);
     json_t *d = json_object();
     json_object_set_new(d, "uid", json_string(c->ev.run));
     json_object_set_new(d, "time", json_real(t));
@@ -570,7 +548,7 @@ void control_events_stop(control *c, const struct worker_msg_stop *m)
     double t = now();
     if (!c->ev.run[0]) { /* it failed before its first point (a corrupt journal) */
         char previous[37];
-        last_run(m->dir, previous);
+        run_uids_last(m->dir, previous);
         new_uid(c->ev.run);
         send_pair(c, "start",
                   json_pack("{s:s, s:f, s:s, s:s, s:s, s:o}", "uid", c->ev.run, "time", t,
