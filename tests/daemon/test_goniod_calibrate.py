@@ -97,13 +97,18 @@ class CalibrateRig(unittest.TestCase):
     def start_sim(self, material, time_scale=None):
         """gonio-sim measuring material: what is mounted in the sample's place;
         on its simulated clock, or on wall time at time_scale."""
+        self.launch_sim(["--scene", "lab", "--material", material] +
+                        (["--time-scale", str(time_scale)] if time_scale
+                         else ["--clock", "simulated"]))
+
+    def launch_sim(self, args):
+        """gonio-sim with args on TCP, on the port of the one before it (a
+        fresh one the first time), as an operator swaps what is mounted."""
         self.stop_sim()
         out_path = os.path.join(self.folder, "sim.out")
         open(out_path, "w").close()
         self.sim = subprocess.Popen(
-            wrap([SIM, "--scene", "lab", "--material", material] +
-                 (["--time-scale", str(time_scale)] if time_scale else ["--clock", "simulated"]) +
-                 ["--tcp", "127.0.0.1:%d" % (self.port or 0)], self.folder),
+            wrap([SIM] + args + ["--tcp", "127.0.0.1:%d" % (self.port or 0)], self.folder),
             stdout=open(out_path, "w"), stderr=open(os.path.join(self.folder, "sim.err"), "a"),
             preexec_fn=child_procs.die_with_parent)
         deadline = time.time() + START_S

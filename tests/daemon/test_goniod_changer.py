@@ -8,40 +8,25 @@ that of the standard (the ratio the operator-swap path gives, within its
 noise: tests/daemon/test_goniod_reference_after.py)."""
 import json
 import os
-import subprocess
 import sys
 import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from test_goniod_calibrate import (SAMPLE, SIM, SLOW, START_S, CalibrateRig, Daemon,  # noqa: E402
-                                   child_procs, rig_profile, wrap)
+from test_goniod_calibrate import (SAMPLE, SLOW, START_S, CalibrateRig, Daemon,  # noqa: E402
+                                   rig_profile)
 
 
 class ChangerTests(CalibrateRig):
 
     def start_sim(self, material, time_scale=None):
         """gonio-sim on the changer's rig profile, writing its --stats."""
-        self.stop_sim()
         self.changer_rig = rig_profile(self.folder, "changer", 0.25)
         with open(self.changer_rig, "a") as f:
             f.write("sample_changer: true\n")
         self.stats = os.path.join(self.folder, "stats.json")
-        out_path = os.path.join(self.folder, "sim.out")
-        open(out_path, "w").close()
-        self.sim = subprocess.Popen(
-            wrap([SIM, "--scene", "lab", "--material", material, "--rig", self.changer_rig,
-                  "--clock", "simulated", "--stats", self.stats,
-                  "--tcp", "127.0.0.1:%d" % (self.port or 0)], self.folder),
-            stdout=open(out_path, "w"), stderr=open(os.path.join(self.folder, "sim.err"), "a"),
-            preexec_fn=child_procs.die_with_parent)
-        deadline = time.time() + START_S
-        text = ""
-        while time.time() < deadline and "tcp" not in text:
-            time.sleep(0.05)
-            text = open(out_path).read()
-        self.assertIn("tcp", text, open(os.path.join(self.folder, "sim.err")).read())
-        self.port = int(text.splitlines()[1].rsplit(":", 1)[1])
+        self.launch_sim(["--scene", "lab", "--material", material, "--rig", self.changer_rig,
+                         "--clock", "simulated", "--stats", self.stats])
 
     def start_daemon(self, rig=None, time_scale=1):
         """goniod with the changer's drive at slave 6 (gonio-sim's)."""

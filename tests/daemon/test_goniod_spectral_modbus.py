@@ -9,17 +9,11 @@ flat across the bands (gonio-sim mounts the standard as the sample too).
 import csv
 import os
 import statistics
-import subprocess
 import sys
-import time
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-import child_procs  # noqa: E402
-from goniod_harness import START_S, wrap  # noqa: E402
-from test_goniod_calibrate import (SIM, STANDARD, CalibrateRig, frames,  # noqa: E402
-                                  rig_profile)
+from test_goniod_calibrate import STANDARD, CalibrateRig, frames, rig_profile  # noqa: E402
 
 
 class SpectralModbusTests(CalibrateRig):
@@ -27,21 +21,7 @@ class SpectralModbusTests(CalibrateRig):
 
     def start_sim(self, material, time_scale=None):
         """gonio-sim on spectral-lab (CalibrateRig's, another scene)."""
-        self.stop_sim()
-        out_path = os.path.join(self.folder, "sim.out")
-        open(out_path, "w").close()
-        self.sim = subprocess.Popen(
-            wrap([SIM, "--scene", self.scene, "--material", material, "--clock", "simulated",
-                  "--tcp", "127.0.0.1:%d" % (self.port or 0)], self.folder),
-            stdout=open(out_path, "w"), stderr=open(os.path.join(self.folder, "sim.err"), "a"),
-            preexec_fn=child_procs.die_with_parent)
-        deadline = time.time() + START_S
-        text = ""
-        while time.time() < deadline and "tcp" not in text:
-            time.sleep(0.05)
-            text = open(out_path).read()
-        self.assertIn("tcp", text, open(os.path.join(self.folder, "sim.err")).read())
-        self.port = int(text.splitlines()[1].rsplit(":", 1)[1])
+        self.launch_sim(["--scene", self.scene, "--material", material, "--clock", "simulated"])
 
     def test_bands_reduced_per_band_over_modbus(self):
         self.start_daemon(rig_profile(self.folder, "lab", 0.25))
