@@ -119,44 +119,6 @@ def test_order_from_present_position():
         shutil.rmtree(folder, ignore_errors=True)
 
 
-def test_resume_keeps_the_order_from_its_start():
-    """A capture ordered from where it found the axes, aborted and resumed
-    after the axes moved again: the resume orders the plan from the start
-    plan.json records (its journal's points are that order's), so plan.json
-    is unchanged and the capture completes with every point once."""
-    folder = tg.tmpdir()
-    sim = tm.Sim(folder, "ideal", scale=None)
-    d = None
-    try:
-        d = tg.Daemon(folder, driver=sim.driver("tcp")).start()
-        c = d.connect()
-        for axis, deg in FAR.items():
-            assert c.request("move", axis=axis, deg=deg)["class"] == "OK"
-        c.request("watch")
-        assert c.request("capture", plan="ds3", order="greedy", name="cut")["class"] == "OK"
-        while c.read().get("class") != "event":
-            pass
-        c.request("abort")
-        assert c.until_stop("cut")[-1]["reason"] == "aborted"
-        path = os.path.join(d.root, "cut", "plan.json")
-        with open(path) as f:
-            before = f.read()
-        assert '"start"' in before
-        assert c.request("home")["class"] == "OK"
-        assert c.request("resume", capture_id="cut")["class"] == "OK"
-        assert c.until_stop("cut")[-1]["exit_status"] == "success"
-        with open(path) as f:
-            assert f.read() == before
-        with open(os.path.join(d.root, "cut", "samples.csv")) as f:
-            points = [int(l.split(",")[0]) for l in f.read().splitlines()[1:]]
-        assert sorted(points) == list(range(json.loads(before)["count"])), points
-    finally:
-        if d:
-            d.stop()
-        sim.stop()
-        shutil.rmtree(folder, ignore_errors=True)
-
-
 def journal_points(path):
     """The points of samples.csv, in record order."""
     with open(path) as f:
