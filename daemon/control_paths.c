@@ -233,7 +233,8 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
     int why = PATH_OK;
     if ((strchr(plan, '/') && (why = inside_root(c, plan, r->plan, sizeof r->plan)) < 0) ||
         (strchr(scene, '/') && (why = inside_root(c, scene, r->scene, sizeof r->scene)) < 0) ||
-        (strchr(rig, '/') && (why = inside_root(c, rig, r->rig, sizeof r->rig)) < 0) ||
+        (strchr(rig, '/') && strcmp(rig, c->cfg->rig) &&
+         (why = inside_root(c, rig, r->rig, sizeof r->rig)) < 0) ||
         (merl && (why = inside_root(c, merl, r->material + 5, sizeof r->material - 5)) < 0) ||
         (truth_merl &&
          (why = inside_root(c, truth_merl, r->truth + 5, sizeof r->truth - 5)) < 0)) {
@@ -246,7 +247,9 @@ int control_load_request(const control *c, struct worker_request *r, struct goni
         snprintf(r->plan, sizeof r->plan, "%s", plan);
     if (!strchr(scene, '/'))
         snprintf(r->scene, sizeof r->scene, "%s", scene);
-    if (!strchr(rig, '/'))
+    /* goniod's own rig profile (driver.rig, a request naming none) is the
+     * configuration's, trusted wherever it lies, as it was at the request. */
+    if (!strchr(rig, '/') || !strcmp(rig, c->cfg->rig))
         snprintf(r->rig, sizeof r->rig, "%s", rig);
     if (merl)
         memcpy(r->material, "merl:", 5);

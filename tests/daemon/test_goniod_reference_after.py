@@ -30,10 +30,9 @@ class ReferenceAfterTests(CalibrateRig):
         return st
 
     def test_kill9_before_the_standard_read_again_then_resume(self):
-        # The rig profile inside the capture root, where a resume reads it.
-        root = os.path.join(self.folder, "cap")
-        os.makedirs(root)
-        self.start_daemon(rig=rig_profile(root, "lab", 0.25))
+        # goniod's own rig profile, outside the capture root: the resume
+        # takes it from the configuration as the request did.
+        self.start_daemon(rig=rig_profile(self.folder, "lab", 0.25))
         self.dark_and_reference()
         self.start_sim(SAMPLE)  # the operator mounts the sample
         c = self.d.connect()
