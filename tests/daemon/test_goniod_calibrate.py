@@ -170,7 +170,7 @@ class CalibrateRig(unittest.TestCase):
             operator(st)
             r = self.d.gonio("resume")
             self.assertEqual(r.returncode, 0, r.stderr)
-        out, err = p.communicate(timeout=4 * START_S)
+        out, err = p.communicate(timeout=30 * START_S)  # a hang, not a slow or sanitized host
         return subprocess.CompletedProcess(p.args, p.returncode, out, err)
 
     def mount_standard(self, st):
