@@ -178,10 +178,12 @@ def test_restart_mid_capture(transport):
     runs = [capture_with_restart(transport, seed) for seed in range(restarts(transport, 2))]
     for r in runs:
         print("%s: %s" % (transport, json.dumps(r)))
-        # A failure names its cause: the restart as a device saw it.
+        # A failure names its cause: the restart as a device saw it, or a
+        # rig still down when the retries ran out (a loaded host starts
+        # gonio-sim again slowly).
         for msg in r["failures"]:
             assert "restarted" in msg or "IN-POS" in msg or "connection" in msg or \
-                "serial port" in msg, msg
+                "serial port" in msg or "no answer within" in msg, msg
 
 
 def test_late_replies_never_take_the_clock_back():
