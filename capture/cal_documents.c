@@ -20,7 +20,7 @@ double cal_documents_now(void)
     return (double)tv.tv_sec + tv.tv_usec * 1e-6;
 }
 
-static void new_uid(char out[37])
+void cal_documents_uid(char out[37])
 {
     uuid_t u;
     uuid_generate_random(u);
@@ -204,13 +204,14 @@ static json_t *primary_descriptor(const struct cal_doc_run *r, const char *run,
     return d;
 }
 
-static json_t *event_doc(const char *descriptor, size_t seq, json_t *data, double t)
+json_t *cal_documents_event(const char *descriptor, unsigned long long seq, json_t *data,
+                            double t)
 {
     json_t *stamps = json_object(), *v;
     const char *k;
     json_object_foreach(data, k, v) json_object_set_new(stamps, k, json_real(t));
     char uid[37];
-    new_uid(uid);
+    cal_documents_uid(uid);
     return json_pack("{s:s, s:s, s:I, s:f, s:o, s:o}", "uid", uid, "descriptor", descriptor,
                      "seq_num", (json_int_t)seq, "time", t, "data", data, "timestamps", stamps);
 }
@@ -360,7 +361,7 @@ static void put(struct out *o, const char *name, json_t *doc)
 static size_t put_results(struct out *o, const struct cal_doc_run *r, const char *run)
 {
     char uid[37];
-    new_uid(uid);
+    cal_documents_uid(uid);
     put(o, "descriptor", results_descriptor(r, run, uid));
     size_t seq = 0;
     for (size_t i = 0; i < r->n; i++) {
@@ -368,7 +369,7 @@ static size_t put_results(struct out *o, const struct cal_doc_run *r, const char
         while (!same_group(&r->frames[first], &r->frames[i]))
             first++;
         if (first == i) /* the group's first frame */
-            put(o, "event", event_doc(uid, ++seq, group_data(r, &r->frames[i], n_bands(r)),
+            put(o, "event", cal_documents_event(uid, ++seq, group_data(r, &r->frames[i], n_bands(r)),
                                       r->t_stop));
     }
     return seq;
@@ -382,16 +383,16 @@ int cal_documents(const char *root, const struct cal_doc_run *r,
     struct out o = {.root = root, .id = m->id, .emit = emit, .user = user, .err = err};
     char run[37], primary[37], previous[37], line[40];
     cal_documents_last_uid(root, m->id, previous);
-    new_uid(run);
+    cal_documents_uid(run);
     snprintf(line, sizeof line, "%s\n", run);
     o.rc = append(root, m->id, CAL_RUN_UIDS_FILE, line, err);
     put(&o, "start", start_doc(root, r, run, previous));
     size_t n_results = 0;
     if (r->n) {
-        new_uid(primary);
+        cal_documents_uid(primary);
         put(&o, "descriptor", primary_descriptor(r, run, primary));
         for (size_t i = 0; i < r->n; i++)
-            put(&o, "event", event_doc(primary, i + 1, frame_data(&r->frames[i], i, n_bands(r)),
+            put(&o, "event", cal_documents_event(primary, i + 1, frame_data(&r->frames[i], i, n_bands(r)),
                                        r->t_stop));
         if (!strcmp(r->exit_status, "success"))
             n_results = put_results(&o, r, run);
@@ -402,7 +403,7 @@ int cal_documents(const char *root, const struct cal_doc_run *r,
     if (n_results)
         json_object_set_new(counts, "results", json_integer((json_int_t)n_results));
     char uid[37];
-    new_uid(uid);
+    cal_documents_uid(uid);
     put(&o, "stop",
         json_pack("{s:s, s:s, s:f, s:s, s:s, s:o, s:s, s:o}", "uid", uid, "run_start", run,
                   "time", r->t_stop, "exit_status", r->exit_status, "reason",

@@ -14,6 +14,7 @@
 #ifndef GONIO_CAPTURE_CAL_DOCUMENTS_H
 #define GONIO_CAPTURE_CAL_DOCUMENTS_H
 
+#include <jansson.h>
 #include <stddef.h>
 
 #include "capture/calibration.h"
@@ -53,5 +54,13 @@ void run_uids_last(const char *dir, char out[37]);
 
 /* Unix time now, fractional. */
 double cal_documents_now(void);
+
+/* A new random uid, lower-case hex with dashes, as the event model's. */
+void cal_documents_uid(char out[37]);
+
+/* An event of descriptor's stream: data (taken), sequence number seq, and
+ * the same timestamp t for every field (the values were learnt together). */
+json_t *cal_documents_event(const char *descriptor, unsigned long long seq, json_t *data,
+                            double t);
 
 #endif

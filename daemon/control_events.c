@@ -15,10 +15,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/time.h>
 #include <unistd.h>
-
-#include <uuid/uuid.h>
 
 #include "capture/cal_documents.h"
 #include "daemon/control_private.h"
@@ -26,20 +23,6 @@
 #include "rig/rig.h"
 
 #define RUN_UIDS "run-uids.txt"
-
-static void new_uid(char out[37])
-{
-    uuid_t u;
-    uuid_generate_random(u);
-    uuid_unparse_lower(u, out);
-}
-
-static double now(void)
-{
-    struct timeval tv;
-    gettimeofday(&tv, NULL);
-    return (double)tv.tv_sec + tv.tv_usec * 1e-6;
-}
 
 static json_t *string_or_null(const char *v)
 {
@@ -387,9 +370,9 @@ static json_t *primary_descriptor_doc(control *c, const struct worker_msg_start 
 void control_events_start(control *c, const struct worker_msg_start *m)
 {
     control_events_free(c);
-    double t = now();
-    new_uid(c->ev.run);
-    new_uid(c->ev.primary);
+    double t = cal_documents_now();
+    cal_documents_uid(c->ev.run);
+    cal_documents_uid(c->ev.primary);
     c->ev.seq = 0;
     c->ev.adaptive = m->adaptive;
     c->ev.start_text = pair_text("start", run_start_doc(c, m, t));
@@ -407,19 +390,6 @@ void control_events_greet(control *c, struct control_client *cl)
         control_client_send_text(cl, c->ev.start_text);
     if (c->ev.descriptor_text)
         control_client_send_text(cl, c->ev.descriptor_text);
-}
-
-/* An event: data, and the same timestamp for every field (goniod learns the
- * sample's values together, when the engine has journalled it). */
-static json_t *event_doc(const char *descriptor, unsigned long long seq, json_t *data, double t)
-{
-    json_t *stamps = json_object(), *v;
-    const char *k;
-    json_object_foreach(data, k, v) json_object_set_new(stamps, k, json_real(t));
-    char uid[37];
-    new_uid(uid);
-    return json_pack("{s:s, s:s, s:I, s:f, s:o, s:o}", "uid", uid, "descriptor", descriptor,
-                     "seq_num", (json_int_t)seq, "time", t, "data", data, "timestamps", stamps);
 }
 
 void control_events_sample(control *c, const struct worker_msg_sample *m)
@@ -450,7 +420,8 @@ void control_events_sample(control *c, const struct worker_msg_sample *m)
     } else { /* null until the streaming fit's first round */
         json_object_set_new(data, "fit_log_error", control_json_number(m->fit_log_error));
     }
-    send_pair(c, "event", event_doc(c->ev.primary, ++c->ev.seq, data, now()));
+    send_pair(c, "event",
+              cal_documents_event(c->ev.primary, ++c->ev.seq, data, cal_documents_now()));
 }
 
 static void set_errors(json_t *d, const char *prefix, const struct brdf_errors *e)
@@ -536,20 +507,20 @@ static void send_fit(control *c, const struct capture_summary *s, double t)
         json_object_set_new(keys, k, data_key(dtype, dim, units, source));
     }
     char uid[37];
-    new_uid(uid);
+    cal_documents_uid(uid);
     send_pair(c, "descriptor",
               json_pack("{s:s, s:s, s:f, s:s, s:o}", "uid", uid, "run_start", c->ev.run,
                         "time", t, "name", "fit", "data_keys", keys));
-    send_pair(c, "event", event_doc(uid, 1, data, t));
+    send_pair(c, "event", cal_documents_event(uid, 1, data, t));
 }
 
 void control_events_stop(control *c, const struct worker_msg_stop *m)
 {
-    double t = now();
+    double t = cal_documents_now();
     if (!c->ev.run[0]) { /* it failed before its first point (a corrupt journal) */
         char previous[37];
         run_uids_last(m->dir, previous);
-        new_uid(c->ev.run);
+        cal_documents_uid(c->ev.run);
         send_pair(c, "start",
                   json_pack("{s:s, s:f, s:s, s:s, s:s, s:o}", "uid", c->ev.run, "time", t,
                             "plan_name", "gonio capture", "capture_id", m->id, "dir", m->dir,
@@ -561,7 +532,7 @@ void control_events_stop(control *c, const struct worker_msg_stop *m)
     if (fitted)
         send_fit(c, &m->summary, t);
     char uid[37];
-    new_uid(uid);
+    cal_documents_uid(uid);
     json_t *d = json_object();
     json_object_set_new(d, "uid", json_string(uid));
     json_object_set_new(d, "run_start", json_string(c->ev.run));
