@@ -24,20 +24,7 @@ import child_procs  # noqa: E402
 import gonio_cal_events as ev  # noqa: E402
 from goniod_harness import GONIO, START_S  # noqa: E402
 from test_goniod_calibrate import SAMPLE, CalibrateRig  # noqa: E402
-
-
-def read_run(conn):
-    """The [name, doc] pairs of one run, up to and including its stop."""
-    docs = []
-    while True:
-        d = conn.read()
-        if d is None:
-            raise AssertionError("stream ended before stop: %r" % docs[-3:])
-        if isinstance(d, dict):  # a reply on the watching connection
-            continue
-        docs.append(tuple(d))
-        if d[0] == "stop":
-            return docs
+from test_goniod_events import read_run  # noqa: E402
 
 
 class CalibrateEventsTests(CalibrateRig):

@@ -16,32 +16,9 @@ import sys
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from goniod_harness import SOURCE, DaemonTest, read_samples
-
-try:
-    import jsonschema
-except ImportError:  # Debian's python3-jsonschema (scripts/deps.sh)
-    jsonschema = None
-
-SHARED = os.environ.get("GONIO_SHARED", os.path.join(SOURCE, "..", "shared"))
-SCHEMAS = os.path.join(SHARED, "anchors", "event-model")
-SCHEMA_FILES = {"start": "run_start.json", "descriptor": "event_descriptor.json",
-                "event": "event.json", "stop": "run_stop.json"}
-
-
-def load_validators():
-    """A draft 2020-12 validator per document name (the schemas use
-    unevaluatedProperties and prefixItems), or a reason to skip."""
-    if jsonschema is None:
-        return None, "python3-jsonschema not installed (SKIPPED: event-model schemas)"
-    if not os.path.isdir(SCHEMAS):
-        return None, "%s missing (SKIPPED: event-model schemas)" % SCHEMAS
-    out = {}
-    for name, f in SCHEMA_FILES.items():
-        with open(os.path.join(SCHEMAS, f)) as fh:
-            out[name] = jsonschema.Draft202012Validator(json.load(fh))
-    return out, None
-
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from gonio_cal_events import validators as load_validators  # noqa: E402
+from goniod_harness import DaemonTest, read_samples  # noqa: E402
 
 DTYPES = {"number": (int, float, type(None)), "integer": (int,), "boolean": (bool,),
           "string": (str,), "array": (list,)}
