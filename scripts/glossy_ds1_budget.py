@@ -17,12 +17,17 @@ the dark frames' spread), drawn 200 times.
 Usage (from the repository root, after a build):
   python3 scripts/glossy_ds1_budget.py [--material SPEC] [--seeds 1,2,3]
       [--repeats 8] [--dark-frames 16] [--tmp DIR]
-Prints a table in markdown; takes about half a minute a seed and
-variant."""
+Prints a table in markdown; takes about 2.5 minutes a seed (--quick: the
+chain alone, half a minute). --capture-scale K reads the capture on the
+rig integrating K x 0.25 s (the reference still at 0.25 s, scaled by the
+monitor's counts, its calibration.json marked as covering the capture's
+integration). Figures: docs/radiometry.md, docs/notes/glossy-ds1.md."""
 import argparse
+import json
 import os
 import random
 import re
+import shutil
 import statistics
 import subprocess
 import sys
@@ -76,7 +81,6 @@ def calibrations(folder, scene, rig_file, args, plan="reference-grid", capture_r
     its ladder too, and the stray light and the reference, read at
     rig_file's integration and scaled by the monitor's counts as every
     rung of the ladder is, are marked as covering its integration."""
-    import json
     got = {}
     for kind, path in scene.items():
         root = os.path.join(folder, "cal-" + kind + "-" + plan)
@@ -105,8 +109,6 @@ def calibrations(folder, scene, rig_file, args, plan="reference-grid", capture_r
 def mixed(folder, cals, dark_kind, stray_kind, ref_kind, name):
     """A root whose reference is ref_kind's frames with dark_kind's dark
     and stray_kind's stray light (their ids as the reference names them)."""
-    import json
-    import shutil
     dest = os.path.join(folder, name)
     if os.path.isdir(dest):
         shutil.rmtree(dest)
@@ -164,7 +166,6 @@ def reported_snr(capdir, rows, material):
     over u is at most 1/100, u first whole (systematic terms included),
     then its per-sample part: u less the systematic terms of results.json's
     budget, which are the same relative u for every sample of a channel."""
-    import json
     with open(os.path.join(capdir, "results.json")) as f:
         budget = json.load(f)["calibration"]["budget"]
     sys_u2 = [sum(t["median_relative_u"][c] ** 2 for t in budget if t["kind"] == "systematic")
@@ -194,7 +195,6 @@ def capture(folder, name, scene, rig_file, cal_root, material):
         "--plan", "ds1", "--out", out, "--calibrations", cal_root, "--quiet")
     rows = gonio_cal.frames(os.path.join(out, "samples.csv"))
     with open(os.path.join(out, "results.json")) as f:
-        import json
         rig_time = json.load(f).get("rig_time_s", float("nan"))
     return rows, rig_time
 
