@@ -100,24 +100,10 @@ int reference_after_measure(struct capture_devices *dev, const struct capture_ri
     int rc = reference_after_read(dir, cl, NULL, NULL, err);
     if (rc < 0)
         return rc;
-    int mounted = 0;
-    if (!rc && src->mount) { /* the sample changer swaps them, nobody is asked */
-        if ((rc = src->mount(src->user, dev, cl->meta.standard, err)) < 0)
-            return rc;
-        mounted = 1;
-    }
-    struct cal_hooks h = {.control = hooks->control, .ask = mounted ? NULL : hooks->ask,
-                          .user = hooks->user};
-    rc = cal_run_measure(dev, &a.run, &h, frames, n, aborted, err);
-    if (mounted) { /* the sample back in its place, whatever happened */
-        struct gonio_err ignored;
-        int back = src->mount(src->user, dev, NULL, rc < 0 ? &ignored : err);
-        if (rc == 0 && back < 0) {
-            free(*frames);
-            rc = back;
-        }
-    }
-    return rc;
+    /* the sample changer swaps them (and journals it), nobody is asked */
+    struct cal_hooks h = {.control = hooks->control, .ask = hooks->ask, .user = hooks->user,
+                          .mount = src->mount, .mount_user = src->user};
+    return cal_run_measure(dev, &a.run, &h, frames, n, aborted, err);
 }
 
 /* One reading reduced as a sample at its geometry with cl (no drift):

@@ -388,12 +388,11 @@ int goniod_probe(const struct goniod_config *cfg, const struct rig_profile *rig,
 
 #endif
 
-int goniod_devices_mount(const struct goniod_config *cfg, void *bus, const char *standard,
+int goniod_devices_mount(const struct goniod_config *cfg, void *bus, int slot,
                          struct gonio_err *err)
 {
     if (!bus || !cfg->slaves.sample_changer)
         return gonio_err_set(err, GONIO_EBADCONFIG, "no sample changer on the bus "
                              "(driver.slaves.sample_changer)");
-    return drv_modbus_changer_set(bus, cfg->slaves.sample_changer,
-                                  standard != NULL, err);
+    return drv_modbus_changer_set(bus, cfg->slaves.sample_changer, slot, err);
 }
