@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "brdf/angles.h"
+#include "capture/calibration_bands.h"
 #include "capture/calibration_private.h"
 #include "common/paths.h"
 
@@ -187,7 +188,9 @@ int reference_after_derive(struct cal_loaded *cl, const struct cal_frame *f, siz
     d->geometries = groups;
     d->frames = n;
     d->on = 1;
-    return 0;
+    /* A spectral detector's bands, each its own ratio (the lamp's drift
+     * is not flat over the spectrum). */
+    return cl->bands && f[0].n_bands > 0 ? cal_bands_drift(cl->bands, f, n, t_end_s, err) : 0;
 }
 
 /* The journal at path reduced again with cl into path's new version, and
