@@ -105,12 +105,18 @@ struct cal_run {
  * to ask (the in-process simulated rig mounts its standard itself, and a
  * dark without a shutter is refused). on_frame follows each frame, and
  * says first where the run stands (the journal's frames; rig time NAN when
- * there are none). */
+ * there are none). mount, on a rig with a sample changer (capture_rig.mount,
+ * called with mount_user), puts the standard (reference) or the light trap
+ * (stray) in the sample's place instead of asking, and the sample back
+ * once the run stops, however it stops; NULL: the operator swaps them. */
 struct cal_hooks {
     enum capture_control (*control)(void *user);
     enum capture_control (*ask)(void *user, const char *instruction);
     void (*on_frame)(void *user, size_t done, size_t total, double rig_time_s);
     void *user;
+    int (*mount)(void *mount_user, struct capture_devices *dev, enum capture_slot slot,
+                 const char *standard, struct gonio_err *err);
+    void *mount_user;
 };
 
 /* The frames a run takes. */
@@ -120,7 +126,11 @@ size_t cal_run_total(const struct cal_run *run);
  * and synced before the next, so that a run killed at any moment keeps
  * every frame it read; a journal already there is continued (its frames
  * checked against the run: kind, geometry, integration), a torn last line
- * dropped. *frames (malloc'd) is every frame, the journal's first;
+ * dropped. A run through a sample changer (cal_hooks.mount) journals
+ * the slot it puts in the sample's place (ROOT/ID/changer) before asking
+ * for it, so that one killed anywhere puts the sample back when it is
+ * started again, even with every frame read. *frames (malloc'd) is every
+ * frame, the journal's first;
  * *aborted is 1 when control stopped it early. The caller writes the
  * calibration (cal_write) once the run is whole. */
 int cal_run_measure(struct capture_devices *dev, const struct cal_run *run,

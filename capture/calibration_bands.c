@@ -1,6 +1,8 @@
 /* A spectral detector's calibration band by band (capture/calibration_bands.h). */
 #include "capture/calibration_bands.h"
 
+#include "capture/reference_after.h"
+
 #include <errno.h>
 #include <math.h>
 #include <stdlib.h>
@@ -107,6 +109,20 @@ void cal_bands_free(struct cal_bands *b)
     for (int g = 0; g < b->n_groups; g++)
         cal_loaded_free(&b->group[g]);
     free(b);
+}
+
+int cal_bands_drift(struct cal_bands *b, const struct cal_frame *f, size_t n, double t_end_s,
+                    struct gonio_err *err)
+{
+    int rc = 0;
+    for (int g = 0; rc >= 0 && g < b->n_groups; g++) {
+        struct cal_frame *gf = NULL;
+        rc = group_frames(b, g, f, n, "reference-after", &gf, err);
+        if (rc >= 0) /* the group's cal_loaded holds no bands: no recursion */
+            rc = reference_after_derive(&b->group[g], gf, n, t_end_s, err);
+        free(gf);
+    }
+    return rc;
 }
 
 int cal_bands_reduce(const struct cal_bands *b, const struct journal_plan *plan,

@@ -57,4 +57,12 @@ int cal_bands_reduce(const struct cal_bands *b, const struct journal_plan *plan,
                      const struct cal_band_record *rec, size_t n, struct cal_band_value *out,
                      struct gonio_err *err);
 
+/* Each band's drift (its group's cal_loaded.drift) from the standard's
+ * readings after the capture (capture/reference_after.h), as the
+ * channels' is taken: the reduction of each band then interpolates its
+ * own ratio. -GONIO_EBADDATA naming the reading whose bands are not the
+ * calibration's. */
+int cal_bands_drift(struct cal_bands *b, const struct cal_frame *f, size_t n, double t_end_s,
+                    struct gonio_err *err);
+
 #endif

@@ -2,6 +2,8 @@
  * (capture/calibration.h). */
 #include "capture/calibration.h"
 
+#include "capture/calibration_bands.h"
+
 #include <math.h>
 #include <stdlib.h>
 
@@ -39,6 +41,19 @@ static json_t *row(const struct rad_value *v, size_t n, int t, double *buf)
     return r;
 }
 
+/* Each band's drift ratio: {"nm": [...], "ratio": [...], "ratio_relative_u": [...]}. */
+static json_t *band_drift(const struct cal_bands *b)
+{
+    json_t *nm = json_array(), *q = json_array(), *u = json_array();
+    for (int k = 0; k < b->n_bands; k++) {
+        const struct cal_drift *d = &b->group[k / 3].drift;
+        json_array_append_new(nm, json_real(b->nm[k]));
+        json_array_append_new(q, json_real(d->q[k % 3]));
+        json_array_append_new(u, json_real(d->u_q[k % 3]));
+    }
+    return json_pack("{s:o, s:o, s:o}", "nm", nm, "ratio", q, "ratio_relative_u", u);
+}
+
 struct json_t *cal_budget_json(const struct cal_loaded *cl, const struct rad_value *v, size_t n)
 {
     double *buf = malloc((n ? n : 1) * sizeof *buf);
@@ -69,6 +84,8 @@ struct json_t *cal_budget_json(const struct cal_loaded *cl, const struct rad_val
                                       d->u_q[1], d->u_q[2], "rig_time_s", d->t_end_s,
                                       "geometries", (json_int_t)d->geometries, "readings",
                                       (json_int_t)d->frames));
+    if (d->on && cl->bands && cl->bands->group[0].drift.on)
+        json_object_set_new(json_object_get(j, "reference_after"), "bands", band_drift(cl->bands));
     json_object_set_new(j, "combined_median_relative_u", row(v, n, -1, buf));
     free(buf);
     return j;

@@ -34,4 +34,19 @@ int cal_frame_line(const struct cal_frame *f, char *buf, size_t size);
  * malloc'd. */
 int cal_frames_read(const char *path, struct cal_frame **out, size_t *n, struct gonio_err *err);
 
+/* The run directory's changer journal: "slot N swapping" before the
+ * changer is asked for slot N, "slot N in" once it is there; gone once
+ * the sample is back in its place. */
+#define CAL_CHANGER_JOURNAL "changer"
+
+/* Put slot in the sample's place through h->mount, journalled in dir. */
+int cal_changer_put(const char *dir, const struct cal_hooks *h, struct capture_devices *dev,
+                    enum capture_slot slot, const char *standard, struct gonio_err *err);
+
+/* The slot dir's changer journal names (in_place, when not NULL: 1 when
+ * it is there, 0 when a swap to it was under way); -1 when there is no
+ * journal (the sample in its place), CAPTURE_SLOT_TRAP + 1 when it cannot
+ * be read. */
+int cal_changer_journalled(const char *dir, int *in_place);
+
 #endif

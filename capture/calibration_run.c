@@ -130,7 +130,7 @@ static int append(int fd, const char *path, const struct cal_frame *fr, struct g
 
 /* Before the first frame of a run: the light path as the kind needs it,
  * with the operator's hand where the rig has none. */
-static int prepare(struct capture_devices *dev, const struct cal_run *run,
+static int prepare(struct capture_devices *dev, const struct cal_run *run, const char *dir,
                    const struct cal_hooks *h, int *aborted, struct gonio_err *err)
 {
     char say[512];
@@ -149,6 +149,11 @@ static int prepare(struct capture_devices *dev, const struct cal_run *run,
         if (run->rig->shutter && (rc = drv_detector_shutter(dev->detector, 0, err)) < 0 &&
             rc != -ENOTSUP)
             return rc;
+        if (h->mount) /* the sample changer swaps them, nobody is asked */
+            return cal_changer_put(dir, h, dev,
+                                   run->meta->kind == CAL_STRAY ? CAPTURE_SLOT_TRAP
+                                                                : CAPTURE_SLOT_STANDARD,
+                                   run->meta->standard, err);
         if (!h->ask)
             return 0;
         if (run->meta->kind == CAL_STRAY)
@@ -181,7 +186,7 @@ int cal_run_measure(struct capture_devices *dev, const struct cal_run *run,
     if (rc == 0 && h->on_frame) /* where the run stands: the journal's frames */
         h->on_frame(h->user, f.n, total, f.n ? f.v[f.n - 1].rig_time_s : NAN);
     if (rc == 0 && f.n < total)
-        rc = prepare(dev, run, h, aborted, err);
+        rc = prepare(dev, run, dir, h, aborted, err);
     size_t moved_to = (size_t)-1;
     for (size_t idx = f.n; rc == 0 && !*aborted && idx < total; idx = f.n) {
         if (h->control && h->control(h->user) == CAPTURE_ABORT) {
@@ -208,6 +213,15 @@ int cal_run_measure(struct capture_devices *dev, const struct cal_run *run,
     }
     if (fd >= 0)
         close(fd);
+    /* The sample back in its place, whatever happened, also when a run
+     * killed after its swap is started again (the changer's journal). */
+    if (h->mount && fd >= 0 && cal_changer_journalled(dir, NULL) >= 0) {
+        struct gonio_err ignored;
+        int back = cal_changer_put(dir, h, dev, CAPTURE_SLOT_SAMPLE, NULL,
+                                   rc < 0 ? &ignored : err);
+        if (rc == 0 && back < 0)
+            rc = back;
+    }
     /* A driver's wait cut short by the host's abort is the abort. */
     if (rc < 0 && h->control && rc == -ECANCELED)
         *aborted = 1, rc = 0;
@@ -223,6 +237,8 @@ void cal_discard(const char *root, const char *id)
 {
     char path[4200];
     snprintf(path, sizeof path, "%s/%s/journal.csv", root, id);
+    unlink(path);
+    snprintf(path, sizeof path, "%s/%s/%s", root, id, CAL_CHANGER_JOURNAL);
     unlink(path);
     snprintf(path, sizeof path, "%s/%s", root, id);
     rmdir(path);

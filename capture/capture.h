@@ -185,6 +185,11 @@ struct capture_devices {
     int counts;
 };
 
+/* What a sample changer holds in the sample's place (docs/protocol-modbus.md,
+ * "Sample changer"): the sample, the reference standard, a light trap (what
+ * a stray-light calibration reads). The values are the changer's slots. */
+enum capture_slot { CAPTURE_SLOT_SAMPLE = 0, CAPTURE_SLOT_STANDARD = 1, CAPTURE_SLOT_TRAP = 2 };
+
 /* A rig source: the devices a host hands the engine, and what it knows of
  * them. open and close are required; every other member may be NULL. */
 struct capture_rig {
@@ -218,11 +223,11 @@ struct capture_rig {
     /* What the rig measures, when the source knows (the simulator): its
      * label, and the reference of the truth errors unless truth names one. */
     const brdf_material *material;
-    /* Put the standard (standard: its name, as calibration.json has it) in
-     * the sample's place, or the sample back (standard NULL): the rig's
-     * sample changer. NULL: the rig has none, the operator swaps them. */
-    int (*mount)(void *user, struct capture_devices *dev, const char *standard,
-                 struct gonio_err *err);
+    /* Put slot in the sample's place: the rig's sample changer (the
+     * standard: standard names it, as calibration.json has it). NULL: the
+     * rig has none, the operator swaps them. */
+    int (*mount)(void *user, struct capture_devices *dev, enum capture_slot slot,
+                 const char *standard, struct gonio_err *err);
     void *user;
 };
 

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "brdf/angles.h"
+#include "capture/calibration_bands.h"
 #include "capture/calibration_private.h"
 #include "common/paths.h"
 
@@ -100,24 +101,10 @@ int reference_after_measure(struct capture_devices *dev, const struct capture_ri
     int rc = reference_after_read(dir, cl, NULL, NULL, err);
     if (rc < 0)
         return rc;
-    int mounted = 0;
-    if (!rc && src->mount) { /* the sample changer swaps them, nobody is asked */
-        if ((rc = src->mount(src->user, dev, cl->meta.standard, err)) < 0)
-            return rc;
-        mounted = 1;
-    }
-    struct cal_hooks h = {.control = hooks->control, .ask = mounted ? NULL : hooks->ask,
-                          .user = hooks->user};
-    rc = cal_run_measure(dev, &a.run, &h, frames, n, aborted, err);
-    if (mounted) { /* the sample back in its place, whatever happened */
-        struct gonio_err ignored;
-        int back = src->mount(src->user, dev, NULL, rc < 0 ? &ignored : err);
-        if (rc == 0 && back < 0) {
-            free(*frames);
-            rc = back;
-        }
-    }
-    return rc;
+    /* the sample changer swaps them (and journals it), nobody is asked */
+    struct cal_hooks h = {.control = hooks->control, .ask = hooks->ask, .user = hooks->user,
+                          .mount = src->mount, .mount_user = src->user};
+    return cal_run_measure(dev, &a.run, &h, frames, n, aborted, err);
 }
 
 /* One reading reduced as a sample at its geometry with cl (no drift):
@@ -201,7 +188,9 @@ int reference_after_derive(struct cal_loaded *cl, const struct cal_frame *f, siz
     d->geometries = groups;
     d->frames = n;
     d->on = 1;
-    return 0;
+    /* A spectral detector's bands, each its own ratio (the lamp's drift
+     * is not flat over the spectrum). */
+    return cl->bands && f[0].n_bands > 0 ? cal_bands_drift(cl->bands, f, n, t_end_s, err) : 0;
 }
 
 /* The journal at path reduced again with cl into path's new version, and

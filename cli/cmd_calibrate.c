@@ -49,9 +49,11 @@ static void usage(FILE *out)
             "  Without --offline goniod measures it on its rig into its calibration root\n"
             "  (--scene and --out are the offline rig's; one --integration at most),\n"
             "  where a capture names it (gonio capture --calibration ID|newest): a rig\n"
-            "  without a shutter, and every reference and stray light, pause for the\n"
-            "  operator (cover the detector, mount the standard, remove the sample), who\n"
-            "  continues with gonio resume; it prints\n"
+            "  without a shutter, and a reference or stray light on a rig without a\n"
+            "  sample changer, pause for the operator (cover the detector, mount the\n"
+            "  standard, remove the sample), who continues with gonio resume (a\n"
+            "  changer swaps the standard or the light trap in, the sample back after);\n"
+            "  it prints\n"
             "  what goniod asks on stderr and the id on stdout once complete. A run\n"
             "  stopped early (abort, goniod killed) keeps its frames: gonio resume ID.\n");
 }

@@ -7,6 +7,7 @@
 
 #ifdef GONIOD_HAVE_MODBUS
 #include "drivers/drv_modbus.h"
+#include "modbus_map/modbus_map.h"
 #ifdef GONIOD_HAVE_USB
 #include "drivers/drv_usbspec.h"
 #endif
@@ -272,6 +273,29 @@ static void probe_hint(const struct goniod_config *cfg, struct gonio_err *err)
                       "slave id against the device's settings", msg, cfg->host, cfg->port);
 }
 
+/* The sample changer the config declares: the slot in place and its
+ * status; one that does not answer, or answers with a slot it has not,
+ * is refused here rather than at the first calibration. */
+static void probe_changer(const struct goniod_config *cfg, drv_modbus_bus *bus, FILE *out,
+                          struct gonio_err *first)
+{
+    static const char *const holds[] = {"the sample", "the standard", "the light trap"};
+    unsigned status = 0;
+    int slot = 0, slave = cfg->slaves.sample_changer;
+    struct gonio_err e = {0};
+    char who[64], what[256];
+    int rc = drv_modbus_changer_read(bus, slave, &status, &slot, &e);
+    snprintf(who, sizeof who, "sample changer (slave %d)", slave);
+    if (rc == 0 && (slot < 0 || slot > MB_CH_SLOT_TRAP))
+        rc = gonio_err_set(&e, GONIO_EDEVICE, "sample changer (slave %d): slot %d in place, "
+                           "not 0..2: not a gonio sample changer", slave, slot);
+    if (rc == 0)
+        snprintf(what, sizeof what, "answered: slot %d (%s) in place, %s%s", slot, holds[slot],
+                 status & MB_CH_BUSY ? "BUSY" : status & MB_CH_IN_POS ? "IN-POS" : "not IN-POS",
+                 status & MB_CH_BUSY && status & MB_CH_IN_POS ? ", IN-POS" : "");
+    probe_line(out, who, rc, what, &e, first);
+}
+
 int goniod_probe(const struct goniod_config *cfg, const struct rig_profile *rig, FILE *out,
                  struct gonio_err *err)
 {
@@ -322,6 +346,8 @@ int goniod_probe(const struct goniod_config *cfg, const struct rig_profile *rig,
     } else {
         probe_usb(cfg, out, &first);
     }
+    if (cfg->slaves.sample_changer)
+        probe_changer(cfg, axes.bus, out, &first);
     goniod_axes_close(&axes);
     if (first.msg[0]) {
         *err = first;
@@ -388,12 +414,11 @@ int goniod_probe(const struct goniod_config *cfg, const struct rig_profile *rig,
 
 #endif
 
-int goniod_devices_mount(const struct goniod_config *cfg, void *bus, const char *standard,
+int goniod_devices_mount(const struct goniod_config *cfg, void *bus, int slot,
                          struct gonio_err *err)
 {
     if (!bus || !cfg->slaves.sample_changer)
         return gonio_err_set(err, GONIO_EBADCONFIG, "no sample changer on the bus "
                              "(driver.slaves.sample_changer)");
-    return drv_modbus_changer_set(bus, cfg->slaves.sample_changer,
-                                  standard != NULL, err);
+    return drv_modbus_changer_set(bus, cfg->slaves.sample_changer, slot, err);
 }

@@ -30,10 +30,10 @@ struct goniod_comm_stats {
 };
 void goniod_devices_stats(const void *bus, struct goniod_comm_stats *out);
 
-/* The sample changer (driver.slaves.sample_changer) on bus: the standard
- * in the sample's place (standard not NULL: the changer holds one
- * standard, whatever its name), or the sample back. */
-int goniod_devices_mount(const struct goniod_config *cfg, void *bus, const char *standard,
+/* The sample changer (driver.slaves.sample_changer) on bus: slot (a
+ * capture_slot: the sample, the standard, the light trap) in the sample's
+ * place. */
+int goniod_devices_mount(const struct goniod_config *cfg, void *bus, int slot,
                          struct gonio_err *err);
 
 /* Free the devices, then the bus. */

@@ -256,12 +256,12 @@ static void hook_close(void *user, struct capture_devices *dev)
 }
 
 /* The rig's sample changer (capture_rig.mount) on the capture's bus. */
-static int hook_mount(void *user, struct capture_devices *dev, const char *standard,
-                      struct gonio_err *err)
+int worker_hook_mount(void *user, struct capture_devices *dev, enum capture_slot slot,
+                      const char *standard, struct gonio_err *err)
 {
-    (void)dev;
+    (void)dev, (void)standard; /* the changer holds one standard, whatever its name */
     worker *w = user;
-    return goniod_devices_mount(w->cfg, w->bus, standard, err);
+    return goniod_devices_mount(w->cfg, w->bus, (int)slot, err);
 }
 
 /* The engine's configuration of a request, the same for the check before
@@ -322,7 +322,7 @@ static int request_rig(worker *w, const struct worker_request *r, sim_source **s
     rig->close = hook_close;
     rig->driver = goniod_driver_name(w->cfg->driver);
     rig->detector = w->cfg->detector == GONIOD_DETECTOR_USB ? "usb-spectrometer" : "modbus";
-    rig->mount = w->cfg->slaves.sample_changer ? hook_mount : NULL;
+    rig->mount = w->cfg->slaves.sample_changer ? worker_hook_mount : NULL;
     rig->user = w;
     return 0;
 }

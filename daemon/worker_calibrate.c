@@ -1,7 +1,8 @@
 /* A calibration measured by goniod on its rig (daemon/worker.h,
  * worker_calibrate): the engine's journalled run (capture/calibration.h)
  * on goniod's devices, in the worker's thread, steered and reported as a
- * capture is, with the operator asked through goniod's pause. */
+ * capture is, with the operator asked through goniod's pause, or the
+ * rig's sample changer swapping what sits in the sample's place. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -155,8 +156,12 @@ static int measure(worker *w, const struct cal_run *run, sim_source *sim, int *a
                  : worker_hook_open(w, run->rig, run->root, &dev, err);
     if (rc < 0)
         return rc;
+    /* A rig with a sample changer swaps the standard or the light trap in
+     * (the in-process simulated rig measures them as it was made). */
+    int changer = !sim && w->cfg->slaves.sample_changer;
     struct cal_hooks hooks = {.control = worker_hook_control, .ask = worker_hook_ask,
-                              .on_frame = on_frame, .user = w};
+                              .on_frame = on_frame, .user = w,
+                              .mount = changer ? worker_hook_mount : NULL, .mount_user = w};
     pthread_mutex_lock(&w->mu);
     w->total = cal_run_total(run);
     pthread_mutex_unlock(&w->mu);

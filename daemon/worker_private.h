@@ -86,6 +86,10 @@ enum capture_control worker_hook_ask(void *user, const char *instruction);
 int worker_hook_open(void *user, const struct rig_profile *rig, const char *dir,
                      struct capture_devices *dev, struct gonio_err *err);
 void worker_hook_close(void *user, struct capture_devices *dev);
+/* The rig's sample changer on the run's bus (capture_rig.mount,
+ * cal_hooks.mount). */
+int worker_hook_mount(void *user, struct capture_devices *dev, enum capture_slot slot,
+                      const char *standard, struct gonio_err *err);
 int worker_hook_cancelled(void *user);
 /* One run on the rig at a time: worker_lock_idle takes the lock when
  * nothing runs (else refuses, naming what does), the caller sets the run's

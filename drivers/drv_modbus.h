@@ -147,10 +147,16 @@ int drv_modbus_detector_probe_shutter(drv_modbus_bus *bus, int slave, int *close
 int drv_modbus_detector_counts(drv_modbus_bus *bus, int slave, int *counts,
                                struct gonio_err *err);
 
-/* The sample changer at slave id `slave`: put the standard (standard 1)
- * or the sample (0) in the sample's place and wait until it is there;
- * -GONIO_EDEVICE when it is not within 120 s. */
-int drv_modbus_changer_set(drv_modbus_bus *bus, int slave, int standard, struct gonio_err *err);
+/* The sample changer at slave id `slave`: put slot (MB_CH_SLOT_SAMPLE,
+ * _STANDARD, _TRAP) in the sample's place and wait until it is there;
+ * nothing is written when it is there already. -GONIO_EDEVICE when it is
+ * not within 120 s. */
+int drv_modbus_changer_set(drv_modbus_bus *bus, int slave, int slot, struct gonio_err *err);
+
+/* What the changer at slave id `slave` says: its status bits (MB_CH_BUSY,
+ * MB_CH_IN_POS) and the slot in place. */
+int drv_modbus_changer_read(drv_modbus_bus *bus, int slave, unsigned *status, int *slot,
+                            struct gonio_err *err);
 
 /* The rig clock: seconds since the clock was created, read from the
  * detector's rig-clock register when it is non-zero (a simulator), else

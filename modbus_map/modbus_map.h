@@ -81,9 +81,10 @@ enum mb_det_band_reg {
 
 /* The sample changer (our own map): the slot to hold in the sample's
  * place (written; a write starts the swap), the status, and the slot in
- * place now. Slots: MB_CH_SLOT_SAMPLE, MB_CH_SLOT_STANDARD. */
+ * place now. Slots: MB_CH_SLOT_SAMPLE, MB_CH_SLOT_STANDARD, MB_CH_SLOT_TRAP
+ * (a light trap, what a stray-light calibration reads). */
 enum mb_changer_reg { MB_CH_TARGET = 0x00, MB_CH_STATUS = 0x02, MB_CH_AT = 0x04, MB_CH_NREGS = 0x06 };
-enum { MB_CH_SLOT_SAMPLE = 0, MB_CH_SLOT_STANDARD = 1 };
+enum { MB_CH_SLOT_SAMPLE = 0, MB_CH_SLOT_STANDARD = 1, MB_CH_SLOT_TRAP = 2, MB_CH_SLOTS = 3 };
 enum { MB_CH_BUSY = 1u << 0, MB_CH_IN_POS = 1u << 1 };
 
 /* 32-bit values as two registers, upper word first (the AZ convention). */

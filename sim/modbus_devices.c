@@ -370,7 +370,8 @@ void msim_write_stats(const msim *m, FILE *out)
     fprintf(out, "}");
     if (m->changer.map)
         fprintf(out, ",\n \"sample_changer\": {\"exchanges\": %ld, \"to_sample\": %ld, "
-                "\"to_standard\": %ld}", m->slave_exchanges[MB_SLAVE_CHANGER],
-                m->changer.moves[MB_CH_SLOT_SAMPLE], m->changer.moves[MB_CH_SLOT_STANDARD]);
+                "\"to_standard\": %ld, \"to_trap\": %ld}", m->slave_exchanges[MB_SLAVE_CHANGER],
+                m->changer.moves[MB_CH_SLOT_SAMPLE], m->changer.moves[MB_CH_SLOT_STANDARD],
+                m->changer.moves[MB_CH_SLOT_TRAP]);
     fprintf(out, "}\n");
 }

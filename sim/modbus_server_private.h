@@ -88,15 +88,16 @@ struct msim_detector {
 };
 
 /* The sample changer (sim/modbus_changer.c): mapped only when the rig
- * profile has one; slot 1 holds MSIM_CHANGER_STANDARD. */
+ * profile has one; slot 1 holds MSIM_CHANGER_STANDARD, slot 2 a light trap. */
 #define MSIM_CHANGER_STANDARD "standard:spectralon-99"
+#define MSIM_CHANGER_TRAP "trap"
 struct msim_changer {
     modbus_mapping_t *map;
     const brdf_material *sample;
-    brdf_material *standard;
+    brdf_material *standard, *trap;
     struct sim_scene scene;
     int has_scene;
-    long moves[2]; /* swaps done to each slot */
+    long moves[MB_CH_SLOTS]; /* swaps done to each slot */
 };
 
 struct msim {

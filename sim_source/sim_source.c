@@ -175,18 +175,20 @@ static void resume(void *user, struct capture_devices *d, const double at[3],
 
 /* The simulated rig's sample changer: the standard in the sample's
  * place (the material standard:NAME, as gonio calibrate reference mounts
- * it), or the sample back. */
-static int mount(void *user, struct capture_devices *d, const char *standard,
-                 struct gonio_err *err)
+ * it), a light trap (the material trap, as gonio calibrate stray does),
+ * or the sample back. */
+static int mount(void *user, struct capture_devices *d, enum capture_slot slot,
+                 const char *standard, struct gonio_err *err)
 {
     (void)d;
     sim_source *src = user;
     brdf_material *was = src->standard;
     src->standard = NULL;
     int rc = 0;
-    if (standard) {
+    if (slot != CAPTURE_SLOT_SAMPLE) {
         char spec[256];
-        snprintf(spec, sizeof spec, "standard:%s", standard);
+        snprintf(spec, sizeof spec, "%s%s", slot == CAPTURE_SLOT_TRAP ? "trap" : "standard:",
+                 slot == CAPTURE_SLOT_TRAP ? "" : standard ? standard : "");
         if (!(src->standard = sim_material_open(&src->scene, spec, err)))
             rc = -abs(err && err->code ? err->code : GONIO_EBADCONFIG);
     }

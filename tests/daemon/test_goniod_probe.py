@@ -2,9 +2,11 @@
 """goniod --check --probe against what a new rig gets wrong and only a
 device can tell: an RTU line at another speed than the devices' (gonio-sim
 --baud answers only a master at its own speed, as a device on a wire hears
-framing errors otherwise), and a detector without the shutter register that
-the rig profile's dark frames close (gonio-sim --no-shutter). Each exits 2
-naming the device; the matching setup answers (goniod_harness.py; gonio-sim
+framing errors otherwise), a detector without the shutter register that
+the rig profile's dark frames close (gonio-sim --no-shutter), and a sample
+changer the config declares (driver.slaves.sample_changer) that does not
+answer (gonio-sim on a rig profile without one). Each exits 2 naming the
+device; the matching setup answers (goniod_harness.py; gonio-sim
 through test_goniod_modbus.ModbusRig).
 
 Run from ctest (the environment names the binaries), or by hand:
@@ -31,26 +33,31 @@ DEVICES = ("axis sample (slave 1)", "axis arm (slave 2)", "axis azimuth (slave 4
            "detector (slave 3)")
 
 
+# The default rig with a sample changer (slave 6).
+CHANGER_RIG = DEFAULT_RIG.replace("name: default", "name: changer") + "sample_changer: true\n"
+CHANGER = "sample changer (slave 6)"
+
+
 class ProbeRig(test_goniod_modbus.ModbusRig):
-    def probe(self, rtu, baud=115200, rig="default"):
+    def probe(self, rtu, baud=115200, rig="default", slaves=SLAVES):
         where = ("  kind: modbus-rtu\n  device: %s\n  baud: %d\n" % (self.pty, baud) if rtu else
                  "  kind: modbus-tcp\n  host: 127.0.0.1\n  port: %d\n" % self.port)
         path = os.path.join(self.folder, "probe.yaml")
         with open(path, "w") as f:
             f.write("rig: %s\ndriver:\n%s  time_scale: %g\n  timeout_s: %g\n  retries: 1\n"
                     "  slaves: {%s}\ncapture_root: cap\nsocket:\n  path: p.sock\n"
-                    % (rig, where, self.SIM_SCALE, 0.1 * SLOW, SLAVES))
+                    % (rig, where, self.SIM_SCALE, 0.1 * SLOW, slaves))
         return run_wrapped([GONIOD, "--config", path, "--check", "--probe"], self.folder,
                            timeout=60)
 
-    def lines(self, r):
+    def lines(self, r, devices=DEVICES):
         """The probe's line of each device, by device."""
         out = {}
         for line in r.stdout.splitlines():
-            for who in DEVICES:
+            for who in devices:
                 if line.startswith("# probe: " + who):
                     out[who] = line
-        self.assertEqual(sorted(out), sorted(DEVICES), r.stdout)
+        self.assertEqual(sorted(out), sorted(devices), r.stdout)
         return out
 
 
@@ -106,6 +113,41 @@ class ProbeShutterTests(ProbeRig):
         line = self.lines(r)["detector (slave 3)"]
         self.assertIn("answered: 3 channels, idle", line)
         self.assertNotIn("shutter", line)
+
+
+class ProbeChangerTests(ProbeRig):
+    """A config declaring a sample changer at slave 6: the probe reads the
+    slot in place and its status (gonio-sim on the changer's rig profile,
+    over TCP and RTU); the probe of a changer the config names but the bus
+    lacks exits 2 naming it."""
+
+    @property
+    def SIM_ARGS(self):  # noqa: N802 (ModbusRig's gonio-sim options)
+        if not self.id().endswith("_missing"):
+            return ("--rig", self.changer_rig())
+        return ()
+
+    def changer_rig(self):
+        path = os.path.join(self.folder, "changer.yaml")
+        with open(path, "w") as f:
+            f.write(CHANGER_RIG)
+        return path
+
+    def test_changer_read(self):
+        for rtu in (False, True):
+            r = self.probe(rtu, rig=self.changer_rig(), slaves=SLAVES + ", sample_changer: 6")
+            self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+            line = self.lines(r, DEVICES + (CHANGER,))[CHANGER]
+            self.assertIn("answered: slot 0 (the sample) in place, IN-POS", line)
+
+    def test_changer_missing(self):
+        r = self.probe(False, rig=self.changer_rig(), slaves=SLAVES + ", sample_changer: 6")
+        self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+        lines = self.lines(r, DEVICES + (CHANGER,))
+        self.assertIn("did not answer", lines[CHANGER])
+        for who in DEVICES[:3]:
+            self.assertIn("answered: at 0.00 deg", lines[who])
+        self.assertIn("goniod: probe: sample changer (slave 6)", r.stderr)
 
 
 if __name__ == "__main__":

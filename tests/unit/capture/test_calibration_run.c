@@ -5,7 +5,9 @@
  * without a shutter with nobody to ask is refused, a reference asks for
  * its standard before it reads. */
 #include <errno.h>
+#include <math.h>
 #include <stdlib.h>
+#include <unistd.h>
 #include <sys/stat.h>
 
 #include "capture/calibration.h"
@@ -179,11 +181,133 @@ static void test_the_operator_is_asked(void **state)
     rig_close(&r);
 }
 
+/* A rig's sample changer (cal_hooks.mount), the in-process rig's: every
+ * slot asked for, and what its journal says at each frame. */
+struct changer {
+    struct rig *r;
+    int slots[8], n;
+    char journal[64]; /* the changer journal's text at the last frame */
+    char path[256];
+};
+
+static int changer_mount(void *user, struct capture_devices *d, enum capture_slot slot,
+                         const char *standard, struct gonio_err *err)
+{
+    struct changer *c = user;
+    c->slots[c->n++ % 8] = (int)slot;
+    return c->r->crig.mount(c->r->crig.user, d, slot, standard, err);
+}
+
+static void changer_frame(void *user, size_t done, size_t total, double rig_time_s)
+{
+    (void)done, (void)total, (void)rig_time_s;
+    struct changer *c = user;
+    FILE *f = fopen(c->path, "r");
+    c->journal[0] = '\0';
+    if (f) {
+        if (!fgets(c->journal, sizeof c->journal, f))
+            c->journal[0] = '\0';
+        fclose(f);
+    }
+}
+
+static double mean_r(const struct cal_frame *f, size_t n)
+{
+    double s = 0;
+    for (size_t k = 0; k < n; k++)
+        s += f[k].counts[0];
+    return s / (double)n;
+}
+
+/* With a changer nobody is asked: the standard (or the light trap) is
+ * swapped in, journalled while it is in, and the sample put back after;
+ * the standard's frames are those of the standard mounted by hand. A run
+ * killed after its last frame, the standard still in, puts the sample
+ * back when it is started again. */
+static void test_the_changer_swaps_them(void **state)
+{
+    (void)state;
+    struct rig r, byhand;
+    rig_open(&r, "analytic:rough-diffuse");
+    struct gonio_err err = {0};
+    struct plan *plan = NULL;
+    assert_true(plan_load("ds4", &r.prof, &plan, &err) > 0);
+    struct cal_meta ref = {.kind = CAL_REFERENCE};
+    snprintf(ref.id, sizeof ref.id, "reference-changer");
+    snprintf(ref.standard, sizeof ref.standard, "spectralon-99");
+    struct cal_run run = {.root = dir, .meta = &ref, .rig = &r.prof, .plan = plan,
+                          .per_point = 2};
+    struct stopper s = {.stop_after = -1, .answer = CAPTURE_ABORT};
+    struct changer c = {.r = &r};
+    snprintf(c.path, sizeof c.path, "%s/reference-changer/changer", dir);
+    struct cal_hooks h = {.control = stop_control, .ask = record_ask, .user = &s,
+                          .mount = changer_mount, .mount_user = &c};
+    struct cal_hooks follow = h;
+    follow.on_frame = changer_frame, follow.user = &c, follow.control = NULL;
+    struct cal_frame *fr = NULL, *hand = NULL;
+    size_t n = 0, nh = 0;
+    int aborted = 0;
+    assert_int_equal(cal_run_measure(&r.dev, &run, &follow, &fr, &n, &aborted, &err), 0);
+    assert_int_equal(s.asked[0], '\0');
+    assert_int_equal(n, 2 * plan_count(plan));
+    assert_int_equal(c.n, 2);
+    assert_int_equal(c.slots[0], CAPTURE_SLOT_STANDARD);
+    assert_int_equal(c.slots[1], CAPTURE_SLOT_SAMPLE);
+    assert_string_equal(c.journal, "slot 1 in\n"); /* at the last frame */
+    assert_int_equal(access(c.path, F_OK), -1);  /* the sample back: nothing to undo */
+    rig_open(&byhand, "standard:spectralon-99");
+    struct cal_meta ref2 = ref;
+    snprintf(ref2.id, sizeof ref2.id, "reference-byhand");
+    struct cal_run run2 = run;
+    run2.meta = &ref2, run2.rig = &byhand.prof;
+    s.answer = CAPTURE_GO;
+    assert_int_equal(cal_run_measure(&byhand.dev, &run2, &(struct cal_hooks){.ask = record_ask,
+                                     .user = &s}, &hand, &nh, &aborted, &err), 0);
+    assert_int_equal(nh, n);
+    double std_r = mean_r(fr, n);
+    assert_true(fabs(std_r / mean_r(hand, nh) - 1) < 0.02);
+    free(fr);
+    free(hand);
+    rig_close(&byhand);
+
+    /* Killed with every frame read, the standard still in: started again,
+     * it reads nothing and puts the sample back. */
+    FILE *f = fopen(c.path, "w");
+    fputs("slot 1 in\n", f);
+    fclose(f);
+    c.n = 0;
+    assert_int_equal(cal_run_measure(&r.dev, &run, &h, &fr, &n, &aborted, &err), 0);
+    assert_int_equal(n, 2 * plan_count(plan));
+    assert_int_equal(c.n, 1);
+    assert_int_equal(c.slots[0], CAPTURE_SLOT_SAMPLE);
+    assert_int_equal(access(c.path, F_OK), -1);
+    free(fr);
+
+    /* Stray light: the light trap in, stopped part way, the sample back. */
+    struct cal_meta stray = {.kind = CAL_STRAY};
+    snprintf(stray.id, sizeof stray.id, "stray-changer");
+    run.meta = &stray;
+    s = (struct stopper){.stop_after = 3};
+    c.n = 0;
+    assert_int_equal(cal_run_measure(&r.dev, &run, &h, &fr, &n, &aborted, &err), 0);
+    assert_true(aborted);
+    assert_int_equal(n, 3);
+    /* the trap: the dark and the stray light, far below the standard */
+    assert_true(mean_r(fr, n) < 0.2 * std_r);
+    assert_int_equal(c.n, 2);
+    assert_int_equal(c.slots[0], CAPTURE_SLOT_TRAP);
+    assert_int_equal(c.slots[1], CAPTURE_SLOT_SAMPLE);
+    free(fr);
+    plan_free(plan);
+    rig_close(&r);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_stopped_run_continues_its_journal),
         cmocka_unit_test(test_the_operator_is_asked),
+        cmocka_unit_test(test_the_changer_swaps_them),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
