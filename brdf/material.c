@@ -202,6 +202,7 @@ static void trap_eval(const void *priv, const struct brdf_pair *pairs, size_t n,
 }
 
 static const struct brdf_material_ops trap_ops = {.kind = "trap", .eval = trap_eval};
+static const struct brdf_material_ops beam_ops = {.kind = "beam", .eval = trap_eval};
 
 brdf_material *brdf_material_open(const char *spec, struct gonio_err *err)
 {
@@ -219,6 +220,11 @@ brdf_material *brdf_material_open(const char *spec, struct gonio_err *err)
     }
     if (strcmp(spec, "trap") == 0)
         return brdf_material_new(&trap_ops, NULL, spec);
+    /* The sample removed, nothing in its place: it reflects nothing, as a
+     * trap; the simulated detector sees the direct beam where the arm faces
+     * the source (sim/effects_detector.h). */
+    if (strcmp(spec, "beam") == 0)
+        return brdf_material_new(&beam_ops, NULL, spec);
     if (strcmp(spec, "default") == 0) {
         const char *def = brdf_embedded_default_spec();
         return open_builtin(spec, def + strlen("builtin:"), err);
@@ -240,8 +246,8 @@ brdf_material *brdf_material_open(const char *spec, struct gonio_err *err)
     }
     gonio_err_set(err, GONIO_EBADCONFIG,
                   "%s: unknown material kind (use nbrdf:NAME, merl:PATH, abc:NAME, sgd:NAME, "
-                  "builtin:NAME, spectral:NAME, analytic:NAME, standard:NAME, trap or "
-                  "default)",
+                  "builtin:NAME, spectral:NAME, analytic:NAME, standard:NAME, trap, beam "
+                  "or default)",
                   spec);
     return NULL;
 }

@@ -27,10 +27,12 @@
 
 /* dark: the shutter closed; reference: the standard in the sample's place;
  * stray: the sample removed (a light trap in its place), what the rig's
- * stray light puts into every reading with the light path open. */
-enum cal_kind { CAL_DARK = 0, CAL_REFERENCE = 1, CAL_STRAY = 2 };
+ * stray light puts into every reading with the light path open; beam: the
+ * sample removed and the arm facing the source, the direct beam (the
+ * absolute method, capture/calibration_beam.h). */
+enum cal_kind { CAL_DARK = 0, CAL_REFERENCE = 1, CAL_STRAY = 2, CAL_BEAM = 3 };
 
-/* "dark", "reference", "stray"; and back (-1: none of them). */
+/* "dark", "reference", "stray", "beam"; and back (-1: none of them). */
 const char *cal_kind_name(enum cal_kind k);
 int cal_kind_parse(const char *name);
 
@@ -48,6 +50,8 @@ struct cal_meta {
     int gain_state;     /* the gain state the frames were read at */
     double in_position_deg;
     enum rad_spot spot; /* how the rig's detector sees the lit spot */
+    /* beam: the rig profile's geometry when it was read (rig/rig.h, beam) */
+    struct rad_beam beam;
 };
 
 /* Add to m's integrations every rung of the rig's auto-ranging ladder
@@ -159,8 +163,8 @@ struct cal_need {
     time_t now;
 };
 
-/* The reference calibration to reduce with: id (or, id NULL, the newest
- * reference in ROOT whose rig and detector match) with its dark, both
+/* The reference (or beam) calibration to reduce with: id (or, id NULL,
+ * the newest reference in ROOT whose rig and detector match) with its dark, both
  * valid now and covering the integration. Refused before anything moves
  * with -GONIO_EBADCONFIG naming what differs: a missing calibration, one
  * expired (and when), of another rig or detector, or without the

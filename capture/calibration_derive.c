@@ -7,6 +7,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -208,9 +209,10 @@ int cal_load(const char *root, const char *id, struct cal_loaded *out, struct go
     struct cal_frame *rf = NULL, *df = NULL, *sf = NULL;
     size_t nr = 0, nd = 0, ns = 0;
     int rc = cal_read(root, id, &out->meta, &rf, &nr, err);
-    if (rc >= 0 && out->meta.kind != CAL_REFERENCE)
+    int beam = out->meta.kind == CAL_BEAM;
+    if (rc >= 0 && out->meta.kind != CAL_REFERENCE && !beam)
         rc = gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s is a %s calibration: name "
-                           "a reference calibration (it brings its dark)", id,
+                           "a reference or beam calibration (it brings its dark)", id,
                            cal_kind_name(out->meta.kind));
     if (rc >= 0)
         rc = cal_read(root, out->meta.dark, &out->dark_meta, &df, &nd, err);
@@ -218,13 +220,16 @@ int cal_load(const char *root, const char *id, struct cal_loaded *out, struct go
         rc = cal_derive(df, nd, rf, nr, out, err);
     if (rc >= 0 && out->meta.stray[0])
         rc = load_stray(root, &out->meta, out, &sf, &ns, err);
-    if (rc >= 0)
+    if (rc >= 0 && !beam)
         rc = brdf_standard_load(out->meta.standard, &out->cal.standard, err);
+    if (beam) /* the absolute method: the beam and the rig's geometry, no standard */
+        snprintf(out->cal.standard.name, sizeof out->cal.standard.name, "none (beam)");
+    out->cal.beam = out->meta.beam;
     out->cal.setup.in_position_deg = out->meta.in_position_deg;
     out->cal.setup.spot = out->meta.spot;
     struct cal_band_frames bf = {.dark = df, .ref = rf, .stray = sf, .n_dark = nd,
                                  .n_ref = nr, .n_stray = ns};
-    if (rc >= 0 && nr && rf[0].n_bands) /* a spectral detector's: per band too */
+    if (rc >= 0 && nr && rf[0].n_bands && !beam) /* a spectral detector's: per band too */
         rc = cal_bands_derive(&bf, out, &out->bands, err);
     free(sf);
     free(rf);

@@ -17,16 +17,16 @@
 
 #define FRAMES_HEADER CAL_FRAMES_HEADER
 
-static const char *const kind_names[] = {"dark", "reference", "stray"};
+static const char *const kind_names[] = {"dark", "reference", "stray", "beam"};
 
 const char *cal_kind_name(enum cal_kind k)
 {
-    return k >= CAL_DARK && k <= CAL_STRAY ? kind_names[k] : "?";
+    return k >= CAL_DARK && k <= CAL_BEAM ? kind_names[k] : "?";
 }
 
 int cal_kind_parse(const char *name)
 {
-    for (int k = CAL_DARK; k <= CAL_STRAY; k++)
+    for (int k = CAL_DARK; k <= CAL_BEAM; k++)
         if (strcmp(name, kind_names[k]) == 0)
             return k;
     return -1;
@@ -171,8 +171,14 @@ int cal_write(const char *root, const struct cal_meta *m, const struct cal_frame
         json_object_set_new(j, "standard", json_string(m->standard));
     if (j && m->kind != CAL_DARK)
         json_object_set_new(j, "dark", json_string(m->dark));
-    if (j && m->kind == CAL_REFERENCE && m->stray[0])
+    if (j && (m->kind == CAL_REFERENCE || m->kind == CAL_BEAM) && m->stray[0])
         json_object_set_new(j, "stray", json_string(m->stray));
+    if (j && m->kind == CAL_BEAM)
+        json_object_set_new(j, "beam", json_pack("{s:f, s:f, s:f, s:f}", "solid_angle_sr",
+                                                 m->beam.omega_sr, "solid_angle_relative_u",
+                                                 m->beam.omega_rel_u, "attenuation",
+                                                 m->beam.attenuation, "attenuation_relative_u",
+                                                 m->beam.attenuation_rel_u));
     char *text = j ? json_dumps(j, JSON_INDENT(2) | JSON_REAL_PRECISION(12)) : NULL;
     json_decref(j);
     if (!text)
@@ -215,6 +221,14 @@ static int meta_from_json(const char *path, json_t *j, struct cal_meta *m,
     for (size_t k = 0; k < json_array_size(ints) && k < CAL_MAX_INTEGRATIONS; k++)
         m->integrations[m->n_integrations++] = json_number_value(json_array_get(ints, k));
     m->gain_state = (int)json_integer_value(json_array_get(gains, 0));
+    if (m->kind == CAL_BEAM &&
+        json_unpack(j, "{s:{s:F, s:F, s:F, s:F}}", "beam", "solid_angle_sr", &m->beam.omega_sr,
+                    "solid_angle_relative_u", &m->beam.omega_rel_u, "attenuation",
+                    &m->beam.attenuation, "attenuation_relative_u",
+                    &m->beam.attenuation_rel_u) != 0)
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: a beam calibration without its beam "
+                             "geometry (solid_angle_sr, attenuation and their u)", path);
+    m->beam.on = m->kind == CAL_BEAM;
     return 0;
 }
 
@@ -273,9 +287,10 @@ static int check(const char *root, const struct cal_meta *m, const struct cal_ne
 static int check_pair(const char *root, const struct cal_meta *m, const struct cal_need *need,
                       struct gonio_err *err)
 {
-    if (m->kind != CAL_REFERENCE)
-        return gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s is a dark calibration: "
-                             "name a reference calibration (it brings its dark)", m->id);
+    if (m->kind != CAL_REFERENCE && m->kind != CAL_BEAM)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s is a %s calibration: "
+                             "name a reference or beam calibration (it brings its dark)",
+                             m->id, cal_kind_name(m->kind));
     int rc = check(root, m, need, err);
     if (rc < 0)
         return rc;

@@ -42,7 +42,9 @@ static void expected(const struct cal_run *run, size_t idx, double *ti, double *
     }
     const struct plan_point *pt = run_point(run, i);
     *ti = pt->theta_i, *tr = pt->theta_r;
-    *integration_s = run->rig->integration_s;
+    /* the direct beam at its own integration (the dark must cover it) */
+    *integration_s = run->meta->kind == CAL_BEAM ? run->meta->integrations[0]
+                                                 : run->rig->integration_s;
 }
 
 static int same(double a, double b, double rel)
@@ -159,6 +161,9 @@ static int prepare(struct capture_devices *dev, const struct cal_run *run, const
         if (run->meta->kind == CAL_STRAY)
             snprintf(say, sizeof say, "stray light: remove the sample (a light trap in its "
                      "place), then: gonio resume");
+        else if (run->meta->kind == CAL_BEAM)
+            snprintf(say, sizeof say, "beam: remove the sample and put the beam's attenuator "
+                     "in front of the detector, then: gonio resume");
         else
             snprintf(say, sizeof say, "reference: mount the standard '%s' in the sample's "
                      "place, then: gonio resume", run->meta->standard);

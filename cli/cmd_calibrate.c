@@ -1,4 +1,4 @@
-/* gonio calibrate dark|stray|reference: a calibration measured on goniod's rig
+/* gonio calibrate dark|stray|reference|beam: a calibration measured on goniod's rig
  * (cmd_calibrate_daemon.c), or with --offline on the in-process simulated
  * rig, and written as ROOT/ID (capture/calibration.h, docs/radiometry.md
  * "Calibrations"). */
@@ -14,6 +14,7 @@
 
 #include "capture/cal_documents.h"
 #include "capture/calibration.h"
+#include "capture/calibration_beam.h"
 #include "cli/commands.h"
 #include "common/paths.h"
 #include "sim_source/sim_source.h"
@@ -31,6 +32,9 @@ static void usage(FILE *out)
             "                       [--spot overfilled|underfilled] [--stray ID|newest]\n"
             "       gonio calibrate stray --offline --scene NAME|FILE --plan NAME|FILE\n"
             "                       --out ROOT [--repeats N] [--dark ID] [--rig NAME|FILE]\n"
+            "       gonio calibrate beam --offline --scene NAME|FILE --out ROOT [--repeats N]\n"
+            "                       [--integration SECONDS] [--dark ID] [--stray ID|newest]\n"
+            "                       [--rig NAME|FILE]\n"
             "  dark: the shutter closed, N frames (default 16) at the rig profile's\n"
             "  integration and at each --integration, with --ladder at every rung of its\n"
             "  auto-ranging ladder too (a capture with it ranges; without, it stays at\n"
@@ -42,6 +46,10 @@ static void usage(FILE *out)
             "  subtract (taken with the same dark).\n"
             "  stray: the sample removed (on the simulated rig a light trap, the material\n"
             "  'trap'), read as the reference is, before it.\n"
+            "  beam (the absolute method): the sample removed, the arm facing the source\n"
+            "  (the rig profile's beam section: aperture, distance, attenuator), the\n"
+            "  direct beam read --repeats times (default 16) at --integration (default\n"
+            "  the rig profile's), which the dark must cover; valid 480 minutes.\n"
             "  Writes ROOT/ID (calibration.json, frames.csv) and prints the id, by\n"
             "  which a capture names it. --spot: how the detector\n"
             "  sees the lit spot, for a reference interpolated between its geometries\n"
@@ -143,8 +151,9 @@ static int measure(const struct opts *o, enum cal_kind kind, struct cal_meta *m,
                    struct cal_frame **frames, size_t *n, struct gonio_err *err)
 {
     char material[256];
-    snprintf(material, sizeof material, "%s%s", kind == CAL_STRAY ? "trap" : "standard:",
-             kind == CAL_STRAY ? "" : o->standard);
+    snprintf(material, sizeof material, "%s%s", kind == CAL_STRAY ? "trap"
+                                                : kind == CAL_BEAM ? "beam" : "standard:",
+             kind == CAL_REFERENCE ? o->standard : "");
     sim_source *src = sim_source_new(o->scene, kind != CAL_DARK ? material : NULL, o->rig,
                                      err);
     if (!src)
@@ -155,8 +164,11 @@ static int measure(const struct opts *o, enum cal_kind kind, struct cal_meta *m,
     memset(&prof, 0, sizeof prof);
     struct plan *plan = NULL;
     int rc = rig_profile_load(o->rig ? o->rig : crig.profile, &prof, err);
-    if (rc >= 0 && kind != CAL_DARK && (rc = plan_load(o->plan, &prof, &plan, err)) > 0)
+    if (rc >= 0 && kind != CAL_DARK && kind != CAL_BEAM &&
+        (rc = plan_load(o->plan, &prof, &plan, err)) > 0)
         rc = 0;
+    if (rc >= 0 && kind == CAL_BEAM)
+        rc = cal_beam_meta(m, &prof, err);
     snprintf(m->rig, sizeof m->rig, "%s", prof.name);
     snprintf(m->detector, sizeof m->detector, "%s", crig.detector ? crig.detector : "unknown");
     m->in_position_deg = prof.mech.in_position_deg;
@@ -166,22 +178,35 @@ static int measure(const struct opts *o, enum cal_kind kind, struct cal_meta *m,
         m->integrations[m->n_integrations++] = o->integrations[k];
     if (rc >= 0 && o->ladder)
         cal_add_ladder(m, &prof);
+    /* The beam at its own integration, the first one the dark covers. */
+    double at = kind == CAL_BEAM && o->n_int ? o->integrations[0] : prof.integration_s;
     if (rc >= 0 && kind != CAL_DARK) {
         struct cal_need need = {.rig = m->rig, .detector = m->detector,
-                                .integration_s = prof.integration_s, .now = m->created};
+                                .integration_s = at, .now = m->created};
         struct cal_meta dark, stray;
         if ((rc = cal_select_dark(o->root, o->dark, &need, &dark, err)) >= 0)
             snprintf(m->dark, sizeof m->dark, "%s", dark.id);
-        if (rc >= 0 && kind == CAL_REFERENCE && o->stray &&
-            (rc = cal_select_stray(o->root, o->stray, m->dark, &need, &stray, err)) >= 0)
+        struct cal_need at_rig = need; /* the stray light is read at the rig's */
+        at_rig.integration_s = prof.integration_s;
+        if (rc >= 0 && kind != CAL_STRAY && o->stray &&
+            (rc = cal_select_stray(o->root, o->stray, m->dark, &at_rig, &stray, err)) >= 0)
             snprintf(m->stray, sizeof m->stray, "%s", stray.id);
+        m->integrations[0] = at;
         m->n_integrations = 1;
+        /* A beam serves a capture at any integration its dark covers. */
+        for (size_t k = 0; rc >= 0 && kind == CAL_BEAM && k < dark.n_integrations; k++)
+            if (fabs(dark.integrations[k] - at) > 1e-9 * at)
+                m->integrations[m->n_integrations++] = dark.integrations[k];
     }
+    struct plan_point beam_pt;
+    cal_beam_point(&prof, &beam_pt);
     struct capture_devices dev;
     if (rc >= 0 && (rc = crig.open(crig.user, &prof, o->root, &dev, err)) >= 0) {
         /* The in-process rig mounts its standard itself: nobody to ask. */
         struct cal_run run = {.root = o->root, .meta = m, .rig = &prof, .plan = plan,
                               .per_point = (int)(kind == CAL_DARK ? o->frames : o->repeats)};
+        if (kind == CAL_BEAM)
+            run.points = &beam_pt, run.n_points = 1;
         struct cal_hooks hooks = {0};
         int aborted = 0;
         cal_new_id(o->root, kind, m->created, m->id, sizeof m->id);
@@ -242,7 +267,8 @@ int cmd_calibrate(int argc, char **argv)
             usage(stdout);
             return 0;
         }
-        fprintf(stderr, "gonio calibrate: say what to calibrate: dark, stray or reference\n");
+        fprintf(stderr, "gonio calibrate: say what to calibrate: dark, stray or reference, "
+                        "or beam\n");
         usage(stderr);
         return 2;
     }
@@ -255,13 +281,19 @@ int cmd_calibrate(int argc, char **argv)
         fprintf(stderr, "gonio calibrate: unexpected argument '%s'\n", argv[optind + 1]);
         return 2;
     }
-    if (kind != CAL_REFERENCE && o.stray) {
-        fprintf(stderr, "gonio calibrate: --stray is a reference's\n");
+    if (kind != CAL_REFERENCE && kind != CAL_BEAM && o.stray) {
+        fprintf(stderr, "gonio calibrate: --stray is a reference's or a beam's\n");
         return 2;
     }
+    if (kind == CAL_BEAM && !o.offline) {
+        fprintf(stderr, "gonio calibrate: beam: offline only (--offline) for now\n");
+        return 2;
+    }
+    if (kind == CAL_BEAM && !o.repeats_given)
+        o.repeats = 16;
     if (!o.offline)
         return through_goniod(&o, kind, argv[1]);
-    if (!o.scene || !o.root || (kind != CAL_DARK && !o.plan)) {
+    if (!o.scene || !o.root || (kind != CAL_DARK && kind != CAL_BEAM && !o.plan)) {
         fprintf(stderr, "gonio calibrate: --offline needs --scene and --out (reference, "
                         "stray: and --plan)\n");
         usage(stderr);
@@ -289,7 +321,7 @@ int cmd_calibrate(int argc, char **argv)
         char source[300];
         snprintf(source, sizeof source, "in-process simulated detector (scene %s)", o.scene);
         struct cal_doc_run r = {.meta = &m, .frames = frames, .n = n, .total = n,
-                                .plan = kind != CAL_DARK ? o.plan : NULL,
+                                .plan = kind != CAL_DARK && kind != CAL_BEAM ? o.plan : NULL,
                                 .per_point = (int)(kind == CAL_DARK ? o.frames : o.repeats),
                                 .source = source, .exit_status = "success",
                                 .reason = "complete", .t_start = t_start,

@@ -11,7 +11,7 @@
 
 static const char *const term_names[RAD_N_TERMS] = {
     "counting", "dark", "reference", "reference_noise", "drift", "nonlinearity", "angle",
-    "geometry", "stray",
+    "geometry", "stray", "solid_angle", "attenuator",
 };
 
 const char *rad_term_name(enum rad_term t)
@@ -28,15 +28,18 @@ static double reference_rel_u(const struct rad_calibration *cal, int c)
 
 void rad_systematic_rel_u(const struct rad_calibration *cal, double out[3])
 {
+    const struct rad_beam *b = &cal->beam;
     for (int c = 0; c < 3; c++) {
-        double ref = reference_rel_u(cal, c), geo = cal->setup.geometry_rel_u;
-        out[c] = sqrt(ref * ref + geo * geo);
+        double ref = b->on ? 0.0 : reference_rel_u(cal, c), geo = cal->setup.geometry_rel_u;
+        double om = b->on ? b->omega_rel_u : 0.0, at = b->on ? b->attenuation_rel_u : 0.0;
+        out[c] = sqrt(ref * ref + geo * geo + om * om + at * at);
     }
 }
 
 int rad_term_systematic(enum rad_term t)
 {
-    return t == RAD_U_REFERENCE || t == RAD_U_GEOMETRY;
+    return t == RAD_U_REFERENCE || t == RAD_U_GEOMETRY || t == RAD_U_SOLID_ANGLE ||
+           t == RAD_U_ATTENUATOR;
 }
 
 static int same_integration(double a, double b)
@@ -329,6 +332,40 @@ static double angle_var(const double sl[2], double band_deg)
     return (ds * ds + da * da) * u2;
 }
 
+/* The absolute method's "reference" at the sample's geometry: the beam's
+ * response (linearised counts above its dark per monitor count, or per
+ * second) through the attenuator undone, times what a BRDF of 1/sr puts
+ * into the detector of that beam, cos(theta_r) omega (spot underfilled). */
+static int beam_at(const struct rad_calibration *cal, const struct rad_raw *s, int mon,
+                   struct response *out, struct gonio_err *err)
+{
+    const struct rad_ref *r = NULL;
+    for (size_t k = 0; k < cal->n_refs && !r; k++)
+        if (cal->refs[k].gain_state == s->gain_state)
+            r = &cal->refs[k];
+    if (!r)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "sample at (%g, %g) deg: no beam reading "
+                             "at gain state %d", s->theta_i, s->theta_r, s->gain_state);
+    const struct rad_dark *d = rad_find_dark(cal, r->integration_s, r->gain_state);
+    if (!d)
+        return gonio_err_set(err, GONIO_EBADCONFIG, "beam: no dark frame at integration %g s, "
+                             "gain state %d", r->integration_s, r->gain_state);
+    double m = mon ? r->monitor : r->integration_s;
+    double geom = spot_factor(RAD_SPOT_UNDERFILLED, s->theta_i, s->theta_r) *
+                  cal->beam.omega_sr / cal->beam.attenuation;
+    for (int c = 0; c < 3; c++) {
+        out->x[c] = rad_linearise(r->counts[c] - d->mean[c], s->nonlinearity, s->full_scale);
+        out->stray_var[c] = 0.0;
+        if (!(out->x[c] > 0.0))
+            return gonio_err_set(err, GONIO_EBADDATA, "beam: channel %d reads %g counts, not "
+                                 "above its dark %g", c, r->counts[c], d->mean[c]);
+        out->k[c] = out->x[c] / m * geom;
+    }
+    out->ref = r;
+    out->dark = d;
+    return 0;
+}
+
 static int reduce_one(const struct rad_calibration *cal, const struct rad_raw *s,
                       struct rad_value *v, struct gonio_err *err)
 {
@@ -345,13 +382,17 @@ static int reduce_one(const struct rad_calibration *cal, const struct rad_raw *s
         mon = isfinite(cal->strays[k].monitor) && cal->strays[k].monitor > 0;
     struct response ref = {0};
     double stray[3], stray_var[3];
-    int rc = reference_at(cal, s, mon, &ref, err);
+    const struct rad_beam *beam = &cal->beam;
+    int rc = beam->on ? beam_at(cal, s, mon, &ref, err) : reference_at(cal, s, mon, &ref, err);
     if (rc < 0 || (rc = stray_at(cal, s, mon, s->theta_i, s->theta_r, stray, stray_var, err)) < 0)
         return rc;
     const struct rad_dark *dr = ref.dark;
-    double f[3], fs_sl[2] = {0, 0};
-    brdf_standard_brdf(&cal->standard, s->theta_i, s->theta_r, f);
-    standard_slopes(&cal->standard, ref.ref->theta_i, ref.ref->theta_r, fs_sl);
+    /* The absolute method has no standard: its "f_ref" is 1 everywhere. */
+    double f[3] = {1, 1, 1}, fs_sl[2] = {0, 0};
+    if (!beam->on) {
+        brdf_standard_brdf(&cal->standard, s->theta_i, s->theta_r, f);
+        standard_slopes(&cal->standard, ref.ref->theta_i, ref.ref->theta_r, fs_sl);
+    }
     double m_s = mon ? s->monitor : s->integration_s;
     for (int c = 0; c < 3; c++) {
         if (s->full_scale > 0 && s->counts[c] >= s->full_scale) {
@@ -381,7 +422,9 @@ static int reduce_one(const struct rad_calibration *cal, const struct rad_raw *s
             double vr = (b / xr) * (b / xr) * dr->sd[c] * dr->sd[c] / dr->n;
             r[RAD_U_DARK] = sqrt(vs + vr) / ab;
         }
-        r[RAD_U_REFERENCE] = reference_rel_u(cal, c);
+        r[RAD_U_REFERENCE] = beam->on ? 0.0 : reference_rel_u(cal, c);
+        r[RAD_U_SOLID_ANGLE] = beam->on ? beam->omega_rel_u : 0.0;
+        r[RAD_U_ATTENUATOR] = beam->on ? beam->attenuation_rel_u : 0.0;
         r[RAD_U_REF_NOISE] = sqrt((g * xr + dr->sd[c] * dr->sd[c]) / ref.ref->n) / xr;
         double mvar = mon ? su->monitor_rel_sd * su->monitor_rel_sd * (1.0 + 1.0 / ref.ref->n)
                           : 0.0;

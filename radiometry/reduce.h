@@ -21,7 +21,12 @@
  *
  * The budget's terms are relative standard uncertainties (k = 1) of the
  * BRDF; the reference certificate and the geometry are systematic: one
- * error shared by every sample reduced against the same calibration. */
+ * error shared by every sample reduced against the same calibration.
+ *
+ * The absolute method (struct rad_beam) reduces against the direct beam
+ * instead of a standard: the reference term is 0, the reference noise is
+ * the beam reading's, and the solid angle and the attenuator are two more
+ * systematic terms. */
 #ifndef GONIO_RADIOMETRY_REDUCE_H
 #define GONIO_RADIOMETRY_REDUCE_H
 
@@ -63,6 +68,20 @@ struct rad_setup {
     enum rad_spot spot;
 };
 
+/* The absolute method (docs/radiometry.md): the direct beam read with no
+ * sample, the arm facing the source, through an attenuator of
+ * transmittance attenuation; the detector's aperture subtends omega_sr
+ * from the sample (spot underfilled). With on set, refs holds the beam's
+ * reading (its own geometry, one per gain state), the standard is not
+ * used, and per channel
+ *   f = (x_s / m_s) / ((x_b / m_b) / attenuation * cos(theta_r) * omega)
+ * with x_b the beam's linearised counts above its dark. */
+struct rad_beam {
+    int on;
+    double omega_sr, omega_rel_u;           /* from the aperture and distance */
+    double attenuation, attenuation_rel_u;  /* 1 and 0: no attenuator */
+};
+
 struct rad_calibration {
     struct brdf_standard standard;
     const struct rad_dark *darks;
@@ -77,6 +96,7 @@ struct rad_calibration {
     const struct rad_ref *strays;
     size_t n_strays;
     struct rad_setup setup;
+    struct rad_beam beam; /* on: the absolute method, refs the beam's readings */
 };
 
 /* One sample's raw reading as the journal keeps it. */
@@ -106,6 +126,8 @@ enum rad_term {
     RAD_U_ANGLE,        /* in-position band times the local slopes */
     RAD_U_GEOMETRY,     /* placement, solid angle (systematic) */
     RAD_U_STRAY,        /* the stray-light readings' noise (0 without them) */
+    RAD_U_SOLID_ANGLE,  /* absolute method: omega from the aperture and distance (systematic) */
+    RAD_U_ATTENUATOR,   /* absolute method: the beam attenuator's certificate (systematic) */
     RAD_N_TERMS
 };
 

@@ -1,6 +1,7 @@
 #include "rig/rig.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -72,6 +73,60 @@ static int load_mechanics(const struct cfg_doc *d, const struct cfg_node *root,
     return 0;
 }
 
+double rig_beam_omega(const struct rig_beam *b, double *rel_u)
+{
+    double ua = b->aperture_u_mm2 / b->aperture_mm2, ur = 2.0 * b->distance_u_mm / b->distance_mm;
+    if (rel_u)
+        *rel_u = sqrt(ua * ua + ur * ur);
+    return b->aperture_mm2 / (b->distance_mm * b->distance_mm);
+}
+
+/* The optional beam section: the absolute method's geometry. The aperture
+ * is given by its diameter or its area (one of them), each with its
+ * standard uncertainty; a diameter's carries twice into the area. */
+static int load_beam(const struct cfg_doc *d, const struct cfg_node *root,
+                     struct rig_profile *rig, struct gonio_err *err)
+{
+    static const char *const keys[] = {"aperture_diameter_mm", "aperture_diameter_u_mm",
+                                       "aperture_area_mm2", "aperture_area_u_mm2",
+                                       "distance_mm", "distance_u_mm", "arm_deg",
+                                       "attenuator", "attenuator_u", NULL};
+    struct rig_beam *b = &rig->beam;
+    const struct cfg_node *m;
+    double dia = NAN, dia_u = 0;
+    int rc = cfg_map(d, root, "beam", CFG_OPTIONAL, &m, err);
+    if (rc <= 0)
+        return rc;
+    b->aperture_mm2 = NAN, b->arm_deg = 180, b->attenuation = 1;
+    if ((rc = cfg_check_keys(d, m, "beam", keys, err)) < 0 ||
+        (rc = cfg_double(d, m, "aperture_diameter_mm", CFG_OPTIONAL, 1e-3, 1e3, &dia, err)) < 0 ||
+        (rc = cfg_double(d, m, "aperture_diameter_u_mm", CFG_OPTIONAL, 0, 10, &dia_u, err)) < 0 ||
+        (rc = cfg_double(d, m, "aperture_area_mm2", CFG_OPTIONAL, 1e-6, 1e6, &b->aperture_mm2,
+                         err)) < 0 ||
+        (rc = cfg_double(d, m, "aperture_area_u_mm2", CFG_OPTIONAL, 0, 1e4, &b->aperture_u_mm2,
+                         err)) < 0 ||
+        (rc = cfg_double(d, m, "distance_mm", CFG_REQUIRED, 1, 1e5, &b->distance_mm, err)) < 0 ||
+        (rc = cfg_double(d, m, "distance_u_mm", CFG_OPTIONAL, 0, 100, &b->distance_u_mm,
+                         err)) < 0 ||
+        (rc = cfg_double(d, m, "arm_deg", CFG_OPTIONAL, -360, 360, &b->arm_deg, err)) < 0 ||
+        (rc = cfg_double(d, m, "attenuator", CFG_OPTIONAL, 1e-9, 1, &b->attenuation, err)) < 0 ||
+        (rc = cfg_double(d, m, "attenuator_u", CFG_OPTIONAL, 0, 1, &b->attenuation_u, err)) < 0)
+        return rc;
+    if (isnan(dia) == isnan(b->aperture_mm2))
+        return cfg_error(d, m, "beam", err, "give the aperture by aperture_diameter_mm or by "
+                         "aperture_area_mm2 (one of them)");
+    if (!isnan(dia)) {
+        b->aperture_mm2 = 3.14159265358979323846 * dia * dia / 4;
+        b->aperture_u_mm2 = b->aperture_mm2 * 2 * dia_u / dia;
+    }
+    if (b->arm_deg < rig->arm.min || b->arm_deg > rig->arm.max)
+        return cfg_error(d, cfg_get(d, m, "arm_deg") ? cfg_get(d, m, "arm_deg") : m, "arm_deg",
+                         err, "the arm cannot face the source there (value '%g', the arm "
+                         "reaches %g..%g)", b->arm_deg, rig->arm.min, rig->arm.max);
+    b->on = 1;
+    return 0;
+}
+
 int rig_profile_load(const char *path_or_name, struct rig_profile *rig, struct gonio_err *err)
 {
     /* driver/drivers/detector belong to the drivers and the simulator, which
@@ -79,7 +134,7 @@ int rig_profile_load(const char *path_or_name, struct rig_profile *rig, struct g
     static const char *const top_keys[] = {"name", "description", "out_of_plane", "blind_deg",
                                            "settle_s", "integration", "axes", "driver",
                                            "drivers", "detector", "mechanics", "shutter",
-                                           "sample_changer", NULL};
+                                           "sample_changer", "beam", NULL};
     static const char *const int_keys[] = {"fixed_s", "auto_min_s", "auto_max_s", NULL};
     static const char *const axis_keys[] = {"sample", "arm", "azimuth", "rotation", NULL};
     char path[4096];
@@ -114,7 +169,8 @@ int rig_profile_load(const char *path_or_name, struct rig_profile *rig, struct g
         (rc = rig->has_rotation = load_axis(d, axes, "rotation", 360, &rig->rotation, err)) < 0 ||
         (rc = load_mechanics(d, root, &rig->mech, err)) < 0 ||
         (rc = cfg_bool(d, root, "shutter", CFG_OPTIONAL, &rig->shutter, err)) < 0 ||
-        (rc = cfg_bool(d, root, "sample_changer", CFG_OPTIONAL, &rig->sample_changer, err)) < 0)
+        (rc = cfg_bool(d, root, "sample_changer", CFG_OPTIONAL, &rig->sample_changer, err)) < 0 ||
+        (rc = load_beam(d, root, rig, err)) < 0)
         goto out;
     if (!cfg_get(d, axes, "sample") || !cfg_get(d, axes, "arm")) {
         rc = cfg_error(d, axes, cfg_get(d, axes, "sample") ? "arm" : "sample", err,

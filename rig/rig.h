@@ -28,6 +28,23 @@ struct rig_mechanics {
     int move_retries;
 };
 
+/* The absolute method's geometry (beam, optional; docs/plans.md): the
+ * detector's aperture of area aperture_mm2 at distance_mm from the sample's
+ * centre subtends omega = A / R^2, each with its standard uncertainty
+ * (the tolerances); the arm faces the source at arm_deg; the beam is read
+ * through an attenuator (a neutral density filter) of certified
+ * transmittance attenuation (1: none) with its standard uncertainty. */
+struct rig_beam {
+    int on;
+    double aperture_mm2, aperture_u_mm2;
+    double distance_mm, distance_u_mm;
+    double arm_deg;
+    double attenuation, attenuation_u;
+};
+
+/* The solid angle A / R^2 (sr) and its relative standard uncertainty. */
+double rig_beam_omega(const struct rig_beam *b, double *rel_u);
+
 struct rig_profile {
     char name[64];
     struct rig_axis sample;  /* s = theta_i */
@@ -51,6 +68,7 @@ struct rig_profile {
      * hardware rig's driver must wire its drive (goniod's
      * driver.slaves.sample_changer) or goniod refuses the profile. */
     int sample_changer;
+    struct rig_beam beam;
 };
 
 /* The design's default profile (DESIGN.md section 9), without a file. */

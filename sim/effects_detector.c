@@ -17,6 +17,9 @@ struct sim_detector {
     sim_effects *fx;
     struct sim_exposure exposure;
     int shutter_closed;
+    int underfilled;            /* the scene's spot: the signal goes with cos theta_r */
+    int beam;                   /* the material "beam": the sample removed */
+    double beam_value;          /* what the direct beam reads as, attenuator / solid angle */
     int counts;                 /* the scene has an adc */
     struct sim_adc_info adc;
     /* spectral detectors only */
@@ -83,6 +86,9 @@ sim_detector *sim_detector_new(const struct rig_profile *rig, const brdf_materia
         return NULL;
     }
     d->material = material;
+    d->beam = strcmp(brdf_material_name(material), "beam") == 0;
+    d->underfilled = scene->underfilled;
+    d->beam_value = scene->solid_angle_sr > 0 ? scene->attenuator / scene->solid_angle_sr : 0;
     d->fx = fx;
     /* An ideal meter where the detector reduces its readings itself; a raw
      * detector integrates for the time the caller asks, as hardware does. */
@@ -106,6 +112,7 @@ int sim_detector_mount(sim_detector *d, const brdf_material *material,
                        const struct sim_scene *scene, struct gonio_err *err)
 {
     d->material = material;
+    d->beam = strcmp(brdf_material_name(material), "beam") == 0;
     if (!d->n_bands)
         return 0;
     brdf_spectral_free(d->spectral);
@@ -123,11 +130,38 @@ void sim_detector_free(sim_detector *d)
     free(d);
 }
 
+/* Within this of the source's direction the detector's aperture takes the
+ * whole direct beam (the arm's errors are hundredths of a degree). */
+#define BEAM_ACCEPT_DEG 1.0
+
+/* What the detector's electrons go with besides the values: cos theta_i
+ * with the spot overfilled (the irradiance of the area it sees), cos
+ * theta_r underfilled (the whole lit spot seen from theta_r), 1 for the
+ * direct beam. */
+static double geometry(const sim_detector *d, const struct brdf_pair *p, double cos_i)
+{
+    if (d->beam)
+        return 1.0;
+    return d->underfilled ? fmax(p->wo[2], 1e-3) : cos_i;
+}
+
 /* The material's exact values at p: the bands of a spectral detector (into
- * d->values), else RGB (into rgb). Returns the channel count. */
+ * d->values), else RGB (into rgb). Returns the channel count. With the
+ * sample removed ("beam"), the direct beam where the arm faces the source:
+ * per unit of the scene's responsivity (what 1/sr of BRDF gives through
+ * the detector's solid angle), attenuator / solid_angle_sr, else nothing. */
 static int signal_at(sim_detector *d, const struct brdf_pair *p, double rgb[3], double **v)
 {
     *v = d->n_bands ? d->values : rgb;
+    if (d->beam) {
+        double dot = p->wi[0] * p->wo[0] + p->wi[1] * p->wo[1] + p->wi[2] * p->wo[2];
+        double x = dot <= -cos(BEAM_ACCEPT_DEG * 3.14159265358979323846 / 180) ? d->beam_value
+                                                                               : 0.0;
+        int n = d->n_bands ? d->n_bands : 3;
+        for (int k = 0; k < n; k++)
+            (*v)[k] = x;
+        return n;
+    }
     if (d->n_bands)
         brdf_spectral_eval(d->spectral, p, d->bands, (size_t)d->n_bands, *v);
     else
@@ -141,6 +175,7 @@ double sim_detector_meter(sim_detector *d, const struct brdf_pair *p, double cos
         return d->exposure.fixed_s;
     double rgb[3], *v;
     int n = signal_at(d, p, rgb, &v);
+    cos_i = geometry(d, p, cos_i);
     struct sim_signal s = {.v = v, .n = n, .cos_i = cos_i,
                            .responsivity = d->exposure.responsivity};
     sim_effects_light_mean(d->fx, &s);
@@ -190,6 +225,7 @@ int sim_detector_read(sim_detector *d, const struct brdf_pair *p, double cos_i, 
     memset(out, 0, sizeof *out);
     double *v;
     int n = signal_at(d, p, out->rgb, &v);
+    cos_i = geometry(d, p, cos_i);
     struct sim_signal s = {.v = v,
                            .n = n,
                            .cos_i = cos_i,

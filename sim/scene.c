@@ -372,16 +372,25 @@ static int parse_bands(const struct cfg_doc *doc, const struct cfg_node *det,
     return 0;
 }
 
-/* detector: rgb | spectral | {kind, bands, responsivity, target_e}. */
+/* detector: rgb | spectral | {kind, bands, responsivity, target_e, spot,
+ * solid_angle_sr, attenuator}. */
 static int parse_detector(const struct cfg_doc *doc, const struct cfg_node *root,
                           struct sim_scene *scene, struct gonio_err *err)
 {
     static const char *const kinds[] = {"rgb", "spectral", NULL};
-    static const char *const keys[] = {"kind", "bands", "responsivity", "target_e", NULL};
+    static const char *const keys[] = {"kind", "bands", "responsivity", "target_e", "spot",
+                                       "solid_angle_sr", "attenuator", NULL};
+    static const char *const spots[] = {"overfilled", "underfilled", NULL};
     const struct cfg_node *det = cfg_get(doc, root, "detector");
     int kind = SIM_DETECTOR_RGB, rc;
     if (det && cfg_is_map(doc, det)) {
         if ((rc = cfg_check_keys(doc, det, "detector", keys, err)) < 0 ||
+            (rc = cfg_enum(doc, det, "spot", CFG_OPTIONAL, spots, &scene->underfilled,
+                           err)) < 0 ||
+            (rc = cfg_double(doc, det, "solid_angle_sr", CFG_OPTIONAL, 1e-9, 1,
+                             &scene->solid_angle_sr, err)) < 0 ||
+            (rc = cfg_double(doc, det, "attenuator", CFG_OPTIONAL, 1e-9, 1, &scene->attenuator,
+                             err)) < 0 ||
             (rc = cfg_enum(doc, det, "kind", CFG_REQUIRED, kinds, &kind, err)) < 0 ||
             (rc = cfg_double(doc, det, "responsivity", CFG_OPTIONAL, 1e-6, 1e15,
                              &scene->responsivity, err)) < 0 ||
@@ -429,6 +438,7 @@ void sim_scene_ideal(struct sim_scene *scene, const char *material)
     scene->seed = 1;
     scene->responsivity = DEFAULT_RESPONSIVITY;
     scene->target_e = DEFAULT_TARGET_E;
+    scene->attenuator = 1;
 }
 
 int sim_scene_load(const char *path_or_name, struct sim_scene *scene, struct gonio_err *err)

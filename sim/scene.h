@@ -77,6 +77,15 @@ struct sim_scene {
      * BRDF at normal incidence, and the auto-exposure target. */
     double responsivity;
     double target_e;
+    /* How the detector sees the lit spot (docs/scenes.md): overfilled (0,
+     * the default), the signal going with cos theta_i; underfilled (1),
+     * with cos theta_r, the beam's whole flux seen. The direct beam (the
+     * material "beam": sample removed, the arm facing the source) gives
+     * responsivity * attenuator / solid_angle_sr electrons per second: the
+     * detector's true solid angle and its beam attenuator's transmittance
+     * (0 and 1 unless stated: no beam is seen). */
+    int underfilled;
+    double solid_angle_sr, attenuator;
     /* Spectral detector bands, nm (strictly increasing). */
     int n_bands;
     double bands_nm[SIM_SCENE_MAX_BANDS];
