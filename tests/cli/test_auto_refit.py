@@ -58,6 +58,12 @@ def refit(tmp, out):
     return line[0][len("auto"):].strip(), keys
 
 
+def results_row(out):
+    r = gonio("results", "--json", out)
+    assert r.returncode == 0, r.stderr
+    return json.loads(r.stdout)[0]
+
+
 def test_refit_of_an_anisotropic_capture_chooses_as_it_did(tmp):
     plan = os.path.join(tmp, "ds2-az3.yaml")
     with open(plan, "w") as f:
@@ -70,6 +76,10 @@ def test_refit_of_an_anisotropic_capture_chooses_as_it_did(tmp):
     assert keys["auto_why"] == a["why"]
     # the anisotropic verdict left the isotropic candidates out, as in the capture
     assert "auto_cv_aniso-ggx" in keys and "auto_cv_abc" not in keys
+    row = results_row(out)
+    assert (row["auto"], row["auto_why"]) == (a["chosen"], a["why"])
+    assert row["isotropy_sigma"] == pytest.approx(res["checks"]["isotropy"]["significance"])
+    assert row["oop_full"] is None and row["oop_ratio"] is None  # no out-of-plane check
 
 
 def test_refit_replays_the_out_of_plane_verdicts(tmp):
@@ -83,3 +93,10 @@ def test_refit_replays_the_out_of_plane_verdicts(tmp):
     line, keys = refit(tmp, out)
     assert line == "%s; %s" % (a["chosen"], a["why"])
     assert "no candidate sufficient" in line
+    c = res["checks"]["out_of_plane"]
+    row = results_row(out)
+    assert row["oop_full"] == pytest.approx(c["error_full"])
+    assert [row["oop_full_low"], row["oop_full_high"]] == pytest.approx(c["error_full_interval"])
+    assert row["oop_ratio"] == pytest.approx(c["ratio"])
+    table = gonio("results", out).stdout.splitlines()
+    assert "est. full log" in table[0] and ("%.4f" % c["error_full"]) in table[1]
