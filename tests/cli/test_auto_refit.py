@@ -6,6 +6,7 @@ latent candidate needs the shared decoder: skipped visibly without it."""
 import json
 import os
 import subprocess
+import sys
 import tempfile
 
 import pytest
@@ -78,6 +79,11 @@ def test_refit_of_an_anisotropic_capture_chooses_as_it_did(tmp):
     assert "auto_cv_aniso-ggx" in keys and "auto_cv_abc" not in keys
     row = results_row(out)
     assert (row["auto"], row["auto_why"]) == (a["chosen"], a["why"])
+    # the Python client reads the same (python/gonio, docs/python.md)
+    sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "python"))
+    import gonio as gonio_py
+    cap = gonio_py.read_capture(out)
+    assert cap.auto == a and cap.checks == res["checks"]
     assert row["isotropy_sigma"] == pytest.approx(res["checks"]["isotropy"]["significance"])
     assert row["oop_full"] is None and row["oop_ratio"] is None  # no out-of-plane check
 
