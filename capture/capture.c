@@ -595,63 +595,63 @@ static void summarize(const struct run *r, struct capture_summary *out)
                                    : "complete");
 }
 
-/* The final fit of the capture's samples into *fitted (capture_fit_samples). */
-static int final_fit(struct run *r, const double *usys, brdf_material **fitted,
-                     struct gonio_err *err)
+/* The final fit of the capture's samples into *fitted (capture_fit_samples),
+ * made again while --model auto's choice is judged insufficient by the
+ * in-plane sufficiency check and a new choice checked in turn
+ * (fit_auto_settle, which `gonio fit --model auto` replays from
+ * results.json). The summary keeps the final choice's check, with the rig
+ * time of them all. */
+struct final {
+    struct run *r;
+    const double *usys;
+    brdf_material **fitted;
+    struct oop_check_result seen[FIT_AUTO_MAX_CANDIDATES]; /* as auto_evidence.oop */
+    size_t n_seen;
+};
+
+static int final_fit(void *user, struct gonio_err *err)
 {
-    const capture_job *job = r->job;
-    const struct live_fit *lf = &r->fit;
+    struct final *f = user;
+    const capture_job *job = f->r->job;
+    const struct live_fit *lf = &f->r->fit;
+    brdf_material_free(*f->fitted);
+    *f->fitted = NULL;
     int rc = capture_fit_samples(
-        r->samples, r->n, lf->fs && !lf->progress ? fit_stream_params(lf->fs) : NULL,
+        f->r->samples, f->r->n, lf->fs && !lf->progress ? fit_stream_params(lf->fs) : NULL,
         job->model, job->cfg.out_dir,
         job->material_name[0] ? job->material_name
         : job->truth_name[0]  ? job->truth_name
                               : NULL,
-        job->adaptive, usys, r->out, fitted, err);
-    if (rc == 0 && r->converged)
-        r->out->converged = 1; /* the stop rule decided: the capture converged */
+        job->adaptive, f->usys, f->r->out, f->fitted, err);
+    if (rc == 0 && f->r->converged)
+        f->r->out->converged = 1; /* the stop rule decided: the capture converged */
     return rc;
 }
 
-/* The in-plane sufficiency check of the final fit. With --model auto a
- * chosen model judged insufficient is evidence against it: the fit is made
- * again with it (fit/auto_evidence.h), and while that chooses a candidate
- * not yet checked, the new choice is checked too; each candidate is
- * measured at most once. The summary keeps the final choice's check, with
- * the rig time of them all. */
-static int check_out_of_plane_chosen(struct run *r, const double *usys, brdf_material **fitted,
-                                     struct gonio_err *err)
+static int settle_check(void *user, const char *model, char *verdict, size_t len,
+                        struct gonio_err *err)
 {
-    struct capture_summary *out = r->out;
-    struct oop_check_result seen[FIT_AUTO_MAX_CANDIDATES];
-    char seen_model[FIT_AUTO_MAX_CANDIDATES][sizeof out->auto_chosen];
-    size_t n_seen = 0;
-    int rc = check_out_of_plane(r, *fitted, err);
-    double spent = out->oop.rig_time_s;
-    while (rc == 0 && out->auto_chosen[0] && n_seen < FIT_AUTO_MAX_CANDIDATES) {
-        seen[n_seen] = out->oop;
-        snprintf(seen_model[n_seen++], sizeof *seen_model, "%s", out->auto_chosen);
-        fit_auto_evidence_oop(&out->auto_evidence, out->auto_chosen, out->oop.verdict);
-        if (strcmp(out->oop.verdict, "insufficient")) { /* the choice stands */
-            size_t at = strlen(out->auto_why);
-            snprintf(out->auto_why + at, sizeof out->auto_why - at,
-                     "%sout-of-plane check: %.16s %.16s", at ? "; " : "", out->auto_chosen,
-                     out->oop.verdict);
-            break;
-        }
-        brdf_material_free(*fitted);
-        *fitted = NULL;
-        if ((rc = final_fit(r, usys, fitted, err)) < 0)
-            break;
-        size_t k = 0;
-        while (k < n_seen && strcmp(seen_model[k], out->auto_chosen))
-            k++;
-        if (k < n_seen) { /* every better candidate judged insufficient too */
-            out->oop = seen[k];
-            break;
-        }
-        rc = check_out_of_plane(r, *fitted, err);
-        spent += out->oop.rig_time_s;
+    (void)model; /* the one fitted last, *fitted */
+    struct final *f = user;
+    int rc = check_out_of_plane(f->r, *f->fitted, err);
+    f->seen[f->n_seen++] = f->r->out->oop;
+    snprintf(verdict, len, "%s", rc < 0 ? "" : f->r->out->oop.verdict);
+    return rc;
+}
+
+static int check_out_of_plane_chosen(struct final *f, struct gonio_err *err)
+{
+    struct capture_summary *out = f->r->out;
+    if (!out->auto_chosen[0])
+        return check_out_of_plane(f->r, *f->fitted, err);
+    const struct fit_auto_steps steps = {final_fit, settle_check, f};
+    int rc = fit_auto_settle(&out->auto_evidence, out->auto_chosen, out->auto_why,
+                             sizeof out->auto_why, &steps, err);
+    double spent = 0;
+    for (size_t k = 0; k < f->n_seen; k++) {
+        spent += f->seen[k].rig_time_s;
+        if (!strcmp(out->auto_evidence.oop[k].model, out->auto_chosen)) /* the final choice's */
+            out->oop = f->seen[k];
     }
     out->oop.rig_time_s = spent;
     return rc;
@@ -680,9 +680,10 @@ static int finish(struct run *r, struct gonio_err *err)
     struct journal_plan jp = {.plan = job->plan, .count = plan_count(job->plan)};
     if (job->cal)
         rad_systematic_rel_u(&job->cal->cal, usys);
-    int rc = final_fit(r, job->cal ? usys : NULL, &fitted, err);
+    struct final f = {.r = r, .usys = job->cal ? usys : NULL, .fitted = &fitted};
+    int rc = final_fit(&f, err);
     if (rc == 0 && (job->cfg.checks & CAPTURE_CHECK_OUT_OF_PLANE))
-        rc = check_out_of_plane_chosen(r, job->cal ? usys : NULL, &fitted, err);
+        rc = check_out_of_plane_chosen(&f, err);
     if (rc == 0 && job->truth)
         rc = capture_assess_truth(job->truth, fitted, job->cfg.assess_nodes, out, err);
     if (rc == 0)

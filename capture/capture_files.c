@@ -11,6 +11,7 @@
 
 #include <jansson.h>
 
+#include "capture/verdicts.h"
 #include "common/paths.h"
 
 static int write_json(const char *dir, const char *name, json_t *root, struct gonio_err *err)
@@ -491,22 +492,6 @@ json_t *capture_files_checks(const struct capture_summary *s)
     return o;
 }
 
-/* --model auto: the model it chose, why, and the out-of-plane verdicts of
- * the candidates checked (fit/auto_evidence.h); null for another model. */
-static json_t *auto_json(const struct capture_summary *s)
-{
-    if (!s->auto_chosen[0])
-        return json_null();
-    const struct fit_auto_evidence *ev = &s->auto_evidence;
-    static const char *const iso[] = {"unknown", "isotropic", "anisotropic"};
-    static const char *const oop[] = {"unchecked", "sufficient", "insufficient"};
-    json_t *checked = json_object();
-    for (size_t k = 0; k < FIT_AUTO_MAX_CANDIDATES && ev->oop[k].model[0]; k++)
-        json_object_set_new(checked, ev->oop[k].model, json_string(oop[ev->oop[k].verdict]));
-    return json_pack("{s:s,s:s,s:s,s:o}", "chosen", s->auto_chosen, "why", s->auto_why,
-                     "isotropy", iso[ev->isotropy], "out_of_plane", checked);
-}
-
 /* results.json names the capture as setup.json does: the metadata it began
  * with, whichever run (a resume, a refit, a recalibration) writes it. */
 static void copy_metadata(const char *dir, json_t *root)
@@ -580,7 +565,7 @@ int capture_files_results(const char *dir, const struct capture_summary *s,
         json_object_set_new(root, "stop_reason", json_string(s->stop_reason));
         json_object_set_new(root, "adaptive", s->adaptive ? adaptive_json(s) : json_null());
         json_object_set_new(root, "checks", capture_files_checks(s));
-        json_object_set_new(root, "auto", auto_json(s));
+        json_object_set_new(root, "auto", capture_verdicts_auto(s));
     }
     return write_json(dir, "results.json", root, err);
 }

@@ -100,15 +100,31 @@ static void show_stop(struct progress *p, json_t *d)
     json_t *iso = json_object_get(json_object_get(d, "checks"), "isotropy");
     if (iso)
         printf("  isotropy check: %s (%s; largest deviation %.3f, %.1f sigma against %.1f; "
-               "%.0f s of rig time)\n",
+               "%.0f s of rig time, %.1f%% of the capture's)\n",
                json_string_value(json_object_get(iso, "verdict")),
                json_string_value(json_object_get(iso, "why")), jreal(iso, "max_deviation"),
-               jreal(iso, "significance"), jreal(iso, "threshold"), jreal(iso, "rig_time_s"));
+               jreal(iso, "significance"), jreal(iso, "threshold"), jreal(iso, "rig_time_s"),
+               100.0 * jreal(iso, "rig_time_share"));
     json_t *oop = json_object_get(json_object_get(d, "checks"), "out_of_plane");
     if (oop)
-        printf("  out-of-plane check: in-plane %s (%s; %.0f s of rig time)\n",
+        printf("  out-of-plane check: in-plane %s (%s; %.0f s of rig time, %.1f%% of the "
+               "capture's)\n",
                json_string_value(json_object_get(oop, "verdict")),
-               json_string_value(json_object_get(oop, "why")), jreal(oop, "rig_time_s"));
+               json_string_value(json_object_get(oop, "why")), jreal(oop, "rig_time_s"),
+               100.0 * jreal(oop, "rig_time_share"));
+    json_t *interval = json_object_get(oop, "error_full_interval");
+    if (json_is_number(json_object_get(oop, "error_full")) && json_array_size(interval) == 2)
+        printf("  full-domain log error estimated %.4f (95%%: %.4f-%.4f, %lld of %lld nodes "
+               "read)\n",
+               jreal(oop, "error_full"), json_number_value(json_array_get(interval, 0)),
+               json_number_value(json_array_get(interval, 1)),
+               (long long)json_integer_value(json_object_get(oop, "domain_pairs_used")),
+               (long long)json_integer_value(json_object_get(oop, "domain_pairs")));
+    json_t *choice = json_object_get(d, "auto"); /* --model auto: what it chose, and why */
+    const char *why = json_string_value(json_object_get(choice, "why"));
+    if (json_is_string(json_object_get(choice, "chosen")))
+        printf("  auto: %s%s%s\n", json_string_value(json_object_get(choice, "chosen")),
+               why && why[0] ? "; " : "", why ? why : "");
     fflush(stdout);
 }
 

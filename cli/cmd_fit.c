@@ -11,6 +11,7 @@
 #include <jansson.h>
 
 #include "brdf/domain.h"
+#include "capture/verdicts.h"
 #include "brdf/metrics.h"
 #include "cli/commands.h"
 #include "cli/output_path.h"
@@ -253,12 +254,72 @@ static int report_fit(const struct fit_model_kind *kind, const struct fit_args *
     printf("%-10s %.3f s, %s\n", "fit", rep->fit_s, fit_status_name(fit_status_code(&rep->status)));
     printf("%-10s %s\n", "status", line);
     printf("%-10s %s\n", "details", rep->note);
+    if (rep->auto_chosen[0]) /* as a capture's results.json says it (auto.chosen, auto.why) */
+        printf("%-10s %s%s%s\n", "auto", rep->auto_chosen, rep->auto_why[0] ? "; " : "",
+               rep->auto_why);
     if (kind->spectral)
         return spectral_errors(p->out, spec, n, err);
     struct brdf_errors e;
     int rc = fit_sample_errors(m, jd->rgb, n, &e, err);
     if (!rc)
         print_errors("samples", &e);
+    return rc;
+}
+
+/* The fit, and with --model auto a capture's recorded premise checks as
+ * its evidence: the isotropy verdict for the first fit, then the
+ * out-of-plane verdicts as the capture took them (fit_auto_settle, the
+ * capture's own steps with the verdicts read instead of measured), so
+ * that the refit makes the capture's choice and says why as it did. */
+struct auto_replay {
+    const struct fit_model_kind *kind;
+    const struct fit_data *data;
+    const struct fit_model_options *mo;
+    const char *out;
+    struct fit_model_report *rep;
+    brdf_material **m;
+    struct capture_verdicts recorded;
+};
+
+static int replay_fit(void *user, struct gonio_err *err)
+{
+    struct auto_replay *r = user;
+    brdf_material_free(*r->m);
+    *r->m = NULL;
+    return fit_model_run(r->kind, r->data, r->mo, r->out, r->rep, r->m, err);
+}
+
+static int replay_check(void *user, const char *model, char *verdict, size_t len,
+                        struct gonio_err *err)
+{
+    (void)err;
+    const struct auto_replay *r = user;
+    snprintf(verdict, len, "%s", capture_verdicts_oop(&r->recorded, model));
+    return 0;
+}
+
+static int run_fit(const struct fit_model_kind *kind, struct fit_data *data,
+                   const struct fit_args *a, const struct fit_paths *p,
+                   struct fit_model_report *rep, brdf_material **m, struct gonio_err *err)
+{
+    struct auto_replay r = {.kind = kind, .data = data, .mo = &a->mo, .out = p->out,
+                            .rep = rep, .m = kind->spectral ? NULL : m};
+    struct fit_auto_evidence ev = {0};
+    if (!strcmp(kind->name, "auto")) {
+        capture_verdicts_read(p->dir, &r.recorded);
+        ev.isotropy = r.recorded.isotropy;
+        data->auto_evidence = &ev;
+        if (r.recorded.found)
+            printf("%-10s the premise checks' verdicts of %s/results.json\n", "evidence",
+                   p->dir);
+    }
+    int rc = fit_model_run(kind, data, &a->mo, p->out, rep, r.m, err);
+    if (!rc && rep->auto_chosen[0] && r.recorded.found) {
+        const struct fit_auto_steps steps = {replay_fit, replay_check, &r};
+        rc = fit_auto_settle(&ev, rep->auto_chosen, rep->auto_why, sizeof rep->auto_why,
+                             &steps, err);
+    }
+    data->auto_evidence = NULL;
     return rc;
 }
 
@@ -316,7 +377,7 @@ int cmd_fit(int argc, char **argv)
     struct fit_model_report rep = {0};
     /* RGB models are assessed as read back from their file; the spectral
      * MLP on its own samples (spectral_errors). */
-    rc = fit_model_run(kind, &data, &a.mo, p.out, &rep, kind->spectral ? NULL : &m, &err);
+    rc = run_fit(kind, &data, &a, &p, &rep, &m, &err);
     if (!rc)
         rc = report_fit(kind, &a, &p, &rep, &jd, spec, n, m, &err);
     if (!rc && truth && m) {

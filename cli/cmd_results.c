@@ -1,6 +1,8 @@
 /* gonio results DIR...: one row per capture directory, read from its
  * results.json (plan, material, model, samples, rig and fit time, fit
- * status, errors by domain, the isotropy check's verdict and rig time) and setup.json (the scene), as an aligned
+ * status, errors by domain, the premise checks' verdicts, evidence, rig
+ * time and full-domain estimate, --model auto's choice and why) and
+ * setup.json (the scene), as an aligned
  * table, --json, --csv or a --format line. A value the capture did not
  * record (no truth errors without a reference, no fit status from an older
  * capture, no scene on a hardware rig) is "-" in the table, null in JSON
@@ -35,6 +37,12 @@ static const struct column {
     /* the checks' verdicts and their rig time (docs/checks.md) */
     {"isotropy", "isotropy", COL_TEXT},    {"isotropy_s", "isotropy s", COL_REAL},
     {"oop", "in-plane", COL_TEXT},         {"oop_s", "in-plane check s", COL_REAL},
+    /* their evidence, the out-of-plane check's full-domain estimate with its
+     * 95% interval, and --model auto's choice and why */
+    {"isotropy_sigma", "isotropy sigma", COL_REAL}, {"oop_ratio", "in-plane ratio", COL_REAL},
+    {"oop_full", "est. full log", COL_REAL},       {"oop_full_low", "est. low", COL_REAL},
+    {"oop_full_high", "est. high", COL_REAL},      {"auto", "auto", COL_TEXT},
+    {"auto_why", "auto why", COL_TEXT},
 };
 #define NCOL (sizeof columns / sizeof columns[0])
 /* The table leaves out the reference's name (a long spec, the material
@@ -44,7 +52,10 @@ static const struct column {
 static int in_table(size_t c)
 {
     return strcmp(columns[c].name, "truth") && strcmp(columns[c].name, "plan_rel") &&
-           strcmp(columns[c].name, "isotropy_s") && strcmp(columns[c].name, "oop_s");
+           strcmp(columns[c].name, "isotropy_s") && strcmp(columns[c].name, "oop_s") &&
+           strcmp(columns[c].name, "isotropy_sigma") && strcmp(columns[c].name, "oop_ratio") &&
+           strcmp(columns[c].name, "oop_full_low") && strcmp(columns[c].name, "oop_full_high") &&
+           strcmp(columns[c].name, "auto_why");
 }
 
 static int column_find(const char *name, size_t len)
@@ -73,6 +84,28 @@ static json_t *status_value(json_t *results)
 {
     json_t *st = json_object_get(results, "fit_status");
     return text_value(json_is_object(st) ? json_object_get(st, "status") : st);
+}
+
+/* A number or null. */
+static json_t *number_value(json_t *v)
+{
+    return json_is_number(v) ? json_incref(v) : json_null();
+}
+
+/* The checks' evidence and estimate, and auto's choice (capture/verdicts.h). */
+static void verdict_values(json_t *root, json_t *row)
+{
+    json_t *checks = json_object_get(root, "checks");
+    json_t *iso = json_object_get(checks, "isotropy"), *oop = json_object_get(checks, "out_of_plane");
+    json_t *interval = json_object_get(oop, "error_full_interval");
+    json_object_set_new(row, "isotropy_sigma", number_value(json_object_get(iso, "significance")));
+    json_object_set_new(row, "oop_ratio", number_value(json_object_get(oop, "ratio")));
+    json_object_set_new(row, "oop_full", number_value(json_object_get(oop, "error_full")));
+    json_object_set_new(row, "oop_full_low", number_value(json_array_get(interval, 0)));
+    json_object_set_new(row, "oop_full_high", number_value(json_array_get(interval, 1)));
+    json_t *choice = json_object_get(root, "auto");
+    json_object_set_new(row, "auto", text_value(json_object_get(choice, "chosen")));
+    json_object_set_new(row, "auto_why", text_value(json_object_get(choice, "why")));
 }
 
 /* One capture's row as a JSON object in column order; NULL (and a message)
@@ -137,6 +170,7 @@ static json_t *row_read(const char *dir)
         json_t *s = json_object_get(c, "rig_time_s");
         json_object_set_new(row, checks[k][2], json_is_number(s) ? json_incref(s) : json_null());
     }
+    verdict_values(root, row);
     json_decref(setup);
     json_decref(root);
     return row;

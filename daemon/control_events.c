@@ -18,6 +18,8 @@
 #include <unistd.h>
 
 #include "capture/cal_documents.h"
+#include "capture/capture_files.h"
+#include "capture/verdicts.h"
 #include "daemon/control_private.h"
 #include "modbus_map/modbus_map.h"
 #include "rig/rig.h"
@@ -464,23 +466,12 @@ static json_t *fit_data(const struct capture_summary *s)
     if (s->adaptive)
         json_object_set_new(d, "predicted_error",
                             control_json_number(s->policy.predicted_error));
-    if (s->has_isotropy) { /* the isotropy check (docs/checks.md): flat, as data keys are */
-        const struct iso_check_result *iso = &s->isotropy;
-        json_object_set_new(d, "isotropy_verdict", json_string(iso->verdict));
-        json_object_set_new(d, "isotropy_max_deviation",
-                            control_json_number(iso->max_deviation));
-        json_object_set_new(d, "isotropy_significance", control_json_number(iso->significance));
-        json_object_set_new(d, "isotropy_threshold", control_json_number(iso->threshold));
-        json_object_set_new(d, "isotropy_rig_time_s", control_json_number(iso->rig_time_s));
-    }
-    if (s->has_oop) { /* the in-plane sufficiency check, likewise */
-        json_object_set_new(d, "oop_verdict", json_string(s->oop.verdict));
-        json_object_set_new(d, "oop_error", control_json_number(s->oop.error_oop));
-        json_object_set_new(d, "oop_error_inplane", control_json_number(s->oop.error_inplane));
-        json_object_set_new(d, "oop_ratio", control_json_number(s->oop.ratio));
-        json_object_set_new(d, "oop_threshold", control_json_number(s->oop.threshold));
-        json_object_set_new(d, "oop_rig_time_s", control_json_number(s->oop.rig_time_s));
-    }
+    /* the checks' verdicts and auto's choice as results.json has them, flat
+     * as data keys are (capture/verdicts.h) */
+    json_t *checks = capture_files_checks(s), *choice = capture_verdicts_auto(s);
+    capture_verdicts_flat(checks, choice, d);
+    json_decref(checks);
+    json_decref(choice);
     return d;
 }
 
@@ -499,11 +490,11 @@ static void send_fit(control *c, const struct capture_summary *s, double t)
                             : json_is_boolean(v) ? "boolean"
                             : json_is_string(v)  ? "string"
                                                  : "number";
-        int seconds = !strcmp(k, "fit_time_s") || !strcmp(k, "isotropy_rig_time_s") ||
-                      !strcmp(k, "oop_rig_time_s");
-        const char *units = seconds                               ? "s"
-                            : !strcmp(k, "kd") || !strcmp(k, "A") ? "1/sr"
-                                                                  : NULL;
+        size_t len = strlen(k); /* "_s": seconds, "_deg": degrees */
+        const char *units = len > 2 && !strcmp(k + len - 2, "_s")   ? "s"
+                            : len > 4 && !strcmp(k + len - 4, "_deg") ? "deg"
+                            : !strcmp(k, "kd") || !strcmp(k, "A")     ? "1/sr"
+                                                                      : NULL;
         json_object_set_new(keys, k, data_key(dtype, dim, units, source));
     }
     char uid[37];

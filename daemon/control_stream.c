@@ -9,6 +9,7 @@
 #include <time.h>
 
 #include "capture/capture_files.h"
+#include "capture/verdicts.h"
 #include "daemon/captures.h"
 #include "daemon/control_private.h"
 #include "fit/fit_status.h"
@@ -234,9 +235,10 @@ static json_t *stop_doc(const struct worker_msg_stop *m)
                           control_json_number(s->decision_mean_s), "decision_max_s",
                           control_json_number(s->decision_max_s)));
         json_object_set_new(d, "results", r);
-        /* the premise checks' verdicts, as results.json has them */
-        json_t *checks = capture_files_checks(s);
+        /* the premise checks' verdicts and auto's choice, as results.json has them */
+        json_t *checks = capture_files_checks(s), *choice = capture_verdicts_auto(s);
         json_object_set_new(d, "checks", checks ? checks : json_object());
+        json_object_set_new(d, "auto", choice ? choice : json_null());
     }
     return d;
 }

@@ -104,3 +104,26 @@ size_t fit_auto_rank(const char *const *model, const double *cv, const int *fail
                                                     : "insufficient; no candidate sufficient");
     return best;
 }
+
+int fit_auto_settle(struct fit_auto_evidence *ev, char *chosen, char *why, size_t why_len,
+                    const struct fit_auto_steps *steps, struct gonio_err *err)
+{
+    for (size_t checked = 0; chosen[0] && checked < FIT_AUTO_MAX_CANDIDATES; checked++) {
+        char verdict[16] = "";
+        int rc = steps->check(steps->user, chosen, verdict, sizeof verdict, err);
+        if (rc < 0 || !verdict[0])
+            return rc < 0 ? rc : 0;
+        fit_auto_evidence_oop(ev, chosen, verdict);
+        if (strcmp(verdict, "insufficient")) { /* the choice stands */
+            size_t at = strlen(why);
+            snprintf(why + at, why_len - at, "%sout-of-plane check: %.16s %.16s",
+                     at ? "; " : "", chosen, verdict);
+            return 0;
+        }
+        if ((rc = steps->fit(steps->user, err)) < 0)
+            return rc;
+        if (fit_auto_evidence_oop_of(ev, chosen) == FIT_AUTO_OOP_INSUFFICIENT)
+            return 0; /* judged already: every better candidate insufficient too */
+    }
+    return 0;
+}

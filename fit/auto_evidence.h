@@ -26,6 +26,8 @@
 
 #include <stddef.h>
 
+#include "common/err.h"
+
 #define FIT_AUTO_MAX_CANDIDATES 4
 #define FIT_AUTO_WHY_MAX 320
 
@@ -69,5 +71,29 @@ size_t fit_auto_candidates(int turned, const struct fit_auto_evidence *ev,
  * of the reason into why ("" when no verdict decided anything). */
 size_t fit_auto_rank(const char *const *model, const double *cv, const int *failed, size_t n,
                      const struct fit_auto_evidence *ev, char *why, size_t len);
+
+/* The steps of --model auto with the out-of-plane check of each choice,
+ * for fit_auto_settle: fit again with the evidence (the choice and its
+ * reason into the buffers fit_auto_settle was given), and the check's
+ * verdict text of the chosen model's fit into verdict ("" when there is
+ * none to be had: the choice stands as it is). A capture measures the
+ * check on its rig; `gonio fit --model auto` of a capture directory reads
+ * the verdicts the capture recorded, and so makes the capture's choice. */
+struct fit_auto_steps {
+    int (*fit)(void *user, struct gonio_err *err);
+    int (*check)(void *user, const char *model, char *verdict, size_t len,
+                 struct gonio_err *err);
+    void *user;
+};
+
+/* After an auto fit chose chosen (why its reason, "" none) with ev: check
+ * the choice; while it is judged "insufficient", record that in ev and fit
+ * again, checking a new choice in turn, until a choice is not judged
+ * insufficient (its verdict appended to why), a choice was judged
+ * insufficient already (every better candidate too: it stays, as
+ * fit_auto_rank says) or a check gives no verdict. Each candidate is
+ * checked at most once. Returns 0 or a step's negative error. */
+int fit_auto_settle(struct fit_auto_evidence *ev, char *chosen, char *why, size_t why_len,
+                    const struct fit_auto_steps *steps, struct gonio_err *err);
 
 #endif

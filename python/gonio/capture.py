@@ -12,7 +12,9 @@ class Capture:
     """dir; samples: {column: array} (every column of samples.csv but its
     CRC: flags, point and gain_state as integers, unit as strings, an empty
     field (none) as nan; rgb also as an (n, 3) array under "rgb"); plan, setup, results, request: the JSON files (None when
-    absent); model_file: the final fit's model file path, or None."""
+    absent); model_file: the final fit's model file path, or None; checks:
+    results.json's premise checks' verdicts ({} when none ran); auto: its
+    --model auto choice and why (None for another model)."""
 
     def __init__(self, path, samples, docs):
         self.dir = path
@@ -23,6 +25,8 @@ class Capture:
         self.request = docs.get("request.json")
         name = (self.results or {}).get("model_file")
         self.model_file = os.path.join(path, name) if name else None
+        self.checks = (self.results or {}).get("checks") or {}
+        self.auto = (self.results or {}).get("auto")
 
     def __len__(self):
         return len(self.samples.get("point", []))

@@ -8,7 +8,8 @@ anything is created. The check "out-of-plane" (alone on the default rig,
 or with "isotropy") reaches the same places: "insufficient" for an
 anisotropic material, "sufficient" for an isotropic one. A plan sent
 with the request that turns the sample (sample_azimuths) fits the
-anisotropic model (aniso-ggx).
+anisotropic model (aniso-ggx). With --model auto the choice and why reach
+the stop document, --wait's output and the event stream too.
 
 Run from ctest (the environment names the binaries), or by hand:
   GONIO_BIN=build/bin GONIO_TESTS_BIN=build/tests GONIO_CONFIG=configs \\
@@ -134,6 +135,50 @@ class ChecksTests(DaemonTest):
         self.assertAlmostEqual(event["data"]["oop_ratio"], oop["ratio"],
                                delta=1e-9 * oop["ratio"])
         self.assertEqual(fit[0]["data_keys"]["oop_rig_time_s"]["units"], "s")
+        # the full-domain error estimate with its interval, as results.json has it
+        self.assertIn("full-domain log error estimated %.4f (95%%: %.4f-%.4f"
+                      % (oop["error_full"], *oop["error_full_interval"]), r.stdout)
+        self.assertAlmostEqual(event["data"]["oop_error_full"], oop["error_full"],
+                               delta=1e-9 * oop["error_full"])
+        self.assertTrue(same(event["data"]["oop_error_full_interval"],
+                             oop["error_full_interval"]))
+        self.assertEqual(fit[0]["data_keys"]["oop_error_full_interval"]["shape"], [2])
+        self.assertEqual(event["data"]["oop_domain_pairs_used"], oop["domain_pairs_used"])
+        self.assertEqual(event["data"]["isotropy_why"], iso["why"])
+        self.assertNotIn("auto_chosen", event["data"])  # not --model auto
+
+    def test_auto_choice_in_stop_document_wait_and_events(self):
+        """--model auto's choice and why reach the stop document, --wait's
+        output and the event-model fit stream as results.json has them."""
+        validators, why = load_validators()
+        c, ev = self.d.connect(), self.d.connect()
+        self.assertEqual(c.request("watch")["class"], "OK")
+        if validators:
+            self.assertEqual(ev.request("watch", format="event-model")["class"], "OK")
+        r = self.d.gonio("capture", "--plan", "ds2", "--name", "auto", "--rig", "rotating",
+                         "--material", ANISO, "--model", "auto", "--check", "isotropy",
+                         "--wait", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        a = load_json(os.path.join(self.d.root, "auto", "results.json"))["auto"]
+        # one sample azimuth: the anisotropic verdict leaves the isotropic candidates
+        self.assertEqual(a["isotropy"], "anisotropic")
+        self.assertIn("sample_azimuths", a["why"])
+        self.assertIn("  auto: %s; %s\n" % (a["chosen"], a["why"]), r.stdout)
+        stop = c.until_stop("auto")[-1]
+        self.assertEqual(stop["auto"], a)
+        if not validators:
+            sys.stderr.write(why + "\n")
+            return
+        pairs = read_run(ev)
+        for name, doc in pairs:
+            errors = [e.message for e in validators[name].iter_errors(doc)]
+            self.assertEqual(errors, [], "%s invalid: %s" % (name, json.dumps(doc)[:600]))
+        fit = [d for n, d in pairs if n == "descriptor" and d["name"] == "fit"][0]
+        data = [d for n, d in pairs if n == "event" and d["descriptor"] == fit["uid"]][0]["data"]
+        self.assertEqual((data["auto_chosen"], data["auto_why"], data["auto_isotropy"]),
+                         (a["chosen"], a["why"], a["isotropy"]))
+        self.assertEqual(fit["data_keys"]["auto_why"]["dtype"], "string")
+        self.assertEqual(data["isotropy_verdict"], "anisotropic")
 
 
     def test_refusals(self):

@@ -4,7 +4,8 @@
  * why; isotropic: never aniso-ggx), an out-of-plane verdict of
  * "insufficient" puts a candidate behind every other whatever its CV
  * error, and the choice and its reason reach the model file through the
- * cross-validation. */
+ * cross-validation. fit_auto_settle checks each choice once, fits again
+ * while the choice is judged insufficient and says what decided. */
 #include <math.h>
 #include <string.h>
 
@@ -154,12 +155,82 @@ static void test_anisotropic_verdict_reaches_the_file(void **state)
     fit_model_file_free(f);
 }
 
+/* fit_auto_settle's steps over fixed CV errors (abc best) and verdicts. */
+struct fake {
+    struct fit_auto_evidence ev;
+    const char *verdict[3]; /* abc, abc-prior, latent */
+    char chosen[16], why[FIT_AUTO_WHY_MAX];
+    int fits, checks;
+};
+static const char *const fake_models[] = {"abc", "abc-prior", "latent"};
+
+static int fake_fit(void *user, struct gonio_err *err)
+{
+    (void)err;
+    struct fake *f = user;
+    static const double cv[] = {0.01, 0.02, 0.03};
+    static const int failed[3] = {0};
+    size_t best = fit_auto_rank(fake_models, cv, failed, 3, &f->ev, f->why, sizeof f->why);
+    snprintf(f->chosen, sizeof f->chosen, "%s", fake_models[best]);
+    f->fits++;
+    return 0;
+}
+
+static int fake_check(void *user, const char *model, char *verdict, size_t len,
+                      struct gonio_err *err)
+{
+    (void)err;
+    struct fake *f = user;
+    f->checks++;
+    for (size_t c = 0; c < 3; c++)
+        if (!strcmp(model, fake_models[c]))
+            snprintf(verdict, len, "%s", f->verdict[c] ? f->verdict[c] : "");
+    return 0;
+}
+
+static void settle(struct fake *f)
+{
+    fake_fit(f, NULL);
+    f->fits = 0;
+    const struct fit_auto_steps steps = {fake_fit, fake_check, f};
+    struct gonio_err err = {0};
+    assert_int_equal(fit_auto_settle(&f->ev, f->chosen, f->why, sizeof f->why, &steps, &err),
+                     0);
+}
+
+static void test_settle_checks_each_choice_once(void **state)
+{
+    (void)state;
+    struct fake f = {.verdict = {"insufficient", "sufficient", "sufficient"}};
+    settle(&f);
+    assert_string_equal(f.chosen, "abc-prior");
+    assert_int_equal(f.fits, 1);
+    assert_int_equal(f.checks, 2);
+    assert_string_equal(f.why, "out-of-plane check: abc (cv 0.0100) insufficient, abc-prior "
+                               "(cv 0.0200) not yet checked; out-of-plane check: abc-prior "
+                               "sufficient");
+    /* every candidate insufficient: each checked once, the lowest CV stays */
+    struct fake all = {.verdict = {"insufficient", "insufficient", "insufficient"}};
+    settle(&all);
+    assert_string_equal(all.chosen, "abc");
+    assert_int_equal(all.checks, 3);
+    assert_int_equal(all.fits, 3);
+    assert_non_null(strstr(all.why, "no candidate sufficient"));
+    /* no verdict to be had: the choice and its reason stand */
+    struct fake none = {0};
+    settle(&none);
+    assert_string_equal(none.chosen, "abc");
+    assert_int_equal(none.fits, 0);
+    assert_string_equal(none.why, "");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_isotropy_sets_the_candidates),
         cmocka_unit_test(test_insufficient_loses_to_sufficient),
         cmocka_unit_test(test_anisotropic_verdict_reaches_the_file),
+        cmocka_unit_test(test_settle_checks_each_choice_once),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
