@@ -151,7 +151,9 @@ static int prepare(struct capture_devices *dev, const struct cal_run *run, const
         if (run->rig->shutter && (rc = drv_detector_shutter(dev->detector, 0, err)) < 0 &&
             rc != -ENOTSUP)
             return rc;
-        if (h->mount) /* the sample changer swaps them, nobody is asked */
+        /* The sample changer swaps the standard or the trap in, nobody is asked;
+         * it has no empty slot, so the beam's sample is removed by hand. */
+        if (h->mount && run->meta->kind != CAL_BEAM)
             return cal_changer_put(dir, h, dev,
                                    run->meta->kind == CAL_STRAY ? CAPTURE_SLOT_TRAP
                                                                 : CAPTURE_SLOT_STANDARD,
