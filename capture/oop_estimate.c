@@ -95,6 +95,12 @@ double oop_estimate_error(const double measured[3], const double predicted[3], d
     return light > 0 ? sum / 3 : NAN;
 }
 
+/* Student's t, two-sided 95%, of df degrees of freedom (1 to the pairs
+ * of strata there are). */
+static const double student_t95[] = {12.706, 4.303, 3.182, 2.776, 2.571, 2.447};
+_Static_assert(OOP_ESTIMATE_PAIRS / 2 <= sizeof student_t95 / sizeof *student_t95,
+               "a t quantile for every pair of strata");
+
 void oop_estimate_decide(const struct oop_estimate_node *p, size_t n, const double (*measured)[3],
                          double mean_density, struct oop_estimate *out)
 {
@@ -118,10 +124,10 @@ void oop_estimate_decide(const struct oop_estimate_node *p, size_t n, const doub
      * the pair of strata; an odd one out adds nothing to it */
     for (size_t k = 0; k + 1 < m; k += 2)
         ss += (r[k] - r[k + 1]) * (r[k] - r[k + 1]);
-    double se = sqrt(ss / (double)(2 * (m / 2)) / (double)m);
+    double se = sqrt(ss / (double)(2 * (m / 2)) / (double)m), t = student_t95[m / 2 - 1];
     out->error = mean_density * sum / (double)m;
-    out->low = mean_density * fmax(0.0, sum / (double)m - OOP_ESTIMATE_Z * se);
-    out->high = mean_density * (sum / (double)m + OOP_ESTIMATE_Z * se);
+    out->low = mean_density * fmax(0.0, sum / (double)m - t * se);
+    out->high = mean_density * (sum / (double)m + t * se);
 }
 
 /* The nodes' travel order: by theta_i in bands of TRAVEL_BAND_DEG (the

@@ -14,7 +14,8 @@
  * mean of the nodes' errors is an unbiased estimate of the domain's; its
  * standard error comes from the differences of neighbouring strata
  * (collapsed strata), which stratification leaves as the variance's only
- * trace. A node's error is the domain error's own term, per channel (R, G,
+ * trace; from so few differences it is itself uncertain, so the interval
+ * is Student's t of as many degrees of freedom as pairs of strata. A node's error is the domain error's own term, per channel (R, G,
  * B) and averaged, not the term of the channels' mean: a fit whose colour
  * is wrong (a conductor's Fresnel tint) errs in each channel while the
  * mean of the three can be right.
@@ -29,10 +30,9 @@
 #include "brdf/angles.h"
 #include "common/err.h"
 
-#define OOP_ESTIMATE_PAIRS 10  /* domain nodes measured */
+#define OOP_ESTIMATE_PAIRS 12  /* domain nodes measured */
 #define OOP_ESTIMATE_FLOOR 0.08 /* the draw's density where the model is dark */
 #define OOP_ESTIMATE_MIN_USED 4 /* readings below which no estimate is given */
-#define OOP_ESTIMATE_Z 1.96     /* the interval's half width in standard errors (95%) */
 
 struct oop_check_pair;
 
@@ -53,7 +53,7 @@ struct oop_estimate_node {
 struct oop_estimate {
     size_t pairs, used;
     double error;     /* the mean of the nodes' log errors */
-    double low, high; /* its interval, error -/+ OOP_ESTIMATE_Z standard errors (low >= 0) */
+    double low, high; /* its 95% interval, error -/+ t standard errors (low >= 0) */
 };
 
 /* A node's term of the full-domain log error (brdf/metrics.c), the mean

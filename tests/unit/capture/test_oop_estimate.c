@@ -7,7 +7,8 @@
  * error spread over the domain), one too wide and one of the wrong colour
  * (red too bright, blue too dark: the mean of the channels nearly right,
  * each of them wrong); a model equal to the material is estimated exact;
- * the nodes are nodes of the domain, measured in travel order. */
+ * the nodes are nodes of the domain, measured in travel order; the
+ * interval is Student's t of the strata's spread. */
 #include <math.h>
 #include <string.h>
 
@@ -192,6 +193,13 @@ static void test_too_few_readings_no_estimate(void **state)
     double one = oop_check_error(1.1, 1, 30);
     assert_close(e.error, one, 1e-12);
     assert_close(e.low, e.error, 1e-12); /* no spread between strata */
+    /* a spread: the strata (0, 1) and (2, 3) differ by d, 2 pairs, a
+     * standard error of d / sqrt(2 x 4) and Student's t of 2 degrees */
+    m[1][0] = m[1][1] = m[1][2] = m[3][0] = m[3][1] = m[3][2] = 1.3;
+    oop_estimate_decide(p, OOP_ESTIMATE_PAIRS, (const double (*)[3])m, 0.5, &e);
+    double two = oop_check_error(1.3, 1, 30), d = (two - one) / 0.5;
+    assert_close(e.error, (one + two) / 2, 1e-12);
+    assert_close(e.high - e.error, 0.5 * 4.303 * d / sqrt(8.0), 1e-9);
 }
 
 /* A node's term is the metric's, per channel: a reading of the right mean
