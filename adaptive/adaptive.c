@@ -9,6 +9,7 @@
 #include <time.h>
 
 #include "adaptive/adaptive_private.h"
+#include "adaptive/aniso_info.h"
 #include "adaptive/ensemble.h"
 #include "adaptive/track.h"
 #include "brdf/domain.h"
@@ -117,6 +118,14 @@ struct adaptive {
     double max_alc;           /* the largest candidate ALC of this decision */
     double *hist_t, *hist_e;  /* (rig time, predicted error) at each refit */
     size_t n_hist;
+    /* Model aniso-ggx: its posterior scores the candidates and predicts
+     * the error instead of the ABC ensemble (adaptive/aniso_info.h), and
+     * the sample's turn (plan_point.rotation) is a dimension of the pool
+     * whose moves cost rig time: from_turn is where the sample stands for
+     * the cost being taken. */
+    int aniso;
+    struct aniso_info info;
+    double from_turn;
 };
 
 struct adaptive_options adaptive_default_options(void)
@@ -148,12 +157,16 @@ static int check_options(const struct adaptive_options *o, struct gonio_err *err
     return 0;
 }
 
+/* The pair as the sample sees it: turned by the point's rotation, which
+ * an isotropic model's value and the domain distance do not see. */
 static void point_pair(const struct plan_point *pt, struct brdf_pair *p)
 {
     if (pt->out_of_plane)
         brdf_pair_spherical(pt->theta_i, pt->phi_i, pt->theta_o, pt->phi_o, p);
     else
         brdf_pair_inplane(pt->theta_i, pt->theta_r, p);
+    if (pt->rotation != 0)
+        brdf_pair_rotate(p, pt->rotation);
 }
 
 /* Chordal distance of two pairs: cheap, and as good as the angle for
@@ -213,6 +226,8 @@ adaptive *adaptive_new(const struct plan *pool, const struct rig_profile *rig,
     a->predicted = NAN;
     a->latent = strcmp(o.model, "latent") == 0 || strcmp(o.model, "auto") == 0;
     a->cover = a->latent;
+    a->aniso = strcmp(o.model, "aniso-ggx") == 0;
+    aniso_info_init(&a->info);
     ens_init(&a->ens);
     ens_init(&a->check);
     a->pairs = malloc(n * sizeof *a->pairs);
@@ -253,6 +268,8 @@ adaptive *adaptive_new(const struct plan *pool, const struct rig_profile *rig,
         adaptive_free(a);
         return NULL;
     }
+    if (a->aniso) /* the full-domain error of an anisotropic model: every azimuth */
+        brdf_domain_turn(&a->dom);
     return a;
 }
 
@@ -293,9 +310,21 @@ int adaptive_add(adaptive *a, size_t point, const struct fit_sample *s, int satu
     return 0;
 }
 
+/* The move to point i: the axes' and, on a rig that turns the sample, the
+ * turn from a->from_turn, at once (as planner/estimate.c counts it). */
 static double move_time(const adaptive *a, const struct rig_axes *from, size_t i)
 {
-    return rig_move_time_backlash(a->rig, from, &plan_point(a->pool, i)->ax);
+    const struct plan_point *pt = plan_point(a->pool, i);
+    double t = rig_move_time_backlash(a->rig, from, &pt->ax);
+    if (a->rig->has_rotation && pt->rotation != a->from_turn)
+        t = fmax(t, rig_axis_time(pt->rotation - a->from_turn, a->rig->rotation.speed,
+                                  a->rig->rotation.accel));
+    return t;
+}
+
+static double turn_of(const adaptive *a, long point)
+{
+    return point >= 0 ? plan_point(a->pool, (size_t)point)->rotation : 0;
 }
 
 /* Point i's cost once its move to it takes move_s. */
@@ -327,12 +356,14 @@ int adaptive_observe(adaptive *a, size_t point, double integration_s, double poi
     static const struct rig_axes home = {0, 0, 0};
     const struct rig_axes *from = a->last_obs >= 0 ? &plan_point(a->pool, (size_t)a->last_obs)->ax
                                                     : &home;
+    a->from_turn = turn_of(a, a->last_obs);
     double cost = adaptive_point_cost(a, from, point);
     a->ratio[a->n_obs++ % MARGIN_WINDOW] = cost > 0 ? point_rig_s / cost : 1;
     a->reserve = fmax(a->reserve, point_rig_s - cost);
     a->longest_move = fmax(a->longest_move, move_time(a, from, point));
     plan_meter_observe(a->meter, point, integration_s);
     a->last_obs = (long)point;
+    a->from_turn = turn_of(a, a->last_obs);
     return 0;
 }
 
@@ -470,11 +501,31 @@ static void compute_dom_cov(adaptive *a)
             a->dom_cov[g][h] /= (double)a->dom.n;
 }
 
+/* Model aniso-ggx: the posterior's predicted error, the mean over the
+ * turned full-domain subset of the expected |error| of v, sd * sqrt(2/pi)
+ * (what the parameters leave open; the model is taken as the material's
+ * form). */
+static double aniso_predict(adaptive *a)
+{
+    if (a->n < N_SEEDS || aniso_info_update(&a->info, a->samples, a->n) < 0)
+        return NAN;
+    return aniso_info_domain(&a->info, a->dom.pairs, a->dom.n) *
+           0.7978845608028654; /* sqrt(2 / pi) */
+}
+
 static void refit(adaptive *a, double rig_time_s)
 {
     if (a->fitted == a->n)
         return;
     a->fitted = a->n;
+    if (a->aniso) {
+        a->predicted = aniso_predict(a);
+        if (isfinite(a->predicted)) {
+            a->hist_t[a->n_hist] = rig_time_s;
+            a->hist_e[a->n_hist++] = a->predicted;
+        }
+        return;
+    }
     /* While the policy follows ABC its picks and prediction come from fits
      * weighted as the capture's final ABC fit (docs/adaptive.md, the
      * policy, step 2); while it follows the latent model the ensemble
@@ -540,6 +591,8 @@ static double worth(const adaptive *a, size_t i, long pending)
     double gap = a->gap[i];
     if (pending >= 0)
         gap = fmin(gap, dom_dist(&a->pairs[i], &a->pairs[pending]));
+    if (a->aniso && a->info.ok)
+        return aniso_info_alc(&a->info, &a->pairs[i]);
     if (!a->ens.ok)
         return isfinite(gap) ? gap : 1;
     /* gap in units of the even spacing of n + 1 points over the unit
@@ -670,10 +723,12 @@ long adaptive_next(adaptive *a, const struct rig_axes *at, double rig_time_s, lo
      * the rig clock runs on by its move, settle and integration. */
     struct rig_axes from = *at;
     double clock = rig_time_s + a->reserve;
+    a->from_turn = turn_of(a, a->last_obs);
     if (pending >= 0) {
         double cost;
         clock += budget_cost(a, at, (size_t)pending, &cost);
         from = plan_point(a->pool, (size_t)pending)->ax;
+        a->from_turn = turn_of(a, pending);
     }
     const char *stop = "";
     double gain = gain_per_min(a);

@@ -15,6 +15,7 @@
  * about METER_RECORDS of each (oop200k: a minute of CPU on every record,
  * a second this way); a plan of fewer points meters every record. */
 #define METER_RECORDS 2048
+#define ETA_MIN_WEIGHT 1e-3
 
 struct capture_eta {
     const struct plan *plan;
@@ -179,18 +180,19 @@ static const double SPREAD_W[] = {0.011257411327721, 0.222075922005613, 0.533333
                                   0.222075922005613, 0.011257411327721};
 
 /* The detector time of the points left on a detector of counts, in the
- * capture's order: the ladder walked from the rung the last point ended
- * on, each point at its interpolated rate (capture/rate_map.h). Where
- * the walk changes rung is a threshold on the rate (the floor, the clip),
- * so the time of one walk on the rates as interpolated jumps when a rate
- * does: a glossy material whose peak sits a few per cent under the clip
- * costs a longer rung on every point left, or none. The time counted is
- * the mean over the interpolation's spread instead, the rates scaled
- * together by exp(spread z) for z normal (Gauss-Hermite, five walks): the
- * error of an interpolation is shared by a region, not drawn per point. */
-static double detector_left(const capture_eta *e)
+ * capture's order, on one rate model's rates: the ladder walked from the
+ * rung the last point ended on, each point at its interpolated rate
+ * (capture/rate_map.h). Where the walk changes rung is a threshold on the
+ * rate (the floor, the clip), so the time of one walk on the rates as
+ * interpolated jumps when a rate does: a glossy material whose peak sits
+ * a few per cent under the clip costs a longer rung on every point left,
+ * or none. The time counted is the mean over the interpolation's spread
+ * instead, the rates scaled together by exp(spread z) for z normal
+ * (Gauss-Hermite, five walks): the error of an interpolation is shared by
+ * a region, not drawn per point. */
+static double model_left(const capture_eta *e, int model)
 {
-    double spread = rate_map_spread(e->rates), sum = 0;
+    double spread = rate_map_spread(e->rates, model), sum = 0;
     for (size_t q = 0; q < sizeof SPREAD_Z / sizeof *SPREAD_Z; q++) {
         struct autorange_model m;
         autorange_model_start(e->ar, &m);
@@ -198,13 +200,29 @@ static double detector_left(const capture_eta *e)
         for (size_t k = 0; k < e->n; k++) {
             size_t i = (size_t)e->order[k];
             if (!e->done[i])
-                walk += autorange_model_point(e->ar, &m, scale * rate_map_at(e->rates, i));
+                walk += autorange_model_point(e->ar, &m, scale * rate_map_at(e->rates, model, i));
         }
         sum += SPREAD_W[q] * walk;
         if (spread == 0)
             return walk;
     }
     return sum;
+}
+
+/* The rate models' detector times, each by its weight (rate_map.h); a
+ * model weighing less than ETA_MIN_WEIGHT is not walked, which is most
+ * of a capture once one has shown the better. */
+static double detector_left(const capture_eta *e)
+{
+    double sum = 0, sw = 0;
+    for (int j = 0; j < RATE_MAP_MODELS; j++) {
+        double w = rate_map_weight(e->rates, j);
+        if (w >= ETA_MIN_WEIGHT) {
+            sum += w * model_left(e, j);
+            sw += w;
+        }
+    }
+    return sum / sw;
 }
 
 static double count_left(const capture_eta *e)

@@ -386,6 +386,46 @@ int fit_aniso_ggx_params(const struct fit_model_file *f, const char *path,
     return 0;
 }
 
+int fit_aniso_ggx_solve(const struct fit_sample *s, size_t n, int cold, double x[9],
+                        double *rms)
+{
+    gsl_set_error_handler_off();
+    size_t *idx = malloc((n ? n : 1) * sizeof *idx), m = 0;
+    double *target = malloc((n ? 3 * n : 1) * sizeof *target);
+    int rc = idx && target ? 0 : -ENOMEM;
+    for (size_t i = 0; rc == 0 && i < n; i++) {
+        if (!usable(&s[i]))
+            continue;
+        idx[m++] = i;
+        for (int k = 0; k < 3; k++)
+            target[3 * i + (size_t)k] = log1p(s[i].rgb[k] * s[i].g.wi[2]);
+    }
+    if (rc == 0 && m < 3)
+        rc = -GONIO_EFIT;
+    struct outcome oc = {0};
+    if (rc == 0 && cold)
+        rc = fit_usable(s, NULL, idx, m, target, &oc);
+    if (rc == 0 && !cold) {
+        struct problem p = {s, NULL, idx, m, target};
+        rc = solve(&p, x, &oc.iters, &oc.converged, &oc.cost, NULL);
+        to_params(x, &oc.a);
+        canonical(&oc.a);
+    }
+    if (rc == 0) {
+        for (int k = 0; k < 3; k++) {
+            x[k] = log(oc.a.rho[k]);
+            x[3 + k] = log(oc.a.f0[k]);
+        }
+        x[6] = log(oc.a.ax);
+        x[7] = log(oc.a.ay);
+        x[8] = oc.a.phi_deg * BRDF_DEG;
+        *rms = sqrt(2 * oc.cost / (3.0 * (double)m));
+    }
+    free(idx);
+    free(target);
+    return rc;
+}
+
 brdf_material *fit_aniso_ggx_model_open(const struct fit_model_file *f, const char *name,
                                         struct gonio_err *err)
 {

@@ -37,4 +37,14 @@ brdf_material *fit_aniso_ggx_model_open(const struct fit_model_file *f, const ch
 int fit_aniso_ggx_params(const struct fit_model_file *f, const char *path,
                          struct brdf_aniso_ggx *a, struct gonio_err *err);
 
+/* The fit on samples s[0..n) (those with both directions above the
+ * sample and finite values; no censored readings) in the fit's own
+ * coordinates x: log rho (RGB), log f0 (RGB), log ax, log ay, phi in
+ * radians, as canonical as the model file's. cold: from the grid of starts,
+ * as fit_aniso_ggx_model_fit; else one local solve from x (a warm start,
+ * for the adaptive policy's refits). *rms: the RMS log residual at the end.
+ * 0, -ENOMEM, or -GONIO_EFIT with fewer than 3 usable samples. */
+int fit_aniso_ggx_solve(const struct fit_sample *s, size_t n, int cold, double x[9],
+                        double *rms);
+
 #endif

@@ -141,6 +141,40 @@ static inline void gonio_test_write_text(const char *path, const char *text)
     assert_int_equal(fclose(f), 0);
 }
 
+/* Runs a gonio subcommand (cmd_fit, cmd_plan, ...) in process with its
+ * stdout and stderr sent to files; returns its status and the two texts
+ * (malloc'd), so a test checks what the operator would read. */
+static inline int gonio_test_run_cli(int (*cmd)(int, char **), char **argv, int argc,
+                                     char **out, char **errtext)
+{
+    char opath[] = "/tmp/gonio-cmdoutXXXXXX", epath[] = "/tmp/gonio-cmderrXXXXXX";
+    int ofd = mkstemp(opath), efd = mkstemp(epath);
+    assert_true(ofd >= 0 && efd >= 0);
+    fflush(stdout);
+    fflush(stderr);
+    int save_out = dup(1), save_err = dup(2);
+    dup2(ofd, 1);
+    dup2(efd, 2);
+    int status = cmd(argc, argv);
+    fflush(stdout);
+    fflush(stderr);
+    dup2(save_out, 1);
+    dup2(save_err, 2);
+    close(save_out);
+    close(save_err);
+    char **texts[2] = {out, errtext};
+    int fds[2] = {ofd, efd};
+    for (int k = 0; k < 2; k++) {
+        off_t len = lseek(fds[k], 0, SEEK_END);
+        *texts[k] = calloc((size_t)len + 1, 1);
+        assert_int_equal(pread(fds[k], *texts[k], (size_t)len, 0), len);
+        close(fds[k]);
+    }
+    unlink(opath);
+    unlink(epath);
+    return status;
+}
+
 /* Nonzero when the test should run at its small size: under valgrind
  * (make check-valgrind; memcheck costs some 50x in CPU) or with
  * GONIO_TEST_SMALL=1 (to run the small size natively or under ASan).

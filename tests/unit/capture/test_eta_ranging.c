@@ -3,8 +3,11 @@
  * the simulated rig clock, so every figure is rig time. Right after the
  * pre-scan the rig time so far plus the ETA is within 5 % of the rig time
  * the capture took, for a diffuse, two plastics and a metal; from there
- * on it stays within 10 % (the plastics' and the metal's reach 8.5-9.7 %
- * before a quarter of the points, docs/plans.md). */
+ * on it stays within each one's bound: 5 % for the diffuse, 6 % for
+ * red-plastic, whose one clip at the 0.8 s rung the rate models' weights
+ * carry (capture/rate_map.h; 9.1 % on the plain model alone), and 10 % for
+ * gray-plastic and the metal, which reach 8.5 and 9.7 % before a quarter of
+ * the points (docs/plans.md, docs/notes/eta-ranging.md). */
 #include <math.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -22,7 +25,6 @@
 
 #define SCENE "lab"
 #define AT_PRESCAN 0.05 /* right after the pre-scan */
-#define FROM_PRESCAN 0.10
 
 static char dir[64];
 
@@ -41,7 +43,7 @@ static void on_progress(void *user, const struct capture_progress *p)
     }
 }
 
-static void eta_holds(const char *material, int k)
+static void eta_holds(const char *material, double from_prescan, int k)
 {
     char out[128];
     snprintf(out, sizeof out, "%s/%d", dir, k);
@@ -65,7 +67,7 @@ static void eta_holds(const char *material, int k)
     fprintf(stderr, "%s: rig time %.1f s, after the pre-scan %+.1f %%, worst from there %.1f %%\n",
             material, t, 100 * after, 100 * worst);
     assert_true(fabs(after) <= AT_PRESCAN);
-    assert_true(worst <= FROM_PRESCAN);
+    assert_true(worst <= from_prescan);
 }
 
 static void test_eta_after_the_prescan(void **state)
@@ -78,12 +80,16 @@ static void test_eta_after_the_prescan(void **state)
         gonio_test_skip("scene %s not in this build's configs", SCENE);
         return;
     }
-    static const char *const materials[] = {"builtin:red-plastic", "analytic:rough-diffuse",
-                                            "builtin:gray-plastic",
-                                            "builtin:gold-metallic-paint"};
+    static const struct {
+        const char *material;
+        double from_prescan; /* the bound from the pre-scan on */
+    } cases[] = {{"builtin:red-plastic", 0.06},
+                 {"analytic:rough-diffuse", 0.05},
+                 {"builtin:gray-plastic", 0.10},
+                 {"builtin:gold-metallic-paint", 0.10}};
     int n = gonio_test_small() ? 1 : 4;
     for (int k = 0; k < n; k++)
-        eta_holds(materials[k], k);
+        eta_holds(cases[k].material, cases[k].from_prescan, k);
 }
 
 static int setup(void **state)

@@ -17,35 +17,7 @@
 #include "fit/abc_problem.h"
 #include "fit/fit.h"
 #include "tests/gonio_test.h"
-
-static const struct brdf_abc truth = {
-    .kd = {0.20, 0.15, 0.10}, .A = {20.0, 15.0, 10.0}, .B = 3000, .C = 0.9, .eta = 1.5};
-
-/* DS2-like in-plane grid written out from the design brief. */
-static size_t ds2_grid(struct brdf_pair *out)
-{
-    size_t n = 0;
-    for (double ti = 0; ti <= 80; ti += 15) {
-        for (double tr = -80; tr <= 80; tr += 10)
-            if (fabs(tr - ti) > 15 && fabs(ti + tr) >= 5)
-                brdf_pair_inplane(ti, tr, &out[n++]);
-        for (double k = -14; k <= 14; k += 2) {
-            double tr = ti + k;
-            if (fabs(tr) <= 80 && fabs(ti + tr) >= 5)
-                brdf_pair_inplane(ti, tr, &out[n++]);
-        }
-    }
-    return n;
-}
-
-static void synth(const struct brdf_abc *p, const struct brdf_pair *g, size_t n,
-                  struct fit_sample *s)
-{
-    for (size_t k = 0; k < n; k++) {
-        s[k].g = g[k];
-        brdf_abc_eval(p, &g[k], s[k].rgb);
-    }
-}
+#include "tests/unit/fit/abc_synth.h"
 
 /* Leave-one-out: the named material's row is left out, and the means of
  * the full and reduced priors differ by exactly its contribution. */

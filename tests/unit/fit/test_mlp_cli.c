@@ -54,36 +54,9 @@ static int teardown(void **state)
     return system(cmd) == 0 ? 0 : -1;
 }
 
-/* Run cmd_fit with stdout and stderr sent to files; returns the status and
- * the captured texts (malloc'd). */
 static int run(char **argv, int argc, char **out, char **errtext)
 {
-    char opath[] = "/tmp/gonio-fitoutXXXXXX", epath[] = "/tmp/gonio-fiterrXXXXXX";
-    int ofd = mkstemp(opath), efd = mkstemp(epath);
-    assert_true(ofd >= 0 && efd >= 0);
-    fflush(stdout);
-    fflush(stderr);
-    int save_out = dup(1), save_err = dup(2);
-    dup2(ofd, 1);
-    dup2(efd, 2);
-    int status = cmd_fit(argc, argv);
-    fflush(stdout);
-    fflush(stderr);
-    dup2(save_out, 1);
-    dup2(save_err, 2);
-    close(save_out);
-    close(save_err);
-    char **texts[2] = {out, errtext};
-    int fds[2] = {ofd, efd};
-    for (int k = 0; k < 2; k++) {
-        off_t len = lseek(fds[k], 0, SEEK_END);
-        *texts[k] = calloc((size_t)len + 1, 1);
-        assert_int_equal(pread(fds[k], *texts[k], (size_t)len, 0), len);
-        close(fds[k]);
-    }
-    unlink(opath);
-    unlink(epath);
-    return status;
+    return gonio_test_run_cli(cmd_fit, argv, argc, out, errtext);
 }
 
 static struct journal_sample *samples(size_t *n)
