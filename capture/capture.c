@@ -291,17 +291,17 @@ struct check_ctx {
 };
 
 static int check_read(struct check_ctx *c, const struct plan_point *pt, double rotation_deg,
-                      double *value, struct gonio_err *err)
+                      double rgb[3], struct gonio_err *err)
 {
     static const struct capture_hooks no_hooks;
     struct journal_sample s;
+    rgb[0] = rgb[1] = rgb[2] = NAN;
     int rc = capture_measure_point(c->dev, c->clk, &no_hooks, &c->r->job->rig, pt, rotation_deg,
                                    -1, &c->r->ranging, &s, err);
     if (rc < 0) {
         capture_axes_stop(c->dev);
         return rc;
     }
-    *value = NAN;
     if (c->r->job->cal) { /* counts to BRDF as the capture's samples are */
         /* A geometry the reference does not cover gives no value, as one
          * the rig cannot reach: the check decides on the others. */
@@ -312,7 +312,7 @@ static int check_read(struct check_ctx *c, const struct plan_point *pt, double r
             return rc;
     }
     if (!(s.flags & JOURNAL_FLAG_SATURATED))
-        *value = (s.rgb[0] + s.rgb[1] + s.rgb[2]) / 3.0;
+        memcpy(rgb, s.rgb, sizeof s.rgb);
     return 0;
 }
 
@@ -322,14 +322,17 @@ static int check_measure(void *user, const struct iso_check_pair *p, double rota
 {
     struct plan_point pt = {.theta_i = p->theta_i, .theta_r = p->theta_r};
     brdf_inplane_to_axes(p->theta_i, p->theta_r, &pt.ax.s, &pt.ax.a);
-    return check_read(user, &pt, rotation_deg, value, err);
+    double rgb[3];
+    int rc = check_read(user, &pt, rotation_deg, rgb, err);
+    *value = (rgb[0] + rgb[1] + rgb[2]) / 3.0;
+    return rc;
 }
 
 /* The in-plane sufficiency check's: the out-of-plane pair or its in-plane
  * counterpart (NAN where the rig cannot reach it), and the fitted model's
  * prediction of a pair. */
 static int oop_measure(void *user, const struct oop_check_pair *p, int in_plane,
-                       double *value, struct gonio_err *err)
+                       double rgb[3], struct gonio_err *err)
 {
     struct check_ctx *c = user;
     struct plan_point pt = {.theta_i = p->in_theta_i, .theta_r = p->in_theta_r};
@@ -337,17 +340,15 @@ static int oop_measure(void *user, const struct oop_check_pair *p, int in_plane,
         pt = (struct plan_point){
             .theta_i = p->theta_i, .theta_o = p->theta_o, .phi_o = p->phi_o, .out_of_plane = 1};
     char why[160];
-    *value = NAN;
+    rgb[0] = rgb[1] = rgb[2] = NAN;
     if (plan_point_place(&pt, &c->r->job->rig, why, sizeof why) < 0)
         return 0;
-    return check_read(c, &pt, 0.0, value, err);
+    return check_read(c, &pt, 0.0, rgb, err);
 }
 
-static double oop_predict(void *user, const struct brdf_pair *p)
+static void oop_predict(void *user, const struct brdf_pair *p, double rgb[3])
 {
-    double rgb[3];
     brdf_material_eval(user, p, 1, rgb);
-    return (rgb[0] + rgb[1] + rgb[2]) / 3.0;
 }
 
 /* The in-plane sufficiency check after the final fit (capture_config
@@ -369,8 +370,7 @@ static int check_out_of_plane(struct run *r, const brdf_material *model, struct 
         rc = oop_check_run(oop_predict, (void *)model, oop_measure, &c,
                            r->job->rig.mech.in_position_deg, &r->out->oop, err);
     if (rc == 0) /* the fit's full-domain error, estimated (capture/oop_estimate.h) */
-        rc = oop_estimate_run(oop_predict, (void *)model, oop_measure, &c, &r->out->oop.full,
-                              err);
+        rc = oop_estimate_run(oop_predict, (void *)model, oop_measure, &c, &r->out->oop.full, err);
     r->out->oop.rig_time_s = capture_clock_now(&clk);
     r->out->has_oop = rc == 0;
     capture_axis_stats_add(&dev, &r->out->mech);

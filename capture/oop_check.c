@@ -11,6 +11,14 @@
 #define MAX_TILT_DEG 30.0   /* the flank searched no further */
 #define DIFFUSE_TILT_DEG 20.0 /* a lobe that never falls by OOP_CHECK_DROP: off it here */
 
+/* The model's value, the mean of R, G, B: the verdict's figure. */
+static double predict_mean(oop_check_predict_fn predict, void *user, const struct brdf_pair *p)
+{
+    double rgb[3];
+    predict(user, p, rgb);
+    return (rgb[0] + rgb[1] + rgb[2]) / 3.0;
+}
+
 static const double incidence_deg[OOP_CHECK_INCIDENCES] = {25, 45};
 static const double azimuth_deg[OOP_CHECK_AZIMUTHS] = {45, 90, 135};
 
@@ -54,7 +62,7 @@ static double crossing(oop_check_predict_fn predict, void *user, double theta_i,
         struct oop_check_pair c;
         struct brdf_pair bp, in;
         if (build(theta_i, mid, psi, &c, &bp, &in) == 0)
-            v = predict(user, &bp);
+            v = predict_mean(predict, user, &bp);
         if (v > 0 && top - log(v) < OOP_CHECK_DROP)
             lo = mid;
         else
@@ -72,7 +80,7 @@ static int flank(oop_check_predict_fn predict, void *user, double theta_i, doubl
     struct brdf_pair bp, in;
     if (build(theta_i, 0, psi, o, &bp, &in) < 0)
         return -1;
-    double top = log(predict(user, &bp));
+    double top = log(predict_mean(predict, user, &bp));
     int found = 0, steps = 0;
     struct oop_check_pair last = *o, at_diffuse = *o;
     double t = STEP_DEG;
@@ -80,9 +88,9 @@ static int flank(oop_check_predict_fn predict, void *user, double theta_i, doubl
         struct oop_check_pair c;
         if (build(theta_i, t, psi, &c, &bp, &in) < 0)
             break;
-        double v = predict(user, &bp);
+        double v = predict_mean(predict, user, &bp);
         c.predicted = v;
-        c.in_predicted = predict(user, &in);
+        c.in_predicted = predict_mean(predict, user, &in);
         last = c;
         steps++;
         if (t <= DIFFUSE_TILT_DEG + 1e-9)
@@ -197,6 +205,16 @@ void oop_check_decide(const struct oop_check_pair *p, size_t n, const double *me
     }
 }
 
+/* A reading's mean of R, G, B: the verdict's figure. */
+static int measure_mean(oop_check_measure_fn measure, void *user, const struct oop_check_pair *p,
+                        int in_plane, double *value, struct gonio_err *err)
+{
+    double rgb[3];
+    int rc = measure(user, p, in_plane, rgb, err);
+    *value = (rgb[0] + rgb[1] + rgb[2]) / 3.0;
+    return rc;
+}
+
 int oop_check_run(oop_check_predict_fn predict, void *puser, oop_check_measure_fn measure,
                   void *muser, double resolution_deg, struct oop_check_result *out,
                   struct gonio_err *err)
@@ -211,12 +229,12 @@ int oop_check_run(oop_check_predict_fn predict, void *puser, oop_check_measure_f
         while (b < n && p[b].theta_i == p[a].theta_i)
             b++;
         for (size_t j = a; j < b; j++) {
-            int rc = measure(muser, &p[j], 0, &m[j], err);
+            int rc = measure_mean(measure, muser, &p[j], 0, &m[j], err);
             if (rc < 0)
                 return rc;
         }
         for (size_t j = b; j-- > a;) {
-            int rc = measure(muser, &p[j], 1, &in[j], err);
+            int rc = measure_mean(measure, muser, &p[j], 1, &in[j], err);
             if (rc < 0)
                 return rc;
         }

@@ -54,14 +54,15 @@ struct oop_check_pair {
     double predicted, in_predicted; /* the model's (mean of R, G, B), 1/sr */
 };
 
-/* The fitted model's value at a pair (mean of R, G, B, 1/sr). */
-typedef double (*oop_check_predict_fn)(void *user, const struct brdf_pair *p);
+/* The fitted model's value at a pair, R, G, B in 1/sr (the verdict takes
+ * their mean, the full-domain estimate each). */
+typedef void (*oop_check_predict_fn)(void *user, const struct brdf_pair *p, double rgb[3]);
 
 /* A host's measurement of the pair (in_plane 0) or of its counterpart
- * (1): the reading (mean of R, G, B; NAN when unusable: saturated, or out
- * of the rig's reach). */
+ * (1): the reading, R, G, B (NAN when unusable: saturated, or out of the
+ * rig's reach). */
 typedef int (*oop_check_measure_fn)(void *user, const struct oop_check_pair *p, int in_plane,
-                                    double *value, struct gonio_err *err);
+                                    double rgb[3], struct gonio_err *err);
 
 struct oop_check_result {
     char verdict[16]; /* "sufficient", "insufficient", "undetermined" */

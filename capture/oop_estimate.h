@@ -14,7 +14,11 @@
  * mean of the nodes' errors is an unbiased estimate of the domain's; its
  * standard error comes from the differences of neighbouring strata
  * (collapsed strata), which stratification leaves as the variance's only
- * trace.
+ * trace; from so few differences it is itself uncertain, so the interval
+ * is Student's t of as many degrees of freedom as pairs of strata. A node's error is the domain error's own term, per channel (R, G,
+ * B) and averaged, not the term of the channels' mean: a fit whose colour
+ * is wrong (a conductor's Fresnel tint) errs in each channel while the
+ * mean of the three can be right.
  *
  * A node is placed on the rig with its source in the plane (phi_i = 0): a
  * turn about the normal an isotropic material does not notice. */
@@ -26,40 +30,55 @@
 #include "brdf/angles.h"
 #include "common/err.h"
 
-#define OOP_ESTIMATE_PAIRS 10  /* domain nodes measured */
+#define OOP_ESTIMATE_PAIRS 12  /* domain nodes measured */
 #define OOP_ESTIMATE_FLOOR 0.08 /* the draw's density where the model is dark */
 #define OOP_ESTIMATE_MIN_USED 4 /* readings below which no estimate is given */
-#define OOP_ESTIMATE_Z 1.96     /* the interval's half width in standard errors (95%) */
 
 struct oop_check_pair;
+
+/* The fitted model's value at a pair, per channel (R, G, B, 1/sr). */
+typedef void (*oop_estimate_predict_fn)(void *user, const struct brdf_pair *p, double rgb[3]);
+
+/* A node of the draw: where it is read (theta_i, theta_o, phi_o with the
+ * source in the plane; the pair's other fields unused), the model's value
+ * there and the draw's density. */
+struct oop_estimate_node {
+    double theta_i, theta_o, phi_o;
+    double predicted[3]; /* the model's, R, G, B, 1/sr */
+    double density;
+};
 
 /* The estimate: NAN figures when fewer than OOP_ESTIMATE_MIN_USED nodes
  * were read. */
 struct oop_estimate {
     size_t pairs, used;
     double error;     /* the mean of the nodes' log errors */
-    double low, high; /* its interval, error -/+ OOP_ESTIMATE_Z standard errors (low >= 0) */
+    double low, high; /* its 95% interval, error -/+ t standard errors (low >= 0) */
 };
 
-/* The OOP_ESTIMATE_PAIRS nodes of the full domain's stratified draw, in
- * the strata's order, as pairs with the source in the plane (theta_i,
- * theta_o, phi_o; theta_i of the counterpart fields unused) and the model
- * predict's value at each (predicted). Returns the count. */
-size_t oop_estimate_choose(double (*predict)(void *user, const struct brdf_pair *p), void *user,
-                           struct oop_check_pair *out, double *mean_density);
+/* A node's term of the full-domain log error (brdf/metrics.c), the mean
+ * over R, G, B of |ln(1 + m cos theta_i) - ln(1 + p cos theta_i)|; NAN
+ * when the reading is unusable (a channel NAN, or no light in any). A
+ * channel read below 0 (the noise about a dark one) counts as 0. */
+double oop_estimate_error(const double measured[3], const double predicted[3], double theta_i);
 
-/* The estimate from the readings measured[j] (NAN or not positive: left
- * out) at the pairs p[j], in the order oop_estimate_node gave them (the
- * strata's order). */
-void oop_estimate_decide(const struct oop_check_pair *p, size_t n, const double *measured,
+/* The OOP_ESTIMATE_PAIRS nodes of the full domain's stratified draw, in
+ * the strata's order. Returns the count. */
+size_t oop_estimate_choose(oop_estimate_predict_fn predict, void *user,
+                           struct oop_estimate_node *out, double *mean_density);
+
+/* The estimate from the readings measured[j] (R, G, B) at the nodes p[j],
+ * in the strata's order (oop_estimate_choose's); an unusable reading
+ * (oop_estimate_error NAN) is left out. */
+void oop_estimate_decide(const struct oop_estimate_node *p, size_t n, const double (*measured)[3],
                          double mean_density, struct oop_estimate *out);
 
 /* Choose, measure in travel order (theta_i rising, phi_o snaking) through
  * the check's measure callback (in_plane 0: the pair out of the plane;
  * capture/oop_check.h) and estimate. Returns 0, or the callback's failure. */
-int oop_estimate_run(double (*predict)(void *user, const struct brdf_pair *p), void *puser,
+int oop_estimate_run(oop_estimate_predict_fn predict, void *puser,
                      int (*measure)(void *user, const struct oop_check_pair *p, int in_plane,
-                                    double *value, struct gonio_err *err),
+                                    double rgb[3], struct gonio_err *err),
                      void *muser, struct oop_estimate *out, struct gonio_err *err);
 
 #endif

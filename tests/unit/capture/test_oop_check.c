@@ -17,22 +17,23 @@
 #include "capture/oop_check.h"
 #include "tests/gonio_test.h"
 
-static double mean_of(const brdf_material *m, const struct brdf_pair *p)
-{
-    double rgb[3];
-    brdf_material_eval(m, p, 1, rgb);
-    return (rgb[0] + rgb[1] + rgb[2]) / 3.0;
-}
-
 /* A model fitted perfectly along the plane: the material's in-plane slice,
  * extended to every pair by its theta_h and theta_d (as an isotropic model
  * is). */
-static double predict(void *user, const struct brdf_pair *p)
+static void predict(void *user, const struct brdf_pair *p, double rgb[3])
 {
     struct brdf_pair in;
     brdf_pair_inplane((p->theta_d + p->theta_h) / BRDF_DEG, (p->theta_d - p->theta_h) / BRDF_DEG,
                       &in);
-    return mean_of(user, &in);
+    brdf_material_eval(user, &in, 1, rgb);
+}
+
+/* Its mean of R, G, B: what the verdict compares. */
+static double predicted(void *user, const struct brdf_pair *p)
+{
+    double rgb[3];
+    predict(user, p, rgb);
+    return (rgb[0] + rgb[1] + rgb[2]) / 3.0;
 }
 
 /* The material measured: a material with log noise sd per reading. */
@@ -50,7 +51,7 @@ static double gauss(uint64_t *st)
     return sqrt(-2 * log(u)) * cos(2 * 3.14159265358979323846 * v);
 }
 
-static int measure(void *user, const struct oop_check_pair *p, int in_plane, double *value,
+static int measure(void *user, const struct oop_check_pair *p, int in_plane, double rgb[3],
                    struct gonio_err *err)
 {
     (void)err;
@@ -62,7 +63,10 @@ static int measure(void *user, const struct oop_check_pair *p, int in_plane, dou
         brdf_pair_spherical(p->theta_i, 0, p->theta_o, p->phi_o, &bp);
     if (b->n_order < 2 * OOP_CHECK_MAX_PAIRS)
         b->order[b->n_order++] = in_plane ? -(int)p->theta_i : (int)p->theta_i;
-    *value = mean_of(b->m, &bp) * (b->sd > 0 ? exp(b->sd * gauss(&b->st)) : 1.0);
+    double noise = b->sd > 0 ? exp(b->sd * gauss(&b->st)) : 1.0;
+    brdf_material_eval(b->m, &bp, 1, rgb);
+    for (int c = 0; c < 3; c++)
+        rgb[c] *= noise;
     return 0;
 }
 
@@ -92,11 +96,11 @@ static void test_pairs_on_the_flank_with_counterparts(void **state)
         assert_true(fabs(bp.wo[1]) > 0.05);
         assert_close(in.theta_h, bp.theta_h, 1e-9);
         assert_close(in.theta_d, bp.theta_d, 1e-9);
-        assert_close(p[j].predicted, predict(model, &bp), 1e-12);
-        assert_close(p[j].in_predicted, predict(model, &in), 1e-12);
+        assert_close(p[j].predicted, predicted(model, &bp), 1e-12);
+        assert_close(p[j].in_predicted, predicted(model, &in), 1e-12);
         /* on the flank: fallen by the drop from the mirror, within a step */
         brdf_pair_inplane(p[j].theta_i, p[j].theta_i, &mirror);
-        double drop = log(predict(model, &mirror)) - log(p[j].predicted);
+        double drop = log(predicted(model, &mirror)) - log(p[j].predicted);
         assert_true(drop >= OOP_CHECK_DROP && drop < OOP_CHECK_DROP + 0.5);
     }
     assert_close(p[0].theta_i, 25, 0);
@@ -187,13 +191,13 @@ static void test_too_few_readings_undetermined(void **state)
 
 /* A lobe of width w (degrees of theta_h, Gaussian) over a floor: the
  * model's prediction and, read exactly, the material measured. */
-static double spike(void *user, const struct brdf_pair *p)
+static void spike(void *user, const struct brdf_pair *p, double rgb[3])
 {
     double x = p->theta_h / BRDF_DEG / *(const double *)user;
-    return 0.1 + 1000 * exp(-x * x);
+    rgb[0] = rgb[1] = rgb[2] = 0.1 + 1000 * exp(-x * x);
 }
 
-static int read_spike(void *user, const struct oop_check_pair *p, int in_plane, double *value,
+static int read_spike(void *user, const struct oop_check_pair *p, int in_plane, double rgb[3],
                       struct gonio_err *err)
 {
     (void)err;
@@ -202,15 +206,15 @@ static int read_spike(void *user, const struct oop_check_pair *p, int in_plane, 
         brdf_pair_inplane(p->in_theta_i, p->in_theta_r, &bp);
     else
         brdf_pair_spherical(p->theta_i, 0, p->theta_o, p->phi_o, &bp);
-    *value = spike(user, &bp);
+    spike(user, &bp, rgb);
     return 0;
 }
 
-static int read_nothing(void *user, const struct oop_check_pair *p, int in_plane, double *value,
+static int read_nothing(void *user, const struct oop_check_pair *p, int in_plane, double rgb[3],
                         struct gonio_err *err)
 {
     (void)user, (void)p, (void)in_plane, (void)err;
-    *value = NAN;
+    rgb[0] = rgb[1] = rgb[2] = NAN;
     return 0;
 }
 

@@ -1,35 +1,35 @@
 /* The full-domain error's estimate (capture/oop_estimate.h): from ten
  * nodes drawn in proportion to the model's brightness it comes within 25%
- * of the mean over 20,000 nodes of the full domain drawn at random, with
- * that mean inside its interval (to the mean's own 2%), for a model whose lobe is too narrow (the
- * error on the lobe) and for one 20% too bright everywhere (the error
- * spread over the domain); a model equal to the material is estimated
- * exact; the nodes are nodes of the domain, measured in travel order. */
+ * of the full-domain log error (brdf/metrics.h, per channel) over 20,000
+ * nodes of the full domain drawn at random, with that error inside its
+ * interval (to the reference's own 2%), for a model whose lobe is too
+ * narrow (the error on the lobe), one 20% too bright everywhere (the
+ * error spread over the domain), one too wide and one of the wrong colour
+ * (red too bright, blue too dark: the mean of the channels nearly right,
+ * each of them wrong); a model equal to the material is estimated exact;
+ * the nodes are nodes of the domain, measured in travel order; the
+ * interval is Student's t of the strata's spread. */
 #include <math.h>
 #include <string.h>
 
 #include "brdf/domain.h"
 #include "brdf/material.h"
+#include "brdf/metrics.h"
 #include "capture/oop_check.h"
 #include "tests/gonio_test.h"
 
-static double mean_of(const brdf_material *m, const struct brdf_pair *p)
-{
-    double rgb[3];
-    brdf_material_eval(m, p, 1, rgb);
-    return (rgb[0] + rgb[1] + rgb[2]) / 3.0;
-}
-
-/* A model: a material, its values scaled. */
+/* A model: a material, its channels scaled. */
 struct model {
     brdf_material *m;
-    double scale;
+    double scale[3];
 };
 
-static double predict(void *user, const struct brdf_pair *p)
+static void predict(void *user, const struct brdf_pair *p, double rgb[3])
 {
     const struct model *md = user;
-    return md->scale * mean_of(md->m, p);
+    brdf_material_eval(md->m, p, 1, rgb);
+    for (int c = 0; c < 3; c++)
+        rgb[c] *= md->scale[c];
 }
 
 /* The material measured, the pairs' theta_i in the order read. */
@@ -39,7 +39,7 @@ struct bench {
     size_t n;
 };
 
-static int measure(void *user, const struct oop_check_pair *p, int in_plane, double *value,
+static int measure(void *user, const struct oop_check_pair *p, int in_plane, double rgb[3],
                    struct gonio_err *err)
 {
     (void)err;
@@ -49,7 +49,7 @@ static int measure(void *user, const struct oop_check_pair *p, int in_plane, dou
     brdf_pair_spherical(p->theta_i, 0, p->theta_o, p->phi_o, &bp);
     if (b->n < OOP_ESTIMATE_PAIRS)
         b->theta_i[b->n++] = p->theta_i;
-    *value = mean_of(b->m, &bp);
+    brdf_material_eval(b->m, &bp, 1, rgb);
     return 0;
 }
 
@@ -64,27 +64,32 @@ static brdf_material *open_or_die(const char *spec)
 
 #define TRUTH "analytic:aniso-ggx?ax=0.1&ay=0.1&phi=0"
 
-/* The error the estimate stands for: the mean of the error term over
- * 20,000 nodes of the full domain drawn at random (the full domain's mean
- * to about 2%). */
+/* The error the estimate stands for: the full-domain log error
+ * (brdf/metrics.h) over 20,000 nodes of the full domain drawn at random
+ * (the full domain's to about 2%). */
 static double domain_error(struct model *md, brdf_material *truth)
 {
     struct brdf_domain d;
     struct gonio_err err = {0};
     assert_int_equal(brdf_domain_oop_random(&d, 20000, 11, &err), 0);
-    double sum = 0;
+    double *t = malloc(3 * d.n * sizeof *t), *g = malloc(3 * d.n * sizeof *g);
+    assert_non_null(t);
+    assert_non_null(g);
+    brdf_material_eval(truth, d.pairs, d.n, t);
     for (size_t k = 0; k < d.n; k++)
-        sum += oop_check_error(mean_of(truth, &d.pairs[k]), predict(md, &d.pairs[k]),
-                               brdf_pair_theta_i_deg(&d.pairs[k]));
-    size_t n = d.n;
+        predict(md, &d.pairs[k], g + 3 * k);
+    struct brdf_errors e;
+    brdf_errors_compute(d.pairs, t, g, d.n, &e);
+    free(t);
+    free(g);
     brdf_domain_free(&d);
-    return sum / (double)n;
+    return e.log;
 }
 
-static void estimate(const char *model, double scale, struct oop_estimate *e, struct bench *b,
-                     double *truth_error)
+static void estimate(const char *model, const double scale[3], struct oop_estimate *e,
+                     struct bench *b, double *truth_error)
 {
-    struct model md = {open_or_die(model), scale};
+    struct model md = {open_or_die(model), {scale[0], scale[1], scale[2]}};
     *b = (struct bench){.m = open_or_die(TRUTH)};
     struct gonio_err err = {0};
     assert_int_equal(oop_estimate_run(predict, &md, measure, b, e, &err), 0);
@@ -98,17 +103,19 @@ static void test_estimates_the_domain_error(void **state)
     (void)state;
     static const struct {
         const char *model;
-        double scale;
-    } cases[] = {{"analytic:aniso-ggx?ax=0.07&ay=0.07&phi=0", 1.0},
-                 {TRUTH, 1.2},
-                 {"analytic:aniso-ggx?ax=0.15&ay=0.15&phi=0", 0.9}};
+        double scale[3];
+    } cases[] = {{"analytic:aniso-ggx?ax=0.07&ay=0.07&phi=0", {1, 1, 1}},
+                 {TRUTH, {1.2, 1.2, 1.2}},
+                 {"analytic:aniso-ggx?ax=0.15&ay=0.15&phi=0", {0.9, 0.9, 0.9}},
+                 {TRUTH, {1.25, 1, 0.75}}};
     for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
         struct oop_estimate e;
         struct bench b;
         double truth;
         estimate(cases[i].model, cases[i].scale, &e, &b, &truth);
-        print_message("%s x%.1f: estimate %.4f [%.4f, %.4f], domain %.4f\n", cases[i].model,
-                      cases[i].scale, e.error, e.low, e.high, truth);
+        print_message("%s x%.2f/%.2f/%.2f: estimate %.4f [%.4f, %.4f], domain %.4f\n",
+                      cases[i].model, cases[i].scale[0], cases[i].scale[1], cases[i].scale[2],
+                      e.error, e.low, e.high, truth);
         assert_int_equal(e.pairs, OOP_ESTIMATE_PAIRS);
         assert_int_equal(e.used, OOP_ESTIMATE_PAIRS);
         assert_true(fabs(e.error / truth - 1) < 0.25);
@@ -124,15 +131,15 @@ static void test_the_material_itself_is_exact(void **state)
     struct oop_estimate e;
     struct bench b;
     double truth;
-    estimate(TRUTH, 1.0, &e, &b, &truth);
+    estimate(TRUTH, (const double[3]){1, 1, 1}, &e, &b, &truth);
     assert_true(truth == 0 && e.error == 0 && e.low == 0 && e.high == 0);
 }
 
 static void test_nodes_of_the_domain_in_travel_order(void **state)
 {
     (void)state;
-    struct model md = {open_or_die(TRUTH), 1.0};
-    struct oop_check_pair p[OOP_ESTIMATE_PAIRS];
+    struct model md = {open_or_die(TRUTH), {1, 1, 1}};
+    struct oop_estimate_node p[OOP_ESTIMATE_PAIRS];
     double mean_density = 0;
     assert_int_equal(oop_estimate_choose(predict, &md, p, &mean_density), OOP_ESTIMATE_PAIRS);
     assert_true(mean_density > OOP_ESTIMATE_FLOOR && mean_density < 1 + OOP_ESTIMATE_FLOOR);
@@ -144,7 +151,10 @@ static void test_nodes_of_the_domain_in_travel_order(void **state)
         /* theta_h on the grid: (i / 90)^2 90 degrees */
         double i = sqrt(bp.theta_h / (90 * BRDF_DEG)) * 90;
         assert_close(i, round(i), 1e-6);
-        assert_close(p[j].predicted, predict(&md, &bp), 1e-9);
+        double rgb[3];
+        predict(&md, &bp, rgb);
+        for (int c = 0; c < 3; c++)
+            assert_close(p[j].predicted[c], rgb[c], 1e-9);
         near_mirror += bp.theta_h < 5 * BRDF_DEG;
     }
     /* drawn as the model's brightness weighs: the lobe (theta_h < 5 deg,
@@ -155,7 +165,7 @@ static void test_nodes_of_the_domain_in_travel_order(void **state)
     struct oop_estimate e;
     struct bench b;
     double truth;
-    estimate(TRUTH, 1.1, &e, &b, &truth);
+    estimate(TRUTH, (const double[3]){1.1, 1.1, 1.1}, &e, &b, &truth);
     assert_int_equal(b.n, OOP_ESTIMATE_PAIRS);
     for (size_t j = 1; j < b.n; j++)
         assert_true((int)(b.theta_i[j] / 15) >= (int)(b.theta_i[j - 1] / 15));
@@ -164,22 +174,48 @@ static void test_nodes_of_the_domain_in_travel_order(void **state)
 static void test_too_few_readings_no_estimate(void **state)
 {
     (void)state;
-    struct oop_check_pair p[OOP_ESTIMATE_PAIRS] = {{0}};
-    double m[OOP_ESTIMATE_PAIRS];
+    struct oop_estimate_node p[OOP_ESTIMATE_PAIRS];
+    double m[OOP_ESTIMATE_PAIRS][3];
     for (size_t j = 0; j < OOP_ESTIMATE_PAIRS; j++) {
-        p[j] = (struct oop_check_pair){.theta_i = 30, .predicted = 1, .in_predicted = 0.5};
-        m[j] = j < OOP_ESTIMATE_MIN_USED - 1 ? 1.1 : NAN;
+        p[j] = (struct oop_estimate_node){.theta_i = 30, .predicted = {1, 1, 1}, .density = 0.5};
+        for (int c = 0; c < 3; c++)
+            m[j][c] = j < OOP_ESTIMATE_MIN_USED - 1 ? 1.1 : NAN;
     }
+    /* one channel unusable: the node left out */
+    m[OOP_ESTIMATE_MIN_USED - 1][0] = m[OOP_ESTIMATE_MIN_USED - 1][1] = 1.1;
     struct oop_estimate e;
-    oop_estimate_decide(p, OOP_ESTIMATE_PAIRS, m, 0.5, &e);
+    oop_estimate_decide(p, OOP_ESTIMATE_PAIRS, (const double (*)[3])m, 0.5, &e);
     assert_int_equal(e.used, OOP_ESTIMATE_MIN_USED - 1);
     assert_true(isnan(e.error) && isnan(e.low) && isnan(e.high));
     /* one more: the weighted mean, e_j / density_j times the mean density */
-    m[OOP_ESTIMATE_MIN_USED - 1] = 1.1;
-    oop_estimate_decide(p, OOP_ESTIMATE_PAIRS, m, 0.5, &e);
+    m[OOP_ESTIMATE_MIN_USED - 1][2] = 1.1;
+    oop_estimate_decide(p, OOP_ESTIMATE_PAIRS, (const double (*)[3])m, 0.5, &e);
     double one = oop_check_error(1.1, 1, 30);
     assert_close(e.error, one, 1e-12);
     assert_close(e.low, e.error, 1e-12); /* no spread between strata */
+    /* a spread: the strata (0, 1) and (2, 3) differ by d, 2 pairs, a
+     * standard error of d / sqrt(2 x 4) and Student's t of 2 degrees */
+    m[1][0] = m[1][1] = m[1][2] = m[3][0] = m[3][1] = m[3][2] = 1.3;
+    oop_estimate_decide(p, OOP_ESTIMATE_PAIRS, (const double (*)[3])m, 0.5, &e);
+    double two = oop_check_error(1.3, 1, 30), d = (two - one) / 0.5;
+    assert_close(e.error, (one + two) / 2, 1e-12);
+    assert_close(e.high - e.error, 0.5 * 4.303 * d / sqrt(8.0), 1e-9);
+}
+
+/* A node's term is the metric's, per channel: a reading of the right mean
+ * and the wrong colour errs; a dark channel read below zero counts as 0. */
+static void test_the_term_is_per_channel(void **state)
+{
+    (void)state;
+    const double pred[3] = {1, 1, 1}, tint[3] = {1.5, 1, 0.5}, dark[3] = {-0.01, 0, 0};
+    double w = cos(30 * BRDF_DEG);
+    double want = (fabs(log1p(1.5 * w) - log1p(w)) + fabs(log1p(0.5 * w) - log1p(w))) / 3;
+    assert_close(oop_estimate_error(tint, pred, 30), want, 1e-12);
+    assert_close(oop_check_error((1.5 + 1 + 0.5) / 3, 1, 30), 0, 1e-12); /* the mean's: none */
+    assert_true(isnan(oop_estimate_error(dark, pred, 30))); /* no light read */
+    const double dim[3] = {-0.01, 0.5, 1};
+    assert_close(oop_estimate_error(dim, pred, 30),
+                 (log1p(w) + log1p(w) - log1p(0.5 * w)) / 3, 1e-12);
 }
 
 int main(void)
@@ -189,6 +225,7 @@ int main(void)
         cmocka_unit_test(test_the_material_itself_is_exact),
         cmocka_unit_test(test_nodes_of_the_domain_in_travel_order),
         cmocka_unit_test(test_too_few_readings_no_estimate),
+        cmocka_unit_test(test_the_term_is_per_channel),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
