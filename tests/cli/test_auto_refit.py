@@ -5,23 +5,13 @@ capture chose and says why in the same words. The out-of-plane replay's
 latent candidate needs the shared decoder: skipped visibly without it."""
 import json
 import os
-import subprocess
 import sys
 import tempfile
 
 import pytest
 
-BIN = os.environ.get("GONIO_BIN", "build/bin")
-GONIO = os.path.join(BIN, "gonio")
-ANISO = "analytic:aniso-ggx?ax=0.08&ay=0.16&phi=30"
-AZ3 = """name: ds2-az3
-grid: {theta_i_step: 15, diffuse_step: 10, glossy_step: 2, glossy_half_width: 15}
-sample_azimuths: 3
-"""
-
-
-def gonio(*args):
-    return subprocess.run([GONIO, *args], capture_output=True, text=True, timeout=600)
+# The anisotropic material and three-azimuth plan of the capture checks.
+from test_auto_checks import ANISO, AZ3, gonio
 
 
 @pytest.fixture

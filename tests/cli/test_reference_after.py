@@ -32,14 +32,14 @@ def gonio(*args):
     return subprocess.run([GONIO, *args], capture_output=True, text=True, timeout=300)
 
 
-def lab_without_monitor(folder, name, seed, drift=None):
-    """lab's scene without its lamp monitor and its drift, under name, with
-    drift (an effect line) instead; its path."""
-    with open(os.path.join(CONFIG, "scenes", "lab.yaml")) as f:
+def scene_without_monitor(folder, name, seed, drift=None, base="lab"):
+    """The scene base (lab, spectral-lab) without its lamp monitor and its
+    drift, under name, with drift (an effect line) instead; its path."""
+    with open(os.path.join(CONFIG, "scenes", base + ".yaml")) as f:
         text = f.read()
     text = "".join(line + "\n" for line in text.splitlines()
                    if "lamp_drift" not in line and "lamp_monitor" not in line)
-    text = text.replace("name: lab", "name: %s" % name)
+    text = text.replace("name: " + base, "name: %s" % name)
     text = re.sub(r"(?m)^seed: \d+", "seed: %d" % seed, text)
     if drift:
         text += "  - %s\n" % drift
@@ -66,7 +66,7 @@ def chain():
     root, dark rows, {seed: (before-only dir, bracketed dir)})."""
     with tempfile.TemporaryDirectory(prefix="refafter_") as d:
         lab = rig(d)
-        steady = lab_without_monitor(d, "steady", 1)
+        steady = scene_without_monitor(d, "steady", 1)
         cal = os.path.join(d, "cal")
         for what, extra in (("dark", []), ("reference", ["--plan", "ds3", "--repeats", "2"])):
             r = gonio("calibrate", what, "--offline", "--scene", steady, "--rig", lab, "--out",
@@ -76,7 +76,7 @@ def chain():
         dark_rows = gonio_cal.frames(os.path.join(cal, dark, "frames.csv"))
         caps = {}
         for seed in SEEDS:
-            scene = lab_without_monitor(d, "drifting-%d" % seed, seed,
+            scene = scene_without_monitor(d, "drifting-%d" % seed, seed,
                                         "{name: lamp_drift, sigma: 0.3, tau_s: 20000}")
             pair = []
             for after in (False, True):

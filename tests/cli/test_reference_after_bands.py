@@ -14,12 +14,13 @@ spectra.csv byte for byte."""
 import csv
 import json
 import os
-import re
 import statistics
 import subprocess
 import tempfile
 
 import pytest
+
+from test_reference_after import scene_without_monitor
 
 BIN = os.environ.get("GONIO_BIN", "build/bin")
 GONIO = os.path.join(BIN, "gonio")
@@ -31,22 +32,6 @@ MIN_SNR = 30  # a band's counting SNR at the default rig's 0.05 s: about 70 on t
 
 def gonio(*args):
     return subprocess.run([GONIO, *args], capture_output=True, text=True, timeout=300)
-
-
-def scene(folder, name, seed, drift=None):
-    """spectral-lab without its lamp monitor and drift, with drift instead."""
-    with open(os.path.join(CONFIG, "scenes", "spectral-lab.yaml")) as f:
-        text = f.read()
-    text = "".join(line + "\n" for line in text.splitlines()
-                   if "lamp_drift" not in line and "lamp_monitor" not in line)
-    text = text.replace("name: spectral-lab", "name: %s" % name)
-    text = re.sub(r"(?m)^seed: \d+", "seed: %d" % seed, text)
-    if drift:
-        text += "  - %s\n" % drift
-    path = os.path.join(folder, "%s.yaml" % name)
-    with open(path, "w") as f:
-        f.write(text)
-    return path
 
 
 def bands(capdir):
@@ -88,7 +73,7 @@ def capture(scene_path, cal, out, after):
 @pytest.fixture(scope="module")
 def chain():
     with tempfile.TemporaryDirectory(prefix="refbands_") as d:
-        steady = scene(d, "steady", 3)
+        steady = scene_without_monitor(d, "steady", 3, base="spectral-lab")
         cal = os.path.join(d, "cal")
         for what, extra in (("dark", ["--ladder"]),
                             ("reference", ["--plan", "ds3", "--repeats", "2"])):
@@ -97,8 +82,9 @@ def chain():
         base = capture(steady, cal, os.path.join(d, "steady-cap"), False)
         caps = {}
         for seed in SEEDS:
-            drifting = scene(d, "drifting-%d" % seed, seed,
-                             "{name: lamp_drift, sigma: 0.3, tau_s: 20000}")
+            drifting = scene_without_monitor(d, "drifting-%d" % seed, seed,
+                                             "{name: lamp_drift, sigma: 0.3, tau_s: 20000}",
+                                             base="spectral-lab")
             caps[seed] = tuple(capture(drifting, cal, os.path.join(d, "cap-%d-%s" % (seed, k)),
                                        k == "after") for k in ("before", "after"))
         yield d, cal, base, caps

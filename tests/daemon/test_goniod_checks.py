@@ -50,6 +50,18 @@ class ChecksTests(DaemonTest):
         self.assertEqual(stop["exit_status"], "success", stop)
         return stop["checks"]["isotropy"]
 
+    def fit_event(self, ev, validators):
+        """The run's fit descriptor and its event, every document of the run
+        valid against the event model's schemas."""
+        pairs = read_run(ev)
+        for name, doc in pairs:
+            errors = [e.message for e in validators[name].iter_errors(doc)]
+            self.assertEqual(errors, [], "%s invalid: %s" % (name, json.dumps(doc)[:600]))
+        fit = [d for n, d in pairs if n == "descriptor" and d["name"] == "fit"]
+        self.assertEqual(len(fit), 1)
+        event = [d for n, d in pairs if n == "event" and d["descriptor"] == fit[0]["uid"]]
+        return fit[0], event[0]
+
     def test_isotropic_in_stop_document(self):
         c = self.d.connect()
         self.assertEqual(c.request("watch")["class"], "OK")
@@ -118,23 +130,17 @@ class ChecksTests(DaemonTest):
         if not validators:
             sys.stderr.write(why + "\n")
             return
-        pairs = read_run(ev)
-        for name, doc in pairs:
-            errors = [e.message for e in validators[name].iter_errors(doc)]
-            self.assertEqual(errors, [], "%s invalid: %s" % (name, json.dumps(doc)[:600]))
-        fit = [d for n, d in pairs if n == "descriptor" and d["name"] == "fit"]
-        self.assertEqual(len(fit), 1)
-        event = [d for n, d in pairs if n == "event" and d["descriptor"] == fit[0]["uid"]][0]
+        fit, event = self.fit_event(ev, validators)
         self.assertEqual(event["data"]["isotropy_verdict"], "anisotropic")
         self.assertAlmostEqual(event["data"]["isotropy_significance"], iso["significance"],
                                delta=1e-9 * iso["significance"])
         self.assertAlmostEqual(event["data"]["isotropy_rig_time_s"], iso["rig_time_s"],
                                delta=1e-9 * iso["rig_time_s"])
-        self.assertEqual(fit[0]["data_keys"]["isotropy_rig_time_s"]["units"], "s")
+        self.assertEqual(fit["data_keys"]["isotropy_rig_time_s"]["units"], "s")
         self.assertEqual(event["data"]["oop_verdict"], "insufficient")
         self.assertAlmostEqual(event["data"]["oop_ratio"], oop["ratio"],
                                delta=1e-9 * oop["ratio"])
-        self.assertEqual(fit[0]["data_keys"]["oop_rig_time_s"]["units"], "s")
+        self.assertEqual(fit["data_keys"]["oop_rig_time_s"]["units"], "s")
         # the full-domain error estimate with its interval, as results.json has it
         self.assertIn("full-domain log error estimated %.4f (95%%: %.4f-%.4f"
                       % (oop["error_full"], *oop["error_full_interval"]), r.stdout)
@@ -142,7 +148,7 @@ class ChecksTests(DaemonTest):
                                delta=1e-9 * oop["error_full"])
         self.assertTrue(same(event["data"]["oop_error_full_interval"],
                              oop["error_full_interval"]))
-        self.assertEqual(fit[0]["data_keys"]["oop_error_full_interval"]["shape"], [2])
+        self.assertEqual(fit["data_keys"]["oop_error_full_interval"]["shape"], [2])
         self.assertEqual(event["data"]["oop_domain_pairs_used"], oop["domain_pairs_used"])
         self.assertEqual(event["data"]["isotropy_why"], iso["why"])
         self.assertNotIn("auto_chosen", event["data"])  # not --model auto
@@ -169,12 +175,8 @@ class ChecksTests(DaemonTest):
         if not validators:
             sys.stderr.write(why + "\n")
             return
-        pairs = read_run(ev)
-        for name, doc in pairs:
-            errors = [e.message for e in validators[name].iter_errors(doc)]
-            self.assertEqual(errors, [], "%s invalid: %s" % (name, json.dumps(doc)[:600]))
-        fit = [d for n, d in pairs if n == "descriptor" and d["name"] == "fit"][0]
-        data = [d for n, d in pairs if n == "event" and d["descriptor"] == fit["uid"]][0]["data"]
+        fit, event = self.fit_event(ev, validators)
+        data = event["data"]
         self.assertEqual((data["auto_chosen"], data["auto_why"], data["auto_isotropy"]),
                          (a["chosen"], a["why"], a["isotropy"]))
         self.assertEqual(fit["data_keys"]["auto_why"]["dtype"], "string")
