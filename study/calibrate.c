@@ -52,9 +52,21 @@ static int measure(const char *scene, const char *plan_name, const char *root,
         (rc = plan_load(plan_name, &prof, &plan, err)) > 0)
         rc = 0;
     struct capture_devices dev;
+    /* The dark covers every rung of the auto-ranging ladder, as an operator's
+     * `gonio calibrate dark --ladder` does, so that the capture ranges: at
+     * the fixed integration alone a metal's peak clips and a dark tail
+     * drowns in read noise. The reference, at the fixed integration, serves
+     * every rung. */
+    if (rc >= 0 && crig.counts) {
+        meta->integrations[0] = prof.integration_s;
+        meta->n_integrations = 1;
+        if (meta->kind == CAL_DARK)
+            cal_add_ladder(meta, &prof);
+    }
     if (rc >= 0 && crig.counts && (rc = crig.open(crig.user, &prof, root, &dev, err)) >= 0) {
         rc = meta->kind == CAL_DARK
-                 ? cal_measure_dark(&dev, &prof.integration_s, 1, DARK_FRAMES, &frames, &n, err)
+                 ? cal_measure_dark(&dev, meta->integrations, meta->n_integrations, DARK_FRAMES,
+                                    &frames, &n, err)
                  : cal_measure_reference(&dev, &prof, plan, REFERENCE_REPEATS, &frames, &n,
                                          err);
         crig.close(crig.user, &dev);
@@ -64,8 +76,6 @@ static int measure(const char *scene, const char *plan_name, const char *root,
         snprintf(meta->detector, sizeof meta->detector, "%s",
                  crig.detector ? crig.detector : "unknown");
         meta->in_position_deg = prof.mech.in_position_deg;
-        meta->integrations[0] = prof.integration_s;
-        meta->n_integrations = 1;
         meta->gain_state = n > 0 ? frames[0].gain_state : 0;
         cal_new_id(root, meta->kind, meta->created, meta->id, sizeof meta->id);
         rc = cal_write(root, meta, frames, n, err);
