@@ -295,6 +295,23 @@ static void test_the_changer_swaps_them(void **state)
     assert_int_equal(access(c.path, F_OK), -1);
     free(fr);
 
+    /* Started again with the standard in and a journal that is not this
+     * run's: refused, with the journal's error, and the sample put back. */
+    f = fopen(c.path, "w");
+    fputs("slot 1 in\n", f);
+    fclose(f);
+    char jpath[256];
+    snprintf(jpath, sizeof jpath, "%s/reference-changer/journal.csv", dir);
+    f = fopen(jpath, "a");
+    fputs("dark,nan,nan,0.05,0,1003,99\n", f);
+    fclose(f);
+    c.n = 0, fr = NULL, err = (struct gonio_err){0};
+    assert_true(cal_run_measure(&r.dev, &run, &h, &fr, &n, &aborted, &err) < 0);
+    assert_non_null(strstr(err.msg, "journal.csv"));
+    assert_int_equal(c.n, 1);
+    assert_int_equal(c.slots[0], CAPTURE_SLOT_SAMPLE);
+    assert_int_equal(access(c.path, F_OK), -1);
+
     /* Stray light: the light trap in, stopped part way, the sample back. */
     struct cal_meta stray = {.kind = CAL_STRAY};
     snprintf(stray.id, sizeof stray.id, "stray-changer");
