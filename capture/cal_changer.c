@@ -16,7 +16,7 @@ static void journal_path(const char *dir, char *out, size_t size)
     snprintf(out, size, "%s/%s", dir, CAL_CHANGER_JOURNAL);
 }
 
-int cal_changer_journalled(const char *dir, int *in_place)
+int cal_changer_journalled(const char *dir)
 {
     char path[4200], state[16];
     journal_path(dir, path, sizeof path);
@@ -26,8 +26,6 @@ int cal_changer_journalled(const char *dir, int *in_place)
     int slot = -1;
     if (fscanf(f, "slot %d %15s", &slot, state) != 2 || slot < 0 || slot > CAPTURE_SLOT_TRAP)
         slot = CAPTURE_SLOT_TRAP + 1; /* torn or foreign: not known */
-    else if (in_place)
-        *in_place = !strcmp(state, "in");
     fclose(f);
     return slot;
 }

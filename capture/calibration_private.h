@@ -43,10 +43,10 @@ int cal_frames_read(const char *path, struct cal_frame **out, size_t *n, struct 
 int cal_changer_put(const char *dir, const struct cal_hooks *h, struct capture_devices *dev,
                     enum capture_slot slot, const char *standard, struct gonio_err *err);
 
-/* The slot dir's changer journal names (in_place, when not NULL: 1 when
- * it is there, 0 when a swap to it was under way); -1 when there is no
- * journal (the sample in its place), CAPTURE_SLOT_TRAP + 1 when it cannot
- * be read. */
-int cal_changer_journalled(const char *dir, int *in_place);
+/* The slot dir's changer journal names, swapping or in alike (either way
+ * the sample is not in its place, and asking the changer again for a slot
+ * it holds does not move it); -1 when there is no journal (the sample in
+ * its place), CAPTURE_SLOT_TRAP + 1 when it cannot be read. */
+int cal_changer_journalled(const char *dir);
 
 #endif

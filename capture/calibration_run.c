@@ -220,9 +220,10 @@ int cal_run_measure(struct capture_devices *dev, const struct cal_run *run,
     }
     if (fd >= 0)
         close(fd);
-    /* The sample back in its place, whatever happened, also when a run
-     * killed after its swap is started again (the changer's journal). */
-    if (h->mount && fd >= 0 && cal_changer_journalled(dir, NULL) >= 0) {
+    /* The sample back in its place, whatever happened (also when the run's
+     * directory or journal could not be opened), and when a run killed
+     * after its swap is started again (the changer's journal). */
+    if (h->mount && cal_changer_journalled(dir) >= 0) {
         struct gonio_err ignored;
         int back = cal_changer_put(dir, h, dev, CAPTURE_SLOT_SAMPLE, NULL,
                                    rc < 0 ? &ignored : err);

@@ -188,7 +188,16 @@ struct changer {
     int slots[8], n;
     char journal[64]; /* the changer journal's text at the last frame */
     char path[256];
+    int asked; /* how often the operator was asked */
 };
+
+static enum capture_control changer_ask(void *user, const char *instruction)
+{
+    (void)instruction;
+    struct changer *c = user;
+    c->asked++;
+    return CAPTURE_ABORT;
+}
 
 static int changer_mount(void *user, struct capture_devices *d, enum capture_slot slot,
                          const char *standard, struct gonio_err *err)
@@ -243,12 +252,15 @@ static void test_the_changer_swaps_them(void **state)
     struct cal_hooks h = {.control = stop_control, .ask = record_ask, .user = &s,
                           .mount = changer_mount, .mount_user = &c};
     struct cal_hooks follow = h;
-    follow.on_frame = changer_frame, follow.user = &c, follow.control = NULL;
+    /* on_frame and ask share user: both take the changer */
+    follow.on_frame = changer_frame, follow.ask = changer_ask, follow.user = &c;
+    follow.control = NULL;
     struct cal_frame *fr = NULL, *hand = NULL;
     size_t n = 0, nh = 0;
     int aborted = 0;
     assert_int_equal(cal_run_measure(&r.dev, &run, &follow, &fr, &n, &aborted, &err), 0);
-    assert_int_equal(s.asked[0], '\0');
+    assert_int_equal(c.asked, 0);
+    assert_false(aborted);
     assert_int_equal(n, 2 * plan_count(plan));
     assert_int_equal(c.n, 2);
     assert_int_equal(c.slots[0], CAPTURE_SLOT_STANDARD);
@@ -282,6 +294,23 @@ static void test_the_changer_swaps_them(void **state)
     assert_int_equal(c.slots[0], CAPTURE_SLOT_SAMPLE);
     assert_int_equal(access(c.path, F_OK), -1);
     free(fr);
+
+    /* Started again with the standard in and a journal that is not this
+     * run's: refused, with the journal's error, and the sample put back. */
+    f = fopen(c.path, "w");
+    fputs("slot 1 in\n", f);
+    fclose(f);
+    char jpath[256];
+    snprintf(jpath, sizeof jpath, "%s/reference-changer/journal.csv", dir);
+    f = fopen(jpath, "a");
+    fputs("dark,nan,nan,0.05,0,1003,99\n", f);
+    fclose(f);
+    c.n = 0, fr = NULL, err = (struct gonio_err){0};
+    assert_true(cal_run_measure(&r.dev, &run, &h, &fr, &n, &aborted, &err) < 0);
+    assert_non_null(strstr(err.msg, "journal.csv"));
+    assert_int_equal(c.n, 1);
+    assert_int_equal(c.slots[0], CAPTURE_SLOT_SAMPLE);
+    assert_int_equal(access(c.path, F_OK), -1);
 
     /* Stray light: the light trap in, stopped part way, the sample back. */
     struct cal_meta stray = {.kind = CAL_STRAY};
