@@ -5,6 +5,7 @@ capture chose and says why in the same words. The out-of-plane replay's
 latent candidate needs the shared decoder: skipped visibly without it."""
 import json
 import os
+import shutil
 import sys
 import tempfile
 
@@ -76,6 +77,28 @@ def test_refit_of_an_anisotropic_capture_chooses_as_it_did(tmp):
     assert cap.auto == a and cap.checks == res["checks"]
     assert row["isotropy_sigma"] == pytest.approx(res["checks"]["isotropy"]["significance"])
     assert row["oop_full"] is None and row["oop_ratio"] is None  # no out-of-plane check
+    refit_of_files(tmp, out)
+
+
+def fit_auto(tmp, samples):
+    model = os.path.join(tmp, "files.model")
+    return gonio("fit", samples, "--model", "auto", "--quiet", "-o", model), model
+
+
+def refit_of_files(tmp, out):
+    """A samples file is fitted without a capture's verdicts, even with a
+    results.json beside it: only a capture directory's own are its evidence."""
+    elsewhere = os.path.join(tmp, "elsewhere")
+    os.mkdir(elsewhere)
+    shutil.copy(os.path.join(out, "samples.csv"), os.path.join(elsewhere, "other.csv"))
+    shutil.copy(os.path.join(out, "results.json"), elsewhere)
+    for samples in (os.path.join(elsewhere, "other.csv"), os.path.join(out, "samples.csv")):
+        r, model = fit_auto(tmp, samples)
+        assert r.returncode == 0, r.stderr
+        assert "results.json" not in r.stdout
+        assert "evidence   none (a samples file" in r.stdout, r.stdout
+        with open(model, "rb") as f:  # no anisotropic verdict left abc out
+            assert b"auto_cv_abc " in f.read().split(b"\ndata ")[0]
 
 
 def test_refit_replays_the_out_of_plane_verdicts(tmp):
