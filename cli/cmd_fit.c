@@ -309,8 +309,8 @@ static int run_fit(const struct fit_model_kind *kind, struct fit_data *data,
     if (!strcmp(kind->name, "auto")) {
         /* only a capture directory's own verdicts: a samples file says
          * nothing of which capture (if any) took it */
-        if (p->is_dir)
-            capture_verdicts_read(p->dir, &r.recorded);
+        if (p->is_dir && capture_verdicts_read(p->dir, &r.recorded, err) < 0)
+            return -GONIO_EBADDATA;
         ev.isotropy = r.recorded.isotropy;
         data->auto_evidence = &ev;
         if (r.recorded.found)
