@@ -4,6 +4,7 @@
 
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "capture/capture_files.h"
 
@@ -62,30 +63,77 @@ static void add_oop(struct capture_verdicts *v, const char *model, const char *v
     v->found = 1;
 }
 
-void capture_verdicts_read(const char *dir, struct capture_verdicts *out)
+/* json's member key, when present, as a JSON value of the wanted type
+ * (json_is_object or json_is_string), else an error naming path and field. */
+static int member(const char *path, const char *field, json_t *json, const char *key,
+                  int (*is)(const json_t *), const char *what, json_t **out,
+                  struct gonio_err *err)
+{
+    *out = json_object_get(json, key);
+    if (*out && !json_is_null(*out) && !is(*out))
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: %s: not %s", path, field, what);
+    if (json_is_null(*out))
+        *out = NULL;
+    return 0;
+}
+
+static int is_object(const json_t *j) { return json_is_object(j); }
+static int is_string(const json_t *j) { return json_is_string(j); }
+
+int capture_verdicts_read(const char *dir, struct capture_verdicts *out, struct gonio_err *err)
 {
     memset(out, 0, sizeof *out);
     char path[4200];
     snprintf(path, sizeof path, "%.4000s/results.json", dir);
-    json_t *root = json_load_file(path, 0, NULL);
-    json_t *checks = json_object_get(root, "checks"), *auto_doc = json_object_get(root, "auto");
-    const char *iso = json_string_value(
-        json_object_get(json_object_get(checks, "isotropy"), "verdict"));
-    out->isotropy = fit_auto_isotropy_of(iso);
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return 0; /* no results.json: no evidence */
+    json_error_t je;
+    json_t *root = json_load_file(path, 0, &je);
+    if (!root)
+        return gonio_err_set(err, GONIO_EBADDATA, "%s: line %d: %s", path, je.line, je.text);
+    json_t *checks = NULL, *auto_doc = NULL, *iso_doc = NULL, *iso = NULL, *oop_doc = NULL,
+           *oop = NULL, *last = NULL, *auto_oop = NULL;
+    int rc = json_is_object(root) ? 0
+             : gonio_err_set(err, GONIO_EBADDATA, "%s: not a JSON object", path);
+    if (!rc)
+        rc = member(path, "checks", root, "checks", is_object, "an object", &checks, err);
+    if (!rc)
+        rc = member(path, "auto", root, "auto", is_object, "an object or null", &auto_doc, err);
+    if (!rc)
+        rc = member(path, "checks.isotropy", checks, "isotropy", is_object, "an object",
+                    &iso_doc, err);
+    if (!rc)
+        rc = member(path, "checks.isotropy.verdict", iso_doc, "verdict", is_string, "a string",
+                    &iso, err);
+    if (!rc)
+        rc = member(path, "checks.out_of_plane", checks, "out_of_plane", is_object, "an object",
+                    &oop_doc, err);
+    if (!rc)
+        rc = member(path, "checks.out_of_plane.verdict", oop_doc, "verdict", is_string,
+                    "a string", &oop, err);
+    if (!rc) /* the check of the model fitted last, as it said (also "undetermined") */
+        rc = auto_doc ? member(path, "auto.chosen", auto_doc, "chosen", is_string, "a string",
+                               &last, err)
+                      : member(path, "model", root, "model", is_string, "a string", &last, err);
+    if (!rc)
+        rc = member(path, "auto.out_of_plane", auto_doc, "out_of_plane", is_object, "an object",
+                    &auto_oop, err);
+    if (rc) {
+        json_decref(root);
+        return rc;
+    }
+    out->isotropy = fit_auto_isotropy_of(json_string_value(iso));
     out->found = iso != NULL;
-    /* the check of the model fitted last, as it said (also "undetermined") */
-    json_t *last = json_is_object(auto_doc) ? json_object_get(auto_doc, "chosen")
-                                            : json_object_get(root, "model");
-    add_oop(out, json_string_value(last),
-            json_string_value(
-                json_object_get(json_object_get(checks, "out_of_plane"), "verdict")));
+    add_oop(out, json_string_value(last), json_string_value(oop));
     /* the candidates judged before it: only ever insufficient ones */
     const char *model;
     json_t *verdict;
-    json_object_foreach(json_object_get(auto_doc, "out_of_plane"), model, verdict)
+    json_object_foreach(auto_oop, model, verdict)
         if (!strcmp(json_string_value(verdict) ? json_string_value(verdict) : "", "insufficient"))
             add_oop(out, model, "insufficient");
     json_decref(root);
+    return 0;
 }
 
 const char *capture_verdicts_oop(const struct capture_verdicts *v, const char *model)

@@ -12,6 +12,7 @@
 #include <jansson.h>
 
 #include "capture/capture.h"
+#include "common/err.h"
 
 /* results.json's `auto`: the model chosen, why, the isotropy evidence and
  * the out-of-plane verdicts of the candidates checked; null for a capture
@@ -37,8 +38,10 @@ struct capture_verdicts {
 /* Read dir/results.json's verdicts into out (nothing found when it is
  * absent or has none). The out-of-plane check judged the model the capture
  * fitted last (auto's choice, else the capture's model): its verdict as
- * the check gave it; auto's earlier candidates' verdicts from `auto`. */
-void capture_verdicts_read(const char *dir, struct capture_verdicts *out);
+ * the check gave it; auto's earlier candidates' verdicts from `auto`.
+ * 0, or -GONIO_EBADDATA with err naming the file and what is wrong when
+ * it is not JSON or a member read is not of its type. */
+int capture_verdicts_read(const char *dir, struct capture_verdicts *out, struct gonio_err *err);
 
 /* The recorded out-of-plane verdict of model, "" when none. */
 const char *capture_verdicts_oop(const struct capture_verdicts *v, const char *model);

@@ -190,6 +190,7 @@ static int parse_args(int argc, char **argv, struct fit_args *a)
 struct fit_paths {
     char samples[4096], dir[4096], out_buf[4200];
     const char *out;
+    int is_dir; /* SAMPLES named a capture directory */
 };
 
 /* SAMPLES: a directory means its samples.csv, for a spectral model its
@@ -198,8 +199,8 @@ static void resolve_paths(const char *arg, const struct fit_model_kind *kind,
                           const struct fit_args *a, struct fit_paths *p)
 {
     struct stat st;
-    int is_dir = stat(arg, &st) == 0 && S_ISDIR(st.st_mode);
-    if (is_dir) {
+    p->is_dir = stat(arg, &st) == 0 && S_ISDIR(st.st_mode);
+    if (p->is_dir) {
         snprintf(p->samples, sizeof p->samples, "%s/%s", arg,
                  kind->spectral ? "spectra.csv" : "samples.csv");
         snprintf(p->dir, sizeof p->dir, "%s", arg);
@@ -306,12 +307,19 @@ static int run_fit(const struct fit_model_kind *kind, struct fit_data *data,
                             .rep = rep, .m = kind->spectral ? NULL : m};
     struct fit_auto_evidence ev = {0};
     if (!strcmp(kind->name, "auto")) {
-        capture_verdicts_read(p->dir, &r.recorded);
+        /* only a capture directory's own verdicts: a samples file says
+         * nothing of which capture (if any) took it */
+        if (p->is_dir && capture_verdicts_read(p->dir, &r.recorded, err) < 0)
+            return -GONIO_EBADDATA;
         ev.isotropy = r.recorded.isotropy;
         data->auto_evidence = &ev;
         if (r.recorded.found)
             printf("%-10s the premise checks' verdicts of %s/results.json\n", "evidence",
                    p->dir);
+        else
+            printf("%-10s none (%s)\n", "evidence",
+                   p->is_dir ? "no premise check's verdict in its results.json"
+                             : "a samples file: only a capture directory's verdicts are read");
     }
     int rc = fit_model_run(kind, data, &a->mo, p->out, rep, r.m, err);
     if (!rc && rep->auto_chosen[0] && r.recorded.found) {

@@ -5,6 +5,7 @@ capture chose and says why in the same words. The out-of-plane replay's
 latent candidate needs the shared decoder: skipped visibly without it."""
 import json
 import os
+import shutil
 import sys
 import tempfile
 
@@ -76,6 +77,29 @@ def test_refit_of_an_anisotropic_capture_chooses_as_it_did(tmp):
     assert cap.auto == a and cap.checks == res["checks"]
     assert row["isotropy_sigma"] == pytest.approx(res["checks"]["isotropy"]["significance"])
     assert row["oop_full"] is None and row["oop_ratio"] is None  # no out-of-plane check
+    refit_of_files(tmp, out)
+    refit_of_a_malformed_results_json(tmp, out)
+
+
+def fit_auto(tmp, samples):
+    model = os.path.join(tmp, "files.model")
+    return gonio("fit", samples, "--model", "auto", "--quiet", "-o", model), model
+
+
+def refit_of_files(tmp, out):
+    """A samples file is fitted without a capture's verdicts, even with a
+    results.json beside it: only a capture directory's own are its evidence."""
+    elsewhere = os.path.join(tmp, "elsewhere")
+    os.mkdir(elsewhere)
+    shutil.copy(os.path.join(out, "samples.csv"), os.path.join(elsewhere, "other.csv"))
+    shutil.copy(os.path.join(out, "results.json"), elsewhere)
+    for samples in (os.path.join(elsewhere, "other.csv"), os.path.join(out, "samples.csv")):
+        r, model = fit_auto(tmp, samples)
+        assert r.returncode == 0, r.stderr
+        assert "results.json" not in r.stdout
+        assert "evidence   none (a samples file" in r.stdout, r.stdout
+        with open(model, "rb") as f:  # no anisotropic verdict left abc out
+            assert b"auto_cv_abc " in f.read().split(b"\ndata ")[0]
 
 
 def test_refit_replays_the_out_of_plane_verdicts(tmp):
@@ -96,3 +120,24 @@ def test_refit_replays_the_out_of_plane_verdicts(tmp):
     assert row["oop_ratio"] == pytest.approx(c["ratio"])
     table = gonio("results", out).stdout.splitlines()
     assert "est. full log" in table[0] and ("%.4f" % c["error_full"]) in table[1]
+
+
+def refit_of_a_malformed_results_json(tmp, out):
+    """A results.json that is not JSON, or whose verdict is not a string,
+    is refused naming the file and what is wrong: never refitted without
+    the evidence it was meant to give."""
+    bad = os.path.join(tmp, "bad")
+    shutil.copytree(out, bad)
+    results = os.path.join(bad, "results.json")
+    with open(results) as f:
+        doc = json.load(f)
+    with open(results, "w") as f:
+        f.write(json.dumps(doc)[:-1])  # cut short
+    r, _ = fit_auto(tmp, bad)
+    assert r.returncode == 2 and results in r.stderr, (r.returncode, r.stderr)
+    doc["checks"]["isotropy"]["verdict"] = 1
+    with open(results, "w") as f:
+        json.dump(doc, f)
+    r, _ = fit_auto(tmp, bad)
+    assert r.returncode == 2, r.stderr
+    assert "%s: checks.isotropy.verdict: not a string" % results in r.stderr
