@@ -291,6 +291,22 @@ static int usable(const struct fit_sample *s)
     return 1;
 }
 
+/* The usable samples of s[0..n): their indices into idx, their targets
+ * log(1 + f cos theta_i) into target (3 per sample of s, at 3 i); their
+ * count. */
+static size_t select_usable(const struct fit_sample *s, size_t n, size_t *idx, double *target)
+{
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (!usable(&s[i]))
+            continue;
+        idx[m++] = i;
+        for (int k = 0; k < 3; k++)
+            target[3 * i + (size_t)k] = log1p(s[i].rgb[k] * s[i].g.wi[2]);
+    }
+    return m;
+}
+
 static struct fit_model_file *model_file(const struct outcome *o, unsigned long long seed)
 {
     const struct brdf_aniso_ggx *a = &o->a;
@@ -315,21 +331,14 @@ int fit_aniso_ggx_model_fit(const struct fit_data *data, const struct fit_model_
     if (!data->n_rgb)
         return gonio_err_set(err, GONIO_EUSAGE, "aniso-ggx: needs RGB samples");
     gsl_set_error_handler_off(); /* a failed solve is a result, not an abort */
-    size_t *idx = malloc(data->n_rgb * sizeof *idx), n = 0;
+    size_t *idx = malloc(data->n_rgb * sizeof *idx);
     double *target = malloc(3 * data->n_rgb * sizeof *target);
     if (!idx || !target) {
         free(idx);
         free(target);
         return gonio_err_set(err, ENOMEM, "aniso-ggx: out of memory");
     }
-    for (size_t i = 0; i < data->n_rgb; i++) {
-        const struct fit_sample *s = &data->rgb[i];
-        if (!usable(s))
-            continue;
-        idx[n++] = i;
-        for (int k = 0; k < 3; k++)
-            target[3 * i + (size_t)k] = log1p(s->rgb[k] * s->g.wi[2]);
-    }
+    size_t n = select_usable(data->rgb, data->n_rgb, idx, target);
     struct outcome oc = {0};
     int rc = n < 3 ? gonio_err_set(err, GONIO_EFIT,
                                    "aniso-ggx: %zu usable samples of %zu (need 3 for 9 "
@@ -393,13 +402,8 @@ int fit_aniso_ggx_solve(const struct fit_sample *s, size_t n, int cold, double x
     size_t *idx = malloc((n ? n : 1) * sizeof *idx), m = 0;
     double *target = malloc((n ? 3 * n : 1) * sizeof *target);
     int rc = idx && target ? 0 : -ENOMEM;
-    for (size_t i = 0; rc == 0 && i < n; i++) {
-        if (!usable(&s[i]))
-            continue;
-        idx[m++] = i;
-        for (int k = 0; k < 3; k++)
-            target[3 * i + (size_t)k] = log1p(s[i].rgb[k] * s[i].g.wi[2]);
-    }
+    if (rc == 0)
+        m = select_usable(s, n, idx, target);
     if (rc == 0 && m < 3)
         rc = -GONIO_EFIT;
     struct outcome oc = {0};
