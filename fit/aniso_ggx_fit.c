@@ -42,7 +42,7 @@ static double clampd(double x, double lo, double hi)
     return x < lo ? lo : x > hi ? hi : x;
 }
 
-static void to_params(const double *x, struct brdf_aniso_ggx *a)
+void fit_aniso_ggx_to_params(const double x[9], struct brdf_aniso_ggx *a)
 {
     for (int k = 0; k < 3; k++) {
         a->rho[k] = exp(clampd(x[k], LOG_MIN, LOG_MAX));
@@ -74,7 +74,7 @@ static int gsl_residuals(const gsl_vector *xv, void *user, gsl_vector *f)
     for (int j = 0; j < NPAR; j++)
         x[j] = gsl_vector_get(xv, (size_t)j);
     struct brdf_aniso_ggx a;
-    to_params(x, &a);
+    fit_aniso_ggx_to_params(x, &a);
     for (size_t j = 0; j < p->n; j++) {
         double r[3];
         residual3(p, &a, p->idx[j], r);
@@ -87,7 +87,7 @@ static int gsl_residuals(const gsl_vector *xv, void *user, gsl_vector *f)
 static double cost_of(const struct problem *p, const double *x)
 {
     struct brdf_aniso_ggx a;
-    to_params(x, &a);
+    fit_aniso_ggx_to_params(x, &a);
     double c = 0;
     for (size_t j = 0; j < p->n; j++) {
         double r[3];
@@ -276,12 +276,12 @@ static int fit_usable(const struct fit_sample *s, const unsigned char *lower, co
     if (rc == 0)
         rc = solve(&p, x, &out->iters, &out->converged, &out->cost, &out->status);
     free(sub);
-    to_params(x, &out->a);
+    fit_aniso_ggx_to_params(x, &out->a);
     canonical(&out->a);
     return rc;
 }
 
-static int usable(const struct fit_sample *s)
+int fit_aniso_ggx_usable(const struct fit_sample *s)
 {
     if (!(s->g.wi[2] > 0) || !(s->g.wo[2] > 0))
         return 0;
@@ -298,7 +298,7 @@ static size_t select_usable(const struct fit_sample *s, size_t n, size_t *idx, d
 {
     size_t m = 0;
     for (size_t i = 0; i < n; i++) {
-        if (!usable(&s[i]))
+        if (!fit_aniso_ggx_usable(&s[i]))
             continue;
         idx[m++] = i;
         for (int k = 0; k < 3; k++)
@@ -412,7 +412,7 @@ int fit_aniso_ggx_solve(const struct fit_sample *s, size_t n, int cold, double x
     if (rc == 0 && !cold) {
         struct problem p = {s, NULL, idx, m, target};
         rc = solve(&p, x, &oc.iters, &oc.converged, &oc.cost, NULL);
-        to_params(x, &oc.a);
+        fit_aniso_ggx_to_params(x, &oc.a);
         canonical(&oc.a);
     }
     if (rc == 0) {
