@@ -20,22 +20,11 @@ void aniso_info_init(struct aniso_info *ai)
     memset(ai, 0, sizeof *ai);
 }
 
-static void params_of(const double *x, struct brdf_aniso_ggx *a)
-{
-    for (int k = 0; k < 3; k++) {
-        a->rho[k] = exp(x[k]);
-        a->f0[k] = exp(x[3 + k]);
-    }
-    a->ax = exp(x[6]);
-    a->ay = exp(x[7]);
-    a->phi_deg = x[8] / BRDF_DEG;
-}
-
 static double value(const double *x, const struct brdf_pair *p)
 {
     struct brdf_aniso_ggx a;
     double rgb[3];
-    params_of(x, &a);
+    fit_aniso_ggx_to_params(x, &a);
     brdf_aniso_ggx_eval(&a, p, rgb);
     double v = 0;
     for (int k = 0; k < 3; k++)
@@ -60,7 +49,7 @@ static int posterior(struct aniso_info *ai, const struct fit_sample *s, size_t n
 {
     double f[NPAR * NPAR] = {0}, g[NPAR];
     for (size_t i = 0; i < n; i++) {
-        if (!(s[i].g.wi[2] > 0) || !(s[i].g.wo[2] > 0))
+        if (!fit_aniso_ggx_usable(&s[i]))
             continue;
         gradient(ai->x, &s[i].g, g);
         for (int j = 0; j < NPAR; j++)

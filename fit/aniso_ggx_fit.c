@@ -42,7 +42,7 @@ static double clampd(double x, double lo, double hi)
     return x < lo ? lo : x > hi ? hi : x;
 }
 
-static void to_params(const double *x, struct brdf_aniso_ggx *a)
+void fit_aniso_ggx_to_params(const double x[9], struct brdf_aniso_ggx *a)
 {
     for (int k = 0; k < 3; k++) {
         a->rho[k] = exp(clampd(x[k], LOG_MIN, LOG_MAX));
@@ -74,7 +74,7 @@ static int gsl_residuals(const gsl_vector *xv, void *user, gsl_vector *f)
     for (int j = 0; j < NPAR; j++)
         x[j] = gsl_vector_get(xv, (size_t)j);
     struct brdf_aniso_ggx a;
-    to_params(x, &a);
+    fit_aniso_ggx_to_params(x, &a);
     for (size_t j = 0; j < p->n; j++) {
         double r[3];
         residual3(p, &a, p->idx[j], r);
@@ -87,7 +87,7 @@ static int gsl_residuals(const gsl_vector *xv, void *user, gsl_vector *f)
 static double cost_of(const struct problem *p, const double *x)
 {
     struct brdf_aniso_ggx a;
-    to_params(x, &a);
+    fit_aniso_ggx_to_params(x, &a);
     double c = 0;
     for (size_t j = 0; j < p->n; j++) {
         double r[3];
@@ -276,12 +276,12 @@ static int fit_usable(const struct fit_sample *s, const unsigned char *lower, co
     if (rc == 0)
         rc = solve(&p, x, &out->iters, &out->converged, &out->cost, &out->status);
     free(sub);
-    to_params(x, &out->a);
+    fit_aniso_ggx_to_params(x, &out->a);
     canonical(&out->a);
     return rc;
 }
 
-static int usable(const struct fit_sample *s)
+int fit_aniso_ggx_usable(const struct fit_sample *s)
 {
     if (!(s->g.wi[2] > 0) || !(s->g.wo[2] > 0))
         return 0;
@@ -289,6 +289,22 @@ static int usable(const struct fit_sample *s)
         if (!isfinite(s->rgb[k]) || !(1 + s->rgb[k] * s->g.wi[2] > 0))
             return 0;
     return 1;
+}
+
+/* The usable samples of s[0..n): their indices into idx, their targets
+ * log(1 + f cos theta_i) into target (3 per sample of s, at 3 i); their
+ * count. */
+static size_t select_usable(const struct fit_sample *s, size_t n, size_t *idx, double *target)
+{
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (!fit_aniso_ggx_usable(&s[i]))
+            continue;
+        idx[m++] = i;
+        for (int k = 0; k < 3; k++)
+            target[3 * i + (size_t)k] = log1p(s[i].rgb[k] * s[i].g.wi[2]);
+    }
+    return m;
 }
 
 static struct fit_model_file *model_file(const struct outcome *o, unsigned long long seed)
@@ -315,21 +331,14 @@ int fit_aniso_ggx_model_fit(const struct fit_data *data, const struct fit_model_
     if (!data->n_rgb)
         return gonio_err_set(err, GONIO_EUSAGE, "aniso-ggx: needs RGB samples");
     gsl_set_error_handler_off(); /* a failed solve is a result, not an abort */
-    size_t *idx = malloc(data->n_rgb * sizeof *idx), n = 0;
+    size_t *idx = malloc(data->n_rgb * sizeof *idx);
     double *target = malloc(3 * data->n_rgb * sizeof *target);
     if (!idx || !target) {
         free(idx);
         free(target);
         return gonio_err_set(err, ENOMEM, "aniso-ggx: out of memory");
     }
-    for (size_t i = 0; i < data->n_rgb; i++) {
-        const struct fit_sample *s = &data->rgb[i];
-        if (!usable(s))
-            continue;
-        idx[n++] = i;
-        for (int k = 0; k < 3; k++)
-            target[3 * i + (size_t)k] = log1p(s->rgb[k] * s->g.wi[2]);
-    }
+    size_t n = select_usable(data->rgb, data->n_rgb, idx, target);
     struct outcome oc = {0};
     int rc = n < 3 ? gonio_err_set(err, GONIO_EFIT,
                                    "aniso-ggx: %zu usable samples of %zu (need 3 for 9 "
@@ -393,13 +402,8 @@ int fit_aniso_ggx_solve(const struct fit_sample *s, size_t n, int cold, double x
     size_t *idx = malloc((n ? n : 1) * sizeof *idx), m = 0;
     double *target = malloc((n ? 3 * n : 1) * sizeof *target);
     int rc = idx && target ? 0 : -ENOMEM;
-    for (size_t i = 0; rc == 0 && i < n; i++) {
-        if (!usable(&s[i]))
-            continue;
-        idx[m++] = i;
-        for (int k = 0; k < 3; k++)
-            target[3 * i + (size_t)k] = log1p(s[i].rgb[k] * s[i].g.wi[2]);
-    }
+    if (rc == 0)
+        m = select_usable(s, n, idx, target);
     if (rc == 0 && m < 3)
         rc = -GONIO_EFIT;
     struct outcome oc = {0};
@@ -408,7 +412,7 @@ int fit_aniso_ggx_solve(const struct fit_sample *s, size_t n, int cold, double x
     if (rc == 0 && !cold) {
         struct problem p = {s, NULL, idx, m, target};
         rc = solve(&p, x, &oc.iters, &oc.converged, &oc.cost, NULL);
-        to_params(x, &oc.a);
+        fit_aniso_ggx_to_params(x, &oc.a);
         canonical(&oc.a);
     }
     if (rc == 0) {

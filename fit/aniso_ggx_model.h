@@ -47,4 +47,13 @@ int fit_aniso_ggx_params(const struct fit_model_file *f, const char *path,
 int fit_aniso_ggx_solve(const struct fit_sample *s, size_t n, int cold, double x[9],
                         double *rms);
 
+/* 1 if the fit uses s: both directions above the sample, finite values
+ * with 1 + f cos theta_i > 0. */
+int fit_aniso_ggx_usable(const struct fit_sample *s);
+
+/* The material at x (fit_aniso_ggx_solve's coordinates), clamped as the
+ * fit clamps it: rho and f0 within e^-30..e^5, ax and ay within
+ * 0.001..2. */
+void fit_aniso_ggx_to_params(const double x[9], struct brdf_aniso_ggx *a);
+
 #endif

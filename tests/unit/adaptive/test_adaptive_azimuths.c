@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "adaptive/adaptive.h"
+#include "adaptive/aniso_info.h"
 #include "brdf/analytic_aniso.h"
 #include "brdf/domain.h"
 #include "brdf/metrics.h"
@@ -210,10 +211,37 @@ static void test_adaptive_turns_the_sample(void **state)
     free(s);
 }
 
+/* A sample the fit drops (a non-finite reading) adds nothing to the
+ * posterior: with one appended, the covariance is the one without. */
+static void test_posterior_skips_unusable(void **state)
+{
+    (void)state;
+    struct fit_sample s[61];
+    size_t n = 0;
+    for (int i = 0; i < 3; i++)
+        for (int r = 0; r < 20; r++, n++) {
+            s[n] = (struct fit_sample){.u = {NAN, NAN, NAN}};
+            brdf_pair_inplane(10 + 25 * i, -70 + 7 * r, &s[n].g);
+            brdf_pair_rotate(&s[n].g, 60 * i);
+            brdf_aniso_ggx_eval(&truth, &s[n].g, s[n].rgb);
+        }
+    s[n] = s[0];
+    s[n].rgb[1] = NAN;
+    struct aniso_info a, b;
+    aniso_info_init(&a);
+    aniso_info_init(&b);
+    assert_int_equal(aniso_info_update(&a, s, n), 0);
+    assert_int_equal(aniso_info_update(&b, s, n + 1), 0);
+    for (int j = 0; j < ANISO_INFO_NPAR; j++)
+        for (int k = 0; k < ANISO_INFO_NPAR; k++)
+            assert_true(fabs(a.cov[j][k] - b.cov[j][k]) <= 1e-9 * (1 + fabs(a.cov[j][k])));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_adaptive_turns_the_sample),
+        cmocka_unit_test(test_posterior_skips_unusable),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
