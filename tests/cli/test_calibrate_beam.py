@@ -208,6 +208,21 @@ def test_wrong_aperture_shows_as_its_scale_error(work):
     assert abs(got / expected - 1) < 0.003, (got, expected)
 
 
+def test_reference_after_refused_with_a_beam_calibration(work):
+    """--reference-after reads the standard again and reduces it against
+    the calibration's: a beam calibration has no standard, so the capture
+    is refused before anything moves, naming the calibration."""
+    root = os.path.join(work, "cal")
+    beam = calibrate(root)
+    out = os.path.join(work, "after")
+    r = gonio("capture", "--offline", "--scene", SCENE, "--plan", "ds3", "--material", MATERIAL,
+              "--out", out, "--quiet", "--calibration", beam, "--calibrations", root,
+              "--reference-after")
+    assert r.returncode == 2 and beam in r.stderr and "--reference-after" in r.stderr and \
+        "reference calibration" in r.stderr, r.stderr
+    assert not os.path.exists(os.path.join(out, "journal.csv"))
+
+
 def test_refusals(work):
     root = os.path.join(work, "refused")
     # the lab's rig states no beam geometry
