@@ -223,6 +223,25 @@ def test_reference_after_refused_with_a_beam_calibration(work):
     assert not os.path.exists(os.path.join(out, "journal.csv"))
 
 
+def test_spectral_detector_refused_when_selected(work):
+    """A beam calibration of a spectral detector has no per-band reduction:
+    the capture naming it is refused when it is selected, before anything
+    moves, and not once the capture's points are spent."""
+    root = os.path.join(work, "spectral")
+    rig = os.path.join(CONFIG, "rigs", "beam.yaml")
+    ok(gonio("calibrate", "dark", "--offline", "--scene", "spectral-lab", "--rig", rig, "--out",
+             root, "--integration", "0.05"), "dark")
+    beam = ok(gonio("calibrate", "beam", "--offline", "--scene", "spectral-lab", "--rig", rig,
+                    "--out", root, "--integration", "0.05", "--repeats", "4"), "beam")
+    out = os.path.join(work, "spectral-cap")
+    r = gonio("capture", "--offline", "--scene", "spectral-lab", "--rig", rig, "--plan", "ds3",
+              "--material", MATERIAL, "--out", out, "--quiet", "--calibration", beam,
+              "--calibrations", root)
+    assert r.returncode == 2 and beam in r.stderr and "no per-band reduction" in r.stderr, \
+        r.stderr
+    assert not os.path.exists(os.path.join(out, "journal.csv"))
+
+
 def test_refusals(work):
     root = os.path.join(work, "refused")
     # the lab's rig states no beam geometry
