@@ -259,6 +259,15 @@ def test_refusals(work):
     both = beam_rig(work, "  distance_mm: 800 ", "  aperture_area_mm2: 78.5\n  distance_mm: 800 ")
     r = gonio("calibrate", "beam", "--offline", "--scene", SCENE, "--rig", both, "--out", root)
     assert r.returncode == 2 and both in r.stderr and "one of them" in r.stderr, r.stderr
+    # an uncertainty for the other way of giving the aperture: file and key
+    for frm, to, key in (("aperture_diameter_u_mm: 0.005", "aperture_area_u_mm2: 0.08",
+                          "aperture_area_u_mm2"),
+                         ("aperture_diameter_mm: 10 ", "aperture_area_mm2: 78.5 ",
+                          "aperture_diameter_u_mm")):
+        mixed = beam_rig(work, frm, to)
+        r = gonio("calibrate", "beam", "--offline", "--scene", SCENE, "--rig", mixed, "--out",
+                  root)
+        assert r.returncode == 2 and mixed in r.stderr and key in r.stderr, r.stderr
     # goniod does not take it yet; say so before any connection
     r = gonio("calibrate", "beam")
     assert r.returncode == 2 and "offline only" in r.stderr, r.stderr
