@@ -214,6 +214,10 @@ int cal_load(const char *root, const char *id, struct cal_loaded *out, struct go
         rc = gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s is a %s calibration: name "
                            "a reference or beam calibration (it brings its dark)", id,
                            cal_kind_name(out->meta.kind));
+    if (rc >= 0 && beam && nr && rf[0].n_bands)
+        rc = gonio_err_set(err, GONIO_EBADCONFIG, "calibration %s is a beam calibration of a "
+                           "spectral detector (its frames hold bands): a beam calibration has "
+                           "no per-band reduction; name a reference calibration", id);
     if (rc >= 0)
         rc = cal_read(root, out->meta.dark, &out->dark_meta, &df, &nd, err);
     if (rc >= 0)

@@ -191,7 +191,13 @@ static int resolve_calibration(const struct capture_config *cfg, struct capture_
         return rc;
     if (!(in->cal = calloc(1, sizeof *in->cal)))
         return gonio_err_set(err, ENOMEM, "out of memory");
-    return cal_load(cfg->calibrations, m.id, in->cal, err);
+    if ((rc = cal_load(cfg->calibrations, m.id, in->cal, err)) < 0)
+        return rc;
+    if (cfg->reference_after && !cfg->estimate_only && in->cal->meta.kind == CAL_BEAM)
+        return gonio_err_set(err, GONIO_EUSAGE, "--reference-after: calibration %s is a beam "
+                             "calibration, read with no standard; --reference-after reads the "
+                             "standard again and needs a reference calibration", m.id);
+    return 0;
 }
 
 /* The job's own copy of cfg: every string member copied into one block. */

@@ -115,6 +115,15 @@ static int load_beam(const struct cfg_doc *d, const struct cfg_node *root,
     if (isnan(dia) == isnan(b->aperture_mm2))
         return cfg_error(d, m, "beam", err, "give the aperture by aperture_diameter_mm or by "
                          "aperture_area_mm2 (one of them)");
+    const char *stray = !isnan(dia) && cfg_get(d, m, "aperture_area_u_mm2")
+                            ? "aperture_area_u_mm2"
+                        : isnan(dia) && cfg_get(d, m, "aperture_diameter_u_mm")
+                            ? "aperture_diameter_u_mm" : NULL;
+    if (stray)
+        return cfg_error(d, cfg_get(d, m, stray), stray, err, "the aperture is given by %s: "
+                         "give its uncertainty as %s", isnan(dia) ? "aperture_area_mm2" :
+                         "aperture_diameter_mm", isnan(dia) ? "aperture_area_u_mm2" :
+                         "aperture_diameter_u_mm");
     if (!isnan(dia)) {
         b->aperture_mm2 = 3.14159265358979323846 * dia * dia / 4;
         b->aperture_u_mm2 = b->aperture_mm2 * 2 * dia_u / dia;

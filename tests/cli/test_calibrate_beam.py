@@ -208,6 +208,40 @@ def test_wrong_aperture_shows_as_its_scale_error(work):
     assert abs(got / expected - 1) < 0.003, (got, expected)
 
 
+def test_reference_after_refused_with_a_beam_calibration(work):
+    """--reference-after reads the standard again and reduces it against
+    the calibration's: a beam calibration has no standard, so the capture
+    is refused before anything moves, naming the calibration."""
+    root = os.path.join(work, "cal")
+    beam = calibrate(root)
+    out = os.path.join(work, "after")
+    r = gonio("capture", "--offline", "--scene", SCENE, "--plan", "ds3", "--material", MATERIAL,
+              "--out", out, "--quiet", "--calibration", beam, "--calibrations", root,
+              "--reference-after")
+    assert r.returncode == 2 and beam in r.stderr and "--reference-after" in r.stderr and \
+        "reference calibration" in r.stderr, r.stderr
+    assert not os.path.exists(os.path.join(out, "journal.csv"))
+
+
+def test_spectral_detector_refused_when_selected(work):
+    """A beam calibration of a spectral detector has no per-band reduction:
+    the capture naming it is refused when it is selected, before anything
+    moves, and not once the capture's points are spent."""
+    root = os.path.join(work, "spectral")
+    rig = os.path.join(CONFIG, "rigs", "beam.yaml")
+    ok(gonio("calibrate", "dark", "--offline", "--scene", "spectral-lab", "--rig", rig, "--out",
+             root, "--integration", "0.05"), "dark")
+    beam = ok(gonio("calibrate", "beam", "--offline", "--scene", "spectral-lab", "--rig", rig,
+                    "--out", root, "--integration", "0.05", "--repeats", "4"), "beam")
+    out = os.path.join(work, "spectral-cap")
+    r = gonio("capture", "--offline", "--scene", "spectral-lab", "--rig", rig, "--plan", "ds3",
+              "--material", MATERIAL, "--out", out, "--quiet", "--calibration", beam,
+              "--calibrations", root)
+    assert r.returncode == 2 and beam in r.stderr and "no per-band reduction" in r.stderr, \
+        r.stderr
+    assert not os.path.exists(os.path.join(out, "journal.csv"))
+
+
 def test_refusals(work):
     root = os.path.join(work, "refused")
     # the lab's rig states no beam geometry
@@ -225,6 +259,15 @@ def test_refusals(work):
     both = beam_rig(work, "  distance_mm: 800 ", "  aperture_area_mm2: 78.5\n  distance_mm: 800 ")
     r = gonio("calibrate", "beam", "--offline", "--scene", SCENE, "--rig", both, "--out", root)
     assert r.returncode == 2 and both in r.stderr and "one of them" in r.stderr, r.stderr
+    # an uncertainty for the other way of giving the aperture: file and key
+    for frm, to, key in (("aperture_diameter_u_mm: 0.005", "aperture_area_u_mm2: 0.08",
+                          "aperture_area_u_mm2"),
+                         ("aperture_diameter_mm: 10 ", "aperture_area_mm2: 78.5 ",
+                          "aperture_diameter_u_mm")):
+        mixed = beam_rig(work, frm, to)
+        r = gonio("calibrate", "beam", "--offline", "--scene", SCENE, "--rig", mixed, "--out",
+                  root)
+        assert r.returncode == 2 and mixed in r.stderr and key in r.stderr, r.stderr
     # goniod does not take it yet; say so before any connection
     r = gonio("calibrate", "beam")
     assert r.returncode == 2 and "offline only" in r.stderr, r.stderr
