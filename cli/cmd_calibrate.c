@@ -286,7 +286,13 @@ int cmd_calibrate(int argc, char **argv)
         return 2;
     }
     if (kind == CAL_BEAM && !o.offline) {
-        fprintf(stderr, "gonio calibrate: beam: offline only (--offline) for now\n");
+        fprintf(stderr, "gonio calibrate: beam: offline only (--offline): goniod does not "
+                "take a beam calibration\n");
+        return 2;
+    }
+    if (kind == CAL_BEAM && o.n_int > 1) {
+        fprintf(stderr, "gonio calibrate: beam: one --integration (the beam is read at one), "
+                "%zu given\n", o.n_int);
         return 2;
     }
     if (kind == CAL_BEAM && !o.repeats_given)

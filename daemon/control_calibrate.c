@@ -38,7 +38,7 @@ static int from_request(control *c, json_t *req, struct worker_calibration *k,
         return gonio_err_set(err, GONIO_EUSAGE, "calibrate: field 'kind' '%.40s': dark, "
                              "stray or reference", kind ? kind : "");
     k->kind = cal_kind_parse(kind);
-    if (k->kind == CAL_BEAM) /* the absolute method is measured offline only, for now */
+    if (k->kind == CAL_BEAM) /* the absolute method is measured offline only */
         return gonio_err_set(err, GONIO_EUSAGE, "calibrate: field 'kind' 'beam': goniod takes "
                              "dark, stray or reference (gonio calibrate beam --offline)");
     /* the fields each kind takes: a dark's frames, the others' points */

@@ -124,7 +124,7 @@ enum rad_term {
     RAD_U_DRIFT,        /* monitor noise and drift it does not follow */
     RAD_U_NONLINEARITY, /* the stated nonlinearity's uncertainty */
     RAD_U_ANGLE,        /* in-position band times the local slopes */
-    RAD_U_GEOMETRY,     /* placement, solid angle (systematic) */
+    RAD_U_GEOMETRY,     /* placement, the sample against the standard (systematic) */
     RAD_U_STRAY,        /* the stray-light readings' noise (0 without them) */
     RAD_U_SOLID_ANGLE,  /* absolute method: omega from the aperture and distance (systematic) */
     RAD_U_ATTENUATOR,   /* absolute method: the beam attenuator's certificate (systematic) */

@@ -268,7 +268,12 @@ def test_refusals(work):
         r = gonio("calibrate", "beam", "--offline", "--scene", SCENE, "--rig", mixed, "--out",
                   root)
         assert r.returncode == 2 and mixed in r.stderr and key in r.stderr, r.stderr
-    # goniod does not take it yet; say so before any connection
+    # goniod does not take it; say so before any connection
     r = gonio("calibrate", "beam")
     assert r.returncode == 2 and "offline only" in r.stderr, r.stderr
+    # the beam is read at one integration
+    r = gonio("calibrate", "beam", "--offline", "--scene", SCENE, "--out", root,
+              "--integration", "0.05", "--integration", "0.2")
+    assert r.returncode == 2 and "one --integration" in r.stderr and "2 given" in r.stderr, \
+        r.stderr
     assert not os.path.exists(root) or os.listdir(root) == []
