@@ -597,15 +597,15 @@ static void summarize(const struct run *r, struct capture_summary *out)
 
 /* The final fit of the capture's samples into *fitted (capture_fit_samples),
  * made again while --model auto's choice is judged insufficient by the
- * in-plane sufficiency check and a new choice checked in turn
- * (fit_auto_settle, which `gonio fit --model auto` replays from
- * results.json). The summary keeps the final choice's check, with the rig
- * time of them all. */
+ * in-plane sufficiency check and a new choice checked in turn (fit_auto_settle,
+ * which `gonio fit --model auto` replays from results.json). The summary
+ * keeps the final choice's check, with the rig time of them all. */
 struct final {
     struct run *r;
     const double *usys;
     brdf_material **fitted;
-    struct oop_check_result seen[FIT_AUTO_MAX_CANDIDATES]; /* as auto_evidence.oop */
+    struct oop_check_result seen[FIT_AUTO_MAX_CANDIDATES]; /* each check, in order, */
+    char seen_model[FIT_AUTO_MAX_CANDIDATES][16];           /* of the model it judged */
     size_t n_seen;
 };
 
@@ -631,8 +631,8 @@ static int final_fit(void *user, struct gonio_err *err)
 static int settle_check(void *user, const char *model, char *verdict, size_t len,
                         struct gonio_err *err)
 {
-    (void)model; /* the one fitted last, *fitted */
-    struct final *f = user;
+    struct final *f = user; /* model: the one fitted last, *fitted */
+    snprintf(f->seen_model[f->n_seen], sizeof *f->seen_model, "%s", model);
     int rc = check_out_of_plane(f->r, *f->fitted, err);
     f->seen[f->n_seen++] = f->r->out->oop;
     snprintf(verdict, len, "%s", rc < 0 ? "" : f->r->out->oop.verdict);
@@ -650,7 +650,7 @@ static int check_out_of_plane_chosen(struct final *f, struct gonio_err *err)
     double spent = 0;
     for (size_t k = 0; k < f->n_seen; k++) {
         spent += f->seen[k].rig_time_s;
-        if (!strcmp(out->auto_evidence.oop[k].model, out->auto_chosen)) /* the final choice's */
+        if (!strcmp(f->seen_model[k], out->auto_chosen)) /* the final choice's */
             out->oop = f->seen[k];
     }
     out->oop.rig_time_s = spent;
